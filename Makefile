@@ -1,0 +1,32 @@
+# Everything runs in .venv at the repository root, created on first use.
+PYTHON ?= $(shell command -v python3.11 || command -v python3)
+VENV := .venv
+PY := $(VENV)/bin/python
+STAMP := $(VENV)/.installed
+
+.PHONY: install test demo bench lint clean
+
+$(STAMP): pyproject.toml
+	$(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install --quiet --upgrade pip
+	# torch first, from the CPU build on these machines; the project's torch range admits it.
+	$(PY) -m pip install --quiet torch==2.13.0
+	$(PY) -m pip install --quiet -e '.[dev]'
+	touch $(STAMP)
+
+install: $(STAMP)
+
+test: $(STAMP)
+	$(PY) -m pytest -q
+
+demo: $(STAMP)
+	$(VENV)/bin/sumo-rail run-episode --driver keep --seed 0
+
+bench: $(STAMP)
+	$(PY) benchmarks/bench_env.py --out docs/benchmarks.md
+
+lint: $(STAMP)
+	$(VENV)/bin/ruff check sumo_rail cli tests benchmarks
+
+clean:
+	rm -rf $(VENV) build *.egg-info

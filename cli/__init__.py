@@ -1,0 +1,1 @@
+"""The sumo-rail command line (installed as package sumo_rail_cli)."""

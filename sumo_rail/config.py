@@ -1,0 +1,209 @@
+"""Settings as frozen dataclasses: documented defaults, TOML overrides, validation.
+
+Every field carries its unit in the docstring. `Config.from_toml` / `Config.with_overrides` reject unknown
+keys and impossible values with a one-sentence `ConfigError`; `Config.to_dict` is what outputs store.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Mapping
+
+
+class ConfigError(ValueError):
+    """A configuration value or file a user supplied is invalid (message is one sentence)."""
+
+
+@dataclass(frozen=True)
+class ScenarioConfig:
+    """The highway, its traffic and the SUMO options that shape them."""
+
+    length_m: float = 3000.0
+    """Length of the straight highway [m]."""
+    lanes: int = 5
+    """Number of lanes (lane 0 is the rightmost)."""
+    lane_width_m: float = 3.2
+    """Width of each lane [m]."""
+    speed_limit_mps: float = 33.33
+    """Speed limit of every lane [m/s] (33.33 m/s = 120 km/h)."""
+    flow_veh_per_h: float = 4000.0
+    """Mean arrival rate of background traffic, all lanes together [veh/h]; arrivals are Poisson."""
+    step_length_s: float = 0.1
+    """SUMO simulation step [s]."""
+    lane_change_duration_s: float = 2.0
+    """Time a lane change takes (SUMO --lanechange.duration) [s]; 0 makes changes instantaneous."""
+    teleport_time_s: float = 120.0
+    """A vehicle stuck this long is teleported by SUMO (--time-to-teleport) [s]; -1 disables teleports."""
+    collision_min_gap_factor: float = 0.0
+    """A collision is a gap below this fraction of minGap (--collision.mingap-factor); 0 = physical contact."""
+    warmup_s: float = 300.0
+    """Simulated time before the first saved traffic state, so the ego starts in flowing traffic [s]."""
+    snapshots: int = 8
+    """Number of warm traffic states saved after the warm-up; each episode starts from one of them."""
+    snapshot_interval_s: float = 20.0
+    """Simulated time between two saved warm states [s]."""
+    traffic_seed: int = 0
+    """SUMO seed of the warm-up run that produces the saved states."""
+
+    def validate(self) -> None:
+        _require(self.length_m >= 500.0, f"scenario.length_m must be at least 500 m, got {self.length_m}")
+        _require(1 <= self.lanes <= 10, f"scenario.lanes must be between 1 and 10, got {self.lanes}")
+        _require(self.lane_width_m > 1.0, f"scenario.lane_width_m must exceed 1 m, got {self.lane_width_m}")
+        _require(self.speed_limit_mps > 0, f"scenario.speed_limit_mps must be positive, got {self.speed_limit_mps}")
+        _require(self.flow_veh_per_h > 0, f"scenario.flow_veh_per_h must be positive, got {self.flow_veh_per_h}")
+        _require(0 < self.step_length_s <= 1.0, f"scenario.step_length_s must be in (0, 1] s, got {self.step_length_s}")
+        _require(self.lane_change_duration_s >= 0,
+                 f"scenario.lane_change_duration_s must not be negative, got {self.lane_change_duration_s}")
+        _require(self.teleport_time_s == -1 or self.teleport_time_s > 0,
+                 f"scenario.teleport_time_s must be positive or -1, got {self.teleport_time_s}")
+        _require(self.collision_min_gap_factor >= 0,
+                 f"scenario.collision_min_gap_factor must not be negative, got {self.collision_min_gap_factor}")
+        _require(self.warmup_s >= 0, f"scenario.warmup_s must not be negative, got {self.warmup_s}")
+        _require(self.snapshots >= 1, f"scenario.snapshots must be at least 1, got {self.snapshots}")
+        _require(self.snapshot_interval_s > 0,
+                 f"scenario.snapshot_interval_s must be positive, got {self.snapshot_interval_s}")
+        _require(0 <= self.traffic_seed < 2**31, f"scenario.traffic_seed must be in [0, 2^31), got {self.traffic_seed}")
+
+
+@dataclass(frozen=True)
+class LidarConfig:
+    """The virtual 360-degree LIDAR mounted at the ego's centre."""
+
+    beams: int = 24
+    """Number of beams, evenly spread over 360 degrees; beam 0 points straight ahead, counter-clockwise."""
+    range_m: float = 100.0
+    """Maximum range r_max [m]; a beam that hits nothing returns it."""
+
+    @property
+    def beam_spacing_deg(self) -> float:
+        """Angle between neighbouring beams [deg]."""
+        return 360.0 / self.beams
+
+    def validate(self) -> None:
+        _require(self.beams >= 4, f"lidar.beams must be at least 4, got {self.beams}")
+        _require(360 % self.beams == 0, f"lidar.beams must divide 360 degrees evenly, got {self.beams}")
+        _require(self.range_m > 0, f"lidar.range_m (r_max) must be positive, got {self.range_m}")
+
+
+@dataclass(frozen=True)
+class EnvConfig:
+    """The ego's decisions, actions, rewards and episode limits."""
+
+    decision_period_s: float = 0.5
+    """Simulated time between two decisions [s]; a multiple of the SUMO step (default 5 steps of 0.1 s)."""
+    v_min_mps: float = 10.0
+    """Lowest cruise set-point and zero of the longitudinal reward [m/s]."""
+    v_max_mps: float = 33.33
+    """Highest cruise set-point and one of the longitudinal reward [m/s]."""
+    speed_step_mps: float = 2.0
+    """Change of the cruise set-point per accelerate/decelerate action [m/s]."""
+    hard_brake_mps2: float = 4.0
+    """A decision whose ego deceleration exceeds this at any step counts as hard braking [m/s^2]."""
+    lane_change_reward: float = -0.5
+    """Lateral reward per decision during which a lane change is in progress."""
+    collision_reward: float = -10.0
+    """Reward of the decision in which the ego collides (the episode then terminates)."""
+    max_episode_s: float = 300.0
+    """Simulated time after which the episode is truncated [s]."""
+    end_margin_m: float = 100.0
+    """The episode is truncated when the ego's front is this close to the end of the road [m]."""
+    ego_start_min_m: float = 300.0
+    """Nearest start position of the ego's front from the start of the road [m]."""
+    ego_start_max_m: float = 700.0
+    """Farthest start position of the ego's front from the start of the road [m]."""
+
+    def steps_per_decision(self, step_length_s: float) -> int:
+        """SUMO steps in one decision period."""
+        return round(self.decision_period_s / step_length_s)
+
+    def validate(self, scenario: ScenarioConfig) -> None:
+        steps = self.decision_period_s / scenario.step_length_s
+        _require(self.decision_period_s > 0 and abs(steps - round(steps)) < 1e-6 and round(steps) >= 1,
+                 f"env.decision_period_s must be a positive multiple of the {scenario.step_length_s} s step, "
+                 f"got {self.decision_period_s}")
+        _require(0 <= self.v_min_mps < self.v_max_mps,
+                 f"env.v_min_mps and env.v_max_mps must satisfy 0 <= v_min < v_max, got {self.v_min_mps} and "
+                 f"{self.v_max_mps}")
+        _require(self.speed_step_mps > 0, f"env.speed_step_mps must be positive, got {self.speed_step_mps}")
+        _require(self.hard_brake_mps2 > 0, f"env.hard_brake_mps2 must be positive, got {self.hard_brake_mps2}")
+        _require(self.max_episode_s >= self.decision_period_s,
+                 f"env.max_episode_s must be at least one decision period, got {self.max_episode_s}")
+        _require(0 <= self.ego_start_min_m <= self.ego_start_max_m,
+                 f"env.ego_start_min_m must be between 0 and env.ego_start_max_m, got {self.ego_start_min_m}")
+        _require(self.ego_start_max_m + self.end_margin_m < scenario.length_m,
+                 f"env.ego_start_max_m + env.end_margin_m must be shorter than the road "
+                 f"({scenario.length_m} m), got {self.ego_start_max_m + self.end_margin_m}")
+        _require(self.end_margin_m >= 0, f"env.end_margin_m must not be negative, got {self.end_margin_m}")
+
+
+@dataclass(frozen=True)
+class Config:
+    """Everything that defines the simulated driving task."""
+
+    scenario: ScenarioConfig = field(default_factory=ScenarioConfig)
+    lidar: LidarConfig = field(default_factory=LidarConfig)
+    env: EnvConfig = field(default_factory=EnvConfig)
+
+    def __post_init__(self) -> None:
+        self.scenario.validate()
+        self.lidar.validate()
+        self.env.validate(self.scenario)
+
+    def to_dict(self) -> dict[str, dict[str, Any]]:
+        """Plain nested dict of every setting, as stored with outputs."""
+        return dataclasses.asdict(self)
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]) -> Config:
+        """Build from a nested mapping of sections; unknown sections or keys raise ConfigError."""
+        return cls().with_overrides(data)
+
+    @classmethod
+    def from_toml(cls, path: str | Path) -> Config:
+        """Read a TOML file with optional [scenario], [lidar] and [env] tables."""
+        try:
+            with open(path, "rb") as handle:
+                data = tomllib.load(handle)
+        except OSError as error:
+            raise ConfigError(f"cannot read config file {path}: {error.strerror or error}") from error
+        except tomllib.TOMLDecodeError as error:
+            raise ConfigError(f"config file {path} is not valid TOML: {error}") from error
+        return cls.from_dict(data)
+
+    def with_overrides(self, data: Mapping[str, Any]) -> Config:
+        """A copy with `{section: {key: value}}` replaced; unknown sections/keys and bad types raise."""
+        sections = {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
+        unknown = sorted(set(data) - set(sections))
+        _require(not unknown, f"unknown config section(s) {unknown}; known: {sorted(sections)}")
+        updated = {}
+        for name, current in sections.items():
+            values = data.get(name, {})
+            _require(isinstance(values, Mapping), f"config section [{name}] must be a table, got {values!r}")
+            updated[name] = _replace_section(name, current, values)
+        return Config(**updated)
+
+
+def _replace_section(name: str, section: Any, values: Mapping[str, Any]) -> Any:
+    fields = {f.name: f for f in dataclasses.fields(section)}
+    unknown = sorted(set(values) - set(fields))
+    _require(not unknown, f"unknown config key(s) {[f'{name}.{key}' for key in unknown]}")
+    coerced = {key: _coerce(f"{name}.{key}", value, type(getattr(section, key))) for key, value in values.items()}
+    return dataclasses.replace(section, **coerced)
+
+
+def _coerce(key: str, value: Any, kind: type) -> Any:
+    if kind is float and isinstance(value, (int, float)) and not isinstance(value, bool):
+        _require(math.isfinite(value), f"{key} must be a finite number, got {value}")
+        return float(value)
+    if kind is int and isinstance(value, int) and not isinstance(value, bool):
+        return value
+    raise ConfigError(f"{key} must be {'a number' if kind is float else 'an integer'}, got {value!r}")
+
+
+def _require(condition: bool, message: str) -> None:
+    if not condition:
+        raise ConfigError(message)

@@ -1,0 +1,52 @@
+"""The observation vector: its layout, bounds and assembly from LIDAR and ego readings.
+
+Layout (float32), with B LIDAR beams and L lanes:
+- [0, B): LIDAR distance of beam i / r_max, in [0, 1] (1 = nothing within range);
+- [B, 2B): relative speed along beam i / v_max, clipped to [-1, 1] (positive = moving away);
+- 2B: ego speed / v_max, clipped to [0, 2];
+- 2B + 1: cruise set-point, (v_set - v_min) / (v_max - v_min), in [0, 1] (the driver knows its own setting);
+- [2B + 2, 2B + 2 + L): current lane, one-hot (index 0 = rightmost lane);
+- 2B + 2 + L: 1 while a lane change is in progress, else 0.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from gymnasium import spaces
+
+from sumo_rail.config import Config
+
+
+def observation_names(config: Config) -> list[str]:
+    """Name of each observation entry, in order."""
+    beams = config.lidar.beams
+    return ([f"lidar_distance_{i:02d}" for i in range(beams)]
+            + [f"lidar_relative_speed_{i:02d}" for i in range(beams)]
+            + ["ego_speed", "cruise_set_point"]
+            + [f"lane_{k}" for k in range(config.scenario.lanes)]
+            + ["lane_change_in_progress"])
+
+
+def observation_space(config: Config) -> spaces.Box:
+    """Bounds of every entry, matching the layout above."""
+    beams, lanes = config.lidar.beams, config.scenario.lanes
+    low = np.concatenate([np.zeros(beams), -np.ones(beams), [0.0, 0.0], np.zeros(lanes), [0.0]])
+    high = np.concatenate([np.ones(beams), np.ones(beams), [2.0, 1.0], np.ones(lanes), [1.0]])
+    return spaces.Box(low.astype(np.float32), high.astype(np.float32), dtype=np.float32)
+
+
+def build_observation(config: Config, distances_m: np.ndarray, relative_speeds_mps: np.ndarray, speed_mps: float,
+                      set_point_mps: float, lane: int, lane_change_in_progress: bool) -> np.ndarray:
+    """Assemble the normalised float32 observation."""
+    env, lanes = config.env, config.scenario.lanes
+    lane_one_hot = np.zeros(lanes)
+    lane_one_hot[lane] = 1.0
+    scalars = [min(max(speed_mps / env.v_max_mps, 0.0), 2.0),
+               (set_point_mps - env.v_min_mps) / (env.v_max_mps - env.v_min_mps)]
+    return np.concatenate([
+        np.clip(distances_m / config.lidar.range_m, 0.0, 1.0),
+        np.clip(relative_speeds_mps / env.v_max_mps, -1.0, 1.0),
+        scalars,
+        lane_one_hot,
+        [1.0 if lane_change_in_progress else 0.0],
+    ]).astype(np.float32)

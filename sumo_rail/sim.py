@@ -1,0 +1,314 @@
+"""The one module that talks to SUMO: libsumo headless, or traci + sumo-gui when a window is asked for.
+
+Episodes start from warm traffic states: one warm-up run per scenario saves `snapshots` states (cached on
+disk, shared by every process), and each reset reloads one of them with a fresh `--seed`, so arrivals,
+desired speeds of new vehicles and driver imperfection differ between episode seeds while one seed always
+gives the same traffic. (`simulation.loadState` is not used: it does not restore SUMO's random number
+generators, so it is not reproducible; a reload with `--load-state` is, and takes about 10 ms.)
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import logging
+import math
+import os
+from dataclasses import dataclass
+from pathlib import Path
+from types import ModuleType
+
+import numpy as np
+
+from sumo_rail import network
+from sumo_rail.config import ScenarioConfig
+
+log = logging.getLogger(__name__)
+
+EGO_ID = "ego"
+LANE_CHANGE_MODE_TRACI_ONLY_SAFE = 0b1100000000
+"""No autonomous lane changes; TraCI requests respect other drivers' gaps, without speed adaptation."""
+_LATERAL_EPSILON_M = 0.01
+_ACTIVE_LIBSUMO: Simulation | None = None
+
+
+class SimulationError(RuntimeError):
+    """SUMO could not do what was asked (message is one sentence)."""
+
+
+@dataclass(frozen=True)
+class EgoState:
+    """The ego at the end of the last step. Positions [m], speed [m/s], heading [rad, math convention]."""
+
+    front_x: float
+    front_y: float
+    heading_rad: float
+    speed_mps: float
+    lane: int
+    lane_position_m: float
+    length_m: float
+    width_m: float
+
+
+@dataclass(frozen=True)
+class Neighbours:
+    """Vehicles around the ego (excluding it), from one context subscription; arrays have one row each."""
+
+    ids: tuple[str, ...]
+    front_xy: np.ndarray
+    """Front-bumper centres [m], shape (M, 2)."""
+    heading_rad: np.ndarray
+    """Headings [rad], 0 = +x, counter-clockwise, shape (M,)."""
+    speed_mps: np.ndarray
+    lane_position_m: np.ndarray
+    """Front-bumper distance from the start of the road [m]."""
+    length_m: np.ndarray
+    width_m: np.ndarray
+
+
+@dataclass(frozen=True)
+class PeriodReport:
+    """What happened during the SUMO steps of one decision period."""
+
+    ego_collided: bool
+    ego_left_network: bool
+    ego_teleported: bool
+    min_acceleration_mps2: float
+    lane_change_in_progress: bool
+    teleports: int
+
+
+def sumo_heading_rad(angle_deg: float | np.ndarray) -> float | np.ndarray:
+    """SUMO's angle (degrees, 0 = north, clockwise) to a math heading (radians, 0 = +x, counter-clockwise)."""
+    return np.radians(90.0 - np.asarray(angle_deg)) if isinstance(angle_deg, np.ndarray) else math.radians(
+        90.0 - angle_deg)
+
+
+class Simulation:
+    """One SUMO instance for the ego's episodes on one scenario."""
+
+    def __init__(self, scenario: ScenarioConfig, context_radius_m: float, gui: bool = False) -> None:
+        global _ACTIVE_LIBSUMO
+        if not gui and _ACTIVE_LIBSUMO is not None:
+            raise SimulationError(
+                "libsumo runs one simulation per process and one is already open here; close it first "
+                "or run the second one in another process")
+        self.scenario = scenario
+        self.context_radius_m = context_radius_m
+        self.gui = gui
+        self._built = network.build(scenario)
+        self._api = _load_api(gui)
+        self._constants = _load_constants()
+        self._snapshots = self._warm_snapshots()
+        self._running = True
+        if not gui:
+            _ACTIVE_LIBSUMO = self
+        self._ego_length = self._ego_width = 0.0
+
+    @property
+    def time_s(self) -> float:
+        """Current simulation time [s]."""
+        return self._api.simulation.getTime()
+
+    @property
+    def snapshot_count(self) -> int:
+        return len(self._snapshots)
+
+    def _options(self) -> list[str]:
+        """Every SUMO option that shapes the simulation, explicitly."""
+        s = self.scenario
+        return [
+            "--net-file", str(self._built.net_file),
+            "--route-files", str(self._built.routes_file),
+            "--step-length", repr(s.step_length_s),
+            "--lanechange.duration", repr(s.lane_change_duration_s),
+            "--time-to-teleport", repr(s.teleport_time_s),
+            "--collision.action", "remove",
+            "--collision.check-junctions", "true",
+            "--collision.mingap-factor", repr(s.collision_min_gap_factor),
+            "--random", "false",
+            "--save-state.rng", "false",
+            "--save-state.precision", "6",
+            "--xml-validation", "never",
+            "--no-step-log", "true",
+            "--no-warnings", "true",
+            "--duration-log.disable", "true",
+        ]
+
+    def _start(self, extra: list[str]) -> None:
+        binary = network.sumo_binary("sumo-gui" if self.gui else "sumo")
+        gui_options = ["--start", "true", "--quit-on-end", "true"] if self.gui else []
+        try:
+            self._api.start([binary, *self._options(), *gui_options, *extra])
+        except self._api.TraCIException as error:  # type: ignore[attr-defined]
+            raise SimulationError(f"SUMO failed to start: {error}") from error
+
+    def _load(self, extra: list[str]) -> None:
+        try:
+            self._api.load([*self._options(), *extra])
+        except self._api.TraCIException as error:  # type: ignore[attr-defined]
+            raise SimulationError(f"SUMO failed to load the warm state: {error}") from error
+
+    def _snapshot_key(self) -> str:
+        s = self.scenario
+        settings = {
+            "network": self._built.directory.name,
+            "options": self._options()[4:],
+            "warmup_s": s.warmup_s,
+            "snapshots": s.snapshots,
+            "snapshot_interval_s": s.snapshot_interval_s,
+            "traffic_seed": s.traffic_seed,
+        }
+        return hashlib.sha256(json.dumps(settings, sort_keys=True).encode()).hexdigest()[:16]
+
+    def _warm_snapshots(self) -> list[Path]:
+        """Paths of the warm states, running the warm-up first when they are not cached yet."""
+        directory = network.cache_dir() / "states" / self._snapshot_key()
+        paths = [directory / f"state_{k:03d}.xml" for k in range(self.scenario.snapshots)]
+        self._start(["--seed", str(self.scenario.traffic_seed)])
+        if all(path.exists() for path in paths):
+            return paths
+        directory.mkdir(parents=True, exist_ok=True)
+        api = self._api
+        api.simulationStep(self.scenario.warmup_s)
+        for k, path in enumerate(paths):
+            if k:
+                api.simulationStep(api.simulation.getTime() + self.scenario.snapshot_interval_s)
+            temporary = path.with_suffix(f".{os.getpid()}.tmp")
+            api.simulation.saveState(str(temporary))
+            os.replace(temporary, path)
+        log.info("saved %d warm states in %s", len(paths), directory)
+        return paths
+
+    def reset(self, snapshot: int, sumo_seed: int, ego_lane: int, ego_position_m: float) -> None:
+        """Reload warm state `snapshot` with SUMO seed `sumo_seed` and insert the ego; steps until it is in."""
+        self._require_running()
+        self._load(["--load-state", str(self._snapshots[snapshot]), "--seed", str(sumo_seed)])
+        api, tc = self._api, self._constants
+        api.vehicle.add(EGO_ID, network.ROUTE_ID, typeID=network.EGO_TYPE, depart="now",
+                        departLane=str(ego_lane), departPos=repr(ego_position_m), departSpeed="max")
+        api.vehicle.setLaneChangeMode(EGO_ID, LANE_CHANGE_MODE_TRACI_ONLY_SAFE)
+        for _ in range(round(30.0 / self.scenario.step_length_s)):
+            api.simulationStep()
+            if EGO_ID in api.simulation.getDepartedIDList():
+                break
+        else:
+            raise SimulationError(f"the ego could not enter lane {ego_lane} at {ego_position_m:.1f} m within 30 s")
+        api.vehicle.subscribeContext(
+            EGO_ID, tc.CMD_GET_VEHICLE_VARIABLE, self.context_radius_m,
+            [tc.VAR_POSITION, tc.VAR_ANGLE, tc.VAR_SPEED, tc.VAR_LANEPOSITION, tc.VAR_LENGTH, tc.VAR_WIDTH,
+             tc.VAR_LANE_INDEX])
+        self._ego_length = api.vehicle.getLength(EGO_ID)
+        self._ego_width = api.vehicle.getWidth(EGO_ID)
+
+    def set_cruise_speed(self, speed_mps: float, speed_limit_factor: float) -> None:
+        """Set the ego's cruise set-point [m/s]; SUMO's ACC model tracks it within safe gaps."""
+        self._api.vehicle.setSpeedFactor(EGO_ID, speed_limit_factor)
+        self._api.vehicle.setMaxSpeed(EGO_ID, speed_mps)
+
+    def request_lane_change(self, lane: int, duration_s: float) -> None:
+        """Ask SUMO to move the ego to `lane` when safe within `duration_s`; unsafe changes wait, never forced."""
+        self._api.vehicle.changeLane(EGO_ID, lane, duration_s)
+
+    def advance(self, steps: int) -> PeriodReport:
+        """Run `steps` SUMO steps, watching the ego for collisions, braking, lane changes and teleports."""
+        api = self._api
+        vehicle, simulation = api.vehicle, api.simulation
+        collided = left = ego_teleported = changing = False
+        min_accel = math.inf
+        teleports = 0
+        for _ in range(steps):
+            api.simulationStep()
+            if simulation.getStartingTeleportNumber():
+                starting = simulation.getStartingTeleportIDList()
+                teleports += len(starting)
+                ego_teleported |= EGO_ID in starting
+            if simulation.getCollidingVehiclesNumber() and EGO_ID in simulation.getCollidingVehiclesIDList():
+                collided = True
+                break
+            if simulation.getArrivedNumber() and EGO_ID in simulation.getArrivedIDList():
+                left = True
+                break
+            min_accel = min(min_accel, vehicle.getAcceleration(EGO_ID))
+            changing |= abs(vehicle.getLateralLanePosition(EGO_ID)) > _LATERAL_EPSILON_M
+        return PeriodReport(collided, left, ego_teleported, min_accel if min_accel < math.inf else 0.0,
+                            changing, teleports)
+
+    def observe(self) -> tuple[EgoState, Neighbours]:
+        """The ego and its neighbours within the context radius, from the context subscription."""
+        tc = self._constants
+        results = self._api.vehicle.getContextSubscriptionResults(EGO_ID)
+        ego = results.pop(EGO_ID)
+        ego_x, ego_y = ego[tc.VAR_POSITION]
+        ego_state = EgoState(ego_x, ego_y, sumo_heading_rad(ego[tc.VAR_ANGLE]), ego[tc.VAR_SPEED],
+                             ego[tc.VAR_LANE_INDEX], ego[tc.VAR_LANEPOSITION], ego[tc.VAR_LENGTH], ego[tc.VAR_WIDTH])
+        ids = tuple(results)
+        count = len(ids)
+        values = results.values()
+        front = np.array([v[tc.VAR_POSITION] for v in values], dtype=np.float64).reshape(count, 2)
+        angle = np.fromiter((v[tc.VAR_ANGLE] for v in values), np.float64, count)
+        neighbours = Neighbours(
+            ids=ids,
+            front_xy=front,
+            heading_rad=sumo_heading_rad(angle),
+            speed_mps=np.fromiter((v[tc.VAR_SPEED] for v in values), np.float64, count),
+            lane_position_m=np.fromiter((v[tc.VAR_LANEPOSITION] for v in values), np.float64, count),
+            length_m=np.fromiter((v[tc.VAR_LENGTH] for v in values), np.float64, count),
+            width_m=np.fromiter((v[tc.VAR_WIDTH] for v in values), np.float64, count),
+        )
+        return ego_state, neighbours
+
+    def road_edges(self) -> np.ndarray:
+        """The road's outer edges as line segments [m], shape (S, 2, 2): right edge first, then left."""
+        lane = self._api.lane
+        lanes = self.scenario.lanes
+        right = _offset_polyline(np.array(lane.getShape(f"{network.EDGE_ID}_0")), -lane.getWidth(f"{network.EDGE_ID}_0") / 2)
+        left_id = f"{network.EDGE_ID}_{lanes - 1}"
+        left = _offset_polyline(np.array(lane.getShape(left_id)), lane.getWidth(left_id) / 2)
+        return np.concatenate([_segments(right), _segments(left)])
+
+    def close(self) -> None:
+        """End SUMO; calling it again is harmless."""
+        global _ACTIVE_LIBSUMO
+        if not self._running:
+            return
+        self._running = False
+        if _ACTIVE_LIBSUMO is self:
+            _ACTIVE_LIBSUMO = None
+        try:
+            self._api.close()
+        except Exception as error:  # noqa: BLE001 - SUMO may already be gone; closing must not fail
+            log.debug("ignored error while closing SUMO: %s", error)
+
+    def _require_running(self) -> None:
+        if not self._running:
+            raise SimulationError("this simulation is closed; create a new one")
+
+
+def _load_api(gui: bool) -> ModuleType:
+    if gui:
+        import traci
+
+        return traci
+    os.environ.setdefault("LIBSUMO_AS_TRACI", "quiet")
+    import libsumo
+
+    return libsumo
+
+
+def _load_constants() -> ModuleType:
+    import traci.constants
+
+    return traci.constants
+
+
+def _offset_polyline(points: np.ndarray, offset_m: float) -> np.ndarray:
+    """Shift each vertex of a polyline sideways by `offset_m` (positive = left of travel) [m]."""
+    direction = np.gradient(points, axis=0)
+    direction /= np.linalg.norm(direction, axis=1, keepdims=True)
+    normal_left = np.stack([-direction[:, 1], direction[:, 0]], axis=1)
+    return points + offset_m * normal_left
+
+
+def _segments(points: np.ndarray) -> np.ndarray:
+    return np.stack([points[:-1], points[1:]], axis=1)
