@@ -6,11 +6,11 @@ import logging
 
 import click
 import numpy as np
+from sumo_rail_cli.options import config_options, resolve_config
 from tqdm import tqdm
 
 from sumo_rail.episode import DRIVERS, run_episode
 from sumo_rail.sim import SimulationError
-from sumo_rail_cli.options import config_options, resolve_config
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})

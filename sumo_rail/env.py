@@ -8,7 +8,9 @@ ego collides (the episode then terminates). Reaching the end of the road or the 
 
 from __future__ import annotations
 
+import dataclasses
 import math
+from dataclasses import dataclass
 from typing import Any
 
 import gymnasium
@@ -23,6 +25,23 @@ from sumo_rail.rewards import EpisodeMetrics, OvertakeCounter, lateral_reward, l
 from sumo_rail.sim import EgoState, Neighbours, PeriodReport, Simulation
 
 _SUMO_SEED_BOUND = 2**31 - 1
+
+
+@dataclass(frozen=True)
+class EpisodeStart:
+    """Everything a reset draws from the env's `np_random`, in this order."""
+
+    snapshot: int
+    sumo_seed: int
+    ego_lane: int
+    ego_position_m: float
+
+    @classmethod
+    def draw(cls, rng: np.random.Generator, config: Config, snapshots: int) -> EpisodeStart:
+        return cls(snapshot=int(rng.integers(snapshots)),
+                   sumo_seed=int(rng.integers(_SUMO_SEED_BOUND)),
+                   ego_lane=int(rng.integers(config.scenario.lanes)),
+                   ego_position_m=float(rng.uniform(config.env.ego_start_min_m, config.env.ego_start_max_m)))
 _CONTEXT_MARGIN_M = 20.0
 """Extra context-subscription radius so that long vehicles whose front is just out of LIDAR range are seen."""
 
@@ -43,7 +62,7 @@ class HighwayEnv(gymnasium.Env[np.ndarray, np.int64]):
         self._steps_per_decision = env.steps_per_decision(scenario.step_length_s)
         self._speed_limit_factor = env.v_max_mps / scenario.speed_limit_mps
         self._sim: Simulation | None = None
-        self._edges = np.zeros((0, 2, 2))
+        self._edge_boxes: lidar.Boxes | None = None
         self._set_point = env.v_min_mps
         self._lane = 0
         self._start_time_s = self._start_position_m = 0.0
@@ -63,13 +82,10 @@ class HighwayEnv(gymnasium.Env[np.ndarray, np.int64]):
         if self._sim is None:
             self._sim = Simulation(cfg.scenario, cfg.lidar.range_m + _CONTEXT_MARGIN_M,
                                    gui=self.render_mode == "human")
-        sim, rng = self._sim, self.np_random
-        sim.reset(snapshot=int(rng.integers(sim.snapshot_count)),
-                  sumo_seed=int(rng.integers(_SUMO_SEED_BOUND)),
-                  ego_lane=int(rng.integers(cfg.scenario.lanes)),
-                  ego_position_m=float(rng.uniform(cfg.env.ego_start_min_m, cfg.env.ego_start_max_m)))
-        if not len(self._edges):
-            self._edges = sim.road_edges()
+        sim = self._sim
+        sim.reset(**dataclasses.asdict(EpisodeStart.draw(self.np_random, cfg, sim.snapshot_count)))
+        if self._edge_boxes is None:
+            self._edge_boxes = lidar.edge_boxes(sim.road_edges())
         ego, neighbours = sim.observe()
         self._set_point = min(max(ego.speed_mps, cfg.env.v_min_mps), cfg.env.v_max_mps)
         sim.set_cruise_speed(self._set_point, self._speed_limit_factor)
@@ -145,10 +161,10 @@ class HighwayEnv(gymnasium.Env[np.ndarray, np.int64]):
         cos_h, sin_h = math.cos(ego.heading_rad), math.sin(ego.heading_rad)
         half = 0.5 * ego.length_m
         centre = np.array([ego.front_x - half * cos_h, ego.front_y - half * sin_h])
-        boxes = lidar.Boxes.from_front(neighbours.front_xy, neighbours.heading_rad, neighbours.length_m,
-                                       neighbours.width_m, neighbours.speed_mps)
+        vehicles = lidar.Boxes.from_front(neighbours.front_xy, neighbours.heading_rad, neighbours.length_m,
+                                          neighbours.width_m, neighbours.speed_mps)
         distances, relative_speeds = lidar.scan(centre, ego.heading_rad, ego.speed_mps * np.array([cos_h, sin_h]),
-                                                boxes, self._edges, self.config.lidar.beams,
+                                                lidar.stack(vehicles, self._edge_boxes), self.config.lidar.beams,
                                                 self.config.lidar.range_m)
         return build_observation(self.config, distances, relative_speeds, ego.speed_mps, self._set_point, ego.lane,
                                  lane_change_in_progress)

@@ -98,7 +98,9 @@ class Simulation:
         self.gui = gui
         self._built = network.build(scenario)
         self._api = _load_api(gui)
-        self._constants = _load_constants()
+        self._constants = tc = _load_constants()
+        self._context_variables = (tc.VAR_POSITION, tc.VAR_ANGLE, tc.VAR_SPEED, tc.VAR_LANEPOSITION, tc.VAR_LENGTH,
+                                   tc.VAR_WIDTH, tc.VAR_LANE_INDEX)
         self._snapshots = self._warm_snapshots()
         self._running = True
         if not gui:
@@ -184,7 +186,7 @@ class Simulation:
         """Reload warm state `snapshot` with SUMO seed `sumo_seed` and insert the ego; steps until it is in."""
         self._require_running()
         self._load(["--load-state", str(self._snapshots[snapshot]), "--seed", str(sumo_seed)])
-        api, tc = self._api, self._constants
+        api = self._api
         api.vehicle.add(EGO_ID, network.ROUTE_ID, typeID=network.EGO_TYPE, depart="now",
                         departLane=str(ego_lane), departPos=repr(ego_position_m), departSpeed="max")
         api.vehicle.setLaneChangeMode(EGO_ID, LANE_CHANGE_MODE_TRACI_ONLY_SAFE)
@@ -194,10 +196,6 @@ class Simulation:
                 break
         else:
             raise SimulationError(f"the ego could not enter lane {ego_lane} at {ego_position_m:.1f} m within 30 s")
-        api.vehicle.subscribeContext(
-            EGO_ID, tc.CMD_GET_VEHICLE_VARIABLE, self.context_radius_m,
-            [tc.VAR_POSITION, tc.VAR_ANGLE, tc.VAR_SPEED, tc.VAR_LANEPOSITION, tc.VAR_LENGTH, tc.VAR_WIDTH,
-             tc.VAR_LANE_INDEX])
         self._ego_length = api.vehicle.getLength(EGO_ID)
         self._ego_width = api.vehicle.getWidth(EGO_ID)
 
@@ -235,34 +233,34 @@ class Simulation:
                             changing, teleports)
 
     def observe(self) -> tuple[EgoState, Neighbours]:
-        """The ego and its neighbours within the context radius, from the context subscription."""
-        tc = self._constants
-        results = self._api.vehicle.getContextSubscriptionResults(EGO_ID)
+        """The ego and its neighbours within the context radius, from one context subscription.
+
+        The subscription is made and dropped at each decision: SUMO answers a new subscription at once,
+        and a standing one would be recomputed at every step of the decision period for nothing.
+        """
+        tc, vehicle = self._constants, self._api.vehicle
+        vehicle.subscribeContext(EGO_ID, tc.CMD_GET_VEHICLE_VARIABLE, self.context_radius_m, self._context_variables)
+        results = vehicle.getContextSubscriptionResults(EGO_ID)
+        vehicle.unsubscribeContext(EGO_ID, tc.CMD_GET_VEHICLE_VARIABLE, self.context_radius_m)
         ego = results.pop(EGO_ID)
         ego_x, ego_y = ego[tc.VAR_POSITION]
         ego_state = EgoState(ego_x, ego_y, sumo_heading_rad(ego[tc.VAR_ANGLE]), ego[tc.VAR_SPEED],
                              ego[tc.VAR_LANE_INDEX], ego[tc.VAR_LANEPOSITION], ego[tc.VAR_LENGTH], ego[tc.VAR_WIDTH])
         ids = tuple(results)
-        count = len(ids)
-        values = results.values()
-        front = np.array([v[tc.VAR_POSITION] for v in values], dtype=np.float64).reshape(count, 2)
-        angle = np.fromiter((v[tc.VAR_ANGLE] for v in values), np.float64, count)
-        neighbours = Neighbours(
-            ids=ids,
-            front_xy=front,
-            heading_rad=sumo_heading_rad(angle),
-            speed_mps=np.fromiter((v[tc.VAR_SPEED] for v in values), np.float64, count),
-            lane_position_m=np.fromiter((v[tc.VAR_LANEPOSITION] for v in values), np.float64, count),
-            length_m=np.fromiter((v[tc.VAR_LENGTH] for v in values), np.float64, count),
-            width_m=np.fromiter((v[tc.VAR_WIDTH] for v in values), np.float64, count),
-        )
+        rows = np.array([(*v[tc.VAR_POSITION], v[tc.VAR_ANGLE], v[tc.VAR_SPEED], v[tc.VAR_LANEPOSITION],
+                          v[tc.VAR_LENGTH], v[tc.VAR_WIDTH]) for v in results.values()],
+                        dtype=np.float64).reshape(len(ids), 7)
+        neighbours = Neighbours(ids=ids, front_xy=rows[:, :2], heading_rad=sumo_heading_rad(rows[:, 2]),
+                                speed_mps=rows[:, 3], lane_position_m=rows[:, 4], length_m=rows[:, 5],
+                                width_m=rows[:, 6])
         return ego_state, neighbours
 
     def road_edges(self) -> np.ndarray:
         """The road's outer edges as line segments [m], shape (S, 2, 2): right edge first, then left."""
         lane = self._api.lane
         lanes = self.scenario.lanes
-        right = _offset_polyline(np.array(lane.getShape(f"{network.EDGE_ID}_0")), -lane.getWidth(f"{network.EDGE_ID}_0") / 2)
+        right_id = f"{network.EDGE_ID}_0"
+        right = _offset_polyline(np.array(lane.getShape(right_id)), -lane.getWidth(right_id) / 2)
         left_id = f"{network.EDGE_ID}_{lanes - 1}"
         left = _offset_polyline(np.array(lane.getShape(left_id)), lane.getWidth(left_id) / 2)
         return np.concatenate([_segments(right), _segments(left)])
@@ -277,7 +275,7 @@ class Simulation:
             _ACTIVE_LIBSUMO = None
         try:
             self._api.close()
-        except Exception as error:  # noqa: BLE001 - SUMO may already be gone; closing must not fail
+        except Exception as error:
             log.debug("ignored error while closing SUMO: %s", error)
 
     def _require_running(self) -> None:

@@ -3,10 +3,9 @@ import math
 import numpy as np
 import pytest
 
-from sumo_rail.lidar import Boxes, scan
+from sumo_rail.lidar import Boxes, edge_boxes, scan, stack
 
 BEAMS, RANGE = 24, 100.0
-NO_EDGES = np.zeros((0, 2, 2))
 ORIGIN = np.zeros(2)
 EGO_VELOCITY = np.array([30.0, 0.0])
 
@@ -19,8 +18,9 @@ def boxes(*specs):
                  rows[:, 5:6] * np.stack([np.cos(heading), np.sin(heading)], axis=1))
 
 
-def run(box_set, edges=NO_EDGES, heading=0.0, velocity=EGO_VELOCITY):
-    return scan(ORIGIN, heading, velocity, box_set, edges, BEAMS, RANGE)
+def run(box_set, edges=None, heading=0.0, velocity=EGO_VELOCITY):
+    obstacles = box_set if edges is None else stack(box_set, edge_boxes(edges))
+    return scan(ORIGIN, heading, velocity, obstacles, BEAMS, RANGE)
 
 
 def test_car_straight_ahead_only_on_beam_zero():
@@ -78,6 +78,12 @@ def test_road_edges_are_hit_with_static_relative_speed():
     assert distance[21] == pytest.approx(5.0 / math.sin(math.radians(45)))
     assert relative[21] == pytest.approx(-30.0 * math.cos(math.radians(45)))
     assert distance[0] == RANGE and distance[12] == RANGE
+
+
+def test_road_edges_and_a_car_nearest_wins():
+    edges = np.array([[[-1000.0, -5.0], [1000.0, -5.0]]])
+    distance, relative = run(boxes((0.0, -3.0, 0.0, 4.0, 2.0, 30.0)), edges)
+    assert distance[18] == pytest.approx(2.0) and relative[18] == pytest.approx(0.0)
 
 
 def test_beams_turn_with_the_ego_heading():

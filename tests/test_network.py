@@ -50,5 +50,5 @@ def test_unreadable_sources_are_config_errors(tmp_path: Path, content):
         target.unlink()
     else:
         target.write_text(content)
-    with pytest.raises(ConfigError, match="highway.nod.xml"):
+    with pytest.raises(ConfigError, match=r"highway\.nod\.xml"):
         network.build(ScenarioConfig(), source_dir=sources)

@@ -9,7 +9,8 @@ def test_layout_names_match_space_and_vector():
     names = observation_names(config)
     space = observation_space(config)
     assert len(names) == space.shape[0] == 2 * 24 + 2 + 5 + 1
-    assert names[0] == "lidar_distance_00" and names[24] == "lidar_relative_speed_00" and names[-1] == "lane_change_in_progress"
+    assert names[0] == "lidar_distance_00" and names[24] == "lidar_relative_speed_00"
+    assert names[-1] == "lane_change_in_progress"
     observation = build_observation(config, np.full(24, 50.0), np.full(24, -100.0), 20.0, 10.0, 3, True)
     assert observation.dtype == np.float32 and space.contains(observation)
     assert observation[0] == np.float32(0.5)

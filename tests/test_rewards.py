@@ -40,7 +40,7 @@ def test_falling_back_alongside_is_no_overtake_and_being_passed_counts_separatel
 
 
 def test_vehicles_first_seen_behind_or_lost_from_view_do_not_count():
-    counter, new = counter_sequence([(["a"], [BEHIND]), (["b"], [AHEAD]), ([], []), (["a", "b"], [BEHIND, BEHIND])])
+    _, new = counter_sequence([(["a"], [BEHIND]), (["b"], [AHEAD]), ([], []), (["a", "b"], [BEHIND, BEHIND])])
     assert new == [0, 0, 0, 1]
 
 

@@ -1,0 +1,165 @@
+"""Benchmark: the full environment vs raw libsumo stepping of the same traffic, resets, and peak memory.
+
+Both sides run the same episodes (same warm state, SUMO seed and ego start, drawn exactly as the env's
+reset draws them) for the same simulated time; rounds alternate env and raw so machine noise hits both.
+Writes its section of docs/benchmarks.md (between markers) with the command and the machine.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import os
+import platform
+import resource
+import statistics
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import gymnasium
+import libsumo
+import numpy as np
+
+from sumo_rail.config import Config
+from sumo_rail.env import EpisodeStart, HighwayEnv
+from sumo_rail.network import sumo_version
+from sumo_rail.sim import EGO_ID, Simulation
+
+MARK_BEGIN, MARK_END = "<!-- bench:env -->", "<!-- /bench:env -->"
+
+
+def env_round(env: HighwayEnv, seeds: list[int], random_actions: bool) -> tuple[float, list[int]]:
+    """Wall time of whole episodes (resets included), keeping or random actions; decisions per episode."""
+    decisions = []
+    start = time.perf_counter()
+    for seed in seeds:
+        env.reset(seed=seed)
+        rng = np.random.default_rng(seed)
+        count, done = 0, False
+        while not done:
+            action = int(rng.integers(5)) if random_actions else 0
+            _, _, terminated, truncated, _ = env.step(action)
+            count += 1
+            done = terminated or truncated
+        decisions.append(count)
+    return time.perf_counter() - start, decisions
+
+
+def raw_round(sim: Simulation, config: Config, seeds: list[int],
+              decisions: list[int]) -> tuple[float, float, list[int]]:
+    """Same starts, plain simulationStep for the same simulated time: (stepping time, reset time, vehicle counts)."""
+    steps_per_decision = config.env.steps_per_decision(config.scenario.step_length_s)
+    stepping = resetting = 0.0
+    vehicles = []
+    for seed, count in zip(seeds, decisions, strict=True):
+        rng, _ = gymnasium.utils.seeding.np_random(seed)
+        start = EpisodeStart.draw(rng, config, sim.snapshot_count)
+        t0 = time.perf_counter()
+        sim.reset(**dataclasses.asdict(start))
+        # the env's initial cruise set-point (kept by a 'keep' driver), so both egos drive alike
+        set_point = min(max(libsumo.vehicle.getSpeed(EGO_ID), config.env.v_min_mps), config.env.v_max_mps)
+        sim.set_cruise_speed(set_point, config.env.v_max_mps / config.scenario.speed_limit_mps)
+        t1 = time.perf_counter()
+        for _ in range(count):
+            for _ in range(steps_per_decision):
+                libsumo.simulationStep()
+        stepping += time.perf_counter() - t1
+        resetting += t1 - t0
+        vehicles.append(libsumo.vehicle.getIDCount())
+    return stepping, resetting, vehicles
+
+
+def cold_warmup_seconds(config: Config) -> float:
+    """Wall time to build warm states from scratch (the cost a reset would have without saved states)."""
+    previous = os.environ.get("SUMO_RAIL_CACHE")
+    with tempfile.TemporaryDirectory() as cache:
+        os.environ["SUMO_RAIL_CACHE"] = cache
+        start = time.perf_counter()
+        sim = Simulation(dataclasses.replace(config.scenario, snapshots=1), context_radius_m=120.0)
+        elapsed = time.perf_counter() - start
+        sim.close()
+    if previous is None:
+        del os.environ["SUMO_RAIL_CACHE"]
+    else:
+        os.environ["SUMO_RAIL_CACHE"] = previous
+    return elapsed
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--episodes", type=int, default=6, help="episodes per round")
+    parser.add_argument("--rounds", type=int, default=5, help="alternating env/raw rounds")
+    parser.add_argument("--out", type=Path, default=Path("docs/benchmarks.md"))
+    args = parser.parse_args()
+    config = Config()
+    seeds = list(range(1000, 1000 + args.episodes))
+
+    warm = HighwayEnv(config)
+    warm.reset(seed=0)  # builds the network and warm states outside the timing
+    warm.close()
+    env_times, raw_times, random_rates, reset_times, vehicles = [], [], [], [], []
+    decisions: list[int] = []
+    for _ in range(args.rounds):
+        env = HighwayEnv(config)
+        elapsed, random_decisions = env_round(env, seeds, random_actions=True)
+        random_rates.append(sum(random_decisions) / elapsed)
+        elapsed, decisions = env_round(env, seeds, random_actions=False)
+        env_times.append(elapsed)
+        peak_rss_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+        env.close()
+        sim = Simulation(config.scenario, context_radius_m=config.lidar.range_m + 20.0)
+        stepping, resetting, counts = raw_round(sim, config, seeds, decisions)
+        sim.close()
+        raw_times.append(stepping)
+        reset_times.append(resetting / len(seeds))
+        vehicles.extend(counts)
+    total = sum(decisions)
+    env_rate = total / statistics.median(env_times)
+    raw_rate = total / statistics.median(raw_times)
+    warmup = cold_warmup_seconds(config)
+    section = f"""{MARK_BEGIN}
+## Environment vs raw libsumo (issue 2)
+
+Command: `make bench` (runs `{' '.join(['python', *sys.argv])}`).
+Machine: {platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}, SUMO {sumo_version()};
+one process, one core. Default scenario: {config.scenario.lanes} lanes, {config.scenario.length_m:.0f} m,
+{config.scenario.flow_veh_per_h:.0f} veh/h, decision period {config.env.decision_period_s} s
+({config.env.steps_per_decision(config.scenario.step_length_s)} SUMO steps of {config.scenario.step_length_s} s),
+{args.episodes} episodes x {args.rounds} alternating rounds, {total} decisions a round
+(median round reported). The ratio compares like with like: the env's ego keeps its lane and set-point,
+exactly as the ego does in the raw run, so SUMO does the same work on both sides; a random driver's
+lane changes make SUMO itself slower (continuous lane changes), shown on its own row.
+
+| measure | value |
+|---|---|
+| vehicles on the road at episode end (mean, min-max) | {statistics.mean(vehicles):.0f} \
+({min(vehicles)}-{max(vehicles)}) |
+| raw libsumo stepping, same simulated time [decisions/s] | {raw_rate:.0f} |
+| full environment, resets included [decisions/s] | {env_rate:.0f} |
+| full environment, random driver (more lane changes) [decisions/s] | {statistics.median(random_rates):.0f} |
+| ratio env / raw (target >= 0.85) | {env_rate / raw_rate:.2f} |
+| reset from a saved warm state (reload + ego insertion) [ms] | {1000 * statistics.median(reset_times):.1f} |
+| cold warm-up of one state, the alternative to saved states [s] | {warmup:.2f} |
+| peak memory of the environment process (max RSS) [MB] (target <= 300) | {peak_rss_mb:.0f} |
+{MARK_END}"""
+    print(section)
+    write_section(args.out, section)
+
+
+def write_section(path: Path, section: str) -> None:
+    text = path.read_text() if path.exists() else "# Benchmarks\n\nEach section is written by `make bench`.\n\n"
+    if MARK_BEGIN in text:
+        head, rest = text.split(MARK_BEGIN, 1)
+        text = head + section + rest.split(MARK_END, 1)[1]
+    else:
+        text = text.rstrip("\n") + "\n\n" + section + "\n"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    temporary = path.with_suffix(".tmp")
+    temporary.write_text(text)
+    os.replace(temporary, path)
+
+
+if __name__ == "__main__":
+    main()
