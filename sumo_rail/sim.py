@@ -140,10 +140,14 @@ class Simulation:
     def _start(self, extra: list[str]) -> None:
         binary = network.sumo_binary("sumo-gui" if self.gui else "sumo")
         gui_options = ["--start", "true", "--quit-on-end", "true"] if self.gui else []
+        from traci.exceptions import FatalTraCIError
+
         try:
             self._api.start([binary, *self._options(), *gui_options, *extra])
         except self._api.TraCIException as error:  # type: ignore[attr-defined]
             raise SimulationError(f"SUMO failed to start: {error}") from error
+        except FatalTraCIError as error:
+            raise SimulationError(f"sumo-gui did not start (is a display available?): {error}") from error
 
     def _load(self, extra: list[str]) -> None:
         try:
