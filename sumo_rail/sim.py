@@ -105,7 +105,6 @@ class Simulation:
         self._running = True
         if not gui:
             _ACTIVE_LIBSUMO = self
-        self._ego_length = self._ego_width = 0.0
 
     @property
     def time_s(self) -> float:
@@ -200,8 +199,6 @@ class Simulation:
                 break
         else:
             raise SimulationError(f"the ego could not enter lane {ego_lane} at {ego_position_m:.1f} m within 30 s")
-        self._ego_length = api.vehicle.getLength(EGO_ID)
-        self._ego_width = api.vehicle.getWidth(EGO_ID)
 
     def set_cruise_speed(self, speed_mps: float, speed_limit_factor: float) -> None:
         """Set the ego's cruise set-point [m/s]; SUMO's ACC model tracks it within safe gaps."""
