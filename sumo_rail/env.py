@@ -65,6 +65,7 @@ class HighwayEnv(gymnasium.Env[np.ndarray, np.int64]):
         self._edge_boxes: lidar.Boxes | None = None
         self._set_point = env.v_min_mps
         self._lane = 0
+        self._changing_lane = False
         self._start_time_s = self._start_position_m = 0.0
         self._last_observation = np.zeros(self.observation_space.shape, dtype=np.float32)
         self._metrics = EpisodeMetrics()
@@ -90,17 +91,19 @@ class HighwayEnv(gymnasium.Env[np.ndarray, np.int64]):
         self._set_point = min(max(ego.speed_mps, cfg.env.v_min_mps), cfg.env.v_max_mps)
         sim.set_cruise_speed(self._set_point, self._speed_limit_factor)
         self._lane = ego.lane
+        self._changing_lane = ego.changing_lane
         self._start_time_s, self._start_position_m = sim.time_s, ego.lane_position_m
         self._metrics = EpisodeMetrics()
         self._overtakes = OvertakeCounter()
         self._overtakes.update(neighbours.ids, self._relations(ego, neighbours))
-        self._last_observation = self._observe(ego, neighbours, lane_change_in_progress=False)
+        self._last_observation = self._observe(ego, neighbours, ego.changing_lane)
         return self._last_observation, self._info(ego, 0.0, 0.0, 0.0, False, "")
 
     def step(self, action: int | np.integer) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         if self._sim is None:
             raise RuntimeError("call reset() before step()")
-        if not self.action_space.contains(action):
+        fast_path_valid = isinstance(action, int | np.integer) and 0 <= action < self.action_space.n
+        if not (fast_path_valid or self.action_space.contains(action)):
             raise ValueError(f"action must be an integer in [0, {self.action_space.n}), got {action!r}")
         cfg, sim, metrics = self.config, self._sim, self._metrics
         chosen = Action(int(action))
@@ -111,6 +114,7 @@ class HighwayEnv(gymnasium.Env[np.ndarray, np.int64]):
             sim.set_cruise_speed(self._set_point, self._speed_limit_factor)
         if command.target_lane is not None:
             sim.request_lane_change(command.target_lane, cfg.env.decision_period_s)
+        was_changing_lane = self._changing_lane
         report = sim.advance(self._steps_per_decision)
         metrics.decisions += 1
         metrics.action_counts[chosen] += 1
@@ -119,7 +123,9 @@ class HighwayEnv(gymnasium.Env[np.ndarray, np.int64]):
         if report.ego_collided or report.ego_left_network:
             return self._ego_gone(report)
         ego, neighbours = sim.observe()
-        changing = report.lane_change_in_progress or ego.lane != self._lane
+        # A change under way at either end of the period, or one that moved the ego to another lane within it.
+        changing = was_changing_lane or ego.changing_lane or ego.lane != self._lane
+        self._changing_lane = ego.changing_lane
         metrics.lane_changes += abs(ego.lane - self._lane)
         self._lane = ego.lane
         r_long = longitudinal_reward(ego.speed_mps, cfg.env.v_min_mps, cfg.env.v_max_mps)
@@ -137,7 +143,7 @@ class HighwayEnv(gymnasium.Env[np.ndarray, np.int64]):
             reason = "end_of_road"
         elif metrics.simulated_s >= cfg.env.max_episode_s - 1e-9:
             reason = "time_limit"
-        self._last_observation = self._observe(ego, neighbours, changing)
+        self._last_observation = self._observe(ego, neighbours, ego.changing_lane)
         info = self._info(ego, r_long, r_lat, 0.0, changing, reason)
         return self._last_observation, r_long + r_lat, False, bool(reason), info
 

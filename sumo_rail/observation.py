@@ -6,7 +6,7 @@ Layout (float32), with B LIDAR beams and L lanes:
 - 2B: ego speed / v_max, clipped to [0, 2];
 - 2B + 1: cruise set-point, (v_set - v_min) / (v_max - v_min), in [0, 1] (the driver knows its own setting);
 - [2B + 2, 2B + 2 + L): current lane, one-hot (index 0 = rightmost lane);
-- 2B + 2 + L: 1 while a lane change is in progress, else 0.
+- 2B + 2 + L: 1 while the ego is between lanes (a lane change under way), else 0.
 """
 
 from __future__ import annotations
@@ -38,15 +38,14 @@ def observation_space(config: Config) -> spaces.Box:
 def build_observation(config: Config, distances_m: np.ndarray, relative_speeds_mps: np.ndarray, speed_mps: float,
                       set_point_mps: float, lane: int, lane_change_in_progress: bool) -> np.ndarray:
     """Assemble the normalised float32 observation."""
-    env, lanes = config.env, config.scenario.lanes
-    lane_one_hot = np.zeros(lanes)
-    lane_one_hot[lane] = 1.0
-    scalars = [min(max(speed_mps / env.v_max_mps, 0.0), 2.0),
-               (set_point_mps - env.v_min_mps) / (env.v_max_mps - env.v_min_mps)]
-    return np.concatenate([
-        np.clip(distances_m / config.lidar.range_m, 0.0, 1.0),
-        np.clip(relative_speeds_mps / env.v_max_mps, -1.0, 1.0),
-        scalars,
-        lane_one_hot,
-        [1.0 if lane_change_in_progress else 0.0],
-    ]).astype(np.float32)
+    env, beams = config.env, config.lidar.beams
+    observation = np.empty(2 * beams + 3 + config.scenario.lanes, dtype=np.float32)
+    np.minimum(distances_m * (1.0 / config.lidar.range_m), 1.0, out=observation[:beams], casting="same_kind")
+    relative = np.maximum(relative_speeds_mps * (1.0 / env.v_max_mps), -1.0)
+    np.minimum(relative, 1.0, out=observation[beams:2 * beams], casting="same_kind")
+    observation[2 * beams:] = 0.0
+    observation[2 * beams] = min(max(speed_mps / env.v_max_mps, 0.0), 2.0)
+    observation[2 * beams + 1] = (set_point_mps - env.v_min_mps) / (env.v_max_mps - env.v_min_mps)
+    observation[2 * beams + 2 + lane] = 1.0
+    observation[-1] = 1.0 if lane_change_in_progress else 0.0
+    return observation

@@ -46,8 +46,15 @@ class EgoState:
     speed_mps: float
     lane: int
     lane_position_m: float
+    lateral_offset_m: float
+    """Distance of the ego's centre from its lane's centre line [m]; non-zero only while changing lanes."""
     length_m: float
     width_m: float
+
+    @property
+    def changing_lane(self) -> bool:
+        """The ego is between lanes (a lane change is under way)."""
+        return abs(self.lateral_offset_m) > _LATERAL_EPSILON_M
 
 
 @dataclass(frozen=True)
@@ -74,7 +81,6 @@ class PeriodReport:
     ego_left_network: bool
     ego_teleported: bool
     min_acceleration_mps2: float
-    lane_change_in_progress: bool
     teleports: int
 
 
@@ -210,14 +216,14 @@ class Simulation:
         self._api.vehicle.changeLane(EGO_ID, lane, duration_s)
 
     def advance(self, steps: int) -> PeriodReport:
-        """Run `steps` SUMO steps, watching the ego for collisions, braking, lane changes and teleports."""
+        """Run `steps` SUMO steps, watching the ego for collisions, arrival, braking and teleports."""
         api = self._api
-        vehicle, simulation = api.vehicle, api.simulation
-        collided = left = ego_teleported = changing = False
+        step, simulation, acceleration = api.simulationStep, api.simulation, api.vehicle.getAcceleration
+        collided = left = ego_teleported = False
         min_accel = math.inf
         teleports = 0
         for _ in range(steps):
-            api.simulationStep()
+            step()
             if simulation.getStartingTeleportNumber():
                 starting = simulation.getStartingTeleportIDList()
                 teleports += len(starting)
@@ -228,10 +234,8 @@ class Simulation:
             if simulation.getArrivedNumber() and EGO_ID in simulation.getArrivedIDList():
                 left = True
                 break
-            min_accel = min(min_accel, vehicle.getAcceleration(EGO_ID))
-            changing |= abs(vehicle.getLateralLanePosition(EGO_ID)) > _LATERAL_EPSILON_M
-        return PeriodReport(collided, left, ego_teleported, min_accel if min_accel < math.inf else 0.0,
-                            changing, teleports)
+            min_accel = min(min_accel, acceleration(EGO_ID))
+        return PeriodReport(collided, left, ego_teleported, min_accel if min_accel < math.inf else 0.0, teleports)
 
     def observe(self) -> tuple[EgoState, Neighbours]:
         """The ego and its neighbours within the context radius, from one context subscription.
@@ -246,12 +250,13 @@ class Simulation:
         ego = results.pop(EGO_ID)
         ego_x, ego_y = ego[tc.VAR_POSITION]
         ego_state = EgoState(ego_x, ego_y, sumo_heading_rad(ego[tc.VAR_ANGLE]), ego[tc.VAR_SPEED],
-                             ego[tc.VAR_LANE_INDEX], ego[tc.VAR_LANEPOSITION], ego[tc.VAR_LENGTH], ego[tc.VAR_WIDTH])
-        ids = tuple(results)
-        rows = np.array([(*v[tc.VAR_POSITION], v[tc.VAR_ANGLE], v[tc.VAR_SPEED], v[tc.VAR_LANEPOSITION],
-                          v[tc.VAR_LENGTH], v[tc.VAR_WIDTH]) for v in results.values()],
-                        dtype=np.float64).reshape(len(ids), 7)
-        neighbours = Neighbours(ids=ids, front_xy=rows[:, :2], heading_rad=sumo_heading_rad(rows[:, 2]),
+                             ego[tc.VAR_LANE_INDEX], ego[tc.VAR_LANEPOSITION],
+                             self._api.vehicle.getLateralLanePosition(EGO_ID), ego[tc.VAR_LENGTH], ego[tc.VAR_WIDTH])
+        position, angle, speed, lane_position, length, width = (tc.VAR_POSITION, tc.VAR_ANGLE, tc.VAR_SPEED,
+                                                                tc.VAR_LANEPOSITION, tc.VAR_LENGTH, tc.VAR_WIDTH)
+        rows = np.array([(*v[position], v[angle], v[speed], v[lane_position], v[length], v[width])
+                         for v in results.values()], dtype=np.float64).reshape(len(results), 7)
+        neighbours = Neighbours(ids=tuple(results), front_xy=rows[:, :2], heading_rad=sumo_heading_rad(rows[:, 2]),
                                 speed_mps=rows[:, 3], lane_position_m=rows[:, 4], length_m=rows[:, 5],
                                 width_m=rows[:, 6])
         return ego_state, neighbours

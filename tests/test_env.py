@@ -135,8 +135,11 @@ def test_out_of_space_action_and_step_before_reset_are_errors(small_config):
     with pytest.raises(RuntimeError, match="reset"):
         env.step(0)
     env.reset(seed=0)
-    with pytest.raises(ValueError, match="action must be"):
-        env.step(5)
+    for invalid in (5, -1, 1.5, np.int64(7), "1"):
+        with pytest.raises(ValueError, match="action must be"):
+            env.step(invalid)
+    for valid in (np.int64(1), np.array(2), Action.KEEP):
+        env.step(valid)
     env.close()
     env.close()
 

@@ -13,9 +13,7 @@ EGO_VELOCITY = np.array([30.0, 0.0])
 def boxes(*specs):
     """Each spec: (centre_x, centre_y, heading_rad, length, width, speed along heading)."""
     rows = np.array(specs, dtype=float).reshape(-1, 6)
-    heading = rows[:, 2]
-    return Boxes(rows[:, :2], heading, rows[:, 3] / 2, rows[:, 4] / 2,
-                 rows[:, 5:6] * np.stack([np.cos(heading), np.sin(heading)], axis=1))
+    return Boxes.from_centre(rows[:, :2], rows[:, 2], rows[:, 3], rows[:, 4], rows[:, 5])
 
 
 def run(box_set, edges=None, heading=0.0, velocity=EGO_VELOCITY):
