@@ -60,7 +60,7 @@ def raw_round(sim: Simulation, config: Config, seeds: list[int],
         sim.reset(**dataclasses.asdict(start))
         # the env's initial cruise set-point (kept by a 'keep' driver), so both egos drive alike
         set_point = min(max(libsumo.vehicle.getSpeed(EGO_ID), config.env.v_min_mps), config.env.v_max_mps)
-        sim.set_cruise_speed(set_point, config.env.v_max_mps / config.scenario.speed_limit_mps)
+        sim.set_cruise_speed(set_point)
         t1 = time.perf_counter()
         for _ in range(count):
             for _ in range(steps_per_decision):

@@ -42,6 +42,19 @@ class EpisodeStart:
                    sumo_seed=int(rng.integers(_SUMO_SEED_BOUND)),
                    ego_lane=int(rng.integers(config.scenario.lanes)),
                    ego_position_m=float(rng.uniform(config.env.ego_start_min_m, config.env.ego_start_max_m)))
+
+
+@dataclass(frozen=True)
+class TrafficView:
+    """Privileged view of the traffic at the last decision, for rule-based drivers such as the expert."""
+
+    ego: EgoState
+    neighbours: Neighbours
+    set_point_mps: float
+    """The ego's current cruise set-point [m/s]."""
+    lanes: int
+
+
 _CONTEXT_MARGIN_M = 20.0
 """Extra context-subscription radius so that long vehicles whose front is just out of LIDAR range are seen."""
 
@@ -60,7 +73,6 @@ class HighwayEnv(gymnasium.Env[np.ndarray, np.int64]):
         self.action_space = spaces.Discrete(len(Action))
         scenario, env = self.config.scenario, self.config.env
         self._steps_per_decision = env.steps_per_decision(scenario.step_length_s)
-        self._speed_limit_factor = env.v_max_mps / scenario.speed_limit_mps
         self._sim: Simulation | None = None
         self._edge_boxes: lidar.Boxes | None = None
         self._set_point = env.v_min_mps
@@ -70,11 +82,19 @@ class HighwayEnv(gymnasium.Env[np.ndarray, np.int64]):
         self._last_observation = np.zeros(self.observation_space.shape, dtype=np.float32)
         self._metrics = EpisodeMetrics()
         self._overtakes = OvertakeCounter()
+        self._traffic: TrafficView | None = None
 
     @property
     def metrics(self) -> EpisodeMetrics:
         """Totals of the current episode."""
         return self._metrics
+
+    @property
+    def traffic(self) -> TrafficView:
+        """The ego and its neighbours at the last decision (read directly from SUMO, not from the LIDAR)."""
+        if self._traffic is None:
+            raise RuntimeError("call reset() before reading the traffic")
+        return self._traffic
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None,
               ) -> tuple[np.ndarray, dict[str, Any]]:
@@ -89,7 +109,7 @@ class HighwayEnv(gymnasium.Env[np.ndarray, np.int64]):
             self._edge_boxes = lidar.edge_boxes(sim.road_edges())
         ego, neighbours = sim.observe()
         self._set_point = min(max(ego.speed_mps, cfg.env.v_min_mps), cfg.env.v_max_mps)
-        sim.set_cruise_speed(self._set_point, self._speed_limit_factor)
+        sim.set_cruise_speed(self._set_point)
         self._lane = ego.lane
         self._changing_lane = ego.changing_lane
         self._start_time_s, self._start_position_m = sim.time_s, ego.lane_position_m
@@ -97,6 +117,7 @@ class HighwayEnv(gymnasium.Env[np.ndarray, np.int64]):
         self._overtakes = OvertakeCounter()
         self._overtakes.update(neighbours.ids, self._relations(ego, neighbours))
         self._last_observation = self._observe(ego, neighbours, ego.changing_lane)
+        self._traffic = TrafficView(ego, neighbours, self._set_point, cfg.scenario.lanes)
         return self._last_observation, self._info(ego, 0.0, 0.0, 0.0, False, "")
 
     def step(self, action: int | np.integer) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
@@ -111,7 +132,7 @@ class HighwayEnv(gymnasium.Env[np.ndarray, np.int64]):
                               cfg.env.v_min_mps, cfg.env.v_max_mps)
         if command.set_point_mps != self._set_point:
             self._set_point = command.set_point_mps
-            sim.set_cruise_speed(self._set_point, self._speed_limit_factor)
+            sim.set_cruise_speed(self._set_point)
         if command.target_lane is not None:
             sim.request_lane_change(command.target_lane, cfg.env.decision_period_s)
         was_changing_lane = self._changing_lane
@@ -144,6 +165,7 @@ class HighwayEnv(gymnasium.Env[np.ndarray, np.int64]):
         elif metrics.simulated_s >= cfg.env.max_episode_s - 1e-9:
             reason = "time_limit"
         self._last_observation = self._observe(ego, neighbours, ego.changing_lane)
+        self._traffic = TrafficView(ego, neighbours, self._set_point, cfg.scenario.lanes)
         info = self._info(ego, r_long, r_lat, 0.0, changing, reason)
         return self._last_observation, r_long + r_lat, False, bool(reason), info
 

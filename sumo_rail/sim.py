@@ -71,6 +71,8 @@ class Neighbours:
     """Front-bumper distance from the start of the road [m]."""
     length_m: np.ndarray
     width_m: np.ndarray
+    lane: np.ndarray
+    """Lane index (0 = rightmost), shape (M,) int."""
 
 
 @dataclass(frozen=True)
@@ -147,8 +149,12 @@ class Simulation:
         gui_options = ["--start", "true", "--quit-on-end", "true"] if self.gui else []
         from traci.exceptions import FatalTraCIError
 
+        if self.gui and not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
+            raise SimulationError("sumo-gui needs a display and neither DISPLAY nor WAYLAND_DISPLAY is set; "
+                                  "run headless instead (--gui-off)")
+        retries = {"numRetries": 3} if self.gui else {}
         try:
-            self._api.start([binary, *self._options(), *gui_options, *extra])
+            self._api.start([binary, *self._options(), *gui_options, *extra], **retries)
         except self._api.TraCIException as error:  # type: ignore[attr-defined]
             raise SimulationError(f"SUMO failed to start: {error}") from error
         except FatalTraCIError as error:
@@ -206,10 +212,14 @@ class Simulation:
         else:
             raise SimulationError(f"the ego could not enter lane {ego_lane} at {ego_position_m:.1f} m within 30 s")
 
-    def set_cruise_speed(self, speed_mps: float, speed_limit_factor: float) -> None:
-        """Set the ego's cruise set-point [m/s]; SUMO's ACC model tracks it within safe gaps."""
-        self._api.vehicle.setSpeedFactor(EGO_ID, speed_limit_factor)
-        self._api.vehicle.setMaxSpeed(EGO_ID, speed_mps)
+    def set_cruise_speed(self, speed_mps: float) -> None:
+        """Set the ego's cruise set-point [m/s]; SUMO's ACC model tracks it within safe gaps.
+
+        The set-point is the ego's desired speed, speed factor x speed limit. (Lowering the vehicle's maximum
+        speed instead would be a hard cap that SUMO enforces at emergency deceleration, 9 m/s^2; a lower speed
+        factor is reached at the ego type's comfortable deceleration.)
+        """
+        self._api.vehicle.setSpeedFactor(EGO_ID, speed_mps / self.scenario.speed_limit_mps)
 
     def request_lane_change(self, lane: int, duration_s: float) -> None:
         """Ask SUMO to move the ego to `lane` when safe within `duration_s`; unsafe changes wait, never forced."""
@@ -252,13 +262,12 @@ class Simulation:
         ego_state = EgoState(ego_x, ego_y, sumo_heading_rad(ego[tc.VAR_ANGLE]), ego[tc.VAR_SPEED],
                              ego[tc.VAR_LANE_INDEX], ego[tc.VAR_LANEPOSITION],
                              self._api.vehicle.getLateralLanePosition(EGO_ID), ego[tc.VAR_LENGTH], ego[tc.VAR_WIDTH])
-        position, angle, speed, lane_position, length, width = (tc.VAR_POSITION, tc.VAR_ANGLE, tc.VAR_SPEED,
-                                                                tc.VAR_LANEPOSITION, tc.VAR_LENGTH, tc.VAR_WIDTH)
-        rows = np.array([(*v[position], v[angle], v[speed], v[lane_position], v[length], v[width])
-                         for v in results.values()], dtype=np.float64).reshape(len(results), 7)
+        position, angle, speed, lane_position, length, width, lane = self._context_variables
+        rows = np.array([(*v[position], v[angle], v[speed], v[lane_position], v[length], v[width], v[lane])
+                         for v in results.values()], dtype=np.float64).reshape(len(results), 8)
         neighbours = Neighbours(ids=tuple(results), front_xy=rows[:, :2], heading_rad=sumo_heading_rad(rows[:, 2]),
                                 speed_mps=rows[:, 3], lane_position_m=rows[:, 4], length_m=rows[:, 5],
-                                width_m=rows[:, 6])
+                                width_m=rows[:, 6], lane=rows[:, 7].astype(np.int64))
         return ego_state, neighbours
 
     def road_edges(self) -> np.ndarray:

@@ -1,30 +1,115 @@
+import os
+import signal
+import subprocess
+import sys
+import time
 from pathlib import Path
 
+import numpy as np
+import pandas as pd
+import pyarrow.parquet as pq
 import pytest
 from click.testing import CliRunner
 from sumo_rail_cli.main import cli
 
 import sumo_rail
+from sumo_rail.config import Config
+from sumo_rail.datasets import read_demonstrations, read_metadata
+from sumo_rail.observation import observation_names
+from sumo_rail.policies import Policy, PolicyShape, save_policy
 
 SMALL = ["--set", "scenario.length_m=1500", "--set", "scenario.warmup_s=120", "--set", "scenario.snapshots=3",
          "--set", "scenario.snapshot_interval_s=10", "--set", "env.ego_start_max_m=500"]
+SMALL_CONFIG = Config.from_dict({"scenario": {"length_m": 1500.0, "warmup_s": 120.0, "snapshots": 3,
+                                              "snapshot_interval_s": 10.0}, "env": {"ego_start_max_m": 500.0}})
 
 
 def invoke(*args: str):
     return CliRunner().invoke(cli, list(args))
 
 
+def hand_made_policy(path: Path, action: int, observation_size: int = 56) -> Path:
+    """A linear policy whose only non-zero parameter is the bias of `action`."""
+    shape = PolicyShape("linear", observation_size)
+    parameters = np.zeros(shape.parameter_count, dtype=np.float32)
+    parameters[5 * observation_size + action] = 1.0
+    save_policy(Policy(shape, parameters), path, {"observation_names": observation_names(SMALL_CONFIG)})
+    return path
+
+
 def test_version_and_help():
     assert sumo_rail.__version__ in invoke("--version").output
     result = invoke("--help")
-    assert result.exit_code == 0 and "run-episode" in result.output
+    assert result.exit_code == 0 and "record-expert" in result.output and "evaluate" in result.output
 
 
-def test_run_episode_prints_metrics():
-    result = invoke("run-episode", *SMALL, "--driver", "random", "--seed", "2")
-    assert result.exit_code == 0, result.output
-    assert "average_speed_kmh" in result.output and "overtakes" in result.output
-    assert "end_of_road" in result.output
+def test_record_expert_is_identical_for_any_worker_count_and_run(tmp_path):
+    paths = []
+    for name, workers in (("a", "1"), ("b", "2"), ("c", "2")):
+        paths.append(tmp_path / f"{name}.parquet")
+        result = invoke("record-expert", *SMALL, "--episodes", "3", "--seed", "5", "--style", "calm",
+                        "--workers", workers, "--out", str(paths[-1]))
+        assert result.exit_code == 0, result.output
+    contents = [path.read_bytes() for path in paths]
+    assert contents[0] == contents[1] == contents[2]
+    demos = read_demonstrations(paths[0], observation_size=56)
+    assert sorted(set(demos.episodes.tolist())) == [0, 1, 2]
+    metadata = read_metadata(paths[0])
+    assert metadata["style"] == "calm" and metadata["seed"] == 5 and metadata["config"] == SMALL_CONFIG.to_dict()
+    assert metadata["episode_seeds"] == [15, 18, 21]
+    table = pq.read_table(paths[0])
+    assert table.num_rows == len(demos.actions) and set(table.column("episode_seed").to_pylist()) == {15, 18, 21}
+
+
+def test_record_expert_refuses_to_overwrite_and_bad_counts(tmp_path):
+    out = tmp_path / "demos.parquet"
+    out.write_text("precious")
+    result = invoke("record-expert", *SMALL, "--episodes", "1", "--out", str(out))
+    assert result.exit_code == 2 and "--overwrite" in result.output and out.read_text() == "precious"
+    result = invoke("record-expert", *SMALL, "--episodes", "0", "--out", str(tmp_path / "x.parquet"))
+    assert result.exit_code == 2 and "--episodes" in result.output
+    result = invoke("record-expert", *SMALL, "--episodes", "1", "--out", str(tmp_path / "no" / "x.parquet"))
+    assert result.exit_code == 2 and "does not exist" in result.output
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["demos.parquet"]
+
+
+def test_evaluate_puts_drivers_side_by_side_and_is_reproducible(tmp_path):
+    policy = hand_made_policy(tmp_path / "always_right.npz", action=4)
+    outs = [tmp_path / "m1.parquet", tmp_path / "m2.parquet"]
+    outputs = []
+    for out, workers in zip(outs, ("1", "2"), strict=True):
+        result = invoke("evaluate", *SMALL, "--policy", "expert", "--policy", "keep", "--policy", str(policy),
+                        "--episodes", "2", "--seed", "1000", "--workers", workers, "--out", str(out))
+        assert result.exit_code == 0, result.output
+        outputs.append(result.stdout)
+    summaries = [output.rsplit("wrote", 1)[0] for output in outputs]
+    assert summaries[0] == summaries[1]
+    assert "expert-normal" in outputs[0] and "always_right" in outputs[0] and "+-" in outputs[0]
+    frames = [pd.read_parquet(out) for out in outs]
+    pd.testing.assert_frame_equal(frames[0], frames[1])
+    frame = frames[0]
+    assert frame["policy"].tolist() == ["expert-normal"] * 2 + ["keep"] * 2 + ["always_right"] * 2
+    assert frame["seed"].tolist() == [3001, 3004] * 3
+    always_right = frame[frame["policy"] == "always_right"]
+    assert (always_right["action_lane_right"] == always_right["steps"]).all()
+    assert (frame[frame["policy"] == "keep"]["lane_changes"] == 0).all()
+    assert read_metadata(outs[0])["kind"] == "episode_metrics"
+
+
+def test_evaluate_rejects_bad_policies_without_writing(tmp_path):
+    out = tmp_path / "m.parquet"
+    wrong_size = hand_made_policy(tmp_path / "wrong.npz", action=0, observation_size=60)
+    result = invoke("evaluate", *SMALL, "--policy", str(wrong_size), "--out", str(out))
+    assert result.exit_code == 1 and "expects 60 observations" in result.output
+    corrupt = tmp_path / "corrupt.npz"
+    corrupt.write_bytes(b"garbage")
+    result = invoke("evaluate", *SMALL, "--policy", str(corrupt), "--out", str(out))
+    assert result.exit_code == 1 and "corrupt.npz" in result.output
+    result = invoke("evaluate", *SMALL, "--policy", str(tmp_path / "missing.npz"))
+    assert result.exit_code == 1 and "does not exist" in result.output
+    result = invoke("evaluate", *SMALL, "--policy", "expert:reckless")
+    assert result.exit_code == 2 and "reckless" in result.output
+    assert "Traceback" not in result.output and not out.exists()
 
 
 @pytest.mark.parametrize(("args", "fragment"), [
@@ -36,9 +121,10 @@ def test_run_episode_prints_metrics():
     (["--set", "scenario.flow_veh_per_h=-100"], "flow_veh_per_h"),
     (["--config", "does-not-exist.toml"], "does-not-exist.toml"),
     (["--episodes", "0"], "--episodes"),
+    (["--workers", "0"], "--workers"),
 ])
 def test_bad_input_is_a_one_line_usage_error(args, fragment):
-    result = invoke("run-episode", *args)
+    result = invoke("evaluate", *args)
     assert result.exit_code == 2
     assert fragment in result.output
     assert "Traceback" not in result.output
@@ -48,5 +134,25 @@ def test_bad_input_is_a_one_line_usage_error(args, fragment):
 def test_unknown_key_in_config_file(tmp_path: Path):
     path = tmp_path / "bad.toml"
     path.write_text("[env]\ndecision_period = 1.0\n")
-    result = invoke("run-episode", "--config", str(path))
+    result = invoke("evaluate", "--config", str(path))
     assert result.exit_code == 2 and "env.decision_period" in result.output
+
+
+def test_gui_without_a_display_is_a_one_sentence_error():
+    env = {key: value for key, value in os.environ.items() if key not in ("DISPLAY", "WAYLAND_DISPLAY")}
+    result = subprocess.run([sys.executable, "-m", "sumo_rail_cli", "evaluate", *SMALL, "--gui",
+                             "--episodes", "1"], capture_output=True, text=True, env=env, timeout=120)
+    assert result.returncode == 1, result.stderr
+    assert "sumo-gui" in result.stderr and "Traceback" not in result.stderr
+
+
+def test_ctrl_c_leaves_no_partial_output(tmp_path):
+    out = tmp_path / "demos.parquet"
+    process = subprocess.Popen([sys.executable, "-m", "sumo_rail_cli", "record-expert", *SMALL,
+                                "--episodes", "200", "--workers", "2", "--out", str(out)],
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    time.sleep(6)
+    process.send_signal(signal.SIGINT)
+    _, stderr = process.communicate(timeout=60)
+    assert process.returncode != 0 and "Traceback" not in stderr
+    assert list(tmp_path.iterdir()) == []
