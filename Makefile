@@ -20,10 +20,11 @@ test: $(STAMP)
 	$(PY) -m pytest -q
 
 demo: $(STAMP)
-	$(VENV)/bin/sumo-rail run-episode --driver keep --seed 0
+	$(VENV)/bin/sumo-rail evaluate --policy expert:calm --policy expert:sporty --policy keep --episodes 4 --workers 2
 
 bench: $(STAMP)
 	$(PY) benchmarks/bench_env.py --out docs/benchmarks.md
+	$(PY) benchmarks/bench_record.py --out docs/benchmarks.md
 
 lint: $(STAMP)
 	$(VENV)/bin/ruff check sumo_rail cli tests benchmarks

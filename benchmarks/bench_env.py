@@ -22,12 +22,13 @@ import gymnasium
 import libsumo
 import numpy as np
 
+from doc_section import write_section
+
 from sumo_rail.config import Config
 from sumo_rail.env import EpisodeStart, HighwayEnv
 from sumo_rail.network import sumo_version
 from sumo_rail.sim import EGO_ID, Simulation
 
-MARK_BEGIN, MARK_END = "<!-- bench:env -->", "<!-- /bench:env -->"
 
 
 def env_round(env: HighwayEnv, seeds: list[int], random_actions: bool) -> tuple[float, list[int]]:
@@ -157,7 +158,7 @@ def main() -> None:
     light_figures = measure(light, seeds, args.rounds)
     warmup = cold_warmup_seconds(default)
     scenario, env = default.scenario, default.env
-    section = f"""{MARK_BEGIN}
+    section = f"""
 ## Environment vs raw libsumo (issue 2)
 
 Command: `make bench` (runs `{' '.join(['python', *sys.argv])}`).
@@ -175,22 +176,9 @@ both sides; a random driver's lane changes make SUMO itself slower (continuous l
 {table_rows("default", dense_figures)}{table_rows("light", light_figures)}\
 | cold warm-up of one state, the alternative to saved states [s] | {warmup:.2f} |
 | peak memory of the environment process (max RSS) [MB] (target <= 300) | {dense_figures.peak_rss_mb:.0f} |
-{MARK_END}"""
+"""
     print(section)
-    write_section(args.out, section)
-
-
-def write_section(path: Path, section: str) -> None:
-    text = path.read_text() if path.exists() else "# Benchmarks\n\nEach section is written by `make bench`.\n\n"
-    if MARK_BEGIN in text:
-        head, rest = text.split(MARK_BEGIN, 1)
-        text = head + section + rest.split(MARK_END, 1)[1]
-    else:
-        text = text.rstrip("\n") + "\n\n" + section + "\n"
-    path.parent.mkdir(parents=True, exist_ok=True)
-    temporary = path.with_suffix(".tmp")
-    temporary.write_text(text)
-    os.replace(temporary, path)
+    write_section(args.out, "env", section)
 
 
 if __name__ == "__main__":
