@@ -21,14 +21,12 @@ from pathlib import Path
 import gymnasium
 import libsumo
 import numpy as np
-
 from doc_section import write_section
 
 from sumo_rail.config import Config
 from sumo_rail.env import EpisodeStart, HighwayEnv
 from sumo_rail.network import sumo_version
 from sumo_rail.sim import EGO_ID, Simulation
-
 
 
 def env_round(env: HighwayEnv, seeds: list[int], random_actions: bool) -> tuple[float, list[int]]:
