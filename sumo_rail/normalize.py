@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-MIN_STD = 1e-8
+MIN_STD = 1e-6
 """Standard deviations below this are reported as 1.0, so normalising never divides by ~0."""
 
 

@@ -22,10 +22,12 @@ from typing import Any
 
 import numpy as np
 
+from sumo_rail.normalize import MIN_STD
+
 FORMAT = "sumo-rail policy"
 FORMAT_VERSION = 1
 KINDS = ("linear", "mlp")
-_MIN_STD = 1e-6
+"""Smallest observation std a policy divides by; constant features are not blown up."""
 
 
 class PolicyFileError(ValueError):
@@ -73,7 +75,7 @@ class Policy:
         self.parameters = parameters
         self.observation_mean = mean
         self.observation_std = std
-        self._scale = 1.0 / np.maximum(std, _MIN_STD)
+        self._scale = 1.0 / np.maximum(std, MIN_STD)
         self._layers = _unflatten(shape, parameters)
 
     def logits(self, observations: np.ndarray) -> np.ndarray:

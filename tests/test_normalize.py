@@ -53,7 +53,8 @@ def test_std_floor():
     stats = RunningStats.of(np.array([[5.0, 0.0, 1.0], [5.0, 2.0, 1.0 + 1e-10]]))
     np.testing.assert_allclose(stats.std, [1.0, 1.0, 1.0])  # constant, std 1 exactly, std ~5e-11
     assert RunningStats.of(np.array([[0.0], [4.0]])).std[0] == 2.0  # population std
-    assert RunningStats.of(np.array([[0.0], [4e-8]])).std[0] == pytest.approx(2e-8)  # just above the floor
+    assert RunningStats.of(np.array([[0.0], [4e-6]])).std[0] == pytest.approx(2e-6)  # just above the floor
+    assert RunningStats.of(np.array([[0.0], [1e-6]])).std[0] == 1.0  # just below it
 
 
 def test_array_round_trip_is_exact(tmp_path):
