@@ -81,3 +81,57 @@ def evaluate_command(config_path: Path | None, overrides: tuple[str, ...], polic
     click.echo(summary_table(metrics))
     if out is not None:
         click.echo(f"wrote {out}: {len(metrics)} episodes")
+
+
+@click.command("train")
+@config_options
+@click.option("--demos", type=click.Path(path_type=Path, dir_okay=False), required=True,
+              help="Expert demonstrations written by record-expert.")
+@click.option("--policy", "kind", type=click.Choice(["linear", "mlp"]), default="linear", show_default=True,
+              help="linear: obs -> 5 logits; mlp: obs -> --hidden tanh units -> 5 logits.")
+@click.option("--hidden", type=click.IntRange(min=1), default=10, show_default=True, help="Hidden units of mlp.")
+@click.option("--bc-epochs", type=click.IntRange(min=0), default=0, show_default=True,
+              help="Behaviour-cloning epochs that initialise RAIL (0: start from zero weights).")
+@click.option("--directions", type=click.IntRange(min=1), default=32, show_default=True, help="N, directions.")
+@click.option("--top", type=click.IntRange(min=1), default=16, show_default=True, help="b, best directions kept.")
+@click.option("--step-size", type=click.FloatRange(min=0, min_open=True), default=0.001, show_default=True,
+              help="alpha, the ARS step size.")
+@click.option("--iterations", type=click.IntRange(min=1), default=200, show_default=True,
+              help="Iterations in total (with --resume: including those already done).")
+@click.option("--workers", type=click.IntRange(min=1), default=1, show_default=True,
+              help="Worker processes, each running one SUMO; the weights do not depend on it.")
+@click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True)
+@click.option("--out", type=click.Path(path_type=Path, file_okay=False), required=True, help="Run folder.")
+@click.option("--resume", is_flag=True, help="Continue the run in --out from its last checkpoint.")
+def train_command(config_path: Path | None, overrides: tuple[str, ...], demos: Path, kind: str, hidden: int,
+                  bc_epochs: int, directions: int, top: int, step_size: float, iterations: int, workers: int,
+                  seed: int, out: Path, resume: bool) -> None:
+    """Learn a driving policy from demonstrations with RAIL (BC initialisation, then ARS with an LS-GAN reward)."""
+    config = resolve_config(config_path, overrides)
+    from sumo_rail.backends import ProcessPoolBackend
+    from sumo_rail.discriminator import DiscriminatorSettings
+    from sumo_rail.rail import RailSettings
+    from sumo_rail.training import RunError, RunSettings, train
+
+    try:
+        settings = RunSettings(str(demos), kind, hidden, bc_epochs,
+                               RailSettings(directions=directions, top=top, step_size=step_size, seed=seed),
+                               DiscriminatorSettings(seed=seed))
+    except ValueError as error:
+        raise click.UsageError(str(error)) from error
+    bar = episode_progress(iterations, "training")
+    bar.unit = "iteration"
+
+    def show(log, wall_time_s: float) -> None:
+        bar.set_postfix(D_return=f"{log.return_mean:+.3f}", steps_per_s=f"{log.env_steps / wall_time_s:.0f}")
+        bar.update()
+
+    with library_errors(), ProcessPoolBackend(workers) as backend, bar:
+        try:
+            state = train(out, settings, config, iterations, backend, resume, on_iteration=show)
+        except RunError as error:
+            raise click.ClickException(str(error)) from error
+        except KeyboardInterrupt:
+            raise click.ClickException(f"interrupted; {out} keeps its last complete iteration, continue with "
+                                       f"--resume") from None
+    click.echo(f"trained {state.iteration} iterations; policies in {out}")

@@ -5,7 +5,7 @@ from __future__ import annotations
 import logging
 
 import click
-from sumo_rail_cli.commands import evaluate_command, record_expert
+from sumo_rail_cli.commands import evaluate_command, record_expert, train_command
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})
@@ -18,4 +18,5 @@ def cli(verbose: bool) -> None:
 
 cli.add_command(record_expert)
 cli.add_command(evaluate_command)
+cli.add_command(train_command)
 

@@ -148,8 +148,8 @@ class Discriminator:
             raise ValueError(f"the discriminator expects {len(observations)} actions, got shape {actions.shape}")
         if len(actions) and (actions.min() < 0 or actions.max() >= self.actions):
             raise ValueError(f"actions must be in 0..{self.actions - 1}")
-        normalised = (torch.from_numpy(observations) - self._mean) * self._scale
-        one_hot = nn.functional.one_hot(torch.from_numpy(actions), self.actions).to(torch.float32)
+        normalised = (torch.tensor(observations, dtype=torch.float32) - self._mean) * self._scale  # a copy
+        one_hot = nn.functional.one_hot(torch.tensor(actions, dtype=torch.int64), self.actions).to(torch.float32)
         return torch.cat([normalised, one_hot], dim=1)
 
     def _logits(self, observations: np.ndarray, actions: np.ndarray) -> np.ndarray:

@@ -1,0 +1,165 @@
+"""A training run in a folder: BC initialisation, RAIL iterations, atomic checkpoints, resume, the training log.
+
+runs/NAME/ holds `run.json` (settings, config, provenance), `checkpoint.pt` (everything to continue exactly;
+written with torch.save and read with `weights_only=True`, so loading never runs code), `policy_bc.npz`,
+`policy_latest.npz`, `policy_best.npz` (by mean discriminator return), `discriminator.pt` and `log.parquet`
+(one row per iteration). Every file is replaced atomically after each iteration, so an interrupted run
+keeps its last complete iteration and `--resume` continues from it bit for bit.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import os
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pyarrow as pa
+import torch
+
+from sumo_rail.backends import RolloutBackend
+from sumo_rail.bc import BcSettings, behaviour_cloning
+from sumo_rail.config import Config
+from sumo_rail.datasets import provenance, read_demonstrations, write_parquet
+from sumo_rail.discriminator import Discriminator, DiscriminatorSettings
+from sumo_rail.normalize import RunningStats
+from sumo_rail.observation import observation_space
+from sumo_rail.policies import Policy, PolicyShape, save_policy
+from sumo_rail.rail import IterationLog, RailSettings, TrainingState, run_iteration
+
+CHECKPOINT_FORMAT = "sumo-rail checkpoint 1"
+
+
+@dataclass(frozen=True)
+class RunSettings:
+    """What defines a run; `--resume` requires the same (except the number of iterations)."""
+
+    demos: str
+    kind: str
+    hidden: int
+    bc_epochs: int
+    rail: RailSettings
+    discriminator: DiscriminatorSettings
+
+    def to_dict(self) -> dict[str, Any]:
+        return dataclasses.asdict(self)
+
+
+class RunError(ValueError):
+    """A run folder cannot be used as asked (message is one sentence)."""
+
+
+def train(folder: Path, settings: RunSettings, config: Config, iterations: int, backend: RolloutBackend,
+          resume: bool, on_iteration: Callable[[IterationLog, float], None] | None = None,
+          on_rollout: Callable[[int, Any], None] | None = None) -> TrainingState:
+    """Train until `iterations` iterations are done; returns the final state. Safe to interrupt at any time."""
+    folder = Path(folder)
+    observation_size = observation_space(config).shape[0]
+    demos = read_demonstrations(Path(settings.demos), observation_size)
+    shape = PolicyShape(settings.kind, observation_size, settings.hidden)
+    run_record = {"settings": settings.to_dict(), **provenance("training_run", config, settings.rail.seed)}
+    expert_stats = RunningStats.of(demos.observations)
+    discriminator = Discriminator(observation_size, expert_stats.mean.copy(), expert_stats.std.copy(),
+                                  settings.discriminator)
+    if resume:
+        state, logs = _resume(folder, run_record, shape, discriminator)
+    else:
+        _start_folder(folder, run_record)
+        state, logs = _initial_state(folder, settings, shape, demos, run_record), []
+    while state.iteration < iterations:
+        started = time.perf_counter()
+        log = run_iteration(state, shape, config, settings.rail, discriminator, demos, backend, on_rollout)
+        logs.append({**dataclasses.asdict(log), "wall_time_s": time.perf_counter() - started})
+        improved = log.return_mean >= max((row["return_mean"] for row in logs), default=-np.inf)
+        _save_iteration(folder, state, shape, discriminator, logs, run_record, improved)
+        if on_iteration is not None:
+            on_iteration(log, logs[-1]["wall_time_s"])
+    return state
+
+
+def _start_folder(folder: Path, run_record: dict[str, Any]) -> None:
+    if folder.exists() and any(folder.iterdir()):
+        raise RunError(f"run folder {folder} is not empty; pass --resume to continue it or choose another --out")
+    folder.mkdir(parents=True, exist_ok=True)
+    _write_atomically(folder / "run.json", json.dumps(run_record, indent=2, sort_keys=True).encode())
+
+
+def _initial_state(folder: Path, settings: RunSettings, shape: PolicyShape, demos: Any,
+                   run_record: dict[str, Any]) -> TrainingState:
+    """BC-initialised parameters and statistics when --bc-epochs > 0, else zeros and empty statistics."""
+    if settings.bc_epochs < 1:
+        zeros = np.zeros(shape.parameter_count, np.float32)
+        return TrainingState.start(zeros, RunningStats.empty(shape.observation_size), settings.rail)
+    policy, report = behaviour_cloning(demos, shape, BcSettings(epochs=settings.bc_epochs, seed=settings.rail.seed))
+    save_policy(policy, folder / "policy_bc.npz", {**run_record, "bc_report": dataclasses.asdict(report)})
+    rows = len(demos.actions)
+    stats = RunningStats(rows, policy.observation_mean, policy.observation_std**2 * rows)
+    return TrainingState.start(policy.parameters, stats, settings.rail)
+
+
+def _save_iteration(folder: Path, state: TrainingState, shape: PolicyShape, discriminator: Discriminator,
+                    logs: list[dict[str, Any]], run_record: dict[str, Any], improved: bool) -> None:
+    policy = Policy(shape, state.parameters, state.stats.mean, state.stats.std)
+    metadata = {**run_record, "iteration": state.iteration}
+    save_policy(policy, folder / "policy_latest.npz", metadata)
+    if improved:
+        save_policy(policy, folder / "policy_best.npz", metadata)
+    _torch_save_atomically(discriminator.state(), folder / "discriminator.pt")
+    write_parquet(pa.Table.from_pylist(logs), folder / "log.parquet", {**run_record, "kind": "training_log"})
+    checkpoint = {
+        "format": CHECKPOINT_FORMAT, "iteration": state.iteration,
+        "parameters": torch.from_numpy(state.parameters.copy()),
+        "stats": {key: torch.from_numpy(np.asarray(value).copy()) for key, value in state.stats.to_arrays().items()},
+        "nu": state.nu, "best_return": state.best_return, "best_at_last_check": state.best_at_last_check,
+        "rng": state.rng.bit_generator.state, "discriminator": discriminator.state(), "log": logs,
+    }
+    _torch_save_atomically(checkpoint, folder / "checkpoint.pt")  # last: it marks the iteration complete
+
+
+def _resume(folder: Path, run_record: dict[str, Any], shape: PolicyShape,
+            discriminator: Discriminator) -> tuple[TrainingState, list[dict[str, Any]]]:
+    path = folder / "checkpoint.pt"
+    if not path.is_file():
+        raise RunError(f"nothing to resume: {path} does not exist")
+    stored = json.loads((folder / "run.json").read_text())
+    if stored.get("settings") != run_record["settings"] or stored.get("config") != run_record["config"]:
+        raise RunError(f"run {folder} was started with other settings; resume it with the same options")
+    try:
+        checkpoint = torch.load(path, weights_only=True)
+    except Exception as error:  # torch raises several types for corrupt or unsafe files
+        raise RunError(f"checkpoint {path} is unreadable ({error})") from error
+    if checkpoint.get("format") != CHECKPOINT_FORMAT:
+        raise RunError(f"{path} is not a sumo-rail checkpoint")
+    rng = np.random.default_rng()
+    rng.bit_generator.state = checkpoint["rng"]
+    stats = RunningStats.from_arrays({key: value.numpy() for key, value in checkpoint["stats"].items()})
+    discriminator.load_state(checkpoint["discriminator"])
+    state = TrainingState(checkpoint["iteration"], checkpoint["parameters"].numpy(), stats, checkpoint["nu"],
+                          checkpoint["best_return"], checkpoint["best_at_last_check"], rng)
+    if state.parameters.size != shape.parameter_count:
+        raise RunError(f"checkpoint {path} holds a policy of another size")
+    return state, list(checkpoint["log"])
+
+
+def _torch_save_atomically(payload: Any, path: Path) -> None:
+    temporary = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    try:
+        torch.save(payload, temporary)
+        os.replace(temporary, path)
+    finally:
+        temporary.unlink(missing_ok=True)
+
+
+def _write_atomically(path: Path, content: bytes) -> None:
+    temporary = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    try:
+        temporary.write_bytes(content)
+        os.replace(temporary, path)
+    finally:
+        temporary.unlink(missing_ok=True)
+
