@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import signal
 from pathlib import Path
+from types import FrameType
 
 import click
 from sumo_rail_cli.options import (
@@ -126,6 +128,7 @@ def train_command(config_path: Path | None, overrides: tuple[str, ...], demos: P
         bar.set_postfix(D_return=f"{log.return_mean:+.3f}", steps_per_s=f"{log.env_steps / wall_time_s:.0f}")
         bar.update()
 
+    signal.signal(signal.SIGTERM, _interrupt)  # SIGTERM stops like Ctrl-C: the last complete iteration is kept
     with library_errors(), ProcessPoolBackend(workers) as backend, bar:
         try:
             state = train(out, settings, config, iterations, backend, resume, on_iteration=show)
@@ -135,3 +138,7 @@ def train_command(config_path: Path | None, overrides: tuple[str, ...], demos: P
             raise click.ClickException(f"interrupted; {out} keeps its last complete iteration, continue with "
                                        f"--resume") from None
     click.echo(f"trained {state.iteration} iterations; policies in {out}")
+
+
+def _interrupt(signal_number: int, frame: FrameType | None) -> None:
+    raise KeyboardInterrupt

@@ -156,3 +156,32 @@ def test_ctrl_c_leaves_no_partial_output(tmp_path):
     _, stderr = process.communicate(timeout=60)
     assert process.returncode != 0 and "Traceback" not in stderr
     assert list(tmp_path.iterdir()) == []
+
+
+def test_train_bad_input(tmp_path):
+    result = invoke("train", *SMALL, "--demos", str(tmp_path / "missing.parquet"), "--out", str(tmp_path / "run"))
+    assert result.exit_code == 1 and "does not exist" in result.output
+    result = invoke("train", *SMALL, "--demos", "x.parquet", "--directions", "4", "--top", "5", "--out", "run")
+    assert result.exit_code == 2 and "--top" in result.output
+
+
+def test_train_interrupted_keeps_a_checkpoint_and_resumes(tmp_path):
+    demos = tmp_path / "demos.parquet"
+    assert invoke("record-expert", *SMALL, "--episodes", "2", "--out", str(demos)).exit_code == 0
+    run = tmp_path / "run"
+    command = [sys.executable, "-m", "sumo_rail_cli", "train", *SMALL, "--demos", str(demos), "--directions", "2",
+               "--top", "1", "--iterations", "500", "--out", str(run)]
+    process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.time() + 120
+    while not (run / "checkpoint.pt").exists() and time.time() < deadline:
+        time.sleep(0.5)
+    process.send_signal(signal.SIGINT)
+    _, stderr = process.communicate(timeout=60)
+    assert process.returncode == 1 and "--resume" in stderr and "Traceback" not in stderr
+    done = len(pd.read_parquet(run / "log.parquet"))
+    assert 1 <= done < 500
+    assert not [p for p in run.iterdir() if p.name.endswith(".tmp")]
+    result = invoke("train", *SMALL, "--demos", str(demos), "--directions", "2", "--top", "1",
+                    "--iterations", str(done + 1), "--out", str(run), "--resume")
+    assert result.exit_code == 0, result.output
+    assert len(pd.read_parquet(run / "log.parquet")) == done + 1
