@@ -12,8 +12,11 @@ from __future__ import annotations
 import dataclasses
 import json
 import os
+import signal
+import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -76,7 +79,8 @@ def train(folder: Path, settings: RunSettings, config: Config, iterations: int, 
         log = run_iteration(state, shape, config, settings.rail, discriminator, demos, backend, on_rollout)
         logs.append({**dataclasses.asdict(log), "wall_time_s": time.perf_counter() - started})
         improved = log.return_mean >= max((row["return_mean"] for row in logs), default=-np.inf)
-        _save_iteration(folder, state, shape, discriminator, logs, run_record, improved)
+        with _signals_deferred():  # Ctrl-C or SIGTERM during the save takes effect right after it
+            _save_iteration(folder, state, shape, discriminator, logs, run_record, improved)
         if on_iteration is not None:
             on_iteration(log, logs[-1]["wall_time_s"])
     return state
@@ -144,6 +148,19 @@ def _resume(folder: Path, run_record: dict[str, Any], shape: PolicyShape,
     if state.parameters.size != shape.parameter_count:
         raise RunError(f"checkpoint {path} holds a policy of another size")
     return state, list(checkpoint["log"])
+
+
+@contextmanager
+def _signals_deferred() -> Iterator[None]:
+    """Hold SIGINT and SIGTERM (delivered when the block ends) so the files of one iteration stay consistent."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM})
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
 
 
 def _torch_save_atomically(payload: Any, path: Path) -> None:

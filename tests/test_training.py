@@ -82,3 +82,19 @@ def test_run_folder_rules(tmp_path, demos_path, small_config_module):
         (tmp_path / "run" / "checkpoint.pt").write_bytes(b"garbage")
         with pytest.raises(RunError, match="unreadable"):
             train(tmp_path / "run", settings, small_config_module, 2, backend, resume=True)
+
+
+def test_ctrl_c_during_a_save_takes_effect_after_it():
+    import os
+    import signal
+    import time
+
+    from sumo_rail import training
+
+    finished = []
+    with pytest.raises(KeyboardInterrupt):
+        with training._signals_deferred():
+            os.kill(os.getpid(), signal.SIGINT)
+            time.sleep(0.1)
+            finished.append("save")
+    assert finished == ["save"]
