@@ -152,15 +152,21 @@ def _resume(folder: Path, run_record: dict[str, Any], shape: PolicyShape,
 
 @contextmanager
 def _signals_deferred() -> Iterator[None]:
-    """Hold SIGINT and SIGTERM (delivered when the block ends) so the files of one iteration stay consistent."""
+    """Hold SIGINT and SIGTERM until the block ends, then stop (KeyboardInterrupt), so one iteration's files stay
+    consistent. (Python-level handlers: a signal mask would not do, the kernel hands it to another thread.)"""
     if threading.current_thread() is not threading.main_thread():
         yield
         return
-    previous = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM})
+    received: list[int] = []
+    previous = {number: signal.signal(number, lambda caught, frame: received.append(caught))
+                for number in (signal.SIGINT, signal.SIGTERM)}
     try:
         yield
     finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
+        for number, handler in previous.items():
+            signal.signal(number, handler)
+    if received:
+        raise KeyboardInterrupt
 
 
 def _torch_save_atomically(payload: Any, path: Path) -> None:
