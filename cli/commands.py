@@ -5,6 +5,7 @@ from __future__ import annotations
 import signal
 from pathlib import Path
 from types import FrameType
+from typing import TYPE_CHECKING, Any
 
 import click
 from sumo_rail_cli.options import (
@@ -18,6 +19,9 @@ from sumo_rail_cli.options import (
 )
 
 from sumo_rail.expert import DEFAULT_STYLE, STYLES
+
+if TYPE_CHECKING:
+    from sumo_rail.bc import BcReport
 
 _STYLE = click.Choice(sorted(STYLES))
 
@@ -92,7 +96,7 @@ def evaluate_command(config_path: Path | None, overrides: tuple[str, ...], polic
 @click.option("--policy", "kind", type=click.Choice(["linear", "mlp"]), default="linear", show_default=True,
               help="linear: obs -> 5 logits; mlp: obs -> --hidden tanh units -> 5 logits.")
 @click.option("--hidden", type=click.IntRange(min=1), default=10, show_default=True, help="Hidden units of mlp.")
-@click.option("--bc-epochs", type=click.IntRange(min=0), default=0, show_default=True,
+@click.option("--bc-epochs", type=click.IntRange(min=0), default=20, show_default=True,
               help="Behaviour-cloning epochs that initialise RAIL (0: start from zero weights).")
 @click.option("--directions", type=click.IntRange(min=1), default=32, show_default=True, help="N, directions.")
 @click.option("--top", type=click.IntRange(min=1), default=16, show_default=True, help="b, best directions kept.")
@@ -103,17 +107,21 @@ def evaluate_command(config_path: Path | None, overrides: tuple[str, ...], polic
 @click.option("--workers", type=click.IntRange(min=1), default=1, show_default=True,
               help="Worker processes, each running one SUMO; the weights do not depend on it.")
 @click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True)
+@click.option("--eval-every", type=click.IntRange(min=0), default=10, show_default=True,
+              help="Evaluate the policy on validation seeds every this many iterations and after the last (0: never).")
+@click.option("--eval-episodes", type=click.IntRange(min=1), default=8, show_default=True,
+              help="Validation episodes per evaluation.")
 @click.option("--out", type=click.Path(path_type=Path, file_okay=False), required=True, help="Run folder.")
 @click.option("--resume", is_flag=True, help="Continue the run in --out from its last checkpoint.")
 def train_command(config_path: Path | None, overrides: tuple[str, ...], demos: Path, kind: str, hidden: int,
                   bc_epochs: int, directions: int, top: int, step_size: float, iterations: int, workers: int,
-                  seed: int, out: Path, resume: bool) -> None:
+                  seed: int, eval_every: int, eval_episodes: int, out: Path, resume: bool) -> None:
     """Learn a driving policy from demonstrations with RAIL (BC initialisation, then ARS with an LS-GAN reward)."""
     config = resolve_config(config_path, overrides)
     from sumo_rail.backends import ProcessPoolBackend
     from sumo_rail.discriminator import DiscriminatorSettings
     from sumo_rail.rail import RailSettings
-    from sumo_rail.training import RunError, RunSettings, train
+    from sumo_rail.training import RunError, RunSettings, Validation, train
 
     try:
         settings = RunSettings(str(demos), kind, hidden, bc_epochs,
@@ -124,14 +132,25 @@ def train_command(config_path: Path | None, overrides: tuple[str, ...], demos: P
     bar = episode_progress(iterations, "training")
     bar.unit = "iteration"
 
-    def show(log, wall_time_s: float) -> None:
-        bar.set_postfix(D_return=f"{log.return_mean:+.3f}", steps_per_s=f"{log.env_steps / wall_time_s:.0f}")
+    def show_bc(report: BcReport) -> None:
+        holdout = "n/a" if report.holdout_accuracy is None else f"{report.holdout_accuracy:.3f}"
+        bar.write(f"behaviour cloning: train accuracy {report.train_accuracy:.3f}, holdout accuracy {holdout} "
+                  f"({report.holdout_rows} held-out decisions); saved {out / 'policy_bc.npz'}")
+
+    def show(row: dict[str, Any]) -> None:
+        steps_per_s = row["env_steps"] / row["wall_time_s"]
+        bar.set_postfix(D_return=f"{row['return_mean']:+.3f}", steps_per_s=f"{steps_per_s:.0f}")
         bar.update()
+        if row["eval_average_speed_kmh"] is not None:
+            bar.write(f"iteration {row['iteration'] + 1}: validation speed {row['eval_average_speed_kmh']:.1f} km/h, "
+                      f"overtakes {row['eval_overtakes']:.2f}, lane changes {row['eval_lane_changes']:.2f}, "
+                      f"collisions {row['eval_collisions']:.2f}")
 
     signal.signal(signal.SIGTERM, _interrupt)  # SIGTERM stops like Ctrl-C: the last complete iteration is kept
     with library_errors(), ProcessPoolBackend(workers) as backend, bar:
         try:
-            state = train(out, settings, config, iterations, backend, resume, on_iteration=show)
+            state = train(out, settings, config, iterations, backend, resume, Validation(eval_every, eval_episodes),
+                          on_bc=show_bc, on_iteration=show)
         except RunError as error:
             raise click.ClickException(str(error)) from error
         except KeyboardInterrupt:

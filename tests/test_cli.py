@@ -153,7 +153,7 @@ def test_ctrl_c_leaves_no_partial_output(tmp_path):
                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     time.sleep(6)
     process.send_signal(signal.SIGINT)
-    _, stderr = process.communicate(timeout=60)
+    stdout, stderr = process.communicate(timeout=60)
     assert process.returncode != 0 and "Traceback" not in stderr
     assert list(tmp_path.iterdir()) == []
 
@@ -176,12 +176,14 @@ def test_train_interrupted_keeps_a_checkpoint_and_resumes(tmp_path):
     while not (run / "checkpoint.pt").exists() and time.time() < deadline:
         time.sleep(0.5)
     process.send_signal(signal.SIGINT)
-    _, stderr = process.communicate(timeout=60)
+    stdout, stderr = process.communicate(timeout=60)
     assert process.returncode == 1 and "--resume" in stderr and "Traceback" not in stderr
     done = len(pd.read_parquet(run / "log.parquet"))
     assert 1 <= done < 500
     assert not [p for p in run.iterdir() if p.name.endswith(".tmp")]
+    assert "behaviour cloning: train accuracy" in stdout + stderr  # BC initialises RAIL by default
     result = invoke("train", *SMALL, "--demos", str(demos), "--directions", "2", "--top", "1",
-                    "--iterations", str(done + 1), "--out", str(run), "--resume")
+                    "--iterations", str(done + 1), "--eval-episodes", "1", "--out", str(run), "--resume")
     assert result.exit_code == 0, result.output
+    assert f"iteration {done + 1}: validation speed" in result.output  # the last iteration is evaluated
     assert len(pd.read_parquet(run / "log.parquet")) == done + 1

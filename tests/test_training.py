@@ -8,7 +8,7 @@ from sumo_rail.discriminator import DiscriminatorSettings
 from sumo_rail.policies import load_policy
 from sumo_rail.rail import RailSettings, rollout_return
 from sumo_rail.rollout import EpisodeTask, ExpertDriver
-from sumo_rail.training import RunError, RunSettings, train
+from sumo_rail.training import RunError, RunSettings, Validation, train
 
 
 def test_a_collision_never_pays_by_ending_early():
@@ -50,12 +50,12 @@ def run_settings(demos_path, kind="mlp"):
 
 
 def test_same_weights_with_one_or_two_workers_and_after_resuming(tmp_path, demos_path, small_config_module):
-    settings = run_settings(demos_path)
+    settings, validation = run_settings(demos_path), Validation(every=2, episodes=1)
     with ProcessPoolBackend(1) as one:
-        train(tmp_path / "one", settings, small_config_module, 3, one, resume=False)
+        train(tmp_path / "one", settings, small_config_module, 3, one, resume=False, validation=validation)
     with ProcessPoolBackend(2) as two:
-        train(tmp_path / "split", settings, small_config_module, 2, two, resume=False)
-        train(tmp_path / "split", settings, small_config_module, 3, two, resume=True)
+        train(tmp_path / "split", settings, small_config_module, 2, two, resume=False, validation=validation)
+        train(tmp_path / "split", settings, small_config_module, 3, two, resume=True, validation=validation)
     uninterrupted, _ = load_policy(tmp_path / "one" / "policy_latest.npz")
     resumed, _ = load_policy(tmp_path / "split" / "policy_latest.npz")
     bc, _ = load_policy(tmp_path / "one" / "policy_bc.npz")
@@ -64,8 +64,17 @@ def test_same_weights_with_one_or_two_workers_and_after_resuming(tmp_path, demos
     assert not np.array_equal(uninterrupted.parameters, bc.parameters)
     log = pd.read_parquet(tmp_path / "one" / "log.parquet")
     assert log["iteration"].tolist() == [0, 1, 2] and (log["env_steps"] > 0).all()
+    assert log["eval_average_speed_kmh"].isna().tolist() == [True, False, False]  # every 2nd and the last
+    assert (log["eval_average_speed_kmh"].dropna() > 30).all()
     pd.testing.assert_frame_equal(log.drop(columns="wall_time_s"),
                                   pd.read_parquet(tmp_path / "split" / "log.parquet").drop(columns="wall_time_s"))
+
+
+def test_validation_schedule():
+    assert [i for i in range(7) if Validation(every=3).due(i, last=6)] == [2, 5, 6]
+    assert not any(Validation(every=0).due(i, last=6) for i in range(7))
+    with pytest.raises(ValueError):
+        Validation(every=1, episodes=0)
 
 
 def test_run_folder_rules(tmp_path, demos_path, small_config_module):
@@ -74,6 +83,8 @@ def test_run_folder_rules(tmp_path, demos_path, small_config_module):
         with pytest.raises(RunError, match="nothing to resume"):
             train(tmp_path / "empty", settings, small_config_module, 1, backend, resume=True)
         train(tmp_path / "run", settings, small_config_module, 1, backend, resume=False)
+        log = pd.read_parquet(tmp_path / "run" / "log.parquet")
+        assert log["eval_lane_changes"].isna().all() and log["eval_lane_changes"].dtype == np.float64
         with pytest.raises(RunError, match="not empty"):
             train(tmp_path / "run", settings, small_config_module, 2, backend, resume=False)
         other = RunSettings(settings.demos, "mlp", 4, 3, settings.rail, settings.discriminator)
