@@ -25,6 +25,11 @@ demo: $(STAMP)
 bench: $(STAMP)
 	$(PY) benchmarks/bench_env.py --out docs/benchmarks.md
 	$(PY) benchmarks/bench_record.py --out docs/benchmarks.md
+	$(PY) benchmarks/bench_train.py --out docs/benchmarks.md
+	# highway-env (and pygame-ce) only for the comparison; it accepts the project's gymnasium 1.x. If it cannot be
+	# installed ('-': go on), bench_compare says so in its section.
+	-$(PY) -m pip install --quiet 'highway-env>=1.10,<2'
+	$(PY) benchmarks/bench_compare.py --out docs/benchmarks.md
 
 lint: $(STAMP)
 	$(VENV)/bin/ruff check sumo_rail cli tests benchmarks

@@ -2,20 +2,23 @@
 
 from __future__ import annotations
 
-import signal
 from pathlib import Path
-from types import FrameType
 from typing import TYPE_CHECKING, Any
 
 import click
 from sumo_rail_cli.options import (
+    backend_options,
+    bc_summary,
+    build_backend,
     check_output,
     config_options,
     episode_options,
     episode_progress,
+    imitation_options,
     library_errors,
     output_options,
     resolve_config,
+    stop_on_sigterm,
 )
 
 from sumo_rail.expert import DEFAULT_STYLE, STYLES
@@ -29,17 +32,18 @@ _STYLE = click.Choice(sorted(STYLES))
 @click.command("record-expert")
 @config_options
 @episode_options(default_seed=0, default_episodes=40)
+@backend_options
 @click.option("--style", type=_STYLE, default=DEFAULT_STYLE, show_default=True, help="Expert driving style.")
 @output_options(required=True)
 def record_expert(config_path: Path | None, overrides: tuple[str, ...], episodes: int, seed: int, workers: int,
-                  style: str, out: Path, overwrite: bool) -> None:
+                  backend_name: str, address: str | None, style: str, out: Path, overwrite: bool) -> None:
     """Record the rule-based expert's demonstrations: one Parquet row per decision."""
     config = resolve_config(config_path, overrides)
     check_output(out, overwrite)
-    from sumo_rail.backends import ProcessPoolBackend
     from sumo_rail.record import record_demonstrations
 
-    with library_errors(), ProcessPoolBackend(workers) as backend, episode_progress(episodes, "recording") as bar:
+    backend = build_backend(backend_name, workers, address)
+    with library_errors(), backend, episode_progress(episodes, "recording") as bar:
         metrics = record_demonstrations(config, style, seed, episodes, backend, out,
                                         on_episode=lambda index, result: bar.update())
     decisions = sum(row["steps"] for row in metrics)
@@ -55,15 +59,17 @@ def record_expert(config_path: Path | None, overrides: tuple[str, ...], episodes
 @click.option("--style", type=_STYLE, default=DEFAULT_STYLE, show_default=True,
               help="Style of --policy expert (expert:STYLE picks one per driver).")
 @episode_options(default_seed=1000, default_episodes=16)
+@backend_options
 @click.option("--gui/--gui-off", default=False, show_default=True,
               help="--gui drives the first episode of the first driver in sumo-gui (needs a display).")
 @output_options(required=False)
 def evaluate_command(config_path: Path | None, overrides: tuple[str, ...], policies: tuple[str, ...], style: str,
-                     episodes: int, seed: int, workers: int, gui: bool, out: Path | None, overwrite: bool) -> None:
+                     episodes: int, seed: int, workers: int, backend_name: str, address: str | None, gui: bool,
+                     out: Path | None, overwrite: bool) -> None:
     """Evaluate drivers on held-out seeds; print the paper's metrics (mean +- std) and write one row per episode."""
     config = resolve_config(config_path, overrides)
     check_output(out, overwrite)
-    from sumo_rail.backends import ProcessPoolBackend, SerialBackend
+    from sumo_rail.backends import SerialBackend
     from sumo_rail.evaluate import evaluate, parse_driver, summary_table, write_metrics
     from sumo_rail.policies import PolicyFileError
     from sumo_rail.seeding import Purpose, episode_seeds
@@ -79,7 +85,7 @@ def evaluate_command(config_path: Path | None, overrides: tuple[str, ...], polic
     if gui:
         drivers, episodes = drivers[:1], 1
     seeds = episode_seeds(Purpose.EVALUATE, seed, episodes)
-    backend = SerialBackend(render_mode="human") if gui else ProcessPoolBackend(workers)
+    backend = SerialBackend(render_mode="human") if gui else build_backend(backend_name, workers, address)
     with library_errors(), backend, episode_progress(len(drivers) * episodes, "evaluating") as bar:
         metrics = evaluate(drivers, config, seeds, backend, on_episode=lambda index, result: bar.update())
         if out is not None:
@@ -91,13 +97,7 @@ def evaluate_command(config_path: Path | None, overrides: tuple[str, ...], polic
 
 @click.command("train")
 @config_options
-@click.option("--demos", type=click.Path(path_type=Path, dir_okay=False), required=True,
-              help="Expert demonstrations written by record-expert.")
-@click.option("--policy", "kind", type=click.Choice(["linear", "mlp"]), default="linear", show_default=True,
-              help="linear: obs -> 5 logits; mlp: obs -> --hidden tanh units -> 5 logits.")
-@click.option("--hidden", type=click.IntRange(min=1), default=10, show_default=True, help="Hidden units of mlp.")
-@click.option("--bc-epochs", type=click.IntRange(min=0), default=20, show_default=True,
-              help="Behaviour-cloning epochs that initialise RAIL (0: start from zero weights).")
+@imitation_options
 @click.option("--directions", type=click.IntRange(min=1), default=32, show_default=True, help="N, directions.")
 @click.option("--top", type=click.IntRange(min=1), default=16, show_default=True, help="b, best directions kept.")
 @click.option("--step-size", type=click.FloatRange(min=0, min_open=True), default=0.001, show_default=True,
@@ -106,6 +106,7 @@ def evaluate_command(config_path: Path | None, overrides: tuple[str, ...], polic
               help="Iterations in total (with --resume: including those already done).")
 @click.option("--workers", type=click.IntRange(min=1), default=1, show_default=True,
               help="Worker processes, each running one SUMO; the weights do not depend on it.")
+@backend_options
 @click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True)
 @click.option("--eval-every", type=click.IntRange(min=0), default=10, show_default=True,
               help="Evaluate the policy on validation seeds every this many iterations and after the last (0: never).")
@@ -114,11 +115,12 @@ def evaluate_command(config_path: Path | None, overrides: tuple[str, ...], polic
 @click.option("--out", type=click.Path(path_type=Path, file_okay=False), required=True, help="Run folder.")
 @click.option("--resume", is_flag=True, help="Continue the run in --out from its last checkpoint.")
 def train_command(config_path: Path | None, overrides: tuple[str, ...], demos: Path, kind: str, hidden: int,
-                  bc_epochs: int, directions: int, top: int, step_size: float, iterations: int, workers: int,
-                  seed: int, eval_every: int, eval_episodes: int, out: Path, resume: bool) -> None:
+                  bc_epochs: int, bc_class_balance: float, directions: int, top: int, step_size: float,
+                  iterations: int, workers: int,
+                  backend_name: str, address: str | None, seed: int, eval_every: int, eval_episodes: int, out: Path,
+                  resume: bool) -> None:
     """Learn a driving policy from demonstrations with RAIL (BC initialisation, then ARS with an LS-GAN reward)."""
     config = resolve_config(config_path, overrides)
-    from sumo_rail.backends import ProcessPoolBackend
     from sumo_rail.discriminator import DiscriminatorSettings
     from sumo_rail.rail import RailSettings
     from sumo_rail.training import RunError, RunSettings, Validation, train
@@ -126,16 +128,15 @@ def train_command(config_path: Path | None, overrides: tuple[str, ...], demos: P
     try:
         settings = RunSettings(str(demos), kind, hidden, bc_epochs,
                                RailSettings(directions=directions, top=top, step_size=step_size, seed=seed),
-                               DiscriminatorSettings(seed=seed))
+                               DiscriminatorSettings(seed=seed), bc_class_balance)
     except ValueError as error:
         raise click.UsageError(str(error)) from error
+    backend = build_backend(backend_name, workers, address)
     bar = episode_progress(iterations, "training")
     bar.unit = "iteration"
 
     def show_bc(report: BcReport) -> None:
-        holdout = "n/a" if report.holdout_accuracy is None else f"{report.holdout_accuracy:.3f}"
-        bar.write(f"behaviour cloning: train accuracy {report.train_accuracy:.3f}, holdout accuracy {holdout} "
-                  f"({report.holdout_rows} held-out decisions); saved {out / 'policy_bc.npz'}")
+        bar.write(bc_summary(report, out / "policy_bc.npz"))
 
     def show(row: dict[str, Any]) -> None:
         steps_per_s = row["env_steps"] / row["wall_time_s"]
@@ -146,8 +147,8 @@ def train_command(config_path: Path | None, overrides: tuple[str, ...], demos: P
                       f"overtakes {row['eval_overtakes']:.2f}, lane changes {row['eval_lane_changes']:.2f}, "
                       f"collisions {row['eval_collisions']:.2f}")
 
-    signal.signal(signal.SIGTERM, _interrupt)  # SIGTERM stops like Ctrl-C: the last complete iteration is kept
-    with library_errors(), ProcessPoolBackend(workers) as backend, bar:
+    stop_on_sigterm()  # SIGTERM stops like Ctrl-C: the last complete iteration is kept
+    with library_errors(), backend, bar:
         try:
             state = train(out, settings, config, iterations, backend, resume, Validation(eval_every, eval_episodes),
                           on_bc=show_bc, on_iteration=show)
@@ -158,6 +159,3 @@ def train_command(config_path: Path | None, overrides: tuple[str, ...], demos: P
                                        f"--resume") from None
     click.echo(f"trained {state.iteration} iterations; policies in {out}")
 
-
-def _interrupt(signal_number: int, frame: FrameType | None) -> None:
-    raise KeyboardInterrupt

@@ -6,6 +6,8 @@ import logging
 
 import click
 from sumo_rail_cli.commands import evaluate_command, record_expert, train_command
+from sumo_rail_cli.gail_command import gail_command
+from sumo_rail_cli.report_command import report_command
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})
@@ -19,4 +21,6 @@ def cli(verbose: bool) -> None:
 cli.add_command(record_expert)
 cli.add_command(evaluate_command)
 cli.add_command(train_command)
+cli.add_command(gail_command)
+cli.add_command(report_command)
 

@@ -1,17 +1,24 @@
-"""Options shared by the commands: configuration (defaults, TOML, `--set`), episodes, seeds, workers, outputs."""
+"""Options shared by the commands: configuration (defaults, TOML, `--set`), episodes, seeds, workers, backends and
+outputs."""
 
 from __future__ import annotations
 
 import contextlib
+import signal
 import tomllib
 from collections.abc import Callable, Iterator
 from pathlib import Path
-from typing import Any
+from types import FrameType
+from typing import TYPE_CHECKING, Any
 
 import click
 from tqdm import tqdm
 
 from sumo_rail.config import Config, ConfigError
+
+if TYPE_CHECKING:
+    from sumo_rail.backends import RolloutBackend
+    from sumo_rail.bc import BcReport
 
 
 def config_options(command: Callable[..., Any]) -> Callable[..., Any]:
@@ -24,6 +31,27 @@ def config_options(command: Callable[..., Any]) -> Callable[..., Any]:
         "--config", "config_path", type=click.Path(path_type=Path, dir_okay=False),
         help="TOML file with [scenario], [lidar] and [env] tables overriding the defaults.",
     )(command)
+
+
+def imitation_options(command: Callable[..., Any]) -> Callable[..., Any]:
+    """--demos, the actor (--policy, --hidden) and its behaviour-cloning initialisation (--bc-epochs,
+    --bc-class-balance): what train and gail share."""
+    options = [
+        click.option("--demos", type=click.Path(path_type=Path, dir_okay=False), required=True,
+                     help="Expert demonstrations written by record-expert."),
+        click.option("--policy", "kind", type=click.Choice(["linear", "mlp"]), default="mlp", show_default=True,
+                     help="linear: obs -> 5 logits; mlp: obs -> --hidden tanh units -> 5 logits."),
+        click.option("--hidden", type=click.IntRange(min=1), default=10, show_default=True,
+                     help="Hidden units of mlp."),
+        click.option("--bc-epochs", type=click.IntRange(min=0), default=20, show_default=True,
+                     help="Behaviour-cloning epochs that initialise the policy (0: no BC)."),
+        click.option("--bc-class-balance", type=click.FloatRange(min=0), default=0.75, show_default=True,
+                     help="Exponent p of BC's class weights (1/frequency)^p: 0 plain cross-entropy, 1 all actions "
+                          "equal."),
+    ]
+    for option in reversed(options):
+        command = option(command)
+    return command
 
 
 def episode_options(default_seed: int, default_episodes: int) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
@@ -45,6 +73,28 @@ def output_options(required: bool) -> Callable[[Callable[..., Any]], Callable[..
         return click.option("--out", type=click.Path(path_type=Path), required=required,
                             help="Parquet file to write (atomically: nothing is left behind on failure).")(command)
     return decorate
+
+
+def backend_options(command: Callable[..., Any]) -> Callable[..., Any]:
+    """--backend process|ray and --address (ray only); build the backend with `build_backend`."""
+    command = click.option("--address", metavar="auto|HOST:PORT",
+                           help="Ray cluster to run on with --backend ray (default: a local Ray with --workers "
+                                "CPUs).")(command)
+    return click.option("--backend", "backend_name", type=click.Choice(["process", "ray"]), default="process",
+                        show_default=True,
+                        help="process: worker processes on this machine; ray: Ray actors, locally or on a cluster "
+                             "(needs pip install 'sumo-rail[ray]').")(command)
+
+
+def build_backend(name: str, workers: int, address: str | None) -> RolloutBackend:
+    """The backend of --backend/--workers/--address; --address without --backend ray is a usage error (exit 2),
+    a missing Ray a one-sentence error (exit 1)."""
+    from sumo_rail.backends import make_backend
+
+    if address is not None and name != "ray":
+        raise click.UsageError("--address needs --backend ray")
+    with library_errors():
+        return make_backend(name, workers, address=address)
 
 
 def resolve_config(config_path: Path | None, overrides: tuple[str, ...]) -> Config:
@@ -100,3 +150,19 @@ def _parse_overrides(overrides: tuple[str, ...]) -> dict[str, dict[str, Any]]:
             raise ConfigError(f"--set {key.strip()} has an unreadable value {raw.strip()!r}") from error
         sections.setdefault(section, {})[name] = value
     return sections
+
+
+def bc_summary(report: BcReport, policy_path: Path) -> str:
+    """One line on a behaviour-cloning result: train and held-out accuracy, where the policy was saved."""
+    holdout = "n/a" if report.holdout_accuracy is None else f"{report.holdout_accuracy:.3f}"
+    return (f"behaviour cloning: train accuracy {report.train_accuracy:.3f}, holdout accuracy {holdout} "
+            f"({report.holdout_rows} held-out decisions); saved {policy_path}")
+
+
+def stop_on_sigterm() -> None:
+    """Make SIGTERM raise KeyboardInterrupt, so that it stops a command exactly as Ctrl-C does."""
+    signal.signal(signal.SIGTERM, _raise_keyboard_interrupt)
+
+
+def _raise_keyboard_interrupt(signal_number: int, frame: FrameType | None) -> None:
+    raise KeyboardInterrupt

@@ -148,17 +148,22 @@ class _Worker:
         return [self.conn, self.process.sentinel]
 
 
+def check_pool_settings(workers: int, task_timeout_s: float | None, max_attempts: int) -> None:
+    """Raise ValueError unless workers >= 1, task_timeout_s is None or > 0 [s], and max_attempts >= 1."""
+    if workers < 1:
+        raise ValueError(f"workers must be at least 1, got {workers}")
+    if task_timeout_s is not None and task_timeout_s <= 0:
+        raise ValueError(f"task_timeout_s must be positive or None, got {task_timeout_s}")
+    if max_attempts < 1:
+        raise ValueError(f"max_attempts must be at least 1, got {max_attempts}")
+
+
 class ProcessPoolBackend(RolloutBackend):
     """Long-lived spawned worker processes, one task at a time each; a worker that dies or times out is replaced
     and only its task is resubmitted, at most `max_attempts` times in all."""
 
     def __init__(self, workers: int, task_timeout_s: float | None = None, max_attempts: int = 3) -> None:
-        if workers < 1:
-            raise ValueError(f"workers must be at least 1, got {workers}")
-        if task_timeout_s is not None and task_timeout_s <= 0:
-            raise ValueError(f"task_timeout_s must be positive or None, got {task_timeout_s}")
-        if max_attempts < 1:
-            raise ValueError(f"max_attempts must be at least 1, got {max_attempts}")
+        check_pool_settings(workers, task_timeout_s, max_attempts)
         self.workers = workers
         self.task_timeout_s = task_timeout_s
         self.max_attempts = max_attempts
@@ -356,14 +361,22 @@ def _describe(exc: Exception) -> tuple[str, str, str]:
     return type(exc).__name__, str(exc), "".join(traceback.format_exception(exc))
 
 
-def make_backend(name: str, workers: int, task_timeout_s: float | None = None) -> RolloutBackend:
-    """'serial' or 'process' (ValueError with a one-sentence message otherwise); workers must be >= 1.
+def make_backend(name: str, workers: int, task_timeout_s: float | None = None,
+                 address: str | None = None) -> RolloutBackend:
+    """'serial', 'process' or 'ray' (ValueError with a one-sentence message otherwise); workers must be >= 1.
 
-    The serial backend runs in the calling process, so it ignores `workers` and `task_timeout_s`."""
+    The serial backend runs in the calling process, so it ignores `workers` and `task_timeout_s`. `address` is
+    the Ray cluster of the ray backend (None: a local Ray); Ray is imported only for it."""
     if workers < 1:
         raise ValueError(f"workers must be at least 1, got {workers}")
+    if address is not None and name != "ray":
+        raise ValueError(f"address is only used by the ray backend, not {name!r}")
     if name == "serial":
         return SerialBackend()
     if name == "process":
         return ProcessPoolBackend(workers, task_timeout_s)
-    raise ValueError(f"backend must be 'serial' or 'process', got {name!r}")
+    if name == "ray":
+        from sumo_rail.ray_backend import RayBackend
+
+        return RayBackend(workers, address, task_timeout_s)
+    raise ValueError(f"backend must be 'ray', 'serial' or 'process', got {name!r}")

@@ -22,7 +22,7 @@ from sumo_rail.actions import Action, command_for
 from sumo_rail.config import Config
 from sumo_rail.observation import build_observation, observation_space
 from sumo_rail.rewards import EpisodeMetrics, OvertakeCounter, lateral_reward, longitudinal_reward, relations
-from sumo_rail.sim import EgoState, Neighbours, PeriodReport, Simulation
+from sumo_rail.sim import TRANSPORTS, EgoState, Neighbours, PeriodReport, Simulation
 
 _SUMO_SEED_BOUND = 2**31 - 1
 
@@ -60,13 +60,18 @@ _CONTEXT_MARGIN_M = 20.0
 
 
 class HighwayEnv(gymnasium.Env[np.ndarray, np.int64]):
-    """Five-lane SUMO highway with a 24-beam LIDAR and five high-level actions."""
+    """Five-lane SUMO highway with a 24-beam LIDAR and five high-level actions; `transport` drives SUMO through
+    libsumo (in-process, the fast default) or traci (a `sumo` process over a socket); rendering implies traci."""
 
     metadata = {"render_modes": ["human"], "render_fps": 2}  # noqa: RUF012 - Gymnasium's class attribute
 
-    def __init__(self, config: Config | None = None, render_mode: str | None = None) -> None:
+    def __init__(self, config: Config | None = None, render_mode: str | None = None,
+                 transport: str = "libsumo") -> None:
         if render_mode not in (None, "human"):
             raise ValueError(f"render_mode must be None or 'human' (sumo-gui), got {render_mode!r}")
+        if transport not in TRANSPORTS:
+            raise ValueError(f"transport must be one of {', '.join(TRANSPORTS)}, got {transport!r}")
+        self.transport = transport
         self.config = config or Config()
         self.render_mode = render_mode
         self.observation_space = observation_space(self.config)
@@ -102,7 +107,7 @@ class HighwayEnv(gymnasium.Env[np.ndarray, np.int64]):
         cfg = self.config
         if self._sim is None:
             self._sim = Simulation(cfg.scenario, cfg.lidar.range_m + _CONTEXT_MARGIN_M,
-                                   gui=self.render_mode == "human")
+                                   gui=self.render_mode == "human", transport=self.transport)
         sim = self._sim
         sim.reset(**dataclasses.asdict(EpisodeStart.draw(self.np_random, cfg, sim.snapshot_count)))
         if self._edge_boxes is None:

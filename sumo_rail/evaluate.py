@@ -22,7 +22,7 @@ SUMMARY_METRICS = ("average_speed_kmh", "overtakes", "lane_changes", "longitudin
 
 
 def parse_driver(text: str, config: Config, default_style: str) -> DriverSpec:
-    """'expert', 'expert:STYLE', 'keep', 'random', or the path of a saved policy file."""
+    """'expert', 'expert:STYLE', 'keep', 'random', or the path of a saved policy file (named by `policy_name`)."""
     name, _, style = text.partition(":")
     if name == "expert":
         style = style or default_style
@@ -41,7 +41,13 @@ def parse_driver(text: str, config: Config, default_style: str) -> DriverSpec:
     stored = metadata.get("observation_names")
     if stored is not None and list(stored) != expected:
         raise PolicyFileError(f"policy {text} was trained on a different observation layout than this environment's")
-    return PolicyDriver(policy, name=Path(text).stem)
+    return PolicyDriver(policy, name=policy_name(Path(text)))
+
+
+def policy_name(path: Path) -> str:
+    """A policy file's name in tables: RUN/STEM for a file of a training run folder (it holds run.json), so
+    runs/a/policy_bc.npz and runs/b/policy_bc.npz stay apart; the file's stem otherwise."""
+    return f"{path.parent.resolve().name}/{path.stem}" if (path.parent / "run.json").is_file() else path.stem
 
 
 def evaluate(drivers: Sequence[DriverSpec], config: Config, seeds: Sequence[int], backend: RolloutBackend,

@@ -1,4 +1,5 @@
-"""The one module that talks to SUMO: libsumo headless, or traci + sumo-gui when a window is asked for.
+"""The one module that talks to SUMO: libsumo in-process (the default), traci over a socket to a `sumo` process,
+or traci + sumo-gui when a window is asked for.
 
 Episodes start from warm traffic states: one warm-up run per scenario saves `snapshots` states (cached on
 disk, shared by every process), and each reset reloads one of them with a fresh `--seed`, so arrivals,
@@ -30,6 +31,8 @@ LANE_CHANGE_MODE_TRACI_ONLY_SAFE = 0b1100000000
 """No autonomous lane changes; TraCI requests respect other drivers' gaps, without speed adaptation."""
 _LATERAL_EPSILON_M = 0.01
 _ACTIVE_LIBSUMO: Simulation | None = None
+TRANSPORTS = ("libsumo", "traci")
+"""How SUMO is driven: libsumo (SUMO linked into this process) or traci (a SUMO process, over a socket)."""
 
 
 class SimulationError(RuntimeError):
@@ -93,11 +96,15 @@ def sumo_heading_rad(angle_deg: float | np.ndarray) -> float | np.ndarray:
 
 
 class Simulation:
-    """One SUMO instance for the ego's episodes on one scenario."""
+    """One SUMO instance for the ego's episodes on one scenario; `gui` implies the traci transport."""
 
-    def __init__(self, scenario: ScenarioConfig, context_radius_m: float, gui: bool = False) -> None:
+    def __init__(self, scenario: ScenarioConfig, context_radius_m: float, gui: bool = False,
+                 transport: str = "libsumo") -> None:
         global _ACTIVE_LIBSUMO
-        if not gui and _ACTIVE_LIBSUMO is not None:
+        if transport not in TRANSPORTS:
+            raise ValueError(f"transport must be one of {', '.join(TRANSPORTS)}, got {transport!r}")
+        self.transport = "traci" if gui else transport
+        if self.transport == "libsumo" and _ACTIVE_LIBSUMO is not None:
             raise SimulationError(
                 "libsumo runs one simulation per process and one is already open here; close it first "
                 "or run the second one in another process")
@@ -105,13 +112,13 @@ class Simulation:
         self.context_radius_m = context_radius_m
         self.gui = gui
         self._built = network.build(scenario)
-        self._api = _load_api(gui)
+        self._api = _load_api(self.transport)
         self._constants = tc = _load_constants()
         self._context_variables = (tc.VAR_POSITION, tc.VAR_ANGLE, tc.VAR_SPEED, tc.VAR_LANEPOSITION, tc.VAR_LENGTH,
                                    tc.VAR_WIDTH, tc.VAR_LANE_INDEX)
         self._snapshots = self._warm_snapshots()
         self._running = True
-        if not gui:
+        if self.transport == "libsumo":
             _ACTIVE_LIBSUMO = self
 
     @property
@@ -298,11 +305,12 @@ class Simulation:
             raise SimulationError("this simulation is closed; create a new one")
 
 
-def _load_api(gui: bool) -> ModuleType:
-    if gui:
-        import traci
+def _load_api(transport: str) -> ModuleType:
+    if transport == "traci":
+        # traci's own socket client: a plain `import traci` gives libsumo once LIBSUMO_AS_TRACI is set (below)
+        import traci.main
 
-        return traci
+        return traci.main
     os.environ.setdefault("LIBSUMO_AS_TRACI", "quiet")
     import libsumo
 

@@ -52,6 +52,8 @@ class RunSettings:
     bc_epochs: int
     rail: RailSettings
     discriminator: DiscriminatorSettings
+    bc_class_balance: float = 0.0
+    """`BcSettings.class_balance`."""
 
     def to_dict(self) -> dict[str, Any]:
         return dataclasses.asdict(self)
@@ -146,7 +148,9 @@ def _initial_state(folder: Path, settings: RunSettings, shape: PolicyShape, demo
     if settings.bc_epochs < 1:
         zeros = np.zeros(shape.parameter_count, np.float32)
         return TrainingState.start(zeros, RunningStats.empty(shape.observation_size), settings.rail)
-    policy, report = behaviour_cloning(demos, shape, BcSettings(epochs=settings.bc_epochs, seed=settings.rail.seed))
+    bc_settings = BcSettings(epochs=settings.bc_epochs, class_balance=settings.bc_class_balance,
+                             seed=settings.rail.seed)
+    policy, report = behaviour_cloning(demos, shape, bc_settings)
     save_policy(policy, folder / "policy_bc.npz", {**run_record, "bc_report": dataclasses.asdict(report)})
     if on_bc is not None:
         on_bc(report)

@@ -5,6 +5,7 @@ import torch
 from sumo_rail.bc import (
     BcSettings,
     behaviour_cloning,
+    class_weights,
     policy_to_torch,
     split_episodes,
     torch_to_parameters,
@@ -77,6 +78,30 @@ def test_bc_is_deterministic_and_leaves_global_rng_alone():
     assert torch.equal(rng_state, torch.get_rng_state()) and torch.get_num_threads() == threads
     other, _ = behaviour_cloning(demos, shape, BcSettings(epochs=3, seed=1))
     assert not np.array_equal(first.parameters, other.parameters)
+
+
+def test_class_weights():
+    actions = torch.tensor([0] * 96 + [1] * 4)
+    plain, balanced = class_weights(actions, 3, 0.0), class_weights(actions, 3, 1.0)
+    assert torch.allclose(plain, torch.ones(3))
+    assert balanced[1] / balanced[0] == pytest.approx(24.0) and balanced[2] == pytest.approx(balanced[0] * 96)
+    half = class_weights(actions, 3, 0.5)
+    assert (half[:2] * torch.tensor([96.0, 4.0])).sum() / 100 == pytest.approx(1.0)  # mean weight per row is 1
+
+
+def test_class_balance_recovers_rare_actions():
+    """An expert that takes action 1 in 3% of rows, where feature 0 is high but overlapping: plain BC predicts it
+    less often than the expert, balanced BC more often."""
+    rng = np.random.default_rng(3)
+    observations = rng.normal(size=(6000, 4)).astype(np.float32)
+    actions = ((observations[:, 0] + 0.7 * rng.normal(size=6000)) > 2.6).astype(np.int64)
+    demos = Demonstrations(observations, actions, np.repeat(np.arange(10), 600), {})
+    shape = PolicyShape("linear", 4)
+    predicted = {}
+    for balance in (0.0, 1.0):
+        policy, _ = behaviour_cloning(demos, shape, BcSettings(epochs=30, learning_rate=1e-2, class_balance=balance))
+        predicted[balance] = np.mean(np.argmax(policy.logits(observations), axis=1) == 1)
+    assert predicted[0.0] < actions.mean() < predicted[1.0]
 
 
 def test_holdout_is_whole_episodes_disjoint_from_training():

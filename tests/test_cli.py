@@ -96,6 +96,17 @@ def test_evaluate_puts_drivers_side_by_side_and_is_reproducible(tmp_path):
     assert read_metadata(outs[0])["kind"] == "episode_metrics"
 
 
+def test_policies_of_run_folders_are_named_by_run(tmp_path):
+    for run in ("run_a", "run_b"):
+        (tmp_path / run).mkdir()
+        (tmp_path / run / "run.json").write_text("{}")
+        hand_made_policy(tmp_path / run / "policy_bc.npz", action=0)
+    result = invoke("evaluate", *SMALL, "--policy", str(tmp_path / "run_a" / "policy_bc.npz"), "--policy",
+                    str(tmp_path / "run_b" / "policy_bc.npz"), "--episodes", "1")
+    assert result.exit_code == 0, result.output
+    assert "run_a/policy_bc" in result.output and "run_b/policy_bc" in result.output
+
+
 def test_evaluate_rejects_bad_policies_without_writing(tmp_path):
     out = tmp_path / "m.parquet"
     wrong_size = hand_made_policy(tmp_path / "wrong.npz", action=0, observation_size=60)
@@ -153,7 +164,7 @@ def test_ctrl_c_leaves_no_partial_output(tmp_path):
                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     time.sleep(6)
     process.send_signal(signal.SIGINT)
-    stdout, stderr = process.communicate(timeout=60)
+    _, stderr = process.communicate(timeout=60)
     assert process.returncode != 0 and "Traceback" not in stderr
     assert list(tmp_path.iterdir()) == []
 

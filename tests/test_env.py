@@ -60,6 +60,23 @@ def test_same_seed_and_actions_reproduce_the_episode_bit_for_bit(env):
     assert np.array_equal(first[0], again[0]) and np.array_equal(first[1], again[1])
 
 
+def test_traci_gives_the_libsumo_episode_bit_for_bit_and_can_run_beside_it(env, small_config):
+    actions = [Action.ACCELERATE, Action.LANE_LEFT, Action.KEEP, Action.DECELERATE, Action.LANE_RIGHT] * 4
+    over_traci = HighwayEnv(small_config, transport="traci")
+    try:
+        traci_episode = rollout(over_traci, 7, actions)
+        libsumo_episode = rollout(env, 7, actions)  # both open: only libsumo is limited to one per process
+    finally:
+        over_traci.close()
+    assert len(traci_episode[1]) == len(actions)
+    assert np.array_equal(traci_episode[0], libsumo_episode[0]) and np.array_equal(traci_episode[1], libsumo_episode[1])
+
+
+def test_unknown_transport_is_a_clear_error(small_config):
+    with pytest.raises(ValueError, match="transport must be one of libsumo, traci"):
+        HighwayEnv(small_config, transport="socket")
+
+
 def test_different_seeds_give_different_traffic(env):
     keep = [Action.KEEP] * 10
     assert not np.array_equal(rollout(env, 1, keep)[0], rollout(env, 2, keep)[0])

@@ -1,0 +1,79 @@
+"""The command `gail`: the GAIL baseline (PPO on the discriminator's reward) into a run folder."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import click
+from sumo_rail_cli.options import (
+    bc_summary,
+    config_options,
+    episode_progress,
+    imitation_options,
+    library_errors,
+    resolve_config,
+    stop_on_sigterm,
+)
+
+if TYPE_CHECKING:
+    from sumo_rail.bc import BcReport
+
+
+@click.command("gail")
+@config_options
+@imitation_options
+@click.option("--timesteps", type=click.IntRange(min=1), default=100_000, show_default=True,
+              help="Environment decisions in total (rounded up to whole updates of --n-steps x --envs).")
+@click.option("--envs", type=click.IntRange(min=1), default=2, show_default=True,
+              help="Environment processes; unlike train's --workers, the result depends on it.")
+@click.option("--n-steps", type=click.IntRange(min=1), default=512, show_default=True,
+              help="PPO decisions per env and update.")
+@click.option("--learning-rate", type=click.FloatRange(min=0, min_open=True), default=3e-4, show_default=True,
+              help="PPO's Adam step size.")
+@click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True)
+@click.option("--out", type=click.Path(path_type=Path, file_okay=False), required=True,
+              help="Run folder (new or empty).")
+def gail_command(config_path: Path | None, overrides: tuple[str, ...], demos: Path, timesteps: int, kind: str,
+                 hidden: int, bc_epochs: int, bc_class_balance: float, envs: int, n_steps: int, learning_rate: float,
+                 seed: int, out: Path) -> None:
+    """Train the GAIL baseline: PPO (Stable-Baselines3) on RAIL's discriminator reward, with RAIL's actor.
+
+    Writes run.json, policy_bc.npz, policy_latest.npz (after every update; evaluate it with evaluate --policy)
+    and log.parquet (one row per update, plotted by report). Ctrl-C or SIGTERM stops after the current update
+    with its files complete; a GAIL run cannot be resumed. Needs pip install 'sumo-rail[baselines]'.
+    """
+    config = resolve_config(config_path, overrides)
+    from sumo_rail.discriminator import DiscriminatorSettings
+    from sumo_rail.gail import BaselineError, GailSettings, train_gail
+    from sumo_rail.training import RunError
+
+    try:
+        settings = GailSettings(str(demos), timesteps=timesteps, kind=kind, hidden=hidden, bc_epochs=bc_epochs,
+                                bc_class_balance=bc_class_balance, envs=envs, n_steps=n_steps,
+                                learning_rate=learning_rate, seed=seed, discriminator=DiscriminatorSettings(seed=seed))
+    except ValueError as error:
+        raise click.UsageError(str(error)) from error
+    bar = episode_progress(settings.updates * settings.steps_per_update, "GAIL")
+    bar.unit = "timestep"
+
+    def show_bc(report: BcReport) -> None:
+        bar.write(bc_summary(report, out / "policy_bc.npz"))
+
+    def show(row: dict[str, Any]) -> None:
+        bar.set_postfix(D_return=f"{row['return_mean']:+.3f}", collisions=row["collisions"])
+        bar.update(row["env_steps"])
+
+    stop_on_sigterm()  # before the updates start, SIGTERM stops like Ctrl-C
+    with library_errors(), bar:
+        try:
+            result = train_gail(out, settings, config, on_bc=show_bc, on_update=show)
+        except (BaselineError, RunError) as error:
+            raise click.ClickException(str(error)) from error
+        except KeyboardInterrupt:
+            raise click.ClickException(f"interrupted before the first update; {out} holds no trained policy") from None
+    if result.interrupted:
+        raise click.ClickException(f"interrupted after {result.updates} updates; {out / 'policy_latest.npz'} holds the "
+                                   f"last one's policy (a GAIL run cannot be resumed)")
+    click.echo(f"trained {result.updates} PPO updates ({result.timesteps} timesteps); policy in "
+               f"{out / 'policy_latest.npz'}")
