@@ -20,7 +20,7 @@ test: $(STAMP)
 	$(PY) -m pytest -q
 
 demo: $(STAMP)
-	$(VENV)/bin/sumo-rail evaluate --policy expert:calm --policy expert:sporty --policy keep --episodes 4 --workers 2
+	experiments/demo.sh demo_output
 
 bench: $(STAMP)
 	$(PY) benchmarks/bench_env.py --out docs/benchmarks.md
