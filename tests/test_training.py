@@ -70,6 +70,29 @@ def test_same_weights_with_one_or_two_workers_and_after_resuming(tmp_path, demos
                                   pd.read_parquet(tmp_path / "split" / "log.parquet").drop(columns="wall_time_s"))
 
 
+def test_a_worker_killed_mid_iteration_changes_nothing(tmp_path, demos_path, small_config_module):
+    """kill -9 of a worker during an iteration: it is replaced, its rollout runs again, the weights are the same."""
+    import os
+    import signal
+
+    settings = run_settings(demos_path)
+    with SerialBackend() as serial:
+        train(tmp_path / "serial", settings, small_config_module, 2, serial, resume=False)
+    killed: list[int] = []
+    with ProcessPoolBackend(2) as pool:
+        def kill_once(index, result):
+            if not killed and len(pool.pids) == 2:  # after the first rollout of the first iteration
+                killed.append(pool.pids[1])
+                os.kill(killed[0], signal.SIGKILL)
+        train(tmp_path / "killed", settings, small_config_module, 2, pool, resume=False, on_rollout=kill_once)
+        assert killed and killed[0] not in pool.pids
+    expected, _ = load_policy(tmp_path / "serial" / "policy_latest.npz")
+    survived, _ = load_policy(tmp_path / "killed" / "policy_latest.npz")
+    assert np.array_equal(expected.parameters, survived.parameters)
+    steps = [pd.read_parquet(tmp_path / name / "log.parquet")["env_steps"].tolist() for name in ("serial", "killed")]
+    assert steps[0] == steps[1]  # every rollout counted exactly once
+
+
 def test_validation_schedule():
     assert [i for i in range(7) if Validation(every=3).due(i, last=6)] == [2, 5, 6]
     assert not any(Validation(every=0).due(i, last=6) for i in range(7))
