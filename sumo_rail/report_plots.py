@@ -9,12 +9,15 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
+from matplotlib.ticker import EngFormatter
 
 from sumo_rail.policies import Policy, PolicyShape, _unflatten
 from sumo_rail.report_inputs import ACTION_NAMES, Run
 
 DPI = 120
 STEPS_LABEL = "environment steps (decisions)"
+STEPS_FORMAT = EngFormatter(sep="")
+"""Step counts as 50k, 1.2M: long plain numbers overlap on a shared axis."""
 VALIDATION_PANELS = (("eval_average_speed_kmh", "average speed (km/h)"),
                      ("eval_overtakes", "overtakes per episode"),
                      ("eval_lane_changes", "lane changes per episode"),
@@ -48,6 +51,7 @@ def learning_curves(runs: list[Run]) -> Figure:
     axes.legend(handles=[*handles, *style], fontsize=9, loc="best")
     axes.set(xlabel=STEPS_LABEL, ylabel="discriminator return\n(mean log D - log(1 - D) per decision)",
              title="Learning curves: discriminator return of the perturbed rollouts")
+    axes.xaxis.set_major_formatter(STEPS_FORMAT)
     _grid(axes)
     return figure
 
@@ -66,6 +70,7 @@ def validation_curves(runs: list[Run]) -> Figure:
         _grid(axes)
     for axes in panels[2:]:
         axes.set_xlabel(STEPS_LABEL)
+        axes.xaxis.set_major_formatter(STEPS_FORMAT)
     panels[0].legend(fontsize=9)
     figure.suptitle("Validation during training: the policy on held-out validation seeds (mean over episodes)")
     return figure
