@@ -41,7 +41,8 @@ class Run:
     log: pd.DataFrame
     """log.parquet sorted by iteration, with `cumulative_env_steps` added and every EVAL_COLUMNS column present."""
     policies: dict[str, tuple[Policy, str]]
-    """'BC' and/or 'RAIL' -> (policy, file name); RAIL is policy_best.npz, else policy_latest.npz."""
+    """'BC' and/or the trained policy ('RAIL', or 'GAIL' for a `sumo-rail gail` run) -> (policy, file name); the
+    trained one is policy_latest.npz (what the tables evaluate), else policy_best.npz."""
     observation_names: list[str]
 
     @property
@@ -94,16 +95,16 @@ def read_run(folder: Path, name: str) -> Run:
     for column in EVAL_COLUMNS:
         log[column] = pd.to_numeric(log[column], errors="coerce") if column in log else float("nan")
     log["cumulative_env_steps"] = log["env_steps"].cumsum()
-    settings = _read_settings(folder / "run.json")
+    settings, method = _read_run_record(folder / "run.json")
     policies: dict[str, tuple[Policy, str]] = {}
     metadata: dict[str, Any] = {}
-    for label, files in (("BC", ("policy_bc.npz",)), ("RAIL", ("policy_best.npz", "policy_latest.npz"))):
+    for label, files in (("BC", ("policy_bc.npz",)), (method, ("policy_latest.npz", "policy_best.npz"))):
         file = next((file for file in files if (folder / file).is_file()), None)
         if file is not None:
             policy, metadata = load_policy(folder / file)
             policies[label] = (policy, file)
     if len({policy.shape for policy, _ in policies.values()}) > 1:
-        raise ReportError(f"the BC and RAIL policies in {folder} have different shapes")
+        raise ReportError(f"the BC and {method} policies in {folder} have different shapes")
     return Run(name, folder, settings, log, policies, _observation_names(policies, metadata))
 
 
@@ -139,9 +140,10 @@ def _require_columns(table: pd.DataFrame, columns: tuple[str, ...], path: Path) 
         raise ReportError(f"{path} lacks the column(s) {', '.join(missing)}")
 
 
-def _read_settings(path: Path) -> dict[str, Any]:
+def _read_run_record(path: Path) -> tuple[dict[str, Any], str]:
+    """run.json's settings and the training method ('GAIL' for a gail run, else 'RAIL'); ({}, 'RAIL') without it."""
     if not path.is_file():
-        return {}
+        return {}, "RAIL"
     try:
         record = json.loads(path.read_text())
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as error:
@@ -149,7 +151,7 @@ def _read_settings(path: Path) -> dict[str, Any]:
     settings = record.get("settings", {}) if isinstance(record, dict) else None
     if not isinstance(settings, dict):
         raise ReportError(f"{path} is not a sumo-rail run record")
-    return settings
+    return settings, "GAIL" if record.get("kind") == "gail_run" else "RAIL"
 
 
 def _observation_names(policies: dict[str, tuple[Policy, str]], metadata: dict[str, Any]) -> list[str]:

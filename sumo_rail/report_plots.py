@@ -28,7 +28,7 @@ METRIC_PANELS = (("average_speed_kmh", "average speed (km/h)"),
                  ("longitudinal_reward", "longitudinal reward (sum per episode)"),
                  ("lateral_reward", "lateral reward (sum per episode)"),
                  ("collisions", "collisions per episode"))
-POLICY_COLOURS = {"BC": "tab:orange", "RAIL": "tab:blue"}
+POLICY_COLOURS = {"BC": "tab:orange", "RAIL": "tab:blue", "GAIL": "tab:green"}
 WEIGHT_COLOURMAP = "RdBu_r"
 
 
@@ -102,7 +102,8 @@ def metric_bars(metrics: pd.DataFrame) -> Figure:
 
 
 def weight_maps(run: Run) -> Figure:
-    """Heat maps of each layer's weights for BC and RAIL (shared colour scale per layer) and their histograms."""
+    """Heat maps of each layer's weights for BC and the trained policy (shared colour scale per layer) and their
+    histograms."""
     labels = list(run.policies)
     weights = {label: weight_matrices(policy) for label, (policy, _) in run.policies.items()}
     shape = run.policies[labels[0]][0].shape
@@ -130,7 +131,8 @@ def weight_maps(run: Run) -> Figure:
     title = f"{run.name}: weights of the {run.kind} policy (inputs normalised, biases not shown)"
     if len(labels) == 2:
         change = max(float(np.abs(a - b).max()) for a, b in zip(*weights.values(), strict=True))
-        title += f"\ncolour scale shared by BC and RAIL per layer; largest change RAIL - BC: {change:.3g}"
+        title += (f"\ncolour scale shared by BC and {labels[1]} per layer; largest change {labels[1]} - BC: "
+                  f"{change:.3g}")
     figure.suptitle(title)
     return figure
 

@@ -21,10 +21,11 @@ CONFIG = Config()
 OBSERVATIONS = 56
 
 
-def make_run(folder: Path, kind: str, evaluated: bool, with_bc: bool = True) -> Path:
-    """A run folder like `sumo-rail train` leaves: run.json, random policies and a 4-iteration log."""
+def make_run(folder: Path, kind: str, evaluated: bool, with_bc: bool = True, method: str = "training_run") -> Path:
+    """A run folder like `sumo-rail train` (or, with method "gail_run", `sumo-rail gail`) leaves: run.json, random
+    policies and a 4-iteration log."""
     folder.mkdir()
-    record = {"settings": {"kind": kind, "hidden": 6}, **provenance("training_run", CONFIG, 0)}
+    record = {"settings": {"kind": kind, "hidden": 6}, **provenance(method, CONFIG, 0)}
     (folder / "run.json").write_text(json.dumps(record))
     shape = PolicyShape(kind, OBSERVATIONS, hidden=6)
     rng = np.random.default_rng(len(folder.name))
@@ -124,7 +125,7 @@ def _log_instead_of_folder(tmp_path: Path) -> Path:
 
 def _corrupt_policy(tmp_path: Path) -> Path:
     run = make_run(tmp_path / "run", "mlp", evaluated=False)
-    (run / "policy_best.npz").write_bytes(b"garbage")
+    (run / "policy_latest.npz").write_bytes(b"garbage")
     return run
 
 
@@ -133,7 +134,7 @@ def _corrupt_policy(tmp_path: Path) -> Path:
     (_demonstrations_kind, "not evaluation metrics"),
     (_corrupt_file, "not a readable Parquet file"),
     (_log_instead_of_folder, "pass its run folder"),
-    (_corrupt_policy, "policy_best.npz"),
+    (_corrupt_policy, "policy_latest.npz"),
 ])
 def test_bad_input_is_a_one_sentence_error(tmp_path, make_input, fragment):
     out = tmp_path / "out"
@@ -147,3 +148,12 @@ def test_bad_input_is_a_one_sentence_error(tmp_path, make_input, fragment):
 def test_missing_input_is_a_usage_error(tmp_path):
     result = invoke("report", str(tmp_path / "missing"), "--out", str(tmp_path / "out"))
     assert result.exit_code == 2 and "does not exist" in result.output
+
+
+def test_policies_are_labelled_by_training_method_and_the_latest_is_shown(tmp_path):
+    from sumo_rail.report_inputs import read_run
+
+    rail = read_run(make_run(tmp_path / "rail", "mlp", evaluated=False), "rail")
+    gail = read_run(make_run(tmp_path / "gail", "mlp", evaluated=False, method="gail_run"), "gail")
+    assert list(rail.policies) == ["BC", "RAIL"] and list(gail.policies) == ["BC", "GAIL"]
+    assert rail.policies["RAIL"][1] == "policy_latest.npz"
