@@ -16,9 +16,9 @@ from sumo_rail_cli.options import (
     episode_progress,
     imitation_options,
     library_errors,
+    make_interruptible,
     output_options,
     resolve_config,
-    stop_on_sigterm,
 )
 
 from sumo_rail.expert import DEFAULT_STYLE, STYLES
@@ -147,7 +147,7 @@ def train_command(config_path: Path | None, overrides: tuple[str, ...], demos: P
                       f"overtakes {row['eval_overtakes']:.2f}, lane changes {row['eval_lane_changes']:.2f}, "
                       f"collisions {row['eval_collisions']:.2f}")
 
-    stop_on_sigterm()  # SIGTERM stops like Ctrl-C: the last complete iteration is kept
+    make_interruptible()  # Ctrl-C or SIGTERM: the last complete iteration is kept
     with library_errors(), backend, bar:
         try:
             state = train(out, settings, config, iterations, backend, resume, Validation(eval_every, eval_episodes),

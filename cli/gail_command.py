@@ -12,8 +12,8 @@ from sumo_rail_cli.options import (
     episode_progress,
     imitation_options,
     library_errors,
+    make_interruptible,
     resolve_config,
-    stop_on_sigterm,
 )
 
 if TYPE_CHECKING:
@@ -64,7 +64,7 @@ def gail_command(config_path: Path | None, overrides: tuple[str, ...], demos: Pa
         bar.set_postfix(D_return=f"{row['return_mean']:+.3f}", collisions=row["collisions"])
         bar.update(row["env_steps"])
 
-    stop_on_sigterm()  # before the updates start, SIGTERM stops like Ctrl-C
+    make_interruptible()  # before the updates start; during them gail defers both to the update's end
     with library_errors(), bar:
         try:
             result = train_gail(out, settings, config, on_bc=show_bc, on_update=show)

@@ -159,8 +159,10 @@ def bc_summary(report: BcReport, policy_path: Path) -> str:
             f"({report.holdout_rows} held-out decisions); saved {policy_path}")
 
 
-def stop_on_sigterm() -> None:
-    """Make SIGTERM raise KeyboardInterrupt, so that it stops a command exactly as Ctrl-C does."""
+def make_interruptible() -> None:
+    """Make SIGINT and SIGTERM raise KeyboardInterrupt, so that both stop a command as Ctrl-C does, even when it was
+    started with SIGINT ignored (as a shell script's background jobs are)."""
+    signal.signal(signal.SIGINT, signal.default_int_handler)
     signal.signal(signal.SIGTERM, _raise_keyboard_interrupt)
 
 

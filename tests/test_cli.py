@@ -182,7 +182,9 @@ def test_train_interrupted_keeps_a_checkpoint_and_resumes(tmp_path):
     run = tmp_path / "run"
     command = [sys.executable, "-m", "sumo_rail_cli", "train", *SMALL, "--demos", str(demos), "--directions", "2",
                "--top", "1", "--iterations", "500", "--out", str(run)]
-    process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    # started with SIGINT ignored, as a shell script's background job is: Ctrl-C must still stop it
+    process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                               preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_IGN))
     deadline = time.time() + 120
     while not (run / "checkpoint.pt").exists() and time.time() < deadline:
         time.sleep(0.5)
