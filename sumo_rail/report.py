@@ -44,8 +44,9 @@ def write_report(inputs: Inputs, out: Path) -> Path:
     runs = inputs.runs
     if runs:
         add(Plot("learning_curves.png", "Learning curves",
-                 "Mean discriminator return of each iteration's perturbed rollouts (band: +- std, dashed: best "
-                 "rollout) against cumulative environment steps."), lambda: learning_curves(runs))
+                 "Mean discriminator return of each iteration's rollouts (RAIL: the perturbed rollouts; GAIL: "
+                 "the episodes of a PPO update) (band: +- std, dashed: best rollout) against cumulative "
+                 "environment steps."), lambda: learning_curves(runs))
     if any(not run.evaluated.empty for run in runs):
         add(Plot("validation.png", "Validation",
                  "Speed, overtakes, lane changes and collisions of the policy on validation seeds during training."),
@@ -70,7 +71,8 @@ def markdown(inputs: Inputs, plots: list[Plot]) -> str:
     lines = ["# sumo-rail report", ""]
     if inputs.runs:
         lines += ["## Training runs", "", *run_table(inputs.runs), "",
-                  "D return: mean over one iteration's perturbed rollouts of the per-decision discriminator reward "
+                  "D return: mean over one iteration's rollouts (RAIL: perturbed rollouts; GAIL: a PPO update's "
+                  "episodes) of the per-decision discriminator reward "
                   "log D - log(1 - D); iterations count from 1; wall time sums the iterations (without behaviour "
                   "cloning); validation: means over the validation episodes of the last evaluated iteration.", ""]
     if inputs.metrics is not None:

@@ -50,7 +50,7 @@ def learning_curves(runs: list[Run]) -> Figure:
              Line2D([], [], color="grey", linestyle="--", label="best rollout")]
     axes.legend(handles=[*handles, *style], fontsize=9, loc="best")
     axes.set(xlabel=STEPS_LABEL, ylabel="discriminator return\n(mean log D - log(1 - D) per decision)",
-             title="Learning curves: discriminator return of the perturbed rollouts")
+             title="Learning curves: discriminator return of each iteration's rollouts")
     axes.xaxis.set_major_formatter(STEPS_FORMAT)
     _grid(axes)
     return figure
