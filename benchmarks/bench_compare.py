@@ -27,20 +27,20 @@ import libsumo
 import numpy as np
 from doc_section import write_section
 
-from sumo_rail.ars import NoiseAdaptation
-from sumo_rail.backends import ProcessPoolBackend, RolloutBackend, WorkerContext
 from sumo_rail.config import Config
-from sumo_rail.datasets import Demonstrations
-from sumo_rail.discriminator import Discriminator, DiscriminatorSettings
-from sumo_rail.env import HighwayEnv
-from sumo_rail.network import sumo_version
-from sumo_rail.normalize import RunningStats
-from sumo_rail.observation import observation_names
-from sumo_rail.policies import PolicyShape
-from sumo_rail.rail import RailSettings, RolloutTask, TrainingState, Trajectory, run_iteration
-from sumo_rail.rollout import KeepDriver, run_episode
+from sumo_rail.drivers.policies import PolicyShape
+from sumo_rail.learning.ars import NoiseAdaptation
+from sumo_rail.learning.discriminator import Discriminator, DiscriminatorSettings
+from sumo_rail.learning.normalize import RunningStats
+from sumo_rail.learning.rail import RailSettings, RolloutTask, TrainingState, Trajectory, run_iteration
+from sumo_rail.runners.backends import ProcessPoolBackend, RolloutBackend, WorkerContext
+from sumo_rail.runners.rollout import KeepDriver, run_episode
+from sumo_rail.runners.tables import Demonstrations
 from sumo_rail.seeding import Purpose, episode_seeds
-from sumo_rail.sim import TRANSPORTS
+from sumo_rail.sim.env import HighwayEnv
+from sumo_rail.sim.network import sumo_version
+from sumo_rail.sim.observation import observation_names
+from sumo_rail.sim.simulation import TRANSPORTS
 
 median = statistics.median
 
@@ -171,7 +171,7 @@ def rollout_tasks(config: Config, rollouts: int) -> list[RolloutTask]:
 
 
 def ray_backend(workers: int) -> RolloutBackend:
-    from sumo_rail.ray_backend import RayBackend
+    from sumo_rail.runners.ray_backend import RayBackend
 
     return RayBackend(workers)
 
@@ -328,7 +328,7 @@ Default scenario ({config.scenario.flow_veh_per_h:.0f} veh/h) throughout; median
 The same {args.episodes} episodes of the 'keep' driver (decision period {config.env.decision_period_s} s, about
 {transports['decisions']} decisions a round, resets included, SUMO started before the timing) x {args.rounds}
 rounds on each transport; the traffic was {"the same" if transports['same'] else "NOT the same"} (equal decision
-counts; tests/test_env.py checks bit-identical observations and rewards).
+counts; tests/sim/test_env.py checks bit-identical observations and rewards).
 
 | transport | decisions/s |
 |---|---|

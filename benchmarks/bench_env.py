@@ -24,9 +24,9 @@ import numpy as np
 from doc_section import write_section
 
 from sumo_rail.config import Config
-from sumo_rail.env import EpisodeStart, HighwayEnv
-from sumo_rail.network import sumo_version
-from sumo_rail.sim import EGO_ID, Simulation
+from sumo_rail.sim.env import EpisodeStart, HighwayEnv
+from sumo_rail.sim.network import sumo_version
+from sumo_rail.sim.simulation import EGO_ID, Simulation
 
 
 def env_round(env: HighwayEnv, seeds: list[int], random_actions: bool) -> tuple[float, list[int]]:

@@ -18,14 +18,14 @@ from pathlib import Path
 
 from doc_section import write_section
 
-from sumo_rail.backends import ProcessPoolBackend
 from sumo_rail.config import Config
-from sumo_rail.evaluate import evaluate, summary_table
-from sumo_rail.expert import DEFAULT_STYLE, STYLES
-from sumo_rail.network import sumo_version
-from sumo_rail.record import record_demonstrations
-from sumo_rail.rollout import ExpertDriver
+from sumo_rail.drivers.expert import DEFAULT_STYLE, STYLES
+from sumo_rail.evaluation.evaluate import evaluate, summary_table
+from sumo_rail.runners.backends import ProcessPoolBackend
+from sumo_rail.runners.record import record_demonstrations
+from sumo_rail.runners.rollout import ExpertDriver
 from sumo_rail.seeding import Purpose, episode_seeds
+from sumo_rail.sim.network import sumo_version
 
 
 def recording_seconds(config: Config, workers: int, episodes: int, out: Path) -> float:

@@ -23,14 +23,14 @@ from typing import Any
 import numpy as np
 from doc_section import write_section
 
-from sumo_rail.backends import ProcessPoolBackend, Task
 from sumo_rail.config import Config
-from sumo_rail.discriminator import DiscriminatorSettings
-from sumo_rail.network import sumo_version
-from sumo_rail.policies import load_policy
-from sumo_rail.rail import RailSettings
-from sumo_rail.record import record_demonstrations
-from sumo_rail.training import RunSettings, train
+from sumo_rail.drivers.policies import load_policy
+from sumo_rail.learning.discriminator import DiscriminatorSettings
+from sumo_rail.learning.rail import RailSettings
+from sumo_rail.learning.training import RunSettings, train
+from sumo_rail.runners.backends import ProcessPoolBackend, Task
+from sumo_rail.runners.record import record_demonstrations
+from sumo_rail.sim.network import sumo_version
 
 
 class TimedBackend:

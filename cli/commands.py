@@ -21,10 +21,10 @@ from sumo_rail_cli.options import (
     resolve_config,
 )
 
-from sumo_rail.expert import DEFAULT_STYLE, STYLES
+from sumo_rail.drivers.expert import DEFAULT_STYLE, STYLES
 
 if TYPE_CHECKING:
-    from sumo_rail.bc import BcReport
+    from sumo_rail.learning.bc import BcReport
 
 _STYLE = click.Choice(sorted(STYLES))
 
@@ -40,7 +40,7 @@ def record_expert(config_path: Path | None, overrides: tuple[str, ...], episodes
     """Record the rule-based expert's demonstrations: one Parquet row per decision."""
     config = resolve_config(config_path, overrides)
     check_output(out, overwrite)
-    from sumo_rail.record import record_demonstrations
+    from sumo_rail.runners.record import record_demonstrations
 
     backend = build_backend(backend_name, workers, address)
     with library_errors(), backend, episode_progress(episodes, "recording") as bar:
@@ -69,9 +69,9 @@ def evaluate_command(config_path: Path | None, overrides: tuple[str, ...], polic
     """Evaluate drivers on held-out seeds; print the paper's metrics (mean +- std) and write one row per episode."""
     config = resolve_config(config_path, overrides)
     check_output(out, overwrite)
-    from sumo_rail.backends import SerialBackend
-    from sumo_rail.evaluate import evaluate, parse_driver, summary_table, write_metrics
-    from sumo_rail.policies import PolicyFileError
+    from sumo_rail.drivers.policies import PolicyFileError
+    from sumo_rail.evaluation.evaluate import evaluate, parse_driver, summary_table, write_metrics
+    from sumo_rail.runners.backends import SerialBackend
     from sumo_rail.seeding import Purpose, episode_seeds
 
     drivers = []
@@ -121,9 +121,9 @@ def train_command(config_path: Path | None, overrides: tuple[str, ...], demos: P
                   resume: bool) -> None:
     """Learn a driving policy from demonstrations with RAIL (BC initialisation, then ARS with an LS-GAN reward)."""
     config = resolve_config(config_path, overrides)
-    from sumo_rail.discriminator import DiscriminatorSettings
-    from sumo_rail.rail import RailSettings
-    from sumo_rail.training import RunError, RunSettings, Validation, train
+    from sumo_rail.learning.discriminator import DiscriminatorSettings
+    from sumo_rail.learning.rail import RailSettings
+    from sumo_rail.learning.training import RunError, RunSettings, Validation, train
 
     try:
         settings = RunSettings(str(demos), kind, hidden, bc_epochs,

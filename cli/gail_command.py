@@ -17,7 +17,7 @@ from sumo_rail_cli.options import (
 )
 
 if TYPE_CHECKING:
-    from sumo_rail.bc import BcReport
+    from sumo_rail.learning.bc import BcReport
 
 
 @click.command("gail")
@@ -44,9 +44,9 @@ def gail_command(config_path: Path | None, overrides: tuple[str, ...], demos: Pa
     with its files complete; a GAIL run cannot be resumed. Needs pip install 'sumo-rail[baselines]'.
     """
     config = resolve_config(config_path, overrides)
-    from sumo_rail.discriminator import DiscriminatorSettings
-    from sumo_rail.gail import BaselineError, GailSettings, train_gail
-    from sumo_rail.training import RunError
+    from sumo_rail.learning.discriminator import DiscriminatorSettings
+    from sumo_rail.learning.gail import BaselineError, GailSettings, train_gail
+    from sumo_rail.learning.training import RunError
 
     try:
         settings = GailSettings(str(demos), timesteps=timesteps, kind=kind, hidden=hidden, bc_epochs=bc_epochs,

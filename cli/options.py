@@ -17,8 +17,8 @@ from tqdm import tqdm
 from sumo_rail.config import Config, ConfigError
 
 if TYPE_CHECKING:
-    from sumo_rail.backends import RolloutBackend
-    from sumo_rail.bc import BcReport
+    from sumo_rail.learning.bc import BcReport
+    from sumo_rail.runners.backends import RolloutBackend
 
 
 def config_options(command: Callable[..., Any]) -> Callable[..., Any]:
@@ -89,7 +89,7 @@ def backend_options(command: Callable[..., Any]) -> Callable[..., Any]:
 def build_backend(name: str, workers: int, address: str | None) -> RolloutBackend:
     """The backend of --backend/--workers/--address; --address without --backend ray is a usage error (exit 2),
     a missing Ray a one-sentence error (exit 1)."""
-    from sumo_rail.backends import make_backend
+    from sumo_rail.runners.factory import make_backend
 
     if address is not None and name != "ray":
         raise click.UsageError("--address needs --backend ray")
@@ -121,10 +121,10 @@ def check_output(out: Path | None, overwrite: bool) -> None:
 @contextlib.contextmanager
 def library_errors() -> Iterator[None]:
     """Errors a user can cause in the library become one-sentence click errors (exit 1), never tracebacks."""
-    from sumo_rail.backends import BackendError
     from sumo_rail.datasets import DatasetError
-    from sumo_rail.policies import PolicyFileError
-    from sumo_rail.sim import SimulationError
+    from sumo_rail.drivers.policies import PolicyFileError
+    from sumo_rail.runners.backends import BackendError
+    from sumo_rail.sim.simulation import SimulationError
 
     try:
         yield

@@ -15,8 +15,8 @@ from sumo_rail_cli.options import library_errors
               help="Folder for report.md and the PNG plots (created; files in it with the same names are replaced).")
 def report_command(inputs: tuple[Path, ...], out: Path) -> None:
     """Plot training runs (folders written by train) and evaluation metrics (files written by evaluate --out)."""
-    from sumo_rail.report import write_report
-    from sumo_rail.report_inputs import ReportError, read_inputs
+    from sumo_rail.report.inputs import ReportError, read_inputs
+    from sumo_rail.report.markdown import write_report
 
     with library_errors():
         try:

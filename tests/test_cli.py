@@ -14,9 +14,10 @@ from sumo_rail_cli.main import cli
 
 import sumo_rail
 from sumo_rail.config import Config
-from sumo_rail.datasets import read_demonstrations, read_metadata
-from sumo_rail.observation import observation_names
-from sumo_rail.policies import Policy, PolicyShape, save_policy
+from sumo_rail.datasets import read_metadata
+from sumo_rail.drivers.policies import Policy, PolicyShape, save_policy
+from sumo_rail.runners.tables import read_demonstrations
+from sumo_rail.sim.observation import observation_names
 
 SMALL = ["--set", "scenario.length_m=1500", "--set", "scenario.warmup_s=120", "--set", "scenario.snapshots=3",
          "--set", "scenario.snapshot_interval_s=10", "--set", "env.ego_start_max_m=500"]

@@ -1,0 +1,154 @@
+"""Linear and two-layer policies as flat float32 parameter vectors with a fast numpy `act`, and their file format.
+
+Parameter layout (row-major), for n observations, h hidden units and a = 5 actions:
+- linear: W (a, n), b (a); logits = W x + b;
+- mlp: W1 (h, n), b1 (h), W2 (a, h), b2 (a); logits = W2 tanh(W1 x + b1) + b2;
+where x = (observation - mean) / std is the observation normalised by the statistics frozen in the policy.
+
+A policy file is a NumPy `.npz` archive read with `allow_pickle=False` (no code can run on load) holding:
+`format` ("sumo-rail policy"), `format_version`, `kind`, `observation_size`, `hidden`, `actions`,
+`parameters` (float32), `observation_mean`, `observation_std` (float64) and `metadata` (a JSON string:
+observation names, config, provenance).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import zipfile
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+FORMAT = "sumo-rail policy"
+FORMAT_VERSION = 1
+KINDS = ("linear", "mlp")
+MIN_STD = 1e-6
+"""Smallest observation std a policy divides by; constant features are not blown up."""
+
+
+class PolicyFileError(ValueError):
+    """A policy file is missing, unreadable or inconsistent (message is one sentence)."""
+
+
+@dataclass(frozen=True)
+class PolicyShape:
+    """The architecture of a policy."""
+
+    kind: str
+    """'linear' or 'mlp' (two layers, tanh hidden units)."""
+    observation_size: int
+    hidden: int = 10
+    """Hidden units of the 'mlp' kind (ignored for 'linear')."""
+    actions: int = 5
+
+    def __post_init__(self) -> None:
+        if self.kind not in KINDS:
+            raise ValueError(f"policy kind must be one of {', '.join(KINDS)}, got {self.kind!r}")
+        if self.observation_size < 1 or self.actions < 1 or (self.kind == "mlp" and self.hidden < 1):
+            raise ValueError(f"policy sizes must be positive, got {self}")
+
+    @property
+    def parameter_count(self) -> int:
+        n, h, a = self.observation_size, self.hidden, self.actions
+        return a * n + a if self.kind == "linear" else h * n + h + a * h + a
+
+
+class Policy:
+    """A deterministic policy: `act(observation)` is the argmax of the logits of the normalised observation."""
+
+    def __init__(self, shape: PolicyShape, parameters: np.ndarray, observation_mean: np.ndarray | None = None,
+                 observation_std: np.ndarray | None = None) -> None:
+        parameters = np.asarray(parameters, dtype=np.float32).ravel()
+        if parameters.size != shape.parameter_count:
+            raise ValueError(f"a {shape.kind} policy for {shape.observation_size} observations needs "
+                             f"{shape.parameter_count} parameters, got {parameters.size}")
+        n = shape.observation_size
+        mean = np.zeros(n) if observation_mean is None else np.asarray(observation_mean, dtype=np.float64)
+        std = np.ones(n) if observation_std is None else np.asarray(observation_std, dtype=np.float64)
+        if mean.shape != (n,) or std.shape != (n,):
+            raise ValueError(f"normalisation statistics must have shape ({n},), got {mean.shape} and {std.shape}")
+        self.shape = shape
+        self.parameters = parameters
+        self.observation_mean = mean
+        self.observation_std = std
+        self._scale = 1.0 / np.maximum(std, MIN_STD)
+        self._layers = _unflatten(shape, parameters)
+
+    def logits(self, observations: np.ndarray) -> np.ndarray:
+        """Logits for one observation (shape (n,)) or a batch (shape (B, n))."""
+        x = (np.asarray(observations, dtype=np.float64) - self.observation_mean) * self._scale
+        if self.shape.kind == "linear":
+            weights, bias = self._layers
+            return x @ weights.T + bias
+        w1, b1, w2, b2 = self._layers
+        return np.tanh(x @ w1.T + b1) @ w2.T + b2
+
+    def act(self, observation: np.ndarray) -> int:
+        """The action with the highest logit (ties: the lowest action index)."""
+        return int(np.argmax(self.logits(observation)))
+
+    def __getstate__(self) -> dict[str, Any]:
+        return {"shape": self.shape, "parameters": self.parameters, "mean": self.observation_mean,
+                "std": self.observation_std}
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__init__(state["shape"], state["parameters"], state["mean"], state["std"])  # type: ignore[misc]
+
+
+def _unflatten(shape: PolicyShape, parameters: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Weight matrices and biases (float64 views for the matrix products) in the documented layout."""
+    n, h, a = shape.observation_size, shape.hidden, shape.actions
+    sizes = [(a, n), (a,)] if shape.kind == "linear" else [(h, n), (h,), (a, h), (a,)]
+    values = parameters.astype(np.float64)
+    layers, offset = [], 0
+    for size in sizes:
+        count = int(np.prod(size))
+        layers.append(values[offset:offset + count].reshape(size))
+        offset += count
+    return tuple(layers)
+
+
+def save_policy(policy: Policy, path: Path, metadata: dict[str, Any]) -> None:
+    """Write the policy file atomically (temporary file in the same folder, then rename)."""
+    path = Path(path)
+    temporary = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    try:
+        with open(temporary, "wb") as handle:
+            np.savez(handle, format=np.array(FORMAT), format_version=np.array(FORMAT_VERSION),
+                     kind=np.array(policy.shape.kind), observation_size=np.array(policy.shape.observation_size),
+                     hidden=np.array(policy.shape.hidden), actions=np.array(policy.shape.actions),
+                     parameters=policy.parameters, observation_mean=policy.observation_mean,
+                     observation_std=policy.observation_std, metadata=np.array(json.dumps(metadata, sort_keys=True)))
+        os.replace(temporary, path)
+    finally:
+        temporary.unlink(missing_ok=True)
+
+
+def load_policy(path: Path) -> tuple[Policy, dict[str, Any]]:
+    """Read and validate a policy file; returns the policy and its metadata. Never unpickles."""
+    path = Path(path)
+    if not path.is_file():
+        raise PolicyFileError(f"policy file {path} does not exist")
+    try:
+        with np.load(path, allow_pickle=False) as archive:
+            fields = {key: archive[key] for key in archive.files}
+    except (OSError, ValueError, zipfile.BadZipFile, EOFError) as error:
+        raise PolicyFileError(f"{path} is not a readable sumo-rail policy file ({error})") from error
+    if str(fields.get("format", "")) != FORMAT:
+        raise PolicyFileError(f"{path} is not a sumo-rail policy file (no '{FORMAT}' format marker)")
+    if int(fields["format_version"]) != FORMAT_VERSION:
+        raise PolicyFileError(f"{path} has policy format version {int(fields['format_version'])}; "
+                              f"this sumo-rail reads version {FORMAT_VERSION}")
+    try:
+        shape = PolicyShape(str(fields["kind"]), int(fields["observation_size"]), int(fields["hidden"]),
+                            int(fields["actions"]))
+        policy = Policy(shape, fields["parameters"], fields["observation_mean"], fields["observation_std"])
+        metadata = json.loads(str(fields["metadata"]))
+    except (KeyError, ValueError, TypeError) as error:
+        raise PolicyFileError(f"policy file {path} is inconsistent: {error}") from error
+    if not np.all(np.isfinite(policy.parameters)):
+        raise PolicyFileError(f"policy file {path} holds non-finite parameters")
+    return policy, metadata

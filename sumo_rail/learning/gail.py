@@ -1,0 +1,399 @@
+"""The GAIL baseline: PPO (Stable-Baselines3) on the RAIL discriminator's reward, for the paper's comparison.
+
+Fair against RAIL: the PPO actor has exactly the layout of a `PolicyShape` (mlp: Linear(n, h) + tanh, then
+Linear(h, 5); linear: Linear(n, 5)) on observations normalised by FIXED statistics (the BC policy's, or the
+expert demonstrations' without BC), so `ppo_to_policy` exports it as a `Policy` that `sumo-rail evaluate`
+reads; the critic is a separate 64-64 tanh MLP. The discriminator, its settings and its expert normalisation are
+RAIL's. The environments run in `envs` spawned processes (libsumo: one simulation per process); the rewards are
+computed in this process by `LabelledVecEnv`, which keeps the raw pairs, replaces the env's reward with
+log D - log(1 - D) of the current discriminator (pairs are scored as they come, by the discriminator of the
+previous updates) and normalises the observations PPO sees. A collision adds (horizon - decisions so far) x the
+lowest reward to its final step, so ending early never pays. After every PPO update (n_steps x envs decisions)
+the discriminator takes its LS-GAN steps on the expert's pairs and that rollout's pairs, as RAIL does once per
+iteration. Stable-Baselines3 is imported only by the functions that need it (`require_stable_baselines3`).
+
+Reproducible: env k's first episode has the Purpose.TRAIN seed of episode k from base seed x envs, later ones
+follow from its `np_random`; PPO, BC and the discriminator are seeded and torch runs on one thread, so the same
+settings give the same policy bit for bit (for the same number of envs).
+
+runs/NAME/ holds `run.json` (settings, config, provenance), `policy_bc.npz` (with --bc-epochs > 0),
+`policy_latest.npz` and `log.parquet`, all replaced atomically after every update. The log has one row per
+update with RAIL's column names: iteration, env_steps (of this update), return_mean / _max / _std (per-decision
+discriminator return, `rail.rollout_return`, of the episodes that ended in the rollout, or of its decisions when
+none did), discriminator_loss, discriminator_accuracy, collisions, wall_time_s; and episodes (ended in the
+rollout) and entropy (PPO's mean policy entropy [nats]). SIGINT / SIGTERM stop the run after the current
+update; there is no resume.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+import signal
+import threading
+import time
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import pyarrow as pa
+import torch
+from gymnasium import spaces
+from gymnasium.utils import seeding
+from torch import nn
+
+from sumo_rail.config import Config
+from sumo_rail.datasets import write_parquet
+from sumo_rail.drivers.policies import Policy, PolicyShape, save_policy
+from sumo_rail.learning.bc import BcReport, BcSettings, behaviour_cloning, policy_to_torch
+from sumo_rail.learning.discriminator import Discriminator, DiscriminatorSettings
+from sumo_rail.learning.normalize import MIN_STD, RunningStats
+from sumo_rail.learning.rail import rollout_return
+from sumo_rail.learning.torch_threads import single_thread
+from sumo_rail.learning.training import RunError, _write_atomically
+from sumo_rail.runners.tables import Demonstrations, provenance, read_demonstrations
+from sumo_rail.seeding import Purpose, episode_seeds
+from sumo_rail.sim.env import HighwayEnv
+from sumo_rail.sim.observation import observation_space
+
+if TYPE_CHECKING:
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.policies import ActorCriticPolicy
+    from stable_baselines3.common.vec_env import VecEnv
+
+INSTALL_HINT = "the GAIL baseline needs Stable-Baselines3: pip install 'sumo-rail[baselines]'"
+CRITIC_LAYERS = (64, 64)
+"""Hidden tanh units of PPO's value network (separate from the actor)."""
+
+
+class BaselineError(RuntimeError):
+    """The baseline cannot run here (message is one sentence)."""
+
+
+@dataclass(frozen=True)
+class GailSettings:
+    """What defines a GAIL run (stored in run.json)."""
+
+    demos: str
+    timesteps: int = 100_000
+    """Environment decisions in total, rounded up to whole updates of n_steps x envs."""
+    kind: str = "mlp"
+    hidden: int = 10
+    bc_epochs: int = 20
+    """Behaviour-cloning epochs that initialise the actor (0: PPO's own initialisation)."""
+    bc_class_balance: float = 0.75
+    """`BcSettings.class_balance`."""
+    envs: int = 2
+    """Environment processes; the result depends on it."""
+    n_steps: int = 512
+    """Decisions per env and update."""
+    learning_rate: float = 3e-4
+    """PPO's Adam step size."""
+    batch_size: int = 64
+    """PPO minibatch size [decisions]."""
+    ppo_epochs: int = 10
+    """PPO passes over each rollout."""
+    gamma: float = 0.99
+    """Discount per decision."""
+    seed: int = 0
+    discriminator: DiscriminatorSettings = field(default_factory=DiscriminatorSettings)
+
+    def __post_init__(self) -> None:
+        if self.timesteps < 1 or self.envs < 1 or self.n_steps * self.envs < 2 or self.batch_size < 2:
+            raise ValueError(f"GAIL needs timesteps >= 1, envs >= 1, n_steps x envs >= 2 and batch_size >= 2, got "
+                             f"{self.timesteps}, {self.envs}, {self.n_steps} and {self.batch_size}")
+        if self.bc_epochs < 0 or self.ppo_epochs < 1 or self.learning_rate <= 0 or not 0 < self.gamma <= 1:
+            raise ValueError(f"GAIL needs bc_epochs >= 0, ppo_epochs >= 1, learning_rate > 0 and 0 < gamma <= 1, "
+                             f"got {self.bc_epochs}, {self.ppo_epochs}, {self.learning_rate} and {self.gamma}")
+
+    @property
+    def steps_per_update(self) -> int:
+        return self.n_steps * self.envs
+
+    @property
+    def updates(self) -> int:
+        return math.ceil(self.timesteps / self.steps_per_update)
+
+    def to_dict(self) -> dict[str, Any]:
+        return dataclasses.asdict(self)
+
+
+@dataclass(frozen=True)
+class GailResult:
+    updates: int
+    """Updates done (and logged)."""
+    timesteps: int
+    interrupted: bool
+    """Stopped by SIGINT / SIGTERM before the last update."""
+
+
+@dataclass(frozen=True)
+class FixedNormalisation:
+    """(observation - mean) / std in float64 exactly as `Policy` computes it, returned as float32 for PPO."""
+
+    mean: np.ndarray
+    std: np.ndarray
+
+    def __call__(self, observations: np.ndarray) -> np.ndarray:
+        scale = 1.0 / np.maximum(self.std, MIN_STD)
+        return ((np.asarray(observations, dtype=np.float64) - self.mean) * scale).astype(np.float32)
+
+
+def policy_kwargs(shape: PolicyShape) -> dict[str, Any]:
+    """SB3 `policy_kwargs` whose actor has exactly the layout of `shape`."""
+    actor = [shape.hidden] if shape.kind == "mlp" else []
+    return {"net_arch": {"pi": actor, "vf": list(CRITIC_LAYERS)}, "activation_fn": nn.Tanh}
+
+
+def _actor_linears(ppo_policy: ActorCriticPolicy) -> list[nn.Linear]:
+    """The actor's linear layers in `sumo_rail.drivers.policies` parameter-layout order."""
+    hidden = [layer for layer in ppo_policy.mlp_extractor.policy_net if isinstance(layer, nn.Linear)]
+    return [*hidden, ppo_policy.action_net]
+
+
+def load_into_ppo(policy: Policy, ppo_policy: ActorCriticPolicy) -> None:
+    """Copy `policy`'s weights into the PPO actor, whose observations must be normalised by the policy's statistics."""
+    sources, targets = policy_to_torch(policy).linears(), _actor_linears(ppo_policy)
+    if [layer.weight.shape for layer in sources] != [layer.weight.shape for layer in targets]:
+        raise ValueError(f"the PPO actor does not have the layout of a {policy.shape}")
+    with torch.no_grad():
+        for source, target in zip(sources, targets, strict=True):
+            target.weight.copy_(source.weight)
+            target.bias.copy_(source.bias)
+
+
+def ppo_to_policy(ppo_policy: ActorCriticPolicy, shape: PolicyShape, normalisation: FixedNormalisation) -> Policy:
+    """The PPO actor as a `Policy` on raw observations; act = PPO's deterministic predict (up to float32 near-ties)."""
+    parts = [tensor.detach().reshape(-1) for layer in _actor_linears(ppo_policy)
+             for tensor in (layer.weight, layer.bias)]
+    return Policy(shape, torch.cat(parts).numpy().astype(np.float32), normalisation.mean, normalisation.std)
+
+
+@dataclass(frozen=True)
+class Rollout:
+    """The pairs and discriminator returns of one PPO rollout."""
+
+    observations: np.ndarray
+    """Raw observations, shape (T x envs, n) float32."""
+    actions: np.ndarray
+    """Shape (T x envs,) int64."""
+    rewards: np.ndarray
+    """Discriminator reward of each pair, before any collision padding, shape (T x envs,) [nats]."""
+    returns: np.ndarray
+    """Per-decision return (`rail.rollout_return`) of each episode that ended in the rollout."""
+    collisions: int
+
+
+class RewardLabeller:
+    """Scores each env's (raw observation, action) with the discriminator, pads collisions and collects rollouts."""
+
+    def __init__(self, discriminator: Discriminator, envs: int, horizon: int) -> None:
+        self.discriminator, self.horizon = discriminator, horizon
+        clip = discriminator.settings.reward_clip
+        self.lowest_reward = float(np.log(clip) - np.log1p(-clip))
+        self._episodes: list[list[float]] = [[] for _ in range(envs)]
+        self._observations: list[np.ndarray] = []
+        self._actions: list[np.ndarray] = []
+        self._rewards: list[np.ndarray] = []
+        self._returns: list[float] = []
+        self._collisions = 0
+
+    def label(self, observations: np.ndarray, actions: np.ndarray, dones: np.ndarray,
+              infos: list[dict[str, Any]]) -> np.ndarray:
+        """PPO's rewards (envs,) float32 for the actions taken on `observations`; `dones`/`infos` of that step."""
+        observations, actions = np.asarray(observations, dtype=np.float32), np.asarray(actions, dtype=np.int64)
+        rewards = self.discriminator.reward(observations, actions)
+        self._observations.append(observations.copy())
+        self._actions.append(actions.copy())
+        self._rewards.append(rewards)
+        padded = rewards.copy()
+        for env, (reward, done, info) in enumerate(zip(rewards, dones, infos, strict=True)):
+            episode = self._episodes[env]
+            episode.append(float(reward))
+            if done:
+                collided = info.get("termination") == "collision"
+                self._returns.append(rollout_return(np.array(episode), collided, self.horizon, self.lowest_reward))
+                if collided:
+                    self._collisions += 1
+                    padded[env] += max(self.horizon - len(episode), 0) * self.lowest_reward
+                episode.clear()
+        return padded.astype(np.float32)
+
+    def take(self) -> Rollout:
+        """The pairs labelled since the last call (episodes still running carry on)."""
+        rollout = Rollout(np.concatenate(self._observations), np.concatenate(self._actions),
+                          np.concatenate(self._rewards), np.array(self._returns), self._collisions)
+        self._observations, self._actions, self._rewards, self._returns, self._collisions = [], [], [], [], 0
+        return rollout
+
+
+@dataclass(frozen=True)
+class EnvFactory:
+    """Builds one env in its worker process; its first episode is that of reset(seed=seed)."""
+
+    config: Config
+    seed: int
+
+    def __call__(self) -> HighwayEnv:
+        signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C reaches the whole group; the parent decides
+        env = HighwayEnv(self.config)
+        env.np_random, _ = seeding.np_random(self.seed)
+        return env
+
+
+def env_seeds(seed: int, envs: int) -> list[int]:
+    """Seeds of the envs' first episodes: disjoint for different seeds with the same number of envs."""
+    return episode_seeds(Purpose.TRAIN, seed * envs, envs)
+
+
+def labelled_vec_env(config: Config, envs: int, seed: int, labeller: RewardLabeller,
+                     normalisation: FixedNormalisation) -> VecEnv:
+    """`envs` spawned HighwayEnv processes behind a `LabelledVecEnv`."""
+    from stable_baselines3.common.vec_env import SubprocVecEnv, VecEnvWrapper
+
+    class LabelledVecEnv(VecEnvWrapper):
+        """Discriminator rewards and normalised observations (terminal ones too); the env's reward is dropped.
+        `seed` is a no-op: the env factories seed the envs."""
+
+        def __init__(self, venv: VecEnv) -> None:
+            shape = venv.observation_space.shape
+            super().__init__(venv, observation_space=spaces.Box(-np.inf, np.inf, shape, np.float32))
+            self._raw = np.zeros((venv.num_envs, *shape), dtype=np.float32)
+            self._actions = np.zeros(venv.num_envs, dtype=np.int64)
+
+        def seed(self, seed: int | None = None) -> list[int | None]:
+            return [None] * self.num_envs
+
+        def reset(self) -> np.ndarray:
+            self._raw = self.venv.reset()
+            return normalisation(self._raw)
+
+        def step_async(self, actions: np.ndarray) -> None:
+            self._actions = np.asarray(actions)
+            self.venv.step_async(actions)
+
+        def step_wait(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[dict[str, Any]]]:
+            raw, _, dones, infos = self.venv.step_wait()
+            rewards = labeller.label(self._raw, self._actions, dones, infos)
+            for info in infos:
+                if "terminal_observation" in info:
+                    info["terminal_observation"] = normalisation(info["terminal_observation"])
+            self._raw = raw
+            return normalisation(raw), rewards, dones, infos
+
+    factories = [EnvFactory(config, seed) for seed in env_seeds(seed, envs)]
+    return LabelledVecEnv(SubprocVecEnv(factories, start_method="spawn"))
+
+
+def build_ppo(venv: VecEnv, shape: PolicyShape, settings: GailSettings) -> PPO:
+    """PPO with the actor of `shape`, seeded with `settings.seed`, on the CPU."""
+    from stable_baselines3 import PPO
+
+    return PPO("MlpPolicy", venv, learning_rate=settings.learning_rate, n_steps=settings.n_steps,
+               batch_size=settings.batch_size, n_epochs=settings.ppo_epochs, gamma=settings.gamma,
+               policy_kwargs=policy_kwargs(shape), seed=settings.seed, device="cpu", verbose=0)
+
+
+def require_stable_baselines3() -> None:
+    """BaselineError with the install hint when Stable-Baselines3 is missing."""
+    try:
+        import stable_baselines3  # noqa: F401
+    except ImportError as error:
+        raise BaselineError(INSTALL_HINT) from error
+
+
+def train_gail(folder: Path, settings: GailSettings, config: Config,
+               on_bc: Callable[[BcReport], None] | None = None,
+               on_update: Callable[[dict[str, Any]], None] | None = None) -> GailResult:
+    """Run GAIL into the empty or new `folder`; `on_bc` gets the BC report, `on_update` each log row."""
+    require_stable_baselines3()
+    folder = Path(folder)
+    observation_size = observation_space(config).shape[0]
+    demos = read_demonstrations(Path(settings.demos), observation_size)
+    shape = PolicyShape(settings.kind, observation_size, settings.hidden)
+    run_record = {"settings": settings.to_dict(), **provenance("gail_run", config, settings.seed)}
+    if folder.exists() and any(folder.iterdir()):
+        raise RunError(f"run folder {folder} is not empty; choose another --out")
+    folder.mkdir(parents=True, exist_ok=True)
+    _write_atomically(folder / "run.json", json.dumps(run_record, indent=2, sort_keys=True).encode())
+    with single_thread():
+        initial, normalisation = _initial_policy(folder, settings, shape, demos, run_record, on_bc)
+        expert_stats = RunningStats.of(demos.observations)
+        discriminator = Discriminator(observation_size, expert_stats.mean.copy(), expert_stats.std.copy(),
+                                      settings.discriminator)
+        horizon = round(config.env.max_episode_s / config.env.decision_period_s)
+        labeller = RewardLabeller(discriminator, settings.envs, horizon)
+        venv = labelled_vec_env(config, settings.envs, settings.seed, labeller, normalisation)
+        try:
+            model = build_ppo(venv, shape, settings)
+            if initial is not None:
+                load_into_ppo(initial, model.policy)
+            logs = _updates(folder, settings, shape, model, labeller, demos, normalisation, run_record, on_update)
+            return GailResult(len(logs), model.num_timesteps, len(logs) < settings.updates)
+        finally:
+            venv.close()
+
+
+def _initial_policy(folder: Path, settings: GailSettings, shape: PolicyShape, demos: Demonstrations,
+                    run_record: dict[str, Any], on_bc: Callable[[BcReport], None] | None,
+                    ) -> tuple[Policy | None, FixedNormalisation]:
+    """The BC policy (saved as policy_bc.npz) and its statistics, or None and the demonstrations' statistics."""
+    if settings.bc_epochs < 1:
+        stats = RunningStats.of(demos.observations)
+        return None, FixedNormalisation(stats.mean.copy(), stats.std.copy())
+    bc_settings = BcSettings(epochs=settings.bc_epochs, class_balance=settings.bc_class_balance, seed=settings.seed)
+    policy, report = behaviour_cloning(demos, shape, bc_settings)
+    save_policy(policy, folder / "policy_bc.npz", {**run_record, "bc_report": dataclasses.asdict(report)})
+    if on_bc is not None:
+        on_bc(report)
+    return policy, FixedNormalisation(policy.observation_mean, policy.observation_std)
+
+
+def _updates(folder: Path, settings: GailSettings, shape: PolicyShape, model: PPO, labeller: RewardLabeller,
+             demos: Demonstrations, normalisation: FixedNormalisation, run_record: dict[str, Any],
+             on_update: Callable[[dict[str, Any]], None] | None) -> list[dict[str, Any]]:
+    """PPO updates, each followed by the discriminator's steps and the saves, until done or asked to stop."""
+    logs: list[dict[str, Any]] = []
+    with _stop_requests() as stop:
+        for update in range(settings.updates):
+            started = time.perf_counter()
+            model.learn(settings.steps_per_update, reset_num_timesteps=False)
+            rollout = labeller.take()
+            report = labeller.discriminator.train(demos.observations, demos.actions, rollout.observations,
+                                                  rollout.actions)
+            returns = rollout.returns if len(rollout.returns) else rollout.rewards
+            row = {"iteration": update, "env_steps": len(rollout.actions), "return_mean": float(returns.mean()),
+                   "return_max": float(returns.max()), "return_std": float(returns.std()),
+                   "discriminator_loss": report.loss, "discriminator_accuracy": report.accuracy,
+                   "collisions": rollout.collisions, "episodes": len(rollout.returns),
+                   "entropy": -float(model.logger.name_to_value["train/entropy_loss"]),
+                   "wall_time_s": time.perf_counter() - started}
+            logs.append(row)
+            save_policy(ppo_to_policy(model.policy, shape, normalisation), folder / "policy_latest.npz",
+                        {**run_record, "iteration": update})
+            write_parquet(pa.Table.from_pylist(logs), folder / "log.parquet", {**run_record, "kind": "training_log"})
+            if on_update is not None:
+                on_update(row)
+            if stop.is_set():
+                break
+    return logs
+
+
+@contextmanager
+def _stop_requests() -> Iterator[threading.Event]:
+    """An event that SIGINT and SIGTERM set instead of interrupting (main thread only; handlers restored after)."""
+    stop = threading.Event()
+    if threading.current_thread() is not threading.main_thread():
+        yield stop
+        return
+    previous = {number: signal.signal(number, lambda caught, frame: stop.set())
+                for number in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield stop
+    finally:
+        for number, handler in previous.items():
+            signal.signal(number, handler)

@@ -1,0 +1,172 @@
+"""RAIL training (the paper's Algorithm 1): ARS in parameter space with an LS-GAN discriminator's reward.
+
+One iteration t:
+1. the learner draws N direction indices (the vectors come from `noise.direction(noise_seed, t, k)`) and one
+   SUMO episode seed per direction (both signs drive the same traffic); workers run the 2N rollouts of
+   theta +- nu * delta_k with the observation statistics frozen for the iteration;
+2. the discriminator takes its LS-GAN steps on the expert's pairs and this iteration's rollout pairs;
+3. each rollout's return is the mean of r = log D - log(1 - D) over its decisions, as the paper's expectation;
+   a collision fills the decisions it cut short, up to the episode limit, with the lowest reward the clipped
+   D can give, so ending early never pays (a slower but safe driver is not favoured by more decisions either,
+   since the return is a mean);
+4. the ARS step moves theta along the top-b directions; the observation statistics merge this iteration's
+   states (in task order, so the result does not depend on the number of workers); every eta iterations nu
+   grows by tau if the best mean return did not improve, else returns to nu_init.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from sumo_rail.config import Config
+from sumo_rail.drivers.policies import Policy, PolicyShape
+from sumo_rail.learning.ars import NoiseAdaptation, adapt_noise, ars_update
+from sumo_rail.learning.noise import direction
+from sumo_rail.learning.normalize import RunningStats
+from sumo_rail.runners.rollout import run_episode
+from sumo_rail.seeding import Purpose, episode_seeds
+
+if TYPE_CHECKING:
+    from sumo_rail.learning.discriminator import Discriminator
+    from sumo_rail.runners.backends import RolloutBackend, WorkerContext
+    from sumo_rail.runners.tables import Demonstrations
+
+
+@dataclass(frozen=True)
+class RailSettings:
+    """ARS hyper-parameters (defaults from the paper where it gives them)."""
+
+    directions: int = 32
+    """N, directions per iteration (the paper uses 8 to 512)."""
+    top: int = 16
+    """b, directions kept for the update."""
+    step_size: float = 0.001
+    """alpha."""
+    noise: NoiseAdaptation = field(default_factory=NoiseAdaptation)
+    """nu_init 0.03, tau 0.001, eta."""
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        if not 1 <= self.top <= self.directions:
+            raise ValueError(f"--top must be between 1 and --directions ({self.directions}), got {self.top}")
+        if self.step_size <= 0:
+            raise ValueError(f"the step size must be positive, got {self.step_size}")
+
+
+@dataclass(frozen=True)
+class Trajectory:
+    """What a rollout sends back: the pairs the discriminator scores."""
+
+    observations: np.ndarray
+    """Shape (T, n) float32."""
+    actions: np.ndarray
+    """Shape (T,) int64."""
+    collided: bool
+    steps: int
+
+
+@dataclass(frozen=True)
+class RolloutTask:
+    """One rollout of theta + sign * nu * delta(iteration, index); integers and theta cross the process boundary."""
+
+    config: Config
+    shape: PolicyShape
+    parameters: np.ndarray
+    observation_mean: np.ndarray
+    observation_std: np.ndarray
+    noise_seed: int
+    iteration: int
+    index: int
+    sign: int
+    nu: float
+    episode_seed: int
+
+    def run(self, context: WorkerContext) -> Trajectory:
+        delta = direction(self.noise_seed, self.iteration, self.index, self.shape.parameter_count)
+        policy = Policy(self.shape, self.parameters + np.float32(self.sign * self.nu) * delta,
+                        self.observation_mean, self.observation_std)
+        result = run_episode(context.env(self.config), lambda observation, traffic: policy.act(observation),
+                             self.episode_seed, record=True)
+        assert result.steps is not None
+        return Trajectory(result.steps["observation"], result.steps["action"].astype(np.int64),
+                          bool(result.metrics["collisions"]), int(result.metrics["steps"]))
+
+
+@dataclass
+class TrainingState:
+    """Everything that determines the rest of a run; a checkpoint stores exactly this."""
+
+    iteration: int
+    parameters: np.ndarray
+    stats: RunningStats
+    nu: float
+    best_return: float
+    best_at_last_check: float
+    rng: np.random.Generator
+    """Draws each iteration's episode seeds."""
+
+    @classmethod
+    def start(cls, parameters: np.ndarray, stats: RunningStats, settings: RailSettings) -> TrainingState:
+        return cls(0, parameters.astype(np.float32), stats, settings.noise.initial, -np.inf, -np.inf,
+                   np.random.default_rng(settings.seed))
+
+
+@dataclass(frozen=True)
+class IterationLog:
+    """One row of the training log."""
+
+    iteration: int
+    env_steps: int
+    return_mean: float
+    return_max: float
+    return_std: float
+    nu: float
+    reward_std: float
+    discriminator_loss: float
+    discriminator_accuracy: float
+    collisions: int
+
+
+def rollout_return(rewards: np.ndarray, collided: bool, horizon: int, lowest_reward: float) -> float:
+    """Mean reward per decision; a collision's missing decisions up to `horizon` count at `lowest_reward`."""
+    if collided and len(rewards) < horizon:
+        return float((rewards.sum() + (horizon - len(rewards)) * lowest_reward) / horizon)
+    return float(rewards.mean())
+
+
+def run_iteration(state: TrainingState, shape: PolicyShape, config: Config, settings: RailSettings,
+                  discriminator: Discriminator, expert: Demonstrations, backend: RolloutBackend,
+                  on_rollout: Callable[[int, Any], None] | None = None) -> IterationLog:
+    """Advance `state` by one iteration in place and return its log row."""
+    n = settings.directions
+    seeds = [episode_seeds(Purpose.TRAIN, int(state.rng.integers(2**31)), 1)[0] for _ in range(n)]
+    noise_seed = settings.seed
+    mean, std = state.stats.mean.copy(), state.stats.std.copy()
+    tasks = [RolloutTask(config, shape, state.parameters, mean, std, noise_seed, state.iteration, k, sign, state.nu,
+                         seeds[k]) for k in range(n) for sign in (1, -1)]
+    trajectories: list[Trajectory] = backend.run(tasks, on_result=on_rollout)
+    policy_observations = np.concatenate([t.observations for t in trajectories])
+    policy_actions = np.concatenate([t.actions for t in trajectories])
+    report = discriminator.train(expert.observations, expert.actions, policy_observations, policy_actions)
+    horizon = round(config.env.max_episode_s / config.env.decision_period_s)
+    lowest = float(np.log(discriminator.settings.reward_clip) - np.log1p(-discriminator.settings.reward_clip))
+    returns = np.array([rollout_return(discriminator.reward(t.observations, t.actions), t.collided, horizon, lowest)
+                        for t in trajectories])
+    deltas = np.stack([direction(noise_seed, state.iteration, k, shape.parameter_count) for k in range(n)])
+    step = ars_update(state.parameters, deltas, returns[0::2], returns[1::2], settings.top, settings.step_size)
+    for trajectory in trajectories:
+        state.stats = state.stats.merge(RunningStats.of(trajectory.observations))
+    state.parameters = step.parameters
+    log = IterationLog(state.iteration, int(sum(t.steps for t in trajectories)), float(returns.mean()),
+                       float(returns.max()), float(returns.std()), state.nu, step.reward_std, report.loss,
+                       report.accuracy, int(sum(t.collided for t in trajectories)))
+    state.best_return = max(state.best_return, log.return_mean)
+    state.nu = adapt_noise(state.nu, state.iteration, state.best_at_last_check, state.best_return, settings.noise)
+    if (state.iteration + 1) % settings.noise.every == 0:
+        state.best_at_last_check = state.best_return
+    state.iteration += 1
+    return log

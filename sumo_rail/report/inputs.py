@@ -1,0 +1,185 @@
+"""Read what `sumo-rail report` plots: training run folders and evaluation metrics files, validated on the way in."""
+
+from __future__ import annotations
+
+import json
+import re
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import pandas as pd
+import pyarrow as pa
+
+from sumo_rail.datasets import read_metadata
+from sumo_rail.drivers.policies import Policy, load_policy
+from sumo_rail.evaluation.evaluate import SUMMARY_METRICS
+from sumo_rail.runners.tables import EPISODE_METRICS
+from sumo_rail.sim.actions import Action
+
+TRAINING_LOG = "training_log"
+LOG_COLUMNS = ("iteration", "env_steps", "return_mean", "return_max", "return_std", "wall_time_s")
+"""Columns of log.parquet the report needs."""
+EVAL_COLUMNS = ("eval_average_speed_kmh", "eval_overtakes", "eval_lane_changes", "eval_collisions")
+"""Validation columns of log.parquet the report shows; optional (older runs have none), null where not evaluated."""
+ACTION_NAMES = tuple(action.name.lower() for action in Action)
+"""Output units of every policy, in action order."""
+
+
+class ReportError(ValueError):
+    """An input of the report cannot be used (message is one sentence)."""
+
+
+@dataclass(frozen=True)
+class Run:
+    """A training run folder as the report sees it."""
+
+    name: str
+    """Unique label: the folder name (suffixed _2, _3... when two folders share it)."""
+    folder: Path
+    settings: dict[str, Any]
+    """run.json's settings ({} when run.json is absent)."""
+    log: pd.DataFrame
+    """log.parquet sorted by iteration, with `cumulative_env_steps` added and every EVAL_COLUMNS column present."""
+    policies: dict[str, tuple[Policy, str]]
+    """'BC' and/or the trained policy ('RAIL', or 'GAIL' for a `sumo-rail gail` run) -> (policy, file name); the
+    trained one is policy_latest.npz (what the tables evaluate), else policy_best.npz."""
+    observation_names: list[str]
+
+    @property
+    def kind(self) -> str:
+        """'linear', 'mlp (10 hidden)' or '?'."""
+        policy = next(iter(self.policies.values()), None)
+        kind = policy[0].shape.kind if policy else self.settings.get("kind", "?")
+        hidden = policy[0].shape.hidden if policy else self.settings.get("hidden")
+        return f"mlp ({hidden} hidden)" if kind == "mlp" else str(kind)
+
+    @property
+    def evaluated(self) -> pd.DataFrame:
+        """The log rows that hold validation metrics."""
+        return self.log.dropna(subset=["eval_average_speed_kmh"])
+
+
+@dataclass(frozen=True)
+class Inputs:
+    runs: list[Run]
+    metrics: pd.DataFrame | None
+    """All episodes of the metrics files, concatenated (driver names made unique across files), or None."""
+    metrics_files: list[Path]
+
+
+def read_inputs(paths: list[Path]) -> Inputs:
+    """Sort `paths` into run folders and metrics files and read them all; any unusable one raises ReportError."""
+    runs: list[Run] = []
+    metrics: list[tuple[Path, pd.DataFrame]] = []
+    for path in paths:
+        if path.is_dir():
+            runs.append(read_run(path, _unique(path.name, [run.name for run in runs])))
+        else:
+            metrics.append((path, read_metrics(path)))
+    return Inputs(runs, _concatenate(metrics), [path for path, _ in metrics])
+
+
+def read_run(folder: Path, name: str) -> Run:
+    """A run folder written by `sumo-rail train`: log.parquet (required), run.json and the policies (optional)."""
+    log_path = folder / "log.parquet"
+    if not log_path.is_file():
+        raise ReportError(f"{folder} is not a training run folder: it has no log.parquet")
+    kind = read_metadata(log_path).get("kind")
+    if kind != TRAINING_LOG:
+        raise ReportError(f"{log_path} holds {kind!r} data, not a training log")
+    log = _read_parquet(log_path)
+    _require_columns(log, LOG_COLUMNS, log_path)
+    if log.empty:
+        raise ReportError(f"{log_path} holds no iterations yet")
+    log = log.sort_values("iteration", ignore_index=True)
+    for column in EVAL_COLUMNS:
+        log[column] = pd.to_numeric(log[column], errors="coerce") if column in log else float("nan")
+    log["cumulative_env_steps"] = log["env_steps"].cumsum()
+    settings, method = _read_run_record(folder / "run.json")
+    policies: dict[str, tuple[Policy, str]] = {}
+    metadata: dict[str, Any] = {}
+    for label, files in (("BC", ("policy_bc.npz",)), (method, ("policy_latest.npz", "policy_best.npz"))):
+        file = next((file for file in files if (folder / file).is_file()), None)
+        if file is not None:
+            policy, metadata = load_policy(folder / file)
+            policies[label] = (policy, file)
+    if len({policy.shape for policy, _ in policies.values()}) > 1:
+        raise ReportError(f"the BC and {method} policies in {folder} have different shapes")
+    return Run(name, folder, settings, log, policies, _observation_names(policies, metadata))
+
+
+def read_metrics(path: Path) -> pd.DataFrame:
+    """An episode metrics file written by `sumo-rail evaluate --out`."""
+    kind = read_metadata(path).get("kind")
+    if kind == TRAINING_LOG:
+        raise ReportError(f"{path} is a training log; pass its run folder {path.parent} instead")
+    if kind != EPISODE_METRICS:
+        raise ReportError(f"{path} holds {kind!r} data, not evaluation metrics")
+    metrics = _read_parquet(path)
+    _require_columns(metrics, ("policy", *SUMMARY_METRICS), path)
+    if metrics.empty:
+        raise ReportError(f"{path} holds no episodes")
+    return metrics
+
+
+def file_label(name: str) -> str:
+    """`name` reduced to characters safe in file names and Markdown links."""
+    return re.sub(r"[^A-Za-z0-9_.-]+", "_", name)
+
+
+def _read_parquet(path: Path) -> pd.DataFrame:
+    try:
+        return pd.read_parquet(path)
+    except (pa.ArrowException, OSError, ValueError) as error:
+        raise ReportError(f"{path} is not a readable Parquet file ({error})") from error
+
+
+def _require_columns(table: pd.DataFrame, columns: tuple[str, ...], path: Path) -> None:
+    missing = [column for column in columns if column not in table]
+    if missing:
+        raise ReportError(f"{path} lacks the column(s) {', '.join(missing)}")
+
+
+def _read_run_record(path: Path) -> tuple[dict[str, Any], str]:
+    """run.json's settings and the training method ('GAIL' for a gail run, else 'RAIL'); ({}, 'RAIL') without it."""
+    if not path.is_file():
+        return {}, "RAIL"
+    try:
+        record = json.loads(path.read_text())
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as error:
+        raise ReportError(f"{path} is not readable JSON ({error})") from error
+    settings = record.get("settings", {}) if isinstance(record, dict) else None
+    if not isinstance(settings, dict):
+        raise ReportError(f"{path} is not a sumo-rail run record")
+    return settings, "GAIL" if record.get("kind") == "gail_run" else "RAIL"
+
+
+def _observation_names(policies: dict[str, tuple[Policy, str]], metadata: dict[str, Any]) -> list[str]:
+    """The stored feature names when they fit the policies, else x0, x1..."""
+    if not policies:
+        return []
+    size = next(iter(policies.values()))[0].shape.observation_size
+    names = metadata.get("observation_names")
+    if isinstance(names, list) and len(names) == size:
+        return [str(name) for name in names]
+    return [f"x{index}" for index in range(size)]
+
+
+def _unique(name: str, taken: list[str]) -> str:
+    label, count = file_label(name), 1
+    while label in taken:
+        count += 1
+        label = f"{file_label(name)}_{count}"
+    return label
+
+
+def _concatenate(files: list[tuple[Path, pd.DataFrame]]) -> pd.DataFrame | None:
+    """One table of all episodes; a driver name found in several files becomes 'name [file stem]' in each."""
+    if not files:
+        return None
+    counts = pd.Series([name for _, table in files for name in dict.fromkeys(table["policy"])]).value_counts()
+    shared = set(counts[counts > 1].index)
+    tables = [table.assign(policy=[f"{name} [{path.stem}]" if name in shared else name for name in table["policy"]])
+              for path, table in files]
+    return pd.concat(tables, ignore_index=True)

@@ -1,0 +1,361 @@
+"""Rollout backends: run picklable tasks in the calling process or on a crash-tolerant pool of worker processes.
+
+libsumo allows one simulation per process, so parallel episodes need one long-lived worker process each, owning a
+`WorkerContext` (and through it one `HighwayEnv`) for its whole life. `ProcessPoolBackend` spawns the workers on
+its first `run`, hands each idle worker the next pending task, replaces a worker that dies or exceeds the task
+timeout and resubmits only the task it was running, and returns the results in task order.
+"""
+
+from __future__ import annotations
+
+import logging
+import multiprocessing
+import os
+import pickle
+import signal
+import threading
+import time
+import traceback
+import weakref
+from collections import deque
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from multiprocessing.connection import Connection, wait
+from multiprocessing.process import BaseProcess
+from types import TracebackType
+from typing import Any, Protocol, Self
+
+from sumo_rail.config import Config
+from sumo_rail.sim.env import HighwayEnv
+
+log = logging.getLogger(__name__)
+
+_STOP_TIMEOUT_S = 2.0
+"""How long `close` waits for workers to stop by themselves before killing them [s]."""
+_EXIT_TIMEOUT_S = 1.0
+"""How long a worker whose pipe reached end-of-file may take to exit before it is killed [s]."""
+_READY = "ready"
+"""What a worker sends once it has started, before its first task."""
+_STOP = None
+"""What the parent sends to ask an idle worker to stop."""
+_GONE = object()
+"""What `_receive` returns when a worker exited without sending a message."""
+
+
+class Task(Protocol):
+    """A picklable unit of work; must be a top-level class so spawned workers can unpickle it."""
+
+    def run(self, context: WorkerContext) -> Any: ...
+
+
+class WorkerContext:
+    """Per-process state of a worker: caches one HighwayEnv per Config (libsumo allows one simulation per
+    process, so when a task asks for a different Config the old env is closed first)."""
+
+    def __init__(self, render_mode: str | None = None) -> None:
+        self._render_mode = render_mode
+        self._config: Config | None = None
+        self._env: HighwayEnv | None = None
+
+    def env(self, config: Config) -> HighwayEnv:
+        """The env of `config`, created on first use and kept for later tasks with an equal config."""
+        if self._env is None or self._config != config:
+            self.close()
+            self._env, self._config = HighwayEnv(config, render_mode=self._render_mode), config
+        return self._env
+
+    def close(self) -> None:
+        """Close the cached env, if any."""
+        if self._env is not None:
+            env, self._env, self._config = self._env, None, None
+            env.close()
+
+
+class BackendError(RuntimeError):
+    """The backend could not complete the tasks (one-sentence message)."""
+
+
+class TaskError(BackendError):
+    """A task raised an exception in a worker; message names the task index and the worker's exception type and
+    message. Not retried (it would fail again)."""
+
+
+class RolloutBackend(Protocol):
+    """Runs tasks and returns their results in task order; usable as a context manager that closes it."""
+
+    workers: int
+
+    def run(self, tasks: Sequence[Task], on_result: Callable[[int, Any], None] | None = None) -> list[Any]:
+        """Run every task exactly once (per successful completion); results in task order, whatever order they
+        finished in; on_result(index, result) is called in the calling process as each result arrives (for
+        progress bars)."""
+        ...
+
+    def close(self) -> None:
+        """Release the backend's resources; idempotent."""
+        ...
+
+    def __enter__(self) -> Self:
+        return self
+
+    def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
+                 tb: TracebackType | None) -> None:
+        self.close()
+
+
+class SerialBackend(RolloutBackend):
+    """Runs tasks one after the other in the calling process, with its own `WorkerContext` (whose envs use
+    `render_mode`, e.g. "human" to watch episodes in sumo-gui)."""
+
+    def __init__(self, render_mode: str | None = None) -> None:
+        self.workers = 1
+        self._context = WorkerContext(render_mode)
+        self._closed = False
+
+    def run(self, tasks: Sequence[Task], on_result: Callable[[int, Any], None] | None = None) -> list[Any]:
+        if self._closed:
+            raise BackendError("the serial backend is closed")
+        results = []
+        for index, task in enumerate(tasks):
+            try:
+                result = task.run(self._context)
+            except Exception as exc:
+                raise TaskError(f"task {index} raised {type(exc).__name__}: {exc}") from exc
+            results.append(result)
+            if on_result is not None:
+                on_result(index, result)
+        return results
+
+    def close(self) -> None:
+        self._closed = True
+        self._context.close()
+
+
+@dataclass
+class _Worker:
+    """The parent's view of one worker process."""
+
+    process: BaseProcess
+    conn: Connection
+    ready: bool = False
+    """The worker has started and can take tasks."""
+    task: int | None = None
+    """Index of the task it is running."""
+    deadline: float | None = None
+    """`time.monotonic()` after which its task counts as timed out."""
+
+    def waitables(self) -> list[Any]:
+        return [self.conn, self.process.sentinel]
+
+
+def check_pool_settings(workers: int, task_timeout_s: float | None, max_attempts: int) -> None:
+    """Raise ValueError unless workers >= 1, task_timeout_s is None or > 0 [s], and max_attempts >= 1."""
+    if workers < 1:
+        raise ValueError(f"workers must be at least 1, got {workers}")
+    if task_timeout_s is not None and task_timeout_s <= 0:
+        raise ValueError(f"task_timeout_s must be positive or None, got {task_timeout_s}")
+    if max_attempts < 1:
+        raise ValueError(f"max_attempts must be at least 1, got {max_attempts}")
+
+
+class ProcessPoolBackend(RolloutBackend):
+    """Long-lived spawned worker processes, one task at a time each; a worker that dies or times out is replaced
+    and only its task is resubmitted, at most `max_attempts` times in all."""
+
+    def __init__(self, workers: int, task_timeout_s: float | None = None, max_attempts: int = 3) -> None:
+        check_pool_settings(workers, task_timeout_s, max_attempts)
+        self.workers = workers
+        self.task_timeout_s = task_timeout_s
+        self.max_attempts = max_attempts
+        self._context = multiprocessing.get_context("spawn")
+        self._pool: list[_Worker] = []
+        # Holds the list, not self, so that garbage collection or interpreter exit stops the workers too.
+        self._finalizer = weakref.finalize(self, _stop_workers, self._pool)
+
+    @property
+    def pids(self) -> list[int]:
+        """Process ids of the current workers (empty before the first run and after close)."""
+        return [worker.process.pid for worker in self._pool if worker.process.pid is not None]
+
+    def run(self, tasks: Sequence[Task], on_result: Callable[[int, Any], None] | None = None) -> list[Any]:
+        if not self._finalizer.alive:
+            raise BackendError("the process pool backend is closed")
+        results: list[Any] = [None] * len(tasks)
+        pending = deque(range(len(tasks)))
+        attempts = [0] * len(tasks)
+        remaining = len(tasks)
+        try:
+            while remaining:
+                self._replace_dead_idle_workers()
+                for worker in self._pool:
+                    if pending and worker.ready and worker.task is None:
+                        index = pending.popleft()
+                        attempts[index] += 1
+                        self._assign(worker, index, tasks[index])
+                active = [worker for worker in self._pool if worker.task is not None or not worker.ready]
+                events = set(wait([w for worker in active for w in worker.waitables()], self._wait_timeout(active)))
+                for worker in active:
+                    if events.isdisjoint(worker.waitables()):
+                        if worker.deadline is not None and time.monotonic() > worker.deadline:
+                            self._retire(worker, 0.0)
+                            self._resubmit(worker.task, f"timed out after {self.task_timeout_s} s", attempts, pending)
+                        continue
+                    message = self._receive(worker)
+                    if message is _GONE:
+                        code = self._retire(worker, _EXIT_TIMEOUT_S)
+                        self._resubmit(worker.task, f"worker exited with code {code}", attempts, pending)
+                    elif not worker.ready:
+                        worker.ready = True
+                    else:
+                        index, worker.task, worker.deadline = worker.task, None, None
+                        ok, payload = message
+                        if not ok:
+                            type_name, text, trace = payload
+                            log.debug("task %d raised in worker %d:\n%s", index, worker.process.pid, trace)
+                            raise TaskError(f"task {index} raised {type_name}: {text}")
+                        results[index] = payload
+                        remaining -= 1
+                        if on_result is not None:
+                            on_result(index, payload)
+        finally:
+            # Only after an exception: tasks still running must not deliver their results to the next run.
+            for worker in [worker for worker in self._pool if worker.task is not None]:
+                self._retire(worker, 0.0)
+        return results
+
+    def close(self) -> None:
+        self._finalizer()
+
+    def _start_worker(self) -> None:
+        parent_conn, child_conn = self._context.Pipe(duplex=True)
+        process = self._context.Process(target=_worker_main, args=(child_conn,), name="sumo-rail-worker", daemon=True)
+        process.start()
+        child_conn.close()
+        self._pool.append(_Worker(process, parent_conn))
+
+    def _replace_dead_idle_workers(self) -> None:
+        for worker in [worker for worker in self._pool if worker.ready and worker.task is None]:
+            if not worker.process.is_alive():
+                log.warning("idle worker %d exited with code %s; starting a new one", worker.process.pid,
+                            self._retire(worker, 0.0))
+        while len(self._pool) < self.workers:
+            self._start_worker()
+
+    def _assign(self, worker: _Worker, index: int, task: Task) -> None:
+        try:
+            data = pickle.dumps(task, protocol=pickle.HIGHEST_PROTOCOL)
+        except Exception as exc:
+            raise BackendError(f"task {index} cannot be sent to a worker ({type(exc).__name__}: {exc})") from exc
+        worker.task = index
+        worker.deadline = None if self.task_timeout_s is None else time.monotonic() + self.task_timeout_s
+        try:
+            worker.conn.send_bytes(data)
+        except OSError:
+            pass  # The worker has died; its sentinel reports it and the task is retried.
+
+    def _wait_timeout(self, active: list[_Worker]) -> float | None:
+        deadlines = [worker.deadline for worker in active if worker.deadline is not None]
+        return max(0.0, min(deadlines) - time.monotonic()) if deadlines else None
+
+    @staticmethod
+    def _receive(worker: _Worker) -> Any:
+        """The worker's next message, or `_GONE` if its process has exited without sending one."""
+        try:
+            if worker.conn.poll():
+                return worker.conn.recv()
+        except (EOFError, OSError):
+            pass
+        return _GONE
+
+    def _resubmit(self, index: int | None, cause: str, attempts: list[int], pending: deque[int]) -> None:
+        """Queue task `index` again after a worker got no result because of `cause`, if attempts remain."""
+        if index is None:
+            raise BackendError(f"a worker process could not start: {cause}")
+        if attempts[index] >= self.max_attempts:
+            raise BackendError(f"task {index} got no result in {attempts[index]} attempts (last: {cause})")
+        log.warning("task %d: %s; retrying it (attempt %d of %d)", index, cause, attempts[index] + 1, self.max_attempts)
+        pending.appendleft(index)
+
+    def _retire(self, worker: _Worker, timeout_s: float) -> int | None:
+        """Remove `worker` from the pool, killing it unless it exits within `timeout_s`; returns its exit code."""
+        self._pool.remove(worker)
+        return _end_worker(worker, timeout_s)
+
+
+def _end_worker(worker: _Worker, timeout_s: float) -> int | None:
+    """Wait up to `timeout_s` for `worker` to exit, then kill it, and release its pipe; returns its exit code."""
+    process = worker.process
+    process.join(timeout_s)
+    if process.is_alive():
+        process.kill()
+        process.join()
+    worker.conn.close()
+    exit_code = process.exitcode
+    process.close()
+    return exit_code
+
+
+def _stop_workers(pool: list[_Worker]) -> None:
+    """Ask every worker to stop, give them `_STOP_TIMEOUT_S` in all, then kill the rest."""
+    for worker in pool:
+        try:
+            worker.conn.send_bytes(pickle.dumps(_STOP))
+        except OSError:
+            pass  # Already gone.
+    deadline = time.monotonic() + _STOP_TIMEOUT_S
+    for worker in pool:
+        _end_worker(worker, max(0.0, deadline - time.monotonic()))
+    pool.clear()
+
+
+def _worker_main(conn: Connection) -> None:
+    """Entry point of a worker process: run the tasks received on `conn` until told to stop or the parent is gone."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    threading.Thread(target=_exit_when_parent_dies, name="parent-watchdog", daemon=True).start()
+    context = WorkerContext()
+    try:
+        if not _reply(conn, _READY):
+            return
+        while True:
+            try:
+                data = conn.recv_bytes()
+            except (EOFError, OSError):
+                return
+            try:
+                task = pickle.loads(data)
+                if task is _STOP:
+                    return
+                reply = (True, task.run(context))
+            except Exception as exc:
+                reply = (False, _describe(exc))
+            if not _reply(conn, reply):
+                return
+    finally:
+        context.close()
+        conn.close()
+
+
+def _exit_when_parent_dies() -> None:
+    """Exit the worker as soon as its parent is gone, even in the middle of a task, so that it is never orphaned."""
+    parent = multiprocessing.parent_process()
+    if parent is not None:
+        wait([parent.sentinel])
+        os._exit(1)
+
+
+def _reply(conn: Connection, message: Any) -> bool:
+    """Send `message` to the parent (an error reply if it cannot be pickled); False if the parent is gone."""
+    try:
+        data = pickle.dumps(message, protocol=pickle.HIGHEST_PROTOCOL)
+    except Exception as exc:
+        data = pickle.dumps((False, _describe(exc)), protocol=pickle.HIGHEST_PROTOCOL)
+    try:
+        conn.send_bytes(data)
+    except OSError:
+        return False
+    return True
+
+
+def _describe(exc: Exception) -> tuple[str, str, str]:
+    """Type name, message and formatted traceback of `exc`, for the parent."""
+    return type(exc).__name__, str(exc), "".join(traceback.format_exception(exc))

@@ -1,0 +1,143 @@
+"""Drivers and episodes: `run_episode(env, driver, seed)` is a pure function of its inputs.
+
+A driver maps (observation, traffic view) to an action. Drivers cross process boundaries as small picklable
+recipes (`DriverSpec`) and are built per episode, so a driver's randomness comes from the episode's seed.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, Protocol
+
+import numpy as np
+
+from sumo_rail.config import Config
+from sumo_rail.drivers.expert import DEFAULT_STYLE, make_expert
+from sumo_rail.drivers.policies import Policy
+from sumo_rail.sim.actions import Action
+from sumo_rail.sim.env import HighwayEnv, TrafficView
+
+if TYPE_CHECKING:
+    from sumo_rail.runners.backends import WorkerContext
+
+Driver = Callable[[np.ndarray, TrafficView], int]
+ACTION_COLUMNS = tuple(f"action_{action.name.lower()}" for action in Action)
+"""Metrics columns counting each action, in action order."""
+
+
+class DriverSpec(Protocol):
+    """A picklable recipe for a driver."""
+
+    @property
+    def name(self) -> str: ...
+
+    def create(self, config: Config, seed: int) -> Driver: ...
+
+
+@dataclass(frozen=True)
+class KeepDriver:
+    """Never acts: keeps its lane and set-point."""
+
+    name: str = "keep"
+
+    def create(self, config: Config, seed: int) -> Driver:
+        return lambda observation, traffic: int(Action.KEEP)
+
+
+@dataclass(frozen=True)
+class RandomDriver:
+    """Uniformly random actions, seeded by the episode's seed."""
+
+    name: str = "random"
+
+    def create(self, config: Config, seed: int) -> Driver:
+        rng = np.random.default_rng(seed)
+        return lambda observation, traffic: int(rng.integers(len(Action)))
+
+
+@dataclass(frozen=True)
+class ExpertDriver:
+    """The rule-based expert of one style."""
+
+    style: str = DEFAULT_STYLE
+
+    @property
+    def name(self) -> str:
+        return f"expert-{self.style}"
+
+    def create(self, config: Config, seed: int) -> Driver:
+        return make_expert(self.style, config.env.speed_step_mps)
+
+
+@dataclass(frozen=True)
+class PolicyDriver:
+    """A learned policy: argmax of its logits on the observation."""
+
+    policy: Policy
+    name: str
+
+    def create(self, config: Config, seed: int) -> Driver:
+        act = self.policy.act
+        return lambda observation, traffic: act(observation)
+
+
+@dataclass
+class EpisodeResult:
+    """One episode: its metrics row and, when recorded, one entry per decision in each step column."""
+
+    metrics: dict[str, Any]
+    steps: dict[str, np.ndarray] | None
+
+
+def run_episode(env: HighwayEnv, driver: Driver, seed: int, record: bool = False) -> EpisodeResult:
+    """Reset with `seed` and drive until the episode ends; `record` keeps every (state, action, reward)."""
+    observation, info = env.reset(seed=seed)
+    rows: list[tuple[Any, ...]] = []
+    observations: list[np.ndarray] = []
+    done = terminated = truncated = False
+    while not done:
+        action = driver(observation, env.traffic)
+        state = (info["speed_mps"], info["lane"], info["position_m"], info["set_point_mps"])
+        if record:
+            observations.append(observation)
+        observation, reward, terminated, truncated, info = env.step(action)
+        if record:
+            rows.append((action, reward, info["reward_longitudinal"], info["reward_lateral"],
+                         info["reward_collision"], *state, info["lane_change_in_progress"]))
+        done = terminated or truncated
+    m = env.metrics
+    metrics: dict[str, Any] = {
+        "seed": seed, "steps": m.decisions, "simulated_s": m.simulated_s, "distance_m": m.distance_m,
+        "average_speed_kmh": m.average_speed_mps * 3.6, "overtakes": m.overtakes, "overtaken": m.overtaken,
+        "lane_changes": m.lane_changes, "longitudinal_reward": m.longitudinal_reward,
+        "lateral_reward": m.lateral_reward, "collisions": m.collisions, "hard_braking": m.hard_braking,
+        "teleports": m.teleports, "invalid_actions": m.invalid_actions,
+        **dict(zip(ACTION_COLUMNS, m.action_counts, strict=True)),
+        "termination": info["termination"], "terminated": terminated, "truncated": truncated,
+    }
+    return EpisodeResult(metrics, _step_columns(observations, rows) if record else None)
+
+
+_STEP_FIELDS = ("action", "reward", "reward_longitudinal", "reward_lateral", "reward_collision", "speed_mps",
+                "lane", "position_m", "set_point_mps", "lane_change_in_progress")
+
+
+def _step_columns(observations: list[np.ndarray], rows: list[tuple[Any, ...]]) -> dict[str, np.ndarray]:
+    columns = {name: np.array(values) for name, values in zip(_STEP_FIELDS, zip(*rows, strict=True), strict=True)}
+    columns["observation"] = np.stack(observations).astype(np.float32)
+    return columns
+
+
+@dataclass(frozen=True)
+class EpisodeTask:
+    """One episode to run on a backend worker."""
+
+    config: Config
+    driver: DriverSpec
+    seed: int
+    record: bool = False
+
+    def run(self, context: WorkerContext) -> EpisodeResult:
+        env = context.env(self.config)
+        return run_episode(env, self.driver.create(self.config, self.seed), self.seed, self.record)

@@ -1,0 +1,224 @@
+"""`HighwayEnv`: the Gymnasium environment composing the simulation, LIDAR, actions and rewards.
+
+Each reset draws, from the env's `np_random`, the warm traffic state, SUMO's seed, the ego's start lane and
+position, so `reset(seed=s)` followed by the same actions reproduces the same episode. One decision lasts
+`env.decision_period_s`; the reward of a decision is longitudinal + lateral, or `collision_reward` when the
+ego collides (the episode then terminates). Reaching the end of the road or the time limit truncates it.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import gymnasium
+import numpy as np
+from gymnasium import spaces
+
+from sumo_rail.config import Config
+from sumo_rail.sim import lidar
+from sumo_rail.sim.actions import Action, command_for
+from sumo_rail.sim.observation import build_observation, observation_space
+from sumo_rail.sim.rewards import EpisodeMetrics, OvertakeCounter, lateral_reward, longitudinal_reward, relations
+from sumo_rail.sim.simulation import TRANSPORTS, EgoState, Neighbours, PeriodReport, Simulation
+
+_SUMO_SEED_BOUND = 2**31 - 1
+
+
+@dataclass(frozen=True)
+class EpisodeStart:
+    """Everything a reset draws from the env's `np_random`, in this order."""
+
+    snapshot: int
+    sumo_seed: int
+    ego_lane: int
+    ego_position_m: float
+
+    @classmethod
+    def draw(cls, rng: np.random.Generator, config: Config, snapshots: int) -> EpisodeStart:
+        return cls(snapshot=int(rng.integers(snapshots)),
+                   sumo_seed=int(rng.integers(_SUMO_SEED_BOUND)),
+                   ego_lane=int(rng.integers(config.scenario.lanes)),
+                   ego_position_m=float(rng.uniform(config.env.ego_start_min_m, config.env.ego_start_max_m)))
+
+
+@dataclass(frozen=True)
+class TrafficView:
+    """Privileged view of the traffic at the last decision, for rule-based drivers such as the expert."""
+
+    ego: EgoState
+    neighbours: Neighbours
+    set_point_mps: float
+    """The ego's current cruise set-point [m/s]."""
+    lanes: int
+
+
+_CONTEXT_MARGIN_M = 20.0
+"""Extra context-subscription radius so that long vehicles whose front is just out of LIDAR range are seen."""
+
+
+class HighwayEnv(gymnasium.Env[np.ndarray, np.int64]):
+    """Five-lane SUMO highway with a 24-beam LIDAR and five high-level actions; `transport` drives SUMO through
+    libsumo (in-process, the fast default) or traci (a `sumo` process over a socket); rendering implies traci."""
+
+    metadata = {"render_modes": ["human"], "render_fps": 2}  # noqa: RUF012 - Gymnasium's class attribute
+
+    def __init__(self, config: Config | None = None, render_mode: str | None = None,
+                 transport: str = "libsumo") -> None:
+        if render_mode not in (None, "human"):
+            raise ValueError(f"render_mode must be None or 'human' (sumo-gui), got {render_mode!r}")
+        if transport not in TRANSPORTS:
+            raise ValueError(f"transport must be one of {', '.join(TRANSPORTS)}, got {transport!r}")
+        self.transport = transport
+        self.config = config or Config()
+        self.render_mode = render_mode
+        self.observation_space = observation_space(self.config)
+        self.action_space = spaces.Discrete(len(Action))
+        scenario, env = self.config.scenario, self.config.env
+        self._steps_per_decision = env.steps_per_decision(scenario.step_length_s)
+        self._sim: Simulation | None = None
+        self._edge_boxes: lidar.Boxes | None = None
+        self._set_point = env.v_min_mps
+        self._lane = 0
+        self._changing_lane = False
+        self._start_time_s = self._start_position_m = 0.0
+        self._last_observation = np.zeros(self.observation_space.shape, dtype=np.float32)
+        self._metrics = EpisodeMetrics()
+        self._overtakes = OvertakeCounter()
+        self._traffic: TrafficView | None = None
+
+    @property
+    def metrics(self) -> EpisodeMetrics:
+        """Totals of the current episode."""
+        return self._metrics
+
+    @property
+    def traffic(self) -> TrafficView:
+        """The ego and its neighbours at the last decision (read directly from SUMO, not from the LIDAR)."""
+        if self._traffic is None:
+            raise RuntimeError("call reset() before reading the traffic")
+        return self._traffic
+
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None,
+              ) -> tuple[np.ndarray, dict[str, Any]]:
+        super().reset(seed=seed)
+        cfg = self.config
+        if self._sim is None:
+            self._sim = Simulation(cfg.scenario, cfg.lidar.range_m + _CONTEXT_MARGIN_M,
+                                   gui=self.render_mode == "human", transport=self.transport)
+        sim = self._sim
+        sim.reset(**dataclasses.asdict(EpisodeStart.draw(self.np_random, cfg, sim.snapshot_count)))
+        if self._edge_boxes is None:
+            self._edge_boxes = lidar.edge_boxes(sim.road_edges())
+        ego, neighbours = sim.observe()
+        self._set_point = min(max(ego.speed_mps, cfg.env.v_min_mps), cfg.env.v_max_mps)
+        sim.set_cruise_speed(self._set_point)
+        self._lane = ego.lane
+        self._changing_lane = ego.changing_lane
+        self._start_time_s, self._start_position_m = sim.time_s, ego.lane_position_m
+        self._metrics = EpisodeMetrics()
+        self._overtakes = OvertakeCounter()
+        self._overtakes.update(neighbours.ids, self._relations(ego, neighbours))
+        self._last_observation = self._observe(ego, neighbours, ego.changing_lane)
+        self._traffic = TrafficView(ego, neighbours, self._set_point, cfg.scenario.lanes)
+        return self._last_observation, self._info(ego, 0.0, 0.0, 0.0, False, "")
+
+    def step(self, action: int | np.integer) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        if self._sim is None:
+            raise RuntimeError("call reset() before step()")
+        fast_path_valid = isinstance(action, int | np.integer) and 0 <= action < self.action_space.n
+        if not (fast_path_valid or self.action_space.contains(action)):
+            raise ValueError(f"action must be an integer in [0, {self.action_space.n}), got {action!r}")
+        cfg, sim, metrics = self.config, self._sim, self._metrics
+        chosen = Action(int(action))
+        command = command_for(chosen, self._set_point, self._lane, cfg.scenario.lanes, cfg.env.speed_step_mps,
+                              cfg.env.v_min_mps, cfg.env.v_max_mps)
+        if command.set_point_mps != self._set_point:
+            self._set_point = command.set_point_mps
+            sim.set_cruise_speed(self._set_point)
+        if command.target_lane is not None:
+            sim.request_lane_change(command.target_lane, cfg.env.decision_period_s)
+        was_changing_lane = self._changing_lane
+        report = sim.advance(self._steps_per_decision)
+        metrics.decisions += 1
+        metrics.action_counts[chosen] += 1
+        metrics.invalid_actions += command.invalid
+        metrics.teleports += report.teleports
+        if report.ego_collided or report.ego_left_network:
+            return self._ego_gone(report)
+        ego, neighbours = sim.observe()
+        # A change under way at either end of the period, or one that moved the ego to another lane within it.
+        changing = was_changing_lane or ego.changing_lane or ego.lane != self._lane
+        self._changing_lane = ego.changing_lane
+        metrics.lane_changes += abs(ego.lane - self._lane)
+        self._lane = ego.lane
+        r_long = longitudinal_reward(ego.speed_mps, cfg.env.v_min_mps, cfg.env.v_max_mps)
+        r_lat = lateral_reward(changing, cfg.env.lane_change_reward)
+        metrics.longitudinal_reward += r_long
+        metrics.lateral_reward += r_lat
+        metrics.hard_braking += report.min_acceleration_mps2 < -cfg.env.hard_brake_mps2
+        metrics.overtakes += self._overtakes.update(neighbours.ids, self._relations(ego, neighbours))
+        metrics.overtaken = self._overtakes.overtaken
+        metrics.speed_sum_mps += ego.speed_mps
+        metrics.simulated_s = sim.time_s - self._start_time_s
+        metrics.distance_m = ego.lane_position_m - self._start_position_m
+        reason = ""
+        if ego.lane_position_m >= cfg.scenario.length_m - cfg.env.end_margin_m:
+            reason = "end_of_road"
+        elif metrics.simulated_s >= cfg.env.max_episode_s - 1e-9:
+            reason = "time_limit"
+        self._last_observation = self._observe(ego, neighbours, ego.changing_lane)
+        self._traffic = TrafficView(ego, neighbours, self._set_point, cfg.scenario.lanes)
+        info = self._info(ego, r_long, r_lat, 0.0, changing, reason)
+        return self._last_observation, r_long + r_lat, False, bool(reason), info
+
+    def _ego_gone(self, report: PeriodReport) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        """The ego collided (terminated) or left the network (truncated); the last observation is repeated."""
+        metrics = self._metrics
+        metrics.simulated_s = self._sim.time_s - self._start_time_s if self._sim else metrics.simulated_s
+        if report.ego_collided:
+            metrics.collisions += 1
+            reward, reason = self.config.env.collision_reward, "collision"
+        else:
+            reward, reason = 0.0, "end_of_road"
+        info = self._totals() | {"reward_longitudinal": 0.0, "reward_lateral": 0.0,
+                                 "reward_collision": reward, "termination": reason}
+        return self._last_observation, reward, report.ego_collided, not report.ego_collided, info
+
+    def _relations(self, ego: EgoState, neighbours: Neighbours) -> np.ndarray:
+        return relations(ego.lane_position_m, ego.length_m, neighbours.lane_position_m, neighbours.length_m)
+
+    def _observe(self, ego: EgoState, neighbours: Neighbours, lane_change_in_progress: bool) -> np.ndarray:
+        cos_h, sin_h = math.cos(ego.heading_rad), math.sin(ego.heading_rad)
+        half = 0.5 * ego.length_m
+        centre = np.array([ego.front_x - half * cos_h, ego.front_y - half * sin_h])
+        vehicles = lidar.Boxes.from_front(neighbours.front_xy, neighbours.heading_rad, neighbours.length_m,
+                                          neighbours.width_m, neighbours.speed_mps)
+        distances, relative_speeds = lidar.scan(centre, ego.heading_rad, ego.speed_mps * np.array([cos_h, sin_h]),
+                                                lidar.stack(vehicles, self._edge_boxes), self.config.lidar.beams,
+                                                self.config.lidar.range_m)
+        return build_observation(self.config, distances, relative_speeds, ego.speed_mps, self._set_point, ego.lane,
+                                 lane_change_in_progress)
+
+    def _totals(self) -> dict[str, Any]:
+        m = self._metrics
+        return {"lane_changes": m.lane_changes, "overtakes": m.overtakes, "overtaken": m.overtaken,
+                "collisions": m.collisions, "hard_braking": m.hard_braking, "teleports": m.teleports,
+                "invalid_actions": m.invalid_actions, "time_s": m.simulated_s, "distance_m": m.distance_m}
+
+    def _info(self, ego: EgoState, r_long: float, r_lat: float, r_collision: float, changing: bool,
+              reason: str) -> dict[str, Any]:
+        return self._totals() | {
+            "speed_mps": ego.speed_mps, "lane": ego.lane, "position_m": ego.lane_position_m,
+            "set_point_mps": self._set_point, "lane_change_in_progress": changing,
+            "reward_longitudinal": r_long, "reward_lateral": r_lat, "reward_collision": r_collision,
+            "termination": reason,
+        }
+
+    def close(self) -> None:
+        if self._sim is not None:
+            self._sim.close()
+            self._sim = None
+        super().close()

@@ -1,0 +1,335 @@
+"""The one module that talks to SUMO: libsumo in-process (the default), traci over a socket to a `sumo` process,
+or traci + sumo-gui when a window is asked for.
+
+Episodes start from warm traffic states: one warm-up run per scenario saves `snapshots` states (cached on
+disk, shared by every process), and each reset reloads one of them with a fresh `--seed`, so arrivals,
+desired speeds of new vehicles and driver imperfection differ between episode seeds while one seed always
+gives the same traffic. (`simulation.loadState` is not used: it does not restore SUMO's random number
+generators, so it is not reproducible; a reload with `--load-state` is, and takes about 10 ms.)
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import logging
+import math
+import os
+from dataclasses import dataclass
+from pathlib import Path
+from types import ModuleType
+
+import numpy as np
+
+from sumo_rail.config import ScenarioConfig
+from sumo_rail.sim import network
+
+log = logging.getLogger(__name__)
+
+EGO_ID = "ego"
+LANE_CHANGE_MODE_TRACI_ONLY_SAFE = 0b1100000000
+"""No autonomous lane changes; TraCI requests respect other drivers' gaps, without speed adaptation."""
+_LATERAL_EPSILON_M = 0.01
+_ACTIVE_LIBSUMO: Simulation | None = None
+TRANSPORTS = ("libsumo", "traci")
+"""How SUMO is driven: libsumo (SUMO linked into this process) or traci (a SUMO process, over a socket)."""
+
+
+class SimulationError(RuntimeError):
+    """SUMO could not do what was asked (message is one sentence)."""
+
+
+@dataclass(frozen=True)
+class EgoState:
+    """The ego at the end of the last step. Positions [m], speed [m/s], heading [rad, math convention]."""
+
+    front_x: float
+    front_y: float
+    heading_rad: float
+    speed_mps: float
+    lane: int
+    lane_position_m: float
+    lateral_offset_m: float
+    """Distance of the ego's centre from its lane's centre line [m]; non-zero only while changing lanes."""
+    length_m: float
+    width_m: float
+
+    @property
+    def changing_lane(self) -> bool:
+        """The ego is between lanes (a lane change is under way)."""
+        return abs(self.lateral_offset_m) > _LATERAL_EPSILON_M
+
+
+@dataclass(frozen=True)
+class Neighbours:
+    """Vehicles around the ego (excluding it), from one context subscription; arrays have one row each."""
+
+    ids: tuple[str, ...]
+    front_xy: np.ndarray
+    """Front-bumper centres [m], shape (M, 2)."""
+    heading_rad: np.ndarray
+    """Headings [rad], 0 = +x, counter-clockwise, shape (M,)."""
+    speed_mps: np.ndarray
+    lane_position_m: np.ndarray
+    """Front-bumper distance from the start of the road [m]."""
+    length_m: np.ndarray
+    width_m: np.ndarray
+    lane: np.ndarray
+    """Lane index (0 = rightmost), shape (M,) int."""
+
+
+@dataclass(frozen=True)
+class PeriodReport:
+    """What happened during the SUMO steps of one decision period."""
+
+    ego_collided: bool
+    ego_left_network: bool
+    ego_teleported: bool
+    min_acceleration_mps2: float
+    teleports: int
+
+
+def sumo_heading_rad(angle_deg: float | np.ndarray) -> float | np.ndarray:
+    """SUMO's angle (degrees, 0 = north, clockwise) to a math heading (radians, 0 = +x, counter-clockwise)."""
+    return np.radians(90.0 - np.asarray(angle_deg)) if isinstance(angle_deg, np.ndarray) else math.radians(
+        90.0 - angle_deg)
+
+
+class Simulation:
+    """One SUMO instance for the ego's episodes on one scenario; `gui` implies the traci transport."""
+
+    def __init__(self, scenario: ScenarioConfig, context_radius_m: float, gui: bool = False,
+                 transport: str = "libsumo") -> None:
+        global _ACTIVE_LIBSUMO
+        if transport not in TRANSPORTS:
+            raise ValueError(f"transport must be one of {', '.join(TRANSPORTS)}, got {transport!r}")
+        self.transport = "traci" if gui else transport
+        if self.transport == "libsumo" and _ACTIVE_LIBSUMO is not None:
+            raise SimulationError(
+                "libsumo runs one simulation per process and one is already open here; close it first "
+                "or run the second one in another process")
+        self.scenario = scenario
+        self.context_radius_m = context_radius_m
+        self.gui = gui
+        self._built = network.build(scenario)
+        self._api = _load_api(self.transport)
+        self._constants = tc = _load_constants()
+        self._context_variables = (tc.VAR_POSITION, tc.VAR_ANGLE, tc.VAR_SPEED, tc.VAR_LANEPOSITION, tc.VAR_LENGTH,
+                                   tc.VAR_WIDTH, tc.VAR_LANE_INDEX)
+        self._snapshots = self._warm_snapshots()
+        self._running = True
+        if self.transport == "libsumo":
+            _ACTIVE_LIBSUMO = self
+
+    @property
+    def time_s(self) -> float:
+        """Current simulation time [s]."""
+        return self._api.simulation.getTime()
+
+    @property
+    def snapshot_count(self) -> int:
+        return len(self._snapshots)
+
+    def _options(self) -> list[str]:
+        """Every SUMO option that shapes the simulation, explicitly."""
+        s = self.scenario
+        return [
+            "--net-file", str(self._built.net_file),
+            "--route-files", str(self._built.routes_file),
+            "--step-length", repr(s.step_length_s),
+            "--lanechange.duration", repr(s.lane_change_duration_s),
+            "--time-to-teleport", repr(s.teleport_time_s),
+            "--collision.action", "remove",
+            "--collision.check-junctions", "true",
+            "--collision.mingap-factor", repr(s.collision_min_gap_factor),
+            "--random", "false",
+            "--save-state.rng", "false",
+            "--save-state.precision", "6",
+            "--xml-validation", "never",
+            "--no-step-log", "true",
+            "--no-warnings", "true",
+            "--duration-log.disable", "true",
+        ]
+
+    def _start(self, extra: list[str]) -> None:
+        binary = network.sumo_binary("sumo-gui" if self.gui else "sumo")
+        gui_options = ["--start", "true", "--quit-on-end", "true"] if self.gui else []
+        from traci.exceptions import FatalTraCIError
+
+        if self.gui and not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
+            raise SimulationError("sumo-gui needs a display and neither DISPLAY nor WAYLAND_DISPLAY is set; "
+                                  "run headless instead (--gui-off)")
+        retries = {"numRetries": 3} if self.gui else {}
+        try:
+            self._api.start([binary, *self._options(), *gui_options, *extra], **retries)
+        except self._api.TraCIException as error:  # type: ignore[attr-defined]
+            raise SimulationError(f"SUMO failed to start: {error}") from error
+        except FatalTraCIError as error:
+            raise SimulationError(f"sumo-gui did not start (is a display available?): {error}") from error
+
+    def _load(self, extra: list[str]) -> None:
+        try:
+            self._api.load([*self._options(), *extra])
+        except self._api.TraCIException as error:  # type: ignore[attr-defined]
+            raise SimulationError(f"SUMO failed to load the warm state: {error}") from error
+
+    def _snapshot_key(self) -> str:
+        s = self.scenario
+        settings = {
+            "network": self._built.directory.name,
+            "options": self._options()[4:],
+            "warmup_s": s.warmup_s,
+            "snapshots": s.snapshots,
+            "snapshot_interval_s": s.snapshot_interval_s,
+            "traffic_seed": s.traffic_seed,
+        }
+        return hashlib.sha256(json.dumps(settings, sort_keys=True).encode()).hexdigest()[:16]
+
+    def _warm_snapshots(self) -> list[Path]:
+        """Paths of the warm states, running the warm-up first when they are not cached yet."""
+        directory = network.cache_dir() / "states" / self._snapshot_key()
+        paths = [directory / f"state_{k:03d}.xml" for k in range(self.scenario.snapshots)]
+        self._start(["--seed", str(self.scenario.traffic_seed)])
+        if all(path.exists() for path in paths):
+            return paths
+        directory.mkdir(parents=True, exist_ok=True)
+        api = self._api
+        api.simulationStep(self.scenario.warmup_s)
+        for k, path in enumerate(paths):
+            if k:
+                api.simulationStep(api.simulation.getTime() + self.scenario.snapshot_interval_s)
+            temporary = path.with_suffix(f".{os.getpid()}.tmp")
+            api.simulation.saveState(str(temporary))
+            os.replace(temporary, path)
+        log.info("saved %d warm states in %s", len(paths), directory)
+        return paths
+
+    def reset(self, snapshot: int, sumo_seed: int, ego_lane: int, ego_position_m: float) -> None:
+        """Reload warm state `snapshot` with SUMO seed `sumo_seed` and insert the ego; steps until it is in."""
+        self._require_running()
+        self._load(["--load-state", str(self._snapshots[snapshot]), "--seed", str(sumo_seed)])
+        api = self._api
+        api.vehicle.add(EGO_ID, network.ROUTE_ID, typeID=network.EGO_TYPE, depart="now",
+                        departLane=str(ego_lane), departPos=repr(ego_position_m), departSpeed="max")
+        api.vehicle.setLaneChangeMode(EGO_ID, LANE_CHANGE_MODE_TRACI_ONLY_SAFE)
+        for _ in range(round(30.0 / self.scenario.step_length_s)):
+            api.simulationStep()
+            if EGO_ID in api.simulation.getDepartedIDList():
+                break
+        else:
+            raise SimulationError(f"the ego could not enter lane {ego_lane} at {ego_position_m:.1f} m within 30 s")
+
+    def set_cruise_speed(self, speed_mps: float) -> None:
+        """Set the ego's cruise set-point [m/s]; SUMO's ACC model tracks it within safe gaps.
+
+        The set-point is the ego's desired speed, speed factor x speed limit. (Lowering the vehicle's maximum
+        speed instead would be a hard cap that SUMO enforces at emergency deceleration, 9 m/s^2; a lower speed
+        factor is reached at the ego type's comfortable deceleration.)
+        """
+        self._api.vehicle.setSpeedFactor(EGO_ID, speed_mps / self.scenario.speed_limit_mps)
+
+    def request_lane_change(self, lane: int, duration_s: float) -> None:
+        """Ask SUMO to move the ego to `lane` when safe within `duration_s`; unsafe changes wait, never forced."""
+        self._api.vehicle.changeLane(EGO_ID, lane, duration_s)
+
+    def advance(self, steps: int) -> PeriodReport:
+        """Run `steps` SUMO steps, watching the ego for collisions, arrival, braking and teleports."""
+        api = self._api
+        step, simulation, acceleration = api.simulationStep, api.simulation, api.vehicle.getAcceleration
+        collided = left = ego_teleported = False
+        min_accel = math.inf
+        teleports = 0
+        for _ in range(steps):
+            step()
+            if simulation.getStartingTeleportNumber():
+                starting = simulation.getStartingTeleportIDList()
+                teleports += len(starting)
+                ego_teleported |= EGO_ID in starting
+            if simulation.getCollidingVehiclesNumber() and EGO_ID in simulation.getCollidingVehiclesIDList():
+                collided = True
+                break
+            if simulation.getArrivedNumber() and EGO_ID in simulation.getArrivedIDList():
+                left = True
+                break
+            min_accel = min(min_accel, acceleration(EGO_ID))
+        return PeriodReport(collided, left, ego_teleported, min_accel if min_accel < math.inf else 0.0, teleports)
+
+    def observe(self) -> tuple[EgoState, Neighbours]:
+        """The ego and its neighbours within the context radius, from one context subscription.
+
+        The subscription is made and dropped at each decision: SUMO answers a new subscription at once,
+        and a standing one would be recomputed at every step of the decision period for nothing.
+        """
+        tc, vehicle = self._constants, self._api.vehicle
+        vehicle.subscribeContext(EGO_ID, tc.CMD_GET_VEHICLE_VARIABLE, self.context_radius_m, self._context_variables)
+        results = vehicle.getContextSubscriptionResults(EGO_ID)
+        vehicle.unsubscribeContext(EGO_ID, tc.CMD_GET_VEHICLE_VARIABLE, self.context_radius_m)
+        ego = results.pop(EGO_ID)
+        ego_x, ego_y = ego[tc.VAR_POSITION]
+        ego_state = EgoState(ego_x, ego_y, sumo_heading_rad(ego[tc.VAR_ANGLE]), ego[tc.VAR_SPEED],
+                             ego[tc.VAR_LANE_INDEX], ego[tc.VAR_LANEPOSITION],
+                             self._api.vehicle.getLateralLanePosition(EGO_ID), ego[tc.VAR_LENGTH], ego[tc.VAR_WIDTH])
+        position, angle, speed, lane_position, length, width, lane = self._context_variables
+        rows = np.array([(*v[position], v[angle], v[speed], v[lane_position], v[length], v[width], v[lane])
+                         for v in results.values()], dtype=np.float64).reshape(len(results), 8)
+        neighbours = Neighbours(ids=tuple(results), front_xy=rows[:, :2], heading_rad=sumo_heading_rad(rows[:, 2]),
+                                speed_mps=rows[:, 3], lane_position_m=rows[:, 4], length_m=rows[:, 5],
+                                width_m=rows[:, 6], lane=rows[:, 7].astype(np.int64))
+        return ego_state, neighbours
+
+    def road_edges(self) -> np.ndarray:
+        """The road's outer edges as line segments [m], shape (S, 2, 2): right edge first, then left."""
+        lane = self._api.lane
+        lanes = self.scenario.lanes
+        right_id = f"{network.EDGE_ID}_0"
+        right = _offset_polyline(np.array(lane.getShape(right_id)), -lane.getWidth(right_id) / 2)
+        left_id = f"{network.EDGE_ID}_{lanes - 1}"
+        left = _offset_polyline(np.array(lane.getShape(left_id)), lane.getWidth(left_id) / 2)
+        return np.concatenate([_segments(right), _segments(left)])
+
+    def close(self) -> None:
+        """End SUMO; calling it again is harmless."""
+        global _ACTIVE_LIBSUMO
+        if not self._running:
+            return
+        self._running = False
+        if _ACTIVE_LIBSUMO is self:
+            _ACTIVE_LIBSUMO = None
+        try:
+            self._api.close()
+        except Exception as error:
+            log.debug("ignored error while closing SUMO: %s", error)
+
+    def _require_running(self) -> None:
+        if not self._running:
+            raise SimulationError("this simulation is closed; create a new one")
+
+
+def _load_api(transport: str) -> ModuleType:
+    if transport == "traci":
+        # traci's own socket client: a plain `import traci` gives libsumo once LIBSUMO_AS_TRACI is set (below)
+        import traci.main
+
+        return traci.main
+    os.environ.setdefault("LIBSUMO_AS_TRACI", "quiet")
+    import libsumo
+
+    return libsumo
+
+
+def _load_constants() -> ModuleType:
+    import traci.constants
+
+    return traci.constants
+
+
+def _offset_polyline(points: np.ndarray, offset_m: float) -> np.ndarray:
+    """Shift each vertex of a polyline sideways by `offset_m` (positive = left of travel) [m]."""
+    direction = np.gradient(points, axis=0)
+    direction /= np.linalg.norm(direction, axis=1, keepdims=True)
+    normal_left = np.stack([-direction[:, 1], direction[:, 0]], axis=1)
+    return points + offset_m * normal_left
+
+
+def _segments(points: np.ndarray) -> np.ndarray:
+    return np.stack([points[:-1], points[1:]], axis=1)

@@ -1,0 +1,101 @@
+import numpy as np
+import pytest
+
+from sumo_rail.drivers.expert import STYLES, Expert, lane_gaps, make_expert
+from sumo_rail.runners.rollout import ExpertDriver, run_episode
+from sumo_rail.sim.actions import Action
+from sumo_rail.sim.env import HighwayEnv, TrafficView
+from sumo_rail.sim.simulation import EgoState, Neighbours
+
+EGO_FRONT = 1000.0
+
+
+def view(others=(), lane=1, speed=25.0, set_point=25.0, lateral=0.0, lanes=5):
+    """others: (lane, front position [m], length [m], speed [m/s]) of each neighbour."""
+    ego = EgoState(front_x=EGO_FRONT, front_y=0.0, heading_rad=0.0, speed_mps=speed, lane=lane,
+                   lane_position_m=EGO_FRONT, lateral_offset_m=lateral, length_m=4.5, width_m=1.8)
+    rows = np.array(others, dtype=float).reshape(-1, 4)
+    count = len(rows)
+    neighbours = Neighbours(ids=tuple(f"v{i}" for i in range(count)), front_xy=np.zeros((count, 2)),
+                            heading_rad=np.zeros(count), speed_mps=rows[:, 3], lane_position_m=rows[:, 1],
+                            length_m=rows[:, 2], width_m=np.full(count, 1.8), lane=rows[:, 0].astype(int))
+    return TrafficView(ego, neighbours, set_point, lanes)
+
+
+def sporty() -> Expert:
+    return make_expert("sporty", speed_step_mps=2.0)
+
+
+def test_lane_gaps_pick_nearest_leader_and_follower_bumper_to_bumper():
+    traffic = view([(1, 1050.0, 4.5, 20.0), (1, 1100.0, 4.5, 30.0), (1, 970.0, 12.0, 22.0), (1, 900.0, 4.5, 35.0),
+                    (2, 1002.0, 4.5, 30.0)])
+    gaps = lane_gaps(traffic, 1)
+    assert gaps.front_gap_m == pytest.approx(1050.0 - 4.5 - EGO_FRONT) and gaps.front_speed_mps == 20.0
+    assert gaps.rear_gap_m == pytest.approx(EGO_FRONT - 4.5 - 970.0) and gaps.rear_speed_mps == 22.0
+    assert not gaps.alongside
+    assert lane_gaps(traffic, 2).alongside
+    empty = lane_gaps(traffic, 3)
+    assert np.isinf(empty.front_gap_m) and np.isinf(empty.rear_gap_m) and not empty.alongside
+
+
+def test_overtakes_a_slow_leader_when_the_left_lane_is_free():
+    traffic = view([(1, 1040.0, 12.0, 22.0)], speed=24.0, set_point=33.33)
+    assert sporty().decide(traffic) is Action.LANE_LEFT
+
+
+@pytest.mark.parametrize("left_lane_car", [
+    (1, 1001.0, 4.5, 24.0),   # alongside
+    (1, 985.0, 4.5, 34.0),    # fast follower close behind
+    (1, 1012.0, 4.5, 20.0),   # slower leader just ahead
+])
+def test_never_asks_for_an_unsafe_overtake(left_lane_car):
+    traffic = view([(0, 1040.0, 12.0, 22.0), left_lane_car], lane=0, speed=24.0, set_point=33.33)
+    assert sporty().decide(traffic) is Action.KEEP
+    assert sporty().decide(view([(0, 1040.0, 12.0, 22.0)], lane=0, speed=24.0, set_point=33.33)) is Action.LANE_LEFT
+
+
+def test_no_left_change_from_the_leftmost_lane_and_none_while_changing():
+    slow_leader = [(4, 1040.0, 12.0, 22.0)]
+    assert sporty().decide(view(slow_leader, lane=4, speed=24.0, set_point=33.33)) is not Action.LANE_LEFT
+    changing = view([(1, 1040.0, 12.0, 22.0)], speed=24.0, set_point=30.0, lateral=0.8)
+    assert sporty().decide(changing) is Action.ACCELERATE
+
+
+def test_returns_right_when_the_right_lane_is_free_and_not_when_it_is_slow():
+    expert = make_expert("calm", speed_step_mps=2.0)
+    desired = STYLES["calm"].desired_speed_mps
+    assert expert.decide(view(lane=2, speed=desired, set_point=desired)) is Action.LANE_RIGHT
+    slow_right = view([(1, 1060.0, 12.0, 22.0)], lane=2, speed=desired, set_point=desired)
+    assert expert.decide(slow_right) is Action.KEEP
+
+
+def test_speed_moves_toward_the_desired_speed():
+    expert = make_expert("calm", speed_step_mps=2.0)
+    desired = STYLES["calm"].desired_speed_mps
+    assert expert.decide(view(lane=0, set_point=desired - 4)) is Action.ACCELERATE
+    assert expert.decide(view(lane=0, set_point=desired + 4)) is Action.DECELERATE
+    assert expert.decide(view(lane=0, set_point=desired + 0.5)) is Action.KEEP
+
+
+def test_unknown_style_names_the_known_ones():
+    with pytest.raises(ValueError, match="calm"):
+        make_expert("reckless", 2.0)
+
+
+def test_expert_episodes_are_deterministic_collision_free_and_styles_differ(small_config):
+    env = HighwayEnv(small_config)
+    try:
+        runs = {style: [run_episode(env, ExpertDriver(style).create(small_config, seed), seed, record=True)
+                        for seed in (11, 14, 17)] for style in ("calm", "sporty")}
+        again = run_episode(env, ExpertDriver("calm").create(small_config, 11), 11, record=True)
+    finally:
+        env.close()
+    assert np.array_equal(again.steps["action"], runs["calm"][0].steps["action"])
+    assert again.metrics == runs["calm"][0].metrics
+    for results in runs.values():
+        assert all(result.metrics["collisions"] == 0 for result in results)
+
+    def mean_speed(style):
+        return np.mean([r.metrics["average_speed_kmh"] for r in runs[style]])
+
+    assert mean_speed("sporty") > mean_speed("calm") + 3.0

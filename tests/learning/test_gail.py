@@ -1,0 +1,154 @@
+# ruff: noqa: F811 (fixtures imported from test_training are redefined as parameters)
+import json
+import sys
+
+import numpy as np
+import pandas as pd
+import pytest
+import torch
+from gymnasium import spaces
+from stable_baselines3.common.policies import ActorCriticPolicy
+from test_cli import SMALL, invoke
+from test_training import demos_path, small_config_module  # noqa: F401 (fixtures)
+
+from sumo_rail.datasets import read_metadata
+from sumo_rail.drivers.policies import PolicyShape, load_policy
+from sumo_rail.learning.bc import BcSettings, behaviour_cloning
+from sumo_rail.learning.discriminator import Discriminator, DiscriminatorSettings
+from sumo_rail.learning.gail import (
+    INSTALL_HINT,
+    FixedNormalisation,
+    GailSettings,
+    RewardLabeller,
+    load_into_ppo,
+    policy_kwargs,
+    ppo_to_policy,
+    train_gail,
+)
+from sumo_rail.learning.normalize import RunningStats
+from sumo_rail.learning.rail import rollout_return
+from sumo_rail.report.inputs import LOG_COLUMNS, read_run
+from sumo_rail.runners.tables import read_demonstrations
+
+
+@pytest.fixture(scope="module")
+def demos(demos_path):
+    return read_demonstrations(demos_path, observation_size=56)
+
+
+def actor_critic(shape: PolicyShape) -> ActorCriticPolicy:
+    space = spaces.Box(-np.inf, np.inf, (shape.observation_size,), np.float32)
+    return ActorCriticPolicy(space, spaces.Discrete(5), lambda _: 3e-4, **policy_kwargs(shape))
+
+
+def ppo_logits(ppo: ActorCriticPolicy, normalised: np.ndarray) -> np.ndarray:
+    with torch.no_grad():
+        return ppo.action_net(ppo.mlp_extractor.policy_net(torch.from_numpy(normalised))).numpy()
+
+
+@pytest.mark.parametrize("kind", ["mlp", "linear"])
+def test_the_exported_policy_acts_as_ppo_predicts(demos, kind):
+    torch.manual_seed(0)
+    shape = PolicyShape(kind, 56, hidden=10)
+    ppo = actor_critic(shape)
+    assert len(ppo.action_net.weight[0]) == (10 if kind == "mlp" else 56)  # SB3 allows an empty pi for linear
+    with torch.no_grad():
+        for parameter in ppo.parameters():
+            parameter.normal_()  # logits far apart, not PPO's near-zero initial ones
+    stats = RunningStats.of(demos.observations)
+    normalisation = FixedNormalisation(stats.mean, stats.std)
+    policy = ppo_to_policy(ppo, shape, normalisation)
+    predicted, _ = ppo.predict(normalisation(demos.observations), deterministic=True)
+    assert np.array_equal([policy.act(observation) for observation in demos.observations], predicted)
+    np.testing.assert_allclose(policy.logits(demos.observations), ppo_logits(ppo, normalisation(demos.observations)),
+                               rtol=1e-5, atol=1e-5)
+
+
+def test_bc_weights_copied_into_ppo_give_the_same_logits(demos):
+    shape = PolicyShape("mlp", 56, hidden=10)
+    bc, _ = behaviour_cloning(demos, shape, BcSettings(epochs=2, seed=1))
+    ppo = actor_critic(shape)
+    load_into_ppo(bc, ppo)
+    normalisation = FixedNormalisation(bc.observation_mean, bc.observation_std)
+    np.testing.assert_allclose(ppo_logits(ppo, normalisation(demos.observations)), bc.logits(demos.observations),
+                               rtol=1e-5, atol=1e-5)
+    assert np.array_equal(ppo_to_policy(ppo, shape, normalisation).parameters, bc.parameters)
+    with pytest.raises(ValueError, match="layout"):
+        load_into_ppo(bc, actor_critic(PolicyShape("mlp", 56, hidden=4)))
+
+
+def test_a_collision_pays_the_missing_decisions_at_the_lowest_reward(demos):
+    discriminator = Discriminator(56, np.zeros(56), np.ones(56), DiscriminatorSettings(seed=0))
+    labeller = RewardLabeller(discriminator, envs=2, horizon=10)
+    observations, actions = demos.observations[:2], np.array([0, 3])
+    plain = discriminator.reward(observations, actions)
+    first = labeller.label(observations, actions, np.array([False, False]), [{}, {}])
+    second = labeller.label(observations, actions, np.array([True, True]),
+                            [{"termination": "collision"}, {"termination": "end_of_road"}])
+    np.testing.assert_allclose(first, plain, rtol=1e-6)
+    assert second[0] == pytest.approx(plain[0] + 8 * labeller.lowest_reward, rel=1e-6)
+    assert second[1] == pytest.approx(plain[1], rel=1e-6)
+    rollout = labeller.take()
+    assert rollout.collisions == 1 and rollout.observations.shape == (4, 56) and rollout.actions.tolist() == [0, 3] * 2
+    expected = [rollout_return(np.array([plain[0]] * 2), True, 10, labeller.lowest_reward), plain[1]]
+    np.testing.assert_allclose(rollout.returns, expected, rtol=1e-6)
+    labeller.label(observations, actions, np.array([False, False]), [{}, {}])
+    assert labeller.take().returns.size == 0  # episodes restart after an end; each take starts afresh
+
+
+def tiny_settings(demos_path) -> GailSettings:
+    return GailSettings(str(demos_path), timesteps=256, n_steps=64, envs=2, bc_epochs=2, seed=3,
+                        discriminator=DiscriminatorSettings(seed=3, steps_per_iteration=2))
+
+
+@pytest.fixture(scope="module")
+def runs(tmp_path_factory, demos_path, small_config_module):
+    folders = [tmp_path_factory.mktemp("gail") / name for name in ("a", "b")]
+    results = [train_gail(folder, tiny_settings(demos_path), small_config_module) for folder in folders]
+    return folders, results
+
+
+def test_the_same_seed_gives_the_same_policy_bit_for_bit(runs):
+    (a, b), results = runs
+    assert all(result.updates == 2 and result.timesteps == 256 and not result.interrupted for result in results)
+    first, _ = load_policy(a / "policy_latest.npz")
+    second, _ = load_policy(b / "policy_latest.npz")
+    bc, _ = load_policy(a / "policy_bc.npz")
+    assert np.array_equal(first.parameters, second.parameters)
+    assert not np.array_equal(first.parameters, bc.parameters)
+    assert np.array_equal(first.observation_mean, bc.observation_mean)  # fixed normalisation: BC's
+    pd.testing.assert_frame_equal(pd.read_parquet(a / "log.parquet").drop(columns="wall_time_s"),
+                                  pd.read_parquet(b / "log.parquet").drop(columns="wall_time_s"))
+
+
+def test_the_run_folder_is_read_by_report_and_evaluate(runs, demos_path):
+    folder = runs[0][0]
+    assert sorted(path.name for path in folder.iterdir()) == ["log.parquet", "policy_bc.npz", "policy_latest.npz",
+                                                              "run.json"]
+    log = pd.read_parquet(folder / "log.parquet")
+    assert set(LOG_COLUMNS) | {"discriminator_loss", "discriminator_accuracy", "collisions"} <= set(log.columns)
+    assert log["iteration"].tolist() == [0, 1] and log["env_steps"].tolist() == [128, 128]
+    assert read_metadata(folder / "log.parquet")["kind"] == "training_log"
+    record = json.loads((folder / "run.json").read_text())
+    assert record["settings"]["demos"] == str(demos_path) and record["kind"] == "gail_run"
+    assert read_run(folder, "gail").kind == "mlp (10 hidden)"
+    result = invoke("evaluate", *SMALL, "--policy", str(folder / "policy_latest.npz"), "--episodes", "1")
+    assert result.exit_code == 0, result.output
+    assert "policy_latest" in result.output
+
+
+def test_missing_stable_baselines3_is_a_one_line_hint(monkeypatch, tmp_path):
+    monkeypatch.setitem(sys.modules, "stable_baselines3", None)
+    result = invoke("gail", "--demos", str(tmp_path / "demos.parquet"), "--out", str(tmp_path / "run"))
+    assert result.exit_code == 1 and INSTALL_HINT in result.output and "Traceback" not in result.output
+    assert not (tmp_path / "run").exists()
+
+
+def test_gail_refuses_a_non_empty_out_and_bad_sizes(tmp_path, demos_path):
+    (tmp_path / "run").mkdir()
+    (tmp_path / "run" / "precious.txt").write_text("keep")
+    result = invoke("gail", *SMALL, "--demos", str(demos_path), "--out", str(tmp_path / "run"))
+    assert result.exit_code == 1 and "not empty" in result.output and "Traceback" not in result.output
+    assert [path.name for path in (tmp_path / "run").iterdir()] == ["precious.txt"]
+    result = invoke("gail", "--demos", str(demos_path), "--envs", "1", "--n-steps", "1", "--out", str(tmp_path / "x"))
+    assert result.exit_code == 2 and "n_steps x envs >= 2" in result.output

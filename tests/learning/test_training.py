@@ -1,0 +1,135 @@
+import numpy as np
+import pandas as pd
+import pytest
+
+from sumo_rail.datasets import write_parquet
+from sumo_rail.drivers.policies import load_policy
+from sumo_rail.learning.discriminator import DiscriminatorSettings
+from sumo_rail.learning.rail import RailSettings, rollout_return
+from sumo_rail.learning.training import RunError, RunSettings, Validation, train
+from sumo_rail.runners.backends import ProcessPoolBackend, SerialBackend
+from sumo_rail.runners.rollout import EpisodeTask, ExpertDriver
+from sumo_rail.runners.tables import DEMONSTRATIONS, demonstrations_table, provenance
+
+
+def test_a_collision_never_pays_by_ending_early():
+    rewards = np.array([-0.5, -0.5])
+    lowest = -6.9
+    early = rollout_return(rewards, collided=True, horizon=10, lowest_reward=lowest)
+    assert early < rollout_return(np.full(10, -0.5), collided=False, horizon=10, lowest_reward=lowest)
+    assert early == pytest.approx((-1.0 + 8 * lowest) / 10)
+    assert rollout_return(rewards, collided=False, horizon=10, lowest_reward=lowest) == -0.5  # a mean, not a sum
+
+
+def test_settings_reject_top_above_directions():
+    with pytest.raises(ValueError, match="--top"):
+        RailSettings(directions=4, top=5)
+
+
+@pytest.fixture(scope="module")
+def demos_path(tmp_path_factory, request):
+    small_config = request.getfixturevalue("small_config_module")
+    path = tmp_path_factory.mktemp("demos") / "demos.parquet"
+    seeds = [0, 3]
+    with SerialBackend() as backend:
+        results = backend.run([EpisodeTask(small_config, ExpertDriver("normal"), s, record=True) for s in seeds])
+    write_parquet(demonstrations_table(results, seeds, 56), path, provenance(DEMONSTRATIONS, small_config, 0))
+    return path
+
+
+@pytest.fixture(scope="module")
+def small_config_module():
+    from sumo_rail.config import Config
+    return Config.from_dict({"scenario": {"length_m": 1500.0, "warmup_s": 120.0, "snapshots": 3,
+                                          "snapshot_interval_s": 10.0},
+                             "env": {"ego_start_min_m": 300.0, "ego_start_max_m": 500.0}})
+
+
+def run_settings(demos_path, kind="mlp"):
+    return RunSettings(str(demos_path), kind, 4, 3, RailSettings(directions=3, top=2, step_size=0.01, seed=1),
+                       DiscriminatorSettings(seed=1, steps_per_iteration=2))
+
+
+def test_same_weights_with_one_or_two_workers_and_after_resuming(tmp_path, demos_path, small_config_module):
+    settings, validation = run_settings(demos_path), Validation(every=2, episodes=1)
+    with ProcessPoolBackend(1) as one:
+        train(tmp_path / "one", settings, small_config_module, 3, one, resume=False, validation=validation)
+    with ProcessPoolBackend(2) as two:
+        train(tmp_path / "split", settings, small_config_module, 2, two, resume=False, validation=validation)
+        train(tmp_path / "split", settings, small_config_module, 3, two, resume=True, validation=validation)
+    uninterrupted, _ = load_policy(tmp_path / "one" / "policy_latest.npz")
+    resumed, _ = load_policy(tmp_path / "split" / "policy_latest.npz")
+    bc, _ = load_policy(tmp_path / "one" / "policy_bc.npz")
+    assert np.array_equal(uninterrupted.parameters, resumed.parameters)
+    assert np.array_equal(uninterrupted.observation_mean, resumed.observation_mean)
+    assert not np.array_equal(uninterrupted.parameters, bc.parameters)
+    log = pd.read_parquet(tmp_path / "one" / "log.parquet")
+    assert log["iteration"].tolist() == [0, 1, 2] and (log["env_steps"] > 0).all()
+    assert log["eval_average_speed_kmh"].isna().tolist() == [True, False, False]  # every 2nd and the last
+    assert (log["eval_average_speed_kmh"].dropna() > 30).all()
+    pd.testing.assert_frame_equal(log.drop(columns="wall_time_s"),
+                                  pd.read_parquet(tmp_path / "split" / "log.parquet").drop(columns="wall_time_s"))
+
+
+def test_a_worker_killed_mid_iteration_changes_nothing(tmp_path, demos_path, small_config_module):
+    """kill -9 of a worker during an iteration: it is replaced, its rollout runs again, the weights are the same."""
+    import os
+    import signal
+
+    settings = run_settings(demos_path)
+    with SerialBackend() as serial:
+        train(tmp_path / "serial", settings, small_config_module, 2, serial, resume=False)
+    killed: list[int] = []
+    with ProcessPoolBackend(2) as pool:
+        def kill_once(index, result):
+            if not killed and len(pool.pids) == 2:  # after the first rollout of the first iteration
+                killed.append(pool.pids[1])
+                os.kill(killed[0], signal.SIGKILL)
+        train(tmp_path / "killed", settings, small_config_module, 2, pool, resume=False, on_rollout=kill_once)
+        assert killed and killed[0] not in pool.pids
+    expected, _ = load_policy(tmp_path / "serial" / "policy_latest.npz")
+    survived, _ = load_policy(tmp_path / "killed" / "policy_latest.npz")
+    assert np.array_equal(expected.parameters, survived.parameters)
+    steps = [pd.read_parquet(tmp_path / name / "log.parquet")["env_steps"].tolist() for name in ("serial", "killed")]
+    assert steps[0] == steps[1]  # every rollout counted exactly once
+
+
+def test_validation_schedule():
+    assert [i for i in range(7) if Validation(every=3).due(i, last=6)] == [2, 5, 6]
+    assert not any(Validation(every=0).due(i, last=6) for i in range(7))
+    with pytest.raises(ValueError):
+        Validation(every=1, episodes=0)
+
+
+def test_run_folder_rules(tmp_path, demos_path, small_config_module):
+    settings = run_settings(demos_path, kind="linear")
+    with SerialBackend() as backend:
+        with pytest.raises(RunError, match="nothing to resume"):
+            train(tmp_path / "empty", settings, small_config_module, 1, backend, resume=True)
+        train(tmp_path / "run", settings, small_config_module, 1, backend, resume=False)
+        log = pd.read_parquet(tmp_path / "run" / "log.parquet")
+        assert log["eval_lane_changes"].isna().all() and log["eval_lane_changes"].dtype == np.float64
+        with pytest.raises(RunError, match="not empty"):
+            train(tmp_path / "run", settings, small_config_module, 2, backend, resume=False)
+        other = RunSettings(settings.demos, "mlp", 4, 3, settings.rail, settings.discriminator)
+        with pytest.raises(RunError, match="other settings"):
+            train(tmp_path / "run", other, small_config_module, 2, backend, resume=True)
+        (tmp_path / "run" / "checkpoint.pt").write_bytes(b"garbage")
+        with pytest.raises(RunError, match="unreadable"):
+            train(tmp_path / "run", settings, small_config_module, 2, backend, resume=True)
+
+
+def test_ctrl_c_during_a_save_takes_effect_after_it():
+    import os
+    import signal
+    import time
+
+    from sumo_rail.learning import training
+
+    finished = []
+    with pytest.raises(KeyboardInterrupt):
+        with training._signals_deferred():
+            os.kill(os.getpid(), signal.SIGINT)
+            time.sleep(0.1)
+            finished.append("save")
+    assert finished == ["save"]

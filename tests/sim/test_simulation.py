@@ -1,0 +1,76 @@
+import libsumo
+import numpy as np
+import pytest
+
+from sumo_rail.sim.simulation import EGO_ID, Simulation, SimulationError
+
+
+@pytest.fixture
+def sim(small_config):
+    simulation = Simulation(small_config.scenario, context_radius_m=120.0)
+    yield simulation
+    simulation.close()
+
+
+def traffic_after(sim: Simulation, snapshot: int, seed: int, seconds: float = 20.0) -> dict[str, tuple]:
+    sim.reset(snapshot=snapshot, sumo_seed=seed, ego_lane=2, ego_position_m=400.0)
+    sim.advance(round(seconds / sim.scenario.step_length_s))
+    return {v: libsumo.vehicle.getPosition(v) for v in libsumo.vehicle.getIDList()}
+
+
+def test_same_seed_same_traffic_and_different_seeds_differ(sim):
+    first = traffic_after(sim, 0, seed=11)
+    other = traffic_after(sim, 0, seed=12)
+    again = traffic_after(sim, 0, seed=11)
+    assert first == again
+    assert first != other
+    assert len(first) > 20  # the ego starts among warm, flowing traffic
+
+
+def test_warm_states_differ_from_each_other(sim):
+    assert traffic_after(sim, 0, seed=1, seconds=0.1) != traffic_after(sim, 1, seed=1, seconds=0.1)
+
+
+def test_second_simulation_in_one_process_is_refused(sim, small_config):
+    with pytest.raises(SimulationError, match="one simulation per process"):
+        Simulation(small_config.scenario, context_radius_m=120.0)
+
+
+def test_close_twice_is_harmless_and_a_new_simulation_can_start(small_config):
+    first = Simulation(small_config.scenario, context_radius_m=120.0)
+    first.close()
+    first.close()
+    with pytest.raises(SimulationError, match="closed"):
+        first.reset(0, 1, 0, 400.0)
+    second = Simulation(small_config.scenario, context_radius_m=120.0)
+    second.close()
+
+
+def test_observe_returns_neighbours_without_the_ego(sim):
+    sim.reset(snapshot=0, sumo_seed=3, ego_lane=1, ego_position_m=400.0)
+    ego, neighbours = sim.observe()
+    assert EGO_ID not in neighbours.ids
+    assert ego.lane == 1 and ego.lane_position_m == pytest.approx(400.0, abs=5.0)
+    assert neighbours.front_xy.shape == (len(neighbours.ids), 2)
+    distances = np.hypot(*(neighbours.front_xy - [ego.front_x, ego.front_y]).T)
+    assert np.all(distances <= 120.0 + 1e-6)
+
+
+def test_forced_rear_end_collision_is_reported(sim):
+    sim.reset(snapshot=0, sumo_seed=5, ego_lane=0, ego_position_m=400.0)
+    libsumo.vehicle.add("blocker", "highway_route", typeID="truck", depart="now", departLane="0",
+                        departPos="460", departSpeed="0")
+    libsumo.vehicle.setSpeedMode(EGO_ID, 0)
+    libsumo.vehicle.setSpeed(EGO_ID, 50.0)
+    for _ in range(20):
+        report = sim.advance(5)
+        if report.ego_collided:
+            break
+    assert report.ego_collided and not report.ego_left_network
+    assert EGO_ID not in libsumo.vehicle.getIDList()
+
+
+def test_road_edges_bound_all_lanes(sim):
+    edges = sim.road_edges()
+    ys = sorted({round(y, 3) for y in edges[:, :, 1].ravel()})
+    assert ys == [pytest.approx(-5 * 3.2), pytest.approx(0.0)]
