@@ -20,7 +20,8 @@ from doc_section import write_section
 
 from sumo_rail.config import Config
 from sumo_rail.drivers.expert import DEFAULT_STYLE, STYLES
-from sumo_rail.evaluation.evaluate import evaluate, summary_table
+from sumo_rail.evaluation.evaluate import evaluate
+from sumo_rail.evaluation.summary import summary_table
 from sumo_rail.runners.backends import ProcessPoolBackend
 from sumo_rail.runners.record import record_demonstrations
 from sumo_rail.runners.rollout import ExpertDriver
@@ -54,7 +55,7 @@ def main() -> None:
     rate = {workers: args.episodes / statistics.median(seconds) for workers, seconds in times.items()}
     seeds = episode_seeds(Purpose.EVALUATE, 1000, args.evaluation_episodes)
     with ProcessPoolBackend(2) as backend:
-        metrics = evaluate([ExpertDriver(style) for style in STYLES], config, seeds, backend)
+        metrics = evaluate([ExpertDriver(style) for style in STYLES], config, seeds, backend).metrics
     section = f"""
 ## Expert recording and the expert's styles (issue 3)
 
@@ -73,7 +74,7 @@ recordings were {"byte-identical" if len(files) == 1 else "NOT identical"}.
 
 The expert's metrics per style, {args.evaluation_episodes} evaluation episodes each (seeds of the evaluation
 class from base 1000, as `sumo-rail evaluate --policy expert:STYLE --episodes {args.evaluation_episodes}`),
-mean +- std over episodes:
+mean [95% interval] over episodes and each style's paired difference to the first:
 
 ```
 {summary_table(metrics)}

@@ -22,6 +22,7 @@ from sumo_rail_cli.options import (
 )
 
 from sumo_rail.drivers.expert import DEFAULT_STYLE, STYLES
+from sumo_rail.seeding import EVALUATION_EPISODES
 
 if TYPE_CHECKING:
     from sumo_rail.learning.bc import BcReport
@@ -58,21 +59,35 @@ def record_expert(config_path: Path | None, overrides: tuple[str, ...], episodes
               help="Driver to evaluate (repeatable: drivers side by side on the same seeds).")
 @click.option("--style", type=_STYLE, default=DEFAULT_STYLE, show_default=True,
               help="Style of --policy expert (expert:STYLE picks one per driver).")
-@episode_options(default_seed=1000, default_episodes=16)
+@click.option("--reference", default=None, metavar="NAME",
+              help="Driver the others are compared with, paired by seed (default: the first --policy).")
+@click.option("--reference-style", type=_STYLE, default=DEFAULT_STYLE, show_default=True,
+              help="Expert asked at every decision what it would do, for drivers whose policy file does not record "
+                   "the expert style it learned from.")
+@episode_options(default_seed=1000, default_episodes=EVALUATION_EPISODES)
 @backend_options
 @click.option("--gui/--gui-off", default=False, show_default=True,
               help="--gui drives the first episode of the first driver in sumo-gui (needs a display).")
 @output_options(required=False)
 def evaluate_command(config_path: Path | None, overrides: tuple[str, ...], policies: tuple[str, ...], style: str,
-                     episodes: int, seed: int, workers: int, backend_name: str, address: str | None, gui: bool,
-                     out: Path | None, overwrite: bool) -> None:
-    """Evaluate drivers on held-out seeds; print the paper's metrics (mean +- std) and write one row per episode."""
+                     reference: str | None, reference_style: str, episodes: int, seed: int, workers: int,
+                     backend_name: str, address: str | None, gui: bool, out: Path | None, overwrite: bool) -> None:
+    """Evaluate drivers on held-out episodes and compare them with the expert and with each other.
+
+    Prints each measure's mean with its 95% interval (on-policy agreement with the expert first, then the paper's
+    metrics), every driver's paired difference to --reference, and the distances of its speed, headway, lane and
+    action distributions to the reference expert's when that expert is among the drivers. --out gets one row per
+    episode and NAME.decisions.parquet beside it one row per decision."""
     config = resolve_config(config_path, overrides)
     check_output(out, overwrite)
     from sumo_rail.drivers.policies import PolicyFileError
-    from sumo_rail.evaluation.evaluate import evaluate, parse_driver, summary_table, write_metrics
+    from sumo_rail.evaluation.evaluate import decisions_path, evaluate, parse_driver, unique_names, write_evaluation
+    from sumo_rail.evaluation.summary import distance_summary, summary_table
     from sumo_rail.runners.backends import SerialBackend
     from sumo_rail.seeding import Purpose, episode_seeds
+
+    if out is not None:
+        check_output(decisions_path(out), overwrite)
 
     drivers = []
     for text in policies:
@@ -84,15 +99,25 @@ def evaluate_command(config_path: Path | None, overrides: tuple[str, ...], polic
             raise click.BadParameter(str(error), param_hint="'--policy'") from error
     if gui:
         drivers, episodes = drivers[:1], 1
+    names = unique_names(drivers)
+    if reference is not None and reference not in names:
+        raise click.BadParameter(f"{reference!r} is not one of the drivers ({', '.join(names)})",
+                                 param_hint="'--reference'")
     seeds = episode_seeds(Purpose.EVALUATE, seed, episodes)
     backend = SerialBackend(render_mode="human") if gui else build_backend(backend_name, workers, address)
     with library_errors(), backend, episode_progress(len(drivers) * episodes, "evaluating") as bar:
-        metrics = evaluate(drivers, config, seeds, backend, on_episode=lambda index, result: bar.update())
+        evaluation = evaluate(drivers, config, seeds, backend, reference_style,
+                              on_episode=lambda index, result: bar.update())
         if out is not None:
-            write_metrics(metrics, config, seed, out, policies=list(policies), episode_seeds=seeds)
-    click.echo(summary_table(metrics))
+            write_evaluation(evaluation, config, seed, out, policies=list(policies), episode_seeds=seeds,
+                             reference_style=reference_style)
+    click.echo(summary_table(evaluation.metrics, reference))
+    expert = f"expert-{reference_style}"
+    if expert in names and len(names) > 1:
+        click.echo("\n" + distance_summary(evaluation.decisions, expert, config.scenario.lanes))
     if out is not None:
-        click.echo(f"wrote {out}: {len(metrics)} episodes")
+        click.echo(f"wrote {out}: {len(evaluation.metrics)} episodes; {decisions_path(out)}: "
+                   f"{len(evaluation.decisions)} decisions")
 
 
 @click.command("train")

@@ -43,9 +43,11 @@ class ScenarioConfig:
     """A collision is a gap below this fraction of minGap (--collision.mingap-factor); 0 = physical contact."""
     warmup_s: float = 300.0
     """Simulated time before the first saved traffic state, so the ego starts in flowing traffic [s]."""
-    snapshots: int = 8
-    """Number of warm traffic states saved after the warm-up; each episode starts from one of them."""
-    snapshot_interval_s: float = 20.0
+    snapshots: int = 200
+    """Warm traffic states in each pool (train, validation, test; see `sumo_rail.sim.simulation`); each episode
+    starts from one. Evaluation gives episode k state k mod snapshots, so up to this many evaluation episodes
+    never share a state."""
+    snapshot_interval_s: float = 10.0
     """Simulated time between two saved warm states [s]."""
     traffic_seed: int = 0
     """SUMO seed of the warm-up run that produces the saved states."""

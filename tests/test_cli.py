@@ -16,6 +16,7 @@ import sumo_rail
 from sumo_rail.config import Config
 from sumo_rail.datasets import read_metadata
 from sumo_rail.drivers.policies import Policy, PolicyShape, save_policy
+from sumo_rail.evaluation.fidelity import ACTION_NAMES
 from sumo_rail.runners.tables import read_demonstrations
 from sumo_rail.sim.observation import observation_names
 
@@ -85,7 +86,12 @@ def test_evaluate_puts_drivers_side_by_side_and_is_reproducible(tmp_path):
         outputs.append(result.stdout)
     summaries = [output.rsplit("wrote", 1)[0] for output in outputs]
     assert summaries[0] == summaries[1]
-    assert "expert-normal" in outputs[0] and "always_right" in outputs[0] and "+-" in outputs[0]
+    assert "expert-normal" in outputs[0] and "always_right" in outputs[0]
+    for row in ("agreement ", "lane_change_recall", "lane_change_precision", "average_speed_kmh", "overtakes"):
+        assert row in outputs[0]
+    assert "mean [95% interval]" in outputs[0] and "difference to expert-normal on the same seeds" in outputs[0]
+    assert "1.000 [1.000, 1.000]" in outputs[0]  # the expert agrees with itself
+    assert "distance of each driver's distributions to expert-normal's" in outputs[0]
     frames = [pd.read_parquet(out) for out in outs]
     pd.testing.assert_frame_equal(frames[0], frames[1])
     frame = frames[0]
@@ -95,6 +101,28 @@ def test_evaluate_puts_drivers_side_by_side_and_is_reproducible(tmp_path):
     assert (always_right["action_lane_right"] == always_right["steps"]).all()
     assert (frame[frame["policy"] == "keep"]["lane_changes"] == 0).all()
     assert read_metadata(outs[0])["kind"] == "episode_metrics"
+    assert (frame[frame["policy"] == "expert-normal"]["agreement"] == 1.0).all()
+    assert (always_right[[f"confusion_lane_right_{name}" for name in ACTION_NAMES]].sum(axis=1)
+            == always_right["steps"]).all()
+    decisions = pd.read_parquet(tmp_path / "m1.decisions.parquet")
+    assert len(decisions) == frame["steps"].sum() and read_metadata(tmp_path / "m1.decisions.parquet")["kind"] == (
+        "decisions")
+    assert (decisions[decisions["policy"] == "always_right"]["action"] == 4).all()
+
+
+def test_evaluate_reference_must_be_a_driver(tmp_path):
+    result = invoke("evaluate", *SMALL, "--policy", "expert", "--policy", "keep", "--reference", "random",
+                    "--episodes", "1")
+    assert result.exit_code == 2 and "'random' is not one of the drivers (expert-normal, keep)" in result.output
+
+
+def test_evaluate_against_another_reference_marks_detectable_differences(tmp_path):
+    result = invoke("evaluate", *SMALL, "--policy", "expert", "--policy", "keep", "--reference", "keep",
+                    "--episodes", "3")
+    assert result.exit_code == 0, result.output
+    differences = result.output.split("difference to keep on the same seeds")[1]
+    agreement = next(line for line in differences.splitlines() if line.startswith("agreement "))
+    assert agreement.split()[1].startswith("+") and agreement.rstrip().endswith("*")
 
 
 def test_policies_of_run_folders_are_named_by_run(tmp_path):

@@ -1,25 +1,26 @@
-"""Evaluate drivers (the expert, built-in drivers, saved policies) on the same seeds; metrics and their summary."""
+"""Evaluate drivers (the expert, built-in drivers, saved policies) on the same held-out seeds: per episode the
+paper's metrics and the on-policy comparison with the reference expert, per decision the behaviour records."""
 
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pandas as pd
+import pyarrow as pa
 
 from sumo_rail.config import Config
 from sumo_rail.datasets import write_parquet
-from sumo_rail.drivers.expert import STYLES
+from sumo_rail.drivers.expert import DEFAULT_STYLE, STYLES, make_expert
 from sumo_rail.drivers.policies import PolicyFileError, load_policy
-from sumo_rail.runners.backends import RolloutBackend
+from sumo_rail.evaluation.fidelity import CONFUSION_COLUMNS, DECISION_FIELDS, RATE_COLUMNS, DecisionProbe
+from sumo_rail.runners.backends import RolloutBackend, WorkerContext
 from sumo_rail.runners.rollout import DriverSpec, EpisodeTask, ExpertDriver, KeepDriver, PolicyDriver, RandomDriver
 from sumo_rail.runners.tables import EPISODE_METRICS, METRIC_COLUMNS, metrics_table, provenance
 from sumo_rail.sim.observation import observation_names
-
-SUMMARY_METRICS = ("average_speed_kmh", "overtakes", "lane_changes", "longitudinal_reward", "lateral_reward",
-                   "collisions", "hard_braking", "invalid_actions", "distance_m", "steps")
-"""Rows of the printed summary (the paper's metrics first)."""
 
 
 def parse_driver(text: str, config: Config, default_style: str) -> DriverSpec:
@@ -42,7 +43,8 @@ def parse_driver(text: str, config: Config, default_style: str) -> DriverSpec:
     stored = metadata.get("observation_names")
     if stored is not None and list(stored) != expected:
         raise PolicyFileError(f"policy {text} was trained on a different observation layout than this environment's")
-    return PolicyDriver(policy, name=policy_name(Path(text)))
+    style = metadata.get("expert_style")
+    return PolicyDriver(policy, name=policy_name(Path(text)), expert_style=style if style in STYLES else None)
 
 
 def policy_name(path: Path) -> str:
@@ -51,15 +53,71 @@ def policy_name(path: Path) -> str:
     return f"{path.parent.resolve().name}/{path.stem}" if (path.parent / "run.json").is_file() else path.stem
 
 
+FIDELITY_TYPES: dict[str, pa.DataType] = {
+    "reference_style": pa.string(), **{name: pa.int32() for name in CONFUSION_COLUMNS},
+    **{name: pa.float64() for name in RATE_COLUMNS},
+}
+"""Metrics columns added by the on-policy comparison with the reference expert."""
+DECISIONS = "decisions"
+_DECISION_KEYS: dict[str, pa.DataType] = {"policy": pa.string(), "episode": pa.int32(), "seed": pa.int64(),
+                                          "step": pa.int32()}
+_NUMPY_TO_ARROW = {np.int8: pa.int8(), np.float64: pa.float64()}
+DECISION_TYPES: dict[str, pa.DataType] = {**_DECISION_KEYS,
+                                          **{name: _NUMPY_TO_ARROW[kind] for name, kind in DECISION_FIELDS.items()}}
+
+
+@dataclass(frozen=True)
+class EvaluatedEpisode:
+    """One evaluated episode: its metrics row (with the fidelity columns) and its per-decision records."""
+
+    metrics: dict[str, Any]
+    decisions: dict[str, np.ndarray]
+
+
+@dataclass(frozen=True)
+class EvaluationTask:
+    """One episode of one driver, watched by the reference expert of `reference_style`."""
+
+    episode: EpisodeTask
+    reference_style: str
+
+    def run(self, context: WorkerContext) -> EvaluatedEpisode:
+        probe = DecisionProbe(make_expert(self.reference_style, self.episode.config.env.speed_step_mps))
+        result = self.episode.run(context, probe)
+        return EvaluatedEpisode({**result.metrics, "reference_style": self.reference_style,
+                                 **probe.episode_columns()}, probe.decision_columns())
+
+
+@dataclass(frozen=True)
+class Evaluation:
+    """Every driver on every seed: one metrics row per episode, one decisions row per decision."""
+
+    metrics: pd.DataFrame
+    decisions: pd.DataFrame
+
+
 def evaluate(drivers: Sequence[DriverSpec], config: Config, seeds: Sequence[int], backend: RolloutBackend,
-             on_episode: Callable[[int, Any], None] | None = None) -> pd.DataFrame:
-    """Every driver on every seed; one row per episode (METRIC_COLUMNS), drivers in the given order."""
+             reference_style: str = DEFAULT_STYLE, pool: str = "test",
+             on_episode: Callable[[int, Any], None] | None = None) -> Evaluation:
+    """Every driver on every seed, drivers in the given order. Episode k starts from warm state
+    k mod `scenario.snapshots` of `pool`, so up to that many episodes never share a traffic state; each
+    decision is compared with the reference expert (the policy's own expert style when its file records one,
+    else `reference_style`)."""
     names = unique_names(drivers)
-    tasks = [EpisodeTask(config, driver, seed) for driver in drivers for seed in seeds]
+    warm_states = config.scenario.snapshots
+    tasks = [EvaluationTask(EpisodeTask(config, driver, seed, pool=pool, warm_state=k % warm_states),
+                            getattr(driver, "expert_style", None) or reference_style)
+             for driver in drivers for k, seed in enumerate(seeds)]
     results = backend.run(tasks, on_result=on_episode)
-    rows = [{"policy": names[index // len(seeds)], "episode": index % len(seeds), **result.metrics}
-            for index, result in enumerate(results)]
-    return pd.DataFrame(rows, columns=list(METRIC_COLUMNS))
+    rows, decisions = [], []
+    for index, result in enumerate(results):
+        keys = {"policy": names[index // len(seeds)], "episode": index % len(seeds), "seed": result.metrics["seed"]}
+        rows.append({**keys, **result.metrics})
+        steps = len(result.decisions["action"])
+        decisions.append(pd.DataFrame({**{key: np.full(steps, value) for key, value in keys.items()},
+                                       "step": np.arange(steps), **result.decisions}))
+    metrics = pd.DataFrame(rows, columns=[*METRIC_COLUMNS, *FIDELITY_TYPES])
+    return Evaluation(metrics, pd.concat(decisions, ignore_index=True)[list(DECISION_TYPES)])
 
 
 def unique_names(drivers: Sequence[DriverSpec]) -> list[str]:
@@ -74,21 +132,22 @@ def unique_names(drivers: Sequence[DriverSpec]) -> list[str]:
     return names
 
 
+def decisions_path(metrics_path: Path) -> Path:
+    """Where the per-decision records of a metrics file go: NAME.decisions.parquet beside NAME.parquet."""
+    return Path(metrics_path).with_suffix(".decisions.parquet")
+
+
+def write_evaluation(evaluation: Evaluation, config: Config, seed: int, out: Path, **extra: Any) -> None:
+    """The metrics table at `out` and the decisions table beside it (`decisions_path`), with provenance, atomically."""
+    write_metrics(evaluation.metrics, config, seed, out, **extra)
+    table = pa.table({name: pa.array(evaluation.decisions[name].to_numpy(), type=kind)
+                      for name, kind in DECISION_TYPES.items()})
+    write_parquet(table, decisions_path(out), provenance(DECISIONS, config, seed, metrics_file=Path(out).name,
+                                                          **extra))
+
+
 def write_metrics(metrics: pd.DataFrame, config: Config, seed: int, out: Path, **extra: Any) -> None:
-    """The metrics table with provenance, atomically."""
-    write_parquet(metrics_table(metrics.to_dict("records")), out, provenance(EPISODE_METRICS, config, seed, **extra))
-
-
-def summary_table(metrics: pd.DataFrame) -> str:
-    """Rows: metrics; columns: drivers; cells: mean +- std over episodes (the paper's table layout)."""
-    drivers = list(dict.fromkeys(metrics["policy"]))
-    grouped = metrics.groupby("policy", sort=False)
-    cells = {driver: [] for driver in drivers}
-    for metric in SUMMARY_METRICS:
-        means, stds = grouped[metric].mean(), grouped[metric].std(ddof=0)
-        for driver in drivers:
-            cells[driver].append(f"{means[driver]:.2f} +- {stds[driver]:.2f}")
-    table = pd.DataFrame(cells, index=[*SUMMARY_METRICS])
-    episodes = grouped.size()
-    header = ", ".join(f"{driver}: {episodes[driver]} episodes" for driver in drivers)
-    return f"{header}\n{table.to_string()}"
+    """The metrics table (with the fidelity columns where `metrics` has them) with provenance, atomically."""
+    extra_types = {name: kind for name, kind in FIDELITY_TYPES.items() if name in metrics.columns}
+    write_parquet(metrics_table(metrics.to_dict("records"), extra_types), out,
+                  provenance(EPISODE_METRICS, config, seed, **extra))

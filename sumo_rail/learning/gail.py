@@ -315,7 +315,8 @@ def train_gail(folder: Path, settings: GailSettings, config: Config,
     observation_size = observation_space(config).shape[0]
     demos = read_demonstrations(Path(settings.demos), observation_size)
     shape = PolicyShape(settings.kind, observation_size, settings.hidden)
-    run_record = {"settings": settings.to_dict(), **provenance("gail_run", config, settings.seed)}
+    run_record = {"settings": settings.to_dict(), "expert_style": demos.metadata.get("style"),
+                  **provenance("gail_run", config, settings.seed)}
     if folder.exists() and any(folder.iterdir()):
         raise RunError(f"run folder {folder} is not empty; choose another --out")
     folder.mkdir(parents=True, exist_ok=True)

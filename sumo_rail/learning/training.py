@@ -30,6 +30,8 @@ from sumo_rail.config import Config
 from sumo_rail.datasets import write_parquet
 from sumo_rail.drivers.policies import Policy, PolicyShape, save_policy
 from sumo_rail.evaluation.evaluate import evaluate
+from sumo_rail.evaluation.statistics import ratio
+from sumo_rail.evaluation.summary import measure_samples
 from sumo_rail.learning.bc import BcReport, BcSettings, behaviour_cloning
 from sumo_rail.learning.discriminator import Discriminator, DiscriminatorSettings
 from sumo_rail.learning.normalize import RunningStats
@@ -62,9 +64,10 @@ class RunSettings:
 
 VALIDATION_BASE_SEED = 1_000_000
 """Validation episodes use evaluation-class seeds from this base, far from `evaluate`'s default test seeds."""
-VALIDATION_METRICS = ("average_speed_kmh", "overtakes", "lane_changes", "longitudinal_reward", "lateral_reward",
-                      "collisions")
-"""Episode metrics whose means the log holds as eval_<metric>."""
+VALIDATION_METRICS = ("agreement", "lane_change_recall", "lane_change_precision", "average_speed_kmh", "overtakes",
+                      "lane_changes", "longitudinal_reward", "lateral_reward", "collisions")
+"""Measures the log holds as eval_<measure>: the agreement rates with the expert (pooled over the validation
+decisions) and the episode metrics' means."""
 
 
 @dataclass(frozen=True)
@@ -101,7 +104,8 @@ def train(folder: Path, settings: RunSettings, config: Config, iterations: int, 
     observation_size = observation_space(config).shape[0]
     demos = read_demonstrations(Path(settings.demos), observation_size)
     shape = PolicyShape(settings.kind, observation_size, settings.hidden)
-    run_record = {"settings": settings.to_dict(), **provenance("training_run", config, settings.rail.seed)}
+    run_record = {"settings": settings.to_dict(), "expert_style": demos.metadata.get("style"),
+                  **provenance("training_run", config, settings.rail.seed)}
     expert_stats = RunningStats.of(demos.observations)
     discriminator = Discriminator(observation_size, expert_stats.mean.copy(), expert_stats.std.copy(),
                                   settings.discriminator)
@@ -115,7 +119,8 @@ def train(folder: Path, settings: RunSettings, config: Config, iterations: int, 
         log = run_iteration(state, shape, config, settings.rail, discriminator, demos, backend, on_rollout)
         row = {**dataclasses.asdict(log), "wall_time_s": time.perf_counter() - started}
         policy = Policy(shape, state.parameters, state.stats.mean, state.stats.std)
-        row.update(_validate(policy, config, backend, validation) if validation.due(log.iteration, iterations - 1)
+        row.update(_validate(policy, config, backend, validation, demos.metadata.get("style"))
+                   if validation.due(log.iteration, iterations - 1)
                    else dict.fromkeys(_VALIDATION_COLUMNS))
         logs.append(row)
         improved = log.return_mean >= max((row["return_mean"] for row in logs), default=-np.inf)
@@ -129,11 +134,14 @@ def train(folder: Path, settings: RunSettings, config: Config, iterations: int, 
 _VALIDATION_COLUMNS = tuple(f"eval_{metric}" for metric in VALIDATION_METRICS)
 
 
-def _validate(policy: Policy, config: Config, backend: RolloutBackend, validation: Validation) -> dict[str, float]:
-    """Mean episode metrics of `policy` on the validation seeds, as eval_<metric>."""
+def _validate(policy: Policy, config: Config, backend: RolloutBackend, validation: Validation,
+              expert_style: str | None) -> dict[str, float]:
+    """VALIDATION_METRICS of `policy` on the validation seeds and warm states, as eval_<measure>."""
     seeds = episode_seeds(Purpose.EVALUATE, VALIDATION_BASE_SEED, validation.episodes)
-    metrics = evaluate([PolicyDriver(policy, "policy")], config, seeds, backend)
-    return {f"eval_{metric}": float(metrics[metric].mean()) for metric in VALIDATION_METRICS}
+    evaluation = evaluate([PolicyDriver(policy, "policy", expert_style)], config, seeds, backend,
+                          pool="validation")
+    samples = measure_samples(evaluation.metrics)
+    return {f"eval_{measure}": float(ratio(samples[measure])) for measure in VALIDATION_METRICS}
 
 
 def _start_folder(folder: Path, run_record: dict[str, Any]) -> None:

@@ -13,7 +13,8 @@ import pyarrow as pa
 
 from sumo_rail.datasets import read_metadata
 from sumo_rail.drivers.policies import Policy, load_policy
-from sumo_rail.evaluation.evaluate import SUMMARY_METRICS
+from sumo_rail.evaluation.evaluate import DECISIONS, decisions_path
+from sumo_rail.evaluation.summary import EPISODE_MEASURES
 from sumo_rail.runners.tables import EPISODE_METRICS
 from sumo_rail.sim.actions import Action
 
@@ -66,6 +67,8 @@ class Inputs:
     metrics: pd.DataFrame | None
     """All episodes of the metrics files, concatenated (driver names made unique across files), or None."""
     metrics_files: list[Path]
+    decisions: pd.DataFrame | None = None
+    """The per-decision records beside the metrics files (NAME.decisions.parquet), when every file has them."""
 
 
 def read_inputs(paths: list[Path]) -> Inputs:
@@ -77,7 +80,10 @@ def read_inputs(paths: list[Path]) -> Inputs:
             runs.append(read_run(path, _unique(path.name, [run.name for run in runs])))
         else:
             metrics.append((path, read_metrics(path)))
-    return Inputs(runs, _concatenate(metrics), [path for path, _ in metrics])
+    decisions = [(path, read_decisions(decisions_path(path))) for path, _ in metrics
+                 if decisions_path(path).is_file()]
+    return Inputs(runs, _concatenate(metrics), [path for path, _ in metrics],
+                  _concatenate(decisions) if metrics and len(decisions) == len(metrics) else None)
 
 
 def read_run(folder: Path, name: str) -> Run:
@@ -117,10 +123,20 @@ def read_metrics(path: Path) -> pd.DataFrame:
     if kind != EPISODE_METRICS:
         raise ReportError(f"{path} holds {kind!r} data, not evaluation metrics")
     metrics = _read_parquet(path)
-    _require_columns(metrics, ("policy", *SUMMARY_METRICS), path)
+    _require_columns(metrics, ("policy", "seed", *EPISODE_MEASURES), path)
     if metrics.empty:
         raise ReportError(f"{path} holds no episodes")
     return metrics
+
+
+def read_decisions(path: Path) -> pd.DataFrame:
+    """The per-decision records written by `sumo-rail evaluate --out` beside its metrics file."""
+    kind = read_metadata(path).get("kind")
+    if kind != DECISIONS:
+        raise ReportError(f"{path} holds {kind!r} data, not per-decision records")
+    decisions = _read_parquet(path)
+    _require_columns(decisions, ("policy", "action", "speed_mps", "headway_s", "lane"), path)
+    return decisions
 
 
 def file_label(name: str) -> str:

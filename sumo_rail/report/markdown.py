@@ -13,7 +13,10 @@ from pathlib import Path
 
 from matplotlib.figure import Figure
 
-from sumo_rail.evaluation.evaluate import summary_table
+from sumo_rail.evaluation.distributions import distance_table
+from sumo_rail.evaluation.fidelity import CONFUSION_COLUMNS
+from sumo_rail.evaluation.summary import intervals, paired_differences, summary_table
+from sumo_rail.report.fidelity_plots import agreement_bars, behaviour_distributions, confusion_maps, forest_plot
 from sumo_rail.report.inputs import Inputs, ReportError, Run
 from sumo_rail.report.plots import DPI, learning_curves, metric_bars, validation_curves, weight_maps
 
@@ -52,10 +55,7 @@ def write_report(inputs: Inputs, out: Path) -> Path:
                  "Speed, overtakes, lane changes and collisions of the policy on validation seeds during training."),
             lambda: validation_curves(runs))
     if inputs.metrics is not None:
-        metrics = inputs.metrics
-        add(Plot("metrics.png", "Evaluation metrics",
-                 "The evaluation table as bar charts: mean +- std over episodes for each driver."),
-            lambda: metric_bars(metrics))
+        _evaluation_plots(inputs, add)
     for run in runs:
         if run.policies:
             add(Plot(f"weights_{run.name}.png", f"Policy weights of {run.name}",
@@ -64,6 +64,46 @@ def write_report(inputs: Inputs, out: Path) -> Path:
     path = out / REPORT_FILE
     write_atomically(path, markdown(inputs, plots).encode())
     return path
+
+
+def _evaluation_plots(inputs: Inputs, add: Callable[[Plot, Callable[[], Figure]], None]) -> None:
+    metrics = inputs.metrics
+    estimates = intervals(metrics)
+    drivers = list(dict.fromkeys(metrics["policy"]))
+    add(Plot("metrics.png", "Evaluation metrics",
+             "The evaluation table as bar charts: mean over episodes for each driver with its 95% interval "
+             "(bootstrap over episodes)."), lambda: metric_bars(metrics, estimates))
+    if set(CONFUSION_COLUMNS) <= set(metrics.columns):
+        add(Plot("agreement.png", "Agreement with the expert",
+                 "At every decision of each driver, the reference expert was asked what it would do in that very "
+                 "traffic: the share of decisions where they agree, overall, lateral (keep lane / left / right) and "
+                 "longitudinal (set-point up / down / hold), and lane-change recall and precision, pooled over "
+                 "decisions with 95% intervals (bootstrap over episodes)."), lambda: agreement_bars(estimates))
+        add(Plot("confusion.png", "Confusion matrices",
+                 "Decisions by driver action (rows) and expert action (columns); colour: share of the expert's "
+                 "column, so the diagonal is the expert's recall per action."), lambda: confusion_maps(metrics))
+    expert = reference_expert(metrics)
+    if inputs.decisions is not None and expert in set(inputs.decisions["policy"]) and len(drivers) > 1:
+        decisions, lanes = inputs.decisions, lane_count(inputs)
+        add(Plot("distributions.png", "Behaviour distributions",
+                 f"Speed, time headway and lane occupancy at every decision, each driver over {expert}'s."),
+            lambda: behaviour_distributions(decisions, expert, lanes))
+    if len(drivers) > 1:
+        differences = paired_differences(metrics, drivers[0])
+        add(Plot("differences.png", "Paired differences",
+                 f"Each driver minus {drivers[0]} on the same seeds, with 95% intervals (bootstrap over seeds); "
+                 "filled markers: the interval excludes 0, a detectable difference."),
+            lambda: forest_plot(differences, drivers[0]))
+
+
+def reference_expert(metrics) -> str:
+    """The driver name of the reference expert the metrics were compared with (expert-normal by default)."""
+    styles = metrics["reference_style"].dropna() if "reference_style" in metrics else []
+    return f"expert-{styles.iloc[0] if len(styles) else 'normal'}"
+
+
+def lane_count(inputs: Inputs) -> int:
+    return int(max(inputs.decisions["lane"].max() + 1, 1))
 
 
 def markdown(inputs: Inputs, plots: list[Plot]) -> str:
@@ -78,6 +118,15 @@ def markdown(inputs: Inputs, plots: list[Plot]) -> str:
     if inputs.metrics is not None:
         files = ", ".join(f"`{path}`" for path in inputs.metrics_files)
         lines += ["## Evaluation", "", f"From {files}:", "", "```text", summary_table(inputs.metrics), "```", ""]
+        if not set(CONFUSION_COLUMNS) <= set(inputs.metrics.columns):
+            lines += ["These metrics files predate the comparison with the expert (no confusion counts): agreement, "
+                      "lane-change precision and recall are absent.", ""]
+        expert = reference_expert(inputs.metrics)
+        if inputs.decisions is not None and expert in set(inputs.decisions["policy"]):
+            table = distance_table(inputs.decisions, expert, lane_count(inputs))
+            lines += [f"Distances of each driver's distributions to {expert}'s (Wasserstein-1 in the unit named; "
+                      "total variation for lanes and actions; no-leader share: difference):", "",
+                      "```text", table.round(3).to_string(), "```", ""]
     if plots:
         lines += ["## Plots", ""]
         for plot in plots:

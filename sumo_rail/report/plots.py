@@ -76,17 +76,18 @@ def validation_curves(runs: list[Run]) -> Figure:
     return figure
 
 
-def metric_bars(metrics: pd.DataFrame) -> Figure:
-    """The paper's table as bar charts: mean +- std over episodes per driver, drivers in order of appearance."""
+def metric_bars(metrics: pd.DataFrame, intervals: pd.DataFrame) -> Figure:
+    """The paper's table as bar charts: mean over episodes per driver with its 95% interval (`intervals`: rows of
+    `evaluation.summary.intervals`), drivers in order of appearance."""
     drivers = list(dict.fromkeys(metrics["policy"]))
-    grouped = metrics.groupby("policy", sort=False)
-    episodes = grouped.size()
+    episodes = metrics.groupby("policy", sort=False).size()
     figure = _figure(min(20.0, 12.0 + 0.6 * max(0, len(drivers) - 4)), 7.5)
     positions = np.arange(len(drivers))
     long_names = max(len(driver) for driver in drivers) * len(drivers) > 40
     for axes, (column, label) in zip(figure.subplots(2, 3).ravel(), METRIC_PANELS, strict=True):
-        means, stds = grouped[column].mean()[drivers], grouped[column].std(ddof=0)[drivers]
-        axes.bar(positions, means, yerr=stds, capsize=4, color=[_colour(i) for i in range(len(drivers))],
+        rows = intervals[intervals["measure"] == column].set_index("policy").loc[drivers]
+        errors = np.vstack([rows["estimate"] - rows["low"], rows["high"] - rows["estimate"]])
+        axes.bar(positions, rows["estimate"], yerr=errors, capsize=4, color=[_colour(i) for i in range(len(drivers))],
                  error_kw={"elinewidth": 1})
         axes.set_xticks(positions, drivers, rotation=30 if long_names else 0, ha="right" if long_names else "center",
                         fontsize=9)
@@ -97,7 +98,7 @@ def metric_bars(metrics: pd.DataFrame) -> Figure:
         _grid(axes, axis="y")
     counts = (f"{episodes.iloc[0]} each" if episodes.nunique() == 1
               else ", ".join(f"{driver}: {episodes[driver]}" for driver in drivers))
-    figure.suptitle(f"Evaluation metrics per driver: mean +- std over episodes ({counts})")
+    figure.suptitle(f"Evaluation metrics per driver: mean over episodes with its 95% interval ({counts})")
     return figure
 
 

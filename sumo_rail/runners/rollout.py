@@ -22,6 +22,9 @@ if TYPE_CHECKING:
     from sumo_rail.runners.backends import WorkerContext
 
 Driver = Callable[[np.ndarray, TrafficView], int]
+DecisionProbe = Callable[[TrafficView, int, dict[str, Any]], None]
+"""Called after each decision with the traffic the driver saw, its action and the step's info; it only
+watches (it cannot change what the driver does)."""
 ACTION_COLUMNS = tuple(f"action_{action.name.lower()}" for action in Action)
 """Metrics columns counting each action, in action order."""
 
@@ -76,6 +79,8 @@ class PolicyDriver:
 
     policy: Policy
     name: str
+    expert_style: str | None = None
+    """Style of the expert whose demonstrations trained the policy, when its file records it."""
 
     def create(self, config: Config, seed: int) -> Driver:
         act = self.policy.act
@@ -90,18 +95,23 @@ class EpisodeResult:
     steps: dict[str, np.ndarray] | None
 
 
-def run_episode(env: HighwayEnv, driver: Driver, seed: int, record: bool = False) -> EpisodeResult:
-    """Reset with `seed` and drive until the episode ends; `record` keeps every (state, action, reward)."""
-    observation, info = env.reset(seed=seed)
+def run_episode(env: HighwayEnv, driver: Driver, seed: int, record: bool = False,
+                options: dict[str, Any] | None = None, probe: DecisionProbe | None = None) -> EpisodeResult:
+    """Reset with `seed` (and the env's reset `options`) and drive until the episode ends; `record` keeps every
+    (state, action, reward); `probe` watches every decision."""
+    observation, info = env.reset(seed=seed, options=options)
     rows: list[tuple[Any, ...]] = []
     observations: list[np.ndarray] = []
     done = terminated = truncated = False
     while not done:
-        action = driver(observation, env.traffic)
+        traffic = env.traffic
+        action = driver(observation, traffic)
         state = (info["speed_mps"], info["lane"], info["position_m"], info["set_point_mps"])
         if record:
             observations.append(observation)
         observation, reward, terminated, truncated, info = env.step(action)
+        if probe is not None:
+            probe(traffic, action, info)
         if record:
             rows.append((action, reward, info["reward_longitudinal"], info["reward_lateral"],
                          info["reward_collision"], *state, info["lane_change_in_progress"]))
@@ -137,7 +147,14 @@ class EpisodeTask:
     driver: DriverSpec
     seed: int
     record: bool = False
+    pool: str = "train"
+    """Warm-state pool the episode starts from ("train", "validation" or "test")."""
+    warm_state: int | None = None
+    """Index of the warm state in the pool; None: drawn from the seed."""
 
-    def run(self, context: WorkerContext) -> EpisodeResult:
+    def run(self, context: WorkerContext, probe: DecisionProbe | None = None) -> EpisodeResult:
         env = context.env(self.config)
-        return run_episode(env, self.driver.create(self.config, self.seed), self.seed, self.record)
+        options: dict[str, Any] = {"pool": self.pool}
+        if self.warm_state is not None:
+            options["warm_state"] = self.warm_state
+        return run_episode(env, self.driver.create(self.config, self.seed), self.seed, self.record, options, probe)

@@ -68,9 +68,10 @@ _METRIC_TYPES: dict[str, pa.DataType] = {
 METRIC_COLUMNS = tuple(_METRIC_TYPES)
 
 
-def metrics_table(rows: Sequence[dict[str, Any]]) -> pa.Table:
-    """One row per evaluated episode; each row holds every column of METRIC_COLUMNS."""
-    return pa.table({name: pa.array([row[name] for row in rows], type=kind) for name, kind in _METRIC_TYPES.items()})
+def metrics_table(rows: Sequence[dict[str, Any]], extra_types: dict[str, pa.DataType] | None = None) -> pa.Table:
+    """One row per evaluated episode; each row holds every column of METRIC_COLUMNS and of `extra_types`."""
+    types = {**_METRIC_TYPES, **(extra_types or {})}
+    return pa.table({name: pa.array([row[name] for row in rows], type=kind) for name, kind in types.items()})
 
 
 @dataclass(frozen=True)

@@ -1,9 +1,12 @@
 """`HighwayEnv`: the Gymnasium environment composing the simulation, LIDAR, actions and rewards.
 
 Each reset draws, from the env's `np_random`, the warm traffic state, SUMO's seed, the ego's start lane and
-position, so `reset(seed=s)` followed by the same actions reproduces the same episode. One decision lasts
-`env.decision_period_s`; the reward of a decision is longitudinal + lateral, or `collision_reward` when the
-ego collides (the episode then terminates). Reaching the end of the road or the time limit truncates it.
+position, so `reset(seed=s)` followed by the same actions reproduces the same episode. `reset(options=...)`
+may choose the warm-state pool (`"pool"`: "train", the default, "validation" or "test"; see
+`sumo_rail.sim.simulation`) and fix the warm state (`"warm_state"`: its index in the pool) instead of drawing it.
+One decision lasts `env.decision_period_s`; the reward of a decision is longitudinal + lateral, or
+`collision_reward` when the ego collides (the episode then terminates).
+Reaching the end of the road or the time limit truncates it.
 """
 
 from __future__ import annotations
@@ -22,7 +25,7 @@ from sumo_rail.sim import lidar
 from sumo_rail.sim.actions import Action, command_for
 from sumo_rail.sim.observation import build_observation, observation_space
 from sumo_rail.sim.rewards import EpisodeMetrics, OvertakeCounter, lateral_reward, longitudinal_reward, relations
-from sumo_rail.sim.simulation import TRANSPORTS, EgoState, Neighbours, PeriodReport, Simulation
+from sumo_rail.sim.simulation import TRANSPORTS, WARM_STATE_POOLS, EgoState, Neighbours, PeriodReport, Simulation
 
 _SUMO_SEED_BOUND = 2**31 - 1
 
@@ -53,6 +56,20 @@ class TrafficView:
     set_point_mps: float
     """The ego's current cruise set-point [m/s]."""
     lanes: int
+
+
+def _warm_state_options(options: dict[str, Any], snapshots: int) -> tuple[str, int | None]:
+    """The pool and fixed warm state asked for in reset's options (ValueError on unknown keys or values)."""
+    unknown = set(options) - {"pool", "warm_state"}
+    if unknown:
+        raise ValueError(f"unknown reset options {sorted(unknown)}; known: 'pool', 'warm_state'")
+    pool = options.get("pool", "train")
+    if pool not in WARM_STATE_POOLS:
+        raise ValueError(f"reset option 'pool' must be one of {', '.join(WARM_STATE_POOLS)}, got {pool!r}")
+    warm_state = options.get("warm_state")
+    if warm_state is not None and not (isinstance(warm_state, int | np.integer) and 0 <= warm_state < snapshots):
+        raise ValueError(f"reset option 'warm_state' must be an integer in [0, {snapshots}), got {warm_state!r}")
+    return pool, None if warm_state is None else int(warm_state)
 
 
 _CONTEXT_MARGIN_M = 20.0
@@ -109,7 +126,11 @@ class HighwayEnv(gymnasium.Env[np.ndarray, np.int64]):
             self._sim = Simulation(cfg.scenario, cfg.lidar.range_m + _CONTEXT_MARGIN_M,
                                    gui=self.render_mode == "human", transport=self.transport)
         sim = self._sim
-        sim.reset(**dataclasses.asdict(EpisodeStart.draw(self.np_random, cfg, sim.snapshot_count)))
+        start = EpisodeStart.draw(self.np_random, cfg, sim.snapshot_count)
+        pool, warm_state = _warm_state_options(options or {}, sim.snapshot_count)
+        if warm_state is not None:
+            start = dataclasses.replace(start, snapshot=warm_state)
+        sim.reset(**dataclasses.asdict(start), pool=pool)
         if self._edge_boxes is None:
             self._edge_boxes = lidar.edge_boxes(sim.road_edges())
         ego, neighbours = sim.observe()

@@ -1,15 +1,19 @@
 """The one module that talks to SUMO: libsumo in-process (the default), traci over a socket to a `sumo` process,
 or traci + sumo-gui when a window is asked for.
 
-Episodes start from warm traffic states: one warm-up run per scenario saves `snapshots` states (cached on
-disk, shared by every process), and each reset reloads one of them with a fresh `--seed`, so arrivals,
-desired speeds of new vehicles and driver imperfection differ between episode seeds while one seed always
-gives the same traffic. (`simulation.loadState` is not used: it does not restore SUMO's random number
+Episodes start from warm traffic states, in three pools that never share a state: "train" (recording,
+training rollouts and plain Gymnasium use), "validation" (validation during training) and "test"
+(`evaluate`). Each pool is one warm-up run with its own traffic seed (`scenario.traffic_seed` + the pool's
+index) that saves `scenario.snapshots` states, cached on disk and shared by every process; each reset reloads
+one of them with a fresh `--seed`, so arrivals, desired speeds of new vehicles and driver imperfection differ
+between episode seeds while one seed always gives the same traffic.
+(`simulation.loadState` is not used: it does not restore SUMO's random number
 generators, so it is not reproducible; a reload with `--load-state` is, and takes about 10 ms.)
 """
 
 from __future__ import annotations
 
+import fcntl
 import hashlib
 import json
 import logging
@@ -31,6 +35,8 @@ LANE_CHANGE_MODE_TRACI_ONLY_SAFE = 0b1100000000
 """No autonomous lane changes; TraCI requests respect other drivers' gaps, without speed adaptation."""
 _LATERAL_EPSILON_M = 0.01
 _ACTIVE_LIBSUMO: Simulation | None = None
+WARM_STATE_POOLS = ("train", "validation", "test")
+"""Disjoint sets of warm traffic states, by what the episodes are for."""
 TRANSPORTS = ("libsumo", "traci")
 """How SUMO is driven: libsumo (SUMO linked into this process) or traci (a SUMO process, over a socket)."""
 
@@ -116,7 +122,8 @@ class Simulation:
         self._constants = tc = _load_constants()
         self._context_variables = (tc.VAR_POSITION, tc.VAR_ANGLE, tc.VAR_SPEED, tc.VAR_LANEPOSITION, tc.VAR_LENGTH,
                                    tc.VAR_WIDTH, tc.VAR_LANE_INDEX)
-        self._snapshots = self._warm_snapshots()
+        self._start(["--seed", str(scenario.traffic_seed)])
+        self._pools: dict[str, list[Path]] = {}
         self._running = True
         if self.transport == "libsumo":
             _ACTIVE_LIBSUMO = self
@@ -128,7 +135,8 @@ class Simulation:
 
     @property
     def snapshot_count(self) -> int:
-        return len(self._snapshots)
+        """Warm states in each pool."""
+        return self.scenario.snapshots
 
     def _options(self) -> list[str]:
         """Every SUMO option that shapes the simulation, explicitly."""
@@ -173,7 +181,7 @@ class Simulation:
         except self._api.TraCIException as error:  # type: ignore[attr-defined]
             raise SimulationError(f"SUMO failed to load the warm state: {error}") from error
 
-    def _snapshot_key(self) -> str:
+    def _snapshot_key(self, traffic_seed: int) -> str:
         s = self.scenario
         settings = {
             "network": self._built.directory.name,
@@ -181,18 +189,34 @@ class Simulation:
             "warmup_s": s.warmup_s,
             "snapshots": s.snapshots,
             "snapshot_interval_s": s.snapshot_interval_s,
-            "traffic_seed": s.traffic_seed,
+            "traffic_seed": traffic_seed,
         }
         return hashlib.sha256(json.dumps(settings, sort_keys=True).encode()).hexdigest()[:16]
 
-    def _warm_snapshots(self) -> list[Path]:
-        """Paths of the warm states, running the warm-up first when they are not cached yet."""
-        directory = network.cache_dir() / "states" / self._snapshot_key()
+    def _pool(self, pool: str) -> list[Path]:
+        """Paths of a pool's warm states, built on first use."""
+        if pool not in self._pools:
+            if pool not in WARM_STATE_POOLS:
+                raise ValueError(f"warm-state pool must be one of {', '.join(WARM_STATE_POOLS)}, got {pool!r}")
+            self._pools[pool] = self._warm_snapshots(self.scenario.traffic_seed + WARM_STATE_POOLS.index(pool))
+        return self._pools[pool]
+
+    def _warm_snapshots(self, traffic_seed: int) -> list[Path]:
+        """Paths of the warm states of one warm-up run, running it first when they are not cached yet; a lock
+        file makes concurrent processes wait for the one that builds them."""
+        directory = network.cache_dir() / "states" / self._snapshot_key(traffic_seed)
         paths = [directory / f"state_{k:03d}.xml" for k in range(self.scenario.snapshots)]
-        self._start(["--seed", str(self.scenario.traffic_seed)])
         if all(path.exists() for path in paths):
             return paths
         directory.mkdir(parents=True, exist_ok=True)
+        with open(directory / ".lock", "w") as lock:
+            fcntl.flock(lock, fcntl.LOCK_EX)
+            if not all(path.exists() for path in paths):
+                self._run_warm_up(traffic_seed, paths)
+        return paths
+
+    def _run_warm_up(self, traffic_seed: int, paths: list[Path]) -> None:
+        self._load(["--seed", str(traffic_seed)])
         api = self._api
         api.simulationStep(self.scenario.warmup_s)
         for k, path in enumerate(paths):
@@ -201,13 +225,13 @@ class Simulation:
             temporary = path.with_suffix(f".{os.getpid()}.tmp")
             api.simulation.saveState(str(temporary))
             os.replace(temporary, path)
-        log.info("saved %d warm states in %s", len(paths), directory)
-        return paths
+        log.info("saved %d warm states in %s", len(paths), paths[0].parent)
 
-    def reset(self, snapshot: int, sumo_seed: int, ego_lane: int, ego_position_m: float) -> None:
-        """Reload warm state `snapshot` with SUMO seed `sumo_seed` and insert the ego; steps until it is in."""
+    def reset(self, snapshot: int, sumo_seed: int, ego_lane: int, ego_position_m: float, pool: str = "train") -> None:
+        """Reload warm state `snapshot` of `pool` with SUMO seed `sumo_seed` and insert the ego; steps until it
+        is in."""
         self._require_running()
-        self._load(["--load-state", str(self._snapshots[snapshot]), "--seed", str(sumo_seed)])
+        self._load(["--load-state", str(self._pool(pool)[snapshot]), "--seed", str(sumo_seed)])
         api = self._api
         api.vehicle.add(EGO_ID, network.ROUTE_ID, typeID=network.EGO_TYPE, depart="now",
                         departLane=str(ego_lane), departPos=repr(ego_position_m), departSpeed="max")

@@ -80,7 +80,8 @@ def test_report_of_runs_and_metrics_files(tmp_path):
     result = invoke("report", str(mlp), str(first), str(linear), str(second), "--out", str(out))
     assert result.exit_code == 0, result.output
     assert str(out / "report.md") in result.output
-    pngs = ["learning_curves.png", "validation.png", "metrics.png", "weights_mlp_run.png", "weights_linear_run.png"]
+    pngs = ["learning_curves.png", "validation.png", "metrics.png", "differences.png", "weights_mlp_run.png",
+            "weights_linear_run.png"]
     assert sorted(path.name for path in out.iterdir()) == sorted([*pngs, "report.md"])  # no temporary files left
     for name in pngs:
         width, height = png_size(out / name)
@@ -91,7 +92,9 @@ def test_report_of_runs_and_metrics_files(tmp_path):
     assert "| mlp_run | mlp (6 hidden) | 4 | 4,060 | 0.8 | -0.050 | -0.050 (4) | 4 | 103.0 |" in report
     assert "| linear_run | linear | 4 |" in report and report.count("| - ") == 5
     assert "expert-normal [m1]" in report and "expert-normal [m2]" in report and "policy_best" in report
-    assert "+-" in report
+    assert "mean [95% interval]" in report and "difference to expert-normal [m1] on the same seeds" in report
+    assert "predate the comparison with the expert" in report  # metrics files without confusion counts still load
+    assert "agreement.png" not in report and "confusion.png" not in report
 
 
 def test_no_validation_plot_without_validation_values(tmp_path):

@@ -2,7 +2,7 @@ import libsumo
 import numpy as np
 import pytest
 
-from sumo_rail.sim.simulation import EGO_ID, Simulation, SimulationError
+from sumo_rail.sim.simulation import EGO_ID, WARM_STATE_POOLS, Simulation, SimulationError
 
 
 @pytest.fixture
@@ -74,3 +74,23 @@ def test_road_edges_bound_all_lanes(sim):
     edges = sim.road_edges()
     ys = sorted({round(y, 3) for y in edges[:, :, 1].ravel()})
     assert ys == [pytest.approx(-5 * 3.2), pytest.approx(0.0)]
+
+
+def vehicles_of_state(path) -> set[str]:
+    return {line.split('id="')[1].split('"')[0] for line in path.read_text().splitlines() if "<vehicle " in line}
+
+
+def test_warm_state_pools_never_share_a_state(sim):
+    pools = {pool: sim._pool(pool) for pool in WARM_STATE_POOLS}
+    paths = [path for states in pools.values() for path in states]
+    assert len(set(paths)) == len(paths) == 3 * sim.snapshot_count
+    contents = {path.read_bytes() for path in paths}
+    assert len(contents) == len(paths)  # every state distinct, across pools too
+    train, test = pools["train"][0], pools["test"][0]
+    positions = [traffic_after(sim, 0, seed=1, seconds=0.1)]
+    sim.reset(snapshot=0, sumo_seed=1, ego_lane=2, ego_position_m=400.0, pool="test")
+    positions.append({v: libsumo.vehicle.getPosition(v) for v in libsumo.vehicle.getIDList()})
+    assert positions[0] != positions[1]
+    assert vehicles_of_state(train) and vehicles_of_state(test)
+    with pytest.raises(ValueError, match="warm-state pool"):
+        sim.reset(snapshot=0, sumo_seed=1, ego_lane=2, ego_position_m=400.0, pool="holdout")

@@ -1,0 +1,57 @@
+"""How far each driver's behaviour distributions are from the reference expert's, over the same episodes.
+
+Continuous quantities use the Wasserstein-1 distance (scipy.stats.wasserstein_distance, in the quantity's own
+unit: how far, on average, probability mass must move); categorical ones the total variation distance
+(half the L1 distance between the two frequency vectors, from 0 = identical to 1 = disjoint).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+from scipy.spatial.distance import cityblock
+from scipy.stats import wasserstein_distance
+
+from sumo_rail.sim.actions import Action
+
+CONTINUOUS: dict[str, tuple[str, float]] = {
+    "speed_w1_kmh": ("speed_mps", 3.6),
+    "set_point_w1_kmh": ("set_point_mps", 3.6),
+    "headway_w1_s": ("headway_s", 1.0),
+    "accepted_front_gap_w1_m": ("accepted_front_gap_m", 1.0),
+    "accepted_rear_gap_w1_m": ("accepted_rear_gap_m", 1.0),
+}
+"""Distance column -> (decision column, unit factor). NaN values (no leader, no accepted lane change) are left out."""
+DISTANCE_COLUMNS = ("speed_w1_kmh", "set_point_w1_kmh", "headway_w1_s", "no_leader_share_difference",
+                    "lane_tv", "action_tv", "accepted_front_gap_w1_m", "accepted_rear_gap_w1_m")
+
+
+def distances(driver: pd.DataFrame, reference: pd.DataFrame, lanes: int) -> dict[str, float]:
+    """Distances between one driver's decision records and the reference's (columns of DECISION_FIELDS)."""
+    row: dict[str, float] = {}
+    for name, (column, factor) in CONTINUOUS.items():
+        ours, theirs = driver[column].dropna().to_numpy(), reference[column].dropna().to_numpy()
+        row[name] = factor * wasserstein_distance(ours, theirs) if len(ours) and len(theirs) else np.nan
+    row["no_leader_share_difference"] = float(driver["headway_s"].isna().mean() - reference["headway_s"].isna().mean())
+    row["lane_tv"] = _total_variation(driver["lane"], reference["lane"], lanes)
+    row["action_tv"] = _total_variation(driver["action"], reference["action"], len(Action))
+    return {name: row[name] for name in DISTANCE_COLUMNS}
+
+
+def distance_table(decisions: pd.DataFrame, reference: str, lanes: int) -> pd.DataFrame:
+    """One row per driver other than `reference` (column 'policy' of `decisions`), DISTANCE_COLUMNS."""
+    groups = dict(tuple(decisions.groupby("policy", sort=False)))
+    if reference not in groups:
+        raise ValueError(f"no decisions of the reference driver {reference!r}")
+    rows = {name: distances(frame, groups[reference], lanes) for name, frame in groups.items() if name != reference}
+    return pd.DataFrame.from_dict(rows, orient="index", columns=list(DISTANCE_COLUMNS))
+
+
+def frequencies(values: pd.Series, categories: int) -> np.ndarray:
+    """Share of each category 0..categories-1."""
+    counts = np.bincount(values.to_numpy(dtype=np.int64), minlength=categories)[:categories]
+    return counts / max(counts.sum(), 1)
+
+
+def _total_variation(ours: pd.Series, theirs: pd.Series, categories: int) -> float:
+    return 0.5 * cityblock(frequencies(ours, categories), frequencies(theirs, categories))

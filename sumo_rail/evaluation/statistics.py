@@ -1,0 +1,99 @@
+"""95% confidence intervals by bootstrap over episodes (scipy.stats.bootstrap's resamples, percentile intervals,
+seeded so the same input gives the same interval).
+
+Every estimate is a ratio of sums over episodes, sum(numerator) / sum(denominator): a plain mean has a
+denominator of ones, and a rate such as agreement pools decisions over episodes (agreements / decisions), so an
+episode weighs by its decisions. Paired estimates resample seeds, keeping each seed's episodes of every driver
+together, so traffic shared by two drivers cancels out of their difference.
+"""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import stats
+
+CONFIDENCE = 0.95
+RESAMPLES = 2000
+
+
+@dataclass(frozen=True)
+class Interval:
+    """An estimate and its confidence interval (NaN where there is nothing to estimate)."""
+
+    estimate: float
+    low: float
+    high: float
+
+    @property
+    def excludes_zero(self) -> bool:
+        """The interval lies wholly above or below 0: a detectable difference."""
+        return bool(self.low > 0 or self.high < 0)
+
+    def format(self, digits: int = 2, signed: bool = False) -> str:
+        """'1.23 [1.10, 1.35]' ('+' signs with `signed`)."""
+        if np.isnan(self.estimate):
+            return "n/a"
+        spec = f"{'+' if signed else ''}.{digits}f"
+        return f"{self.estimate:{spec}} [{self.low:{spec}}, {self.high:{spec}}]"
+
+
+Sample = tuple[np.ndarray, np.ndarray]
+"""(numerators, denominators), one entry per episode."""
+
+
+def ratio(sample: Sample, axis: int = -1) -> np.ndarray:
+    """sum(numerators) / sum(denominators) along `axis` (NaN where the denominators sum to 0)."""
+    numerators, denominators = sample
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.sum(numerators, axis=axis) / np.sum(denominators, axis=axis)
+
+
+def mean_sample(values: np.ndarray) -> Sample:
+    """The sample of a plain mean."""
+    values = np.asarray(values, dtype=float)
+    return values, np.ones_like(values)
+
+
+def interval(sample: Sample, seed: int = 0) -> Interval:
+    """The pooled ratio of one driver's episodes with its interval."""
+    return _bootstrap([sample], lambda a: ratio(a), seed)
+
+
+def paired_difference(sample: Sample, reference: Sample, seed: int = 0) -> Interval:
+    """ratio(sample) - ratio(reference), episodes paired by seed (same order in both)."""
+    return _bootstrap([sample, reference], lambda a, r: ratio(a) - ratio(r), seed)
+
+
+def closeness_difference(sample: Sample, other: Sample, target: Sample, seed: int = 0) -> Interval:
+    """|ratio(sample) - ratio(target)| - |ratio(other) - ratio(target)|, paired by seed: below 0 where `sample`
+    is closer to `target` than `other` is."""
+    return _bootstrap([sample, other, target],
+                      lambda a, b, t: np.abs(ratio(a) - ratio(t)) - np.abs(ratio(b) - ratio(t)), seed)
+
+
+def _bootstrap(samples: Sequence[Sample], statistic: Callable[..., np.ndarray], seed: int) -> Interval:
+    arrays = [np.asarray(part, dtype=float) for sample in samples for part in sample]
+    lengths = {len(array) for array in arrays}
+    if len(lengths) != 1:
+        raise ValueError(f"paired samples must have the same number of episodes, got {sorted(lengths)}")
+
+    def on_arrays(*flat: np.ndarray, axis: int = -1) -> np.ndarray:
+        pairs = [(np.moveaxis(flat[i], axis, -1), np.moveaxis(flat[i + 1], axis, -1)) for i in range(0, len(flat), 2)]
+        return statistic(*pairs)
+
+    estimate = float(on_arrays(*arrays))
+    if lengths.pop() < 2 or np.isnan(estimate):
+        return Interval(estimate, np.nan, np.nan)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # constant samples: the interval is the estimate itself
+        result = stats.bootstrap(arrays, on_arrays, paired=True, vectorized=True, confidence_level=CONFIDENCE,
+                                 n_resamples=RESAMPLES, method="percentile", random_state=np.random.default_rng(seed))
+    # Percentiles of the resampled estimates, leaving out resamples where a rate is undefined (no decision of
+    # the kind drawn, as with rare lane changes); scipy's own interval would be NaN then.
+    tail = 50 * (1 - CONFIDENCE)
+    low, high = np.nanpercentile(result.bootstrap_distribution, [tail, 100 - tail])
+    return Interval(estimate, float(low), float(high))

@@ -1,0 +1,100 @@
+"""The tables a reader compares drivers with: every measure's mean with its 95% interval, the paired difference
+of every driver to a reference driver, and the distribution distances to the reference expert."""
+
+from __future__ import annotations
+
+import pandas as pd
+
+from sumo_rail.evaluation.distributions import distance_table
+from sumo_rail.evaluation.fidelity import CONFUSION_COLUMNS, RATES, agreement_counts
+from sumo_rail.evaluation.statistics import Interval, Sample, interval, mean_sample, paired_difference
+
+EPISODE_MEASURES = ("average_speed_kmh", "overtakes", "lane_changes", "longitudinal_reward", "lateral_reward",
+                    "collisions", "hard_braking", "invalid_actions", "distance_m", "steps")
+"""Episode metrics summarised by their mean over episodes (the paper's first)."""
+MEASURES = (*RATES, *EPISODE_MEASURES)
+"""Rows of the summary: the agreement rates (pooled over decisions) first, then the episode means."""
+DETECTABLE = "*"
+
+
+def measure_samples(episodes: pd.DataFrame) -> dict[str, Sample]:
+    """Each measure's (numerators, denominators) per episode; the rates only where the confusion counts exist."""
+    samples: dict[str, Sample] = {}
+    if set(CONFUSION_COLUMNS) <= set(episodes.columns):
+        counts = agreement_counts(episodes[list(CONFUSION_COLUMNS)].to_numpy().reshape(-1, 5, 5))
+        samples |= {name: (counts[top], counts[bottom]) for name, (top, bottom) in RATES.items()}
+    samples |= {name: mean_sample(episodes[name].to_numpy()) for name in EPISODE_MEASURES if name in episodes}
+    return samples
+
+
+def drivers_of(metrics: pd.DataFrame) -> list[str]:
+    return list(dict.fromkeys(metrics["policy"]))
+
+
+def intervals(metrics: pd.DataFrame, seed: int = 0) -> pd.DataFrame:
+    """Rows (policy, measure): estimate, low, high."""
+    rows = []
+    for driver in drivers_of(metrics):
+        for measure, sample in measure_samples(metrics[metrics["policy"] == driver]).items():
+            rows.append({"policy": driver, "measure": measure, **vars(interval(sample, seed))})
+    return pd.DataFrame(rows, columns=["policy", "measure", "estimate", "low", "high"])
+
+
+def paired_differences(metrics: pd.DataFrame, reference: str, seed: int = 0) -> pd.DataFrame:
+    """Rows (policy, measure) for every driver but `reference`: the difference driver - reference on the seeds
+    both drove, with its interval and whether the interval excludes 0."""
+    if reference not in drivers_of(metrics):
+        raise ValueError(f"reference driver {reference!r} is not among the evaluated drivers "
+                         f"({', '.join(drivers_of(metrics))})")
+    by_seed = {driver: frame.set_index("seed") for driver, frame in metrics.groupby("policy", sort=False)}
+    rows = []
+    for driver in drivers_of(metrics):
+        if driver == reference:
+            continue
+        common = by_seed[driver].index.intersection(by_seed[reference].index).sort_values()
+        ours = measure_samples(by_seed[driver].loc[common].reset_index())
+        theirs = measure_samples(by_seed[reference].loc[common].reset_index())
+        for measure in ours.keys() & theirs.keys():
+            difference = paired_difference(ours[measure], theirs[measure], seed)
+            rows.append({"policy": driver, "measure": measure, **vars(difference),
+                         "detectable": difference.excludes_zero})
+    frame = pd.DataFrame(rows, columns=["policy", "measure", "estimate", "low", "high", "detectable"])
+    return frame.sort_values("measure", key=lambda names: names.map(MEASURES.index), kind="stable")
+
+
+def summary_table(metrics: pd.DataFrame, reference: str | None = None, seed: int = 0) -> str:
+    """Means with 95% intervals (rows: measures; columns: drivers), then each driver's paired difference to
+    `reference` (default: the first driver), a * marking the intervals that exclude 0."""
+    drivers = drivers_of(metrics)
+    episodes = metrics.groupby("policy", sort=False).size()
+    header = ", ".join(f"{driver}: {episodes[driver]} episodes" for driver in drivers)
+    means = _grid(intervals(metrics, seed), drivers, lambda row: _format(row, signed=False))
+    text = f"{header}\nmean [95% interval], bootstrap over episodes:\n{means.to_string()}"
+    reference = reference or drivers[0]
+    if len(drivers) > 1:
+        differences = paired_differences(metrics, reference, seed)
+        grid = _grid(differences, [driver for driver in drivers if driver != reference],
+                     lambda row: _format(row, signed=True) + (f" {DETECTABLE}" if row.detectable else "  "))
+        text += (f"\n\ndifference to {reference} on the same seeds [95% interval]; {DETECTABLE}: the interval "
+                 f"excludes 0 (a detectable difference):\n{grid.to_string()}")
+    return text
+
+
+def distance_summary(decisions: pd.DataFrame, reference: str, lanes: int) -> str:
+    """Distribution distances of every driver to `reference`, as text."""
+    table = distance_table(decisions, reference, lanes)
+    return (f"distance of each driver's distributions to {reference}'s (Wasserstein-1 in the unit named; total "
+            f"variation for lanes and actions; no-leader share: difference):\n{table.round(3).to_string()}")
+
+
+def _grid(rows: pd.DataFrame, drivers: list[str], cell) -> pd.DataFrame:
+    measures = [measure for measure in MEASURES if measure in set(rows["measure"])]
+    grid = pd.DataFrame("", index=measures, columns=drivers)
+    for row in rows.itertuples():
+        grid.loc[row.measure, row.policy] = cell(row)
+    return grid
+
+
+def _format(row, signed: bool) -> str:
+    digits = 3 if row.measure in RATES else 2
+    return Interval(row.estimate, row.low, row.high).format(digits, signed)

@@ -1,0 +1,39 @@
+import numpy as np
+import pandas as pd
+import pytest
+
+from sumo_rail.evaluation.distributions import DISTANCE_COLUMNS, distance_table, distances
+
+
+def records(speed, headway, lanes, actions) -> pd.DataFrame:
+    count = len(speed)
+    return pd.DataFrame({"speed_mps": speed, "set_point_mps": speed, "headway_s": headway, "lane": lanes,
+                         "action": actions, "accepted_front_gap_m": np.full(count, np.nan),
+                         "accepted_rear_gap_m": np.full(count, np.nan)})
+
+
+def test_distances_of_shifted_and_reshuffled_behaviour():
+    rng = np.random.default_rng(0)
+    speed = rng.uniform(20, 30, 400)
+    expert = records(speed, np.r_[rng.uniform(1, 3, 300), [np.nan] * 100], np.repeat([0, 1], 200),
+                     np.zeros(400, int))
+    driver = records(speed + 2.0, np.r_[rng.uniform(1, 3, 200), [np.nan] * 200], np.repeat([1, 2], 200),
+                     np.repeat([0, 3], 200))
+    found = distances(driver, expert, lanes=5)
+    assert found["speed_w1_kmh"] == pytest.approx(2.0 * 3.6)   # a shift moves all mass by the shift
+    assert found["set_point_w1_kmh"] == pytest.approx(7.2)
+    assert found["no_leader_share_difference"] == pytest.approx(0.5 - 0.25)
+    assert found["lane_tv"] == pytest.approx(0.5)                 # half the decisions moved one lane up
+    assert found["action_tv"] == pytest.approx(0.5)
+    assert np.isnan(found["accepted_front_gap_w1_m"])            # no accepted lane changes to compare
+    assert distances(expert, expert, lanes=5)["lane_tv"] == 0.0
+
+
+def test_distance_table_has_a_row_per_other_driver():
+    frame = records(np.arange(10.0), np.ones(10), np.zeros(10, int), np.zeros(10, int))
+    decisions = pd.concat([frame.assign(policy="expert-normal"), frame.assign(policy="bc")], ignore_index=True)
+    table = distance_table(decisions, "expert-normal", lanes=5)
+    assert table.index.tolist() == ["bc"] and table.columns.tolist() == list(DISTANCE_COLUMNS)
+    assert table.loc["bc", "speed_w1_kmh"] == 0.0
+    with pytest.raises(ValueError, match="reference driver 'expert-calm'"):
+        distance_table(decisions, "expert-calm", lanes=5)

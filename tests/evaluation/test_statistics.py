@@ -1,0 +1,62 @@
+import numpy as np
+import pytest
+
+from sumo_rail.evaluation.statistics import (
+    Interval,
+    closeness_difference,
+    interval,
+    mean_sample,
+    paired_difference,
+    ratio,
+)
+
+
+def test_mean_interval_is_seeded_and_covers_the_mean():
+    values = np.random.default_rng(0).normal(10.0, 2.0, 200)
+    first, again = interval(mean_sample(values), seed=3), interval(mean_sample(values), seed=3)
+    assert first == again
+    assert first.estimate == pytest.approx(values.mean())
+    half_width = 1.96 * values.std(ddof=1) / np.sqrt(len(values))  # the normal-theory interval, for scale
+    assert first.low < values.mean() < first.high
+    assert (first.high - first.low) / 2 == pytest.approx(half_width, rel=0.15)
+    assert interval(mean_sample(values), seed=4) != first
+
+
+def test_ratio_pools_over_episodes():
+    agreements, decisions = np.array([9, 1]), np.array([10, 90])
+    assert ratio((agreements, decisions)) == pytest.approx(10 / 100)  # not the mean of 0.9 and 0.011
+    assert interval((agreements, decisions)).estimate == pytest.approx(0.1)
+
+
+def test_paired_difference_cancels_what_the_seeds_share():
+    rng = np.random.default_rng(1)
+    traffic = rng.normal(100.0, 10.0, 60)           # the seed's traffic moves both drivers alike
+    a, b = traffic + 1.0 + rng.normal(0, 0.1, 60), traffic + rng.normal(0, 0.1, 60)
+    paired = paired_difference(mean_sample(a), mean_sample(b))
+    assert paired.excludes_zero and paired.low > 0.9 and paired.high < 1.1
+    unpaired = paired_difference(mean_sample(a), mean_sample(rng.permutation(b)))
+    assert not unpaired.excludes_zero  # shuffled pairs hide the same difference in the traffic's spread
+
+
+def test_closeness_difference_says_which_is_closer_to_the_target():
+    rng = np.random.default_rng(2)
+    target = rng.normal(2.4, 1.0, 100)
+    near, far = target + rng.normal(0.1, 0.2, 100), target + rng.normal(1.5, 0.2, 100)
+    assert closeness_difference(mean_sample(near), mean_sample(far), mean_sample(target)).high < 0
+    assert closeness_difference(mean_sample(far), mean_sample(near), mean_sample(target)).low > 0
+
+
+def test_degenerate_samples():
+    constant = interval(mean_sample(np.full(5, 2.0)))
+    assert (constant.estimate, constant.low, constant.high) == (2.0, 2.0, 2.0)
+    assert np.isnan(interval(mean_sample(np.array([1.0]))).low)
+    assert np.isnan(interval((np.zeros(4), np.zeros(4))).estimate)
+    with pytest.raises(ValueError, match="same number of episodes"):
+        paired_difference(mean_sample(np.ones(3)), mean_sample(np.ones(4)))
+
+
+def test_formatting():
+    assert Interval(0.5, 0.25, 0.75).format(3) == "0.500 [0.250, 0.750]"
+    assert Interval(-1.0, -2.0, 0.5).format(2, signed=True) == "-1.00 [-2.00, +0.50]"
+    assert Interval(float("nan"), float("nan"), float("nan")).format() == "n/a"
+    assert Interval(1.0, 0.1, 2.0).excludes_zero and not Interval(1.0, -0.1, 2.0).excludes_zero
