@@ -25,6 +25,7 @@ demo: $(STAMP)
 bench: $(STAMP)
 	$(PY) benchmarks/bench_env.py --out docs/benchmarks.md
 	$(PY) benchmarks/bench_record.py --out docs/benchmarks.md
+	$(PY) benchmarks/bench_evaluate.py --out docs/benchmarks.md
 	$(PY) benchmarks/bench_train.py --out docs/benchmarks.md
 	# highway-env (and pygame-ce) only for the comparison; it accepts the project's gymnasium 1.x. If it cannot be
 	# installed ('-': go on), bench_compare says so in its section.

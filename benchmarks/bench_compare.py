@@ -28,6 +28,7 @@ import numpy as np
 from doc_section import write_section
 
 from sumo_rail.config import Config
+from sumo_rail.datasets import sumo_version
 from sumo_rail.drivers.policies import PolicyShape
 from sumo_rail.learning.ars import NoiseAdaptation
 from sumo_rail.learning.discriminator import Discriminator, DiscriminatorSettings
@@ -38,7 +39,6 @@ from sumo_rail.runners.rollout import KeepDriver, run_episode
 from sumo_rail.runners.tables import Demonstrations
 from sumo_rail.seeding import Purpose, episode_seeds
 from sumo_rail.sim.env import HighwayEnv
-from sumo_rail.sim.network import sumo_version
 from sumo_rail.sim.observation import observation_names
 from sumo_rail.sim.simulation import TRANSPORTS
 

@@ -24,8 +24,8 @@ import numpy as np
 from doc_section import write_section
 
 from sumo_rail.config import Config
+from sumo_rail.datasets import sumo_version
 from sumo_rail.sim.env import EpisodeStart, HighwayEnv
-from sumo_rail.sim.network import sumo_version
 from sumo_rail.sim.simulation import EGO_ID, Simulation
 
 

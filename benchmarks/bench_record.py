@@ -19,6 +19,7 @@ from pathlib import Path
 from doc_section import write_section
 
 from sumo_rail.config import Config
+from sumo_rail.datasets import sumo_version
 from sumo_rail.drivers.expert import DEFAULT_STYLE, STYLES
 from sumo_rail.evaluation.evaluate import evaluate
 from sumo_rail.evaluation.summary import summary_table
@@ -26,7 +27,6 @@ from sumo_rail.runners.backends import ProcessPoolBackend
 from sumo_rail.runners.record import record_demonstrations
 from sumo_rail.runners.rollout import ExpertDriver
 from sumo_rail.seeding import Purpose, episode_seeds
-from sumo_rail.sim.network import sumo_version
 
 
 def recording_seconds(config: Config, workers: int, episodes: int, out: Path) -> float:

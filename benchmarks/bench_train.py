@@ -24,13 +24,13 @@ import numpy as np
 from doc_section import write_section
 
 from sumo_rail.config import Config
+from sumo_rail.datasets import sumo_version
 from sumo_rail.drivers.policies import load_policy
 from sumo_rail.learning.discriminator import DiscriminatorSettings
 from sumo_rail.learning.rail import RailSettings
 from sumo_rail.learning.training import RunSettings, train
 from sumo_rail.runners.backends import ProcessPoolBackend, Task
 from sumo_rail.runners.record import record_demonstrations
-from sumo_rail.sim.network import sumo_version
 
 
 class TimedBackend:
