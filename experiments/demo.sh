@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # `make demo`: the whole pipeline on defaults, small enough for two cores in a few minutes:
 # record the expert, train (BC then RAIL), evaluate expert vs BC vs RAIL on held-out episodes, and report.
-# EPISODES sets the evaluation episodes (60 here to stay quick; `evaluate`'s own default is 150).
+# EPISODES sets the evaluation episodes (60 here to stay quick; `evaluate`'s own default is 250).
 set -euo pipefail
 out=${1:-demo_output}
 sumo_rail=${SUMO_RAIL:-.venv/bin/sumo-rail}

@@ -43,7 +43,7 @@ class ScenarioConfig:
     """A collision is a gap below this fraction of minGap (--collision.mingap-factor); 0 = physical contact."""
     warmup_s: float = 300.0
     """Simulated time before the first saved traffic state, so the ego starts in flowing traffic [s]."""
-    snapshots: int = 200
+    snapshots: int = 256
     """Warm traffic states in each pool (train, validation, test; see `sumo_rail.sim.simulation`); each episode
     starts from one. Evaluation gives episode k state k mod snapshots, so up to this many evaluation episodes
     never share a state."""

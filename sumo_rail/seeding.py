@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from enum import IntEnum
 
-EVALUATION_EPISODES = 150
+EVALUATION_EPISODES = 250
 """Default number of evaluation episodes per driver: enough for the expert's mean overtakes to have a 95% interval
 within +-10% of itself (docs/results.md, "How many evaluation episodes")."""
 

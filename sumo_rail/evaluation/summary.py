@@ -7,7 +7,14 @@ import pandas as pd
 
 from sumo_rail.evaluation.distributions import distance_table
 from sumo_rail.evaluation.fidelity import CONFUSION_COLUMNS, RATES, agreement_counts
-from sumo_rail.evaluation.statistics import Interval, Sample, interval, mean_sample, paired_difference
+from sumo_rail.evaluation.statistics import (
+    Interval,
+    Sample,
+    closeness_difference,
+    interval,
+    mean_sample,
+    paired_difference,
+)
 
 EPISODE_MEASURES = ("average_speed_kmh", "overtakes", "lane_changes", "longitudinal_reward", "lateral_reward",
                     "collisions", "hard_braking", "invalid_actions", "distance_m", "steps")
@@ -60,6 +67,25 @@ def paired_differences(metrics: pd.DataFrame, reference: str, seed: int = 0) -> 
                          "detectable": difference.excludes_zero})
     frame = pd.DataFrame(rows, columns=["policy", "measure", "estimate", "low", "high", "detectable"])
     return frame.sort_values("measure", key=lambda names: names.map(MEASURES.index), kind="stable")
+
+
+def closeness(metrics: pd.DataFrame, candidate: str, baseline: str, expert: str, seed: int = 0) -> pd.DataFrame:
+    """Per measure, whether `candidate` is closer to `expert` than `baseline` is, on the seeds all three drove:
+    |candidate - expert| - |baseline - expert| with its interval (below 0: closer) and a verdict, "closer",
+    "further" or "no detectable difference"."""
+    by_seed = {driver: frame.set_index("seed") for driver, frame in metrics.groupby("policy", sort=False)}
+    missing = [name for name in (candidate, baseline, expert) if name not in by_seed]
+    if missing:
+        raise ValueError(f"no episodes of {', '.join(missing)} among the evaluated drivers")
+    common = by_seed[candidate].index.intersection(by_seed[baseline].index).intersection(by_seed[expert].index)
+    samples = [measure_samples(by_seed[name].loc[common.sort_values()].reset_index())
+               for name in (candidate, baseline, expert)]
+    rows = []
+    for measure in [name for name in MEASURES if all(name in sample for sample in samples)]:
+        found = closeness_difference(*(sample[measure] for sample in samples), seed=seed)
+        verdict = ("closer" if found.high < 0 else "further" if found.low > 0 else "no detectable difference")
+        rows.append({"measure": measure, **vars(found), "verdict": verdict})
+    return pd.DataFrame(rows, columns=["measure", "estimate", "low", "high", "verdict"])
 
 
 def summary_table(metrics: pd.DataFrame, reference: str | None = None, seed: int = 0) -> str:

@@ -60,3 +60,4 @@ def test_formatting():
     assert Interval(-1.0, -2.0, 0.5).format(2, signed=True) == "-1.00 [-2.00, +0.50]"
     assert Interval(float("nan"), float("nan"), float("nan")).format() == "n/a"
     assert Interval(1.0, 0.1, 2.0).excludes_zero and not Interval(1.0, -0.1, 2.0).excludes_zero
+
