@@ -166,7 +166,7 @@ def rollout_tasks(config: Config, rollouts: int) -> list[RolloutTask]:
     parameters = np.zeros(shape.parameter_count, dtype=np.float32)
     seeds = episode_seeds(Purpose.TRAIN, 0, rollouts // 2)
     nu = NoiseAdaptation().initial
-    return [RolloutTask(config, shape, parameters, np.zeros(size), np.ones(size), 0, 0, k, sign, nu, seeds[k])
+    return [RolloutTask(config, shape, parameters, np.zeros(size), np.ones(size), 0, 0, k, sign, nu, (seeds[k],))
             for k in range(rollouts // 2) for sign in (1, -1)]
 
 
@@ -181,7 +181,7 @@ def compare_backends(config: Config, tasks: list[RolloutTask], rounds: int) -> d
     trajectories; whether both backends returned identical trajectories; why Ray is not available, if it is not."""
     makers: dict[str, Callable[[int], RolloutBackend]] = {"process pool": ProcessPoolBackend, "ray": ray_backend}
     figures: dict[str, Any] = {"startup": {}, "wall": {}, "overhead": {}, "identical": True, "ray_error": None}
-    trajectories: dict[str, list[Trajectory]] = {}
+    trajectories: dict[str, list[Trajectory]] = {}  # one episode per task
     for workers in (1, 2):
         backends: dict[str, RolloutBackend] = {}
         try:
@@ -198,7 +198,7 @@ def compare_backends(config: Config, tasks: list[RolloutTask], rounds: int) -> d
             for _ in range(rounds):
                 for name, backend in backends.items():
                     start = time.perf_counter()
-                    trajectories[name] = backend.run(tasks)
+                    trajectories[name] = [episode for rollout in backend.run(tasks) for episode in rollout]
                     walls[name].append(time.perf_counter() - start)
         finally:
             for backend in backends.values():
@@ -223,7 +223,7 @@ class ReplayBackend(RolloutBackend):
         self.trajectories = trajectories
 
     def run(self, tasks: Sequence[Any], on_result: Callable[[int, Any], None] | None = None) -> list[Any]:
-        return [self.trajectories[index % len(self.trajectories)] for index in range(len(tasks))]
+        return [[self.trajectories[index % len(self.trajectories)]] for index in range(len(tasks))]
 
     def close(self) -> None:
         pass
@@ -236,7 +236,7 @@ def learner_seconds(config: Config, trajectories: list[Trajectory], directions: 
     shape = PolicyShape("mlp", size)
     expert = Demonstrations(np.concatenate([t.observations for t in trajectories]),
                             np.concatenate([t.actions for t in trajectories]), np.zeros(0), {})
-    settings = RailSettings(directions=directions, top=directions // 2)
+    settings = RailSettings(directions=directions, top=directions // 2, common_traffic=False)
     backend = ReplayBackend(trajectories)
     times = []
     for _ in range(rounds):

@@ -124,9 +124,28 @@ def evaluate_command(config_path: Path | None, overrides: tuple[str, ...], polic
 @config_options
 @imitation_options
 @click.option("--directions", type=click.IntRange(min=1), default=32, show_default=True, help="N, directions.")
-@click.option("--top", type=click.IntRange(min=1), default=16, show_default=True, help="b, best directions kept.")
-@click.option("--step-size", type=click.FloatRange(min=0, min_open=True), default=0.001, show_default=True,
-              help="alpha, the ARS step size.")
+@click.option("--top", type=click.IntRange(min=1), default=None, help="b, best directions kept [default: N / 2].")
+@click.option("--step-size", type=click.FloatRange(min=0, min_open=True), default=0.02, show_default=True,
+              help="alpha, the ARS step size (the paper's 0.001 changes no decision; see docs/results.md).")
+@click.option("--noise", type=click.FloatRange(min=0, min_open=True), default=0.03, show_default=True,
+              help="nu_init, the perturbation scale.")
+@click.option("--noise-increment", type=click.FloatRange(min=0), default=0.001, show_default=True,
+              help="tau, added to nu at each check without improvement.")
+@click.option("--noise-every", type=click.IntRange(min=1), default=10, show_default=True,
+              help="eta, iterations between noise checks.")
+@click.option("--traffic", type=click.Choice(["common", "independent"]), default="common", show_default=True,
+              help="common: every direction of an iteration drives the same episodes (common random numbers); "
+                   "independent: each direction its own.")
+@click.option("--episodes-per-rollout", type=click.IntRange(min=1), default=1, show_default=True,
+              help="Episodes each perturbed rollout drives (its return is their mean).")
+@click.option("--freeze-normalizer", is_flag=True,
+              help="Keep BC's observation statistics instead of merging every rollout's states.")
+@click.option("--disc-hidden", type=click.IntRange(min=1), default=64, show_default=True,
+              help="Discriminator units per hidden layer.")
+@click.option("--disc-lr", type=click.FloatRange(min=0, min_open=True), default=3e-4, show_default=True,
+              help="Discriminator Adam step size.")
+@click.option("--disc-steps", type=click.IntRange(min=1), default=10, show_default=True,
+              help="Discriminator gradient steps per iteration.")
 @click.option("--iterations", type=click.IntRange(min=1), default=200, show_default=True,
               help="Iterations in total (with --resume: including those already done).")
 @click.option("--workers", type=click.IntRange(min=1), default=1, show_default=True,
@@ -140,20 +159,27 @@ def evaluate_command(config_path: Path | None, overrides: tuple[str, ...], polic
 @click.option("--out", type=click.Path(path_type=Path, file_okay=False), required=True, help="Run folder.")
 @click.option("--resume", is_flag=True, help="Continue the run in --out from its last checkpoint.")
 def train_command(config_path: Path | None, overrides: tuple[str, ...], demos: Path, kind: str, hidden: int,
-                  bc_epochs: int, bc_class_balance: float, directions: int, top: int, step_size: float,
-                  iterations: int, workers: int,
+                  bc_epochs: int, bc_class_balance: float, directions: int, top: int | None, step_size: float,
+                  noise: float, noise_increment: float, noise_every: int, traffic: str, episodes_per_rollout: int,
+                  freeze_normalizer: bool, disc_hidden: int, disc_lr: float, disc_steps: int, iterations: int,
+                  workers: int,
                   backend_name: str, address: str | None, seed: int, eval_every: int, eval_episodes: int, out: Path,
                   resume: bool) -> None:
     """Learn a driving policy from demonstrations with RAIL (BC initialisation, then ARS with an LS-GAN reward)."""
     config = resolve_config(config_path, overrides)
+    from sumo_rail.learning.ars import NoiseAdaptation
     from sumo_rail.learning.discriminator import DiscriminatorSettings
     from sumo_rail.learning.rail import RailSettings
     from sumo_rail.learning.training import RunError, RunSettings, Validation, train
 
     try:
-        settings = RunSettings(str(demos), kind, hidden, bc_epochs,
-                               RailSettings(directions=directions, top=top, step_size=step_size, seed=seed),
-                               DiscriminatorSettings(seed=seed), bc_class_balance)
+        rail = RailSettings(directions=directions, top=top, step_size=step_size,
+                            noise=NoiseAdaptation(noise, noise_increment, noise_every), seed=seed,
+                            common_traffic=traffic == "common", episodes_per_rollout=episodes_per_rollout,
+                            freeze_normalizer=freeze_normalizer)
+        discriminator = DiscriminatorSettings(hidden=disc_hidden, learning_rate=disc_lr,
+                                              steps_per_iteration=disc_steps, seed=seed)
+        settings = RunSettings(str(demos), kind, hidden, bc_epochs, rail, discriminator, bc_class_balance)
     except ValueError as error:
         raise click.UsageError(str(error)) from error
     backend = build_backend(backend_name, workers, address)
@@ -168,9 +194,10 @@ def train_command(config_path: Path | None, overrides: tuple[str, ...], demos: P
         bar.set_postfix(D_return=f"{row['return_mean']:+.3f}", steps_per_s=f"{steps_per_s:.0f}")
         bar.update()
         if row["eval_average_speed_kmh"] is not None:
-            bar.write(f"iteration {row['iteration'] + 1}: validation speed {row['eval_average_speed_kmh']:.1f} km/h, "
-                      f"overtakes {row['eval_overtakes']:.2f}, lane changes {row['eval_lane_changes']:.2f}, "
-                      f"collisions {row['eval_collisions']:.2f}")
+            bar.write(f"iteration {row['iteration'] + 1}: validation agreement {row['eval_agreement']:.3f} "
+                      f"(lane-change recall {row['eval_lane_change_recall']:.2f}), speed "
+                      f"{row['eval_average_speed_kmh']:.1f} km/h, overtakes {row['eval_overtakes']:.2f}, lane changes "
+                      f"{row['eval_lane_changes']:.2f}, collisions {row['eval_collisions']:.2f}")
 
     make_interruptible()  # Ctrl-C or SIGTERM: the last complete iteration is kept
     with library_errors(), backend, bar:

@@ -93,6 +93,30 @@ class LidarConfig:
 
 
 @dataclass(frozen=True)
+class ObservationConfig:
+    """What the learner sees besides the LIDAR (see `sumo_rail.sim.observation`)."""
+
+    lane_block: int = 0
+    """1: append 12 lane-wise values (gap and relative speed of the nearest vehicle ahead and behind in the ego's
+    lane and each neighbouring lane, within lidar.range_m); 0: the paper's LIDAR-only observation."""
+
+    def validate(self) -> None:
+        _require(self.lane_block in (0, 1), f"observation.lane_block must be 0 or 1, got {self.lane_block}")
+
+
+@dataclass(frozen=True)
+class ExpertConfig:
+    """What the rule-based expert sees."""
+
+    view_range_m: float = 120.0
+    """The expert ignores vehicles whose front is farther than this along the road from the ego's [m]. 120 m is
+    everything the environment queries (lidar.range_m + 20 m); lidar.range_m limits it to the sensor's reach."""
+
+    def validate(self) -> None:
+        _require(self.view_range_m > 0, f"expert.view_range_m must be positive, got {self.view_range_m}")
+
+
+@dataclass(frozen=True)
 class EnvConfig:
     """The ego's decisions, actions, rewards and episode limits."""
 
@@ -150,11 +174,15 @@ class Config:
     scenario: ScenarioConfig = field(default_factory=ScenarioConfig)
     lidar: LidarConfig = field(default_factory=LidarConfig)
     env: EnvConfig = field(default_factory=EnvConfig)
+    observation: ObservationConfig = field(default_factory=ObservationConfig)
+    expert: ExpertConfig = field(default_factory=ExpertConfig)
 
     def __post_init__(self) -> None:
         self.scenario.validate()
         self.lidar.validate()
         self.env.validate(self.scenario)
+        self.observation.validate()
+        self.expert.validate()
 
     def to_dict(self) -> dict[str, dict[str, Any]]:
         """Plain nested dict of every setting, as stored with outputs."""
@@ -167,7 +195,7 @@ class Config:
 
     @classmethod
     def from_toml(cls, path: str | Path) -> Config:
-        """Read a TOML file with optional [scenario], [lidar] and [env] tables."""
+        """Read a TOML file with optional [scenario], [lidar], [env], [observation] and [expert] tables."""
         try:
             with open(path, "rb") as handle:
                 data = tomllib.load(handle)

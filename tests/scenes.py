@@ -2,8 +2,8 @@
 
 import numpy as np
 
-from sumo_rail.sim.env import TrafficView
 from sumo_rail.sim.simulation import EgoState, Neighbours
+from sumo_rail.sim.traffic import TrafficView
 
 EGO_FRONT = 1000.0
 

@@ -21,10 +21,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from sumo_rail.sim.actions import Action
-from sumo_rail.sim.env import TrafficView
+from sumo_rail.sim.traffic import NO_VEHICLE, LaneGaps, TrafficView, lane_gaps, within
 
 _COMFORT_DECEL_MPS2 = 3.0
-_NO_VEHICLE = np.inf
 
 
 @dataclass(frozen=True)
@@ -60,48 +59,21 @@ the expert does not ask for changes that SUMO would refuse."""
 DEFAULT_STYLE = "normal"
 
 
-@dataclass(frozen=True)
-class LaneGaps:
-    """The nearest vehicles ahead and behind the ego in one lane. Gaps are bumper to bumper [m]."""
-
-    front_gap_m: float
-    front_speed_mps: float
-    rear_gap_m: float
-    rear_speed_mps: float
-    alongside: bool
-
-
-def lane_gaps(traffic: TrafficView, lane: int) -> LaneGaps:
-    """Gaps in `lane` around the ego; inf where nobody is seen (the context radius bounds what is seen)."""
-    ego, others = traffic.ego, traffic.neighbours
-    in_lane = others.lane == lane
-    fronts = others.lane_position_m[in_lane]
-    rears = fronts - others.length_m[in_lane]
-    speeds = others.speed_mps[in_lane]
-    ego_front, ego_rear = ego.lane_position_m, ego.lane_position_m - ego.length_m
-    ahead, behind = rears > ego_front, fronts < ego_rear
-    front_gap = front_speed = rear_gap = rear_speed = _NO_VEHICLE
-    if ahead.any():
-        nearest = np.argmin(np.where(ahead, rears, np.inf))
-        front_gap, front_speed = rears[nearest] - ego_front, speeds[nearest]
-    if behind.any():
-        nearest = np.argmax(np.where(behind, fronts, -np.inf))
-        rear_gap, rear_speed = ego_rear - fronts[nearest], speeds[nearest]
-    return LaneGaps(float(front_gap), float(front_speed), float(rear_gap), float(rear_speed),
-                    bool((~ahead & ~behind).any()))
-
-
 class Expert:
     """A driver: `expert(observation, traffic) -> action`. The observation is ignored (the expert is privileged)."""
 
-    def __init__(self, style: ExpertStyle, speed_step_mps: float) -> None:
+    def __init__(self, style: ExpertStyle, speed_step_mps: float, view_range_m: float = NO_VEHICLE) -> None:
         self.style = style
         self._half_step = 0.5 * speed_step_mps
+        self.view_range_m = view_range_m
+        """Vehicles farther than this along the road are ignored [m]."""
 
     def __call__(self, observation: np.ndarray, traffic: TrafficView) -> int:
         return int(self.decide(traffic))
 
     def decide(self, traffic: TrafficView) -> Action:
+        if self.view_range_m < NO_VEHICLE:
+            traffic = within(traffic, self.view_range_m)
         ego, style = traffic.ego, self.style
         if not ego.changing_lane:
             own = lane_gaps(traffic, ego.lane)
@@ -141,8 +113,8 @@ class Expert:
         return gaps.front_gap_m >= needed_front and gaps.rear_gap_m >= needed_rear
 
 
-def make_expert(style_name: str, speed_step_mps: float) -> Expert:
+def make_expert(style_name: str, speed_step_mps: float, view_range_m: float = NO_VEHICLE) -> Expert:
     """The expert of a named style; KeyError-free: an unknown name is a ValueError naming the known styles."""
     if style_name not in STYLES:
         raise ValueError(f"unknown expert style {style_name!r}; known styles: {', '.join(sorted(STYLES))}")
-    return Expert(STYLES[style_name], speed_step_mps)
+    return Expert(STYLES[style_name], speed_step_mps, view_range_m)

@@ -82,7 +82,8 @@ class EvaluationTask:
     reference_style: str
 
     def run(self, context: WorkerContext) -> EvaluatedEpisode:
-        probe = DecisionProbe(make_expert(self.reference_style, self.episode.config.env.speed_step_mps))
+        config = self.episode.config
+        probe = DecisionProbe(make_expert(self.reference_style, config.env.speed_step_mps, config.expert.view_range_m))
         result = self.episode.run(context, probe)
         return EvaluatedEpisode({**result.metrics, "reference_style": self.reference_style,
                                  **probe.episode_columns()}, probe.decision_columns())

@@ -17,9 +17,9 @@ from typing import Any
 
 import numpy as np
 
-from sumo_rail.drivers.expert import Expert, lane_gaps
+from sumo_rail.drivers.expert import Expert
 from sumo_rail.sim.actions import Action
-from sumo_rail.sim.env import TrafficView
+from sumo_rail.sim.traffic import TrafficView, lane_gaps
 
 ACTION_NAMES = tuple(action.name.lower() for action in Action)
 CONFUSION_COLUMNS = tuple(f"confusion_{driver}_{expert}" for driver in ACTION_NAMES for expert in ACTION_NAMES)

@@ -1,17 +1,20 @@
 """RAIL training (the paper's Algorithm 1): ARS in parameter space with an LS-GAN discriminator's reward.
 
 One iteration t:
-1. the learner draws N direction indices (the vectors come from `noise.direction(noise_seed, t, k)`) and one
-   SUMO episode seed per direction (both signs drive the same traffic); workers run the 2N rollouts of
-   theta +- nu * delta_k with the observation statistics frozen for the iteration;
+1. the learner draws N direction indices (the vectors come from `noise.direction(noise_seed, t, k)`) and the
+   SUMO episode seeds: with common traffic (the default) one set of `episodes_per_rollout` seeds that every
+   direction and sign drives, so directions differ by their parameters only (common random numbers); otherwise
+   a set per direction (both signs share it), as in the first implementation. Workers run the 2N rollouts of
+   theta +- nu * delta_k with the observation statistics frozen for the iteration; a rollout's return is the
+   mean over its episodes;
 2. the discriminator takes its LS-GAN steps on the expert's pairs and this iteration's rollout pairs;
 3. each rollout's return is the mean of r = log D - log(1 - D) over its decisions, as the paper's expectation;
    a collision fills the decisions it cut short, up to the episode limit, with the lowest reward the clipped
    D can give, so ending early never pays (a slower but safe driver is not favoured by more decisions either,
    since the return is a mean);
 4. the ARS step moves theta along the top-b directions; the observation statistics merge this iteration's
-   states (in task order, so the result does not depend on the number of workers); every eta iterations nu
-   grows by tau if the best mean return did not improve, else returns to nu_init.
+   states (in task order, so the result does not depend on the number of workers) unless they are frozen at
+   BC's; every eta iterations nu grows by tau if the best mean return did not improve, else returns to nu_init.
 """
 
 from __future__ import annotations
@@ -42,19 +45,35 @@ class RailSettings:
 
     directions: int = 32
     """N, directions per iteration (the paper uses 8 to 512)."""
-    top: int = 16
-    """b, directions kept for the update."""
-    step_size: float = 0.001
-    """alpha."""
+    top: int | None = None
+    """b, directions kept for the update; None: N / 2 (rounded up)."""
+    step_size: float = 0.02
+    """alpha. The paper's 0.001 changes no decision of a BC-initialised policy in several iterations at N = 32
+    (docs/results.md, "RAIL ablations"), so the default deviates from it."""
     noise: NoiseAdaptation = field(default_factory=NoiseAdaptation)
     """nu_init 0.03, tau 0.001, eta."""
     seed: int = 0
+    common_traffic: bool = True
+    """All directions and signs of an iteration drive the same episode seeds (common random numbers)."""
+    episodes_per_rollout: int = 1
+    """Episodes each rollout drives; its return is their mean."""
+    freeze_normalizer: bool = False
+    """Keep the observation statistics the run started with (BC's) instead of merging every rollout's states."""
 
     def __post_init__(self) -> None:
-        if not 1 <= self.top <= self.directions:
+        if self.directions < 1:
+            raise ValueError(f"--directions must be at least 1, got {self.directions}")
+        if not 1 <= self.kept <= self.directions:
             raise ValueError(f"--top must be between 1 and --directions ({self.directions}), got {self.top}")
         if self.step_size <= 0:
             raise ValueError(f"the step size must be positive, got {self.step_size}")
+        if self.episodes_per_rollout < 1:
+            raise ValueError(f"--episodes-per-rollout must be at least 1, got {self.episodes_per_rollout}")
+
+    @property
+    def kept(self) -> int:
+        """b as used: `top`, or N / 2 rounded up."""
+        return self.top if self.top is not None else (self.directions + 1) // 2
 
 
 @dataclass(frozen=True)
@@ -83,17 +102,21 @@ class RolloutTask:
     index: int
     sign: int
     nu: float
-    episode_seed: int
+    episode_seeds: tuple[int, ...]
 
-    def run(self, context: WorkerContext) -> Trajectory:
+    def run(self, context: WorkerContext) -> list[Trajectory]:
+        """One trajectory per episode seed."""
         delta = direction(self.noise_seed, self.iteration, self.index, self.shape.parameter_count)
         policy = Policy(self.shape, self.parameters + np.float32(self.sign * self.nu) * delta,
                         self.observation_mean, self.observation_std)
-        result = run_episode(context.env(self.config), lambda observation, traffic: policy.act(observation),
-                             self.episode_seed, record=True)
-        assert result.steps is not None
-        return Trajectory(result.steps["observation"], result.steps["action"].astype(np.int64),
-                          bool(result.metrics["collisions"]), int(result.metrics["steps"]))
+        trajectories = []
+        for seed in self.episode_seeds:
+            result = run_episode(context.env(self.config), lambda observation, traffic: policy.act(observation),
+                                 seed, record=True)
+            assert result.steps is not None
+            trajectories.append(Trajectory(result.steps["observation"], result.steps["action"].astype(np.int64),
+                                           bool(result.metrics["collisions"]), int(result.metrics["steps"])))
+        return trajectories
 
 
 @dataclass
@@ -142,24 +165,28 @@ def run_iteration(state: TrainingState, shape: PolicyShape, config: Config, sett
                   discriminator: Discriminator, expert: Demonstrations, backend: RolloutBackend,
                   on_rollout: Callable[[int, Any], None] | None = None) -> IterationLog:
     """Advance `state` by one iteration in place and return its log row."""
-    n = settings.directions
-    seeds = [episode_seeds(Purpose.TRAIN, int(state.rng.integers(2**31)), 1)[0] for _ in range(n)]
+    n, per_rollout = settings.directions, settings.episodes_per_rollout
+    sets = 1 if settings.common_traffic else n
+    drawn = [episode_seeds(Purpose.TRAIN, int(state.rng.integers(2**31)), 1)[0] for _ in range(sets * per_rollout)]
+    seeds = [tuple(drawn[(0 if settings.common_traffic else k) * per_rollout:][:per_rollout]) for k in range(n)]
     noise_seed = settings.seed
     mean, std = state.stats.mean.copy(), state.stats.std.copy()
     tasks = [RolloutTask(config, shape, state.parameters, mean, std, noise_seed, state.iteration, k, sign, state.nu,
                          seeds[k]) for k in range(n) for sign in (1, -1)]
-    trajectories: list[Trajectory] = backend.run(tasks, on_result=on_rollout)
+    rollouts: list[list[Trajectory]] = backend.run(tasks, on_result=on_rollout)
+    trajectories = [trajectory for rollout in rollouts for trajectory in rollout]
     policy_observations = np.concatenate([t.observations for t in trajectories])
     policy_actions = np.concatenate([t.actions for t in trajectories])
     report = discriminator.train(expert.observations, expert.actions, policy_observations, policy_actions)
     horizon = round(config.env.max_episode_s / config.env.decision_period_s)
     lowest = float(np.log(discriminator.settings.reward_clip) - np.log1p(-discriminator.settings.reward_clip))
-    returns = np.array([rollout_return(discriminator.reward(t.observations, t.actions), t.collided, horizon, lowest)
-                        for t in trajectories])
+    returns = np.array([np.mean([rollout_return(discriminator.reward(t.observations, t.actions), t.collided, horizon,
+                                                lowest) for t in rollout]) for rollout in rollouts])
     deltas = np.stack([direction(noise_seed, state.iteration, k, shape.parameter_count) for k in range(n)])
-    step = ars_update(state.parameters, deltas, returns[0::2], returns[1::2], settings.top, settings.step_size)
-    for trajectory in trajectories:
-        state.stats = state.stats.merge(RunningStats.of(trajectory.observations))
+    step = ars_update(state.parameters, deltas, returns[0::2], returns[1::2], settings.kept, settings.step_size)
+    if not settings.freeze_normalizer:
+        for trajectory in trajectories:
+            state.stats = state.stats.merge(RunningStats.of(trajectory.observations))
     state.parameters = step.parameters
     log = IterationLog(state.iteration, int(sum(t.steps for t in trajectories)), float(returns.mean()),
                        float(returns.max()), float(returns.std()), state.nu, step.reward_std, report.loss,

@@ -16,7 +16,8 @@ from sumo_rail.config import Config
 from sumo_rail.drivers.expert import DEFAULT_STYLE, make_expert
 from sumo_rail.drivers.policies import Policy
 from sumo_rail.sim.actions import Action
-from sumo_rail.sim.env import HighwayEnv, TrafficView
+from sumo_rail.sim.env import HighwayEnv
+from sumo_rail.sim.traffic import TrafficView
 
 if TYPE_CHECKING:
     from sumo_rail.runners.backends import WorkerContext
@@ -70,7 +71,7 @@ class ExpertDriver:
         return f"expert-{self.style}"
 
     def create(self, config: Config, seed: int) -> Driver:
-        return make_expert(self.style, config.env.speed_step_mps)
+        return make_expert(self.style, config.env.speed_step_mps, config.expert.view_range_m)
 
 
 @dataclass(frozen=True)

@@ -26,6 +26,7 @@ from sumo_rail.sim.actions import Action, command_for
 from sumo_rail.sim.observation import build_observation, observation_space
 from sumo_rail.sim.rewards import EpisodeMetrics, OvertakeCounter, lateral_reward, longitudinal_reward, relations
 from sumo_rail.sim.simulation import TRANSPORTS, WARM_STATE_POOLS, EgoState, Neighbours, PeriodReport, Simulation
+from sumo_rail.sim.traffic import TrafficView, lane_block
 
 _SUMO_SEED_BOUND = 2**31 - 1
 
@@ -45,17 +46,6 @@ class EpisodeStart:
                    sumo_seed=int(rng.integers(_SUMO_SEED_BOUND)),
                    ego_lane=int(rng.integers(config.scenario.lanes)),
                    ego_position_m=float(rng.uniform(config.env.ego_start_min_m, config.env.ego_start_max_m)))
-
-
-@dataclass(frozen=True)
-class TrafficView:
-    """Privileged view of the traffic at the last decision, for rule-based drivers such as the expert."""
-
-    ego: EgoState
-    neighbours: Neighbours
-    set_point_mps: float
-    """The ego's current cruise set-point [m/s]."""
-    lanes: int
 
 
 def _warm_state_options(options: dict[str, Any], snapshots: int) -> tuple[str, int | None]:
@@ -220,8 +210,13 @@ class HighwayEnv(gymnasium.Env[np.ndarray, np.int64]):
         distances, relative_speeds = lidar.scan(centre, ego.heading_rad, ego.speed_mps * np.array([cos_h, sin_h]),
                                                 lidar.stack(vehicles, self._edge_boxes), self.config.lidar.beams,
                                                 self.config.lidar.range_m)
-        return build_observation(self.config, distances, relative_speeds, ego.speed_mps, self._set_point, ego.lane,
-                                 lane_change_in_progress)
+        observation = build_observation(self.config, distances, relative_speeds, ego.speed_mps, self._set_point,
+                                        ego.lane, lane_change_in_progress)
+        if self.config.observation.lane_block:
+            traffic = TrafficView(ego, neighbours, self._set_point, self.config.scenario.lanes)
+            observation = np.concatenate([observation, lane_block(traffic, self.config.lidar.range_m,
+                                                                  self.config.env.v_max_mps)])
+        return observation
 
     def _totals(self) -> dict[str, Any]:
         m = self._metrics

@@ -6,7 +6,10 @@ Layout (float32), with B LIDAR beams and L lanes:
 - 2B: ego speed / v_max, clipped to [0, 2];
 - 2B + 1: cruise set-point, (v_set - v_min) / (v_max - v_min), in [0, 1] (the driver knows its own setting);
 - [2B + 2, 2B + 2 + L): current lane, one-hot (index 0 = rightmost lane);
-- 2B + 2 + L: 1 while the ego is between lanes (a lane change under way), else 0.
+- 2B + 2 + L: 1 while the ego is between lanes (a lane change under way), else 0;
+- with `observation.lane_block = 1`, 12 more: for the lane right of, at and left of the ego, the gap to the
+  nearest vehicle ahead / r_max, its relative speed / v_max, then the same behind
+  (`sumo_rail.sim.traffic.lane_block`).
 """
 
 from __future__ import annotations
@@ -15,6 +18,7 @@ import numpy as np
 from gymnasium import spaces
 
 from sumo_rail.config import Config
+from sumo_rail.sim.traffic import LANE_BLOCK_FIELDS, LANE_BLOCK_LANES
 
 
 def observation_names(config: Config) -> list[str]:
@@ -24,14 +28,17 @@ def observation_names(config: Config) -> list[str]:
             + [f"lidar_relative_speed_{i:02d}" for i in range(beams)]
             + ["ego_speed", "cruise_set_point"]
             + [f"lane_{k}" for k in range(config.scenario.lanes)]
-            + ["lane_change_in_progress"])
+            + ["lane_change_in_progress"]
+            + ([f"{lane}_lane_{name}" for lane in LANE_BLOCK_LANES for name in LANE_BLOCK_FIELDS]
+               if config.observation.lane_block else []))
 
 
 def observation_space(config: Config) -> spaces.Box:
     """Bounds of every entry, matching the layout above."""
     beams, lanes = config.lidar.beams, config.scenario.lanes
-    low = np.concatenate([np.zeros(beams), -np.ones(beams), [0.0, 0.0], np.zeros(lanes), [0.0]])
-    high = np.concatenate([np.ones(beams), np.ones(beams), [2.0, 1.0], np.ones(lanes), [1.0]])
+    block = 3 * config.observation.lane_block
+    low = np.concatenate([np.zeros(beams), -np.ones(beams), [0.0, 0.0], np.zeros(lanes), [0.0], [0, -1, 0, -1] * block])
+    high = np.concatenate([np.ones(beams), np.ones(beams), [2.0, 1.0], np.ones(lanes), [1.0], [1, 1, 1, 1] * block])
     return spaces.Box(low.astype(np.float32), high.astype(np.float32), dtype=np.float32)
 
 

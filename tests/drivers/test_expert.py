@@ -2,10 +2,11 @@ import numpy as np
 import pytest
 from scenes import EGO_FRONT, view
 
-from sumo_rail.drivers.expert import STYLES, Expert, lane_gaps, make_expert
+from sumo_rail.drivers.expert import STYLES, Expert, make_expert
 from sumo_rail.runners.rollout import ExpertDriver, run_episode
 from sumo_rail.sim.actions import Action
 from sumo_rail.sim.env import HighwayEnv
+from sumo_rail.sim.traffic import lane_gaps
 
 
 def sporty() -> Expert:
@@ -85,3 +86,10 @@ def test_expert_episodes_are_deterministic_collision_free_and_styles_differ(smal
         return np.mean([r.metrics["average_speed_kmh"] for r in runs[style]])
 
     assert mean_speed("sporty") > mean_speed("calm") + 3.0
+
+
+def test_expert_limited_to_its_view_range_ignores_a_far_slow_leader():
+    slow_leader_far = view([(1, 1110.0, 12.0, 22.0)], speed=33.0, set_point=33.33)  # its front 110 m ahead
+    assert make_expert("sporty", 2.0).decide(slow_leader_far) is Action.LANE_LEFT
+    assert make_expert("sporty", 2.0, view_range_m=115.0).decide(slow_leader_far) is Action.LANE_LEFT
+    assert make_expert("sporty", 2.0, view_range_m=100.0).decide(slow_leader_far) is not Action.LANE_LEFT

@@ -1,0 +1,90 @@
+"""The traffic around the ego as rule-based drivers and the lane-wise observation see it: the privileged view,
+and the nearest vehicles ahead and behind in a lane."""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import numpy as np
+
+from sumo_rail.sim.simulation import EgoState, Neighbours
+
+NO_VEHICLE = np.inf
+"""Gap and speed of a lane where nobody is seen."""
+LANE_BLOCK_LANES = ("right", "own", "left")
+LANE_BLOCK_FIELDS = ("front_gap", "front_relative_speed", "rear_gap", "rear_relative_speed")
+
+
+@dataclass(frozen=True)
+class TrafficView:
+    """Privileged view of the traffic at the last decision, for rule-based drivers such as the expert."""
+
+    ego: EgoState
+    neighbours: Neighbours
+    set_point_mps: float
+    """The ego's current cruise set-point [m/s]."""
+    lanes: int
+
+
+@dataclass(frozen=True)
+class LaneGaps:
+    """The nearest vehicles ahead and behind the ego in one lane. Gaps are bumper to bumper [m]."""
+
+    front_gap_m: float
+    front_speed_mps: float
+    rear_gap_m: float
+    rear_speed_mps: float
+    alongside: bool
+
+
+def lane_gaps(traffic: TrafficView, lane: int) -> LaneGaps:
+    """Gaps in `lane` around the ego; inf where nobody is seen (the context radius bounds what is seen)."""
+    ego, others = traffic.ego, traffic.neighbours
+    in_lane = others.lane == lane
+    fronts = others.lane_position_m[in_lane]
+    rears = fronts - others.length_m[in_lane]
+    speeds = others.speed_mps[in_lane]
+    ego_front, ego_rear = ego.lane_position_m, ego.lane_position_m - ego.length_m
+    ahead, behind = rears > ego_front, fronts < ego_rear
+    front_gap = front_speed = rear_gap = rear_speed = NO_VEHICLE
+    if ahead.any():
+        nearest = np.argmin(np.where(ahead, rears, np.inf))
+        front_gap, front_speed = rears[nearest] - ego_front, speeds[nearest]
+    if behind.any():
+        nearest = np.argmax(np.where(behind, fronts, -np.inf))
+        rear_gap, rear_speed = ego_rear - fronts[nearest], speeds[nearest]
+    return LaneGaps(float(front_gap), float(front_speed), float(rear_gap), float(rear_speed),
+                    bool((~ahead & ~behind).any()))
+
+
+def within(traffic: TrafficView, range_m: float) -> TrafficView:
+    """The view without the neighbours whose front is farther than `range_m` along the road from the ego's."""
+    near = np.abs(traffic.neighbours.lane_position_m - traffic.ego.lane_position_m) <= range_m
+    if near.all():
+        return traffic
+    others = traffic.neighbours
+    kept = Neighbours(tuple(np.asarray(others.ids)[near]), others.front_xy[near], others.heading_rad[near],
+                      others.speed_mps[near], others.lane_position_m[near], others.length_m[near],
+                      others.width_m[near], others.lane[near])
+    return dataclasses.replace(traffic, neighbours=kept)
+
+
+def lane_block(traffic: TrafficView, range_m: float, v_max_mps: float) -> np.ndarray:
+    """For the lanes right of, at and left of the ego: gap to the nearest vehicle ahead / r_max and its speed
+    relative to the ego's / v_max, then the same behind, float32 (12 values, LANE_BLOCK_LANES x LANE_BLOCK_FIELDS).
+
+    Gaps are capped at 1 (r_max, also where nobody is within range, with relative speed 0); a lane that does not
+    exist reads as blocked (gaps 0, relative speeds 0)."""
+    block = np.zeros((3, 4), dtype=np.float32)
+    ego = traffic.ego
+    for row, lane in enumerate((ego.lane - 1, ego.lane, ego.lane + 1)):
+        if not 0 <= lane < traffic.lanes:
+            continue
+        gaps = lane_gaps(traffic, lane)
+        for column, (gap, speed) in enumerate(((gaps.front_gap_m, gaps.front_speed_mps),
+                                               (gaps.rear_gap_m, gaps.rear_speed_mps))):
+            seen = gap <= range_m
+            block[row, 2 * column] = min(max(gap, 0.0) / range_m, 1.0) if seen else 1.0
+            block[row, 2 * column + 1] = np.clip((speed - ego.speed_mps) / v_max_mps, -1, 1) if seen else 0.0
+    return block.ravel()

@@ -1,0 +1,81 @@
+"""One RAIL iteration on a fake backend that answers rollout tasks with made-up trajectories (no SUMO)."""
+
+import numpy as np
+import pytest
+
+from sumo_rail.config import Config
+from sumo_rail.drivers.policies import PolicyShape
+from sumo_rail.learning.discriminator import Discriminator, DiscriminatorSettings
+from sumo_rail.learning.normalize import RunningStats
+from sumo_rail.learning.rail import RailSettings, TrainingState, Trajectory, run_iteration
+from sumo_rail.runners.backends import RolloutBackend
+from sumo_rail.runners.tables import Demonstrations
+
+SIZE = 6
+
+
+class FakeBackend(RolloutBackend):
+    """Keeps the tasks; each episode's trajectory is drawn from its seed, so equal seeds give equal traffic."""
+
+    def __init__(self) -> None:
+        self.workers = 1
+        self.tasks = []
+
+    def run(self, tasks, on_result=None):
+        self.tasks += list(tasks)
+        return [[self.trajectory(seed, task.sign * task.index) for seed in task.episode_seeds] for task in tasks]
+
+    @staticmethod
+    def trajectory(seed: int, offset: int) -> Trajectory:
+        rng = np.random.default_rng(seed)
+        steps = int(rng.integers(5, 9))
+        observations = (rng.normal(size=(steps, SIZE)) + 0.1 * offset).astype(np.float32)
+        return Trajectory(observations, rng.integers(0, 5, steps), False, steps)
+
+    def close(self) -> None:
+        pass
+
+
+def iterate(settings: RailSettings) -> tuple[FakeBackend, TrainingState, TrainingState]:
+    shape = PolicyShape("linear", SIZE)
+    rng = np.random.default_rng(0)
+    expert = Demonstrations(rng.normal(size=(50, SIZE)).astype(np.float32), rng.integers(0, 5, 50), np.zeros(50), {})
+    stats = RunningStats.of(expert.observations)
+    start = TrainingState.start(np.zeros(shape.parameter_count, np.float32), stats, settings)
+    state = TrainingState.start(np.zeros(shape.parameter_count, np.float32), stats, settings)
+    discriminator = Discriminator(SIZE, stats.mean.copy(), stats.std.copy(),
+                                  DiscriminatorSettings(steps_per_iteration=2))
+    backend = FakeBackend()
+    run_iteration(state, shape, Config(), settings, discriminator, expert, backend)
+    return backend, start, state
+
+
+def test_common_traffic_drives_every_direction_on_the_same_episodes():
+    backend, _, _ = iterate(RailSettings(directions=4, episodes_per_rollout=2))
+    seeds = {task.episode_seeds for task in backend.tasks}
+    assert len(backend.tasks) == 8 and len(seeds) == 1 and len(next(iter(seeds))) == 2
+
+
+def test_independent_traffic_gives_each_direction_its_own_episodes_for_both_signs():
+    backend, _, _ = iterate(RailSettings(directions=4, common_traffic=False))
+    by_direction = {}
+    for task in backend.tasks:
+        by_direction.setdefault(task.index, set()).add(task.episode_seeds)
+    assert all(len(seeds) == 1 for seeds in by_direction.values())   # both signs share a direction's seeds
+    assert len(set().union(*by_direction.values())) == 4             # directions do not share them
+
+
+def test_frozen_normalizer_keeps_the_starting_statistics():
+    _, start, frozen = iterate(RailSettings(directions=2, freeze_normalizer=True))
+    _, _, merged = iterate(RailSettings(directions=2))
+    assert frozen.stats.count == start.stats.count and np.array_equal(frozen.stats.mean, start.stats.mean)
+    assert merged.stats.count > start.stats.count
+    assert not np.array_equal(frozen.parameters, start.parameters)  # the search itself still moves
+
+
+def test_top_defaults_to_half_the_directions_for_any_n():
+    assert [RailSettings(directions=n).kept for n in (1, 8, 9, 32)] == [1, 4, 5, 16]
+    with pytest.raises(ValueError, match="--top must be between 1 and --directions"):
+        RailSettings(directions=8, top=9)
+    with pytest.raises(ValueError, match="--episodes-per-rollout"):
+        RailSettings(episodes_per_rollout=0)
