@@ -54,7 +54,7 @@ from sumo_rail.learning.discriminator import Discriminator, DiscriminatorSetting
 from sumo_rail.learning.normalize import MIN_STD, RunningStats
 from sumo_rail.learning.rail import rollout_return
 from sumo_rail.learning.torch_threads import single_thread
-from sumo_rail.learning.training import RunError, _write_atomically
+from sumo_rail.learning.training import RunError, write_atomically
 from sumo_rail.runners.tables import Demonstrations, provenance, read_demonstrations
 from sumo_rail.seeding import Purpose, episode_seeds
 from sumo_rail.sim.env import HighwayEnv
@@ -320,7 +320,7 @@ def train_gail(folder: Path, settings: GailSettings, config: Config,
     if folder.exists() and any(folder.iterdir()):
         raise RunError(f"run folder {folder} is not empty; choose another --out")
     folder.mkdir(parents=True, exist_ok=True)
-    _write_atomically(folder / "run.json", json.dumps(run_record, indent=2, sort_keys=True).encode())
+    write_atomically(folder / "run.json", json.dumps(run_record, indent=2, sort_keys=True).encode())
     with single_thread():
         initial, normalisation = _initial_policy(folder, settings, shape, demos, run_record, on_bc)
         expert_stats = RunningStats.of(demos.observations)

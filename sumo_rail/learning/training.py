@@ -119,22 +119,24 @@ def train(folder: Path, settings: RunSettings, config: Config, iterations: int, 
         log = run_iteration(state, shape, config, settings.rail, discriminator, demos, backend, on_rollout)
         row = {**dataclasses.asdict(log), "wall_time_s": time.perf_counter() - started}
         policy = Policy(shape, state.parameters, state.stats.mean, state.stats.std)
-        row.update(_validate(policy, config, backend, validation, demos.metadata.get("style"))
+        row.update(validate(policy, config, backend, validation, demos.metadata.get("style"))
                    if validation.due(log.iteration, iterations - 1)
-                   else dict.fromkeys(_VALIDATION_COLUMNS))
+                   else dict.fromkeys(validation_columns()))
         logs.append(row)
         improved = log.return_mean >= max((row["return_mean"] for row in logs), default=-np.inf)
-        with _signals_deferred():  # Ctrl-C or SIGTERM during the save takes effect right after it
+        with signals_deferred():  # Ctrl-C or SIGTERM during the save takes effect right after it
             _save_iteration(folder, state, policy, discriminator, logs, run_record, improved)
         if on_iteration is not None:
             on_iteration(row)
     return state
 
 
-_VALIDATION_COLUMNS = tuple(f"eval_{metric}" for metric in VALIDATION_METRICS)
+def validation_columns() -> tuple[str, ...]:
+    """The log's eval_<measure> columns."""
+    return tuple(f"eval_{metric}" for metric in VALIDATION_METRICS)
 
 
-def _validate(policy: Policy, config: Config, backend: RolloutBackend, validation: Validation,
+def validate(policy: Policy, config: Config, backend: RolloutBackend, validation: Validation,
               expert_style: str | None) -> dict[str, float]:
     """VALIDATION_METRICS of `policy` on the validation seeds and warm states, as eval_<measure>."""
     seeds = episode_seeds(Purpose.EVALUATE, VALIDATION_BASE_SEED, validation.episodes)
@@ -148,7 +150,7 @@ def _start_folder(folder: Path, run_record: dict[str, Any]) -> None:
     if folder.exists() and any(folder.iterdir()):
         raise RunError(f"run folder {folder} is not empty; pass --resume to continue it or choose another --out")
     folder.mkdir(parents=True, exist_ok=True)
-    _write_atomically(folder / "run.json", json.dumps(run_record, indent=2, sort_keys=True).encode())
+    write_atomically(folder / "run.json", json.dumps(run_record, indent=2, sort_keys=True).encode())
 
 
 def _initial_state(folder: Path, settings: RunSettings, shape: PolicyShape, demos: Any, run_record: dict[str, Any],
@@ -189,7 +191,7 @@ def _save_iteration(folder: Path, state: TrainingState, policy: Policy, discrimi
 def _log_table(logs: list[dict[str, Any]]) -> pa.Table:
     """The training log; eval_* columns are float64 even while every value is null."""
     table = pa.Table.from_pylist(logs)
-    for name in _VALIDATION_COLUMNS:
+    for name in validation_columns():
         table = table.set_column(table.schema.get_field_index(name), name, table[name].cast(pa.float64()))
     return table
 
@@ -220,7 +222,7 @@ def _resume(folder: Path, run_record: dict[str, Any], shape: PolicyShape,
 
 
 @contextmanager
-def _signals_deferred() -> Iterator[None]:
+def signals_deferred() -> Iterator[None]:
     """Hold SIGINT and SIGTERM until the block ends, then stop (KeyboardInterrupt), so one iteration's files stay
     consistent. (Python-level handlers: a signal mask would not do, the kernel hands it to another thread.)"""
     if threading.current_thread() is not threading.main_thread():
@@ -247,7 +249,7 @@ def _torch_save_atomically(payload: Any, path: Path) -> None:
         temporary.unlink(missing_ok=True)
 
 
-def _write_atomically(path: Path, content: bytes) -> None:
+def write_atomically(path: Path, content: bytes) -> None:
     temporary = path.with_name(f".{path.name}.{os.getpid()}.tmp")
     try:
         temporary.write_bytes(content)

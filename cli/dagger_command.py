@@ -1,0 +1,87 @@
+"""The command `dagger`: DAgger with the expert labelling the learner's own states, into a run folder."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import click
+from sumo_rail_cli.options import (
+    backend_options,
+    build_backend,
+    config_options,
+    episode_progress,
+    imitation_options,
+    library_errors,
+    make_interruptible,
+    resolve_config,
+)
+
+
+@click.command("dagger")
+@config_options
+@imitation_options
+@click.option("--rounds", type=click.IntRange(min=0), default=5, show_default=True,
+              help="Rounds after the first BC (with --resume: including those already done).")
+@click.option("--episodes-per-round", type=click.IntRange(min=1), default=20, show_default=True,
+              help="Episodes the mixture of policy and expert drives each round.")
+@click.option("--beta", type=click.FloatRange(0, 1), default=0.5, show_default=True,
+              help="Probability that the expert drives a decision in round 1.")
+@click.option("--beta-decay", type=click.FloatRange(0, 1), default=0.5, show_default=True,
+              help="beta of round r: beta x beta-decay^(r - 1).")
+@click.option("--workers", type=click.IntRange(min=1), default=1, show_default=True,
+              help="Worker processes, each running one SUMO; the result does not depend on it.")
+@backend_options
+@click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True)
+@click.option("--eval-every", type=click.IntRange(min=0), default=1, show_default=True,
+              help="Evaluate the policy on validation episodes every this many rounds and after the last (0: never).")
+@click.option("--eval-episodes", type=click.IntRange(min=1), default=8, show_default=True,
+              help="Validation episodes per evaluation.")
+@click.option("--out", type=click.Path(path_type=Path, file_okay=False), required=True, help="Run folder.")
+@click.option("--resume", is_flag=True, help="Continue the run in --out from its last complete round.")
+def dagger_command(config_path: Path | None, overrides: tuple[str, ...], demos: Path, kind: str, hidden: int,
+                   bc_epochs: int, bc_class_balance: float, rounds: int, episodes_per_round: int, beta: float,
+                   beta_decay: float, workers: int, backend_name: str, address: str | None, seed: int,
+                   eval_every: int, eval_episodes: int, out: Path, resume: bool) -> None:
+    """Learn a driving policy with DAgger: BC on the demonstrations, then rounds in which the expert labels every
+    state the policy (mixed with the expert, probability beta) visits, and BC again on all labels so far.
+
+    Writes run.json, dataset.parquet, policy_bc.npz, policy_latest.npz (evaluate it with evaluate --policy),
+    log.parquet (one row per round) and checkpoint.json. Ctrl-C or SIGTERM keeps the last complete round;
+    --resume continues it with the same result."""
+    config = resolve_config(config_path, overrides)
+    from sumo_rail.learning.bc import BcSettings
+    from sumo_rail.learning.dagger import DaggerSettings, train_dagger
+    from sumo_rail.learning.training import RunError, Validation
+
+    try:
+        settings = DaggerSettings(str(demos), kind, hidden, episodes_per_round, beta, beta_decay,
+                                  BcSettings(epochs=max(bc_epochs, 1), class_balance=bc_class_balance, seed=seed),
+                                  seed)
+    except ValueError as error:
+        raise click.UsageError(str(error)) from error
+    backend = build_backend(backend_name, workers, address)
+    bar = episode_progress(rounds + 1, "DAgger")
+    bar.unit = "round"
+
+    def show(row: dict[str, Any]) -> None:
+        bar.update()
+        holdout = row["bc_holdout_accuracy"]
+        text = (f"round {row['iteration']}: {row['dataset_rows']} labelled states, BC holdout accuracy "
+                f"{'n/a' if holdout is None else f'{holdout:.3f}'}")
+        if row.get("eval_agreement") is not None:
+            text += (f", validation agreement {row['eval_agreement']:.3f} (lane-change recall "
+                     f"{row['eval_lane_change_recall']:.2f}), speed {row['eval_average_speed_kmh']:.1f} km/h")
+        bar.write(text)
+
+    make_interruptible()  # Ctrl-C or SIGTERM: the last complete round is kept
+    with library_errors(), backend, bar:
+        try:
+            train_dagger(out, settings, config, rounds, backend, resume, Validation(eval_every, eval_episodes),
+                         on_round=show)
+        except RunError as error:
+            raise click.ClickException(str(error)) from error
+        except KeyboardInterrupt:
+            raise click.ClickException(f"interrupted; {out} keeps its last complete round, continue with "
+                                       f"--resume") from None
+    click.echo(f"DAgger: {rounds} rounds; policy in {out / 'policy_latest.npz'}")

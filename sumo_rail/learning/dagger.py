@@ -1,0 +1,233 @@
+"""DAgger (Ross, Gordon and Bagnell, 2011), beyond the paper: the expert is a pure function of the traffic view,
+so it can label the states the learner itself visits.
+
+Round 0 is behaviour cloning on the demonstrations. Each round r >= 1 drives `episodes_per_round` training
+episodes in which each decision is the expert's with probability beta_r = beta * decay^(r - 1), else the current
+policy's; every visited state is labelled with the expert's action and added to the aggregated dataset, and BC
+is trained again on all of it (from the same seed, so a round is a pure function of its data). The reference
+for "what on-policy expert queries buy".
+
+runs/NAME/ holds `run.json`, `dataset.parquet` (the aggregated states and labels), `policy_bc.npz` (round 0),
+`policy_latest.npz`, `log.parquet` (one row per round) and `checkpoint.json` (the last complete round; written
+last). An interrupted run keeps its last complete round; `resume` continues it with the same result.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pyarrow as pa
+import pyarrow.parquet as pq
+
+from sumo_rail.config import Config
+from sumo_rail.datasets import read_metadata, write_parquet
+from sumo_rail.drivers.expert import make_expert
+from sumo_rail.drivers.policies import Policy, PolicyShape, save_policy
+from sumo_rail.learning.bc import BcReport, BcSettings, behaviour_cloning
+from sumo_rail.learning.training import (
+    RunError,
+    Validation,
+    signals_deferred,
+    validate,
+    validation_columns,
+    write_atomically,
+)
+from sumo_rail.runners.backends import RolloutBackend, WorkerContext
+from sumo_rail.runners.rollout import run_episode
+from sumo_rail.runners.tables import Demonstrations, provenance, read_demonstrations
+from sumo_rail.seeding import Purpose, episode_seeds
+from sumo_rail.sim.observation import observation_space
+
+CHECKPOINT_FORMAT = "sumo-rail dagger checkpoint 1"
+DATASET = "dagger_dataset"
+
+
+@dataclass(frozen=True)
+class DaggerSettings:
+    """What defines a DAgger run; `resume` requires the same (except the number of rounds)."""
+
+    demos: str
+    kind: str = "mlp"
+    hidden: int = 10
+    episodes_per_round: int = 20
+    beta: float = 0.5
+    """Probability that the expert drives a decision in round 1."""
+    beta_decay: float = 0.5
+    """beta_r = beta * beta_decay^(r - 1)."""
+    bc: BcSettings = dataclasses.field(default_factory=lambda: BcSettings(class_balance=0.75))
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        if self.episodes_per_round < 1:
+            raise ValueError(f"--episodes-per-round must be at least 1, got {self.episodes_per_round}")
+        if not (0.0 <= self.beta <= 1.0 and 0.0 <= self.beta_decay <= 1.0):
+            raise ValueError(f"--beta and --beta-decay must be in [0, 1], got {self.beta} and {self.beta_decay}")
+
+    def beta_of(self, round_: int) -> float:
+        return self.beta * self.beta_decay ** (round_ - 1)
+
+    def to_dict(self) -> dict[str, Any]:
+        return dataclasses.asdict(self)
+
+
+@dataclass(frozen=True)
+class LabelledEpisode:
+    observations: np.ndarray
+    """Shape (T, n) float32: every state the mixture visited."""
+    labels: np.ndarray
+    """Shape (T,) int64: the expert's action in each."""
+    policy_decisions: int
+    """Decisions the policy (not the expert) made."""
+
+
+@dataclass(frozen=True)
+class DaggerTask:
+    """One episode driven by the mixture of a policy and the expert, labelled by the expert."""
+
+    config: Config
+    policy: Policy
+    style: str
+    beta: float
+    seed: int
+
+    def run(self, context: WorkerContext) -> LabelledEpisode:
+        expert = make_expert(self.style, self.config.env.speed_step_mps, self.config.expert.view_range_m)
+        coin = np.random.default_rng(self.seed)
+        observations: list[np.ndarray] = []
+        labels: list[int] = []
+        policy_decisions = 0
+
+        def mixture(observation: np.ndarray, traffic: Any) -> int:
+            nonlocal policy_decisions
+            label = int(expert.decide(traffic))
+            observations.append(observation)
+            labels.append(label)
+            if coin.random() < self.beta:
+                return label
+            policy_decisions += 1
+            return self.policy.act(observation)
+
+        run_episode(context.env(self.config), mixture, self.seed)
+        return LabelledEpisode(np.stack(observations).astype(np.float32), np.array(labels, dtype=np.int64),
+                               policy_decisions)
+
+
+def train_dagger(folder: Path, settings: DaggerSettings, config: Config, rounds: int, backend: RolloutBackend,
+                 resume: bool, validation: Validation | None = None,
+                 on_round: Callable[[dict[str, Any]], None] | None = None,
+                 on_episode: Callable[[int, Any], None] | None = None) -> Policy:
+    """Run DAgger until `rounds` rounds after BC are done; returns the last policy. Safe to interrupt."""
+    folder, validation = Path(folder), validation or Validation()
+    observation_size = observation_space(config).shape[0]
+    demos = read_demonstrations(Path(settings.demos), observation_size)
+    style = demos.metadata.get("style", "normal")
+    shape = PolicyShape(settings.kind, observation_size, settings.hidden)
+    run_record = {"settings": settings.to_dict(), "expert_style": style,
+                  **provenance("dagger_run", config, settings.seed)}
+    if resume:
+        done, dataset, logs = _resume(folder, run_record)
+        policy, _ = behaviour_cloning(dataset, shape, settings.bc)
+    else:
+        _start_folder(folder, run_record)
+        dataset, logs, done = demos, [], 0
+        policy, report = behaviour_cloning(dataset, shape, settings.bc)
+        save_policy(policy, folder / "policy_bc.npz", {**run_record, "bc_report": dataclasses.asdict(report)})
+        logs.append(_row(0, 0, 0, dataset, report, 0.0, policy, config, backend, validation, style, rounds))
+        _save(folder, 0, dataset, policy, logs, run_record)
+        if on_round is not None:
+            on_round(logs[-1])
+    for round_ in range(done + 1, rounds + 1):
+        started = time.perf_counter()
+        beta = settings.beta_of(round_)
+        seeds = episode_seeds(Purpose.TRAIN, 10_000_000 * (settings.seed + 1) + round_ * settings.episodes_per_round,
+                              settings.episodes_per_round)
+        labelled: list[LabelledEpisode] = backend.run(
+            [DaggerTask(config, policy, style, beta, seed) for seed in seeds], on_result=on_episode)
+        dataset = _aggregate(dataset, labelled)
+        policy, report = behaviour_cloning(dataset, shape, settings.bc)
+        logs.append(_row(round_, sum(len(e.labels) for e in labelled), sum(e.policy_decisions for e in labelled),
+                         dataset, report, time.perf_counter() - started, policy, config, backend, validation, style,
+                         rounds, beta))
+        with signals_deferred():
+            _save(folder, round_, dataset, policy, logs, run_record)
+        if on_round is not None:
+            on_round(logs[-1])
+    return policy
+
+
+def _row(round_: int, decisions: int, policy_decisions: int, dataset: Demonstrations, report: BcReport,
+         wall_time_s: float, policy: Policy, config: Config, backend: RolloutBackend, validation: Validation,
+         style: str, rounds: int, beta: float = 1.0) -> dict[str, Any]:
+    row = {"iteration": round_, "env_steps": decisions, "policy_decisions": policy_decisions, "beta": beta,
+           "dataset_rows": len(dataset.actions), "bc_train_accuracy": report.train_accuracy,
+           "bc_holdout_accuracy": report.holdout_accuracy, "wall_time_s": wall_time_s}
+    due = validation.every > 0 and (round_ % validation.every == 0 or round_ == rounds)
+    return row | (validate(policy, config, backend, validation, style) if due
+                  else dict.fromkeys(validation_columns()))
+
+
+def _aggregate(dataset: Demonstrations, labelled: list[LabelledEpisode]) -> Demonstrations:
+    """The dataset with the new episodes appended, numbered after its last episode."""
+    first = int(dataset.episodes.max()) + 1 if len(dataset.episodes) else 0
+    episodes = [np.full(len(e.labels), first + k) for k, e in enumerate(labelled)]
+    return Demonstrations(np.concatenate([dataset.observations, *(e.observations for e in labelled)]),
+                          np.concatenate([dataset.actions, *(e.labels for e in labelled)]),
+                          np.concatenate([dataset.episodes, *episodes]), dataset.metadata)
+
+
+def _start_folder(folder: Path, run_record: dict[str, Any]) -> None:
+    if folder.exists() and any(folder.iterdir()):
+        raise RunError(f"run folder {folder} is not empty; pass --resume to continue it or choose another --out")
+    folder.mkdir(parents=True, exist_ok=True)
+    write_atomically(folder / "run.json", json.dumps(run_record, indent=2, sort_keys=True).encode())
+
+
+def _save(folder: Path, round_: int, dataset: Demonstrations, policy: Policy, logs: list[dict[str, Any]],
+          run_record: dict[str, Any]) -> None:
+    size = dataset.observations.shape[1]
+    table = pa.table({"episode": pa.array(dataset.episodes, pa.int32()),
+                      "observation": pa.FixedSizeListArray.from_arrays(
+                          pa.array(dataset.observations.astype(np.float32).ravel()), size),
+                      "action": pa.array(dataset.actions, pa.int8())})
+    write_parquet(table, folder / "dataset.parquet", {**run_record, "kind": DATASET, "round": round_})
+    save_policy(policy, folder / "policy_latest.npz", {**run_record, "iteration": round_})
+    columns = [*logs[0]]
+    log = pa.table({name: pa.array([row[name] for row in logs],
+                                   pa.float64() if name.startswith(("eval_", "bc_")) else None) for name in columns})
+    write_parquet(log, folder / "log.parquet", {**run_record, "kind": "dagger_log"})
+    write_atomically(folder / "checkpoint.json", json.dumps({"format": CHECKPOINT_FORMAT, "round": round_}).encode())
+
+
+def _resume(folder: Path, run_record: dict[str, Any]) -> tuple[int, Demonstrations, list[dict[str, Any]]]:
+    checkpoint_path = folder / "checkpoint.json"
+    if not checkpoint_path.is_file():
+        raise RunError(f"nothing to resume: {checkpoint_path} does not exist")
+    try:
+        stored = json.loads((folder / "run.json").read_text())
+        checkpoint = json.loads(checkpoint_path.read_text())
+        done = int(checkpoint["round"])
+    except (OSError, ValueError, KeyError, TypeError) as error:
+        raise RunError(f"run {folder} has an unreadable run.json or checkpoint.json ({error})") from error
+    if checkpoint.get("format") != CHECKPOINT_FORMAT:
+        raise RunError(f"{checkpoint_path} is not a sumo-rail DAgger checkpoint")
+    if stored.get("settings") != run_record["settings"] or stored.get("config") != run_record["config"]:
+        raise RunError(f"run {folder} was started with other settings; resume it with the same options")
+    if read_metadata(folder / "dataset.parquet").get("round") != done:
+        raise RunError(f"{folder / 'dataset.parquet'} does not belong to round {done} of the checkpoint")
+    try:
+        table = pq.read_table(folder / "dataset.parquet")
+        logs = pq.read_table(folder / "log.parquet").to_pylist()
+    except (pa.ArrowException, OSError) as error:
+        raise RunError(f"run {folder} has an unreadable dataset or log ({error})") from error
+    size = table.schema.field("observation").type.list_size
+    observations = table.column("observation").combine_chunks().flatten().to_numpy().reshape(-1, size)
+    dataset = Demonstrations(observations, table.column("action").to_numpy().astype(np.int64),
+                             table.column("episode").to_numpy(), {})
+    return done, dataset, [row for row in logs if row["iteration"] <= done]

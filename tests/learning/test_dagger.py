@@ -1,0 +1,92 @@
+"""DAgger on the small scenario: labels are the expert's, the dataset aggregates, and the result does not depend
+on workers or on an interruption."""
+
+import numpy as np
+import pandas as pd
+import pyarrow.parquet as pq
+import pytest
+from test_cli import SMALL, invoke
+
+from sumo_rail.config import Config
+from sumo_rail.drivers.policies import Policy, PolicyShape, load_policy
+from sumo_rail.learning.bc import BcSettings
+from sumo_rail.learning.dagger import DaggerSettings, DaggerTask, train_dagger
+from sumo_rail.learning.training import RunError, Validation
+from sumo_rail.runners.backends import ProcessPoolBackend, SerialBackend
+from sumo_rail.runners.rollout import EpisodeTask, ExpertDriver
+from sumo_rail.runners.tables import DEMONSTRATIONS, demonstrations_table, provenance
+
+CONFIG = Config.from_dict({"scenario": {"length_m": 1500.0, "warmup_s": 120.0, "snapshots": 3,
+                                        "snapshot_interval_s": 10.0},
+                           "env": {"ego_start_min_m": 300.0, "ego_start_max_m": 500.0}})
+
+
+@pytest.fixture(scope="module")
+def demos(tmp_path_factory):
+    from sumo_rail.datasets import write_parquet
+
+    path = tmp_path_factory.mktemp("dagger_demos") / "demos.parquet"
+    seeds = [0, 3]
+    with SerialBackend() as backend:
+        results = backend.run([EpisodeTask(CONFIG, ExpertDriver("normal"), s, record=True) for s in seeds])
+    write_parquet(demonstrations_table(results, seeds, 56), path,
+                  provenance(DEMONSTRATIONS, CONFIG, 0, style="normal"))
+    return path
+
+
+def settings(demos, **changes) -> DaggerSettings:
+    return DaggerSettings(str(demos), "mlp", 4, episodes_per_round=2, bc=BcSettings(epochs=3, class_balance=0.75),
+                          **changes)
+
+
+def test_labels_are_the_experts_whoever_drives():
+    with SerialBackend() as backend:
+        policy = keeping_policy()
+        expert_only, = backend.run([DaggerTask(CONFIG, policy, "normal", 1.0, 5)])
+        recorded, = backend.run([EpisodeTask(CONFIG, ExpertDriver("normal"), 5, record=True)])
+        mixed, = backend.run([DaggerTask(CONFIG, policy, "normal", 0.0, 5)])
+    assert expert_only.policy_decisions == 0
+    assert np.array_equal(expert_only.labels, recorded.steps["action"])  # the expert drove: labels = its actions
+    assert np.array_equal(expert_only.observations, recorded.steps["observation"])
+    assert mixed.policy_decisions == len(mixed.labels) > 0
+
+
+def keeping_policy() -> Policy:
+    """A policy that always keeps (zero weights), to drive against the expert."""
+    shape = PolicyShape("linear", 56)
+    return Policy(shape, np.zeros(shape.parameter_count, np.float32))
+
+
+def test_same_policy_with_one_or_two_workers_and_after_resuming(tmp_path, demos):
+    run = settings(demos)
+    with SerialBackend() as serial:
+        train_dagger(tmp_path / "one", run, CONFIG, 2, serial, resume=False, validation=Validation(0))
+    with ProcessPoolBackend(2) as two:
+        train_dagger(tmp_path / "split", run, CONFIG, 1, two, resume=False, validation=Validation(0))
+        train_dagger(tmp_path / "split", run, CONFIG, 2, two, resume=True, validation=Validation(0))
+    uninterrupted, _ = load_policy(tmp_path / "one" / "policy_latest.npz")
+    resumed, _ = load_policy(tmp_path / "split" / "policy_latest.npz")
+    assert np.array_equal(uninterrupted.parameters, resumed.parameters)
+    log = pd.read_parquet(tmp_path / "one" / "log.parquet")
+    assert log["iteration"].tolist() == [0, 1, 2] and log["beta"].tolist() == [1.0, 0.5, 0.25]
+    dataset = pq.read_table(tmp_path / "one" / "dataset.parquet")
+    assert dataset.num_rows == log["dataset_rows"].iloc[-1] == log["dataset_rows"].iloc[0] + log["env_steps"].sum()
+    assert len(set(dataset.column("episode").to_pylist())) == 2 + 2 * 2
+    with pytest.raises(RunError, match="other settings"):
+        train_dagger(tmp_path / "one", settings(demos, beta=0.9), CONFIG, 3, SerialBackend(), resume=True)
+
+
+def test_dagger_command_end_to_end(tmp_path, demos):
+    out = tmp_path / "run"
+    result = invoke("dagger", *SMALL, "--demos", str(demos), "--rounds", "1", "--episodes-per-round", "1",
+                    "--bc-epochs", "2", "--eval-episodes", "1", "--out", str(out))
+    assert result.exit_code == 0, result.output
+    assert "round 1:" in result.output and "validation agreement" in result.output
+    assert sorted(path.name for path in out.iterdir()) == ["checkpoint.json", "dataset.parquet", "log.parquet",
+                                                            "policy_bc.npz", "policy_latest.npz", "run.json"]
+    result = invoke("evaluate", *SMALL, "--policy", str(out / "policy_latest.npz"), "--episodes", "1")
+    assert result.exit_code == 0 and "run/policy_latest" in result.output
+    again = invoke("dagger", *SMALL, "--demos", str(demos), "--rounds", "1", "--out", str(out))
+    assert again.exit_code == 1 and "not empty" in again.output and "Traceback" not in again.output
+    bad = invoke("dagger", *SMALL, "--demos", str(demos), "--beta", "1.5", "--out", str(tmp_path / "x"))
+    assert bad.exit_code == 2
