@@ -19,6 +19,7 @@ from sumo_rail_cli.options import (
     make_interruptible,
     output_options,
     resolve_config,
+    run_folder_options,
 )
 
 from sumo_rail.drivers.expert import DEFAULT_STYLE, STYLES
@@ -148,16 +149,7 @@ def evaluate_command(config_path: Path | None, overrides: tuple[str, ...], polic
               help="Discriminator gradient steps per iteration.")
 @click.option("--iterations", type=click.IntRange(min=1), default=200, show_default=True,
               help="Iterations in total (with --resume: including those already done).")
-@click.option("--workers", type=click.IntRange(min=1), default=1, show_default=True,
-              help="Worker processes, each running one SUMO; the weights do not depend on it.")
-@backend_options
-@click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True)
-@click.option("--eval-every", type=click.IntRange(min=0), default=10, show_default=True,
-              help="Evaluate the policy on validation seeds every this many iterations and after the last (0: never).")
-@click.option("--eval-episodes", type=click.IntRange(min=1), default=8, show_default=True,
-              help="Validation episodes per evaluation.")
-@click.option("--out", type=click.Path(path_type=Path, file_okay=False), required=True, help="Run folder.")
-@click.option("--resume", is_flag=True, help="Continue the run in --out from its last checkpoint.")
+@run_folder_options("iteration", eval_every=10)
 def train_command(config_path: Path | None, overrides: tuple[str, ...], demos: Path, kind: str, hidden: int,
                   bc_epochs: int, bc_class_balance: float, directions: int, top: int | None, step_size: float,
                   noise: float, noise_increment: float, noise_every: int, traffic: str, episodes_per_rollout: int,

@@ -7,7 +7,6 @@ from typing import Any
 
 import click
 from sumo_rail_cli.options import (
-    backend_options,
     build_backend,
     config_options,
     episode_progress,
@@ -15,6 +14,7 @@ from sumo_rail_cli.options import (
     library_errors,
     make_interruptible,
     resolve_config,
+    run_folder_options,
 )
 
 
@@ -29,16 +29,7 @@ from sumo_rail_cli.options import (
               help="Probability that the expert drives a decision in round 1.")
 @click.option("--beta-decay", type=click.FloatRange(0, 1), default=0.5, show_default=True,
               help="beta of round r: beta x beta-decay^(r - 1).")
-@click.option("--workers", type=click.IntRange(min=1), default=1, show_default=True,
-              help="Worker processes, each running one SUMO; the result does not depend on it.")
-@backend_options
-@click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True)
-@click.option("--eval-every", type=click.IntRange(min=0), default=1, show_default=True,
-              help="Evaluate the policy on validation episodes every this many rounds and after the last (0: never).")
-@click.option("--eval-episodes", type=click.IntRange(min=1), default=8, show_default=True,
-              help="Validation episodes per evaluation.")
-@click.option("--out", type=click.Path(path_type=Path, file_okay=False), required=True, help="Run folder.")
-@click.option("--resume", is_flag=True, help="Continue the run in --out from its last complete round.")
+@run_folder_options("round", eval_every=1)
 def dagger_command(config_path: Path | None, overrides: tuple[str, ...], demos: Path, kind: str, hidden: int,
                    bc_epochs: int, bc_class_balance: float, rounds: int, episodes_per_round: int, beta: float,
                    beta_decay: float, workers: int, backend_name: str, address: str | None, seed: int,

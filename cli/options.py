@@ -75,6 +75,30 @@ def output_options(required: bool) -> Callable[[Callable[..., Any]], Callable[..
     return decorate
 
 
+def run_folder_options(step: str, eval_every: int) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
+    """What train and dagger share: --workers and the backend, --seed, validation every `eval_every` of their
+    `step`s (iteration, round), the run folder --out and --resume."""
+    def decorate(command: Callable[..., Any]) -> Callable[..., Any]:
+        options = [
+            click.option("--workers", type=click.IntRange(min=1), default=1, show_default=True,
+                         help="Worker processes, each running one SUMO; the result does not depend on it."),
+            backend_options,
+            click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True),
+            click.option("--eval-every", type=click.IntRange(min=0), default=eval_every, show_default=True,
+                         help=f"Evaluate the policy on validation episodes every this many {step}s and after the "
+                              f"last (0: never)."),
+            click.option("--eval-episodes", type=click.IntRange(min=1), default=8, show_default=True,
+                         help="Validation episodes per evaluation."),
+            click.option("--out", type=click.Path(path_type=Path, file_okay=False), required=True,
+                         help="Run folder."),
+            click.option("--resume", is_flag=True, help=f"Continue the run in --out from its last complete {step}."),
+        ]
+        for option in reversed(options):
+            command = option(command)
+        return command
+    return decorate
+
+
 def backend_options(command: Callable[..., Any]) -> Callable[..., Any]:
     """--backend process|ray and --address (ray only); build the backend with `build_backend`."""
     command = click.option("--address", metavar="auto|HOST:PORT",
