@@ -227,5 +227,5 @@ def test_train_interrupted_keeps_a_checkpoint_and_resumes(tmp_path):
     result = invoke("train", *SMALL, "--demos", str(demos), "--directions", "2", "--top", "1",
                     "--iterations", str(done + 1), "--eval-episodes", "1", "--out", str(run), "--resume")
     assert result.exit_code == 0, result.output
-    assert f"iteration {done + 1}: validation speed" in result.output  # the last iteration is evaluated
+    assert f"iteration {done + 1}: validation agreement" in result.output  # the last iteration is evaluated
     assert len(pd.read_parquet(run / "log.parquet")) == done + 1
