@@ -65,13 +65,16 @@ def record_expert(config_path: Path | None, overrides: tuple[str, ...], episodes
 @click.option("--reference-style", type=_STYLE, default=DEFAULT_STYLE, show_default=True,
               help="Expert asked at every decision what it would do, for drivers whose policy file does not record "
                    "the expert style it learned from.")
+@click.option("--pool", type=click.Choice(["test", "validation"]), default="test", show_default=True,
+              help="Warm traffic states the episodes start from: test (held out from everything) or validation (for "
+                   "choosing settings; use another --seed than the test runs' too).")
 @episode_options(default_seed=1000, default_episodes=EVALUATION_EPISODES)
 @backend_options
 @click.option("--gui/--gui-off", default=False, show_default=True,
               help="--gui drives the first episode of the first driver in sumo-gui (needs a display).")
 @output_options(required=False)
 def evaluate_command(config_path: Path | None, overrides: tuple[str, ...], policies: tuple[str, ...], style: str,
-                     reference: str | None, reference_style: str, episodes: int, seed: int, workers: int,
+                     reference: str | None, reference_style: str, pool: str, episodes: int, seed: int, workers: int,
                      backend_name: str, address: str | None, gui: bool, out: Path | None, overwrite: bool) -> None:
     """Evaluate drivers on held-out episodes and compare them with the expert and with each other.
 
@@ -107,11 +110,11 @@ def evaluate_command(config_path: Path | None, overrides: tuple[str, ...], polic
     seeds = episode_seeds(Purpose.EVALUATE, seed, episodes)
     backend = SerialBackend(render_mode="human") if gui else build_backend(backend_name, workers, address)
     with library_errors(), backend, episode_progress(len(drivers) * episodes, "evaluating") as bar:
-        evaluation = evaluate(drivers, config, seeds, backend, reference_style,
+        evaluation = evaluate(drivers, config, seeds, backend, reference_style, pool,
                               on_episode=lambda index, result: bar.update())
         if out is not None:
             write_evaluation(evaluation, config, seed, out, policies=list(policies), episode_seeds=seeds,
-                             reference_style=reference_style)
+                             reference_style=reference_style, pool=pool)
     click.echo(summary_table(evaluation.metrics, reference))
     expert = f"expert-{reference_style}"
     if expert in names and len(names) > 1:

@@ -229,3 +229,15 @@ def test_train_interrupted_keeps_a_checkpoint_and_resumes(tmp_path):
     assert result.exit_code == 0, result.output
     assert f"iteration {done + 1}: validation agreement" in result.output  # the last iteration is evaluated
     assert len(pd.read_parquet(run / "log.parquet")) == done + 1
+
+
+def test_evaluate_on_the_validation_pool(tmp_path):
+    outs = {pool: tmp_path / f"{pool}.parquet" for pool in ("test", "validation")}
+    for pool, out in outs.items():
+        result = invoke("evaluate", *SMALL, "--policy", "keep", "--episodes", "2", "--pool", pool, "--out", str(out))
+        assert result.exit_code == 0, result.output
+        assert read_metadata(out)["pool"] == pool
+    test, validation = (pd.read_parquet(out) for out in outs.values())
+    assert test["seed"].tolist() == validation["seed"].tolist()
+    assert test["distance_m"].tolist() != validation["distance_m"].tolist()  # other warm traffic, same seeds
+    assert invoke("evaluate", *SMALL, "--pool", "train").exit_code == 2  # training states are never evaluated on
