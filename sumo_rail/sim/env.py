@@ -9,7 +9,6 @@ ego collides (the episode then terminates). Reaching the end of the road or the 
 from __future__ import annotations
 
 import dataclasses
-import math
 from dataclasses import dataclass
 from typing import Any
 
@@ -18,9 +17,9 @@ import numpy as np
 from gymnasium import spaces
 
 from sumo_rail.config import Config
-from sumo_rail.sim import lidar
+from sumo_rail.sim import kernels, lidar
 from sumo_rail.sim.actions import Action, command_for
-from sumo_rail.sim.observation import build_observation, observation_space
+from sumo_rail.sim.observation import observation_space
 from sumo_rail.sim.rewards import EpisodeMetrics, OvertakeCounter, lateral_reward, longitudinal_reward, relations
 from sumo_rail.sim.simulation import TRANSPORTS, EgoState, Neighbours, PeriodReport, Simulation
 
@@ -79,7 +78,8 @@ class HighwayEnv(gymnasium.Env[np.ndarray, np.int64]):
         scenario, env = self.config.scenario, self.config.env
         self._steps_per_decision = env.steps_per_decision(scenario.step_length_s)
         self._sim: Simulation | None = None
-        self._edge_boxes: lidar.Boxes | None = None
+        self._edges: np.ndarray | None = None
+        """Road-edge boxes, (S, 6) rows of centre x, y, axis x, y, half length, half width [m]."""
         self._set_point = env.v_min_mps
         self._lane = 0
         self._changing_lane = False
@@ -110,8 +110,9 @@ class HighwayEnv(gymnasium.Env[np.ndarray, np.int64]):
                                    gui=self.render_mode == "human", transport=self.transport)
         sim = self._sim
         sim.reset(**dataclasses.asdict(EpisodeStart.draw(self.np_random, cfg, sim.snapshot_count)))
-        if self._edge_boxes is None:
-            self._edge_boxes = lidar.edge_boxes(sim.road_edges())
+        if self._edges is None:
+            edges = lidar.edge_boxes(sim.road_edges())
+            self._edges = np.hstack([edges.centre_xy, edges.axis_xy, edges.half_size_m])
         ego, neighbours = sim.observe()
         self._set_point = min(max(ego.speed_mps, cfg.env.v_min_mps), cfg.env.v_max_mps)
         sim.set_cruise_speed(self._set_point)
@@ -191,16 +192,13 @@ class HighwayEnv(gymnasium.Env[np.ndarray, np.int64]):
         return relations(ego.lane_position_m, ego.length_m, neighbours.lane_position_m, neighbours.length_m)
 
     def _observe(self, ego: EgoState, neighbours: Neighbours, lane_change_in_progress: bool) -> np.ndarray:
-        cos_h, sin_h = math.cos(ego.heading_rad), math.sin(ego.heading_rad)
-        half = 0.5 * ego.length_m
-        centre = np.array([ego.front_x - half * cos_h, ego.front_y - half * sin_h])
-        vehicles = lidar.Boxes.from_front(neighbours.front_xy, neighbours.heading_rad, neighbours.length_m,
-                                          neighbours.width_m, neighbours.speed_mps)
-        distances, relative_speeds = lidar.scan(centre, ego.heading_rad, ego.speed_mps * np.array([cos_h, sin_h]),
-                                                lidar.stack(vehicles, self._edge_boxes), self.config.lidar.beams,
-                                                self.config.lidar.range_m)
-        return build_observation(self.config, distances, relative_speeds, ego.speed_mps, self._set_point, ego.lane,
-                                 lane_change_in_progress)
+        """The observation, from the compiled kernel (the numpy `lidar.scan` + `build_observation` is its reference)."""
+        cfg = self.config
+        ego_row = np.array([ego.front_x, ego.front_y, ego.heading_rad, ego.length_m, ego.speed_mps, self._set_point])
+        return kernels.observation_vector(neighbours.front_xy, neighbours.heading_rad, neighbours.length_m,
+                                          neighbours.width_m, neighbours.speed_mps, self._edges, ego_row, ego.lane,
+                                          lane_change_in_progress, cfg.lidar.beams, cfg.lidar.range_m,
+                                          cfg.env.v_min_mps, cfg.env.v_max_mps, cfg.scenario.lanes)
 
     def _totals(self) -> dict[str, Any]:
         m = self._metrics
