@@ -24,6 +24,8 @@ from sumo_rail.sim.rewards import EpisodeMetrics, OvertakeCounter, lateral_rewar
 from sumo_rail.sim.simulation import TRANSPORTS, EgoState, Neighbours, PeriodReport, Simulation
 
 _SUMO_SEED_BOUND = 2**31 - 1
+_ACTIONS = tuple(Action)
+_INTEGERS = (int, np.integer)
 
 
 @dataclass(frozen=True)
@@ -129,11 +131,11 @@ class HighwayEnv(gymnasium.Env[np.ndarray, np.int64]):
     def step(self, action: int | np.integer) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         if self._sim is None:
             raise RuntimeError("call reset() before step()")
-        fast_path_valid = isinstance(action, int | np.integer) and 0 <= action < self.action_space.n
+        fast_path_valid = isinstance(action, _INTEGERS) and 0 <= action < len(_ACTIONS)
         if not (fast_path_valid or self.action_space.contains(action)):
             raise ValueError(f"action must be an integer in [0, {self.action_space.n}), got {action!r}")
         cfg, sim, metrics = self.config, self._sim, self._metrics
-        chosen = Action(int(action))
+        chosen = _ACTIONS[int(action)]
         command = command_for(chosen, self._set_point, self._lane, cfg.scenario.lanes, cfg.env.speed_step_mps,
                               cfg.env.v_min_mps, cfg.env.v_max_mps)
         if command.set_point_mps != self._set_point:

@@ -77,4 +77,4 @@ def test_jit_compiles_without_a_cache_where_numba_cannot_write_one():
     namespace: dict = {}
     exec(compile("def twice(x):\n    return 2 * x\n", "<generated>", "exec"), namespace)  # no source file to cache by
     twice = kernels.jit(namespace["twice"])
-    assert twice(21) == 42 and twice._cache.cache_path is None  # noqa: SLF001
+    assert twice(21) == 42 and twice._cache.cache_path is None
