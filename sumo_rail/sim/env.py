@@ -12,7 +12,6 @@ Reaching the end of the road or the time limit truncates it.
 from __future__ import annotations
 
 import dataclasses
-import math
 from dataclasses import dataclass
 from typing import Any
 
@@ -21,14 +20,16 @@ import numpy as np
 from gymnasium import spaces
 
 from sumo_rail.config import Config
-from sumo_rail.sim import lidar
+from sumo_rail.sim import kernels, lidar
 from sumo_rail.sim.actions import Action, command_for
-from sumo_rail.sim.observation import build_observation, observation_space
+from sumo_rail.sim.observation import observation_space
 from sumo_rail.sim.rewards import EpisodeMetrics, OvertakeCounter, lateral_reward, longitudinal_reward, relations
 from sumo_rail.sim.simulation import TRANSPORTS, WARM_STATE_POOLS, EgoState, Neighbours, PeriodReport, Simulation
 from sumo_rail.sim.traffic import TrafficView, lane_block
 
 _SUMO_SEED_BOUND = 2**31 - 1
+_ACTIONS = tuple(Action)
+_INTEGERS = (int, np.integer)
 
 
 @dataclass(frozen=True)
@@ -86,7 +87,8 @@ class HighwayEnv(gymnasium.Env[np.ndarray, np.int64]):
         scenario, env = self.config.scenario, self.config.env
         self._steps_per_decision = env.steps_per_decision(scenario.step_length_s)
         self._sim: Simulation | None = None
-        self._edge_boxes: lidar.Boxes | None = None
+        self._edges: np.ndarray | None = None
+        """Road-edge boxes, (S, 6) rows of centre x, y, axis x, y, half length, half width [m]."""
         self._set_point = env.v_min_mps
         self._lane = 0
         self._changing_lane = False
@@ -121,8 +123,9 @@ class HighwayEnv(gymnasium.Env[np.ndarray, np.int64]):
         if warm_state is not None:
             start = dataclasses.replace(start, snapshot=warm_state)
         sim.reset(**dataclasses.asdict(start), pool=pool)
-        if self._edge_boxes is None:
-            self._edge_boxes = lidar.edge_boxes(sim.road_edges())
+        if self._edges is None:
+            edges = lidar.edge_boxes(sim.road_edges())
+            self._edges = np.hstack([edges.centre_xy, edges.axis_xy, edges.half_size_m])
         ego, neighbours = sim.observe()
         self._set_point = min(max(ego.speed_mps, cfg.env.v_min_mps), cfg.env.v_max_mps)
         sim.set_cruise_speed(self._set_point)
@@ -139,11 +142,11 @@ class HighwayEnv(gymnasium.Env[np.ndarray, np.int64]):
     def step(self, action: int | np.integer) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         if self._sim is None:
             raise RuntimeError("call reset() before step()")
-        fast_path_valid = isinstance(action, int | np.integer) and 0 <= action < self.action_space.n
+        fast_path_valid = isinstance(action, _INTEGERS) and 0 <= action < len(_ACTIONS)
         if not (fast_path_valid or self.action_space.contains(action)):
             raise ValueError(f"action must be an integer in [0, {self.action_space.n}), got {action!r}")
         cfg, sim, metrics = self.config, self._sim, self._metrics
-        chosen = Action(int(action))
+        chosen = _ACTIONS[int(action)]
         command = command_for(chosen, self._set_point, self._lane, cfg.scenario.lanes, cfg.env.speed_step_mps,
                               cfg.env.v_min_mps, cfg.env.v_max_mps)
         if command.set_point_mps != self._set_point:
@@ -202,20 +205,16 @@ class HighwayEnv(gymnasium.Env[np.ndarray, np.int64]):
         return relations(ego.lane_position_m, ego.length_m, neighbours.lane_position_m, neighbours.length_m)
 
     def _observe(self, ego: EgoState, neighbours: Neighbours, lane_change_in_progress: bool) -> np.ndarray:
-        cos_h, sin_h = math.cos(ego.heading_rad), math.sin(ego.heading_rad)
-        half = 0.5 * ego.length_m
-        centre = np.array([ego.front_x - half * cos_h, ego.front_y - half * sin_h])
-        vehicles = lidar.Boxes.from_front(neighbours.front_xy, neighbours.heading_rad, neighbours.length_m,
-                                          neighbours.width_m, neighbours.speed_mps)
-        distances, relative_speeds = lidar.scan(centre, ego.heading_rad, ego.speed_mps * np.array([cos_h, sin_h]),
-                                                lidar.stack(vehicles, self._edge_boxes), self.config.lidar.beams,
-                                                self.config.lidar.range_m)
-        observation = build_observation(self.config, distances, relative_speeds, ego.speed_mps, self._set_point,
-                                        ego.lane, lane_change_in_progress)
-        if self.config.observation.lane_block:
-            traffic = TrafficView(ego, neighbours, self._set_point, self.config.scenario.lanes)
-            observation = np.concatenate([observation, lane_block(traffic, self.config.lidar.range_m,
-                                                                  self.config.env.v_max_mps)])
+        """The observation, from the compiled kernel (the numpy `lidar.scan` + `build_observation` is its reference)."""
+        cfg = self.config
+        ego_row = np.array([ego.front_x, ego.front_y, ego.heading_rad, ego.length_m, ego.speed_mps, self._set_point])
+        observation = kernels.observation_vector(
+            neighbours.front_xy, neighbours.heading_rad, neighbours.length_m, neighbours.width_m,
+            neighbours.speed_mps, self._edges, ego_row, ego.lane, lane_change_in_progress, cfg.lidar.beams,
+            cfg.lidar.range_m, cfg.env.v_min_mps, cfg.env.v_max_mps, cfg.scenario.lanes)
+        if cfg.observation.lane_block:
+            traffic = TrafficView(ego, neighbours, self._set_point, cfg.scenario.lanes)
+            observation = np.concatenate([observation, lane_block(traffic, cfg.lidar.range_m, cfg.env.v_max_mps)])
         return observation
 
     def _totals(self) -> dict[str, Any]:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -19,13 +20,15 @@ def lateral_reward(lane_change_in_progress: bool, per_decision: float) -> float:
     return per_decision if lane_change_in_progress else 0.0
 
 
-def relations(ego_front_m: float, ego_length_m: float, fronts_m: np.ndarray, lengths_m: np.ndarray) -> np.ndarray:
+def relations(ego_front_m: float, ego_length_m: float, fronts_m: np.ndarray, lengths_m: np.ndarray) -> list[int]:
     """Longitudinal relation of each vehicle to the ego along the road.
 
     AHEAD: its rear is beyond the ego's front; BEHIND: its front is short of the ego's rear; else ALONGSIDE.
+    (A Python loop: for the few vehicles around the ego it is several times cheaper than numpy's calls.)
     """
     ego_rear = ego_front_m - ego_length_m
-    return np.where(fronts_m - lengths_m > ego_front_m, AHEAD, np.where(fronts_m < ego_rear, BEHIND, ALONGSIDE))
+    return [AHEAD if front - length > ego_front_m else BEHIND if front < ego_rear else ALONGSIDE
+            for front, length in zip(fronts_m.tolist(), lengths_m.tolist(), strict=True)]
 
 
 class OvertakeCounter:
@@ -40,11 +43,11 @@ class OvertakeCounter:
         self.overtakes = 0
         self.overtaken = 0
 
-    def update(self, ids: tuple[str, ...], relation: np.ndarray) -> int:
-        """Record this decision's relations; returns the number of new overtakes by the ego."""
+    def update(self, ids: tuple[str, ...], relation: Sequence[int]) -> int:
+        """Record this decision's relations (see `relations`); returns the number of new overtakes by the ego."""
         new = 0
         last = self._last_strict
-        for vehicle_id, now in zip(ids, relation.tolist(), strict=True):
+        for vehicle_id, now in zip(ids, relation, strict=True):
             if now == ALONGSIDE:
                 continue
             before = last.get(vehicle_id)

@@ -18,6 +18,7 @@ import hashlib
 import json
 import logging
 import math
+import operator
 import os
 from dataclasses import dataclass
 from pathlib import Path
@@ -95,12 +96,6 @@ class PeriodReport:
     teleports: int
 
 
-def sumo_heading_rad(angle_deg: float | np.ndarray) -> float | np.ndarray:
-    """SUMO's angle (degrees, 0 = north, clockwise) to a math heading (radians, 0 = +x, counter-clockwise)."""
-    return np.radians(90.0 - np.asarray(angle_deg)) if isinstance(angle_deg, np.ndarray) else math.radians(
-        90.0 - angle_deg)
-
-
 class Simulation:
     """One SUMO instance for the ego's episodes on one scenario; `gui` implies the traci transport."""
 
@@ -122,6 +117,7 @@ class Simulation:
         self._constants = tc = _load_constants()
         self._context_variables = (tc.VAR_POSITION, tc.VAR_ANGLE, tc.VAR_SPEED, tc.VAR_LANEPOSITION, tc.VAR_LENGTH,
                                    tc.VAR_WIDTH, tc.VAR_LANE_INDEX)
+        self._context_fields = operator.itemgetter(*self._context_variables)
         self._start(["--seed", str(scenario.traffic_seed)])
         self._pools: dict[str, list[Path]] = {}
         self._running = True
@@ -257,46 +253,57 @@ class Simulation:
         self._api.vehicle.changeLane(EGO_ID, lane, duration_s)
 
     def advance(self, steps: int) -> PeriodReport:
-        """Run `steps` SUMO steps, watching the ego for collisions, arrival, braking and teleports."""
+        """Run `steps` SUMO steps, watching the ego for collisions, arrival, braking and teleports.
+
+        Three calls a step: the step, the teleport count and the ego's acceleration. The ego is gone (collided,
+        and so removed, or arrived) exactly when asking for its acceleration fails; only then are the step's
+        collision and arrival lists read, collision first.
+        """
         api = self._api
         step, simulation, acceleration = api.simulationStep, api.simulation, api.vehicle.getAcceleration
+        starting_teleports = simulation.getStartingTeleportNumber
         collided = left = ego_teleported = False
         min_accel = math.inf
         teleports = 0
         for _ in range(steps):
             step()
-            if simulation.getStartingTeleportNumber():
+            if starting_teleports():
                 starting = simulation.getStartingTeleportIDList()
                 teleports += len(starting)
                 ego_teleported |= EGO_ID in starting
-            if simulation.getCollidingVehiclesNumber() and EGO_ID in simulation.getCollidingVehiclesIDList():
-                collided = True
-                break
-            if simulation.getArrivedNumber() and EGO_ID in simulation.getArrivedIDList():
-                left = True
-                break
-            min_accel = min(min_accel, acceleration(EGO_ID))
+            try:
+                accel = acceleration(EGO_ID)
+            except api.TraCIException:  # type: ignore[attr-defined]
+                collided = EGO_ID in simulation.getCollidingVehiclesIDList()
+                left = not collided and EGO_ID in simulation.getArrivedIDList()
+                if collided or left:
+                    break
+                raise
+            if accel < min_accel:
+                min_accel = accel
         return PeriodReport(collided, left, ego_teleported, min_accel if min_accel < math.inf else 0.0, teleports)
 
     def observe(self) -> tuple[EgoState, Neighbours]:
         """The ego and its neighbours within the context radius, from one context subscription.
 
-        The subscription is made and dropped at each decision: SUMO answers a new subscription at once,
-        and a standing one would be recomputed at every step of the decision period for nothing.
+        Headings are SUMO's angles (degrees, 0 = north, clockwise) as math headings (radians, 0 = +x,
+        counter-clockwise): radians(90 - angle). The subscription is made and dropped at each decision: SUMO
+        answers a new subscription at once, and a standing one would be recomputed at every step of the decision
+        period for nothing.
         """
-        tc, vehicle = self._constants, self._api.vehicle
+        tc, vehicle, fields = self._constants, self._api.vehicle, self._context_fields
         vehicle.subscribeContext(EGO_ID, tc.CMD_GET_VEHICLE_VARIABLE, self.context_radius_m, self._context_variables)
         results = vehicle.getContextSubscriptionResults(EGO_ID)
         vehicle.unsubscribeContext(EGO_ID, tc.CMD_GET_VEHICLE_VARIABLE, self.context_radius_m)
-        ego = results.pop(EGO_ID)
-        ego_x, ego_y = ego[tc.VAR_POSITION]
-        ego_state = EgoState(ego_x, ego_y, sumo_heading_rad(ego[tc.VAR_ANGLE]), ego[tc.VAR_SPEED],
-                             ego[tc.VAR_LANE_INDEX], ego[tc.VAR_LANEPOSITION],
-                             self._api.vehicle.getLateralLanePosition(EGO_ID), ego[tc.VAR_LENGTH], ego[tc.VAR_WIDTH])
-        position, angle, speed, lane_position, length, width, lane = self._context_variables
-        rows = np.array([(*v[position], v[angle], v[speed], v[lane_position], v[length], v[width], v[lane])
-                         for v in results.values()], dtype=np.float64).reshape(len(results), 8)
-        neighbours = Neighbours(ids=tuple(results), front_xy=rows[:, :2], heading_rad=sumo_heading_rad(rows[:, 2]),
+        (ego_x, ego_y), angle, speed, lane_position, length, width, lane = fields(results.pop(EGO_ID))
+        ego_state = EgoState(ego_x, ego_y, math.radians(90.0 - angle), speed, lane, lane_position,
+                             vehicle.getLateralLanePosition(EGO_ID), length, width)
+        flat: list[float] = []
+        extend, radians = flat.extend, math.radians
+        for (x, y), angle, speed, lane_position, length, width, lane in map(fields, results.values()):
+            extend((x, y, radians(90.0 - angle), speed, lane_position, length, width, lane))
+        rows = np.array(flat, dtype=np.float64).reshape(len(results), 8)
+        neighbours = Neighbours(ids=tuple(results), front_xy=rows[:, :2], heading_rad=rows[:, 2],
                                 speed_mps=rows[:, 3], lane_position_m=rows[:, 4], length_m=rows[:, 5],
                                 width_m=rows[:, 6], lane=rows[:, 7].astype(np.int64))
         return ego_state, neighbours

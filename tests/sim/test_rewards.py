@@ -27,12 +27,12 @@ def test_relations_use_bumpers():
     # ego front at 100 m, length 5 -> rear at 95 m
     fronts = np.array([106.0, 104.0, 94.0, 96.0])
     lengths = np.array([5.0, 5.0, 5.0, 5.0])
-    assert relations(100.0, 5.0, fronts, lengths).tolist() == [AHEAD, ALONGSIDE, BEHIND, ALONGSIDE]
+    assert relations(100.0, 5.0, fronts, lengths) == [AHEAD, ALONGSIDE, BEHIND, ALONGSIDE]
 
 
 def counter_sequence(states):
     counter = OvertakeCounter()
-    new = [counter.update(tuple(ids), np.array(rel)) for ids, rel in states]
+    new = [counter.update(tuple(ids), rel) for ids, rel in states]
     return counter, new
 
 

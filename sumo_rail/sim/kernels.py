@@ -1,0 +1,116 @@
+"""Compiled (numba) kernel of the per-decision numeric work: the LIDAR scan and the observation, in one call.
+
+`lidar.scan` + `observation.build_observation` (numpy) stay the reference: this kernel repeats their arithmetic
+operation for operation, in the same order, so on the machines it was checked on it gives the same float32 bits
+(tests compare them on random scenes). Numpy's matrix product fuses the second multiply-add of each
+direction-to-box-frame projection (OpenBLAS's FMA kernels), so the kernel does the same with an explicit fused
+multiply-add. Compiled code is cached on disk (`__pycache__` beside this file, else numba's user-wide cache); where
+neither is writable it is compiled once per process instead.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections.abc import Callable
+from typing import Any
+
+import numba
+import numpy as np
+from numba import types
+from numba.extending import intrinsic
+
+log = logging.getLogger(__name__)
+
+_TINY = 1e-12
+"""Stands for a zero direction component, as in `lidar._ray_box_distances`."""
+
+
+def jit(function: Callable[..., Any]) -> Any:
+    """`numba.njit` with an on-disk cache, or without one where no cache location is writable."""
+    try:
+        return numba.njit(cache=True)(function)
+    except RuntimeError as error:  # numba finds no writable cache directory for this file
+        log.info("numba cannot cache %s (%s); compiling it in this process", function.__qualname__, error)
+        return numba.njit(function)
+
+
+@intrinsic
+def _fma(typingctx: Any, a: Any, b: Any, c: Any) -> Any:
+    """a * b + c with a single rounding (LLVM's fma)."""
+    signature = types.float64(types.float64, types.float64, types.float64)
+
+    def codegen(context: Any, builder: Any, sig: Any, args: Any) -> Any:
+        return builder.fma(*args)
+
+    return signature, codegen
+
+
+@jit
+def _slab_entry(o_len: float, o_wid: float, d_len: float, d_wid: float, half_len: float, half_wid: float) -> float:
+    """Entry distance of a ray into a box given in the box's frame [m]; inf when it misses."""
+    if d_len == 0.0:
+        d_len = _TINY
+    if d_wid == 0.0:
+        d_wid = _TINY
+    inv_len, inv_wid = 1.0 / d_len, 1.0 / d_wid
+    low_len, high_len = (-half_len - o_len) * inv_len, (half_len - o_len) * inv_len
+    low_wid, high_wid = (-half_wid - o_wid) * inv_wid, (half_wid - o_wid) * inv_wid
+    near_len, far_len = min(low_len, high_len), max(low_len, high_len)
+    near_wid, far_wid = min(low_wid, high_wid), max(low_wid, high_wid)
+    entry = max(max(near_len, near_wid), 0.0)
+    return np.inf if min(far_len, far_wid) < entry else entry
+
+
+@jit
+def observation_vector(front_xy: np.ndarray, heading_rad: np.ndarray, length_m: np.ndarray, width_m: np.ndarray,
+                       speed_mps: np.ndarray, edges: np.ndarray, ego: np.ndarray, lane: int, changing: bool,
+                       beams: int, range_m: float, v_min_mps: float, v_max_mps: float, lanes: int) -> np.ndarray:
+    """The float32 observation (layout in `observation`) from the neighbours' front bumpers, headings [rad],
+    sizes [m] and speeds [m/s], the road-edge boxes (S, 6) rows of centre x, y, unit axis x, y, half length and 0
+    [m], and `ego` = front x, front y [m], heading [rad], length [m], speed [m/s], cruise set-point [m/s]."""
+    front_x, front_y, heading, ego_length, ego_speed, set_point = ego[0], ego[1], ego[2], ego[3], ego[4], ego[5]
+    cos_h, sin_h = math.cos(heading), math.sin(heading)
+    half = 0.5 * ego_length
+    origin_x, origin_y = front_x - half * cos_h, front_y - half * sin_h
+    ego_vx, ego_vy = ego_speed * cos_h, ego_speed * sin_h
+    vehicles, walls = len(heading_rad), len(edges)
+    boxes = vehicles + walls
+    # per box: origin in the box frame (length, width), axis x, y, half length, half width, velocity x, y
+    frame = np.empty((boxes, 8))
+    for j in range(vehicles):
+        axis_x, axis_y = math.cos(heading_rad[j]), math.sin(heading_rad[j])
+        half_len = 0.5 * length_m[j]
+        dx, dy = origin_x - (front_xy[j, 0] - half_len * axis_x), origin_y - (front_xy[j, 1] - half_len * axis_y)
+        frame[j] = (axis_x * dx + axis_y * dy, -axis_y * dx + axis_x * dy, axis_x, axis_y, half_len,
+                    0.5 * width_m[j], speed_mps[j] * axis_x, speed_mps[j] * axis_y)
+    for k in range(walls):
+        axis_x, axis_y = edges[k, 2], edges[k, 3]
+        dx, dy = origin_x - edges[k, 0], origin_y - edges[k, 1]
+        frame[vehicles + k] = (axis_x * dx + axis_y * dy, -axis_y * dx + axis_x * dy, axis_x, axis_y, edges[k, 4],
+                               edges[k, 5], 0.0, 0.0)
+    observation = np.zeros(2 * beams + 3 + lanes, dtype=np.float32)
+    step = 2.0 * np.pi / beams
+    inverse_range, inverse_v_max = 1.0 / range_m, 1.0 / v_max_mps
+    for i in range(beams):
+        angle = heading + i * step
+        ray_x, ray_y = math.cos(angle), math.sin(angle)
+        distance, relative_speed = range_m, 0.0
+        if boxes:
+            nearest, best = 0, np.inf
+            for j in range(boxes):
+                axis_x, axis_y = frame[j, 2], frame[j, 3]
+                entry = _slab_entry(frame[j, 0], frame[j, 1], _fma(ray_y, axis_y, ray_x * axis_x),
+                                    _fma(ray_y, axis_x, ray_x * -axis_y), frame[j, 4], frame[j, 5])
+                if entry < best:
+                    nearest, best = j, entry
+            if not best > range_m:
+                distance = best
+                relative_speed = (frame[nearest, 6] - ego_vx) * ray_x + (frame[nearest, 7] - ego_vy) * ray_y
+        observation[i] = min(distance * inverse_range, 1.0)
+        observation[beams + i] = min(max(relative_speed * inverse_v_max, -1.0), 1.0)
+    observation[2 * beams] = min(max(ego_speed / v_max_mps, 0.0), 2.0)
+    observation[2 * beams + 1] = (set_point - v_min_mps) / (v_max_mps - v_min_mps)
+    observation[2 * beams + 2 + lane] = 1.0
+    observation[-1] = 1.0 if changing else 0.0
+    return observation
