@@ -15,6 +15,7 @@ import json
 import logging
 import math
 import os
+import xml.etree.ElementTree as ElementTree
 from dataclasses import dataclass
 from pathlib import Path
 from types import ModuleType
@@ -190,8 +191,11 @@ class Simulation:
         directory = network.cache_dir() / "states" / self._snapshot_key()
         paths = [directory / f"state_{k:03d}.xml" for k in range(self.scenario.snapshots)]
         self._start(["--seed", str(self.scenario.traffic_seed)])
-        if all(path.exists() for path in paths):
+        problems = [problem for k, path in enumerate(paths) if (problem := self._state_problem(path, k)) is not None]
+        if not problems:
             return paths
+        if any(path.exists() for path in paths):
+            log.warning("cached warm states in %s are damaged (%s); running the warm-up again", directory, problems[0])
         directory.mkdir(parents=True, exist_ok=True)
         api = self._api
         api.simulationStep(self.scenario.warmup_s)
@@ -203,6 +207,25 @@ class Simulation:
             os.replace(temporary, path)
         log.info("saved %d warm states in %s", len(paths), directory)
         return paths
+
+    def _state_problem(self, path: Path, k: int) -> str | None:
+        """What is wrong with cached warm state `k` (None: usable): missing, not well-formed XML, not a SUMO state
+        or not of the time warm state `k` is saved at."""
+        try:
+            root = ElementTree.parse(path).getroot()
+        except OSError as error:
+            return f"{path.name}: {error.strerror or error}"
+        except ElementTree.ParseError as error:
+            return f"{path.name} is not well-formed XML: {error}"
+        expected_s = self.scenario.warmup_s + k * self.scenario.snapshot_interval_s
+        try:
+            time_s = float(root.get("time", "nan"))
+        except ValueError:
+            time_s = math.nan
+        slack_s = (k + 1) * self.scenario.step_length_s + 1e-6  # each simulationStep(t) may overshoot t by a step
+        if root.tag != "snapshot" or not expected_s - 1e-6 <= time_s <= expected_s + slack_s:
+            return f"{path.name} is not SUMO's state at {expected_s:g} s"
+        return None
 
     def reset(self, snapshot: int, sumo_seed: int, ego_lane: int, ego_position_m: float) -> None:
         """Reload warm state `snapshot` with SUMO seed `sumo_seed` and insert the ego; steps until it is in."""
