@@ -78,6 +78,17 @@ def describe(error: BaseException) -> str:
     return text or type(error).__name__
 
 
+def write_failure(error: BaseException) -> str:
+    """Why a write failed, in a few words: the operating system's reason ("No space left on device") when an
+    OSError is behind `error`, else `describe(error)`."""
+    cause: BaseException | None = error
+    while cause is not None:
+        if isinstance(cause, OSError) and cause.strerror:
+            return cause.strerror
+        cause = cause.__cause__
+    return describe(error)
+
+
 def check_file(path: Path, what: str) -> None:
     """DatasetError unless `path` is a non-empty file; `what` names it in the message ("policy file", ...)."""
     if not path.exists():

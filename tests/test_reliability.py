@@ -356,12 +356,11 @@ def test_a_real_process_prints_one_line_and_exits_1(workspace: Path, file: str, 
 # Full disk while an iteration is saved.
 
 WRITERS = {
-    "policy_latest.npz": (np, "savez", 0),
-    "discriminator.pt": (torch, "save", 1),
+    "policy_latest.npz": (np, "savez", 0),  # the first file an iteration writes
     "log.parquet": (pq, "write_table", 1),
-    "checkpoint.pt": (torch, "save", 1),
+    "checkpoint.pt": (torch, "save", 1),  # the last (discriminator.pt is written as it is)
 }
-"""File -> (module, writer function, index of its destination argument)."""
+"""File -> (module, writer function, index of its destination argument): one per writer."""
 
 
 @pytest.mark.parametrize("file", list(WRITERS))
@@ -451,6 +450,33 @@ def test_a_damaged_cache_entry_is_rebuilt(cache_template: Path, tmp_path: Path, 
         assert rebuilt.split(b"<snapshot", 1)[-1] == intact.split(b"<snapshot", 1)[-1]
 
 
+@pytest.mark.parametrize("file", ["network", "warm state"])
+def test_a_cache_entry_damaged_while_running_is_rebuilt_and_the_episode_is_the_same(
+        cache_template: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, file: str):
+    """SUMO reads the network and the warm state again at every reset: damage between two resets is repaired too."""
+    from sumo_rail.sim.simulation import Simulation
+
+    cache = tmp_path / "cache"
+    shutil.copytree(cache_template, cache)
+    monkeypatch.setenv("SUMO_RAIL_CACHE", str(cache))
+    simulation = Simulation(SMALL_CONFIG.scenario, 100.0)
+    try:
+        episodes = []
+        for damage in (None, _truncated):
+            if damage is not None:
+                [path] = cache.glob(CACHE_FILES[file])
+                damage(path)
+            simulation.reset(1, 7, 2, 300.0)
+            simulation.advance(20)
+            ego, neighbours = simulation.observe()
+            episodes.append((ego, neighbours.ids, neighbours.front_xy, neighbours.speed_mps))
+    finally:
+        simulation.close()
+    (ego, ids, xy, speeds), (ego_again, ids_again, xy_again, speeds_again) = episodes
+    assert ego == ego_again and ids == ids_again and len(ids) > 3
+    assert np.array_equal(xy, xy_again) and np.array_equal(speeds, speeds_again)
+
+
 def test_a_command_runs_on_a_damaged_cache(tmp_path: Path, cache_template: Path, monkeypatch: pytest.MonkeyPatch):
     """End to end: evaluate's worker processes find a truncated warm state and rebuild it."""
     cache = tmp_path / "cache"
@@ -482,17 +508,25 @@ def _is_env_process(pid: int) -> bool:
     return b"multiprocessing" in command and b"resource_tracker" not in command
 
 
-def test_a_killed_gail_environment_process_is_one_sentence(workspace: Path):
+@pytest.mark.parametrize("how", ["killed", "failing"])
+def test_a_lost_gail_environment_process_is_one_sentence(workspace: Path, tmp_path: Path, how: str):
+    """An env process killed mid-run (kill -9), or one that fails as it starts (its cache is a file, not a folder):
+    one sentence saying which process and what the run folder holds; no EOFError, no traceback from any process."""
+    environment = dict(os.environ)
+    if how == "failing":
+        environment["SUMO_RAIL_CACHE"] = str(tmp_path / "not_a_folder")
+        (tmp_path / "not_a_folder").write_text("")
     command = [sys.executable, "-m", "sumo_rail_cli", "gail", *SMALL, "--demos", "demos.parquet",
-               "--timesteps", "100000", "--envs", "2", "--n-steps", "32", "--bc-epochs", "1", "--out", "gail_run"]
-    process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+               "--timesteps", "100000", "--envs", "1", "--n-steps", "32", "--bc-epochs", "1", "--out", "gail_run"]
+    process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=environment)
     try:
-        deadline = time.time() + 120
-        while not (workspace / "gail_run" / "log.parquet").exists() and time.time() < deadline:
-            time.sleep(0.2)
-        envs = [pid for pid in _children(process.pid) if _is_env_process(pid)]
-        assert len(envs) == 2, envs
-        os.kill(envs[1], signal.SIGKILL)
+        if how == "killed":
+            deadline = time.time() + 120
+            while not (workspace / "gail_run" / "log.parquet").exists() and time.time() < deadline:
+                time.sleep(0.2)
+            envs = [pid for pid in _children(process.pid) if _is_env_process(pid)]
+            assert len(envs) == 1, envs
+            os.kill(envs[0], signal.SIGKILL)
         _, stderr = process.communicate(timeout=60)
     finally:
         if process.poll() is None:
@@ -500,4 +534,8 @@ def test_a_killed_gail_environment_process_is_one_sentence(workspace: Path):
             process.communicate()
     assert process.returncode == 1 and "Traceback" not in stderr and "EOFError" not in stderr, stderr
     error = stderr.rstrip().splitlines()[-1]
-    assert error.startswith("Error: ") and "environment process" in error and "policy_latest.npz" in error, error
+    assert error.startswith("Error: GAIL stopped during update "), error
+    if how == "killed":
+        assert "environment process 0 was killed by signal 9" in error and "policy_latest.npz holds update" in error
+    else:
+        assert "environment process 0 failed: " in error and "not_a_folder" in error and "no trained policy" in error

@@ -29,7 +29,14 @@ import pyarrow as pa
 import torch
 
 from sumo_rail.config import Config
-from sumo_rail.datasets import DatasetError, describe, read_json_record, write_parquet, written_together
+from sumo_rail.datasets import (
+    DatasetError,
+    describe,
+    read_json_record,
+    write_failure,
+    write_parquet,
+    written_together,
+)
 from sumo_rail.drivers.policies import Policy, PolicyShape, save_policy
 from sumo_rail.evaluation.evaluate import evaluate
 from sumo_rail.learning.bc import BcReport, BcSettings, behaviour_cloning
@@ -183,12 +190,10 @@ def _save_iteration(folder: Path, state: TrainingState, policy: Policy, discrimi
             write_parquet(_log_table(logs), staged.path(folder / "log.parquet"), {**run_record, "kind": "training_log"})
             torch.save(checkpoint, staged.path(folder / "checkpoint.pt"))  # last: it marks the iteration complete
     except (OSError, DatasetError) as error:
-        cause = error.__cause__ if isinstance(error, DatasetError) and error.__cause__ is not None else error
-        reason = cause.strerror if isinstance(cause, OSError) and cause.strerror else describe(cause)
         kept = (f"keeps iteration {state.iteration - 1}, the last complete one" if state.iteration > 1
                 else "holds no complete iteration yet")
-        raise RunError(f"cannot save iteration {state.iteration} in {folder} ({reason}); the folder {kept}: make "
-                       f"room and continue with --resume") from error
+        raise RunError(f"cannot save iteration {state.iteration} in {folder} ({write_failure(error)}); the folder "
+                       f"{kept}: make room and continue with --resume") from error
 
 
 def _log_table(logs: list[dict[str, Any]]) -> pa.Table:

@@ -23,6 +23,7 @@ from types import ModuleType
 import numpy as np
 
 from sumo_rail.config import ScenarioConfig
+from sumo_rail.datasets import describe
 from sumo_rail.sim import network
 
 log = logging.getLogger(__name__)
@@ -164,15 +165,17 @@ class Simulation:
         try:
             self._api.start([binary, *self._options(), *gui_options, *extra], **retries)
         except self._api.TraCIException as error:  # type: ignore[attr-defined]
-            raise SimulationError(f"SUMO failed to start: {error}") from error
+            raise SimulationError(f"SUMO failed to start: {describe(error)}") from error
         except FatalTraCIError as error:
-            raise SimulationError(f"sumo-gui did not start (is a display available?): {error}") from error
+            raise SimulationError(f"sumo-gui did not start (is a display available?): {describe(error)}") from error
 
     def _load(self, extra: list[str]) -> None:
         try:
             self._api.load([*self._options(), *extra])
         except self._api.TraCIException as error:  # type: ignore[attr-defined]
-            raise SimulationError(f"SUMO failed to load the warm state: {error}") from error
+            where = next((line.strip() for line in str(error).splitlines() if "In file" in line), "")
+            raise SimulationError(f"SUMO failed to load the warm state: {describe(error)}"
+                                  + (f" ({where})" if where else "")) from error
 
     def _snapshot_key(self) -> str:
         s = self.scenario
@@ -186,11 +189,12 @@ class Simulation:
         }
         return hashlib.sha256(json.dumps(settings, sort_keys=True).encode()).hexdigest()[:16]
 
-    def _warm_snapshots(self) -> list[Path]:
-        """Paths of the warm states, running the warm-up first when they are not cached yet."""
+    def _warm_snapshots(self, running: bool = False) -> list[Path]:
+        """Paths of the warm states, running the warm-up first when they are not cached yet or damaged. Starts
+        SUMO, or (`running`) reloads the one already running."""
         directory = network.cache_dir() / "states" / self._snapshot_key()
         paths = [directory / f"state_{k:03d}.xml" for k in range(self.scenario.snapshots)]
-        self._start(["--seed", str(self.scenario.traffic_seed)])
+        (self._load if running else self._start)(["--seed", str(self.scenario.traffic_seed)])
         problems = [problem for k, path in enumerate(paths) if (problem := self._state_problem(path, k)) is not None]
         if not problems:
             return paths
@@ -230,7 +234,13 @@ class Simulation:
     def reset(self, snapshot: int, sumo_seed: int, ego_lane: int, ego_position_m: float) -> None:
         """Reload warm state `snapshot` with SUMO seed `sumo_seed` and insert the ego; steps until it is in."""
         self._require_running()
-        self._load(["--load-state", str(self._snapshots[snapshot]), "--seed", str(sumo_seed)])
+        try:
+            self._load(["--load-state", str(self._snapshots[snapshot]), "--seed", str(sumo_seed)])
+        except SimulationError as error:  # a cached file damaged since the start: rebuild what is damaged, once
+            log.warning("%s; checking the cached network and warm states", error)
+            network.build(self.scenario)
+            self._snapshots = self._warm_snapshots(running=True)
+            self._load(["--load-state", str(self._snapshots[snapshot]), "--seed", str(sumo_seed)])
         api = self._api
         api.vehicle.add(EGO_ID, network.ROUTE_ID, typeID=network.EGO_TYPE, depart="now",
                         departLane=str(ego_lane), departPos=repr(ego_position_m), departSpeed="max")
