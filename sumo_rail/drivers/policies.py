@@ -137,6 +137,9 @@ def load_policy(path: Path) -> tuple[Policy, dict[str, Any]]:
         raise PolicyFileError(f"policy file {path} does not exist")
     if path.stat().st_size == 0:
         raise PolicyFileError(f"policy file {path} is empty (0 bytes)")
+    if not zipfile.is_zipfile(path):
+        raise PolicyFileError(f"{path} is not a readable sumo-rail policy file (not an .npz archive: truncated, "
+                              f"overwritten or another kind of file)")
     try:
         with np.load(path, allow_pickle=False) as archive:
             fields = {key: archive[key] for key in archive.files}

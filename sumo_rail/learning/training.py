@@ -258,7 +258,8 @@ def _load_checkpoint(path: Path) -> dict[str, Any]:
         with zipfile.ZipFile(path) as archive:
             damaged = archive.testzip()
     except Exception as error:  # BadZipFile, UnicodeDecodeError, OSError: truncated, overwritten or foreign
-        raise RunError(f"checkpoint {path} is truncated or not a torch checkpoint ({describe(error)})") from error
+        raise RunError(f"checkpoint {path} is unreadable: truncated or not a torch checkpoint "
+                       f"({describe(error)})") from error
     if damaged is not None:
         raise RunError(f"checkpoint {path} is damaged: its part {damaged} fails its checksum")
     try:
