@@ -7,8 +7,9 @@ naming the file (exit 1, or 2 for a usage error), prints no traceback and leaves
 was, byte for byte. A new file joins with a `FILES` entry (its damages follow from its format); a new command
 (dagger, the exports) joins with rows of `READERS`.
 
-Caches: a damaged network or warm-state cache entry is rebuilt (`CACHE_DAMAGES`). Workers: a killed GAIL
-environment process is one sentence. Full disk: a save that fails keeps the previous complete iteration and says so.
+Caches: a damaged network or warm-state cache entry is rebuilt (`CACHE_DAMAGES`), also between two episodes.
+Workers: a killed or failing GAIL environment process is one sentence. Full disk: a save that fails (ENOSPC from
+each writer in turn) keeps the previous complete iteration, every file of it, and says so.
 (The process pool's and Ray's recovery from killed workers is tested in tests/runners/ and
 tests/learning/test_training.py.)
 """
@@ -249,6 +250,8 @@ READERS = [
     Reader("run.json", "report", ("report", "run", "metrics.parquet", "--out", "../report"), optional=True),
     Reader("checkpoint.pt", "train --resume", (*TRAIN_ARGS, "--out", "run", "--resume")),
     Reader("policy_bc.npz", "report", ("report", "run", "--out", "../report"), optional=True),
+    Reader("policy_bc.npz", "evaluate", ("evaluate", *SMALL, "--policy", "run/policy_bc.npz", "--episodes", "1"),
+           control=False),
     Reader("policy_latest.npz", "report", ("report", "run", "--out", "../report"), optional=True),
     Reader("policy_latest.npz", "evaluate", ("evaluate", *SMALL, "--policy", "run/policy_latest.npz",
                                              "--episodes", "1")),
