@@ -398,6 +398,30 @@ def test_a_full_disk_during_a_save_keeps_the_previous_iteration(workspace: Path,
         assert pd.read_parquet(run / "log.parquet")["iteration"].tolist() == [0, 1]
 
 
+def test_a_full_disk_during_a_gail_update_keeps_the_previous_update(workspace: Path,
+                                                                    monkeypatch: pytest.MonkeyPatch):
+    from sumo_rail.learning.gail import BaselineError, GailSettings, train_gail
+
+    original, saved = pq.write_table, {}
+
+    def fail_from_the_second_update(row: dict[str, Any]) -> None:
+        saved.update(fingerprint(workspace / "gail_run"))
+
+        def write_half_then_fail(table: pa.Table, where: Any, **kwargs: Any) -> None:
+            Path(where).write_bytes(b"half")
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+        monkeypatch.setattr(pq, "write_table", write_half_then_fail)
+
+    settings = GailSettings("demos.parquet", timesteps=64, envs=1, n_steps=32, batch_size=32, bc_epochs=1)
+    with pytest.raises(BaselineError) as caught:
+        train_gail(workspace / "gail_run", settings, SMALL_CONFIG, on_update=fail_from_the_second_update)
+    monkeypatch.setattr(pq, "write_table", original)
+    message = str(caught.value)
+    assert "cannot save update 2" in message and os.strerror(errno.ENOSPC) in message and "update 1's" in message
+    assert saved and fingerprint(workspace / "gail_run") == saved  # update 1's files, untouched; no temporary left
+    assert pd.read_parquet(workspace / "gail_run" / "log.parquet")["iteration"].tolist() == [0]
+
+
 # ---------------------------------------------------------------------------------------------------------------------
 # Caches: a damaged entry is rebuilt, never fatal.
 
