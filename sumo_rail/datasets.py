@@ -3,7 +3,9 @@
 Every file carries JSON provenance under the Parquet schema metadata key `sumo_rail`: the table kind, the full
 config, the seed, the observation layout and the versions of SUMO, sumo-rail, pyarrow, numpy and Python.
 Nothing time-dependent is stored, so the same job writes the same bytes. The table schemas live with the
-runners that write them (`sumo_rail.runners.tables`).
+runners that write them (`sumo_rail.runners.tables`). Pages carry CRC checksums, verified on read, so a damaged
+file is an error rather than wrong numbers. Every reader answers a missing, empty, truncated, damaged or foreign file
+with a one-sentence `DatasetError` naming it (`describe` keeps library messages to one line).
 """
 
 from __future__ import annotations
@@ -11,6 +13,8 @@ from __future__ import annotations
 import json
 import os
 import platform
+from collections.abc import Iterator
+from contextlib import contextmanager
 from importlib import metadata as package_metadata
 from pathlib import Path
 from typing import Any
@@ -58,7 +62,7 @@ def write_parquet(table: pa.Table, path: Path, metadata: dict[str, Any]) -> None
     schema_metadata = {**(table.schema.metadata or {}), METADATA_KEY: json.dumps(metadata, sort_keys=True).encode()}
     temporary = path.with_name(f".{path.name}.{os.getpid()}.tmp")
     try:
-        pq.write_table(table.replace_schema_metadata(schema_metadata), temporary)
+        pq.write_table(table.replace_schema_metadata(schema_metadata), temporary, write_page_checksum=True)
         os.replace(temporary, path)
     except OSError as error:
         raise DatasetError(f"cannot write {path}: {error.strerror or error}") from error
@@ -66,22 +70,123 @@ def write_parquet(table: pa.Table, path: Path, metadata: dict[str, Any]) -> None
         temporary.unlink(missing_ok=True)
 
 
+def describe(error: BaseException) -> str:
+    """`error` in one line: the first line of its message (at most 160 characters), else its type's name."""
+    text = next((line.strip() for line in str(error).splitlines() if line.strip()), "")
+    if len(text) > 160:
+        text = text[:157] + "..."
+    return text or type(error).__name__
+
+
+def write_failure(error: BaseException) -> str:
+    """Why a write failed, in a few words: the operating system's reason ("No space left on device") when an
+    OSError is behind `error`, else `describe(error)`."""
+    cause: BaseException | None = error
+    while cause is not None:
+        if isinstance(cause, OSError) and cause.strerror:
+            return cause.strerror
+        cause = cause.__cause__
+    return describe(error)
+
+
+def check_file(path: Path, what: str) -> None:
+    """DatasetError unless `path` is a non-empty file; `what` names it in the message ("policy file", ...)."""
+    if not path.exists():
+        raise DatasetError(f"{what} {path} does not exist")
+    if not path.is_file():
+        raise DatasetError(f"{what} {path} is not a file")
+    if path.stat().st_size == 0:
+        raise DatasetError(f"{what} {path} is empty (0 bytes)")
+
+
 def read_metadata(path: Path) -> dict[str, Any]:
-    """The sumo-rail provenance of a Parquet file written by this package."""
+    """The sumo-rail provenance of a Parquet file written by this package, of this format version."""
     schema = _read_schema(Path(path))
     raw = (schema.metadata or {}).get(METADATA_KEY)
     if raw is None:
         raise DatasetError(f"{path} has no sumo-rail metadata; it was not written by sumo-rail")
     try:
-        return json.loads(raw)
-    except json.JSONDecodeError as error:
-        raise DatasetError(f"{path} has unreadable sumo-rail metadata ({error})") from error
+        metadata = json.loads(raw)
+    except (json.JSONDecodeError, UnicodeDecodeError) as error:
+        raise DatasetError(f"{path} has unreadable sumo-rail metadata ({describe(error)})") from error
+    if not isinstance(metadata, dict):
+        raise DatasetError(f"{path} has sumo-rail metadata that is not a JSON object")
+    check_format_version(metadata, path)
+    return metadata
+
+
+def check_format_version(record: dict[str, Any], path: Path) -> None:
+    """DatasetError when `record` (provenance) says another format version than this sumo-rail's."""
+    version = record.get("format_version", FORMAT_VERSION)
+    if version != FORMAT_VERSION:
+        raise DatasetError(f"{path} has format version {version!r}; this sumo-rail reads version {FORMAT_VERSION}")
+
+
+def read_table(path: Path, columns: list[str] | None = None) -> pa.Table:
+    """The table in `path` (or its `columns`), its page checksums verified; DatasetError naming the file if the
+    file is unreadable or lacks a column."""
+    try:
+        return pq.read_table(path, columns=columns, page_checksum_verification=True)
+    except (pa.ArrowException, OSError, ValueError) as error:
+        raise DatasetError(f"{path} is damaged or not a readable Parquet file ({describe(error)})") from error
+
+
+def read_json_record(path: Path, what: str) -> dict[str, Any]:
+    """A JSON object written by sumo-rail (e.g. a run folder's run.json), of this format version; DatasetError
+    naming the file when it is missing, empty, not JSON, not an object or of another version."""
+    path = Path(path)
+    check_file(path, what)
+    try:
+        record = json.loads(path.read_bytes())
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as error:
+        raise DatasetError(f"{what} {path} is not readable JSON ({describe(error)})") from error
+    if not isinstance(record, dict):
+        raise DatasetError(f"{what} {path} is not a JSON object")
+    check_format_version(record, path)
+    return record
 
 
 def _read_schema(path: Path) -> pa.Schema:
-    if not path.is_file():
-        raise DatasetError(f"file {path} does not exist")
+    check_file(path, "file")
     try:
         return pq.read_schema(path)
-    except (pa.ArrowException, OSError) as error:
-        raise DatasetError(f"{path} is not a readable Parquet file ({error})") from error
+    except (pa.ArrowException, OSError, ValueError) as error:
+        raise DatasetError(f"{path} is not a readable Parquet file ({describe(error)})") from error
+
+
+@contextmanager
+def written_together(folder: Path) -> Iterator[StagedFiles]:
+    """Write several files of `folder` as one: each writer writes to `staged.path(final)`; only when every write
+    succeeded are they renamed into place, in the order staged (so stage the file that marks completion last).
+    On any failure the staged files are removed and the files already in `folder` stay as they were."""
+    staged = StagedFiles(Path(folder))
+    try:
+        yield staged
+    except BaseException:
+        staged.discard()
+        raise
+    staged.commit()
+
+
+class StagedFiles:
+    """Temporary files waiting to replace their final paths; see `written_together`."""
+
+    def __init__(self, folder: Path) -> None:
+        self.folder = folder
+        self._staged: list[tuple[Path, Path]] = []
+
+    def path(self, final: Path) -> Path:
+        """Where to write `final` for now (a hidden name in the same folder, so the rename is atomic)."""
+        temporary = final.with_name(f".{final.name}.{os.getpid()}.staged")
+        self._staged.append((temporary, final))
+        return temporary
+
+    def commit(self) -> None:
+        for temporary, final in self._staged:
+            os.replace(temporary, final)
+        self._staged.clear()
+
+    def discard(self) -> None:
+        for temporary, _ in self._staged:
+            temporary.unlink(missing_ok=True)
+        self._staged.clear()

@@ -22,6 +22,8 @@ from typing import Any
 
 import numpy as np
 
+from sumo_rail.datasets import describe
+
 FORMAT = "sumo-rail policy"
 FORMAT_VERSION = 1
 KINDS = ("linear", "mlp")
@@ -128,27 +130,49 @@ def save_policy(policy: Policy, path: Path, metadata: dict[str, Any]) -> None:
 
 
 def load_policy(path: Path) -> tuple[Policy, dict[str, Any]]:
-    """Read and validate a policy file; returns the policy and its metadata. Never unpickles."""
+    """Read and validate a policy file; returns the policy and its metadata. Never unpickles. Any missing, empty,
+    truncated, damaged, foreign or inconsistent file is a PolicyFileError naming it, in one sentence."""
     path = Path(path)
     if not path.is_file():
         raise PolicyFileError(f"policy file {path} does not exist")
+    if path.stat().st_size == 0:
+        raise PolicyFileError(f"policy file {path} is empty (0 bytes)")
+    if not zipfile.is_zipfile(path):
+        raise PolicyFileError(f"{path} is not a readable sumo-rail policy file (not an .npz archive: truncated, "
+                              f"overwritten or another kind of file)")
     try:
         with np.load(path, allow_pickle=False) as archive:
             fields = {key: archive[key] for key in archive.files}
-    except (OSError, ValueError, zipfile.BadZipFile, EOFError) as error:
-        raise PolicyFileError(f"{path} is not a readable sumo-rail policy file ({error})") from error
-    if str(fields.get("format", "")) != FORMAT:
+    except ValueError as error:
+        if "allow_pickle" in str(error):
+            raise PolicyFileError(f"{path} holds pickled objects, which a policy file never does (sumo-rail does not "
+                                  f"unpickle)") from error
+        raise PolicyFileError(f"{path} is not a readable sumo-rail policy file ({describe(error)})") from error
+    except (OSError, zipfile.BadZipFile, EOFError, UnicodeDecodeError) as error:
+        raise PolicyFileError(f"{path} is not a readable sumo-rail policy file ({describe(error)})") from error
+    except Exception as error:  # zlib.error and others from a damaged archive
+        raise PolicyFileError(f"{path} is a damaged policy file ({describe(error)})") from error
+    if not isinstance(fields, dict) or str(fields.get("format", "")) != FORMAT:
         raise PolicyFileError(f"{path} is not a sumo-rail policy file (no '{FORMAT}' format marker)")
-    if int(fields["format_version"]) != FORMAT_VERSION:
-        raise PolicyFileError(f"{path} has policy format version {int(fields['format_version'])}; "
-                              f"this sumo-rail reads version {FORMAT_VERSION}")
+    try:
+        version = int(fields["format_version"])
+    except (KeyError, TypeError, ValueError) as error:
+        raise PolicyFileError(f"policy file {path} has no readable format version") from error
+    if version != FORMAT_VERSION:
+        raise PolicyFileError(f"{path} has policy format version {version}; this sumo-rail reads version "
+                              f"{FORMAT_VERSION}")
     try:
         shape = PolicyShape(str(fields["kind"]), int(fields["observation_size"]), int(fields["hidden"]),
                             int(fields["actions"]))
         policy = Policy(shape, fields["parameters"], fields["observation_mean"], fields["observation_std"])
         metadata = json.loads(str(fields["metadata"]))
-    except (KeyError, ValueError, TypeError) as error:
-        raise PolicyFileError(f"policy file {path} is inconsistent: {error}") from error
-    if not np.all(np.isfinite(policy.parameters)):
+    except KeyError as error:
+        raise PolicyFileError(f"policy file {path} lacks the field {error}") from error
+    except (ValueError, TypeError) as error:
+        raise PolicyFileError(f"policy file {path} is inconsistent: {describe(error)}") from error
+    if not isinstance(metadata, dict):
+        raise PolicyFileError(f"policy file {path} has metadata that is not a JSON object")
+    if not (np.all(np.isfinite(policy.parameters)) and np.all(np.isfinite(policy.observation_mean))
+            and np.all(np.isfinite(policy.observation_std))):
         raise PolicyFileError(f"policy file {path} holds non-finite parameters")
     return policy, metadata

@@ -17,7 +17,9 @@ follow from its `np_random`; PPO, BC and the discriminator are seeded and torch 
 settings give the same policy bit for bit (for the same number of envs).
 
 runs/NAME/ holds `run.json` (settings, config, provenance), `policy_bc.npz` (with --bc-epochs > 0),
-`policy_latest.npz` and `log.parquet`, all replaced atomically after every update. The log has one row per
+`policy_latest.npz` and `log.parquet`, replaced together after every update (both or, on a full disk, neither). An
+environment process that dies or fails ends the run with one sentence (`gail_envs`), not Stable-Baselines3's
+EOFError; the folder keeps the last complete update. The log has one row per
 update with RAIL's column names: iteration, env_steps (of this update), return_mean / _max / _std (per-decision
 discriminator return, `rail.rollout_return`, of the episodes that ended in the rollout, or of its decisions when
 none did), discriminator_loss, discriminator_accuracy, collisions, wall_time_s; and episodes (ended in the
@@ -31,6 +33,7 @@ import dataclasses
 import json
 import math
 import signal
+import tempfile
 import threading
 import time
 from collections.abc import Callable, Iterator
@@ -43,21 +46,20 @@ import numpy as np
 import pyarrow as pa
 import torch
 from gymnasium import spaces
-from gymnasium.utils import seeding
 from torch import nn
 
 from sumo_rail.config import Config
-from sumo_rail.datasets import write_parquet
+from sumo_rail.datasets import DatasetError, write_failure, write_parquet, written_together
 from sumo_rail.drivers.policies import Policy, PolicyShape, save_policy
 from sumo_rail.learning.bc import BcReport, BcSettings, behaviour_cloning, policy_to_torch
 from sumo_rail.learning.discriminator import Discriminator, DiscriminatorSettings
+from sumo_rail.learning.gail_envs import LOST_ENV, EnvFactory, close_envs, lost_env_message
 from sumo_rail.learning.normalize import MIN_STD, RunningStats
 from sumo_rail.learning.rail import rollout_return
 from sumo_rail.learning.torch_threads import single_thread
 from sumo_rail.learning.training import RunError, write_atomically
 from sumo_rail.runners.tables import Demonstrations, provenance, read_demonstrations
 from sumo_rail.seeding import Purpose, episode_seeds
-from sumo_rail.sim.env import HighwayEnv
 from sumo_rail.sim.observation import observation_space
 
 if TYPE_CHECKING:
@@ -231,28 +233,15 @@ class RewardLabeller:
         return rollout
 
 
-@dataclass(frozen=True)
-class EnvFactory:
-    """Builds one env in its worker process; its first episode is that of reset(seed=seed)."""
-
-    config: Config
-    seed: int
-
-    def __call__(self) -> HighwayEnv:
-        signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C reaches the whole group; the parent decides
-        env = HighwayEnv(self.config)
-        env.np_random, _ = seeding.np_random(self.seed)
-        return env
-
-
 def env_seeds(seed: int, envs: int) -> list[int]:
     """Seeds of the envs' first episodes: disjoint for different seeds with the same number of envs."""
     return episode_seeds(Purpose.TRAIN, seed * envs, envs)
 
 
 def labelled_vec_env(config: Config, envs: int, seed: int, labeller: RewardLabeller,
-                     normalisation: FixedNormalisation) -> VecEnv:
-    """`envs` spawned HighwayEnv processes behind a `LabelledVecEnv`."""
+                     normalisation: FixedNormalisation, error_dir: Path | None = None) -> VecEnv:
+    """`envs` spawned HighwayEnv processes behind a `LabelledVecEnv`; with `error_dir`, env k that fails writes
+    why to error_dir/env_k.txt and ends (see `EnvFactory`)."""
     from stable_baselines3.common.vec_env import SubprocVecEnv, VecEnvWrapper
 
     class LabelledVecEnv(VecEnvWrapper):
@@ -285,7 +274,8 @@ def labelled_vec_env(config: Config, envs: int, seed: int, labeller: RewardLabel
             self._raw = raw
             return normalisation(raw), rewards, dones, infos
 
-    factories = [EnvFactory(config, seed) for seed in env_seeds(seed, envs)]
+    factories = [EnvFactory(config, seed, None if error_dir is None else str(error_dir / f"env_{index}.txt"))
+                 for index, seed in enumerate(env_seeds(seed, envs))]
     return LabelledVecEnv(SubprocVecEnv(factories, start_method="spawn"))
 
 
@@ -328,15 +318,22 @@ def train_gail(folder: Path, settings: GailSettings, config: Config,
                                       settings.discriminator)
         horizon = round(config.env.max_episode_s / config.env.decision_period_s)
         labeller = RewardLabeller(discriminator, settings.envs, horizon)
-        venv = labelled_vec_env(config, settings.envs, settings.seed, labeller, normalisation)
-        try:
-            model = build_ppo(venv, shape, settings)
-            if initial is not None:
-                load_into_ppo(initial, model.policy)
-            logs = _updates(folder, settings, shape, model, labeller, demos, normalisation, run_record, on_update)
-            return GailResult(len(logs), model.num_timesteps, len(logs) < settings.updates)
-        finally:
-            venv.close()
+        logs: list[dict[str, Any]] = []
+        venv, lost = None, False
+        with tempfile.TemporaryDirectory(prefix="sumo-rail-gail-") as errors:
+            try:
+                venv = labelled_vec_env(config, settings.envs, settings.seed, labeller, normalisation, Path(errors))
+                model = build_ppo(venv, shape, settings)
+                if initial is not None:
+                    load_into_ppo(initial, model.policy)
+                _updates(folder, settings, shape, model, labeller, demos, normalisation, run_record, on_update, logs)
+                return GailResult(len(logs), model.num_timesteps, len(logs) < settings.updates)
+            except LOST_ENV as error:
+                lost = True
+                raise BaselineError(lost_env_message(venv, Path(errors), folder, len(logs))) from error
+            finally:
+                if venv is not None:
+                    close_envs(venv, lost)
 
 
 def _initial_policy(folder: Path, settings: GailSettings, shape: PolicyShape, demos: Demonstrations,
@@ -356,9 +353,9 @@ def _initial_policy(folder: Path, settings: GailSettings, shape: PolicyShape, de
 
 def _updates(folder: Path, settings: GailSettings, shape: PolicyShape, model: PPO, labeller: RewardLabeller,
              demos: Demonstrations, normalisation: FixedNormalisation, run_record: dict[str, Any],
-             on_update: Callable[[dict[str, Any]], None] | None) -> list[dict[str, Any]]:
-    """PPO updates, each followed by the discriminator's steps and the saves, until done or asked to stop."""
-    logs: list[dict[str, Any]] = []
+             on_update: Callable[[dict[str, Any]], None] | None, logs: list[dict[str, Any]]) -> None:
+    """PPO updates, each followed by the discriminator's steps and the saves, until done or asked to stop; each
+    update's log row is appended to `logs` once its files are saved."""
     with _stop_requests() as stop:
         for update in range(settings.updates):
             started = time.perf_counter()
@@ -373,15 +370,21 @@ def _updates(folder: Path, settings: GailSettings, shape: PolicyShape, model: PP
                    "collisions": rollout.collisions, "episodes": len(rollout.returns),
                    "entropy": -float(model.logger.name_to_value["train/entropy_loss"]),
                    "wall_time_s": time.perf_counter() - started}
+            try:
+                with written_together(folder) as staged:  # both or neither: a full disk keeps the last update's
+                    save_policy(ppo_to_policy(model.policy, shape, normalisation),
+                                staged.path(folder / "policy_latest.npz"), {**run_record, "iteration": update})
+                    write_parquet(pa.Table.from_pylist([*logs, row]), staged.path(folder / "log.parquet"),
+                                  {**run_record, "kind": "training_log"})
+            except (OSError, DatasetError) as error:
+                kept = f"it keeps update {update}'s policy and log" if update else "it holds no trained policy"
+                raise BaselineError(f"cannot save update {update + 1} in {folder} ({write_failure(error)}); {kept} "
+                                    f"(a GAIL run cannot be resumed)") from error
             logs.append(row)
-            save_policy(ppo_to_policy(model.policy, shape, normalisation), folder / "policy_latest.npz",
-                        {**run_record, "iteration": update})
-            write_parquet(pa.Table.from_pylist(logs), folder / "log.parquet", {**run_record, "kind": "training_log"})
             if on_update is not None:
                 on_update(row)
             if stop.is_set():
                 break
-    return logs
 
 
 @contextmanager

@@ -13,9 +13,11 @@ from __future__ import annotations
 import dataclasses
 import json
 import os
+import pickle
 import signal
 import threading
 import time
+import zipfile
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
@@ -27,7 +29,14 @@ import pyarrow as pa
 import torch
 
 from sumo_rail.config import Config
-from sumo_rail.datasets import write_parquet
+from sumo_rail.datasets import (
+    DatasetError,
+    describe,
+    read_json_record,
+    write_failure,
+    write_parquet,
+    written_together,
+)
 from sumo_rail.drivers.policies import Policy, PolicyShape, save_policy
 from sumo_rail.evaluation.evaluate import evaluate
 from sumo_rail.evaluation.statistics import ratio
@@ -172,12 +181,9 @@ def _initial_state(folder: Path, settings: RunSettings, shape: PolicyShape, demo
 
 def _save_iteration(folder: Path, state: TrainingState, policy: Policy, discriminator: Discriminator,
                     logs: list[dict[str, Any]], run_record: dict[str, Any], improved: bool) -> None:
+    """Write the iteration's files as one: all are written aside first and renamed into place only when every write
+    succeeded, checkpoint.pt last. A failed write (a full disk) leaves the previous iteration's files as they were."""
     metadata = {**run_record, "iteration": state.iteration}
-    save_policy(policy, folder / "policy_latest.npz", metadata)
-    if improved:
-        save_policy(policy, folder / "policy_best.npz", metadata)
-    _torch_save_atomically(discriminator.state(), folder / "discriminator.pt")
-    write_parquet(_log_table(logs), folder / "log.parquet", {**run_record, "kind": "training_log"})
     checkpoint = {
         "format": CHECKPOINT_FORMAT, "iteration": state.iteration,
         "parameters": torch.from_numpy(state.parameters.copy()),
@@ -185,7 +191,19 @@ def _save_iteration(folder: Path, state: TrainingState, policy: Policy, discrimi
         "nu": state.nu, "best_return": state.best_return, "best_at_last_check": state.best_at_last_check,
         "rng": state.rng.bit_generator.state, "discriminator": discriminator.state(), "log": logs,
     }
-    _torch_save_atomically(checkpoint, folder / "checkpoint.pt")  # last: it marks the iteration complete
+    try:
+        with written_together(folder) as staged:
+            save_policy(policy, staged.path(folder / "policy_latest.npz"), metadata)
+            if improved:
+                save_policy(policy, staged.path(folder / "policy_best.npz"), metadata)
+            torch.save(discriminator.state(), staged.path(folder / "discriminator.pt"))
+            write_parquet(_log_table(logs), staged.path(folder / "log.parquet"), {**run_record, "kind": "training_log"})
+            torch.save(checkpoint, staged.path(folder / "checkpoint.pt"))  # last: it marks the iteration complete
+    except (OSError, DatasetError) as error:
+        kept = (f"keeps iteration {state.iteration - 1}, the last complete one" if state.iteration > 1
+                else "holds no complete iteration yet")
+        raise RunError(f"cannot save iteration {state.iteration} in {folder} ({write_failure(error)}); the folder "
+                       f"{kept}: make room and continue with --resume") from error
 
 
 def _log_table(logs: list[dict[str, Any]]) -> pa.Table:
@@ -198,27 +216,75 @@ def _log_table(logs: list[dict[str, Any]]) -> pa.Table:
 
 def _resume(folder: Path, run_record: dict[str, Any], shape: PolicyShape,
             discriminator: Discriminator) -> tuple[TrainingState, list[dict[str, Any]]]:
+    """The state and log of the last complete iteration; reads run.json and checkpoint.pt and writes nothing. A
+    damaged, foreign or mismatched file is a RunError naming it."""
     path = folder / "checkpoint.pt"
     if not path.is_file():
         raise RunError(f"nothing to resume: {path} does not exist")
-    stored = json.loads((folder / "run.json").read_text())
-    if stored.get("settings") != run_record["settings"] or stored.get("config") != run_record["config"]:
-        raise RunError(f"run {folder} was started with other settings; resume it with the same options")
+    stored = read_run_record(folder)
+    if stored["settings"] != run_record["settings"] or stored["config"] != run_record["config"]:
+        raise RunError(f"run {folder} was started with other settings (see its run.json); resume it with the same "
+                       f"options")
+    checkpoint = _load_checkpoint(path)
     try:
-        checkpoint = torch.load(path, weights_only=True)
-    except Exception as error:  # torch raises several types for corrupt or unsafe files
-        raise RunError(f"checkpoint {path} is unreadable ({error})") from error
-    if checkpoint.get("format") != CHECKPOINT_FORMAT:
-        raise RunError(f"{path} is not a sumo-rail checkpoint")
-    rng = np.random.default_rng()
-    rng.bit_generator.state = checkpoint["rng"]
-    stats = RunningStats.from_arrays({key: value.numpy() for key, value in checkpoint["stats"].items()})
-    discriminator.load_state(checkpoint["discriminator"])
-    state = TrainingState(checkpoint["iteration"], checkpoint["parameters"].numpy(), stats, checkpoint["nu"],
-                          checkpoint["best_return"], checkpoint["best_at_last_check"], rng)
+        rng = np.random.default_rng()
+        rng.bit_generator.state = checkpoint["rng"]
+        stats = RunningStats.from_arrays({key: value.numpy() for key, value in checkpoint["stats"].items()})
+        discriminator.load_state(checkpoint["discriminator"])
+        state = TrainingState(int(checkpoint["iteration"]), checkpoint["parameters"].numpy(), stats, checkpoint["nu"],
+                              checkpoint["best_return"], checkpoint["best_at_last_check"], rng)
+        logs = [dict(row) for row in checkpoint["log"]]
+    except KeyError as error:
+        raise RunError(f"checkpoint {path} lacks its entry {error}") from error
+    except (TypeError, ValueError, AttributeError, RuntimeError) as error:
+        raise RunError(f"checkpoint {path} is inconsistent ({describe(error)})") from error
     if state.parameters.size != shape.parameter_count:
         raise RunError(f"checkpoint {path} holds a policy of another size")
-    return state, list(checkpoint["log"])
+    if len(logs) != state.iteration:
+        raise RunError(f"checkpoint {path} is inconsistent: {len(logs)} log rows for {state.iteration} iterations")
+    return state, logs
+
+
+def read_run_record(folder: Path) -> dict[str, Any]:
+    """The run folder's run.json, checked: a JSON object of this format version with `settings` and `config`
+    objects; a RunError naming the file otherwise."""
+    path = Path(folder) / "run.json"
+    try:
+        record = read_json_record(path, "run record")
+    except DatasetError as error:
+        raise RunError(str(error)) from error
+    for key in ("settings", "config"):
+        if not isinstance(record.get(key), dict):
+            raise RunError(f"run record {path} has no {key!r} object, so it is not a sumo-rail run record")
+    return record
+
+
+def _load_checkpoint(path: Path) -> dict[str, Any]:
+    """checkpoint.pt as written by `_save_iteration`: its zip checksums verified (torch does not check them), loaded
+    with weights_only (no code runs), of this format."""
+    if path.stat().st_size == 0:
+        raise RunError(f"checkpoint {path} is empty (0 bytes)")
+    try:
+        with zipfile.ZipFile(path) as archive:
+            damaged = archive.testzip()
+    except Exception as error:  # BadZipFile, UnicodeDecodeError, OSError: truncated, overwritten or foreign
+        raise RunError(f"checkpoint {path} is unreadable: truncated or not a torch checkpoint "
+                       f"({describe(error)})") from error
+    if damaged is not None:
+        raise RunError(f"checkpoint {path} is damaged: its part {damaged} fails its checksum")
+    try:
+        checkpoint = torch.load(path, weights_only=True)
+    except pickle.UnpicklingError as error:
+        raise RunError(f"checkpoint {path} holds objects other than tensors and plain values, which sumo-rail does "
+                       f"not load") from error
+    except Exception as error:  # torch raises several types for damaged files
+        raise RunError(f"checkpoint {path} is unreadable ({describe(error)})") from error
+    if not isinstance(checkpoint, dict) or "format" not in checkpoint:
+        raise RunError(f"{path} is not a sumo-rail checkpoint")
+    if checkpoint["format"] != CHECKPOINT_FORMAT:
+        raise RunError(f"checkpoint {path} has format {checkpoint['format']!r}; this sumo-rail reads "
+                       f"{CHECKPOINT_FORMAT!r}")
+    return checkpoint
 
 
 @contextmanager
@@ -238,15 +304,6 @@ def signals_deferred() -> Iterator[None]:
             signal.signal(number, handler)
     if received:
         raise KeyboardInterrupt
-
-
-def _torch_save_atomically(payload: Any, path: Path) -> None:
-    temporary = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    try:
-        torch.save(payload, temporary)
-        os.replace(temporary, path)
-    finally:
-        temporary.unlink(missing_ok=True)
 
 
 def write_atomically(path: Path, content: bytes) -> None:

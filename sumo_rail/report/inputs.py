@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 import re
 from dataclasses import dataclass
 from pathlib import Path
@@ -11,7 +10,7 @@ from typing import Any
 import pandas as pd
 import pyarrow as pa
 
-from sumo_rail.datasets import read_metadata
+from sumo_rail.datasets import describe, read_json_record, read_metadata
 from sumo_rail.drivers.policies import Policy, load_policy
 from sumo_rail.evaluation.evaluate import DECISIONS, decisions_path
 from sumo_rail.evaluation.summary import EPISODE_MEASURES
@@ -146,26 +145,27 @@ def file_label(name: str) -> str:
 
 def _read_parquet(path: Path) -> pd.DataFrame:
     try:
-        return pd.read_parquet(path)
+        return pd.read_parquet(path, page_checksum_verification=True)
     except (pa.ArrowException, OSError, ValueError) as error:
-        raise ReportError(f"{path} is not a readable Parquet file ({error})") from error
+        raise ReportError(f"{path} is damaged or not a readable Parquet file ({describe(error)})") from error
 
 
 def _require_columns(table: pd.DataFrame, columns: tuple[str, ...], path: Path) -> None:
     missing = [column for column in columns if column not in table]
     if missing:
         raise ReportError(f"{path} lacks the column(s) {', '.join(missing)}")
+    not_numbers = [column for column in columns if column != "policy"
+                   and not pd.api.types.is_numeric_dtype(table[column])]
+    if not_numbers:
+        raise ReportError(f"{path} has non-numeric column(s) {', '.join(not_numbers)}")
 
 
 def _read_run_record(path: Path) -> tuple[dict[str, Any], str]:
     """run.json's settings and the training method ('GAIL' for a gail run, else 'RAIL'); ({}, 'RAIL') without it."""
     if not path.is_file():
         return {}, "RAIL"
-    try:
-        record = json.loads(path.read_text())
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as error:
-        raise ReportError(f"{path} is not readable JSON ({error})") from error
-    settings = record.get("settings", {}) if isinstance(record, dict) else None
+    record = read_json_record(path, "run record")
+    settings = record.get("settings")
     if not isinstance(settings, dict):
         raise ReportError(f"{path} is not a sumo-rail run record")
     return settings, "GAIL" if record.get("kind") == "gail_run" else "RAIL"

@@ -13,7 +13,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from sumo_rail.config import Config
-from sumo_rail.datasets import FORMAT_VERSION, DatasetError, read_metadata, versions
+from sumo_rail.datasets import FORMAT_VERSION, DatasetError, describe, read_metadata, read_table, versions
 from sumo_rail.runners.rollout import ACTION_COLUMNS, EpisodeResult
 from sumo_rail.sim.observation import observation_names
 
@@ -93,10 +93,11 @@ def read_demonstrations(path: Path, observation_size: int | None = None) -> Demo
     metadata = read_metadata(path)
     if metadata.get("kind") != DEMONSTRATIONS:
         raise DatasetError(f"{path} holds {metadata.get('kind')!r} data, not demonstrations")
-    try:
-        table = pq.read_table(path, columns=["episode", "observation", "action"])
-    except (pa.ArrowException, OSError) as error:
-        raise DatasetError(f"{path} is not a readable demonstrations file ({error})") from error
+    needed = ["episode", "observation", "action"]
+    missing = [name for name in needed if name not in pq.read_schema(path).names]
+    if missing:
+        raise DatasetError(f"{path} lacks the demonstrations column(s) {', '.join(missing)}")
+    table = read_table(path, columns=needed)
     observation_type = table.schema.field("observation").type
     if not pa.types.is_fixed_size_list(observation_type):
         raise DatasetError(f"{path} has no fixed-size observation column")
@@ -105,8 +106,15 @@ def read_demonstrations(path: Path, observation_size: int | None = None) -> Demo
         raise DatasetError(f"{path} has observations of size {size}, the environment gives {observation_size}")
     if table.num_rows == 0:
         raise DatasetError(f"{path} holds no demonstrations")
-    observations = table.column("observation").combine_chunks().flatten().to_numpy().reshape(-1, size)
-    actions = table.column("action").to_numpy().astype(np.int64)
+    if not all(pa.types.is_integer(table.schema.field(name).type) for name in ("episode", "action")):
+        raise DatasetError(f"{path} has non-integer episode or action columns")
+    try:
+        observations = table.column("observation").combine_chunks().flatten().to_numpy().reshape(-1, size)
+        actions = table.column("action").to_numpy().astype(np.int64)
+    except (pa.ArrowException, ValueError) as error:  # nulls, observation lists of other lengths
+        raise DatasetError(f"{path} has missing or misshapen observations or actions ({describe(error)})") from error
+    if not np.isfinite(observations).all():
+        raise DatasetError(f"{path} has non-finite observations")
     if actions.min() < 0 or actions.max() >= len(ACTION_COLUMNS):
         raise DatasetError(f"{path} has actions outside 0..{len(ACTION_COLUMNS) - 1}")
     return Demonstrations(observations, actions, table.column("episode").to_numpy(), metadata)

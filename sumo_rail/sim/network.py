@@ -2,7 +2,8 @@
 
 Outputs are cached under `cache_dir()/networks/<hash>/`, keyed by the sources' bytes, the scenario settings
 that shape them and the SUMO version, so they are rebuilt exactly when one of those changes. Files are
-written to a temporary name and renamed, so concurrent builders never see a half-written file.
+written to a temporary name and renamed, so concurrent builders never see a half-written file. A cached entry is
+checked before use (the traffic file byte for byte, the network's structure) and built again when damaged.
 """
 
 from __future__ import annotations
@@ -65,8 +66,12 @@ def build(scenario: ScenarioConfig, source_dir: Path | None = None) -> BuiltNetw
     key = _cache_key(scenario, sources)
     directory = cache_dir() / "networks" / key
     built = BuiltNetwork(directory / "highway.net.xml", directory / "traffic.rou.xml", directory)
-    if built.net_file.exists() and built.routes_file.exists():
+    routes = _routes_xml(sources["traffic.rou.xml"], scenario)
+    problem = _cache_problem(built, scenario, routes)
+    if problem is None:
         return built
+    if built.net_file.exists() or built.routes_file.exists():
+        log.warning("the cached network in %s is damaged (%s); building it again", directory, problem)
     directory.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(dir=directory) as scratch:
         scratch_dir = Path(scratch)
@@ -74,11 +79,28 @@ def build(scenario: ScenarioConfig, source_dir: Path | None = None) -> BuiltNetw
         edges = _write(scratch_dir / "highway.edg.xml", _edges_xml(sources["highway.edg.xml"], scenario))
         net_tmp = scratch_dir / "highway.net.xml"
         _netconvert(nodes, edges, net_tmp)
-        routes_tmp = _write(scratch_dir / "traffic.rou.xml", _routes_xml(sources["traffic.rou.xml"], scenario))
+        routes_tmp = _write(scratch_dir / "traffic.rou.xml", routes)
         os.replace(routes_tmp, built.routes_file)
         os.replace(net_tmp, built.net_file)
     log.info("built network %s", directory)
     return built
+
+
+def _cache_problem(built: BuiltNetwork, scenario: ScenarioConfig, routes: bytes) -> str | None:
+    """What is wrong with a cached network (None: usable): missing files, a traffic file other than the one the
+    sources give, a network file that is not well-formed or lacks the highway's lanes."""
+    try:
+        if built.routes_file.read_bytes() != routes:
+            return f"{built.routes_file.name} differs from its sources"
+        root = ElementTree.parse(built.net_file).getroot()
+    except OSError as error:
+        return error.strerror or str(error)
+    except ElementTree.ParseError as error:
+        return f"{built.net_file.name} is not well-formed XML: {error}"
+    edge = root.find(f"edge[@id='{EDGE_ID}']") if root.tag == "net" else None
+    if edge is None or len(edge.findall("lane")) != scenario.lanes:
+        return f"{built.net_file.name} does not hold the {scenario.lanes}-lane highway"
+    return None
 
 
 def _read_source(path: Path) -> bytes:

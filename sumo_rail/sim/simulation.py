@@ -20,6 +20,7 @@ import logging
 import math
 import operator
 import os
+import xml.etree.ElementTree as ElementTree
 from dataclasses import dataclass
 from pathlib import Path
 from types import ModuleType
@@ -27,6 +28,7 @@ from types import ModuleType
 import numpy as np
 
 from sumo_rail.config import ScenarioConfig
+from sumo_rail.datasets import describe
 from sumo_rail.sim import network
 
 log = logging.getLogger(__name__)
@@ -167,15 +169,17 @@ class Simulation:
         try:
             self._api.start([binary, *self._options(), *gui_options, *extra], **retries)
         except self._api.TraCIException as error:  # type: ignore[attr-defined]
-            raise SimulationError(f"SUMO failed to start: {error}") from error
+            raise SimulationError(f"SUMO failed to start: {describe(error)}") from error
         except FatalTraCIError as error:
-            raise SimulationError(f"sumo-gui did not start (is a display available?): {error}") from error
+            raise SimulationError(f"sumo-gui did not start (is a display available?): {describe(error)}") from error
 
     def _load(self, extra: list[str]) -> None:
         try:
             self._api.load([*self._options(), *extra])
         except self._api.TraCIException as error:  # type: ignore[attr-defined]
-            raise SimulationError(f"SUMO failed to load the warm state: {error}") from error
+            where = next((line.strip() for line in str(error).splitlines() if "In file" in line), "")
+            raise SimulationError(f"SUMO failed to load the warm state: {describe(error)}"
+                                  + (f" ({where})" if where else "")) from error
 
     def _snapshot_key(self, traffic_seed: int) -> str:
         s = self.scenario
@@ -198,18 +202,25 @@ class Simulation:
         return self._pools[pool]
 
     def _warm_snapshots(self, traffic_seed: int) -> list[Path]:
-        """Paths of the warm states of one warm-up run, running it first when they are not cached yet; a lock
-        file makes concurrent processes wait for the one that builds them."""
+        """Paths of the warm states of one warm-up run, running it first when they are not cached yet or damaged;
+        a lock file makes concurrent processes wait for the one that builds them."""
         directory = network.cache_dir() / "states" / self._snapshot_key(traffic_seed)
         paths = [directory / f"state_{k:03d}.xml" for k in range(self.scenario.snapshots)]
-        if all(path.exists() for path in paths):
+        if not self._state_problems(paths):
             return paths
         directory.mkdir(parents=True, exist_ok=True)
         with open(directory / ".lock", "w") as lock:
             fcntl.flock(lock, fcntl.LOCK_EX)
-            if not all(path.exists() for path in paths):
+            problems = self._state_problems(paths)
+            if problems:
+                if any(path.exists() for path in paths):
+                    log.warning("cached warm states in %s are damaged (%s); running the warm-up again", directory,
+                                problems[0])
                 self._run_warm_up(traffic_seed, paths)
         return paths
+
+    def _state_problems(self, paths: list[Path]) -> list[str]:
+        return [problem for k, path in enumerate(paths) if (problem := self._state_problem(path, k)) is not None]
 
     def _run_warm_up(self, traffic_seed: int, paths: list[Path]) -> None:
         self._load(["--seed", str(traffic_seed)])
@@ -223,11 +234,36 @@ class Simulation:
             os.replace(temporary, path)
         log.info("saved %d warm states in %s", len(paths), paths[0].parent)
 
+    def _state_problem(self, path: Path, k: int) -> str | None:
+        """What is wrong with cached warm state `k` (None: usable): missing, not well-formed XML, not a SUMO state
+        or not of the time warm state `k` is saved at."""
+        try:
+            root = ElementTree.parse(path).getroot()
+        except OSError as error:
+            return f"{path.name}: {error.strerror or error}"
+        except ElementTree.ParseError as error:
+            return f"{path.name} is not well-formed XML: {error}"
+        expected_s = self.scenario.warmup_s + k * self.scenario.snapshot_interval_s
+        try:
+            time_s = float(root.get("time", "nan"))
+        except ValueError:
+            time_s = math.nan
+        slack_s = (k + 1) * self.scenario.step_length_s + 1e-6  # each simulationStep(t) may overshoot t by a step
+        if root.tag != "snapshot" or not expected_s - 1e-6 <= time_s <= expected_s + slack_s:
+            return f"{path.name} is not SUMO's state at {expected_s:g} s"
+        return None
+
     def reset(self, snapshot: int, sumo_seed: int, ego_lane: int, ego_position_m: float, pool: str = "train") -> None:
         """Reload warm state `snapshot` of `pool` with SUMO seed `sumo_seed` and insert the ego; steps until it
         is in."""
         self._require_running()
-        self._load(["--load-state", str(self._pool(pool)[snapshot]), "--seed", str(sumo_seed)])
+        try:
+            self._load(["--load-state", str(self._pool(pool)[snapshot]), "--seed", str(sumo_seed)])
+        except SimulationError as error:  # a cached file damaged since the start: rebuild what is damaged, once
+            log.warning("%s; checking the cached network and warm states", error)
+            network.build(self.scenario)
+            self._pools.clear()
+            self._load(["--load-state", str(self._pool(pool)[snapshot]), "--seed", str(sumo_seed)])
         api = self._api
         api.vehicle.add(EGO_ID, network.ROUTE_ID, typeID=network.EGO_TYPE, depart="now",
                         departLane=str(ego_lane), departPos=repr(ego_position_m), departSpeed="max")
