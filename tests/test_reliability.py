@@ -446,7 +446,9 @@ def cache_template(tmp_path_factory: pytest.TempPathFactory) -> Path:
     previous = os.environ["SUMO_RAIL_CACHE"]
     os.environ["SUMO_RAIL_CACHE"] = str(folder)
     try:
-        Simulation(SMALL_CONFIG.scenario, 100.0).close()
+        simulation = Simulation(SMALL_CONFIG.scenario, 100.0)
+        simulation.reset(0, 1, 0, 300.0)  # builds the train pool's warm states on first use
+        simulation.close()
     finally:
         os.environ["SUMO_RAIL_CACHE"] = previous
     return folder

@@ -128,7 +128,7 @@ def test_ctrl_c_during_a_save_takes_effect_after_it():
 
     finished = []
     with pytest.raises(KeyboardInterrupt):
-        with training._signals_deferred():
+        with training.signals_deferred():
             os.kill(os.getpid(), signal.SIGINT)
             time.sleep(0.1)
             finished.append("save")
