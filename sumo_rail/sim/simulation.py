@@ -37,6 +37,10 @@ _LATERAL_EPSILON_M = 0.01
 _ACTIVE_LIBSUMO: Simulation | None = None
 WARM_STATE_POOLS = ("train", "validation", "test")
 """Disjoint sets of warm traffic states, by what the episodes are for."""
+GUI_VIEW = "View #0"
+"""sumo-gui's main view."""
+GUI_ZOOM = 600.0
+"""sumo-gui zoom [%] while following the ego: about 150 m of road across a 1280-pixel-wide window."""
 TRANSPORTS = ("libsumo", "traci")
 """How SUMO is driven: libsumo (SUMO linked into this process) or traci (a SUMO process, over a socket)."""
 
@@ -102,10 +106,11 @@ def sumo_heading_rad(angle_deg: float | np.ndarray) -> float | np.ndarray:
 
 
 class Simulation:
-    """One SUMO instance for the ego's episodes on one scenario; `gui` implies the traci transport."""
+    """One SUMO instance for the ego's episodes on one scenario; `gui` implies the traci transport, and sumo-gui
+    then follows the ego, waiting `gui_delay_ms` [ms] of wall time per step."""
 
     def __init__(self, scenario: ScenarioConfig, context_radius_m: float, gui: bool = False,
-                 transport: str = "libsumo") -> None:
+                 transport: str = "libsumo", gui_delay_ms: float = 100.0) -> None:
         global _ACTIVE_LIBSUMO
         if transport not in TRANSPORTS:
             raise ValueError(f"transport must be one of {', '.join(TRANSPORTS)}, got {transport!r}")
@@ -117,6 +122,7 @@ class Simulation:
         self.scenario = scenario
         self.context_radius_m = context_radius_m
         self.gui = gui
+        self.gui_delay_ms = gui_delay_ms
         self._built = network.build(scenario)
         self._api = _load_api(self.transport)
         self._constants = tc = _load_constants()
@@ -159,9 +165,14 @@ class Simulation:
             "--duration-log.disable", "true",
         ]
 
+    def _gui_options(self) -> list[str]:
+        """sumo-gui runs without waiting for its play button and closes at the end, after a start and after each
+        load (a load resets the options, and a GUI loaded without --start waits, so the client would block)."""
+        return ["--start", "true", "--quit-on-end", "true"] if self.gui else []
+
     def _start(self, extra: list[str]) -> None:
         binary = network.sumo_binary("sumo-gui" if self.gui else "sumo")
-        gui_options = ["--start", "true", "--quit-on-end", "true"] if self.gui else []
+        gui_options = self._gui_options()
         from traci.exceptions import FatalTraCIError
 
         if self.gui and not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
@@ -177,7 +188,7 @@ class Simulation:
 
     def _load(self, extra: list[str]) -> None:
         try:
-            self._api.load([*self._options(), *extra])
+            self._api.load([*self._options(), *self._gui_options(), *extra])
         except self._api.TraCIException as error:  # type: ignore[attr-defined]
             raise SimulationError(f"SUMO failed to load the warm state: {error}") from error
 
@@ -242,6 +253,22 @@ class Simulation:
                 break
         else:
             raise SimulationError(f"the ego could not enter lane {ego_lane} at {ego_position_m:.1f} m within 30 s")
+        if self.gui:
+            self._follow_ego()
+
+    def _follow_ego(self) -> None:
+        """Point sumo-gui's view at the ego (tracked, zoomed to its surroundings, drawn in red) and set its pace."""
+        gui = self._api.gui
+        self._api.vehicle.setColor(EGO_ID, (255, 0, 0, 255))
+        gui.setDelay(GUI_VIEW, self.gui_delay_ms)
+        gui.setZoom(GUI_VIEW, GUI_ZOOM)
+        gui.trackVehicle(GUI_VIEW, EGO_ID)
+
+    def screenshot(self, path: Path, width_px: int = 1280, height_px: int = 800) -> None:
+        """Save sumo-gui's view to `path` (PNG) when the next step is drawn (sumo-gui only)."""
+        if not self.gui:
+            raise SimulationError("screenshots need sumo-gui (render_mode='human')")
+        self._api.gui.screenshot(GUI_VIEW, str(path), width_px, height_px)
 
     def set_cruise_speed(self, speed_mps: float) -> None:
         """Set the ego's cruise set-point [m/s]; SUMO's ACC model tracks it within safe gaps.
@@ -300,6 +327,11 @@ class Simulation:
                                 speed_mps=rows[:, 3], lane_position_m=rows[:, 4], length_m=rows[:, 5],
                                 width_m=rows[:, 6], lane=rows[:, 7].astype(np.int64))
         return ego_state, neighbours
+
+    def vehicle_types(self, ids: tuple[str, ...]) -> list[str]:
+        """SUMO vehicle type of each vehicle in `ids` (e.g. "car", "truck"), for drawing."""
+        get_type = self._api.vehicle.getTypeID
+        return [get_type(vehicle) for vehicle in ids]
 
     def road_edges(self) -> np.ndarray:
         """The road's outer edges as line segments [m], shape (S, 2, 2): right edge first, then left."""
