@@ -12,7 +12,7 @@ from types import FrameType
 from typing import TYPE_CHECKING, Any
 
 import click
-from tqdm import tqdm
+from sumo_rail_cli.progress import progress
 
 from sumo_rail.config import Config, ConfigError
 
@@ -132,9 +132,10 @@ def library_errors() -> Iterator[None]:
         raise click.ClickException(str(error)) from error
 
 
-def episode_progress(total: int, description: str) -> tqdm:
-    """A progress bar over episodes, with rate and time left, on stderr."""
-    return tqdm(total=total, desc=description, unit="episode", dynamic_ncols=True)
+def episode_progress(total: int, description: str) -> Any:
+    """Progress over episodes on stderr: a live bar with rate and time left on a terminal, a plain line every
+    few seconds otherwise (a file, a pipe, a CI log)."""
+    return progress(total, description, unit="episode")
 
 
 def _parse_overrides(overrides: tuple[str, ...]) -> dict[str, dict[str, Any]]:
