@@ -283,6 +283,12 @@ class HighwayEnv(gymnasium.Env[np.ndarray, np.int64]):
         return self._renderer.draw(traffic.ego, traffic.neighbours, self._sim.vehicle_types(traffic.neighbours.ids),
                                    distances, cfg.lidar.range_m, text)
 
+    def gui_screenshot(self, path: str | Path, width_px: int = 1280, height_px: int = 800) -> None:
+        """With render_mode "human": save sumo-gui's view as a PNG at `path` when the next step is drawn."""
+        if self._sim is None:
+            raise RuntimeError("call reset() before gui_screenshot()")
+        self._sim.screenshot(Path(path), width_px, height_px)
+
     def close(self) -> None:
         if self._sim is not None:
             self._sim.close()

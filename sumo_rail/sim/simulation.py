@@ -39,8 +39,10 @@ WARM_STATE_POOLS = ("train", "validation", "test")
 """Disjoint sets of warm traffic states, by what the episodes are for."""
 GUI_VIEW = "View #0"
 """sumo-gui's main view."""
-GUI_ZOOM = 600.0
-"""sumo-gui zoom [%] while following the ego: about 150 m of road across a 1280-pixel-wide window."""
+GUI_ZOOM = 1200.0
+"""sumo-gui zoom [%] while following the ego: about 130 m of road across a 1280-pixel-wide window."""
+GUI_WINDOW_SIZE = "1280,800"
+"""sumo-gui's window size [px]."""
 TRANSPORTS = ("libsumo", "traci")
 """How SUMO is driven: libsumo (SUMO linked into this process) or traci (a SUMO process, over a socket)."""
 
@@ -166,9 +168,13 @@ class Simulation:
         ]
 
     def _gui_options(self) -> list[str]:
-        """sumo-gui runs without waiting for its play button and closes at the end, after a start and after each
-        load (a load resets the options, and a GUI loaded without --start waits, so the client would block)."""
-        return ["--start", "true", "--quit-on-end", "true"] if self.gui else []
+        """sumo-gui runs without waiting for its play button, at `gui_delay_ms` per step, and closes at the end,
+        after a start and after each load (a load resets the options, and a GUI loaded without --start waits for
+        its play button, so the client would block in its next command)."""
+        if not self.gui:
+            return []
+        return ["--start", "true", "--quit-on-end", "true", "--delay", repr(float(self.gui_delay_ms)),
+                "--window-size", GUI_WINDOW_SIZE, "--gui-settings-file", str(_gui_settings_file())]
 
     def _start(self, extra: list[str]) -> None:
         binary = network.sumo_binary("sumo-gui" if self.gui else "sumo")
@@ -257,10 +263,9 @@ class Simulation:
             self._follow_ego()
 
     def _follow_ego(self) -> None:
-        """Point sumo-gui's view at the ego (tracked, zoomed to its surroundings, drawn in red) and set its pace."""
+        """Point sumo-gui's view at the ego: tracked, zoomed to its surroundings, drawn in red."""
         gui = self._api.gui
         self._api.vehicle.setColor(EGO_ID, (255, 0, 0, 255))
-        gui.setDelay(GUI_VIEW, self.gui_delay_ms)
         gui.setZoom(GUI_VIEW, GUI_ZOOM)
         gui.trackVehicle(GUI_VIEW, EGO_ID)
 
@@ -371,6 +376,18 @@ def _load_api(transport: str) -> ModuleType:
     import libsumo
 
     return libsumo
+
+
+def _gui_settings_file() -> Path:
+    """sumo-gui view settings: the "real world" scheme, vehicles drawn as their type's shape."""
+    path = network.cache_dir() / "gui-settings.xml"
+    if not path.exists():
+        path.parent.mkdir(parents=True, exist_ok=True)
+        temporary = path.with_suffix(f".{os.getpid()}.tmp")
+        temporary.write_text('<viewsettings>\n    <scheme name="real world"/>\n    <delay value="0"/>\n'
+                             '</viewsettings>\n')
+        os.replace(temporary, path)
+    return path
 
 
 def _load_constants() -> ModuleType:
