@@ -19,6 +19,8 @@ from sumo_rail_cli.options import (
     make_interruptible,
     output_options,
     resolve_config,
+    tensorboard_logger,
+    tensorboard_option,
 )
 
 from sumo_rail.drivers.expert import DEFAULT_STYLE, STYLES
@@ -198,11 +200,12 @@ def _write_videos(videos: dict[str, bytes], video_dir: Path | None) -> list[str]
               help="Validation episodes per evaluation.")
 @click.option("--out", type=click.Path(path_type=Path, file_okay=False), required=True, help="Run folder.")
 @click.option("--resume", is_flag=True, help="Continue the run in --out from its last checkpoint.")
+@tensorboard_option
 def train_command(config_path: Path | None, overrides: tuple[str, ...], demos: Path, kind: str, hidden: int,
                   bc_epochs: int, bc_class_balance: float, directions: int, top: int, step_size: float,
                   iterations: int, workers: int,
                   backend_name: str, address: str | None, seed: int, eval_every: int, eval_episodes: int, out: Path,
-                  resume: bool) -> None:
+                  resume: bool, tensorboard_dir: Path | None) -> None:
     """Learn a driving policy from demonstrations with RAIL (BC initialisation, then ARS with an LS-GAN reward)."""
     config = resolve_config(config_path, overrides)
     from sumo_rail.learning.discriminator import DiscriminatorSettings
@@ -223,6 +226,8 @@ def train_command(config_path: Path | None, overrides: tuple[str, ...], demos: P
         bar.write(bc_summary(report, out / "policy_bc.npz"))
 
     def show(row: dict[str, Any]) -> None:
+        if board is not None:
+            board.log(row)
         steps_per_s = row["env_steps"] / row["wall_time_s"]
         bar.set_postfix(D_return=f"{row['return_mean']:+.3f}", steps_per_s=f"{steps_per_s:.0f}")
         bar.update()
@@ -232,7 +237,7 @@ def train_command(config_path: Path | None, overrides: tuple[str, ...], demos: P
                       f"collisions {row['eval_collisions']:.2f}")
 
     make_interruptible()  # Ctrl-C or SIGTERM: the last complete iteration is kept
-    with library_errors(), backend, bar:
+    with library_errors(), tensorboard_logger(tensorboard_dir, "rail", out) as board, backend, bar:
         try:
             state = train(out, settings, config, iterations, backend, resume, Validation(eval_every, eval_episodes),
                           on_bc=show_bc, on_iteration=show)

@@ -138,6 +138,34 @@ def episode_progress(total: int, description: str) -> Any:
     return progress(total, description, unit="episode")
 
 
+def tensorboard_option(command: Callable[..., Any]) -> Callable[..., Any]:
+    """--tensorboard DIR: also log every training row to TensorBoard (optional extra)."""
+    return click.option("--tensorboard", "tensorboard_dir", type=click.Path(path_type=Path, file_okay=False),
+                        default=None, help="Also write TensorBoard logs into this folder (tensorboard --logdir DIR); "
+                                           "log.parquet stays the record. Needs pip install "
+                                           "'sumo-rail[tensorboard]'.")(command)
+
+
+@contextlib.contextmanager
+def tensorboard_logger(tensorboard_dir: Path | None, prefix: str, run_folder: Path) -> Iterator[Any]:
+    """A TensorBoardLogger for --tensorboard (None without it); a missing extra is a one-sentence error (exit 1)."""
+    if tensorboard_dir is None:
+        yield None
+        return
+    from sumo_rail.learning.tensorboard_log import TensorBoardError, TensorBoardLogger
+
+    try:
+        logger = TensorBoardLogger(tensorboard_dir, prefix, run_folder)
+    except TensorBoardError as error:
+        raise click.ClickException(str(error)) from error
+    try:
+        yield logger
+    except TensorBoardError as error:
+        raise click.ClickException(str(error)) from error
+    finally:
+        logger.close()
+
+
 def _parse_overrides(overrides: tuple[str, ...]) -> dict[str, dict[str, Any]]:
     sections: dict[str, dict[str, Any]] = {}
     for item in overrides:
