@@ -90,6 +90,18 @@ def read_frames(path: Path, count: int | None = None) -> list[np.ndarray]:
         raise VideoError(f"cannot read video {path}: {error}") from error
 
 
+def video_fps(path: Path) -> float:
+    """Frames per second of a video file."""
+    require_encoder()
+    import imageio.v2 as imageio
+
+    try:
+        with imageio.get_reader(path, format="FFMPEG") as reader:
+            return float(reader.get_meta_data()["fps"])
+    except (OSError, RuntimeError, KeyError) as error:
+        raise VideoError(f"cannot read video {path}: {error}") from error
+
+
 def write_gif(frames: Sequence[np.ndarray], path: Path, fps: float) -> None:
     """An endlessly looping GIF of RGB frames at `fps`, written atomically."""
     require_encoder()
