@@ -66,8 +66,9 @@ def encode_mp4(frames: Sequence[np.ndarray], fps: float) -> bytes:
 
     with tempfile.TemporaryDirectory(prefix="sumo-rail-video-") as scratch:
         path = Path(scratch) / "episode.mp4"
-        with imageio.get_writer(path, format="FFMPEG", fps=fps, codec="libx264", quality=7,
-                                pixelformat="yuv420p", macro_block_size=16) as writer:
+        # veryfast: a third of the default preset's time per frame, for slightly larger files
+        with imageio.get_writer(path, format="FFMPEG", fps=fps, codec="libx264", quality=7, pixelformat="yuv420p",
+                                macro_block_size=16, ffmpeg_params=["-preset", "veryfast"]) as writer:
             for frame in frames:
                 writer.append_data(frame)
         return path.read_bytes()

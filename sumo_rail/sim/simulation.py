@@ -19,9 +19,12 @@ import json
 import logging
 import math
 import os
+import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from types import ModuleType
+from typing import Any
 
 import numpy as np
 
@@ -127,6 +130,8 @@ class Simulation:
         self.gui_delay_ms = gui_delay_ms
         self._built = network.build(scenario)
         self._api = _load_api(self.transport)
+        if gui:
+            self._api = PacedApi(self._api, gui_delay_ms / 1000.0)
         self._constants = tc = _load_constants()
         self._context_variables = (tc.VAR_POSITION, tc.VAR_ANGLE, tc.VAR_SPEED, tc.VAR_LANEPOSITION, tc.VAR_LENGTH,
                                    tc.VAR_WIDTH, tc.VAR_LANE_INDEX)
@@ -168,12 +173,13 @@ class Simulation:
         ]
 
     def _gui_options(self) -> list[str]:
-        """sumo-gui runs without waiting for its play button, at `gui_delay_ms` per step, and closes at the end,
-        after a start and after each load (a load resets the options, and a GUI loaded without --start waits for
-        its play button, so the client would block in its next command)."""
+        """sumo-gui runs without waiting for its play button and closes at the end, after a start and after each
+        load (a load resets the options, and a GUI loaded without --start waits for its play button, so the
+        client would block in its next command). Its own --delay is 0: under TraCI it does not pace the steps the
+        client asks for, so `PacedApi` does."""
         if not self.gui:
             return []
-        return ["--start", "true", "--quit-on-end", "true", "--delay", repr(float(self.gui_delay_ms)),
+        return ["--start", "true", "--quit-on-end", "true", "--delay", "0",
                 "--window-size", GUI_WINDOW_SIZE, "--gui-settings-file", str(_gui_settings_file())]
 
     def _start(self, extra: list[str]) -> None:
@@ -366,6 +372,31 @@ class Simulation:
             raise SimulationError("this simulation is closed; create a new one")
 
 
+class PacedApi:
+    """The traci API with `simulationStep` paced: each step starts at least `step_wall_s` [s] of wall time after
+    the previous one (0: no pacing), so sumo-gui shows the episode at a watchable speed; `clock` and `sleep` are
+    time.monotonic and time.sleep."""
+
+    def __init__(self, api: ModuleType, step_wall_s: float, clock: Callable[[], float] = time.monotonic,
+                 sleep: Callable[[float], None] = time.sleep) -> None:
+        self._api = api
+        self._step_wall_s = step_wall_s
+        self._clock = clock
+        self._sleep = sleep
+        self._last: float | None = None
+
+    def simulationStep(self, *args: Any) -> Any:
+        if self._step_wall_s > 0 and self._last is not None:
+            wait = self._last + self._step_wall_s - self._clock()
+            if wait > 0:
+                self._sleep(wait)
+        self._last = self._clock()
+        return self._api.simulationStep(*args)
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._api, name)
+
+
 def _load_api(transport: str) -> ModuleType:
     if transport == "traci":
         # traci's own socket client: a plain `import traci` gives libsumo once LIBSUMO_AS_TRACI is set (below)
@@ -380,12 +411,11 @@ def _load_api(transport: str) -> ModuleType:
 
 def _gui_settings_file() -> Path:
     """sumo-gui view settings: the "real world" scheme, vehicles drawn as their type's shape."""
-    path = network.cache_dir() / "gui-settings.xml"
+    path = network.cache_dir() / "gui-settings-v2.xml"
     if not path.exists():
         path.parent.mkdir(parents=True, exist_ok=True)
         temporary = path.with_suffix(f".{os.getpid()}.tmp")
-        temporary.write_text('<viewsettings>\n    <scheme name="real world"/>\n    <delay value="0"/>\n'
-                             '</viewsettings>\n')
+        temporary.write_text('<viewsettings>\n    <scheme name="real world"/>\n</viewsettings>\n')
         os.replace(temporary, path)
     return path
 
