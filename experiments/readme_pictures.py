@@ -36,6 +36,8 @@ def main() -> None:
         env.step(expert(observation, env.traffic))  # sumo-gui saves the screenshot when it draws this step
     finally:
         env.close()
+    shot = Image.open(args.out / "gui.png")  # 1280x800, the road across its middle: keep the middle band
+    shot.crop((0, shot.height // 2 - 180, shot.width, shot.height // 2 + 180)).save(args.out / "gui.png", optimize=True)
     print(f"wrote {args.out / 'gui.png'} and {args.out / 'frame.png'} (seed {seed}, decision {args.decision})")
 
 

@@ -42,8 +42,8 @@ WARM_STATE_POOLS = ("train", "validation", "test")
 """Disjoint sets of warm traffic states, by what the episodes are for."""
 GUI_VIEW = "View #0"
 """sumo-gui's main view."""
-GUI_ZOOM = 1200.0
-"""sumo-gui zoom [%] while following the ego: about 130 m of road across a 1280-pixel-wide window."""
+GUI_VIEW_HALF_WIDTH_M = 65.0
+"""sumo-gui shows this much road before and behind the ego while following it [m]."""
 GUI_WINDOW_SIZE = "1280,800"
 """sumo-gui's window size [px]."""
 TRANSPORTS = ("libsumo", "traci")
@@ -272,7 +272,9 @@ class Simulation:
         """Point sumo-gui's view at the ego: tracked, zoomed to its surroundings, drawn in red."""
         gui = self._api.gui
         self._api.vehicle.setColor(EGO_ID, (255, 0, 0, 255))
-        gui.setZoom(GUI_VIEW, GUI_ZOOM)
+        x, y = self._api.vehicle.getPosition(EGO_ID)
+        half = GUI_VIEW_HALF_WIDTH_M
+        gui.setBoundary(GUI_VIEW, x - half, y - half / 2, x + half, y + half / 2)  # the zoom, whatever the road
         gui.trackVehicle(GUI_VIEW, EGO_ID)
 
     def screenshot(self, path: Path, width_px: int = 1280, height_px: int = 800) -> None:
