@@ -4,6 +4,7 @@ writes its row. Skipped, saying why, where no Xvfb binary is installed (CI insta
 import os
 import shutil
 import subprocess
+from pathlib import Path
 
 import numpy as np
 import pyarrow.parquet as pq
@@ -71,6 +72,21 @@ def test_evaluate_gui_completes_the_episode_and_writes_its_row(display, monkeypa
     table = pq.read_table(out).to_pandas()
     assert len(table) == 1 and table.loc[0, "steps"] > 10  # --gui runs one episode
     assert table.loc[0, "termination"] in ("end_of_road", "collision", "time_limit")
+    assert gui_children() == []  # the window closed with the episode
+
+
+def gui_children() -> list[int]:
+    """Process ids of this process's sumo-gui children still alive."""
+    children = []
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)
+            name, state, parent = fields[0].split("(", 1)[1], *fields[1].split()[:2]
+        except (OSError, IndexError, ValueError):
+            continue
+        if int(parent) == os.getpid() and name.startswith("sumo-gui") and state != "Z":
+            children.append(int(stat.parent.name))
+    return children
 
 
 def test_gui_delay_without_gui_is_a_usage_error():
