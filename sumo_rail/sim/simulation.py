@@ -13,6 +13,7 @@ generators, so it is not reproducible; a reload with `--load-state` is, and take
 
 from __future__ import annotations
 
+import contextlib
 import fcntl
 import hashlib
 import json
@@ -20,7 +21,7 @@ import logging
 import math
 import os
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from types import ModuleType
@@ -221,7 +222,8 @@ class Simulation:
         if pool not in self._pools:
             if pool not in WARM_STATE_POOLS:
                 raise ValueError(f"warm-state pool must be one of {', '.join(WARM_STATE_POOLS)}, got {pool!r}")
-            self._pools[pool] = self._warm_snapshots(self.scenario.traffic_seed + WARM_STATE_POOLS.index(pool))
+            with _unpaced(self._api):  # sumo-gui's pace is for episodes, not for building warm states
+                self._pools[pool] = self._warm_snapshots(self.scenario.traffic_seed + WARM_STATE_POOLS.index(pool))
         return self._pools[pool]
 
     def _warm_snapshots(self, traffic_seed: int) -> list[Path]:
@@ -397,6 +399,19 @@ class PacedApi:
 
     def __getattr__(self, name: str) -> Any:
         return getattr(self._api, name)
+
+
+@contextlib.contextmanager
+def _unpaced(api: ModuleType | PacedApi) -> Iterator[None]:
+    """Steps at full speed within the block, also when `api` is paced."""
+    if not isinstance(api, PacedApi):
+        yield
+        return
+    step_wall_s, api._step_wall_s = api._step_wall_s, 0.0
+    try:
+        yield
+    finally:
+        api._step_wall_s = step_wall_s
 
 
 def _load_api(transport: str) -> ModuleType:
