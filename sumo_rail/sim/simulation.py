@@ -13,23 +13,20 @@ generators, so it is not reproducible; a reload with `--load-state` is, and take
 
 from __future__ import annotations
 
-import contextlib
 import fcntl
 import hashlib
 import json
 import logging
 import math
 import os
-import time
-from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from types import ModuleType
-from typing import Any
 
 import numpy as np
 
 from sumo_rail.config import ScenarioConfig
+from sumo_rail.sim import gui as sumo_gui
 from sumo_rail.sim import network
 
 log = logging.getLogger(__name__)
@@ -41,12 +38,6 @@ _LATERAL_EPSILON_M = 0.01
 _ACTIVE_LIBSUMO: Simulation | None = None
 WARM_STATE_POOLS = ("train", "validation", "test")
 """Disjoint sets of warm traffic states, by what the episodes are for."""
-GUI_VIEW = "View #0"
-"""sumo-gui's main view."""
-GUI_VIEW_HALF_WIDTH_M = 65.0
-"""sumo-gui shows this much road before and behind the ego while following it [m]."""
-GUI_WINDOW_SIZE = "1280,800"
-"""sumo-gui's window size [px]."""
 TRANSPORTS = ("libsumo", "traci")
 """How SUMO is driven: libsumo (SUMO linked into this process) or traci (a SUMO process, over a socket)."""
 
@@ -132,7 +123,7 @@ class Simulation:
         self._built = network.build(scenario)
         self._api = _load_api(self.transport)
         if gui:
-            self._api = PacedApi(self._api, gui_delay_ms / 1000.0)
+            self._api = sumo_gui.PacedApi(self._api, gui_delay_ms / 1000.0)
         self._constants = tc = _load_constants()
         self._context_variables = (tc.VAR_POSITION, tc.VAR_ANGLE, tc.VAR_SPEED, tc.VAR_LANEPOSITION, tc.VAR_LENGTH,
                                    tc.VAR_WIDTH, tc.VAR_LANE_INDEX)
@@ -181,7 +172,7 @@ class Simulation:
         if not self.gui:
             return []
         return ["--start", "true", "--quit-on-end", "true", "--delay", "0",
-                "--window-size", GUI_WINDOW_SIZE, "--gui-settings-file", str(_gui_settings_file())]
+                "--window-size", sumo_gui.WINDOW_SIZE, "--gui-settings-file", str(sumo_gui.settings_file())]
 
     def _start(self, extra: list[str]) -> None:
         binary = network.sumo_binary("sumo-gui" if self.gui else "sumo")
@@ -222,7 +213,7 @@ class Simulation:
         if pool not in self._pools:
             if pool not in WARM_STATE_POOLS:
                 raise ValueError(f"warm-state pool must be one of {', '.join(WARM_STATE_POOLS)}, got {pool!r}")
-            with _unpaced(self._api):  # sumo-gui's pace is for episodes, not for building warm states
+            with sumo_gui.unpaced(self._api):  # sumo-gui's pace is for episodes, not for building warm states
                 self._pools[pool] = self._warm_snapshots(self.scenario.traffic_seed + WARM_STATE_POOLS.index(pool))
         return self._pools[pool]
 
@@ -272,18 +263,13 @@ class Simulation:
 
     def _follow_ego(self) -> None:
         """Point sumo-gui's view at the ego: tracked, zoomed to its surroundings, drawn in red."""
-        gui = self._api.gui
-        self._api.vehicle.setColor(EGO_ID, (255, 0, 0, 255))
-        x, y = self._api.vehicle.getPosition(EGO_ID)
-        half = GUI_VIEW_HALF_WIDTH_M
-        gui.setBoundary(GUI_VIEW, x - half, y - half / 2, x + half, y + half / 2)  # the zoom, whatever the road
-        gui.trackVehicle(GUI_VIEW, EGO_ID)
+        sumo_gui.follow(self._api, EGO_ID)
 
     def screenshot(self, path: Path, width_px: int = 1280, height_px: int = 800) -> None:
         """Save sumo-gui's view to `path` (PNG) when the next step is drawn (sumo-gui only)."""
         if not self.gui:
             raise SimulationError("screenshots need sumo-gui (render_mode='human')")
-        self._api.gui.screenshot(GUI_VIEW, str(path), width_px, height_px)
+        self._api.gui.screenshot(sumo_gui.VIEW, str(path), width_px, height_px)
 
     def set_cruise_speed(self, speed_mps: float) -> None:
         """Set the ego's cruise set-point [m/s]; SUMO's ACC model tracks it within safe gaps.
@@ -376,44 +362,6 @@ class Simulation:
             raise SimulationError("this simulation is closed; create a new one")
 
 
-class PacedApi:
-    """The traci API with `simulationStep` paced: each step starts at least `step_wall_s` [s] of wall time after
-    the previous one (0: no pacing), so sumo-gui shows the episode at a watchable speed; `clock` and `sleep` are
-    time.monotonic and time.sleep."""
-
-    def __init__(self, api: ModuleType, step_wall_s: float, clock: Callable[[], float] = time.monotonic,
-                 sleep: Callable[[float], None] = time.sleep) -> None:
-        self._api = api
-        self._step_wall_s = step_wall_s
-        self._clock = clock
-        self._sleep = sleep
-        self._last: float | None = None
-
-    def simulationStep(self, *args: Any) -> Any:
-        if self._step_wall_s > 0 and self._last is not None:
-            wait = self._last + self._step_wall_s - self._clock()
-            if wait > 0:
-                self._sleep(wait)
-        self._last = self._clock()
-        return self._api.simulationStep(*args)
-
-    def __getattr__(self, name: str) -> Any:
-        return getattr(self._api, name)
-
-
-@contextlib.contextmanager
-def _unpaced(api: ModuleType | PacedApi) -> Iterator[None]:
-    """Steps at full speed within the block, also when `api` is paced."""
-    if not isinstance(api, PacedApi):
-        yield
-        return
-    step_wall_s, api._step_wall_s = api._step_wall_s, 0.0
-    try:
-        yield
-    finally:
-        api._step_wall_s = step_wall_s
-
-
 def _load_api(transport: str) -> ModuleType:
     if transport == "traci":
         # traci's own socket client: a plain `import traci` gives libsumo once LIBSUMO_AS_TRACI is set (below)
@@ -424,17 +372,6 @@ def _load_api(transport: str) -> ModuleType:
     import libsumo
 
     return libsumo
-
-
-def _gui_settings_file() -> Path:
-    """sumo-gui view settings: the "real world" scheme, vehicles drawn as their type's shape."""
-    path = network.cache_dir() / "gui-settings-v2.xml"
-    if not path.exists():
-        path.parent.mkdir(parents=True, exist_ok=True)
-        temporary = path.with_suffix(f".{os.getpid()}.tmp")
-        temporary.write_text('<viewsettings>\n    <scheme name="real world"/>\n</viewsettings>\n')
-        os.replace(temporary, path)
-    return path
 
 
 def _load_constants() -> ModuleType:

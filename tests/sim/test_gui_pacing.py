@@ -2,7 +2,7 @@
 
 from types import SimpleNamespace
 
-from sumo_rail.sim.simulation import PacedApi
+from sumo_rail.sim.gui import PacedApi
 
 
 def paced(step_wall_s: float):
