@@ -4,6 +4,7 @@ writes its row. Skipped, saying why, where no Xvfb binary is installed (CI insta
 import os
 import shutil
 import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -63,30 +64,46 @@ def test_gui_episode_runs_to_its_end_and_the_view_follows_the_red_ego(display, m
         assert red.sum() > 30, f"{shot.name}: no red ego at the centre of the view"
 
 
-def test_evaluate_gui_completes_the_episode_and_writes_its_row(display, monkeypatch, tmp_path):
-    monkeypatch.setenv("DISPLAY", display)
+def test_evaluate_gui_completes_the_episode_and_writes_its_row(display, tmp_path):
     out = tmp_path / "gui.parquet"
-    result = CliRunner().invoke(cli, ["evaluate", "--policy", "expert", "--episodes", "3", "--gui", "--gui-delay", "0",
-                                      *SMALL, "--out", str(out)])
-    assert result.exit_code == 0, result.output
+    command = [sys.executable, "-m", "sumo_rail_cli", "evaluate", "--policy", "expert", "--episodes", "3", "--gui",
+               "--gui-delay", "0", *SMALL, "--out", str(out)]
+    try:  # a hang (sumo-gui waiting to be started again after a load) fails here instead of blocking the suite
+        result = subprocess.run(command, env={**os.environ, "DISPLAY": display}, capture_output=True, text=True,
+                                timeout=600)
+    except subprocess.TimeoutExpired:
+        pytest.fail("evaluate --gui did not finish its episode within 10 minutes")
+    assert result.returncode == 0, result.stderr
     table = pq.read_table(out).to_pandas()
     assert len(table) == 1 and table.loc[0, "steps"] > 10  # --gui runs one episode
     assert table.loc[0, "termination"] in ("end_of_road", "collision", "time_limit")
-    assert gui_children() == []  # the window closed with the episode
+    assert gui_processes(display) == []  # the window closed with the episode
 
 
-def gui_children() -> list[int]:
-    """Process ids of this process's sumo-gui children still alive."""
-    children = []
-    for stat in Path("/proc").glob("[0-9]*/stat"):
+def gui_processes(display: str) -> list[int]:
+    """Process ids of the sumo-gui processes alive on `display` (this module's private Xvfb)."""
+    found = []
+    for environ in Path("/proc").glob("[0-9]*/environ"):
         try:
-            fields = stat.read_text().rsplit(")", 1)
-            name, state, parent = fields[0].split("(", 1)[1], *fields[1].split()[:2]
-        except (OSError, IndexError, ValueError):
+            name = (environ.parent / "comm").read_text().strip()
+            variables = environ.read_bytes().split(b"\0")
+            state = (environ.parent / "stat").read_text().rsplit(")", 1)[1].split()[0]
+        except (OSError, IndexError):
             continue
-        if int(parent) == os.getpid() and name.startswith("sumo-gui") and state != "Z":
-            children.append(int(stat.parent.name))
-    return children
+        if name.startswith("sumo-gui") and f"DISPLAY={display}".encode() in variables and state != "Z":
+            found.append(int(environ.parent.name))
+    return found
+
+
+def test_gui_processes_sees_a_running_sumo_gui(display, monkeypatch, small_config):
+    monkeypatch.setenv("DISPLAY", display)
+    env = HighwayEnv(small_config, render_mode="human", gui_delay_ms=0)
+    try:
+        env.reset(seed=1)
+        assert len(gui_processes(display)) == 1
+    finally:
+        env.close()
+    assert gui_processes(display) == []
 
 
 def test_gui_delay_without_gui_is_a_usage_error():
