@@ -1,5 +1,6 @@
-"""The README's pictures: a sumo-gui screenshot (docs/images/gui.png) and a bird's-eye frame of the same moment
-(docs/images/frame.png), the normal expert driving evaluation episode 0 of the default scenario.
+"""The README's pictures: a sumo-gui screenshot (docs/images/gui.png) and a frame of the MP4 video of the same
+moment (docs/images/frame.png, as evaluate --video encodes it), the normal expert driving evaluation episode 0 of
+the default scenario.
 
 Needs a display for sumo-gui: `xvfb-run -s "-screen 0 1280x800x24" python experiments/readme_pictures.py`.
 """
@@ -13,6 +14,7 @@ from PIL import Image
 
 from sumo_rail.config import Config
 from sumo_rail.drivers.expert import make_expert
+from sumo_rail.runners.video import encode_mp4, read_frames, write_bytes
 from sumo_rail.seeding import Purpose, episode_seeds
 from sumo_rail.sim.env import HighwayEnv
 
@@ -29,9 +31,14 @@ def main() -> None:
     expert = make_expert("normal", config.env.speed_step_mps)
     try:
         observation, _ = env.reset(seed=seed, options={"pool": "test", "warm_state": 0})
+        frames = [env.frame()]
         for _ in range(args.decision):
             observation, *_ = env.step(expert(observation, env.traffic))
-        Image.fromarray(env.frame()).save(args.out / "frame.png", optimize=True)
+            frames.append(env.frame())
+        video = args.out / ".frames.mp4"
+        write_bytes(encode_mp4(frames, 1.0 / config.env.decision_period_s), video)
+        Image.fromarray(read_frames(video)[args.decision]).save(args.out / "frame.png", optimize=True)
+        video.unlink()
         env.gui_screenshot(args.out / "gui.png")
         env.step(expert(observation, env.traffic))  # sumo-gui saves the screenshot when it draws this step
     finally:
