@@ -20,6 +20,8 @@ from sumo_rail_cli.options import (
     output_options,
     resolve_config,
     run_folder_options,
+    tensorboard_logger,
+    tensorboard_option,
 )
 
 from sumo_rail.drivers.expert import DEFAULT_STYLE, STYLES
@@ -71,19 +73,34 @@ def record_expert(config_path: Path | None, overrides: tuple[str, ...], episodes
 @episode_options(default_seed=1000, default_episodes=EVALUATION_EPISODES)
 @backend_options
 @click.option("--gui/--gui-off", default=False, show_default=True,
-              help="--gui drives the first episode of the first driver in sumo-gui (needs a display).")
+              help="--gui drives the first episode of the first driver in sumo-gui (needs a display), following the "
+                   "ego (drawn in red).")
+@click.option("--gui-delay", "gui_delay_ms", type=click.FloatRange(min=0), default=None, metavar="MS",
+              help="With --gui: wall-clock milliseconds per 0.1 s SUMO step  [default: 100, real time; 0: as fast as "
+                   "possible].")
+@click.option("--video", "video_dir", type=click.Path(path_type=Path, file_okay=False), default=None,
+              help="Folder for MP4 videos (bird's-eye view, one frame per decision) of the first --video-episodes "
+                   "episodes of every driver; needs pip install 'sumo-rail[video]'.")
+@click.option("--video-episodes", type=click.IntRange(min=1), default=None, metavar="K",
+              help="With --video: episodes recorded per driver  [default: 1].")
 @output_options(required=False)
 def evaluate_command(config_path: Path | None, overrides: tuple[str, ...], policies: tuple[str, ...], style: str,
                      reference: str | None, reference_style: str, pool: str, episodes: int, seed: int, workers: int,
-                     backend_name: str, address: str | None, gui: bool, out: Path | None, overwrite: bool) -> None:
+                     backend_name: str, address: str | None, gui: bool, gui_delay_ms: float | None,
+                     video_dir: Path | None, video_episodes: int | None, out: Path | None, overwrite: bool) -> None:
     """Evaluate drivers on held-out episodes and compare them with the expert and with each other.
 
     Prints each measure's mean with its 95% interval (on-policy agreement with the expert first, then the paper's
     metrics), every driver's paired difference to --reference, and the distances of its speed, headway, lane and
     action distributions to the reference expert's when that expert is among the drivers. --out gets one row per
-    episode and NAME.decisions.parquet beside it one row per decision."""
+    episode and NAME.decisions.parquet beside it one row per decision. --video writes DRIVER_episodeNNN_seedS.mp4
+    files into a folder."""
     config = resolve_config(config_path, overrides)
     check_output(out, overwrite)
+    if gui_delay_ms is not None and not gui:
+        raise click.UsageError("--gui-delay needs --gui")
+    if video_episodes is not None and video_dir is None:
+        raise click.UsageError("--video-episodes needs --video DIR")
     from sumo_rail.drivers.policies import PolicyFileError
     from sumo_rail.evaluation.evaluate import decisions_path, evaluate, parse_driver, unique_names, write_evaluation
     from sumo_rail.evaluation.summary import distance_summary, summary_table
@@ -104,17 +121,21 @@ def evaluate_command(config_path: Path | None, overrides: tuple[str, ...], polic
     if gui:
         drivers, episodes = drivers[:1], 1
     names = unique_names(drivers)
+    _check_video_dir(video_dir, names, overwrite)
     if reference is not None and reference not in names:
         raise click.BadParameter(f"{reference!r} is not one of the drivers ({', '.join(names)})",
                                  param_hint="'--reference'")
     seeds = episode_seeds(Purpose.EVALUATE, seed, episodes)
-    backend = SerialBackend(render_mode="human") if gui else build_backend(backend_name, workers, address)
+    backend = (SerialBackend(render_mode="human", gui_delay_ms=100.0 if gui_delay_ms is None else gui_delay_ms)
+               if gui else build_backend(backend_name, workers, address))
     with library_errors(), backend, episode_progress(len(drivers) * episodes, "evaluating") as bar:
         evaluation = evaluate(drivers, config, seeds, backend, reference_style, pool,
-                              on_episode=lambda index, result: bar.update())
+                              on_episode=lambda index, result: bar.update(),
+                              video_episodes=(video_episodes or 1) if video_dir is not None else 0)
         if out is not None:
             write_evaluation(evaluation, config, seed, out, policies=list(policies), episode_seeds=seeds,
                              reference_style=reference_style, pool=pool)
+        written_videos = _write_videos(evaluation.videos, video_dir)
     click.echo(summary_table(evaluation.metrics, reference))
     expert = f"expert-{reference_style}"
     if expert in names and len(names) > 1:
@@ -122,6 +143,46 @@ def evaluate_command(config_path: Path | None, overrides: tuple[str, ...], polic
     if out is not None:
         click.echo(f"wrote {out}: {len(evaluation.metrics)} episodes; {decisions_path(out)}: "
                    f"{len(evaluation.decisions)} decisions")
+    if written_videos:
+        click.echo(f"wrote {len(written_videos)} videos into {video_dir}: {', '.join(written_videos)}")
+
+
+def _check_video_dir(video_dir: Path | None, names: list[str], overwrite: bool) -> None:
+    """Check --video before any work: the encoder is installed (exit 1, with the install hint), the folder can be
+    made, and no video of these drivers would be replaced without --overwrite (exit 2)."""
+    if video_dir is None:
+        return
+    from sumo_rail.runners.video import VideoError, require_encoder, video_name
+
+    try:
+        require_encoder()
+    except VideoError as error:
+        raise click.ClickException(str(error)) from error
+    if video_dir.exists() and not video_dir.is_dir():
+        raise click.BadParameter(f"{video_dir} exists and is not a folder", param_hint="'--video'")
+    if not video_dir.exists() and not video_dir.parent.is_dir():
+        raise click.BadParameter(f"the folder holding {video_dir} does not exist", param_hint="'--video'")
+    if video_dir.is_dir() and not overwrite:
+        prefixes = {video_name(name, 0, 0).split("_episode")[0] for name in names}
+        clash = sorted(path.name for path in video_dir.glob("*.mp4") if path.name.split("_episode")[0] in prefixes)
+        if clash:
+            raise click.BadParameter(f"{video_dir} already holds videos of these drivers ({clash[0]}, ...); pass "
+                                     f"--overwrite to replace them", param_hint="'--video'")
+
+
+def _write_videos(videos: dict[str, bytes], video_dir: Path | None) -> list[str]:
+    """Write each video into --video atomically; the file names, sorted."""
+    if video_dir is None:
+        return []
+    from sumo_rail.runners.video import VideoError, write_bytes
+
+    try:
+        video_dir.mkdir(exist_ok=True)
+        for name, content in videos.items():
+            write_bytes(content, video_dir / name)
+    except (OSError, VideoError) as error:
+        raise click.ClickException(f"cannot write the videos into {video_dir}: {error}") from error
+    return sorted(videos)
 
 
 @click.command("train")
@@ -153,13 +214,14 @@ def evaluate_command(config_path: Path | None, overrides: tuple[str, ...], polic
 @click.option("--iterations", type=click.IntRange(min=1), default=200, show_default=True,
               help="Iterations in total (with --resume: including those already done).")
 @run_folder_options("iteration", eval_every=10)
+@tensorboard_option
 def train_command(config_path: Path | None, overrides: tuple[str, ...], demos: Path, kind: str, hidden: int,
                   bc_epochs: int, bc_class_balance: float, directions: int, top: int | None, step_size: float,
                   noise: float, noise_increment: float, noise_every: int, traffic: str, episodes_per_rollout: int,
                   freeze_normalizer: bool, disc_hidden: int, disc_lr: float, disc_steps: int, iterations: int,
                   workers: int,
                   backend_name: str, address: str | None, seed: int, eval_every: int, eval_episodes: int, out: Path,
-                  resume: bool) -> None:
+                  resume: bool, tensorboard_dir: Path | None) -> None:
     """Learn a driving policy from demonstrations with RAIL (BC initialisation, then ARS with an LS-GAN reward)."""
     config = resolve_config(config_path, overrides)
     from sumo_rail.learning.ars import NoiseAdaptation
@@ -185,6 +247,8 @@ def train_command(config_path: Path | None, overrides: tuple[str, ...], demos: P
         bar.write(bc_summary(report, out / "policy_bc.npz"))
 
     def show(row: dict[str, Any]) -> None:
+        if board is not None:
+            board.log(row)
         steps_per_s = row["env_steps"] / row["wall_time_s"]
         bar.set_postfix(D_return=f"{row['return_mean']:+.3f}", steps_per_s=f"{steps_per_s:.0f}")
         bar.update()
@@ -195,7 +259,7 @@ def train_command(config_path: Path | None, overrides: tuple[str, ...], demos: P
                       f"{row['eval_lane_changes']:.2f}, collisions {row['eval_collisions']:.2f}")
 
     make_interruptible()  # Ctrl-C or SIGTERM: the last complete iteration is kept
-    with library_errors(), backend, bar:
+    with library_errors(), tensorboard_logger(tensorboard_dir, "rail", out) as board, backend, bar:
         try:
             state = train(out, settings, config, iterations, backend, resume, Validation(eval_every, eval_episodes),
                           on_bc=show_bc, on_iteration=show)

@@ -14,6 +14,8 @@ from sumo_rail_cli.options import (
     library_errors,
     make_interruptible,
     resolve_config,
+    tensorboard_logger,
+    tensorboard_option,
 )
 
 if TYPE_CHECKING:
@@ -34,9 +36,10 @@ if TYPE_CHECKING:
 @click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True)
 @click.option("--out", type=click.Path(path_type=Path, file_okay=False), required=True,
               help="Run folder (new or empty).")
+@tensorboard_option
 def gail_command(config_path: Path | None, overrides: tuple[str, ...], demos: Path, timesteps: int, kind: str,
                  hidden: int, bc_epochs: int, bc_class_balance: float, envs: int, n_steps: int, learning_rate: float,
-                 seed: int, out: Path) -> None:
+                 seed: int, out: Path, tensorboard_dir: Path | None) -> None:
     """Train the GAIL baseline: PPO (Stable-Baselines3) on RAIL's discriminator reward, with RAIL's actor.
 
     Writes run.json, policy_bc.npz, policy_latest.npz (after every update; evaluate it with evaluate --policy)
@@ -61,11 +64,13 @@ def gail_command(config_path: Path | None, overrides: tuple[str, ...], demos: Pa
         bar.write(bc_summary(report, out / "policy_bc.npz"))
 
     def show(row: dict[str, Any]) -> None:
+        if board is not None:
+            board.log(row)
         bar.set_postfix(D_return=f"{row['return_mean']:+.3f}", collisions=row["collisions"])
         bar.update(row["env_steps"])
 
     make_interruptible()  # before the updates start; during them gail defers both to the update's end
-    with library_errors(), bar:
+    with library_errors(), tensorboard_logger(tensorboard_dir, "gail", out) as board, bar:
         try:
             result = train_gail(out, settings, config, on_bc=show_bc, on_update=show)
         except (BaselineError, RunError) as error:

@@ -7,6 +7,7 @@ import logging
 import click
 from sumo_rail_cli.commands import evaluate_command, record_expert, train_command
 from sumo_rail_cli.dagger_command import dagger_command
+from sumo_rail_cli.export_command import export_minari_command
 from sumo_rail_cli.gail_command import gail_command
 from sumo_rail_cli.report_command import report_command
 
@@ -25,4 +26,5 @@ cli.add_command(train_command)
 cli.add_command(gail_command)
 cli.add_command(dagger_command)
 cli.add_command(report_command)
+cli.add_command(export_minari_command)
 

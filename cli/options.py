@@ -12,7 +12,7 @@ from types import FrameType
 from typing import TYPE_CHECKING, Any
 
 import click
-from tqdm import tqdm
+from sumo_rail_cli.progress import progress
 
 from sumo_rail.config import Config, ConfigError
 
@@ -156,9 +156,38 @@ def library_errors() -> Iterator[None]:
         raise click.ClickException(str(error)) from error
 
 
-def episode_progress(total: int, description: str) -> tqdm:
-    """A progress bar over episodes, with rate and time left, on stderr."""
-    return tqdm(total=total, desc=description, unit="episode", dynamic_ncols=True)
+def episode_progress(total: int, description: str) -> Any:
+    """Progress over episodes on stderr: a live bar with rate and time left on a terminal, a plain line every
+    few seconds otherwise (a file, a pipe, a CI log)."""
+    return progress(total, description, unit="episode")
+
+
+def tensorboard_option(command: Callable[..., Any]) -> Callable[..., Any]:
+    """--tensorboard DIR: also log every training row to TensorBoard (optional extra)."""
+    return click.option("--tensorboard", "tensorboard_dir", type=click.Path(path_type=Path, file_okay=False),
+                        default=None, help="Also write TensorBoard logs into this folder (tensorboard --logdir DIR); "
+                                           "log.parquet stays the record. Needs pip install "
+                                           "'sumo-rail[tensorboard]'.")(command)
+
+
+@contextlib.contextmanager
+def tensorboard_logger(tensorboard_dir: Path | None, prefix: str, run_folder: Path) -> Iterator[Any]:
+    """A TensorBoardLogger for --tensorboard (None without it); a missing extra is a one-sentence error (exit 1)."""
+    if tensorboard_dir is None:
+        yield None
+        return
+    from sumo_rail.learning.tensorboard_log import TensorBoardError, TensorBoardLogger
+
+    try:
+        logger = TensorBoardLogger(tensorboard_dir, prefix, run_folder)
+    except TensorBoardError as error:
+        raise click.ClickException(str(error)) from error
+    try:
+        yield logger
+    except TensorBoardError as error:
+        raise click.ClickException(str(error)) from error
+    finally:
+        logger.close()
 
 
 def _parse_overrides(overrides: tuple[str, ...]) -> dict[str, dict[str, Any]]:

@@ -205,6 +205,22 @@ class Config:
             raise ConfigError(f"config file {path} is not valid TOML: {error}") from error
         return cls.from_dict(data)
 
+    @classmethod
+    def coerce(cls, value: Config | Mapping[str, Any] | str | Path | None) -> Config:
+        """A Config from what a user may hand to `gymnasium.make(ENV_ID, config=...)`: None (the defaults), a
+        Config, a nested mapping `{section: {key: value}}` or the path of a TOML file; anything else, like a bad
+        value, raises a one-sentence ConfigError."""
+        if value is None:
+            return cls()
+        if isinstance(value, Config):
+            return value
+        if isinstance(value, Mapping):
+            return cls.from_dict(value)
+        if isinstance(value, str | Path):
+            return cls.from_toml(value)
+        raise ConfigError(f"config must be a Config, a nested dict of sections or the path of a TOML file, "
+                          f"got {type(value).__name__}")
+
     def with_overrides(self, data: Mapping[str, Any]) -> Config:
         """A copy with `{section: {key: value}}` replaced; unknown sections/keys and bad types raise."""
         sections = {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}

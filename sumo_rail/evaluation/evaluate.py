@@ -4,7 +4,7 @@ paper's metrics and the on-policy comparison with the reference expert, per deci
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -20,6 +20,8 @@ from sumo_rail.evaluation.fidelity import CONFUSION_COLUMNS, DECISION_FIELDS, RA
 from sumo_rail.runners.backends import RolloutBackend, WorkerContext
 from sumo_rail.runners.rollout import DriverSpec, EpisodeTask, ExpertDriver, KeepDriver, PolicyDriver, RandomDriver
 from sumo_rail.runners.tables import EPISODE_METRICS, METRIC_COLUMNS, metrics_table, provenance
+from sumo_rail.runners.video import FrameRecorder, encode_mp4, video_name
+from sumo_rail.sim.env import HighwayEnv
 from sumo_rail.sim.observation import observation_names
 
 
@@ -72,6 +74,8 @@ class EvaluatedEpisode:
 
     metrics: dict[str, Any]
     decisions: dict[str, np.ndarray]
+    video: bytes | None = None
+    """The episode as an MP4 (bird's-eye frames, one per decision), when it was asked for."""
 
 
 @dataclass(frozen=True)
@@ -80,13 +84,25 @@ class EvaluationTask:
 
     episode: EpisodeTask
     reference_style: str
+    video: bool = False
+    """Also record the episode as an MP4 of bird's-eye frames."""
 
     def run(self, context: WorkerContext) -> EvaluatedEpisode:
         config = self.episode.config
         probe = DecisionProbe(make_expert(self.reference_style, config.env.speed_step_mps, config.expert.view_range_m))
-        result = self.episode.run(context, probe)
+        recorder: FrameRecorder | None = None
+
+        def record(env: HighwayEnv) -> FrameRecorder:
+            nonlocal recorder
+            recorder = FrameRecorder(env)
+            return recorder
+
+        result = self.episode.run(context, probe, wrap=record if self.video else None)
+        video = None
+        if recorder is not None:
+            video = encode_mp4(recorder.frames, 1.0 / self.episode.config.env.decision_period_s)
         return EvaluatedEpisode({**result.metrics, "reference_style": self.reference_style,
-                                 **probe.episode_columns()}, probe.decision_columns())
+                                 **probe.episode_columns()}, probe.decision_columns(), video)
 
 
 @dataclass(frozen=True)
@@ -95,30 +111,34 @@ class Evaluation:
 
     metrics: pd.DataFrame
     decisions: pd.DataFrame
+    videos: dict[str, bytes] = field(default_factory=dict)
+    """MP4 bytes of the recorded episodes by file name (`video_name`: driver, episode, seed)."""
 
 
 def evaluate(drivers: Sequence[DriverSpec], config: Config, seeds: Sequence[int], backend: RolloutBackend,
              reference_style: str = DEFAULT_STYLE, pool: str = "test",
-             on_episode: Callable[[int, Any], None] | None = None) -> Evaluation:
+             on_episode: Callable[[int, Any], None] | None = None, video_episodes: int = 0) -> Evaluation:
     """Every driver on every seed, drivers in the given order. Episode k starts from warm state
     k mod `scenario.snapshots` of `pool`, so up to that many episodes never share a traffic state; each
     decision is compared with the reference expert (the policy's own expert style when its file records one,
-    else `reference_style`)."""
+    else `reference_style`). The first `video_episodes` episodes of every driver are also recorded as MP4s."""
     names = unique_names(drivers)
     warm_states = config.scenario.snapshots
     tasks = [EvaluationTask(EpisodeTask(config, driver, seed, pool=pool, warm_state=k % warm_states),
-                            getattr(driver, "expert_style", None) or reference_style)
+                            getattr(driver, "expert_style", None) or reference_style, video=k < video_episodes)
              for driver in drivers for k, seed in enumerate(seeds)]
     results = backend.run(tasks, on_result=on_episode)
-    rows, decisions = [], []
+    rows, decisions, videos = [], [], {}
     for index, result in enumerate(results):
         keys = {"policy": names[index // len(seeds)], "episode": index % len(seeds), "seed": result.metrics["seed"]}
+        if result.video is not None:
+            videos[video_name(keys["policy"], keys["episode"], keys["seed"])] = result.video
         rows.append({**keys, **result.metrics})
         steps = len(result.decisions["action"])
         decisions.append(pd.DataFrame({**{key: np.full(steps, value) for key, value in keys.items()},
                                        "step": np.arange(steps), **result.decisions}))
     metrics = pd.DataFrame(rows, columns=[*METRIC_COLUMNS, *FIDELITY_TYPES])
-    return Evaluation(metrics, pd.concat(decisions, ignore_index=True)[list(DECISION_TYPES)])
+    return Evaluation(metrics, pd.concat(decisions, ignore_index=True)[list(DECISION_TYPES)], videos)
 
 
 def unique_names(drivers: Sequence[DriverSpec]) -> list[str]:

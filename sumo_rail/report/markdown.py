@@ -32,8 +32,9 @@ class Plot:
     caption: str
 
 
-def write_report(inputs: Inputs, out: Path) -> Path:
-    """Write every plot the inputs allow and report.md into `out` (created); returns the path of report.md."""
+def write_report(inputs: Inputs, out: Path, videos: Path | None = None) -> Path:
+    """Write every plot the inputs allow and report.md into `out` (created); returns the path of report.md. With
+    `videos` (a folder written by evaluate --video), also GIFs of each driver above the expert on the same seed."""
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as error:
@@ -61,6 +62,14 @@ def write_report(inputs: Inputs, out: Path) -> Path:
             add(Plot(f"weights_{run.name}.png", f"Policy weights of {run.name}",
                      f"Weights of {' and '.join(run.policies)} per layer as heat maps (one colour scale per layer) "
                      f"and histograms."), lambda run=run: weight_maps(run))
+    if videos is not None:
+        from sumo_rail.report.videos import GIF_FRAMES, GIF_SPEED_UP, comparison_gifs
+
+        for gif in comparison_gifs(videos, out):
+            plots.append(Plot(gif.file, f"{gif.driver} and {gif.expert} on the same seed",
+                              f"Evaluation episode {gif.episode} (seed {gif.seed}): {gif.driver} (top) and "
+                              f"{gif.expert} (bottom) from the same traffic, the first {GIF_FRAMES} decisions at "
+                              f"{GIF_SPEED_UP:g}x real time; bird's-eye view with the LIDAR beams (red: the ego)."))
     path = out / REPORT_FILE
     write_atomically(path, markdown(inputs, plots).encode())
     return path

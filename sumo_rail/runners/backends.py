@@ -52,8 +52,9 @@ class WorkerContext:
     """Per-process state of a worker: caches one HighwayEnv per Config (libsumo allows one simulation per
     process, so when a task asks for a different Config the old env is closed first)."""
 
-    def __init__(self, render_mode: str | None = None) -> None:
+    def __init__(self, render_mode: str | None = None, gui_delay_ms: float = 100.0) -> None:
         self._render_mode = render_mode
+        self._gui_delay_ms = gui_delay_ms
         self._config: Config | None = None
         self._env: HighwayEnv | None = None
 
@@ -61,7 +62,8 @@ class WorkerContext:
         """The env of `config`, created on first use and kept for later tasks with an equal config."""
         if self._env is None or self._config != config:
             self.close()
-            self._env, self._config = HighwayEnv(config, render_mode=self._render_mode), config
+            self._env = HighwayEnv(config, render_mode=self._render_mode, gui_delay_ms=self._gui_delay_ms)
+            self._config = config
         return self._env
 
     def close(self) -> None:
@@ -105,11 +107,11 @@ class RolloutBackend(Protocol):
 
 class SerialBackend(RolloutBackend):
     """Runs tasks one after the other in the calling process, with its own `WorkerContext` (whose envs use
-    `render_mode`, e.g. "human" to watch episodes in sumo-gui)."""
+    `render_mode`, e.g. "human" to watch episodes in sumo-gui, `gui_delay_ms` [ms] per SUMO step apart)."""
 
-    def __init__(self, render_mode: str | None = None) -> None:
+    def __init__(self, render_mode: str | None = None, gui_delay_ms: float = 100.0) -> None:
         self.workers = 1
-        self._context = WorkerContext(render_mode)
+        self._context = WorkerContext(render_mode, gui_delay_ms)
         self._closed = False
 
     def run(self, tasks: Sequence[Task], on_result: Callable[[int, Any], None] | None = None) -> list[Any]:

@@ -153,8 +153,12 @@ class EpisodeTask:
     warm_state: int | None = None
     """Index of the warm state in the pool; None: drawn from the seed."""
 
-    def run(self, context: WorkerContext, probe: DecisionProbe | None = None) -> EpisodeResult:
+    def run(self, context: WorkerContext, probe: DecisionProbe | None = None,
+            wrap: Callable[[HighwayEnv], Any] | None = None) -> EpisodeResult:
+        """Run the episode on the context's env, seen through `wrap(env)` when given (e.g. a frame recorder)."""
         env = context.env(self.config)
+        if wrap is not None:
+            env = wrap(env)
         options: dict[str, Any] = {"pool": self.pool}
         if self.warm_state is not None:
             options["warm_state"] = self.warm_state

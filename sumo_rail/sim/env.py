@@ -7,13 +7,19 @@ may choose the warm-state pool (`"pool"`: "train", the default, "validation" or 
 One decision lasts `env.decision_period_s`; the reward of a decision is longitudinal + lateral, or
 `collision_reward` when the ego collides (the episode then terminates).
 Reaching the end of the road or the time limit truncates it.
+
+`config` may be a `Config`, a nested mapping `{"scenario": {"lanes": 3}}` or the path of a TOML file, as
+`gymnasium.make(ENV_ID, config=...)` passes it. `render_mode="rgb_array"` makes `render()` return a bird's-eye
+frame of the last decision (`sumo_rail.sim.render`); `"human"` drives SUMO in sumo-gui, following the ego.
 """
 
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import gymnasium
 import numpy as np
@@ -27,9 +33,14 @@ from sumo_rail.sim.rewards import EpisodeMetrics, OvertakeCounter, lateral_rewar
 from sumo_rail.sim.simulation import TRANSPORTS, WARM_STATE_POOLS, EgoState, Neighbours, PeriodReport, Simulation
 from sumo_rail.sim.traffic import TrafficView, lane_block
 
+if TYPE_CHECKING:
+    from sumo_rail.sim.render import FrameRenderer
+
 _SUMO_SEED_BOUND = 2**31 - 1
 _ACTIONS = tuple(Action)
 _INTEGERS = (int, np.integer)
+RENDER_MODES = ("human", "rgb_array")
+"""human: sumo-gui (needs a display); rgb_array: `render()` returns a bird's-eye frame (no display needed)."""
 
 
 @dataclass(frozen=True)
@@ -69,19 +80,25 @@ _CONTEXT_MARGIN_M = 20.0
 
 class HighwayEnv(gymnasium.Env[np.ndarray, np.int64]):
     """Five-lane SUMO highway with a 24-beam LIDAR and five high-level actions; `transport` drives SUMO through
-    libsumo (in-process, the fast default) or traci (a `sumo` process over a socket); rendering implies traci."""
+    libsumo (in-process, the fast default) or traci (a `sumo` process over a socket); render_mode "human" (sumo-gui)
+    implies traci, with `gui_delay_ms` [ms] of wall time per SUMO step (100: real time at 0.1 s steps)."""
 
-    metadata = {"render_modes": ["human"], "render_fps": 2}  # noqa: RUF012 - Gymnasium's class attribute
+    metadata = {"render_modes": list(RENDER_MODES), "render_fps": 2}  # noqa: RUF012 - Gymnasium's class attribute
 
-    def __init__(self, config: Config | None = None, render_mode: str | None = None,
-                 transport: str = "libsumo") -> None:
-        if render_mode not in (None, "human"):
-            raise ValueError(f"render_mode must be None or 'human' (sumo-gui), got {render_mode!r}")
+    def __init__(self, config: Config | Mapping[str, Any] | str | Path | None = None, render_mode: str | None = None,
+                 transport: str = "libsumo", gui_delay_ms: float = 100.0) -> None:
+        if render_mode not in (None, *RENDER_MODES):
+            raise ValueError(f"render_mode must be None, 'human' (sumo-gui) or 'rgb_array', got {render_mode!r}")
         if transport not in TRANSPORTS:
             raise ValueError(f"transport must be one of {', '.join(TRANSPORTS)}, got {transport!r}")
+        if not (isinstance(gui_delay_ms, int | float) and gui_delay_ms >= 0):
+            raise ValueError(f"gui_delay_ms must be a number of milliseconds >= 0, got {gui_delay_ms!r}")
         self.transport = transport
-        self.config = config or Config()
+        self.config = Config.coerce(config)
         self.render_mode = render_mode
+        self.gui_delay_ms = float(gui_delay_ms)
+        # one frame per decision: videos play in real time
+        self.metadata = {**self.metadata, "render_fps": 1.0 / self.config.env.decision_period_s}
         self.observation_space = observation_space(self.config)
         self.action_space = spaces.Discrete(len(Action))
         scenario, env = self.config.scenario, self.config.env
@@ -97,6 +114,8 @@ class HighwayEnv(gymnasium.Env[np.ndarray, np.int64]):
         self._metrics = EpisodeMetrics()
         self._overtakes = OvertakeCounter()
         self._traffic: TrafficView | None = None
+        self._last_action: Action | None = None
+        self._renderer: FrameRenderer | None = None
 
     @property
     def metrics(self) -> EpisodeMetrics:
@@ -116,7 +135,8 @@ class HighwayEnv(gymnasium.Env[np.ndarray, np.int64]):
         cfg = self.config
         if self._sim is None:
             self._sim = Simulation(cfg.scenario, cfg.lidar.range_m + _CONTEXT_MARGIN_M,
-                                   gui=self.render_mode == "human", transport=self.transport)
+                                   gui=self.render_mode == "human", transport=self.transport,
+                                   gui_delay_ms=self.gui_delay_ms)
         sim = self._sim
         start = EpisodeStart.draw(self.np_random, cfg, sim.snapshot_count)
         pool, warm_state = _warm_state_options(options or {}, sim.snapshot_count)
@@ -137,6 +157,7 @@ class HighwayEnv(gymnasium.Env[np.ndarray, np.int64]):
         self._overtakes.update(neighbours.ids, self._relations(ego, neighbours))
         self._last_observation = self._observe(ego, neighbours, ego.changing_lane)
         self._traffic = TrafficView(ego, neighbours, self._set_point, cfg.scenario.lanes)
+        self._last_action = None
         return self._last_observation, self._info(ego, 0.0, 0.0, 0.0, False, "")
 
     def step(self, action: int | np.integer) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
@@ -146,7 +167,7 @@ class HighwayEnv(gymnasium.Env[np.ndarray, np.int64]):
         if not (fast_path_valid or self.action_space.contains(action)):
             raise ValueError(f"action must be an integer in [0, {self.action_space.n}), got {action!r}")
         cfg, sim, metrics = self.config, self._sim, self._metrics
-        chosen = _ACTIONS[int(action)]
+        chosen = self._last_action = _ACTIONS[int(action)]
         command = command_for(chosen, self._set_point, self._lane, cfg.scenario.lanes, cfg.env.speed_step_mps,
                               cfg.env.v_min_mps, cfg.env.v_max_mps)
         if command.set_point_mps != self._set_point:
@@ -231,6 +252,36 @@ class HighwayEnv(gymnasium.Env[np.ndarray, np.int64]):
             "reward_longitudinal": r_long, "reward_lateral": r_lat, "reward_collision": r_collision,
             "termination": reason,
         }
+
+    def render(self) -> np.ndarray | None:
+        """With render_mode "rgb_array", the bird's-eye frame of the last decision (`frame()`); with "human",
+        sumo-gui draws by itself and this returns None."""
+        return self.frame() if self.render_mode == "rgb_array" else None
+
+    def frame(self) -> np.ndarray:
+        """A bird's-eye RGB frame of the last decision, shape (H, W, 3) uint8, whatever the render mode: the road,
+        every vehicle in LIDAR range coloured by type, the ego, its LIDAR beams and hits, and its speed,
+        set-point, lane and last action."""
+        from sumo_rail.sim.render import FrameRenderer, FrameText
+
+        if self._sim is None or self._traffic is None:
+            raise RuntimeError("call reset() before render()")
+        if self._renderer is None:
+            self._renderer = FrameRenderer(self._sim.road_edges(), self.config.scenario.lanes)
+        cfg, traffic = self.config, self._traffic
+        # the observation holds distance / r_max, clipped to 1: exactly what the policy saw
+        distances = self._last_observation[:cfg.lidar.beams].astype(np.float64) * cfg.lidar.range_m
+        text = FrameText(self._sim.time_s, traffic.ego.speed_mps, traffic.set_point_mps, traffic.ego.lane,
+                         cfg.scenario.lanes, "-" if self._last_action is None else self._last_action.name,
+                         self._metrics.decisions)
+        return self._renderer.draw(traffic.ego, traffic.neighbours, self._sim.vehicle_types(traffic.neighbours.ids),
+                                   distances, cfg.lidar.range_m, text)
+
+    def gui_screenshot(self, path: str | Path, width_px: int = 1280, height_px: int = 800) -> None:
+        """With render_mode "human": save sumo-gui's view as a PNG at `path` when the next step is drawn."""
+        if self._sim is None:
+            raise RuntimeError("call reset() before gui_screenshot()")
+        self._sim.screenshot(Path(path), width_px, height_px)
 
     def close(self) -> None:
         if self._sim is not None:

@@ -29,6 +29,7 @@ import numpy as np
 
 from sumo_rail.config import ScenarioConfig
 from sumo_rail.datasets import describe
+from sumo_rail.sim import gui as sumo_gui
 from sumo_rail.sim import network
 
 log = logging.getLogger(__name__)
@@ -99,10 +100,11 @@ class PeriodReport:
 
 
 class Simulation:
-    """One SUMO instance for the ego's episodes on one scenario; `gui` implies the traci transport."""
+    """One SUMO instance for the ego's episodes on one scenario; `gui` implies the traci transport, and sumo-gui
+    then follows the ego, waiting `gui_delay_ms` [ms] of wall time per step."""
 
     def __init__(self, scenario: ScenarioConfig, context_radius_m: float, gui: bool = False,
-                 transport: str = "libsumo") -> None:
+                 transport: str = "libsumo", gui_delay_ms: float = 100.0) -> None:
         global _ACTIVE_LIBSUMO
         if transport not in TRANSPORTS:
             raise ValueError(f"transport must be one of {', '.join(TRANSPORTS)}, got {transport!r}")
@@ -114,8 +116,11 @@ class Simulation:
         self.scenario = scenario
         self.context_radius_m = context_radius_m
         self.gui = gui
+        self.gui_delay_ms = gui_delay_ms
         self._built = network.build(scenario)
         self._api = _load_api(self.transport)
+        if gui:
+            self._api = sumo_gui.PacedApi(self._api, gui_delay_ms / 1000.0)
         self._constants = tc = _load_constants()
         self._context_variables = (tc.VAR_POSITION, tc.VAR_ANGLE, tc.VAR_SPEED, tc.VAR_LANEPOSITION, tc.VAR_LENGTH,
                                    tc.VAR_WIDTH, tc.VAR_LANE_INDEX)
@@ -157,9 +162,19 @@ class Simulation:
             "--duration-log.disable", "true",
         ]
 
+    def _gui_options(self) -> list[str]:
+        """sumo-gui runs without waiting for its play button and closes at the end, after a start and after each
+        load (a load resets the options, and a GUI loaded without --start waits for its play button, so the
+        client would block in its next command). Its own --delay is 0: under TraCI it does not pace the steps the
+        client asks for, so `PacedApi` does."""
+        if not self.gui:
+            return []
+        return ["--start", "true", "--quit-on-end", "true", "--delay", "0",
+                "--window-size", sumo_gui.WINDOW_SIZE, "--gui-settings-file", str(sumo_gui.settings_file())]
+
     def _start(self, extra: list[str]) -> None:
         binary = network.sumo_binary("sumo-gui" if self.gui else "sumo")
-        gui_options = ["--start", "true", "--quit-on-end", "true"] if self.gui else []
+        gui_options = self._gui_options()
         from traci.exceptions import FatalTraCIError
 
         if self.gui and not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
@@ -175,7 +190,7 @@ class Simulation:
 
     def _load(self, extra: list[str]) -> None:
         try:
-            self._api.load([*self._options(), *extra])
+            self._api.load([*self._options(), *self._gui_options(), *extra])
         except self._api.TraCIException as error:  # type: ignore[attr-defined]
             where = next((line.strip() for line in str(error).splitlines() if "In file" in line), "")
             raise SimulationError(f"SUMO failed to load the warm state: {describe(error)}"
@@ -198,7 +213,8 @@ class Simulation:
         if pool not in self._pools:
             if pool not in WARM_STATE_POOLS:
                 raise ValueError(f"warm-state pool must be one of {', '.join(WARM_STATE_POOLS)}, got {pool!r}")
-            self._pools[pool] = self._warm_snapshots(self.scenario.traffic_seed + WARM_STATE_POOLS.index(pool))
+            with sumo_gui.unpaced(self._api):  # sumo-gui's pace is for episodes, not for building warm states
+                self._pools[pool] = self._warm_snapshots(self.scenario.traffic_seed + WARM_STATE_POOLS.index(pool))
         return self._pools[pool]
 
     def _warm_snapshots(self, traffic_seed: int) -> list[Path]:
@@ -274,6 +290,18 @@ class Simulation:
                 break
         else:
             raise SimulationError(f"the ego could not enter lane {ego_lane} at {ego_position_m:.1f} m within 30 s")
+        if self.gui:
+            self._follow_ego()
+
+    def _follow_ego(self) -> None:
+        """Point sumo-gui's view at the ego: tracked, zoomed to its surroundings, drawn in red."""
+        sumo_gui.follow(self._api, EGO_ID)
+
+    def screenshot(self, path: Path, width_px: int = 1280, height_px: int = 800) -> None:
+        """Save sumo-gui's view to `path` (PNG) when the next step is drawn (sumo-gui only)."""
+        if not self.gui:
+            raise SimulationError("screenshots need sumo-gui (render_mode='human')")
+        self._api.gui.screenshot(sumo_gui.VIEW, str(path), width_px, height_px)
 
     def set_cruise_speed(self, speed_mps: float) -> None:
         """Set the ego's cruise set-point [m/s]; SUMO's ACC model tracks it within safe gaps.
@@ -343,6 +371,11 @@ class Simulation:
                                 speed_mps=rows[:, 3], lane_position_m=rows[:, 4], length_m=rows[:, 5],
                                 width_m=rows[:, 6], lane=rows[:, 7].astype(np.int64))
         return ego_state, neighbours
+
+    def vehicle_types(self, ids: tuple[str, ...]) -> list[str]:
+        """SUMO vehicle type of each vehicle in `ids` (e.g. "car", "truck"), for drawing."""
+        get_type = self._api.vehicle.getTypeID
+        return [get_type(vehicle) for vehicle in ids]
 
     def road_edges(self) -> np.ndarray:
         """The road's outer edges as line segments [m], shape (S, 2, 2): right edge first, then left."""

@@ -1,0 +1,65 @@
+"""export-minari: a Minari dataset with the demonstrations' observations, actions and episode boundaries."""
+
+import numpy as np
+import pyarrow.parquet as pq
+import pytest
+from click.testing import CliRunner
+from sumo_rail_cli.main import cli
+
+SMALL = ["--set", "scenario.length_m=1500", "--set", "scenario.warmup_s=120", "--set", "scenario.snapshots=3",
+         "--set", "scenario.snapshot_interval_s=10", "--set", "env.ego_start_max_m=500"]
+
+
+@pytest.fixture(scope="module")
+def demos(tmp_path_factory):
+    path = tmp_path_factory.mktemp("demos") / "expert.parquet"
+    result = CliRunner().invoke(cli, ["record-expert", "--episodes", "3", "--seed", "4", *SMALL, "--out", str(path)])
+    assert result.exit_code == 0, result.output
+    return path
+
+
+def test_export_loads_with_minari_with_the_same_observations_actions_and_episodes(demos, tmp_path, monkeypatch):
+    minari = pytest.importorskip("minari", reason="the Minari export is the optional extra sumo-rail[minari]")
+    root = tmp_path / "minari"
+    monkeypatch.setenv("MINARI_DATASETS_PATH", str(root))  # never the user's ~/.minari
+    result = CliRunner().invoke(cli, ["export-minari", str(demos), "--name", "sumo-rail/expert-v0"])
+    assert result.exit_code == 0, result.output
+    table = pq.read_table(demos).to_pandas()
+    dataset = minari.load_dataset("sumo-rail/expert-v0")
+    assert dataset.total_episodes == table.episode.nunique() == 3
+    assert dataset.total_steps == len(table)
+    for episode, (_, rows) in zip(dataset.iterate_episodes(), table.groupby("episode"), strict=True):
+        rows = rows.sort_values("step")
+        observations = np.stack(rows.observation.to_numpy())
+        assert len(episode.actions) == len(rows) and len(episode.observations) == len(rows) + 1
+        assert np.array_equal(episode.observations[:-1], observations)
+        assert np.array_equal(episode.actions, rows.action.to_numpy())
+        assert np.allclose(episode.rewards, rows.reward.to_numpy())
+        assert episode.terminations[-1] == rows.terminated.iloc[0] and not episode.terminations[:-1].any()
+        assert episode.truncations[-1] == rows.truncated.iloc[0] and not episode.truncations[:-1].any()
+    env = dataset.recover_environment()  # the recording's config travels with the dataset
+    assert env.unwrapped.config.scenario.length_m == 1500.0
+    env.close()
+
+    again = CliRunner().invoke(cli, ["export-minari", str(demos), "--name", "sumo-rail/expert-v0"])
+    assert again.exit_code == 1 and "--overwrite" in again.output and "Traceback" not in again.output
+    replaced = CliRunner().invoke(cli, ["export-minari", str(demos), "--name", "sumo-rail/expert-v0", "--root",
+                                        str(root), "--overwrite"])
+    assert replaced.exit_code == 0, replaced.output
+    assert [path.name for path in root.iterdir() if path.name.startswith(".")] == []  # no scratch folder left
+
+
+def test_bad_inputs_are_one_sentence_errors(demos, tmp_path):
+    result = CliRunner().invoke(cli, ["export-minari", str(demos), "--name", "not a valid id!", "--root",
+                                      str(tmp_path)])
+    assert result.exit_code == 1 and "is not a Minari dataset id" in result.output
+    not_demos = tmp_path / "x.parquet"
+    not_demos.write_bytes(b"nope")
+    result = CliRunner().invoke(cli, ["export-minari", str(not_demos), "--name", "a-v0", "--root", str(tmp_path)])
+    assert result.exit_code == 1 and "Traceback" not in result.output
+
+
+def test_missing_minari_names_the_extra_to_install(demos, tmp_path, monkeypatch):
+    monkeypatch.setitem(__import__("sys").modules, "minari", None)
+    result = CliRunner().invoke(cli, ["export-minari", str(demos), "--name", "a-v0", "--root", str(tmp_path)])
+    assert result.exit_code == 1 and "pip install 'sumo-rail[minari]'" in result.output

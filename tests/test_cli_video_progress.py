@@ -1,0 +1,91 @@
+"""evaluate --video writes one MP4 per chosen episode and driver; progress output fits a terminal or a log."""
+
+import io
+import sys
+
+import numpy as np
+import pyarrow.parquet as pq
+import pytest
+from click.testing import CliRunner
+from sumo_rail_cli.main import cli
+from sumo_rail_cli.progress import PlainProgress, progress
+
+from sumo_rail.runners.video import read_frames
+from sumo_rail.sim.render import EGO
+
+SMALL = ["--set", "scenario.length_m=1500", "--set", "scenario.warmup_s=120", "--set", "scenario.snapshots=3",
+         "--set", "scenario.snapshot_interval_s=10", "--set", "env.ego_start_max_m=500"]
+
+
+def invoke(*args: str):
+    return CliRunner().invoke(cli, list(args))
+
+
+def test_evaluate_video_writes_an_mp4_per_chosen_episode_and_driver(tmp_path):
+    videos, out = tmp_path / "videos", tmp_path / "metrics.parquet"
+    result = invoke("evaluate", "--policy", "expert", "--policy", "keep", "--episodes", "3", "--seed", "5",
+                    "--video", str(videos), "--video-episodes", "2", *SMALL, "--out", str(out))
+    assert result.exit_code == 0, result.output
+    metrics = pq.read_table(out).to_pandas()
+    expected = {f"{policy.replace('expert', 'expert-normal')}_episode{row.episode:03d}_seed{row.seed}.mp4"
+                for policy in ("expert", "keep") for row in metrics[metrics.policy == policy.replace(
+                    "expert", "expert-normal")].itertuples() if row.episode < 2}
+    assert {path.name for path in videos.iterdir()} == expected and len(expected) == 4
+    first = metrics[(metrics.policy == "keep") & (metrics.episode == 0)].iloc[0]
+    frames = read_frames(videos / f"keep_episode000_seed{first.seed}.mp4")
+    assert len(frames) == first.steps + 1  # the reset, then one frame per decision
+    middle = frames[len(frames) // 2].astype(int)
+    near_ego = np.abs(middle - np.array(EGO)).sum(axis=2) < 60  # the red ego survives compression
+    assert near_ego.sum() > 20
+
+    again = invoke("evaluate", "--policy", "keep", "--episodes", "1", "--seed", "5", "--video", str(videos), *SMALL)
+    assert again.exit_code == 2 and "--overwrite" in again.output and "Traceback" not in again.output
+
+
+def test_video_options_are_checked_before_any_work(tmp_path, monkeypatch):
+    assert invoke("evaluate", "--video-episodes", "2").exit_code == 2
+    not_a_folder = tmp_path / "file.mp4"
+    not_a_folder.write_text("x")
+    result = invoke("evaluate", "--video", str(not_a_folder))
+    assert result.exit_code == 2 and "is a file" in result.output
+    monkeypatch.setitem(sys.modules, "imageio_ffmpeg", None)  # as if the extra were not installed
+    result = invoke("evaluate", "--video", str(tmp_path / "v"))
+    assert result.exit_code == 1 and "pip install 'sumo-rail[video]'" in result.output
+    assert "Traceback" not in result.output and not (tmp_path / "v").exists()
+
+
+def test_progress_off_a_terminal_is_plain_lines_without_carriage_returns(tmp_path):
+    result = invoke("record-expert", "--episodes", "2", *SMALL, "--out", str(tmp_path / "demos.parquet"))
+    assert result.exit_code == 0, result.output
+    assert "\r" not in result.output
+    assert "recording: 2/2 episodes (100%)" in result.output
+
+
+def test_plain_progress_prints_at_most_every_interval_and_once_at_the_end():
+    now = [0.0]
+    stream = io.StringIO()
+    bar = PlainProgress(10, "training", "iteration", stream, interval_s=5.0, clock=lambda: now[0])
+    with bar:
+        for _ in range(10):
+            now[0] += 1.0
+            bar.set_postfix(D_return="+0.100")
+            bar.update()
+        bar.write("a message")
+    lines = stream.getvalue().splitlines()
+    assert lines[0].startswith("training: 5/10 iterations (50%), 1.00 iteration/s, elapsed 5 s, D_return=+0.100")
+    assert lines[1].startswith("training: 10/10 iterations (100%)")
+    assert lines[2] == "a message" and len(lines) == 3
+
+
+class Terminal(io.StringIO):
+    def isatty(self) -> bool:
+        return True
+
+
+@pytest.mark.parametrize(("stream", "live"), [(Terminal(), True), (io.StringIO(), False)])
+def test_progress_is_a_live_bar_only_on_a_terminal(stream, live):
+    bar = progress(3, "evaluating", stream=stream)
+    with bar:
+        bar.update()
+    assert isinstance(bar, PlainProgress) is not live
+    assert ("\r" in stream.getvalue()) is live
