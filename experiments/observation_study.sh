@@ -5,13 +5,15 @@
 # DAgger's last round estimates the information ceiling of the design: what a learner that is asked about its own
 # states can reach.
 # Usage: experiments/observation_study.sh [OUT_DIR]   (resumable: finished steps are skipped, DAgger resumes)
-#   (environment: EPISODES demonstrations, ROUNDS, ROUND_EPISODES, EVAL_EPISODES, WORKERS, DESIGNS)
+#   (environment: EPISODES demonstrations, ROUNDS, ROUND_EPISODES, EVAL_EPISODES per round, FINAL_EPISODES for the
+#   final paired evaluation of BC and DAgger's last policy, WORKERS, DESIGNS)
 set -euo pipefail
 out=${1:-results/observation_study}
 episodes=${EPISODES:-100}
 rounds=${ROUNDS:-4}
 round_episodes=${ROUND_EPISODES:-20}
 eval_episodes=${EVAL_EPISODES:-20}
+final_episodes=${FINAL_EPISODES:-60}
 workers=${WORKERS:-2}
 sumo_rail=${SUMO_RAIL:-.venv/bin/sumo-rail}
 python=${PYTHON:-.venv/bin/python}
@@ -34,5 +36,10 @@ for design in $designs; do
   $sumo_rail dagger ${overrides[$design]} --demos "$folder/demos.parquet" --rounds "$rounds" \
     --episodes-per-round "$round_episodes" --eval-every 1 --eval-episodes "$eval_episodes" --workers "$workers" \
     --seed 0 --out "$folder/dagger" "${resume[@]}"
+  # shellcheck disable=SC2086
+  [ -f "$folder/validation.parquet" ] || $sumo_rail evaluate ${overrides[$design]} --policy expert \
+    --policy "$folder/dagger/policy_bc.npz" --policy "$folder/dagger/policy_latest.npz" --pool validation \
+    --seed 3000000 --episodes "$final_episodes" --workers "$workers" --out "$folder/validation.parquet" \
+    > "$folder/validation.txt"
 done
 $python experiments/observation_table.py "$out" $designs | tee "$out/table.md"
