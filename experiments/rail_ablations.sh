@@ -3,7 +3,8 @@
 # seeds; every policy is evaluated on validation episodes (to choose train's defaults) and once on test episodes
 # (the published table, experiments/ablation_table.py).
 # Usage: experiments/rail_ablations.sh DEMOS.parquet [OUT_DIR]   (resumable: finished runs are skipped)
-#   (environment: SEEDS, DIRECTIONS, ITERATIONS, VALIDATION_EPISODES, TEST_EPISODES, WORKERS)
+#   (environment: SEEDS, DIRECTIONS, ITERATIONS, VALIDATION_EPISODES, TEST_EPISODES, WORKERS, and OVERRIDES: --set
+#   options matching how DEMOS was recorded, for example "--set observation.lane_block=1")
 set -euo pipefail
 demos=$1
 out=${2:-results/rail_ablations}
@@ -13,6 +14,7 @@ iterations=${ITERATIONS:-15}
 validation_episodes=${VALIDATION_EPISODES:-60}
 test_episodes=${TEST_EPISODES:-100}
 workers=${WORKERS:-2}
+overrides=${OVERRIDES:-}
 sumo_rail=${SUMO_RAIL:-.venv/bin/sumo-rail}
 python=${PYTHON:-.venv/bin/python}
 declare -A variants=(
@@ -29,7 +31,7 @@ for seed in $seeds; do
     run="$out/${variant}_s$seed"
     resume=(); [ -f "$run/checkpoint.pt" ] && resume=(--resume)
     # shellcheck disable=SC2086  # the variant's options are several words on purpose
-    $sumo_rail train --demos "$demos" --policy mlp --directions "$directions" --iterations "$iterations" \
+    $sumo_rail train $overrides --demos "$demos" --policy mlp --directions "$directions" --iterations "$iterations" \
       --eval-every 0 --workers "$workers" --seed "$seed" ${variants[$variant]} --out "$run" "${resume[@]}"
     policies+=(--policy "$run/policy_latest.npz")
   done
@@ -40,9 +42,11 @@ for seed in $seeds; do
     "$out/bcnorm_s$seed/policy_bc.npz"
   policies+=(--policy "$out/bc_s$seed/policy_bc.npz" --policy "$out/bcnorm_s$seed/policy_bc.npz")
 done
-[ -f "$out/validation.parquet" ] || $sumo_rail evaluate "${policies[@]}" --pool validation --seed 2000000 \
+# shellcheck disable=SC2086
+[ -f "$out/validation.parquet" ] || $sumo_rail evaluate $overrides "${policies[@]}" --pool validation --seed 2000000 \
   --episodes "$validation_episodes" --workers "$workers" --out "$out/validation.parquet" > "$out/validation.txt"
-[ -f "$out/test.parquet" ] || $sumo_rail evaluate "${policies[@]}" --seed 1000 --episodes "$test_episodes" \
+# shellcheck disable=SC2086
+[ -f "$out/test.parquet" ] || $sumo_rail evaluate $overrides "${policies[@]}" --seed 1000 --episodes "$test_episodes" \
   --workers "$workers" --out "$out/test.parquet" > "$out/test.txt"
 for split in validation test; do
   $python experiments/ablation_table.py "$out/$split.parquet" | tee "$out/$split.md"
