@@ -1,9 +1,11 @@
 """The tables of experiments/observation_study.sh: per design, BC's held-out accuracy on demonstrations and the
 on-policy agreement with the expert of BC (round 0) and of each DAgger round on validation episodes (point
 estimates on the rounds' few episodes), then the final paired evaluation of BC and DAgger's last policy on the
-same validation episodes, with 95% intervals.
+same validation episodes, with 95% intervals, and each design's difference to the first design's on those episodes
+(pairs are episodes with the same seed and warm state).
 
-Usage: python experiments/observation_table.py OUT_DIR DESIGN [DESIGN ...] (prints Markdown)
+Usage: python experiments/observation_table.py OUT_DIR DESIGN [DESIGN ...] (prints Markdown; writes the agreement
+per round of every design to OUT_DIR/agreement_by_round.png)
 """
 
 from __future__ import annotations
@@ -12,9 +14,21 @@ import sys
 from pathlib import Path
 
 import pandas as pd
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+from matplotlib.ticker import MaxNLocator
 
 from sumo_rail.evaluation.statistics import interval, paired_difference
 from sumo_rail.evaluation.summary import measure_samples
+
+MEASURES = ("agreement", "lane_change_recall", "lane_change_precision")
+
+
+def final_samples(path: Path) -> tuple[dict, dict]:
+    """The per-episode measure samples of BC and of DAgger's last policy in a final evaluation, in seed order."""
+    metrics = pd.read_parquet(path)
+    return tuple(measure_samples(metrics[metrics["policy"].str.endswith(stem)].sort_values("seed"))
+                 for stem in ("/policy_bc", "/policy_latest"))
 
 
 def main(out: Path, designs: list[str]) -> None:
@@ -27,19 +41,40 @@ def main(out: Path, designs: list[str]) -> None:
         size = pd.read_parquet(out / design / "demos.parquet", columns=["observation"])["observation"].iloc[0].size
         cells = [f"{row.eval_agreement:.3f} ({row.eval_lane_change_recall:.2f})" for row in log.itertuples()]
         print(f"| {design} | {size} | {log['bc_holdout_accuracy'].iloc[0]:.3f} | " + " | ".join(cells) + " |")
+    finals = {design: final_samples(out / design / "validation.parquet") for design in designs
+              if (out / design / "validation.parquet").is_file()}
     print("\n| design | measure | BC | DAgger, last round | DAgger - BC (paired) |")
     print("|---|---|---|---|---|")
-    for design in designs:
-        path = out / design / "validation.parquet"
-        if not path.is_file():
-            continue
-        metrics = pd.read_parquet(path)
-        bc, dagger = (measure_samples(metrics[metrics["policy"].str.endswith(stem)].sort_values("seed"))
-                      for stem in ("/policy_bc", "/policy_latest"))
-        for measure in ("agreement", "lane_change_recall", "lane_change_precision"):
+    for design, (bc, dagger) in finals.items():
+        for measure in MEASURES:
             print(f"| {design} | {measure} | {interval(bc[measure]).format(3)} | "
                   f"{interval(dagger[measure]).format(3)} | "
                   f"{paired_difference(dagger[measure], bc[measure]).format(3, signed=True)} |")
+    baseline = designs[0]
+    if baseline in finals:
+        print(f"\n| design | measure | BC - {baseline}'s BC (paired) | DAgger - {baseline}'s DAgger (paired) |")
+        print("|---|---|---|---|")
+        for design, samples in list(finals.items())[1:]:
+            for measure in MEASURES:
+                print(f"| {design} | {measure} | " + " | ".join(
+                    paired_difference(mine[measure], theirs[measure]).format(3, signed=True)
+                    for mine, theirs in zip(samples, finals[baseline], strict=True)) + " |")
+    plot_rounds(logs).savefig(out / "agreement_by_round.png", dpi=120)
+
+
+def plot_rounds(logs: dict[str, pd.DataFrame]) -> Figure:
+    """On-policy agreement (left) and lane-change recall (right) against DAgger round (0: BC), one line a design."""
+    figure = Figure(figsize=(10, 4), layout="constrained")
+    FigureCanvasAgg(figure)
+    for axes, column, label in zip(figure.subplots(1, 2), ("eval_agreement", "eval_lane_change_recall"),
+                                   ("on-policy agreement", "lane-change recall"), strict=True):
+        for design, log in logs.items():
+            axes.plot(range(len(log)), log[column], marker="o", label=design)
+        axes.set(xlabel="DAgger round (0: BC)", ylabel=label, ylim=(0, 1))
+        axes.xaxis.set_major_locator(MaxNLocator(integer=True))
+        axes.grid(alpha=0.3)
+    axes.legend(fontsize="small")
+    return figure
 
 
 if __name__ == "__main__":

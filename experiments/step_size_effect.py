@@ -1,0 +1,44 @@
+"""How much one ARS step size moves a policy: the share of demonstrated states whose decision changes.
+
+For each run folder (made by `sumo-rail train ... --step-size ALPHA --iterations K`), compares the policy after K
+iterations (policy_latest.npz) with the BC policy it started from (policy_bc.npz), on the observations of the
+demonstrations: the share of decisions that differ and the largest parameter change. Prints Markdown.
+
+Usage: python experiments/step_size_effect.py DEMOS.parquet RUN [RUN ...]
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from sumo_rail.drivers.policies import load_policy
+from sumo_rail.runners.tables import read_demonstrations
+
+
+def changed_decisions(run: Path, observations: np.ndarray) -> tuple[float, float]:
+    """(share of observations whose argmax differs after training, largest absolute parameter change)."""
+    start, _ = load_policy(run / "policy_bc.npz")
+    end, _ = load_policy(run / "policy_latest.npz")
+    moved = np.argmax(start.logits(observations), axis=1) != np.argmax(end.logits(observations), axis=1)
+    return float(moved.mean()), float(np.abs(end.parameters - start.parameters).max())
+
+
+def main(demos_path: str, *runs: str) -> None:
+    observations = read_demonstrations(Path(demos_path)).observations
+    print("| step size | directions | iterations | decisions changed | largest parameter change |")
+    print("|---:|---:|---:|---:|---:|")
+    for run in map(Path, runs):
+        settings = json.loads((run / "run.json").read_text())["settings"]["rail"]
+        iterations = len(pd.read_parquet(run / "log.parquet", columns=["iteration"]))
+        share, largest = changed_decisions(run, observations)
+        print(f"| {settings['step_size']} | {settings['directions']} | {iterations} | {share:.2%} "
+              f"| {largest:.1e} |")
+
+
+if __name__ == "__main__":
+    main(*sys.argv[1:])
