@@ -15,6 +15,8 @@ from sumo_rail_cli.options import (
     make_interruptible,
     resolve_config,
     run_folder_options,
+    tensorboard_logger,
+    tensorboard_option,
 )
 
 
@@ -30,10 +32,11 @@ from sumo_rail_cli.options import (
 @click.option("--beta-decay", type=click.FloatRange(0, 1), default=0.5, show_default=True,
               help="beta of round r: beta x beta-decay^(r - 1).")
 @run_folder_options("round", eval_every=1)
+@tensorboard_option
 def dagger_command(config_path: Path | None, overrides: tuple[str, ...], demos: Path, kind: str, hidden: int,
                    bc_epochs: int, bc_class_balance: float, rounds: int, episodes_per_round: int, beta: float,
                    beta_decay: float, workers: int, backend_name: str, address: str | None, seed: int,
-                   eval_every: int, eval_episodes: int, out: Path, resume: bool) -> None:
+                   eval_every: int, eval_episodes: int, out: Path, resume: bool, tensorboard_dir: Path | None) -> None:
     """Learn a driving policy with DAgger: BC on the demonstrations, then rounds in which the expert labels every
     state the policy (mixed with the expert, probability beta) visits, and BC again on all labels so far.
 
@@ -56,6 +59,8 @@ def dagger_command(config_path: Path | None, overrides: tuple[str, ...], demos: 
     bar.unit = "round"
 
     def show(row: dict[str, Any]) -> None:
+        if board is not None:
+            board.log(row)
         bar.update()
         holdout = row["bc_holdout_accuracy"]
         text = (f"round {row['iteration']}: {row['dataset_rows']} labelled states, BC holdout accuracy "
@@ -66,7 +71,7 @@ def dagger_command(config_path: Path | None, overrides: tuple[str, ...], demos: 
         bar.write(text)
 
     make_interruptible()  # Ctrl-C or SIGTERM: the last complete round is kept
-    with library_errors(), backend, bar:
+    with library_errors(), tensorboard_logger(tensorboard_dir, "dagger", out) as board, backend, bar:
         try:
             train_dagger(out, settings, config, rounds, backend, resume, Validation(eval_every, eval_episodes),
                          on_round=show)

@@ -1,4 +1,4 @@
-"""train/gail --tensorboard: every log row's numbers as TensorBoard scalars against cumulative env steps."""
+"""train/gail/dagger --tensorboard: every log row's numbers as TensorBoard scalars against cumulative env steps."""
 
 import sys
 
@@ -58,6 +58,20 @@ def test_gail_logs_each_update_to_tensorboard(demos, tmp_path):
     logged = scalars(board)
     assert [step for step, _ in logged["gail/return_mean"]] == np.cumsum(log["env_steps"]).tolist()
     assert np.allclose([value for _, value in logged["gail/entropy"]], log["entropy"])
+
+
+def test_dagger_logs_each_round_to_tensorboard_and_resume_continues_the_steps(demos, tmp_path):
+    pytest.importorskip("tensorboard", reason="--tensorboard is the optional extra sumo-rail[tensorboard]")
+    run, board = tmp_path / "run", tmp_path / "board"
+    common = ["dagger", *SMALL, "--demos", str(demos), "--episodes-per-round", "1", "--bc-epochs", "1",
+              "--eval-every", "0", "--out", str(run), "--tensorboard", str(board)]
+    assert (result := CliRunner().invoke(cli, [*common, "--rounds", "1"])).exit_code == 0, result.output
+    assert (result := CliRunner().invoke(cli, [*common, "--rounds", "2", "--resume"])).exit_code == 0, result.output
+    log = pd.read_parquet(run / "log.parquet")
+    logged = scalars(board)
+    assert len(log) == 3  # BC, then two rounds
+    assert [step for step, _ in logged["dagger/dataset_rows"]] == np.cumsum(log["env_steps"]).tolist()
+    assert [value for _, value in logged["dagger/dataset_rows"]] == log["dataset_rows"].tolist()
 
 
 def test_logger_skips_non_numbers_and_missing_tensorboard_names_the_extra(tmp_path, monkeypatch):
