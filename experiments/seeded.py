@@ -1,0 +1,67 @@
+"""Methods trained with several seeds, for the experiment tables: drivers are named METHOD_sSEED/POLICY.
+
+A method's sample sums, for every evaluation episode, its seeds' numerators and denominators: the episode (its
+seed and warm traffic state, shared by every method and training seed) stays the unit the bootstrap resamples, and
+the estimate pools the training seeds. That interval is conditional on the seeds trained; the spread between
+training seeds is shown by the per-seed estimates next to it.
+"""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+import pandas as pd
+
+from sumo_rail.evaluation.statistics import Interval, Sample, paired_difference, ratio
+from sumo_rail.evaluation.summary import measure_samples
+
+
+def training_seeds(metrics: pd.DataFrame, method: str) -> list[int]:
+    """The training seeds of `method` found in an evaluation's driver names."""
+    pattern = re.compile(rf"{re.escape(method)}_s(\d+)/")
+    return sorted({int(found.group(1)) for name in metrics["policy"].unique() if (found := pattern.match(name))})
+
+
+def seed_samples(metrics: pd.DataFrame, method: str, seeds: list[int], policy: str | None = None
+                 ) -> list[dict[str, Sample]]:
+    """Each seed's measure samples, episodes in evaluation-seed order (the same order for every driver). The
+    driver is METHOD_sSEED/POLICY, or the one driver in METHOD_sSEED/ without `policy`."""
+    found = []
+    for seed in seeds:
+        folder = f"{method}_s{seed}/"
+        names = [name for name in metrics["policy"].unique()
+                 if (name == folder + policy if policy is not None else name.startswith(folder))]
+        if len(names) != 1:
+            raise ValueError(f"expected one driver {folder}{policy or '...'} in the evaluation, found {names}")
+        found.append(measure_samples(metrics[metrics["policy"] == names[0]].sort_values("seed")))
+    return found
+
+
+def method_sample(per_seed: list[dict[str, Sample]], measure: str) -> Sample:
+    """A measure's sample summed over the training seeds, episode by episode."""
+    return (np.sum([samples[measure][0] for samples in per_seed], axis=0),
+            np.sum([samples[measure][1] for samples in per_seed], axis=0))
+
+
+def per_seed_differences(per_seed: list[dict[str, Sample]], references: list[dict[str, Sample]],
+                         measure: str) -> list[float]:
+    """Point estimates of the difference for each training seed, paired seed by seed."""
+    return [float(ratio(mine[measure]) - ratio(theirs[measure])) for mine, theirs in zip(per_seed, references,
+                                                                                          strict=True)]
+
+
+def difference_cell(per_seed: list[dict[str, Sample]], references: list[dict[str, Sample]], measure: str,
+                    digits: int) -> str:
+    """'+0.12 [+0.05, +0.20] higher (per seed +0.10, +0.15, +0.11)'."""
+    found = paired_difference(method_sample(per_seed, measure), method_sample(references, measure))
+    seeds = ", ".join(f"{value:+.{digits}f}" for value in per_seed_differences(per_seed, references, measure))
+    return f"{found.format(digits, signed=True)} {verdict(found)} (per seed {seeds})"
+
+
+def verdict(found: Interval) -> str:
+    return "higher" if found.low > 0 else "lower" if found.high < 0 else "no detectable difference"
+
+
+def digits_of(measure: str) -> int:
+    return 3 if "agreement" in measure or "lane_change_" in measure else 2
