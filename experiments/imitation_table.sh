@@ -1,27 +1,58 @@
 #!/usr/bin/env bash
-# The paper's table: the expert, BC, RAIL (two-layer and linear) and GAIL on the same 16 held-out seeds.
-# Usage: experiments/imitation_table.sh [OUT_DIR]
-#   (environment: ITERATIONS, DIRECTIONS, STEP_SIZE, WORKERS, GAIL_TIMESTEPS)
+# The benchmark (issue 15): the expert, BC, RAIL (two-layer and linear), DAgger and GAIL, each trained with several
+# seeds in the benchmark's observation setting (docs/results.md, "What the learner can see"), every policy evaluated
+# on the same held-out test episodes; experiments/benchmark_table.py makes the tables.
+# Usage: experiments/imitation_table.sh [OUT_DIR]   (resumable: finished runs and evaluations are skipped, RAIL and
+#   DAgger runs resume)
+#   (environment: SEEDS, DEMOS_EPISODES, DIRECTIONS, ITERATIONS, DAGGER_ROUNDS, ROUND_EPISODES, GAIL (1 or 0),
+#   TEST_EPISODES, WORKERS, OVERRIDES: --set options of the setting, default the lane-wise block; "" for the paper's)
 set -euo pipefail
 out=${1:-results/imitation_table}
-iterations=${ITERATIONS:-40}
+seeds=${SEEDS:-0 1 2}
+demos_episodes=${DEMOS_EPISODES:-200}
 directions=${DIRECTIONS:-32}
-step_size=${STEP_SIZE:-0.02}
+iterations=${ITERATIONS:-40}
+dagger_rounds=${DAGGER_ROUNDS:-5}
+round_episodes=${ROUND_EPISODES:-20}
+gail=${GAIL:-1}
+test_episodes=${TEST_EPISODES:-250}
 workers=${WORKERS:-2}
-gail_timesteps=${GAIL_TIMESTEPS:-100000}
+overrides=${OVERRIDES---set observation.lane_block=1}
 sumo_rail=${SUMO_RAIL:-.venv/bin/sumo-rail}
+python=${PYTHON:-.venv/bin/python}
+demos="$out/demos.parquet"
 mkdir -p "$out"
-[ -f "$out/demos.parquet" ] || $sumo_rail record-expert --episodes 200 --seed 0 --workers "$workers" --out "$out/demos.parquet"
-for kind in mlp linear; do
-  resume=(); [ -f "$out/rail_$kind/checkpoint.pt" ] && resume=(--resume)
-  $sumo_rail train --demos "$out/demos.parquet" --policy "$kind" --directions "$directions" --top $((directions / 2)) \
-    --step-size "$step_size" --iterations "$iterations" --eval-every 5 --workers "$workers" --seed 0 \
-    --out "$out/rail_$kind" "${resume[@]}"
+# shellcheck disable=SC2086  # the overrides are several words on purpose
+[ -f "$demos" ] || $sumo_rail record-expert $overrides --episodes "$demos_episodes" --seed 0 --workers "$workers" \
+  --out "$demos"
+for seed in $seeds; do
+  policies=(--policy expert)
+  for kind in mlp linear; do
+    run="$out/rail_${kind}_s$seed"
+    resume=(); [ -f "$run/checkpoint.pt" ] && resume=(--resume)
+    # shellcheck disable=SC2086
+    $sumo_rail train $overrides --demos "$demos" --policy "$kind" --directions "$directions" \
+      --iterations "$iterations" --eval-every 10 --workers "$workers" --seed "$seed" --out "$run" "${resume[@]}"
+    mkdir -p "$out/bc_${kind}_s$seed"  # BC as its own driver name, bc_KIND_sSEED/policy_bc
+    cp "$run/policy_bc.npz" "$out/bc_${kind}_s$seed/policy_bc.npz"
+    policies+=(--policy "$out/bc_${kind}_s$seed/policy_bc.npz" --policy "$run/policy_latest.npz")
+  done
+  resume=(); [ -f "$out/dagger_s$seed/checkpoint.json" ] && resume=(--resume)
+  # shellcheck disable=SC2086
+  $sumo_rail dagger $overrides --demos "$demos" --rounds "$dagger_rounds" --episodes-per-round "$round_episodes" \
+    --eval-every 0 --workers "$workers" --seed "$seed" --out "$out/dagger_s$seed" "${resume[@]}"
+  policies+=(--policy "$out/dagger_s$seed/policy_latest.npz")
+  if [ "$gail" = 1 ]; then
+    # GAIL gets the decisions RAIL two-layer used with the same seed
+    budget=$($python -c "import pandas as pd, sys; print(int(pd.read_parquet(sys.argv[1])['env_steps'].sum()))" \
+      "$out/rail_mlp_s$seed/log.parquet")
+    # shellcheck disable=SC2086
+    [ -f "$out/gail_s$seed/policy_latest.npz" ] || $sumo_rail gail $overrides --demos "$demos" --policy mlp \
+      --timesteps "$budget" --envs "$workers" --seed "$seed" --out "$out/gail_s$seed"
+    policies+=(--policy "$out/gail_s$seed/policy_latest.npz" --sample-policy "$out/gail_s$seed/policy_latest.npz")
+  fi
+  # shellcheck disable=SC2086
+  [ -f "$out/test_s$seed.parquet" ] || $sumo_rail evaluate $overrides "${policies[@]}" --seed 1000 \
+    --episodes "$test_episodes" --workers "$workers" --out "$out/test_s$seed.parquet" > "$out/test_s$seed.txt"
 done
-[ -f "$out/gail_mlp/policy_latest.npz" ] || $sumo_rail gail --demos "$out/demos.parquet" --policy mlp \
-  --timesteps "$gail_timesteps" --envs "$workers" --seed 0 --out "$out/gail_mlp"
-$sumo_rail evaluate --policy expert --policy "$out/rail_mlp/policy_bc.npz" --policy "$out/rail_mlp/policy_latest.npz" \
-  --policy "$out/rail_linear/policy_bc.npz" --policy "$out/rail_linear/policy_latest.npz" \
-  --policy "$out/gail_mlp/policy_latest.npz" \
-  --episodes 16 --seed 1000 --workers "$workers" --out "$out/evaluation.parquet" --overwrite | tee "$out/table.txt"
-$sumo_rail report "$out/rail_mlp" "$out/rail_linear" "$out/gail_mlp" "$out/evaluation.parquet" --out "$out/report"
+$python experiments/benchmark_table.py "$out" | tee "$out/table.md"

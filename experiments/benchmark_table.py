@@ -1,0 +1,104 @@
+"""The benchmark's tables (experiments/imitation_table.sh): every method pooled over its training seeds on the
+same test episodes, its difference to the expert, the paired differences between methods, the training budget
+and the distribution distances to the expert. Seeds are pooled as experiments/seeded.py says. Prints Markdown.
+
+Usage: python experiments/benchmark_table.py OUT_DIR   (reads OUT_DIR/test_sSEED.parquet and the run folders)
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import pandas as pd
+from seeded import difference_cell, digits_of, method_sample, seed_samples, training_seeds
+
+from sumo_rail.datasets import read_metadata
+from sumo_rail.evaluation.evaluate import decisions_path
+from sumo_rail.evaluation.statistics import interval, ratio
+from sumo_rail.evaluation.summary import distance_summary, measure_samples
+
+EXPERT = "expert-normal"
+METHODS = {  # key: (label, run folder stem, policy in it)
+    "bc_mlp": ("BC, two-layer", "bc_mlp", "policy_bc"),
+    "rail_mlp": ("RAIL, two-layer", "rail_mlp", "policy_latest"),
+    "bc_linear": ("BC, linear", "bc_linear", "policy_bc"),
+    "rail_linear": ("RAIL, linear", "rail_linear", "policy_latest"),
+    "dagger": ("DAgger, two-layer", "dagger", "policy_latest"),
+    "gail": ("GAIL, two-layer, argmax", "gail", "policy_latest"),
+    "gail_sampled": ("GAIL, two-layer, sampled", "gail", "policy_latest (sampled)"),
+}
+COMPARISONS = (("rail_mlp", "bc_mlp"), ("rail_linear", "bc_linear"), ("rail_mlp", "dagger"), ("rail_mlp", "gail"),
+               ("rail_mlp", "gail_sampled"), ("dagger", "bc_mlp"))
+MEASURES = ("agreement", "lane_change_recall", "lane_change_precision", "lateral_agreement", "longitudinal_agreement",
+            "average_speed_kmh", "overtakes", "lane_changes", "collisions")
+
+
+def read_evaluations(out: Path) -> tuple[pd.DataFrame, pd.DataFrame, int]:
+    """All test_sSEED evaluations as one metrics table (the expert once), their per-decision records, and the
+    scenario's lane count."""
+    paths = sorted(out.glob("test_s*.parquet"))
+    paths = [path for path in paths if not path.name.endswith(".decisions.parquet")]
+    if not paths:
+        raise SystemExit(f"no evaluation test_sSEED.parquet in {out} yet")
+    metrics = [pd.read_parquet(path) for path in paths]
+    decisions = [pd.read_parquet(decisions_path(path)) for path in paths]
+    lanes = int(read_metadata(paths[0])["config"]["scenario"]["lanes"])
+    keep_expert = [True] + [False] * (len(paths) - 1)
+    return (pd.concat([frame[(frame["policy"] != EXPERT) | keep] for frame, keep in zip(metrics, keep_expert,
+                                                                                          strict=True)]),
+            pd.concat([frame[(frame["policy"] != EXPERT) | keep] for frame, keep in zip(decisions, keep_expert,
+                                                                                          strict=True)]),
+            lanes)
+
+
+def budget(out: Path, stem: str, seeds: list[int]) -> str:
+    """Mean environment decisions and wall time [min] of a method's training runs (BC: none beyond the demos)."""
+    logs = [out / f"{stem}_s{seed}" / "log.parquet" for seed in seeds]
+    if not all(log.is_file() for log in logs):
+        return "0 | 0"
+    frames = [pd.read_parquet(log, columns=["env_steps", "wall_time_s"]) for log in logs]
+    steps = sum(frame["env_steps"].sum() for frame in frames) / len(frames)
+    minutes = sum(frame["wall_time_s"].sum() for frame in frames) / len(frames) / 60
+    return f"{steps:,.0f} | {minutes:.1f}"
+
+
+def main(out: Path) -> None:
+    metrics, decisions, lanes = read_evaluations(out)
+    expert = measure_samples(metrics[metrics["policy"] == EXPERT].sort_values("seed"))
+    found = {}
+    for key, (_, stem, policy) in METHODS.items():
+        seeds = training_seeds(metrics, stem)
+        if seeds:
+            found[key] = (seeds, seed_samples(metrics, stem, seeds, policy))
+    episodes = int((metrics["policy"] == EXPERT).sum())
+    print(f"{episodes} test episodes; cells: value [95% interval] pooled over the training seeds (seeds in "
+          f"brackets), then the paired difference on the same episodes with a verdict and each seed's own.\n")
+    print("| method (seeds) | measure | value | minus the expert |")
+    print("|---|---|---|---|")
+    for measure in MEASURES:
+        print(f"| expert | {measure} | {interval(expert[measure]).format(digits_of(measure))} | - |")
+    for key, (seeds, samples) in found.items():
+        for measure in MEASURES:
+            digits = digits_of(measure)
+            value = interval(method_sample(samples, measure)).format(digits)
+            per_seed = ", ".join(f"{ratio(sample[measure]):.{digits}f}" for sample in samples)
+            print(f"| {METHODS[key][0]} ({seeds}) | {measure} | {value} (per seed {per_seed}) | "
+                  f"{difference_cell(samples, [expert] * len(samples), measure, digits)} |")
+    print("\n| comparison | measure | paired difference |")
+    print("|---|---|---|")
+    for candidate, reference in COMPARISONS:
+        if candidate not in found or reference not in found or found[candidate][0] != found[reference][0]:
+            continue
+        for measure in MEASURES:
+            cell = difference_cell(found[candidate][1], found[reference][1], measure, digits_of(measure))
+            print(f"| {METHODS[candidate][0]} - {METHODS[reference][0]} | {measure} | {cell} |")
+    print("\n| method | environment decisions in training (mean over seeds) | training wall time [min] |")
+    print("|---|---:|---:|")
+    for key, (seeds, _) in found.items():
+        print(f"| {METHODS[key][0]} | {budget(out, METHODS[key][1], seeds)} |")
+    print("\n```\n" + distance_summary(decisions, EXPERT, lanes) + "\n```")
+
+
+if __name__ == "__main__":
+    main(Path(sys.argv[1]))
