@@ -13,9 +13,7 @@ from __future__ import annotations
 import sys
 
 import pandas as pd
-from seeded import difference_cell, digits_of, method_sample, seed_samples, training_seeds
-
-from sumo_rail.evaluation.statistics import interval
+from seeded import difference_cell, digits_of, seed_samples, training_seeds, value_cell
 
 MEASURES = ("agreement", "lane_change_recall", "lane_change_precision", "average_speed_kmh", "overtakes",
             "lane_changes", "collisions")
@@ -30,14 +28,14 @@ def main(path: str) -> None:
     seeds = training_seeds(metrics, "crn")
     samples = {variant: seed_samples(metrics, variant, seeds) for variant in VARIANTS}
     episodes = metrics.groupby("policy").size().max()
-    print(f"{episodes} episodes per policy; training seeds {seeds}; cells: value [95% interval] pooled over the "
-          f"seeds; differences pair each seed's policy with the same seed's reference on the same episodes.\n")
+    print(f"{episodes} episodes per policy; training seeds {seeds}; cells: value [95% interval] over training "
+          f"runs and episodes (experiments/seeded.py), each run's own estimate in brackets.\n")
     print("| variant | measure | value | minus BC | minus RAIL, independent traffic |")
     print("|---|---|---|---|---|")
     for variant in VARIANTS:
         for measure in MEASURES:
             digits = digits_of(measure)
-            cells = [interval(method_sample(samples[variant], measure)).format(digits)]
+            cells = [value_cell(samples[variant], measure, digits)]
             cells += ["-" if reference == variant else
                       difference_cell(samples[variant], samples[reference], measure, digits)
                       for reference in ("bc", "independent")]

@@ -11,11 +11,11 @@ import sys
 from pathlib import Path
 
 import pandas as pd
-from seeded import difference_cell, digits_of, method_sample, seed_samples, training_seeds
+from seeded import difference_cell, digits_of, seed_samples, training_seeds, value_cell
 
 from sumo_rail.datasets import read_metadata
 from sumo_rail.evaluation.evaluate import decisions_path
-from sumo_rail.evaluation.statistics import interval, ratio
+from sumo_rail.evaluation.statistics import interval
 from sumo_rail.evaluation.summary import distance_summary, measure_samples
 
 EXPERT = "expert-normal"
@@ -72,8 +72,8 @@ def main(out: Path) -> None:
         if seeds:
             found[key] = (seeds, seed_samples(metrics, stem, seeds, policy))
     episodes = int((metrics["policy"] == EXPERT).sum())
-    print(f"{episodes} test episodes; cells: value [95% interval] pooled over the training seeds (seeds in "
-          f"brackets), then the paired difference on the same episodes with a verdict and each seed's own.\n")
+    print(f"{episodes} test episodes; cells: value [95% interval] over training runs and episodes "
+          f"(experiments/seeded.py), each run's own estimate in brackets; differences paired by run and episode.\n")
     print("| method (seeds) | measure | value | minus the expert |")
     print("|---|---|---|---|")
     for measure in MEASURES:
@@ -81,9 +81,7 @@ def main(out: Path) -> None:
     for key, (seeds, samples) in found.items():
         for measure in MEASURES:
             digits = digits_of(measure)
-            value = interval(method_sample(samples, measure)).format(digits)
-            per_seed = ", ".join(f"{ratio(sample[measure]):.{digits}f}" for sample in samples)
-            print(f"| {METHODS[key][0]} ({seeds}) | {measure} | {value} (per seed {per_seed}) | "
+            print(f"| {METHODS[key][0]} ({seeds}) | {measure} | {value_cell(samples, measure, digits)} | "
                   f"{difference_cell(samples, [expert] * len(samples), measure, digits)} |")
     print("\n| comparison | measure | paired difference |")
     print("|---|---|---|")

@@ -1,19 +1,18 @@
 """Methods trained with several seeds, for the experiment tables: drivers are named METHOD_sSEED/POLICY.
 
-A method's sample sums, for every evaluation episode, its seeds' numerators and denominators: the episode (its
-seed and warm traffic state, shared by every method and training seed) stays the unit the bootstrap resamples, and
-the estimate pools the training seeds. That interval is conditional on the seeds trained; the spread between
-training seeds is shown by the per-seed estimates next to it.
+A method's estimate pools its training runs' episodes; its interval resamples the training runs and the evaluation
+episodes together (`seeded_interval`), so it holds both the spread between training runs and the traffic's. A
+difference pairs runs seed by seed (RAIL seed s started from BC seed s) and episodes by their seed and warm state,
+which every driver shares. Each run's own estimate is shown next to it.
 """
 
 from __future__ import annotations
 
 import re
 
-import numpy as np
 import pandas as pd
 
-from sumo_rail.evaluation.statistics import Interval, Sample, paired_difference, ratio
+from sumo_rail.evaluation.statistics import Interval, Sample, ratio, seeded_interval
 from sumo_rail.evaluation.summary import measure_samples
 
 
@@ -38,10 +37,11 @@ def seed_samples(metrics: pd.DataFrame, method: str, seeds: list[int], policy: s
     return found
 
 
-def method_sample(per_seed: list[dict[str, Sample]], measure: str) -> Sample:
-    """A measure's sample summed over the training seeds, episode by episode."""
-    return (np.sum([samples[measure][0] for samples in per_seed], axis=0),
-            np.sum([samples[measure][1] for samples in per_seed], axis=0))
+def value_cell(per_seed: list[dict[str, Sample]], measure: str, digits: int) -> str:
+    """'0.52 [0.40, 0.61] (per seed 0.50, 0.55, 0.51)'."""
+    seeds = ", ".join(f"{ratio(samples[measure]):.{digits}f}" for samples in per_seed)
+    found = seeded_interval([samples[measure] for samples in per_seed])
+    return f"{found.format(digits)} (per seed {seeds})"
 
 
 def per_seed_differences(per_seed: list[dict[str, Sample]], references: list[dict[str, Sample]],
@@ -54,7 +54,7 @@ def per_seed_differences(per_seed: list[dict[str, Sample]], references: list[dic
 def difference_cell(per_seed: list[dict[str, Sample]], references: list[dict[str, Sample]], measure: str,
                     digits: int) -> str:
     """'+0.12 [+0.05, +0.20] higher (per seed +0.10, +0.15, +0.11)'."""
-    found = paired_difference(method_sample(per_seed, measure), method_sample(references, measure))
+    found = seeded_interval([samples[measure] for samples in per_seed], [samples[measure] for samples in references])
     seeds = ", ".join(f"{value:+.{digits}f}" for value in per_seed_differences(per_seed, references, measure))
     return f"{found.format(digits, signed=True)} {verdict(found)} (per seed {seeds})"
 

@@ -4,7 +4,9 @@ seeded so the same input gives the same interval).
 Every estimate is a ratio of sums over episodes, sum(numerator) / sum(denominator): a plain mean has a
 denominator of ones, and a rate such as agreement pools decisions over episodes (agreements / decisions), so an
 episode weighs by its decisions. Paired estimates resample seeds, keeping each seed's episodes of every driver
-together, so traffic shared by two drivers cancels out of their difference.
+together, so traffic shared by two drivers cancels out of their difference. A method trained with several seeds
+(`seeded_interval`) is resampled over its training seeds and the evaluation episodes together, so the interval
+also holds the spread between training runs.
 """
 
 from __future__ import annotations
@@ -73,6 +75,36 @@ def closeness_difference(sample: Sample, other: Sample, target: Sample, seed: in
     is closer to `target` than `other` is."""
     return _bootstrap([sample, other, target],
                       lambda a, b, t: np.abs(ratio(a) - ratio(t)) - np.abs(ratio(b) - ratio(t)), seed)
+
+
+def seeded_interval(sample: Sequence[Sample], reference: Sequence[Sample] | None = None,
+                    seed: int = 0) -> Interval:
+    """A method's pooled ratio over its training runs (`sample`, one Sample per training seed, every run on the
+    same episodes), or its difference to `reference` (paired run by run, e.g. RAIL seed s against the BC it started
+    from, and episode by episode). Two-level bootstrap: each resample draws the training runs with replacement and
+    the episodes with replacement, the same draws for both sides; percentile interval."""
+    groups = [sample] if reference is None else [sample, reference]
+    stacked = [np.asarray([part[i] for part in group], dtype=float) for group in groups for i in (0, 1)]
+    if len({array.shape for array in stacked}) != 1 or stacked[0].ndim != 2:
+        raise ValueError(f"paired training runs must have the same numbers of runs and episodes, got "
+                         f"{sorted({array.shape for array in stacked})}")
+
+    def statistic(*arrays: np.ndarray) -> np.ndarray:
+        rates = [arrays[i].sum(axis=(-2, -1)) / arrays[i + 1].sum(axis=(-2, -1)) for i in range(0, len(arrays), 2)]
+        return rates[0] - rates[1] if len(rates) == 2 else rates[0]
+
+    with np.errstate(invalid="ignore", divide="ignore"):
+        estimate = float(statistic(*stacked))
+        runs, episodes = stacked[0].shape
+        if episodes < 2 or np.isnan(estimate):
+            return Interval(estimate, np.nan, np.nan)
+        rng = np.random.default_rng(seed)
+        run_draws = rng.integers(runs, size=(RESAMPLES, runs))[:, :, None]
+        episode_draws = rng.integers(episodes, size=(RESAMPLES, episodes))[:, None, :]
+        resampled = statistic(*(array[run_draws, episode_draws] for array in stacked))
+    tail = 50 * (1 - CONFIDENCE)
+    low, high = np.nanpercentile(resampled, [tail, 100 - tail])
+    return Interval(estimate, float(low), float(high))
 
 
 def _bootstrap(samples: Sequence[Sample], statistic: Callable[..., np.ndarray], seed: int) -> Interval:

@@ -8,6 +8,7 @@ from sumo_rail.evaluation.statistics import (
     mean_sample,
     paired_difference,
     ratio,
+    seeded_interval,
 )
 
 
@@ -44,6 +45,30 @@ def test_closeness_difference_says_which_is_closer_to_the_target():
     near, far = target + rng.normal(0.1, 0.2, 100), target + rng.normal(1.5, 0.2, 100)
     assert closeness_difference(mean_sample(near), mean_sample(far), mean_sample(target)).high < 0
     assert closeness_difference(mean_sample(far), mean_sample(near), mean_sample(target)).low > 0
+
+
+def test_seeded_interval_holds_the_spread_between_training_runs():
+    rng = np.random.default_rng(5)
+    traffic = rng.normal(100.0, 10.0, 80)
+    # three training runs of one method whose means differ by far more than the episodes' noise after pairing
+    runs = [mean_sample(traffic + offset + rng.normal(0, 0.1, 80)) for offset in (0.0, 2.0, 4.0)]
+    reference = [mean_sample(traffic + rng.normal(0, 0.1, 80))] * 3
+    found = seeded_interval(runs, reference, seed=1)
+    assert found == seeded_interval(runs, reference, seed=1)
+    assert found.estimate == pytest.approx(2.0, abs=0.05)
+    assert found.low < 0.5 and found.high > 3.5  # the runs' spread, 0 to 4, not the episodes' 0.1
+    pooled = paired_difference(mean_sample(np.concatenate([r[0] for r in runs])),
+                               mean_sample(np.concatenate([r[0] for r in reference])))
+    assert pooled.high - pooled.low < (found.high - found.low) / 3  # episodes alone would claim far more certainty
+    # with one run it is the episode bootstrap: close to the paired interval
+    one = seeded_interval(runs[:1], reference[:1])
+    episodes_only = paired_difference(runs[0], reference[0])
+    assert one.estimate == pytest.approx(episodes_only.estimate)
+    assert one.high - one.low == pytest.approx(episodes_only.high - episodes_only.low, rel=0.25)
+    alone = seeded_interval(runs)
+    assert alone.estimate == pytest.approx(np.mean([r[0] for r in runs]))
+    with pytest.raises(ValueError, match="same numbers of runs and episodes"):
+        seeded_interval(runs, reference[:2])
 
 
 def test_degenerate_samples():
