@@ -60,6 +60,10 @@ def record_expert(config_path: Path | None, overrides: tuple[str, ...], episodes
 @click.option("--policy", "policies", multiple=True, default=("expert",), show_default=True,
               metavar="expert[:STYLE]|keep|random|PATH",
               help="Driver to evaluate (repeatable: drivers side by side on the same seeds).")
+@click.option("--sample-policy", "sampled_policies", multiple=True, type=click.Path(path_type=Path), metavar="PATH",
+              help="Policy file evaluated by sampling each action from the softmax of its logits (named 'NAME "
+                   "(sampled)'; repeatable; after the --policy drivers), with a generator seeded by the episode's "
+                   "seed.")
 @click.option("--style", type=_STYLE, default=DEFAULT_STYLE, show_default=True,
               help="Style of --policy expert (expert:STYLE picks one per driver).")
 @click.option("--reference", default=None, metavar="NAME",
@@ -84,10 +88,11 @@ def record_expert(config_path: Path | None, overrides: tuple[str, ...], episodes
 @click.option("--video-episodes", type=click.IntRange(min=1), default=None, metavar="K",
               help="With --video: episodes recorded per driver  [default: 1].")
 @output_options(required=False)
-def evaluate_command(config_path: Path | None, overrides: tuple[str, ...], policies: tuple[str, ...], style: str,
-                     reference: str | None, reference_style: str, pool: str, episodes: int, seed: int, workers: int,
-                     backend_name: str, address: str | None, gui: bool, gui_delay_ms: float | None,
-                     video_dir: Path | None, video_episodes: int | None, out: Path | None, overwrite: bool) -> None:
+def evaluate_command(config_path: Path | None, overrides: tuple[str, ...], policies: tuple[str, ...],
+                     sampled_policies: tuple[Path, ...], style: str, reference: str | None, reference_style: str,
+                     pool: str, episodes: int, seed: int, workers: int, backend_name: str, address: str | None,
+                     gui: bool, gui_delay_ms: float | None, video_dir: Path | None, video_episodes: int | None,
+                     out: Path | None, overwrite: bool) -> None:
     """Evaluate drivers on held-out episodes and compare them with the expert and with each other.
 
     Prints each measure's mean with its 95% interval (on-policy agreement with the expert first, then the paper's
@@ -102,7 +107,14 @@ def evaluate_command(config_path: Path | None, overrides: tuple[str, ...], polic
     if video_episodes is not None and video_dir is None:
         raise click.UsageError("--video-episodes needs --video DIR")
     from sumo_rail.drivers.policies import PolicyFileError
-    from sumo_rail.evaluation.evaluate import decisions_path, evaluate, parse_driver, unique_names, write_evaluation
+    from sumo_rail.evaluation.evaluate import (
+        decisions_path,
+        evaluate,
+        parse_driver,
+        parse_policy,
+        unique_names,
+        write_evaluation,
+    )
     from sumo_rail.evaluation.summary import distance_summary, summary_table
     from sumo_rail.runners.backends import SerialBackend
     from sumo_rail.seeding import Purpose, episode_seeds
@@ -118,6 +130,10 @@ def evaluate_command(config_path: Path | None, overrides: tuple[str, ...], polic
             raise click.ClickException(str(error)) from error
         except ValueError as error:
             raise click.BadParameter(str(error), param_hint="'--policy'") from error
+    try:
+        drivers += [parse_policy(path, config, sampled=True) for path in sampled_policies]
+    except PolicyFileError as error:
+        raise click.ClickException(str(error)) from error
     if gui:
         drivers, episodes = drivers[:1], 1
     names = unique_names(drivers)
@@ -133,7 +149,8 @@ def evaluate_command(config_path: Path | None, overrides: tuple[str, ...], polic
                               on_episode=lambda index, result: bar.update(),
                               video_episodes=(video_episodes or 1) if video_dir is not None else 0)
         if out is not None:
-            write_evaluation(evaluation, config, seed, out, policies=list(policies), episode_seeds=seeds,
+            write_evaluation(evaluation, config, seed, out, policies=list(policies),
+                             sampled_policies=[str(path) for path in sampled_policies], episode_seeds=seeds,
                              reference_style=reference_style, pool=pool)
         written_videos = _write_videos(evaluation.videos, video_dir)
     click.echo(summary_table(evaluation.metrics, reference))

@@ -20,6 +20,7 @@ from sumo_rail_cli.options import (
 
 if TYPE_CHECKING:
     from sumo_rail.learning.bc import BcReport
+    from sumo_rail.learning.gail import GailResult, GailSettings
 
 
 @click.command("gail")
@@ -33,18 +34,25 @@ if TYPE_CHECKING:
               help="PPO decisions per env and update.")
 @click.option("--learning-rate", type=click.FloatRange(min=0, min_open=True), default=3e-4, show_default=True,
               help="PPO's Adam step size.")
+@click.option("--normalize-reward/--no-normalize-reward", default=True, show_default=True,
+              help="Divide PPO's rewards by the running std of the discounted return and clip them to +-10 "
+                   "(Stable-Baselines3's VecNormalize), so a collision's padding cannot swamp the critic.")
+@click.option("--critic-warmup", type=click.IntRange(min=0), default=5, show_default=True, metavar="K",
+              help="First K updates with the actor frozen, only the critic learning (they count in --timesteps).")
 @click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True)
 @click.option("--out", type=click.Path(path_type=Path, file_okay=False), required=True,
               help="Run folder (new or empty).")
 @tensorboard_option
 def gail_command(config_path: Path | None, overrides: tuple[str, ...], demos: Path, timesteps: int, kind: str,
                  hidden: int, bc_epochs: int, bc_class_balance: float, envs: int, n_steps: int, learning_rate: float,
-                 seed: int, out: Path, tensorboard_dir: Path | None) -> None:
+                 normalize_reward: bool, critic_warmup: int, seed: int, out: Path,
+                 tensorboard_dir: Path | None) -> None:
     """Train the GAIL baseline: PPO (Stable-Baselines3) on RAIL's discriminator reward, with RAIL's actor.
 
-    Writes run.json, policy_bc.npz, policy_latest.npz (after every update; evaluate it with evaluate --policy)
-    and log.parquet (one row per update, plotted by report). Ctrl-C or SIGTERM stops after the current update
-    with its files complete; a GAIL run cannot be resumed. Needs pip install 'sumo-rail[baselines]'.
+    Writes run.json, policy_bc.npz, policy_latest.npz (after every update; evaluate it with evaluate --policy, by
+    argmax, and --sample-policy, by sampling) and log.parquet (one row per update, plotted by report). Ctrl-C or
+    SIGTERM stops after the current update with its files complete; a GAIL run cannot be resumed. Needs pip
+    install 'sumo-rail[baselines]'.
     """
     config = resolve_config(config_path, overrides)
     from sumo_rail.learning.discriminator import DiscriminatorSettings
@@ -54,7 +62,8 @@ def gail_command(config_path: Path | None, overrides: tuple[str, ...], demos: Pa
     try:
         settings = GailSettings(str(demos), timesteps=timesteps, kind=kind, hidden=hidden, bc_epochs=bc_epochs,
                                 bc_class_balance=bc_class_balance, envs=envs, n_steps=n_steps,
-                                learning_rate=learning_rate, seed=seed, discriminator=DiscriminatorSettings(seed=seed))
+                                learning_rate=learning_rate, normalize_reward=normalize_reward,
+                                critic_warmup=critic_warmup, seed=seed, discriminator=DiscriminatorSettings(seed=seed))
     except ValueError as error:
         raise click.UsageError(str(error)) from error
     bar = episode_progress(settings.updates * settings.steps_per_update, "GAIL")
@@ -80,5 +89,13 @@ def gail_command(config_path: Path | None, overrides: tuple[str, ...], demos: Pa
     if result.interrupted:
         raise click.ClickException(f"interrupted after {result.updates} updates; {out / 'policy_latest.npz'} holds the "
                                    f"last one's policy (a GAIL run cannot be resumed)")
-    click.echo(f"trained {result.updates} PPO updates ({result.timesteps} timesteps); policy in "
-               f"{out / 'policy_latest.npz'}")
+    click.echo(f"trained {result.updates} PPO updates ({result.timesteps} timesteps{_warmup_note(settings, result)}); "
+               f"policy in {out / 'policy_latest.npz'}")
+
+
+def _warmup_note(settings: GailSettings, result: GailResult) -> str:
+    """How many of the updates done only trained the critic, when any did."""
+    frozen = min(settings.critic_warmup, result.updates)
+    if frozen == result.updates:
+        return f"; the actor frozen in all {frozen} for the critic's warm-up, so the policy is the initial one"
+    return f"; the actor frozen in the first {frozen} for the critic's warm-up" if frozen else ""

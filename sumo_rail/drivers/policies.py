@@ -59,7 +59,8 @@ class PolicyShape:
 
 
 class Policy:
-    """A deterministic policy: `act(observation)` is the argmax of the logits of the normalised observation."""
+    """A policy on the logits of the normalised observation: `act(observation)` is their argmax (deterministic),
+    `sample(observation, rng)` draws from their softmax (the stochastic policy PPO trains)."""
 
     def __init__(self, shape: PolicyShape, parameters: np.ndarray, observation_mean: np.ndarray | None = None,
                  observation_std: np.ndarray | None = None) -> None:
@@ -91,6 +92,16 @@ class Policy:
     def act(self, observation: np.ndarray) -> int:
         """The action with the highest logit (ties: the lowest action index)."""
         return int(np.argmax(self.logits(observation)))
+
+    def probabilities(self, observations: np.ndarray) -> np.ndarray:
+        """Softmax of the logits, for one observation (shape (a,)) or a batch (shape (B, a))."""
+        logits = self.logits(observations)
+        exponentials = np.exp(logits - logits.max(axis=-1, keepdims=True))
+        return exponentials / exponentials.sum(axis=-1, keepdims=True)
+
+    def sample(self, observation: np.ndarray, rng: np.random.Generator) -> int:
+        """An action drawn from the softmax of the logits with `rng` (one uniform number per call)."""
+        return int(rng.choice(self.shape.actions, p=self.probabilities(observation)))
 
     def __getstate__(self) -> dict[str, Any]:
         return {"shape": self.shape, "parameters": self.parameters, "mean": self.observation_mean,

@@ -26,7 +26,7 @@ from sumo_rail.sim.observation import observation_names
 
 
 def parse_driver(text: str, config: Config, default_style: str) -> DriverSpec:
-    """'expert', 'expert:STYLE', 'keep', 'random', or the path of a saved policy file (named by `policy_name`)."""
+    """'expert', 'expert:STYLE', 'keep', 'random', or the path of a saved policy file (`parse_policy`)."""
     name, _, style = text.partition(":")
     if name == "expert":
         style = style or default_style
@@ -37,16 +37,27 @@ def parse_driver(text: str, config: Config, default_style: str) -> DriverSpec:
         return KeepDriver()
     if text == "random":
         return RandomDriver()
-    policy, metadata = load_policy(Path(text))
+    return parse_policy(Path(text), config)
+
+
+def parse_policy(path: Path, config: Config, sampled: bool = False) -> PolicyDriver:
+    """The saved policy file at `path` as a driver named by `policy_name`; `sampled`: it draws its actions from the
+    softmax of its logits instead of taking their argmax, and its name ends in " (sampled)"."""
+    policy, metadata = load_policy(path)
     expected = observation_names(config)
     if policy.shape.observation_size != len(expected):
-        raise PolicyFileError(f"policy {text} expects {policy.shape.observation_size} observations, the "
+        raise PolicyFileError(f"policy {path} expects {policy.shape.observation_size} observations, the "
                               f"environment gives {len(expected)}")
     stored = metadata.get("observation_names")
     if stored is not None and list(stored) != expected:
-        raise PolicyFileError(f"policy {text} was trained on a different observation layout than this environment's")
+        raise PolicyFileError(f"policy {path} was trained on a different observation layout than this environment's")
     style = metadata.get("expert_style")
-    return PolicyDriver(policy, name=policy_name(Path(text)), expert_style=style if style in STYLES else None)
+    name = policy_name(path) + (SAMPLED_SUFFIX if sampled else "")
+    return PolicyDriver(policy, name, expert_style=style if style in STYLES else None, sampled=sampled)
+
+
+SAMPLED_SUFFIX = " (sampled)"
+"""Ends the table name of a policy evaluated by sampling."""
 
 
 def policy_name(path: Path) -> str:

@@ -12,6 +12,22 @@ lowest reward to its final step, so ending early never pays. After every PPO upd
 the discriminator takes its LS-GAN steps on the expert's pairs and that rollout's pairs, as RAIL does once per
 iteration. Stable-Baselines3 is imported only by the functions that need it (`require_stable_baselines3`).
 
+Two choices make PPO as strong as it fairly can be; each can be switched off (`GailSettings`) to measure it:
+- Reward normalisation (`normalize_reward`, on by default): Stable-Baselines3's VecNormalize for rewards only
+  (`normalised_rewards`) divides each reward by the running std of the discounted return and clips it to
+  +-REWARD_CLIP. A collision's padding is up to (horizon - 1) x the lowest reward (about -6.9 nats x 599 at the
+  defaults), thousands of times a decision's reward; unscaled, its value targets dominate the critic's squared
+  loss and, through the advantages, PPO's step, so one crash outweighs every decision's imitation signal. RAIL's
+  ARS divides its step by the std of its returns (sigma_R), so this gives PPO the analogous scaling (its standard
+  practice), not an advantage over RAIL. The observations keep their fixed normalisation (a running one would
+  move under the BC-initialised actor).
+- Critic warm-up (`critic_warmup`, 5 updates by default): the first updates freeze the actor
+  (`set_actor_trainable`) and train only the value network. PPO's critic starts untrained; the advantages it
+  gives in the first updates are noise that would walk the BC-initialised actor away from BC before the reward
+  is known. Warm-up decisions count in `timesteps` (and the discriminator trains after them as after every
+  update); the log says which updates had the actor frozen. The actor's parameters stay bit for bit, Adam keeps
+  no state for them, so its first real step is an ordinary first step.
+
 Reproducible: env k's first episode has the Purpose.TRAIN seed of episode k from base seed x envs, later ones
 follow from its `np_random`; PPO, BC and the discriminator are seeded and torch runs on one thread, so the same
 settings give the same policy bit for bit (for the same number of envs).
@@ -23,8 +39,10 @@ EOFError; the folder keeps the last complete update. The log has one row per
 update with RAIL's column names: iteration, env_steps (of this update), return_mean / _max / _std (per-decision
 discriminator return, `rail.rollout_return`, of the episodes that ended in the rollout, or of its decisions when
 none did), discriminator_loss, discriminator_accuracy, collisions, wall_time_s; and episodes (ended in the
-rollout) and entropy (PPO's mean policy entropy [nats]). SIGINT / SIGTERM stop the run after the current
-update; there is no resume.
+rollout), entropy (PPO's mean policy entropy [nats]), actor_frozen (a critic warm-up update) and reward_std (what
+PPO's rewards were divided by at the update's end; 1 without normalisation). SIGINT / SIGTERM stop the run after
+the current update; there is no resume. `sumo-rail evaluate` takes the policy's argmax (`--policy`, as RAIL's)
+or samples from its softmax, the policy PPO trains (`--sample-policy`).
 """
 
 from __future__ import annotations
@@ -70,6 +88,8 @@ if TYPE_CHECKING:
 INSTALL_HINT = "the GAIL baseline needs Stable-Baselines3: pip install 'sumo-rail[baselines]'"
 CRITIC_LAYERS = (64, 64)
 """Hidden tanh units of PPO's value network (separate from the actor)."""
+REWARD_CLIP = 10.0
+"""Bound on PPO's normalised rewards (Stable-Baselines3's VecNormalize default)."""
 
 
 class BaselineError(RuntimeError):
@@ -101,6 +121,11 @@ class GailSettings:
     """PPO passes over each rollout."""
     gamma: float = 0.99
     """Discount per decision."""
+    normalize_reward: bool = True
+    """Divide PPO's rewards by the running std of the discounted return and clip them (`normalised_rewards`)."""
+    critic_warmup: int = 5
+    """First updates with the actor frozen: only the critic learns (`set_actor_trainable`); they count in
+    `timesteps`."""
     seed: int = 0
     discriminator: DiscriminatorSettings = field(default_factory=DiscriminatorSettings)
 
@@ -111,6 +136,8 @@ class GailSettings:
         if self.bc_epochs < 0 or self.ppo_epochs < 1 or self.learning_rate <= 0 or not 0 < self.gamma <= 1:
             raise ValueError(f"GAIL needs bc_epochs >= 0, ppo_epochs >= 1, learning_rate > 0 and 0 < gamma <= 1, "
                              f"got {self.bc_epochs}, {self.ppo_epochs}, {self.learning_rate} and {self.gamma}")
+        if self.critic_warmup < 0:
+            raise ValueError(f"GAIL needs critic_warmup >= 0, got {self.critic_warmup}")
 
     @property
     def steps_per_update(self) -> int:
@@ -166,6 +193,13 @@ def load_into_ppo(policy: Policy, ppo_policy: ActorCriticPolicy) -> None:
         for source, target in zip(sources, targets, strict=True):
             target.weight.copy_(source.weight)
             target.bias.copy_(source.bias)
+
+
+def set_actor_trainable(ppo_policy: ActorCriticPolicy, trainable: bool) -> None:
+    """Let PPO's updates move the actor or freeze it: a frozen parameter gets no gradient, so Adam leaves it and its
+    moments untouched while the critic (and its optimizer state) learns."""
+    for layer in _actor_linears(ppo_policy):
+        layer.requires_grad_(trainable)
 
 
 def ppo_to_policy(ppo_policy: ActorCriticPolicy, shape: PolicyShape, normalisation: FixedNormalisation) -> Policy:
@@ -279,6 +313,21 @@ def labelled_vec_env(config: Config, envs: int, seed: int, labeller: RewardLabel
     return LabelledVecEnv(SubprocVecEnv(factories, start_method="spawn"))
 
 
+def normalised_rewards(venv: VecEnv, gamma: float) -> VecEnv:
+    """`venv` with each reward divided by the running std of the envs' discounted returns (discount `gamma`, reset
+    at episode ends) and clipped to +-REWARD_CLIP: Stable-Baselines3's VecNormalize for rewards only (the
+    observations are already normalised by fixed statistics and pass unchanged)."""
+    from stable_baselines3.common.vec_env import VecNormalize
+
+    return VecNormalize(venv, norm_obs=False, norm_reward=True, clip_reward=REWARD_CLIP, gamma=gamma)
+
+
+def reward_std(model: PPO) -> float:
+    """What PPO's rewards are divided by now: the running std of the discounted return (1 without normalisation)."""
+    normaliser = model.get_vec_normalize_env()
+    return 1.0 if normaliser is None else float(np.sqrt(normaliser.ret_rms.var + normaliser.epsilon))
+
+
 def build_ppo(venv: VecEnv, shape: PolicyShape, settings: GailSettings) -> PPO:
     """PPO with the actor of `shape`, seeded with `settings.seed`, on the CPU."""
     from stable_baselines3 import PPO
@@ -323,6 +372,8 @@ def train_gail(folder: Path, settings: GailSettings, config: Config,
         with tempfile.TemporaryDirectory(prefix="sumo-rail-gail-") as errors:
             try:
                 venv = labelled_vec_env(config, settings.envs, settings.seed, labeller, normalisation, Path(errors))
+                if settings.normalize_reward:
+                    venv = normalised_rewards(venv, settings.gamma)
                 model = build_ppo(venv, shape, settings)
                 if initial is not None:
                     load_into_ppo(initial, model.policy)
@@ -359,6 +410,8 @@ def _updates(folder: Path, settings: GailSettings, shape: PolicyShape, model: PP
     with _stop_requests() as stop:
         for update in range(settings.updates):
             started = time.perf_counter()
+            frozen = update < settings.critic_warmup
+            set_actor_trainable(model.policy, not frozen)
             model.learn(settings.steps_per_update, reset_num_timesteps=False)
             rollout = labeller.take()
             report = labeller.discriminator.train(demos.observations, demos.actions, rollout.observations,
@@ -369,6 +422,7 @@ def _updates(folder: Path, settings: GailSettings, shape: PolicyShape, model: PP
                    "discriminator_loss": report.loss, "discriminator_accuracy": report.accuracy,
                    "collisions": rollout.collisions, "episodes": len(rollout.returns),
                    "entropy": -float(model.logger.name_to_value["train/entropy_loss"]),
+                   "actor_frozen": frozen, "reward_std": reward_std(model),
                    "wall_time_s": time.perf_counter() - started}
             try:
                 with written_together(folder) as staged:  # both or neither: a full disk keeps the last update's

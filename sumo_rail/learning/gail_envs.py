@@ -75,7 +75,7 @@ LOST_ENV = (EOFError, BrokenPipeError, ConnectionResetError)
 
 def lost_env_message(venv: VecEnv | None, error_dir: Path, folder: Path, updates: int) -> str:
     """One sentence: which environment process ended and how, and what the run folder holds."""
-    processes = list(getattr(getattr(venv, "venv", None), "processes", []))
+    processes = list(getattr(venv.unwrapped, "processes", [])) if venv is not None else []
     deadline = time.monotonic() + 2.0
     while processes and all(process.exitcode is None for process in processes) and time.monotonic() < deadline:
         time.sleep(0.05)
@@ -101,7 +101,7 @@ def close_envs(venv: VecEnv, lost: bool) -> None:
     if not lost:
         venv.close()
         return
-    inner = getattr(venv, "venv", venv)
+    inner = venv.unwrapped
     for process in getattr(inner, "processes", []):
         if process.is_alive():
             process.terminate()

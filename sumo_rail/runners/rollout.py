@@ -15,6 +15,7 @@ import numpy as np
 from sumo_rail.config import Config
 from sumo_rail.drivers.expert import DEFAULT_STYLE, make_expert
 from sumo_rail.drivers.policies import Policy
+from sumo_rail.seeding import driver_generator
 from sumo_rail.sim.actions import Action
 from sumo_rail.sim.env import HighwayEnv
 from sumo_rail.sim.traffic import TrafficView
@@ -76,14 +77,19 @@ class ExpertDriver:
 
 @dataclass(frozen=True)
 class PolicyDriver:
-    """A learned policy: argmax of its logits on the observation."""
+    """A learned policy: the argmax of its logits on the observation, or with `sampled` an action drawn from their
+    softmax by the episode's `driver_generator`."""
 
     policy: Policy
     name: str
     expert_style: str | None = None
     """Style of the expert whose demonstrations trained the policy, when its file records it."""
+    sampled: bool = False
 
     def create(self, config: Config, seed: int) -> Driver:
+        if self.sampled:
+            sample, rng = self.policy.sample, driver_generator(seed)
+            return lambda observation, traffic: sample(observation, rng)
         act = self.policy.act
         return lambda observation, traffic: act(observation)
 

@@ -99,3 +99,26 @@ def test_inconsistent_policy_file_is_refused(tmp_path):
     np.savez(path, **fields)
     with pytest.raises(PolicyFileError, match="inconsistent"):
         load_policy(path)
+
+
+def policy_with_biases(biases: list[float]) -> Policy:
+    shape = PolicyShape("linear", N)
+    parameters = np.zeros(shape.parameter_count, dtype=np.float32)
+    parameters[5 * N:] = biases
+    return Policy(shape, parameters)
+
+
+def test_sampling_draws_from_the_softmax_of_the_logits():
+    strong, flat = policy_with_biases([0, 0, 8, 0, 0]), policy_with_biases([0] * 5)
+    observation = np.zeros(N)
+    np.testing.assert_allclose(strong.probabilities(observation), np.exp([0, 0, 8, 0, 0]) / (4 + np.exp(8)))
+    np.testing.assert_allclose(strong.probabilities(np.zeros((3, N))).sum(axis=1), 1.0)
+    rng = np.random.default_rng(0)
+    strong_actions = np.bincount([strong.sample(observation, rng) for _ in range(2000)], minlength=5)
+    flat_actions = np.bincount([flat.sample(observation, rng) for _ in range(2000)], minlength=5)
+    assert strong_actions[2] > 1980 and strong.act(observation) == 2
+    assert (flat_actions > 300).all()  # every action, about 400 times each
+    first = [strong.sample(observation, np.random.default_rng(5)) for _ in range(3)]
+    draws = [[flat.sample(observation, generator) for _ in range(50)]
+             for generator in (np.random.default_rng(5), np.random.default_rng(5), np.random.default_rng(6))]
+    assert first == [2, 2, 2] and draws[0] == draws[1] != draws[2]

@@ -2,12 +2,14 @@
 import json
 import sys
 
+import gymnasium as gym
 import numpy as np
 import pandas as pd
 import pytest
 import torch
 from gymnasium import spaces
 from stable_baselines3.common.policies import ActorCriticPolicy
+from stable_baselines3.common.vec_env import DummyVecEnv
 from test_cli import SMALL, invoke
 from test_training import demos_path, small_config_module  # noqa: F401 (fixtures)
 
@@ -17,12 +19,16 @@ from sumo_rail.learning.bc import BcSettings, behaviour_cloning
 from sumo_rail.learning.discriminator import Discriminator, DiscriminatorSettings
 from sumo_rail.learning.gail import (
     INSTALL_HINT,
+    REWARD_CLIP,
     FixedNormalisation,
     GailSettings,
     RewardLabeller,
+    build_ppo,
     load_into_ppo,
+    normalised_rewards,
     policy_kwargs,
     ppo_to_policy,
+    set_actor_trainable,
     train_gail,
 )
 from sumo_rail.learning.normalize import RunningStats
@@ -96,20 +102,82 @@ def test_a_collision_pays_the_missing_decisions_at_the_lowest_reward(demos):
     assert labeller.take().returns.size == 0  # episodes restart after an end; each take starts afresh
 
 
+class ToyEnv(gym.Env):
+    """Random observations and rewards in [-1, 1]; episodes of `length` decisions, the last one adding `final`."""
+
+    observation_space = spaces.Box(-np.inf, np.inf, (56,), np.float32)
+    action_space = spaces.Discrete(5)
+
+    def __init__(self, seed: int, length: int = 25, final: float = 0.0) -> None:
+        self.rng, self.length, self.final, self.decisions = np.random.default_rng(seed), length, final, 0
+
+    def reset(self, *, seed=None, options=None):
+        self.decisions = 0
+        return self.rng.normal(size=56).astype(np.float32), {}
+
+    def step(self, action):
+        self.decisions += 1
+        done = self.decisions == self.length
+        reward = self.rng.uniform(-1, 1) + (self.final if done else 0.0)
+        return self.rng.normal(size=56).astype(np.float32), float(reward), done, False, {}
+
+
+def test_normalised_rewards_are_divided_by_the_discounted_return_std_and_clipped():
+    venv = normalised_rewards(DummyVecEnv([lambda: ToyEnv(0, length=80, final=-5000.0), lambda: ToyEnv(1)]), 0.9)
+    venv.reset()
+    returns, history, clipped = np.zeros(2), [], []
+    for _ in range(120):
+        observations, rewards, dones, _ = venv.step(np.zeros(2, dtype=np.int64))
+        raw = venv.get_original_reward()
+        assert np.array_equal(observations, venv.get_original_obs())  # observations pass unchanged
+        returns = returns * 0.9 + raw
+        history += returns.tolist()
+        if len(history) > 40:  # past Stable-Baselines3's prior (variance 1 with weight 1e-4)
+            np.testing.assert_allclose(rewards, np.clip(raw / np.std(history), -REWARD_CLIP, REWARD_CLIP), rtol=1e-3)
+        clipped += [reward for reward, original in zip(rewards, raw, strict=True) if original < -1000]
+        returns[dones] = 0
+    assert clipped == [-REWARD_CLIP]  # the padded final decision: -5000 / std would be about -12
+
+
+def test_a_frozen_actor_stays_bit_identical_while_the_critic_learns(demos):
+    shape = PolicyShape("mlp", 56, hidden=10)
+    bc, _ = behaviour_cloning(demos, shape, BcSettings(epochs=1, seed=1))
+    normalisation = FixedNormalisation(bc.observation_mean, bc.observation_std)
+    settings = GailSettings("unused", n_steps=64, envs=1, batch_size=32, ppo_epochs=2, seed=0)
+    model = build_ppo(DummyVecEnv([lambda: ToyEnv(2)]), shape, settings)
+    load_into_ppo(bc, model.policy)
+    critic = [*model.policy.mlp_extractor.value_net.parameters(), *model.policy.value_net.parameters()]
+    before = [parameter.detach().clone() for parameter in critic]
+    set_actor_trainable(model.policy, False)
+    model.learn(128)  # two updates
+    assert np.array_equal(ppo_to_policy(model.policy, shape, normalisation).parameters, bc.parameters)
+    assert all(not torch.equal(old, new) for old, new in zip(before, critic, strict=True))
+    set_actor_trainable(model.policy, True)
+    model.learn(64, reset_num_timesteps=False)
+    assert not np.array_equal(ppo_to_policy(model.policy, shape, normalisation).parameters, bc.parameters)
+
+
 def tiny_settings(demos_path) -> GailSettings:
-    return GailSettings(str(demos_path), timesteps=256, n_steps=64, envs=2, bc_epochs=2, seed=3,
+    return GailSettings(str(demos_path), timesteps=256, n_steps=64, envs=2, bc_epochs=2, critic_warmup=1, seed=3,
                         discriminator=DiscriminatorSettings(seed=3, steps_per_iteration=2))
 
 
 @pytest.fixture(scope="module")
 def runs(tmp_path_factory, demos_path, small_config_module):
+    """Two identical runs of two updates (the first a critic warm-up); the first run's policy after each update."""
     folders = [tmp_path_factory.mktemp("gail") / name for name in ("a", "b")]
-    results = [train_gail(folder, tiny_settings(demos_path), small_config_module) for folder in folders]
-    return folders, results
+    snapshots = []
+
+    def snapshot(row):
+        snapshots.append(load_policy(folders[0] / "policy_latest.npz")[0].parameters)
+
+    results = [train_gail(folder, tiny_settings(demos_path), small_config_module,
+                          on_update=snapshot if folder == folders[0] else None) for folder in folders]
+    return folders, results, snapshots
 
 
 def test_the_same_seed_gives_the_same_policy_bit_for_bit(runs):
-    (a, b), results = runs
+    (a, b), results, _ = runs
     assert all(result.updates == 2 and result.timesteps == 256 and not result.interrupted for result in results)
     first, _ = load_policy(a / "policy_latest.npz")
     second, _ = load_policy(b / "policy_latest.npz")
@@ -131,10 +199,20 @@ def test_the_run_folder_is_read_by_report_and_evaluate(runs, demos_path):
     assert read_metadata(folder / "log.parquet")["kind"] == "training_log"
     record = json.loads((folder / "run.json").read_text())
     assert record["settings"]["demos"] == str(demos_path) and record["kind"] == "gail_run"
+    assert record["settings"]["normalize_reward"] is True and record["settings"]["critic_warmup"] == 1
     assert read_run(folder, "gail").kind == "mlp (10 hidden)"
     result = invoke("evaluate", *SMALL, "--policy", str(folder / "policy_latest.npz"), "--episodes", "1")
     assert result.exit_code == 0, result.output
     assert "policy_latest" in result.output
+
+
+def test_the_critic_warms_up_before_the_actor_moves(runs):
+    (folder, _), _, snapshots = runs
+    bc, _ = load_policy(folder / "policy_bc.npz")
+    log = pd.read_parquet(folder / "log.parquet")
+    assert log["actor_frozen"].tolist() == [True, False]
+    assert np.array_equal(snapshots[0], bc.parameters) and not np.array_equal(snapshots[1], bc.parameters)
+    assert (log["reward_std"] > 0).all() and (log["reward_std"] != 1.0).all()  # normalised: the running std
 
 
 def test_missing_stable_baselines3_is_a_one_line_hint(monkeypatch, tmp_path):
@@ -152,3 +230,19 @@ def test_gail_refuses_a_non_empty_out_and_bad_sizes(tmp_path, demos_path):
     assert [path.name for path in (tmp_path / "run").iterdir()] == ["precious.txt"]
     result = invoke("gail", "--demos", str(demos_path), "--envs", "1", "--n-steps", "1", "--out", str(tmp_path / "x"))
     assert result.exit_code == 2 and "n_steps x envs >= 2" in result.output
+    result = invoke("gail", "--demos", str(demos_path), "--critic-warmup", "-1", "--out", str(tmp_path / "x"))
+    assert result.exit_code == 2 and "--critic-warmup" in result.output and "Traceback" not in result.output
+
+
+def test_gail_without_reward_normalisation_and_a_warmup_longer_than_the_run(tmp_path, demos_path):
+    run = tmp_path / "run"
+    result = invoke("gail", *SMALL, "--demos", str(demos_path), "--timesteps", "64", "--envs", "1", "--n-steps",
+                    "64", "--bc-epochs", "1", "--no-normalize-reward", "--out", str(run))
+    assert result.exit_code == 0, result.output
+    assert "actor frozen in all 1" in result.output and "the policy is the initial one" in result.output
+    settings = json.loads((run / "run.json").read_text())["settings"]
+    assert settings["normalize_reward"] is False and settings["critic_warmup"] == 5
+    log = pd.read_parquet(run / "log.parquet")
+    assert log["reward_std"].tolist() == [1.0] and log["actor_frozen"].tolist() == [True]
+    latest, bc = load_policy(run / "policy_latest.npz")[0], load_policy(run / "policy_bc.npz")[0]
+    assert np.array_equal(latest.parameters, bc.parameters)

@@ -1,0 +1,51 @@
+"""evaluate --sample-policy: a policy file evaluated by sampling from its softmax, seeded per episode."""
+
+import numpy as np
+import pandas as pd
+from test_cli import SMALL, hand_made_policy, invoke
+
+from sumo_rail.datasets import read_metadata
+from sumo_rail.drivers.policies import Policy, PolicyShape
+from sumo_rail.runners.rollout import PolicyDriver
+from sumo_rail.seeding import driver_generator
+
+
+def test_a_sampled_driver_repeats_itself_per_seed_and_draws_apart_from_the_env():
+    shape = PolicyShape("linear", 4)
+    driver = PolicyDriver(Policy(shape, np.zeros(shape.parameter_count)), "flat", sampled=True)
+    observation = np.zeros(4)
+
+    def actions(seed: int) -> list[int]:
+        act = driver.create(None, seed)
+        return [act(observation, None) for _ in range(40)]
+
+    assert actions(7) == actions(7) != actions(8)
+    assert not np.array_equal(driver_generator(7).random(8), np.random.default_rng(7).random(8))  # env's stream
+    assert set(actions(7)) == set(range(5))
+    argmax = PolicyDriver(driver.policy, "flat").create(None, 7)
+    assert {argmax(observation, None) for _ in range(40)} == {0}
+
+
+def test_sampled_evaluation_is_the_same_for_any_worker_count_and_differs_from_argmax(tmp_path):
+    policy = hand_made_policy(tmp_path / "mostly_keep.npz", action=0)  # logits 1 vs 0: argmax keeps, softmax 40%
+    outs = [tmp_path / "m1.parquet", tmp_path / "m2.parquet"]
+    for out, workers in zip(outs, ("1", "2"), strict=True):
+        result = invoke("evaluate", *SMALL, "--policy", str(policy), "--sample-policy", str(policy), "--episodes",
+                        "2", "--seed", "1000", "--workers", workers, "--out", str(out))
+        assert result.exit_code == 0, result.output
+        assert "mostly_keep (sampled)" in result.output
+    frames = [pd.read_parquet(out) for out in outs]
+    pd.testing.assert_frame_equal(frames[0], frames[1])
+    pd.testing.assert_frame_equal(*(pd.read_parquet(out.with_suffix(".decisions.parquet")) for out in outs))
+    assert frames[0]["policy"].tolist() == ["mostly_keep"] * 2 + ["mostly_keep (sampled)"] * 2
+    assert read_metadata(outs[0])["sampled_policies"] == [str(policy)]
+    decisions = pd.read_parquet(outs[0].with_suffix(".decisions.parquet"))
+    argmax = decisions[decisions["policy"] == "mostly_keep"]["action"]
+    sampled = decisions[decisions["policy"] == "mostly_keep (sampled)"]["action"]
+    assert (argmax == 0).all()
+    assert 0.25 < (sampled == 0).mean() < 0.55 and set(sampled) == set(range(5))
+
+
+def test_a_bad_sampled_policy_file_is_one_sentence(tmp_path):
+    result = invoke("evaluate", *SMALL, "--sample-policy", str(tmp_path / "missing.npz"))
+    assert result.exit_code == 1 and "does not exist" in result.output and "Traceback" not in result.output
