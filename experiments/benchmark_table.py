@@ -14,7 +14,7 @@ import pandas as pd
 from seeded import difference_cell, digits_of, seed_samples, training_seeds, value_cell
 
 from sumo_rail.datasets import read_metadata
-from sumo_rail.evaluation.evaluate import decisions_path
+from sumo_rail.evaluation.evaluate import SAMPLED_SUFFIX, decisions_path
 from sumo_rail.evaluation.statistics import interval
 from sumo_rail.evaluation.summary import distance_summary, measure_samples
 
@@ -26,7 +26,7 @@ METHODS = {  # key: (label, run folder stem, policy in it)
     "rail_linear": ("RAIL, linear", "rail_linear", "policy_latest"),
     "dagger": ("DAgger, two-layer", "dagger", "policy_latest"),
     "gail": ("GAIL, two-layer, argmax", "gail", "policy_latest"),
-    "gail_sampled": ("GAIL, two-layer, sampled", "gail", "policy_latest (sampled)"),
+    "gail_sampled": ("GAIL, two-layer, sampled", "gail", f"policy_latest{SAMPLED_SUFFIX}"),
 }
 COMPARISONS = (("rail_mlp", "bc_mlp"), ("rail_linear", "bc_linear"), ("rail_mlp", "dagger"), ("rail_mlp", "gail"),
                ("rail_mlp", "gail_sampled"), ("dagger", "bc_mlp"))
