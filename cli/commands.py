@@ -220,8 +220,8 @@ def _write_videos(videos: dict[str, bytes], video_dir: Path | None) -> list[str]
                    "independent: each direction its own.")
 @click.option("--episodes-per-rollout", type=click.IntRange(min=1), default=1, show_default=True,
               help="Episodes each perturbed rollout drives (its return is their mean).")
-@click.option("--freeze-normalizer", is_flag=True,
-              help="Keep BC's observation statistics instead of merging every rollout's states.")
+@click.option("--freeze-normalizer/--merge-normalizer", default=False, show_default=True,
+              help="Keep BC's observation statistics, or merge every rollout's states into them (the paper's).")
 @click.option("--disc-hidden", type=click.IntRange(min=1), default=64, show_default=True,
               help="Discriminator units per hidden layer.")
 @click.option("--disc-lr", type=click.FloatRange(min=0, min_open=True), default=3e-4, show_default=True,

@@ -17,10 +17,11 @@ from seeded import difference_cell, digits_of, seed_samples, training_seeds, val
 
 MEASURES = ("agreement", "lane_change_recall", "lane_change_precision", "average_speed_kmh", "overtakes",
             "lane_changes", "collisions")
-VARIANTS = ("bc", "bcnorm", "independent", "crn", "frozen", "v2", "disc5")
+VARIANTS = ("bc", "bcnorm", "independent", "indfrozen", "crn", "frozen", "v2", "disc5")
 LABELS = {"bc": "BC", "bcnorm": "BC weights, RAIL's final normaliser", "independent": "RAIL, independent traffic",
-          "crn": "RAIL, common traffic (default)", "frozen": "RAIL, common traffic, frozen normaliser",
-          "v2": "RAIL, common traffic, V2 (all directions)", "disc5": "RAIL, common traffic, discriminator x5"}
+          "indfrozen": "RAIL, independent traffic, frozen normaliser", "crn": "RAIL, common traffic",
+          "frozen": "RAIL, common traffic, frozen normaliser", "v2": "RAIL, common traffic, V2 (all directions)",
+          "disc5": "RAIL, common traffic, discriminator x5"}
 
 
 def main(path: str) -> None:

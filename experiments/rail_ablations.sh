@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# RAIL ablations (issue 14): each variant changes one thing against the default RAIL run, for several training
+# RAIL ablations (issue 14): each variant changes one thing against another, for several training
 # seeds; every policy is evaluated on validation episodes (to choose train's defaults) and once on test episodes
 # (the published table, experiments/ablation_table.py).
 # Usage: experiments/rail_ablations.sh DEMOS.parquet [OUT_DIR]   (resumable: finished runs are skipped)
@@ -17,17 +17,18 @@ workers=${WORKERS:-2}
 overrides=${OVERRIDES:-}
 sumo_rail=${SUMO_RAIL:-.venv/bin/sumo-rail}
 python=${PYTHON:-.venv/bin/python}
-declare -A variants=(
-  [crn]=""                                          # the defaults: common traffic, top N/2, merged normaliser
-  [independent]="--traffic independent"             # RAIL as first implemented: each direction its own traffic
-  [frozen]="--freeze-normalizer"                    # the normaliser stays BC's
-  [v2]="--top $directions"                          # ARS V2: every direction in the update
-  [disc5]="--disc-steps 50"                         # five times the discriminator steps
+declare -A variants=(  # each says its traffic and normaliser, whatever train's defaults are; b = N / 2 unless said
+  [crn]="--traffic common --merge-normalizer"  # common random numbers
+  [independent]="--traffic independent --merge-normalizer"  # RAIL as first implemented
+  [frozen]="--traffic common --freeze-normalizer"  # the normaliser stays BC's
+  [v2]="--traffic common --merge-normalizer --top $directions"  # ARS V2: every direction
+  [disc5]="--traffic common --merge-normalizer --disc-steps 50"  # discriminator x5
+  [indfrozen]="--traffic independent --freeze-normalizer"  # independent and frozen
 )
 mkdir -p "$out"
 policies=(--policy expert)
 for seed in $seeds; do
-  for variant in crn independent frozen v2 disc5; do
+  for variant in crn independent frozen v2 disc5 indfrozen; do
     run="$out/${variant}_s$seed"
     resume=(); [ -f "$run/checkpoint.pt" ] && resume=(--resume)
     # shellcheck disable=SC2086  # the variant's options are several words on purpose
