@@ -215,12 +215,12 @@ def _write_videos(videos: dict[str, bytes], video_dir: Path | None) -> list[str]
               help="tau, added to nu at each check without improvement.")
 @click.option("--noise-every", type=click.IntRange(min=1), default=10, show_default=True,
               help="eta, iterations between noise checks.")
-@click.option("--traffic", type=click.Choice(["common", "independent"]), default="common", show_default=True,
+@click.option("--traffic", type=click.Choice(["common", "independent"]), default="independent", show_default=True,
               help="common: every direction of an iteration drives the same episodes (common random numbers); "
                    "independent: each direction its own.")
 @click.option("--episodes-per-rollout", type=click.IntRange(min=1), default=1, show_default=True,
               help="Episodes each perturbed rollout drives (its return is their mean).")
-@click.option("--freeze-normalizer/--merge-normalizer", default=False, show_default=True,
+@click.option("--freeze-normalizer/--merge-normalizer", default=True, show_default=True,
               help="Keep BC's observation statistics, or merge every rollout's states into them (the paper's).")
 @click.option("--disc-hidden", type=click.IntRange(min=1), default=64, show_default=True,
               help="Discriminator units per hidden layer.")

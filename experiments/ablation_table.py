@@ -3,7 +3,8 @@
 Drivers are named VARIANT_sSEED/policy_* (one per variant and training seed). For each variant and measure: its
 value pooled over the training seeds, and its paired difference to BC and to `independent` (RAIL as first
 implemented) on the same episodes, with a verdict and each seed's own difference (experiments/seeded.py says how
-seeds are pooled). Prints Markdown.
+seeds are pooled); then each single choice, the two variants that differ only in it against each other. Prints
+Markdown.
 
 Usage: python experiments/ablation_table.py METRICS.parquet
 """
@@ -23,6 +24,17 @@ LABELS = {"bc": "BC", "bcnorm": "BC weights, RAIL's final normaliser", "independ
           "frozen": "RAIL, common traffic, frozen normaliser", "v2": "RAIL, common traffic, V2 (all directions)",
           "disc5": "RAIL, common traffic, discriminator x5"}
 
+CHOICES = (  # (what the choice is, variant with it, variant without it)
+    ("frozen normaliser, with independent traffic", "indfrozen", "independent"),
+    ("frozen normaliser, with common traffic", "frozen", "crn"),
+    ("common traffic, with merged normaliser", "crn", "independent"),
+    ("common traffic, with frozen normaliser", "frozen", "indfrozen"),
+    ("V2 (all N directions) against V2-t (top N / 2)", "v2", "crn"),
+    ("discriminator steps x5", "disc5", "crn"),
+    ("RAIL's final normaliser under BC's weights (no search)", "bcnorm", "bc"),
+)
+CHOICE_MEASURES = ("agreement", "lane_change_recall", "average_speed_kmh", "overtakes", "lane_changes")
+
 
 def main(path: str) -> None:
     metrics = pd.read_parquet(path)
@@ -41,6 +53,11 @@ def main(path: str) -> None:
                       difference_cell(samples[variant], samples[reference], measure, digits)
                       for reference in ("bc", "independent")]
             print(f"| {LABELS[variant]} | {measure} | " + " | ".join(cells) + " |")
+    print("\n| choice | " + " | ".join(CHOICE_MEASURES) + " |")
+    print("|---|" + "---|" * len(CHOICE_MEASURES))
+    for label, with_it, without in CHOICES:
+        print(f"| {label} | " + " | ".join(difference_cell(samples[with_it], samples[without], measure,
+                                                            digits_of(measure)) for measure in CHOICE_MEASURES) + " |")
 
 
 if __name__ == "__main__":

@@ -53,12 +53,15 @@ class RailSettings:
     noise: NoiseAdaptation = field(default_factory=NoiseAdaptation)
     """nu_init 0.03, tau 0.001, eta."""
     seed: int = 0
-    common_traffic: bool = True
-    """All directions and signs of an iteration drive the same episode seeds (common random numbers)."""
+    common_traffic: bool = False
+    """All directions and signs of an iteration drive the same episode seeds (common random numbers); the default,
+    each direction its own (both signs share them), imitates better on validation episodes (docs/results.md, "RAIL
+    ablations")."""
     episodes_per_rollout: int = 1
     """Episodes each rollout drives; its return is their mean."""
-    freeze_normalizer: bool = False
-    """Keep the observation statistics the run started with (BC's) instead of merging every rollout's states."""
+    freeze_normalizer: bool = True
+    """Keep the observation statistics the run started with (BC's) instead of merging every rollout's states, as
+    the paper does (best on validation episodes with independent traffic, docs/results.md, "RAIL ablations")."""
 
     def __post_init__(self) -> None:
         if self.directions < 1:

@@ -51,13 +51,13 @@ def iterate(settings: RailSettings) -> tuple[FakeBackend, TrainingState, Trainin
 
 
 def test_common_traffic_drives_every_direction_on_the_same_episodes():
-    backend, _, _ = iterate(RailSettings(directions=4, episodes_per_rollout=2))
+    backend, _, _ = iterate(RailSettings(directions=4, episodes_per_rollout=2, common_traffic=True))
     seeds = {task.episode_seeds for task in backend.tasks}
     assert len(backend.tasks) == 8 and len(seeds) == 1 and len(next(iter(seeds))) == 2
 
 
 def test_independent_traffic_gives_each_direction_its_own_episodes_for_both_signs():
-    backend, _, _ = iterate(RailSettings(directions=4, common_traffic=False))
+    backend, _, _ = iterate(RailSettings(directions=4))  # the default
     by_direction = {}
     for task in backend.tasks:
         by_direction.setdefault(task.index, set()).add(task.episode_seeds)
@@ -66,8 +66,8 @@ def test_independent_traffic_gives_each_direction_its_own_episodes_for_both_sign
 
 
 def test_frozen_normalizer_keeps_the_starting_statistics():
-    _, start, frozen = iterate(RailSettings(directions=2, freeze_normalizer=True))
-    _, _, merged = iterate(RailSettings(directions=2))
+    _, start, frozen = iterate(RailSettings(directions=2))  # the default
+    _, _, merged = iterate(RailSettings(directions=2, freeze_normalizer=False))
     assert frozen.stats.count == start.stats.count and np.array_equal(frozen.stats.mean, start.stats.mean)
     assert merged.stats.count > start.stats.count
     assert not np.array_equal(frozen.parameters, start.parameters)  # the search itself still moves
