@@ -20,7 +20,8 @@ from sumo_rail.sim.actions import Action
 TRAINING_LOG = "training_log"
 LOG_COLUMNS = ("iteration", "env_steps", "return_mean", "return_max", "return_std", "wall_time_s")
 """Columns of log.parquet the report needs."""
-EVAL_COLUMNS = ("eval_average_speed_kmh", "eval_overtakes", "eval_lane_changes", "eval_collisions")
+EVAL_COLUMNS = ("eval_agreement", "eval_lane_change_recall", "eval_average_speed_kmh", "eval_overtakes",
+                "eval_lane_changes", "eval_collisions")
 """Validation columns of log.parquet the report shows; optional (older runs have none), null where not evaluated."""
 ACTION_NAMES = tuple(action.name.lower() for action in Action)
 """Output units of every policy, in action order."""

@@ -18,7 +18,9 @@ DPI = 120
 STEPS_LABEL = "environment steps (decisions)"
 STEPS_FORMAT = EngFormatter(sep="")
 """Step counts as 50k, 1.2M: long plain numbers overlap on a shared axis."""
-VALIDATION_PANELS = (("eval_average_speed_kmh", "average speed (km/h)"),
+VALIDATION_PANELS = (("eval_agreement", "agreement with the expert (share of decisions)"),
+                     ("eval_lane_change_recall", "lane-change recall (share of the expert's)"),
+                     ("eval_average_speed_kmh", "average speed (km/h)"),
                      ("eval_overtakes", "overtakes per episode"),
                      ("eval_lane_changes", "lane changes per episode"),
                      ("eval_collisions", "collisions per episode"))
@@ -58,17 +60,20 @@ def learning_curves(runs: list[Run]) -> Figure:
 
 def validation_curves(runs: list[Run]) -> Figure:
     """Validation metrics (mean over validation episodes) vs cumulative env steps, one panel per metric."""
-    figure = _figure(11, 7.5)
-    panels = figure.subplots(2, 2, sharex=True).ravel()
+    figure = _figure(15, 7.5)
+    panels = figure.subplots(2, 3, sharex=True).ravel()
     for axes, (column, label) in zip(panels, VALIDATION_PANELS, strict=True):
         for index, run in enumerate(runs):
             rows = run.evaluated
             if not rows.empty:
                 axes.plot(rows["cumulative_env_steps"], rows[column], color=_colour(index), marker="o",
                           markersize=4, label=run.name)
+        if all(run.evaluated[column].isna().all() for run in runs):
+            axes.text(0.5, 0.5, "not in these logs (runs from before it was measured)", ha="center",
+                      va="center", transform=axes.transAxes, color="grey")
         axes.set(ylabel=label, title=label.split(" (")[0].replace(" per episode", ""))
         _grid(axes)
-    for axes in panels[2:]:
+    for axes in panels[3:]:
         axes.set_xlabel(STEPS_LABEL)
         axes.xaxis.set_major_formatter(STEPS_FORMAT)
     panels[0].legend(fontsize=9)

@@ -22,9 +22,10 @@ CONFIG = Config()
 OBSERVATIONS = 56
 
 
-def make_run(folder: Path, kind: str, evaluated: bool, with_bc: bool = True, method: str = "training_run") -> Path:
+def make_run(folder: Path, kind: str, evaluated: bool, with_bc: bool = True, method: str = "training_run",
+             agreement: bool = False) -> Path:
     """A run folder like `sumo-rail train` (or, with method "gail_run", `sumo-rail gail`) leaves: run.json, random
-    policies and a 4-iteration log."""
+    policies and a 4-iteration log (with `agreement`, validation agreement columns as today's logs have)."""
     folder.mkdir()
     record = {"settings": {"kind": kind, "hidden": 6}, **provenance(method, CONFIG, 0)}
     (folder / "run.json").write_text(json.dumps(record))
@@ -37,7 +38,9 @@ def make_run(folder: Path, kind: str, evaluated: bool, with_bc: bool = True, met
              "discriminator_accuracy": 0.6, "collisions": 0, "wall_time_s": 12.0,
              **{column: (100.0 + i if evaluated and i % 2 else None)
                 for column in ("eval_average_speed_kmh", "eval_overtakes", "eval_lane_changes",
-                               "eval_longitudinal_reward", "eval_lateral_reward", "eval_collisions")}}
+                               "eval_longitudinal_reward", "eval_lateral_reward", "eval_collisions")},
+             **({"eval_agreement": 0.5 + 0.1 * i if i % 2 else None,
+                 "eval_lane_change_recall": 0.2 if i % 2 else None} if agreement else {})}
             for i in range(4)]
     table = pa.Table.from_pandas(pd.DataFrame(rows, dtype=float).astype({"iteration": int, "env_steps": int}),
                                  preserve_index=False)
@@ -95,6 +98,21 @@ def test_report_of_runs_and_metrics_files(tmp_path):
     assert "mean [95% interval]" in report and "difference to expert-normal [m1] on the same seeds" in report
     assert "predate the comparison with the expert" in report  # metrics files without confusion counts still load
     assert "agreement.png" not in report and "confusion.png" not in report
+
+
+def test_validation_curves_lead_with_agreement_and_mark_older_logs(tmp_path):
+    from sumo_rail.report.inputs import read_run
+    from sumo_rail.report.plots import validation_curves
+
+    today = read_run(make_run(tmp_path / "today", "mlp", evaluated=True, agreement=True), "today")
+    older = read_run(make_run(tmp_path / "older", "mlp", evaluated=True), "older")
+    agreement_panel = validation_curves([today, older]).axes[0]
+    assert agreement_panel.get_title() == "agreement with the expert"
+    assert np.allclose(agreement_panel.lines[0].get_ydata(), [0.6, 0.8])  # the evaluated iterations 1 and 3
+    assert np.isnan(np.asarray(agreement_panel.lines[1].get_ydata(), dtype=float)).all()
+    assert not agreement_panel.texts  # one run has it: no "not in these logs" note
+    only_older = validation_curves([older]).axes[0]
+    assert "not in these logs" in only_older.texts[0].get_text()
 
 
 def test_no_validation_plot_without_validation_values(tmp_path):
