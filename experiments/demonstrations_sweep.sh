@@ -1,0 +1,49 @@
+#!/usr/bin/env bash
+# The paper's figure of expert trajectories (issue 15): BC, RAIL and DAgger trained on 5 to 200 expert episodes,
+# several seeds each, in the benchmark's setting; every policy evaluated on the same test episodes;
+# experiments/demonstrations_plot.py draws agreement against the number of demonstrations.
+# Usage: experiments/demonstrations_sweep.sh [OUT_DIR]   (resumable: finished recordings, runs and evaluations
+#   are skipped, RAIL and DAgger runs resume)
+#   (environment: COUNTS, SEEDS, DIRECTIONS, ITERATIONS, DAGGER_ROUNDS, ROUND_EPISODES, TEST_EPISODES, WORKERS,
+#   OVERRIDES: --set options of the setting, default the lane-wise block; "" for the paper's)
+set -euo pipefail
+out=${1:-results/demonstrations_sweep}
+counts=${COUNTS:-5 10 20 40 100 200}
+seeds=${SEEDS:-0 1}
+directions=${DIRECTIONS:-32}
+iterations=${ITERATIONS:-20}
+dagger_rounds=${DAGGER_ROUNDS:-5}
+round_episodes=${ROUND_EPISODES:-20}
+test_episodes=${TEST_EPISODES:-250}
+workers=${WORKERS:-2}
+overrides=${OVERRIDES---set observation.lane_block=1}
+sumo_rail=${SUMO_RAIL:-.venv/bin/sumo-rail}
+python=${PYTHON:-.venv/bin/python}
+mkdir -p "$out"
+for count in $counts; do
+  demos="$out/demos_$count.parquet"  # episode k of every recording is the same episode (seeded by its index)
+  # shellcheck disable=SC2086  # the overrides are several words on purpose
+  [ -f "$demos" ] || $sumo_rail record-expert $overrides --episodes "$count" --seed 0 --workers "$workers" \
+    --out "$demos"
+  policies=(--policy expert)
+  for seed in $seeds; do
+    run="$out/rail_k${count}_s$seed"
+    resume=(); [ -f "$run/checkpoint.pt" ] && resume=(--resume)
+    # shellcheck disable=SC2086
+    $sumo_rail train $overrides --demos "$demos" --policy mlp --directions "$directions" --iterations "$iterations" \
+      --eval-every 0 --workers "$workers" --seed "$seed" --out "$run" "${resume[@]}"
+    mkdir -p "$out/bc_k${count}_s$seed"
+    cp "$run/policy_bc.npz" "$out/bc_k${count}_s$seed/policy_bc.npz"
+    resume=(); [ -f "$out/dagger_k${count}_s$seed/checkpoint.json" ] && resume=(--resume)
+    # shellcheck disable=SC2086
+    $sumo_rail dagger $overrides --demos "$demos" --rounds "$dagger_rounds" --episodes-per-round "$round_episodes" \
+      --eval-every 0 --workers "$workers" --seed "$seed" --out "$out/dagger_k${count}_s$seed" "${resume[@]}"
+    policies+=(--policy "$out/bc_k${count}_s$seed/policy_bc.npz" --policy "$run/policy_latest.npz"
+               --policy "$out/dagger_k${count}_s$seed/policy_latest.npz")
+  done
+  # shellcheck disable=SC2086
+  [ -f "$out/test_k$count.parquet" ] || $sumo_rail evaluate $overrides "${policies[@]}" --seed 1000 \
+    --episodes "$test_episodes" --workers "$workers" --out "$out/test_k$count.parquet" > "$out/test_k$count.txt"
+done
+# shellcheck disable=SC2086
+$python experiments/demonstrations_plot.py "$out" $counts | tee "$out/table.md"
