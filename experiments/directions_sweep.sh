@@ -1,21 +1,34 @@
 #!/usr/bin/env bash
-# The paper's directions sweep: RAIL learning curves for N in {8, 16, 32, 64, 128} without BC initialisation.
-# Usage: experiments/directions_sweep.sh DEMOS [OUT_DIR]   (environment: ITERATIONS, STEP_SIZE, WORKERS, SIZES)
+# The paper's directions sweep (issue 15): RAIL learning curves for N in {8, 16, 32, 64, 128}, several training
+# seeds, validation agreement every few iterations; experiments/directions_plot.py draws the curves (validation
+# agreement first, the discriminator's return beside it) and projects N = 512.
+# Usage: experiments/directions_sweep.sh DEMOS.parquet [OUT_DIR]   (resumable: runs resume)
+#   (environment: SIZES, SEEDS, ITERATIONS, EVAL_EVERY, EVAL_EPISODES, BC_EPOCHS (default 0: from zero weights, as
+#   in the paper), STEP_SIZE, WORKERS, OVERRIDES: --set options matching how DEMOS was recorded)
 set -euo pipefail
 demos=$1
 out=${2:-results/directions_sweep}
-iterations=${ITERATIONS:-10}
+sizes=${SIZES:-8 16 32 64 128}
+seeds=${SEEDS:-0 1}
+iterations=${ITERATIONS:-30}
+eval_every=${EVAL_EVERY:-5}
+eval_episodes=${EVAL_EPISODES:-20}
+bc_epochs=${BC_EPOCHS:-0}
 step_size=${STEP_SIZE:-0.02}
 workers=${WORKERS:-2}
-sizes=${SIZES:-8 16 32 64 128}
+overrides=${OVERRIDES---set observation.lane_block=1}
 sumo_rail=${SUMO_RAIL:-.venv/bin/sumo-rail}
+python=${PYTHON:-.venv/bin/python}
 mkdir -p "$out"
-runs=()
-for n in $sizes; do
-  resume=(); [ -f "$out/n$n/checkpoint.pt" ] && resume=(--resume)
-  $sumo_rail train --demos "$demos" --policy mlp --bc-epochs 0 --directions "$n" --top $((n / 2)) \
-    --step-size "$step_size" --iterations "$iterations" --eval-every 0 --workers "$workers" --seed 0 \
-    --out "$out/n$n" "${resume[@]}"
-  runs+=("$out/n$n")
+for seed in $seeds; do
+  for n in $sizes; do
+    run="$out/n${n}_s$seed"
+    resume=(); [ -f "$run/checkpoint.pt" ] && resume=(--resume)
+    # shellcheck disable=SC2086  # the overrides are several words on purpose
+    $sumo_rail train $overrides --demos "$demos" --policy mlp --bc-epochs "$bc_epochs" --directions "$n" \
+      --step-size "$step_size" --iterations "$iterations" --eval-every "$eval_every" --eval-episodes "$eval_episodes" \
+      --workers "$workers" --seed "$seed" --out "$run" "${resume[@]}"
+  done
 done
-$sumo_rail report "${runs[@]}" --out "$out/report"
+# shellcheck disable=SC2086
+$python experiments/directions_plot.py "$out" $sizes | tee "$out/table.md"
