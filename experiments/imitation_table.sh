@@ -56,3 +56,8 @@ for seed in $seeds; do
     --episodes "$test_episodes" --workers "$workers" --out "$out/test_s$seed.parquet" > "$out/test_s$seed.txt"
 done
 $python experiments/benchmark_table.py "$out" | tee "$out/table.md"
+# learning curves, validation curves and the weight figures (first and second layer) of the first seed's runs
+first=${seeds%% *}
+runs=("$out/rail_mlp_s$first" "$out/rail_linear_s$first")
+[ "$gail" = 1 ] && runs+=("$out/gail_s$first")
+$sumo_rail report "${runs[@]}" "$out/test_s$first.parquet" --out "$out/report"
