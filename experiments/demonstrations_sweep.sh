@@ -34,6 +34,7 @@ for count in $counts; do
       --eval-every 0 --workers "$workers" --seed "$seed" --out "$run" "${resume[@]}"
     mkdir -p "$out/bc_k${count}_s$seed"
     cp "$run/policy_bc.npz" "$out/bc_k${count}_s$seed/policy_bc.npz"
+    cp "$run/run.json" "$out/bc_k${count}_s$seed/run.json"  # names the driver bc_kCOUNT_sSEED/policy_bc
     resume=(); [ -f "$out/dagger_k${count}_s$seed/checkpoint.json" ] && resume=(--resume)
     # shellcheck disable=SC2086
     $sumo_rail dagger $overrides --demos "$demos" --rounds "$dagger_rounds" --episodes-per-round "$round_episodes" \

@@ -33,8 +33,9 @@ for seed in $seeds; do
     # shellcheck disable=SC2086
     $sumo_rail train $overrides --demos "$demos" --policy "$kind" --directions "$directions" \
       --iterations "$iterations" --eval-every 10 --workers "$workers" --seed "$seed" --out "$run" "${resume[@]}"
-    mkdir -p "$out/bc_${kind}_s$seed"  # BC as its own driver name, bc_KIND_sSEED/policy_bc
+    mkdir -p "$out/bc_${kind}_s$seed"  # BC as its own driver, bc_KIND_sSEED/policy_bc (run.json names it so)
     cp "$run/policy_bc.npz" "$out/bc_${kind}_s$seed/policy_bc.npz"
+    cp "$run/run.json" "$out/bc_${kind}_s$seed/run.json"
     policies+=(--policy "$out/bc_${kind}_s$seed/policy_bc.npz" --policy "$run/policy_latest.npz")
   done
   resume=(); [ -f "$out/dagger_s$seed/checkpoint.json" ] && resume=(--resume)
@@ -46,9 +47,13 @@ for seed in $seeds; do
     # GAIL gets the decisions RAIL two-layer used with the same seed
     budget=$($python -c "import pandas as pd, sys; print(int(pd.read_parquet(sys.argv[1])['env_steps'].sum()))" \
       "$out/rail_mlp_s$seed/log.parquet")
-    # shellcheck disable=SC2086
-    [ -f "$out/gail_s$seed/policy_latest.npz" ] || $sumo_rail gail $overrides --demos "$demos" --policy mlp \
-      --timesteps "$budget" --envs "$workers" --seed "$seed" --out "$out/gail_s$seed"
+    if [ ! -d "$out/gail_s$seed" ]; then  # a GAIL run cannot be resumed: train aside, keep only finished runs
+      rm -rf "$out/gail_s$seed.partial"
+      # shellcheck disable=SC2086
+      $sumo_rail gail $overrides --demos "$demos" --policy mlp --timesteps "$budget" --envs "$workers" \
+        --seed "$seed" --out "$out/gail_s$seed.partial"
+      mv "$out/gail_s$seed.partial" "$out/gail_s$seed"
+    fi
     policies+=(--policy "$out/gail_s$seed/policy_latest.npz" --sample-policy "$out/gail_s$seed/policy_latest.npz")
   fi
   # shellcheck disable=SC2086
