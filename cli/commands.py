@@ -208,7 +208,8 @@ def _write_videos(videos: dict[str, bytes], video_dir: Path | None) -> list[str]
 @click.option("--directions", type=click.IntRange(min=1), default=32, show_default=True, help="N, directions.")
 @click.option("--top", type=click.IntRange(min=1), default=None, help="b, best directions kept [default: N / 2].")
 @click.option("--step-size", type=click.FloatRange(min=0, min_open=True), default=0.02, show_default=True,
-              help="alpha, the ARS step size (the paper's 0.001 changes no decision; see docs/results.md).")
+              help="alpha, the ARS step size (the paper's 0.001 changes 0.1% of decisions in 3 iterations; "
+                   "see docs/results.md).")
 @click.option("--noise", type=click.FloatRange(min=0, min_open=True), default=0.03, show_default=True,
               help="nu_init, the perturbation scale.")
 @click.option("--noise-increment", type=click.FloatRange(min=0), default=0.001, show_default=True,

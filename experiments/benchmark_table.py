@@ -43,6 +43,11 @@ def read_evaluations(out: Path) -> tuple[pd.DataFrame, pd.DataFrame, int]:
         raise SystemExit(f"no evaluation test_sSEED.parquet in {out} yet")
     metrics = [pd.read_parquet(path) for path in paths]
     decisions = [pd.read_parquet(decisions_path(path)) for path in paths]
+    expert_seeds = sorted(metrics[0].loc[metrics[0]["policy"] == EXPERT, "seed"])
+    for path, frame in zip(paths, metrics, strict=True):
+        for driver, episodes in frame.groupby("policy"):
+            if sorted(episodes["seed"]) != expert_seeds:
+                raise SystemExit(f"{path}: {driver} was not evaluated on the same episodes as {paths[0]}'s expert")
     lanes = int(read_metadata(paths[0])["config"]["scenario"]["lanes"])
     keep_expert = [True] + [False] * (len(paths) - 1)
     return (pd.concat([frame[(frame["policy"] != EXPERT) | keep] for frame, keep in zip(metrics, keep_expert,
@@ -91,7 +96,8 @@ def main(out: Path) -> None:
         for measure in MEASURES:
             cell = difference_cell(found[candidate][1], found[reference][1], measure, digits_of(measure))
             print(f"| {METHODS[candidate][0]} - {METHODS[reference][0]} | {measure} | {cell} |")
-    print("\n| method | environment decisions in training (mean over seeds) | training wall time [min] |")
+    print("\n| method | environment decisions in training (mean over seeds) | training wall time [min] (RAIL's "
+          "includes its validation every 10 iterations) |")
     print("|---|---:|---:|")
     for key, (seeds, _) in found.items():
         print(f"| {METHODS[key][0]} | {budget(out, METHODS[key][1], seeds)} |")

@@ -1,9 +1,10 @@
 """Methods trained with several seeds, for the experiment tables: drivers are named METHOD_sSEED/POLICY.
 
-A method's estimate pools its training runs' episodes; its interval resamples the training runs and the evaluation
-episodes together (`seeded_interval`), so it holds both the spread between training runs and the traffic's. A
-difference pairs runs seed by seed (RAIL seed s started from BC seed s) and episodes by their seed and warm state,
-which every driver shares. Each run's own estimate is shown next to it.
+A method's estimate pools its training runs' episodes; its interval (`statistics.seeded_interval`) adds the
+spread between training runs to the episodes' noise, with Student's t over the runs. A difference pairs runs seed
+by seed (RAIL seed s started from BC seed s; between independently trained methods the seed label is an arbitrary
+pairing) and episodes by their seed and warm state, which every driver shares. Each run's own estimate is shown
+next to it.
 """
 
 from __future__ import annotations

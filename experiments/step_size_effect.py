@@ -3,7 +3,7 @@
 For each run folder (made by `sumo-rail train ... --step-size ALPHA --iterations K`), compares the policy after K
 iterations (policy_latest.npz) with the BC policy it started from (policy_bc.npz), on the observations of the
 demonstrations: the share of decisions that differ, the share that differ when only the weights moved (the end
-weights with BC's observation normaliser; RAIL also merges its rollouts into the normaliser) and the largest
+weights with BC's observation normaliser; with --merge-normalizer RAIL also merges its rollouts into it) and the largest
 parameter change. Prints Markdown.
 
 Usage: python experiments/step_size_effect.py DEMOS.parquet RUN [RUN ...]

@@ -81,30 +81,31 @@ def seeded_interval(sample: Sequence[Sample], reference: Sequence[Sample] | None
                     seed: int = 0) -> Interval:
     """A method's pooled ratio over its training runs (`sample`, one Sample per training seed, every run on the
     same episodes), or its difference to `reference` (paired run by run, e.g. RAIL seed s against the BC it started
-    from, and episode by episode). Two-level bootstrap: each resample draws the training runs with replacement and
-    the episodes with replacement, the same draws for both sides; percentile interval."""
-    groups = [sample] if reference is None else [sample, reference]
-    stacked = [np.asarray([part[i] for part in group], dtype=float) for group in groups for i in (0, 1)]
-    if len({array.shape for array in stacked}) != 1 or stacked[0].ndim != 2:
-        raise ValueError(f"paired training runs must have the same numbers of runs and episodes, got "
-                         f"{sorted({array.shape for array in stacked})}")
+    from, and episode by episode). One run: the episode bootstrap (`interval`, `paired_difference`). Several runs:
+    the pooled estimate +- t(runs - 1) x sqrt(s^2 / runs + se^2), where s is the standard deviation of the runs' own
+    estimates (the spread between training runs) and se the standard error over episodes of the pooled estimate
+    (from its episode bootstrap: half the 95% width / 1.96), as every run meets the same episodes. Student's t
+    keeps the coverage with as few as three runs, which a percentile bootstrap over runs does not (about 78%)."""
+    shapes = {np.shape(part) for group in (sample, reference or sample) for pair in group for part in pair}
+    if len(sample) != len(reference or sample) or len(shapes) != 1 or len(shapes.pop()) != 1:
+        raise ValueError("paired training runs must have the same numbers of runs and episodes")
+    pooled = [_sum_runs(group) for group in ([sample] if reference is None else [sample, reference])]
+    episodes = interval(pooled[0], seed) if reference is None else paired_difference(*pooled, seed)
+    own = np.array([ratio(run) for run in sample]) - (0.0 if reference is None else
+                                                      np.array([ratio(run) for run in reference]))
+    own = own[~np.isnan(own)]
+    if len(own) < 2 or np.isnan(episodes.low):
+        return episodes
+    episode_error = (episodes.high - episodes.low) / (2 * stats.norm.ppf(0.5 + CONFIDENCE / 2))
+    half = stats.t.ppf(0.5 + CONFIDENCE / 2, len(own) - 1) * np.hypot(np.std(own, ddof=1) / np.sqrt(len(own)),
+                                                                       episode_error)
+    return Interval(episodes.estimate, float(episodes.estimate - half), float(episodes.estimate + half))
 
-    def statistic(*arrays: np.ndarray) -> np.ndarray:
-        rates = [arrays[i].sum(axis=(-2, -1)) / arrays[i + 1].sum(axis=(-2, -1)) for i in range(0, len(arrays), 2)]
-        return rates[0] - rates[1] if len(rates) == 2 else rates[0]
 
-    with np.errstate(invalid="ignore", divide="ignore"):
-        estimate = float(statistic(*stacked))
-        runs, episodes = stacked[0].shape
-        if episodes < 2 or np.isnan(estimate):
-            return Interval(estimate, np.nan, np.nan)
-        rng = np.random.default_rng(seed)
-        run_draws = rng.integers(runs, size=(RESAMPLES, runs))[:, :, None]
-        episode_draws = rng.integers(episodes, size=(RESAMPLES, episodes))[:, None, :]
-        resampled = statistic(*(array[run_draws, episode_draws] for array in stacked))
-    tail = 50 * (1 - CONFIDENCE)
-    low, high = np.nanpercentile(resampled, [tail, 100 - tail])
-    return Interval(estimate, float(low), float(high))
+def _sum_runs(runs: Sequence[Sample]) -> Sample:
+    """Numerators and denominators summed over training runs, episode by episode."""
+    return (np.sum([np.asarray(run[0], dtype=float) for run in runs], axis=0),
+            np.sum([np.asarray(run[1], dtype=float) for run in runs], axis=0))
 
 
 def _bootstrap(samples: Sequence[Sample], statistic: Callable[..., np.ndarray], seed: int) -> Interval:

@@ -2,9 +2,9 @@
 
 One iteration t:
 1. the learner draws N direction indices (the vectors come from `noise.direction(noise_seed, t, k)`) and the
-   SUMO episode seeds: with common traffic (the default) one set of `episodes_per_rollout` seeds that every
-   direction and sign drives, so directions differ by their parameters only (common random numbers); otherwise
-   a set per direction (both signs share it), as in the first implementation. Workers run the 2N rollouts of
+   SUMO episode seeds: a set of `episodes_per_rollout` seeds per direction, both signs sharing it (the default,
+   as in the first implementation), or with common traffic one set that every direction and sign drives, so
+   directions differ by their parameters only (common random numbers). Workers run the 2N rollouts of
    theta +- nu * delta_k with the observation statistics frozen for the iteration; a rollout's return is the
    mean over its episodes;
 2. the discriminator takes its LS-GAN steps on the expert's pairs and this iteration's rollout pairs;
@@ -60,8 +60,9 @@ class RailSettings:
     episodes_per_rollout: int = 1
     """Episodes each rollout drives; its return is their mean."""
     freeze_normalizer: bool = True
-    """Keep the observation statistics the run started with (BC's) instead of merging every rollout's states, as
-    the paper does (best on validation episodes with independent traffic, docs/results.md, "RAIL ablations")."""
+    """Keep the observation statistics the run started with (BC's, or the demonstrations' without BC); False merges
+    every rollout's states into them, as the paper does. Frozen was best on validation episodes (docs/results.md,
+    "RAIL ablations")."""
 
     def __post_init__(self) -> None:
         if self.directions < 1:

@@ -164,10 +164,11 @@ def _start_folder(folder: Path, run_record: dict[str, Any]) -> None:
 
 def _initial_state(folder: Path, settings: RunSettings, shape: PolicyShape, demos: Any, run_record: dict[str, Any],
                    on_bc: Callable[[BcReport], None] | None) -> TrainingState:
-    """BC-initialised parameters and statistics when --bc-epochs > 0, else zeros and empty statistics."""
+    """BC-initialised parameters and statistics when --bc-epochs > 0, else zeros and the demonstrations'
+    statistics (BC's are the demonstrations' too, so a frozen normaliser always holds the expert's)."""
     if settings.bc_epochs < 1:
         zeros = np.zeros(shape.parameter_count, np.float32)
-        return TrainingState.start(zeros, RunningStats.empty(shape.observation_size), settings.rail)
+        return TrainingState.start(zeros, RunningStats.of(demos.observations), settings.rail)
     bc_settings = BcSettings(epochs=settings.bc_epochs, class_balance=settings.bc_class_balance,
                              seed=settings.rail.seed)
     policy, report = behaviour_cloning(demos, shape, bc_settings)

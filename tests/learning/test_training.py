@@ -3,7 +3,7 @@ import pandas as pd
 import pytest
 
 from sumo_rail.datasets import write_parquet
-from sumo_rail.drivers.policies import load_policy
+from sumo_rail.drivers.policies import MIN_STD, load_policy
 from sumo_rail.learning.discriminator import DiscriminatorSettings
 from sumo_rail.learning.rail import RailSettings, rollout_return
 from sumo_rail.learning.training import RunError, RunSettings, Validation, train
@@ -69,6 +69,23 @@ def test_same_weights_with_one_or_two_workers_and_after_resuming(tmp_path, demos
     assert (log["eval_average_speed_kmh"].dropna() > 30).all()
     pd.testing.assert_frame_equal(log.drop(columns="wall_time_s"),
                                   pd.read_parquet(tmp_path / "split" / "log.parquet").drop(columns="wall_time_s"))
+
+
+def test_without_bc_a_frozen_normaliser_holds_the_demonstrations_statistics(tmp_path, demos_path,
+                                                                            small_config_module):
+    from sumo_rail.runners.tables import read_demonstrations
+
+    settings = RunSettings(str(demos_path), "linear", 4, 0, RailSettings(directions=2, top=1, seed=1),
+                           DiscriminatorSettings(seed=1, steps_per_iteration=1))
+    with SerialBackend() as backend:
+        train(tmp_path / "run", settings, small_config_module, 1, backend, resume=False,
+              validation=Validation(every=0, episodes=1))
+    policy, _ = load_policy(tmp_path / "run" / "policy_latest.npz")
+    observations = read_demonstrations(demos_path).observations.astype(np.float64)
+    assert np.allclose(policy.observation_mean, observations.mean(axis=0))
+    varying = observations.std(axis=0) >= MIN_STD  # a (nearly) constant feature keeps a unit scale
+    assert np.allclose(policy.observation_std[varying], observations.std(axis=0)[varying])
+    assert not (tmp_path / "run" / "policy_bc.npz").exists()
 
 
 def test_a_worker_killed_mid_iteration_changes_nothing(tmp_path, demos_path, small_config_module):
