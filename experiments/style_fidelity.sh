@@ -1,23 +1,48 @@
 #!/usr/bin/env bash
-# Style fidelity: RAIL trained on calm and on sporty demonstrations, each evaluated next to both experts.
-# Usage: experiments/style_fidelity.sh [OUT_DIR]   (environment: ITERATIONS, DIRECTIONS, STEP_SIZE, WORKERS)
+# Style fidelity (issue 15, beyond the paper): BC, RAIL and DAgger trained on calm and on sporty demonstrations,
+# several seeds, in the benchmark's setting; every policy and both experts on the same test episodes, each policy's
+# agreement measured against the style it learned from; experiments/style_table.py says whether each learner is
+# closer to its own expert than to the other.
+# Usage: experiments/style_fidelity.sh [OUT_DIR]   (resumable: finished recordings, runs and evaluations are skipped)
+#   (environment: SEEDS, EPISODES, DIRECTIONS, ITERATIONS, DAGGER_ROUNDS, ROUND_EPISODES, TEST_EPISODES, WORKERS,
+#   OVERRIDES: --set options of the setting, default the lane-wise block; "" for the paper's)
 set -euo pipefail
 out=${1:-results/style_fidelity}
+seeds=${SEEDS:-0 1 2}
+episodes=${EPISODES:-200}
+directions=${DIRECTIONS:-32}
 iterations=${ITERATIONS:-20}
-directions=${DIRECTIONS:-16}
-step_size=${STEP_SIZE:-0.02}
+dagger_rounds=${DAGGER_ROUNDS:-5}
+round_episodes=${ROUND_EPISODES:-20}
+test_episodes=${TEST_EPISODES:-250}
 workers=${WORKERS:-2}
+overrides=${OVERRIDES---set observation.lane_block=1}
 sumo_rail=${SUMO_RAIL:-.venv/bin/sumo-rail}
+python=${PYTHON:-.venv/bin/python}
 mkdir -p "$out"
+policies=(--policy expert:calm --policy expert:sporty)
 for style in calm sporty; do
-  [ -f "$out/demos_$style.parquet" ] || $sumo_rail record-expert --style "$style" --episodes 200 --seed 0 \
-    --workers "$workers" --out "$out/demos_$style.parquet"
-  resume=(); [ -f "$out/rail_$style/checkpoint.pt" ] && resume=(--resume)
-  $sumo_rail train --demos "$out/demos_$style.parquet" --policy mlp --directions "$directions" \
-    --top $((directions / 2)) --step-size "$step_size" --iterations "$iterations" --eval-every 0 \
-    --workers "$workers" --seed 0 --out "$out/rail_$style" "${resume[@]}"
+  demos="$out/demos_$style.parquet"
+  # shellcheck disable=SC2086  # the overrides are several words on purpose
+  [ -f "$demos" ] || $sumo_rail record-expert $overrides --style "$style" --episodes "$episodes" --seed 0 \
+    --workers "$workers" --out "$demos"
+  for seed in $seeds; do
+    run="$out/rail_${style}_s$seed"
+    resume=(); [ -f "$run/checkpoint.pt" ] && resume=(--resume)
+    # shellcheck disable=SC2086
+    $sumo_rail train $overrides --demos "$demos" --policy mlp --directions "$directions" --iterations "$iterations" \
+      --eval-every 0 --workers "$workers" --seed "$seed" --out "$run" "${resume[@]}"
+    mkdir -p "$out/bc_${style}_s$seed"
+    cp "$run/policy_bc.npz" "$run/run.json" "$out/bc_${style}_s$seed/"  # run.json names the driver by its folder
+    resume=(); [ -f "$out/dagger_${style}_s$seed/checkpoint.json" ] && resume=(--resume)
+    # shellcheck disable=SC2086
+    $sumo_rail dagger $overrides --demos "$demos" --rounds "$dagger_rounds" --episodes-per-round "$round_episodes" \
+      --eval-every 0 --workers "$workers" --seed "$seed" --out "$out/dagger_${style}_s$seed" "${resume[@]}"
+    policies+=(--policy "$out/bc_${style}_s$seed/policy_bc.npz" --policy "$run/policy_latest.npz"
+               --policy "$out/dagger_${style}_s$seed/policy_latest.npz")
+  done
 done
-$sumo_rail evaluate --policy expert:calm --policy expert:sporty --policy "$out/rail_calm/policy_latest.npz" \
-  --policy "$out/rail_sporty/policy_latest.npz" --episodes 16 --seed 1000 --workers "$workers" \
-  --out "$out/evaluation.parquet" --overwrite | tee "$out/table.txt"
-$sumo_rail report "$out/rail_calm" "$out/rail_sporty" "$out/evaluation.parquet" --out "$out/report"
+# shellcheck disable=SC2086
+[ -f "$out/test.parquet" ] || $sumo_rail evaluate $overrides "${policies[@]}" --seed 1000 \
+  --episodes "$test_episodes" --workers "$workers" --out "$out/test.parquet" > "$out/test.txt"
+$python experiments/style_table.py "$out/test.parquet" | tee "$out/table.md"
