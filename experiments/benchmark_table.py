@@ -15,7 +15,7 @@ from seeded import difference_cell, digits_of, seed_samples, training_seeds, val
 
 from sumo_rail.datasets import read_metadata
 from sumo_rail.evaluation.evaluate import SAMPLED_SUFFIX, decisions_path
-from sumo_rail.evaluation.statistics import interval
+from sumo_rail.evaluation.statistics import Sample, interval, seeded_interval
 from sumo_rail.evaluation.summary import distance_summary, measure_samples
 
 EXPERT = "expert-normal"
@@ -30,6 +30,8 @@ METHODS = {  # key: (label, run folder stem, policy in it)
 }
 COMPARISONS = (("rail_mlp", "bc_mlp"), ("rail_linear", "bc_linear"), ("rail_mlp", "dagger"), ("rail_mlp", "gail"),
                ("rail_mlp", "gail_sampled"), ("dagger", "bc_mlp"))
+HEADLINE = ("agreement", "lane_change_recall", "lane_change_precision", "average_speed_kmh", "overtakes",
+            "lane_changes", "collisions")
 MEASURES = ("agreement", "lane_change_recall", "lane_change_precision", "lateral_agreement", "longitudinal_agreement",
             "average_speed_kmh", "overtakes", "lane_changes", "collisions")
 
@@ -68,17 +70,36 @@ def budget(out: Path, stem: str, seeds: list[int]) -> str:
     return f"{steps:,.0f} | {minutes:.1f}"
 
 
-def main(out: Path) -> None:
-    metrics, decisions, lanes = read_evaluations(out)
-    expert = measure_samples(metrics[metrics["policy"] == EXPERT].sort_values("seed"))
+def methods_found(metrics: pd.DataFrame) -> dict[str, tuple[list[int], list[dict[str, Sample]]]]:
+    """method key -> (its training seeds, each seed's measure samples), for the methods in the evaluations."""
     found = {}
     for key, (_, stem, policy) in METHODS.items():
         seeds = training_seeds(metrics, stem)
         if seeds:
             found[key] = (seeds, seed_samples(metrics, stem, seeds, policy))
+    return found
+
+
+def print_headline(expert: dict[str, Sample], found: dict[str, tuple[list[int], list[dict[str, Sample]]]]) -> None:
+    """One row a method: each headline measure pooled over its seeds, with its 95% interval."""
+    print("| method | training seeds | " + " | ".join(HEADLINE) + " |")
+    print("|---|---|" + "---|" * len(HEADLINE))
+    print("| expert | - | " + " | ".join(interval(expert[measure]).format(digits_of(measure))
+                                        for measure in HEADLINE) + " |")
+    for key, (seeds, samples) in found.items():
+        cells = [seeded_interval([run[measure] for run in samples]).format(digits_of(measure)) for measure in HEADLINE]
+        print(f"| {METHODS[key][0]} | {len(seeds)} | " + " | ".join(cells) + " |")
+
+
+def main(out: Path) -> None:
+    metrics, decisions, lanes = read_evaluations(out)
+    expert = measure_samples(metrics[metrics["policy"] == EXPERT].sort_values("seed"))
+    found = methods_found(metrics)
     episodes = int((metrics["policy"] == EXPERT).sum())
     print(f"{episodes} test episodes; cells: value [95% interval] over training runs and episodes "
           f"(experiments/seeded.py), each run's own estimate in brackets; differences paired by run and episode.\n")
+    print_headline(expert, found)
+    print()
     print("| method (seeds) | measure | value | minus the expert |")
     print("|---|---|---|---|")
     for measure in MEASURES:

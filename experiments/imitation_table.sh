@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The benchmark (issue 15): the expert, BC, RAIL (two-layer and linear), DAgger and GAIL, each trained with several
 # seeds in the benchmark's observation setting (docs/results.md, "What the learner can see"), every policy evaluated
-# on the same held-out test episodes; experiments/benchmark_table.py makes the tables.
+# on the same held-out test episodes; experiments/benchmark_table.py makes the tables and
+# experiments/benchmark_plot.py the figure.
 # Usage: experiments/imitation_table.sh [OUT_DIR]   (resumable: finished runs and evaluations are skipped, RAIL and
 #   DAgger runs resume)
 #   (environment: SEEDS, DEMOS_EPISODES, DIRECTIONS, ITERATIONS, DAGGER_ROUNDS, ROUND_EPISODES, GAIL (1 or 0),
@@ -61,6 +62,7 @@ for seed in $seeds; do
     --episodes "$test_episodes" --workers "$workers" --out "$out/test_s$seed.parquet" > "$out/test_s$seed.txt"
 done
 $python experiments/benchmark_table.py "$out" | tee "$out/table.md"
+$python experiments/benchmark_plot.py "$out" "$out/benchmark.png"
 # learning curves, validation curves and the weight figures (first and second layer) of the first seed's runs
 first=${seeds%% *}
 runs=("$out/rail_mlp_s$first" "$out/rail_linear_s$first")

@@ -1,7 +1,8 @@
 """Parquet files every stage writes and reads: provenance metadata, atomic writes, checked output paths.
 
 Every file carries JSON provenance under the Parquet schema metadata key `sumo_rail`: the table kind, the full
-config, the seed, the observation layout and the versions of SUMO, sumo-rail, pyarrow, numpy and Python.
+config, the seed, the observation layout and the versions of Python and of the packages that shape results (SUMO,
+sumo-rail, numpy, pyarrow, torch, numba, gymnasium and, where installed, Stable-Baselines3).
 Nothing time-dependent is stored, so the same job writes the same bytes. The table schemas live with the
 runners that write them (`sumo_rail.runners.tables`). Pages carry CRC checksums, verified on read, so a damaged
 file is an error rather than wrong numbers. Every reader answers a missing, empty, truncated, damaged or foreign file
@@ -19,7 +20,6 @@ from importlib import metadata as package_metadata
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 
@@ -36,10 +36,21 @@ def sumo_version() -> str:
     return package_metadata.version("eclipse-sumo")
 
 
+VERSIONED_PACKAGES = {"sumo": "eclipse-sumo", "sumo_rail": "sumo-rail", "numpy": "numpy", "pyarrow": "pyarrow",
+                      "torch": "torch", "numba": "numba", "gymnasium": "gymnasium",
+                      "stable_baselines3": "stable-baselines3"}  # key in the provenance: distribution name
+
+
 def versions() -> dict[str, str]:
-    """Versions of what shapes the results."""
-    return {"sumo": sumo_version(), "sumo_rail": package_metadata.version("sumo-rail"), "pyarrow": pa.__version__,
-            "numpy": np.__version__, "python": platform.python_version()}
+    """Versions of Python and of the installed packages that shape the results (GAIL's Stable-Baselines3 is
+    optional and left out when it is not installed)."""
+    found = {"python": platform.python_version()}
+    for key, distribution in VERSIONED_PACKAGES.items():
+        try:
+            found[key] = package_metadata.version(distribution)
+        except package_metadata.PackageNotFoundError:
+            continue
+    return found
 
 
 def check_output_path(path: Path, overwrite: bool) -> None:

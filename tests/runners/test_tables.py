@@ -6,7 +6,7 @@ import pyarrow.parquet as pq
 import pytest
 
 from sumo_rail.config import Config
-from sumo_rail.datasets import DatasetError, read_metadata, write_parquet
+from sumo_rail.datasets import DatasetError, read_metadata, sumo_version, write_parquet
 from sumo_rail.runners import tables
 from sumo_rail.runners.rollout import ACTION_COLUMNS, EpisodeResult
 from sumo_rail.runners.tables import demonstrations_table, provenance, read_demonstrations
@@ -47,7 +47,9 @@ def test_demonstrations_round_trip_with_provenance(tmp_path):
     metadata = read_metadata(path)
     assert metadata["seed"] == 7 and metadata["style"] == "calm" and metadata["config"] == CONFIG.to_dict()
     assert len(metadata["observation_names"]) == SIZE
-    assert set(metadata["versions"]) >= {"sumo", "sumo_rail", "pyarrow"}
+    assert metadata["versions"]["sumo"] == sumo_version()
+    assert set(metadata["versions"]) >= {"sumo_rail", "numpy", "pyarrow", "torch", "numba", "gymnasium",
+                                         "stable_baselines3", "python"}  # the dev install has Stable-Baselines3
     table = pq.read_table(path)
     assert table.column_names == list(tables.DEMONSTRATION_COLUMNS)
     assert table.column("terminated").to_pylist() == [False] * 4 + [True] * 3
