@@ -41,6 +41,8 @@ def main(out: Path, figure_path: Path) -> None:
         axes.grid(axis="x", alpha=0.3)
         if index == 0:
             axes.set_yticks(range(len(found)), labels=labels)
+    figure.suptitle("square and bar: pooled over training seeds, 95% interval; dots: each training run; "
+                    "dashed: the expert (same test episodes)", fontsize="medium")
     figure.savefig(figure_path, dpi=120)
 
 

@@ -112,11 +112,14 @@ def main(out: Path) -> None:
     print("\n| comparison | measure | paired difference |")
     print("|---|---|---|")
     for candidate, reference in COMPARISONS:
-        if candidate not in found or reference not in found or found[candidate][0] != found[reference][0]:
+        if candidate not in found or reference not in found:
             continue
+        seeds = sorted(set(found[candidate][0]) & set(found[reference][0]))  # paired on the seeds both have
+        pair = [[samples for seed, samples in zip(*found[key], strict=True) if seed in seeds]
+                for key in (candidate, reference)]
         for measure in MEASURES:
-            cell = difference_cell(found[candidate][1], found[reference][1], measure, digits_of(measure))
-            print(f"| {METHODS[candidate][0]} - {METHODS[reference][0]} | {measure} | {cell} |")
+            cell = difference_cell(*pair, measure, digits_of(measure))
+            print(f"| {METHODS[candidate][0]} - {METHODS[reference][0]} ({seeds}) | {measure} | {cell} |")
     print("\n| method | environment decisions in training (mean over seeds) | training wall time [min] (RAIL's "
           "includes its validation every 10 iterations) |")
     print("|---|---:|---:|")

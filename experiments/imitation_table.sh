@@ -5,19 +5,25 @@
 # experiments/benchmark_plot.py the figure.
 # Usage: experiments/imitation_table.sh [OUT_DIR]   (resumable: finished runs and evaluations are skipped, RAIL and
 #   DAgger runs resume)
-#   (environment: SEEDS, DEMOS_EPISODES, DIRECTIONS, ITERATIONS, DAGGER_ROUNDS, ROUND_EPISODES, GAIL (1 or 0),
-#   TEST_EPISODES, WORKERS, OVERRIDES: --set options of the setting, default the lane-wise block; "" for the paper's)
+#   (environment: SEEDS, KINDS (RAIL's and BC's policy shapes, default "mlp linear"), DEMOS_EPISODES, DIRECTIONS,
+#   ITERATIONS, DAGGER (1 or 0), DAGGER_ROUNDS, ROUND_EPISODES, GAIL (1 or 0), TEST_EPISODES, WORKERS, REPORT_SEED
+#   (whose runs `report` draws, default the first of SEEDS; "" for none), OVERRIDES: --set options of the setting,
+#   default the lane-wise block; "" for the paper's. More seeds of some methods, e.g. RAIL and BC two-layer only:
+#   SEEDS="3 4" KINDS=mlp DAGGER=0 GAIL=0 REPORT_SEED="" experiments/imitation_table.sh)
 set -euo pipefail
 out=${1:-results/imitation_table}
 seeds=${SEEDS:-0 1 2}
+kinds=${KINDS:-mlp linear}
 demos_episodes=${DEMOS_EPISODES:-200}
 directions=${DIRECTIONS:-32}
 iterations=${ITERATIONS:-40}
+dagger=${DAGGER:-1}
 dagger_rounds=${DAGGER_ROUNDS:-5}
 round_episodes=${ROUND_EPISODES:-20}
 gail=${GAIL:-1}
 test_episodes=${TEST_EPISODES:-250}
 workers=${WORKERS:-2}
+report_seed=${REPORT_SEED-${seeds%% *}}
 overrides=${OVERRIDES---set observation.lane_block=1}
 sumo_rail=${SUMO_RAIL:-.venv/bin/sumo-rail}
 python=${PYTHON:-.venv/bin/python}
@@ -28,7 +34,7 @@ mkdir -p "$out"
   --out "$demos"
 for seed in $seeds; do
   policies=(--policy expert)
-  for kind in mlp linear; do
+  for kind in $kinds; do
     run="$out/rail_${kind}_s$seed"
     resume=(); [ -f "$run/checkpoint.pt" ] && resume=(--resume)
     # shellcheck disable=SC2086
@@ -39,11 +45,13 @@ for seed in $seeds; do
     cp "$run/run.json" "$out/bc_${kind}_s$seed/run.json"
     policies+=(--policy "$out/bc_${kind}_s$seed/policy_bc.npz" --policy "$run/policy_latest.npz")
   done
-  resume=(); [ -f "$out/dagger_s$seed/checkpoint.json" ] && resume=(--resume)
-  # shellcheck disable=SC2086
-  $sumo_rail dagger $overrides --demos "$demos" --rounds "$dagger_rounds" --episodes-per-round "$round_episodes" \
-    --eval-every 0 --workers "$workers" --seed "$seed" --out "$out/dagger_s$seed" "${resume[@]}"
-  policies+=(--policy "$out/dagger_s$seed/policy_latest.npz")
+  if [ "$dagger" = 1 ]; then
+    resume=(); [ -f "$out/dagger_s$seed/checkpoint.json" ] && resume=(--resume)
+    # shellcheck disable=SC2086
+    $sumo_rail dagger $overrides --demos "$demos" --rounds "$dagger_rounds" --episodes-per-round "$round_episodes" \
+      --eval-every 0 --workers "$workers" --seed "$seed" --out "$out/dagger_s$seed" "${resume[@]}"
+    policies+=(--policy "$out/dagger_s$seed/policy_latest.npz")
+  fi
   if [ "$gail" = 1 ]; then
     # GAIL gets the decisions RAIL two-layer used with the same seed
     budget=$($python -c "import pandas as pd, sys; print(int(pd.read_parquet(sys.argv[1])['env_steps'].sum()))" \
@@ -63,8 +71,11 @@ for seed in $seeds; do
 done
 $python experiments/benchmark_table.py "$out" | tee "$out/table.md"
 $python experiments/benchmark_plot.py "$out" "$out/benchmark.png"
-# learning curves, validation curves and the weight figures (first and second layer) of the first seed's runs
-first=${seeds%% *}
-runs=("$out/rail_mlp_s$first" "$out/rail_linear_s$first")
-[ "$gail" = 1 ] && runs+=("$out/gail_s$first")
-$sumo_rail report "${runs[@]}" "$out/test_s$first.parquet" --out "$out/report"
+# learning curves, validation curves and the weight figures (first and second layer) of one seed's runs
+if [ -n "$report_seed" ]; then
+  runs=()
+  for run in "$out/rail_mlp_s$report_seed" "$out/rail_linear_s$report_seed" "$out/gail_s$report_seed"; do
+    [ -d "$run" ] && runs+=("$run")
+  done
+  $sumo_rail report "${runs[@]}" "$out/test_s$report_seed.parquet" --out "$out/report"
+fi
