@@ -1,7 +1,7 @@
 """The table of experiments/style_fidelity.sh: for each style (calm, sporty) and method (BC, RAIL, DAgger, over
 their training seeds, experiments/seeded.py), agreement with the expert of the style it learned from, and on speed,
 overtakes and lane changes the difference to its own expert and to the other style's expert, with which is
-closer (point estimates). Prints Markdown.
+closer (point estimates); then RAIL - BC and DAgger - BC in agreement, paired. Prints Markdown.
 
 Usage: python experiments/style_table.py METRICS.parquet
 """
@@ -45,6 +45,14 @@ def main(path: str) -> None:
                 print(f"| {style} | {label} | {agreement} | {measure} | "
                       f"{difference_cell(per_seed, own, measure, digits)} | "
                       f"{difference_cell(per_seed, theirs, measure, digits)} | {closer} |")
+    print("\n| style | comparison (paired by seed and episode) | agreement difference |")
+    print("|---|---|---|")
+    for style in STYLES:
+        per_method = {method: seed_samples(metrics, f"{method}_{style}", training_seeds(metrics, f"{method}_{style}"))
+                      for method in METHODS}
+        for method in ("rail", "dagger"):
+            print(f"| {style} | {METHODS[method]} - BC | "
+                  f"{difference_cell(per_method[method], per_method['bc'], 'agreement', 3)} |")
 
 
 if __name__ == "__main__":
