@@ -59,8 +59,8 @@ def plot(found: dict[tuple[str, str], list[tuple[int, Interval]]], counts: list[
 
 def main(out: Path, counts: list[int]) -> None:
     found = points(out, counts)
-    print("| expert episodes | " + " | ".join(f"{METHODS[method]} {measure}" for method in METHODS
-                                                for measure in MEASURES) + " |")
+    print("| expert episodes | " + " | ".join(f"{METHODS[method]} {label}" for method in METHODS
+                                                for measure, label in MEASURES.items()) + " |")
     print("|---:|" + "---|" * len(METHODS) * len(MEASURES))
     for count in counts:
         cells = [next((interval.format(3) for n, interval in found.get((method, measure), []) if n == count), "-")

@@ -19,6 +19,8 @@ workers=${WORKERS:-2}
 overrides=${OVERRIDES---set observation.lane_block=1}
 sumo_rail=${SUMO_RAIL:-.venv/bin/sumo-rail}
 python=${PYTHON:-.venv/bin/python}
+# shellcheck source=experiments/learners.sh
+source "$(dirname "$0")/learners.sh"
 mkdir -p "$out"
 for count in $counts; do
   demos="$out/demos_$count.parquet"  # episode k of every recording is the same episode (seeded by its index)
@@ -27,20 +29,7 @@ for count in $counts; do
     --out "$demos"
   policies=(--policy expert)
   for seed in $seeds; do
-    run="$out/rail_k${count}_s$seed"
-    resume=(); [ -f "$run/checkpoint.pt" ] && resume=(--resume)
-    # shellcheck disable=SC2086
-    $sumo_rail train $overrides --demos "$demos" --policy mlp --directions "$directions" --iterations "$iterations" \
-      --eval-every 0 --workers "$workers" --seed "$seed" --out "$run" "${resume[@]}"
-    mkdir -p "$out/bc_k${count}_s$seed"
-    cp "$run/policy_bc.npz" "$out/bc_k${count}_s$seed/policy_bc.npz"
-    cp "$run/run.json" "$out/bc_k${count}_s$seed/run.json"  # names the driver bc_kCOUNT_sSEED/policy_bc
-    resume=(); [ -f "$out/dagger_k${count}_s$seed/checkpoint.json" ] && resume=(--resume)
-    # shellcheck disable=SC2086
-    $sumo_rail dagger $overrides --demos "$demos" --rounds "$dagger_rounds" --episodes-per-round "$round_episodes" \
-      --eval-every 0 --workers "$workers" --seed "$seed" --out "$out/dagger_k${count}_s$seed" "${resume[@]}"
-    policies+=(--policy "$out/bc_k${count}_s$seed/policy_bc.npz" --policy "$run/policy_latest.npz"
-               --policy "$out/dagger_k${count}_s$seed/policy_latest.npz")
+    train_learners "$demos" "$out" "k$count" "$seed"
   done
   # shellcheck disable=SC2086
   [ -f "$out/test_k$count.parquet" ] || $sumo_rail evaluate $overrides "${policies[@]}" --seed 1000 \

@@ -19,6 +19,8 @@ workers=${WORKERS:-2}
 overrides=${OVERRIDES---set observation.lane_block=1}
 sumo_rail=${SUMO_RAIL:-.venv/bin/sumo-rail}
 python=${PYTHON:-.venv/bin/python}
+# shellcheck source=experiments/learners.sh
+source "$(dirname "$0")/learners.sh"
 mkdir -p "$out"
 policies=(--policy expert:calm --policy expert:sporty)
 for style in calm sporty; do
@@ -27,19 +29,7 @@ for style in calm sporty; do
   [ -f "$demos" ] || $sumo_rail record-expert $overrides --style "$style" --episodes "$episodes" --seed 0 \
     --workers "$workers" --out "$demos"
   for seed in $seeds; do
-    run="$out/rail_${style}_s$seed"
-    resume=(); [ -f "$run/checkpoint.pt" ] && resume=(--resume)
-    # shellcheck disable=SC2086
-    $sumo_rail train $overrides --demos "$demos" --policy mlp --directions "$directions" --iterations "$iterations" \
-      --eval-every 0 --workers "$workers" --seed "$seed" --out "$run" "${resume[@]}"
-    mkdir -p "$out/bc_${style}_s$seed"
-    cp "$run/policy_bc.npz" "$run/run.json" "$out/bc_${style}_s$seed/"  # run.json names the driver by its folder
-    resume=(); [ -f "$out/dagger_${style}_s$seed/checkpoint.json" ] && resume=(--resume)
-    # shellcheck disable=SC2086
-    $sumo_rail dagger $overrides --demos "$demos" --rounds "$dagger_rounds" --episodes-per-round "$round_episodes" \
-      --eval-every 0 --workers "$workers" --seed "$seed" --out "$out/dagger_${style}_s$seed" "${resume[@]}"
-    policies+=(--policy "$out/bc_${style}_s$seed/policy_bc.npz" --policy "$run/policy_latest.npz"
-               --policy "$out/dagger_${style}_s$seed/policy_latest.npz")
+    train_learners "$demos" "$out" "$style" "$seed"
   done
 done
 # shellcheck disable=SC2086
