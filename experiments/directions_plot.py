@@ -18,6 +18,7 @@ import numpy as np
 import pandas as pd
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
+from matplotlib.ticker import EngFormatter, LogLocator, NullFormatter
 
 PROJECTED = 512
 LAST = 3
@@ -54,9 +55,12 @@ def plot(curves: dict[int, list[pd.DataFrame]]) -> Figure:
         for size, runs in curves.items():
             series = across_seeds(runs, column)
             line, = axes.plot(series["decisions"], series["mean"], marker="o", markersize=3,
-                              label=f"N = {size} ({len(runs)} seeds)")
+                              label=f"N = {size} ({len(runs)} seed{'s' * (len(runs) > 1)})")
             axes.fill_between(series["decisions"], series["low"], series["high"], color=line.get_color(), alpha=0.15)
         axes.set(xlabel="environment decisions", ylabel=label, xscale="log")
+        axes.xaxis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))  # 10k, 20k, 50k, 100k, ...
+        axes.xaxis.set_major_formatter(EngFormatter())
+        axes.xaxis.set_minor_formatter(NullFormatter())
         axes.grid(alpha=0.3)
     panels[0].set_ylim(0, 1)
     panels[0].legend(fontsize="small")
