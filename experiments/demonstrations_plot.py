@@ -1,6 +1,9 @@
-"""The figure of experiments/demonstrations_sweep.sh: on-policy agreement and lane-change recall of BC, RAIL and
-DAgger against the number of expert episodes they learned from, each point over the training seeds with its 95%
-interval (experiments/seeded.py). Prints the table as Markdown and writes OUT_DIR/demonstrations.png.
+"""The figure of experiments/demonstrations_sweep.sh: on-policy agreement, lane-change recall and lane changes per
+episode of BC, RAIL and DAgger against the number of expert episodes they learned from, each point over the
+training seeds with its 95% interval (experiments/seeded.py) and each run's own estimate as a dot, the expert's
+lane changes dashed. Prints the table as Markdown, then RAIL - BC and DAgger - BC in agreement at each count
+(paired seed by seed and episode by episode: RAIL seed s starts from BC seed s), and writes
+OUT_DIR/demonstrations.png.
 
 Usage: python experiments/demonstrations_plot.py OUT_DIR COUNT [COUNT ...]   (reads OUT_DIR/test_kCOUNT.parquet)
 """
@@ -11,45 +14,56 @@ import sys
 from pathlib import Path
 
 import pandas as pd
+from benchmark_table import EXPERT
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
-from seeded import seed_samples, training_seeds
+from seeded import difference_cell, digits_of, seed_samples, training_seeds
 
-from sumo_rail.evaluation.statistics import Interval, seeded_interval
+from sumo_rail.evaluation.statistics import Sample, ratio, seeded_interval
+from sumo_rail.evaluation.summary import measure_samples
 
 METHODS = {"bc": "BC", "rail": "RAIL", "dagger": "DAgger"}
-MEASURES = {"agreement": "on-policy agreement", "lane_change_recall": "lane-change recall"}
+MEASURES = {"agreement": "on-policy agreement", "lane_change_recall": "lane-change recall",
+            "lane_changes": "lane changes per episode"}
+COMPARED = ("rail", "dagger")
+"""Methods compared with BC (method - BC) in agreement."""
+DODGE = 1.08
+"""Factor between neighbouring methods' x positions on the log axis."""
+
+PerSeed = list[dict[str, Sample]]
 
 
-def points(out: Path, counts: list[int]) -> dict[tuple[str, str], list[tuple[int, Interval]]]:
-    """(method, measure) -> [(count, interval over the seeds)] for the counts already evaluated."""
-    found: dict[tuple[str, str], list[tuple[int, Interval]]] = {}
-    for count in counts:
-        path = out / f"test_k{count}.parquet"
-        if not path.is_file():
-            continue
-        metrics = pd.read_parquet(path)
-        for method in METHODS:
-            stem = f"{method}_k{count}"
-            per_seed = seed_samples(metrics, stem, training_seeds(metrics, stem))
-            for measure in MEASURES:
-                found.setdefault((method, measure), []).append(
-                    (count, seeded_interval([samples[measure] for samples in per_seed])))
-    return found
+def evaluations(out: Path, counts: list[int]) -> dict[int, pd.DataFrame]:
+    """count -> the per-episode metrics of its test evaluation, for the counts already evaluated."""
+    return {count: pd.read_parquet(path) for count in counts if (path := out / f"test_k{count}.parquet").is_file()}
 
 
-def plot(found: dict[tuple[str, str], list[tuple[int, Interval]]], counts: list[int]) -> Figure:
-    figure = Figure(figsize=(10, 4), layout="constrained")
+def per_seed(metrics: pd.DataFrame, method: str, count: int) -> PerSeed:
+    stem = f"{method}_k{count}"
+    return seed_samples(metrics, stem, training_seeds(metrics, stem))
+
+
+def plot(found: dict[int, dict[str, PerSeed]], expert_lane_changes: float) -> Figure:
+    figure = Figure(figsize=(14, 4), layout="constrained")
     FigureCanvasAgg(figure)
-    for axes, (measure, label) in zip(figure.subplots(1, 2), MEASURES.items(), strict=True):
-        for method, name in METHODS.items():
-            series = found.get((method, measure), [])
-            counts = [count for count, _ in series]
-            estimates = [found.estimate for _, found in series]
-            errors = [[found.estimate - found.low for _, found in series],
-                      [found.high - found.estimate for _, found in series]]
-            axes.errorbar(counts, estimates, yerr=errors, marker="o", capsize=3, label=name)
-        axes.set(xscale="log", xlabel="expert episodes demonstrated", ylabel=label, ylim=(0, 1))
+    counts = list(found)
+    for axes, (measure, label) in zip(figure.subplots(1, len(MEASURES)), MEASURES.items(), strict=True):
+        for offset, (method, name) in enumerate(METHODS.items()):
+            shifted = [count * DODGE ** (offset - 1) for count in counts]  # side by side, not on top of each other
+            intervals = [seeded_interval([samples[measure] for samples in found[count][method]]) for count in counts]
+            errors = [[interval.estimate - interval.low for interval in intervals],
+                      [interval.high - interval.estimate for interval in intervals]]
+            bars = axes.errorbar(shifted, [interval.estimate for interval in intervals], yerr=errors, marker="o",
+                                 capsize=3, label=name)
+            for x, count in zip(shifted, counts, strict=True):  # each training run's own estimate
+                runs = [float(ratio(samples[measure])) for samples in found[count][method]]
+                axes.scatter([x] * len(runs), runs, s=10, color=bars.lines[0].get_color(), alpha=0.5, zorder=3)
+        if measure == "lane_changes":
+            axes.axhline(expert_lane_changes, color="black", linestyle="--", linewidth=1, label="expert")
+            axes.set_ylim(bottom=0)
+        else:
+            axes.set_ylim(0, 1)
+        axes.set(xscale="log", xlabel="expert episodes demonstrated", ylabel=label)
         axes.set_xticks(counts, labels=[str(count) for count in counts])
         axes.minorticks_off()
         axes.grid(alpha=0.3)
@@ -58,15 +72,26 @@ def plot(found: dict[tuple[str, str], list[tuple[int, Interval]]], counts: list[
 
 
 def main(out: Path, counts: list[int]) -> None:
-    found = points(out, counts)
-    print("| expert episodes | " + " | ".join(f"{METHODS[method]} {label}" for method in METHODS
-                                                for measure, label in MEASURES.items()) + " |")
-    print("|---:|" + "---|" * len(METHODS) * len(MEASURES))
+    tests = evaluations(out, counts)
+    found = {count: {method: per_seed(metrics, method, count) for method in METHODS}
+             for count, metrics in tests.items()}
+    print("| expert episodes | seeds | " + " | ".join(f"{METHODS[method]} {label}" for method in METHODS
+                                                      for label in MEASURES.values()) + " |")
+    print("|---:|---:|" + "---|" * len(METHODS) * len(MEASURES))
     for count in counts:
-        cells = [next((interval.format(3) for n, interval in found.get((method, measure), []) if n == count), "-")
-                 for method in METHODS for measure in MEASURES]
+        cells = [seeded_interval([samples[measure] for samples in found[count][method]]).format(digits_of(measure))
+                 if count in found else "-" for method in METHODS for measure in MEASURES]
+        seeds = len(found[count]["bc"]) if count in found else 0
+        print(f"| {count} | {seeds} | " + " | ".join(cells) + " |")
+    print("\n| expert episodes | " + " | ".join(f"{METHODS[method]} - BC agreement" for method in COMPARED) + " |")
+    print("|---:|" + "---|" * len(COMPARED))
+    for count, methods in found.items():
+        cells = [difference_cell(methods[method], methods["bc"], "agreement", 3) for method in COMPARED]
         print(f"| {count} | " + " | ".join(cells) + " |")
-    plot(found, counts).savefig(out / "demonstrations.png", dpi=120)
+    if found:
+        first = next(iter(tests.values()))  # every count's test drives the expert on the same episodes
+        expert = measure_samples(first[first["policy"] == EXPERT].sort_values("seed"))
+        plot(found, float(ratio(expert["lane_changes"]))).savefig(out / "demonstrations.png", dpi=120)
 
 
 if __name__ == "__main__":
