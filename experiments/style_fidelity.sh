@@ -4,12 +4,13 @@
 # agreement measured against the style it learned from; experiments/style_table.py says whether each learner is
 # closer to its own expert than to the other.
 # Usage: experiments/style_fidelity.sh [OUT_DIR]   (resumable: finished recordings, runs and evaluations are skipped)
-#   (environment: SEEDS, EPISODES, DIRECTIONS, ITERATIONS, DAGGER_ROUNDS, ROUND_EPISODES, TEST_EPISODES, WORKERS,
-#   OVERRIDES: --set options of the setting, default the lane-wise block; "" for the paper's)
+#   (environment: SEEDS, EPISODES, BC_EPOCHS, DIRECTIONS, ITERATIONS, DAGGER_ROUNDS, ROUND_EPISODES, TEST_EPISODES,
+#   WORKERS, OVERRIDES: --set options of the setting, default the lane-wise block; "" for the paper's)
 set -euo pipefail
 out=${1:-results/style_fidelity}
 seeds=${SEEDS:-0 1 2}
 episodes=${EPISODES:-200}
+bc_epochs=${BC_EPOCHS:-20}
 directions=${DIRECTIONS:-32}
 iterations=${ITERATIONS:-20}
 dagger_rounds=${DAGGER_ROUNDS:-5}
