@@ -1,0 +1,40 @@
+"""Behaviour cloning's training and held-out accuracy against its epochs, for demonstration files of different
+sizes (two-layer policy, train's class balance; the held-out episodes are BC's own split). Shows whether a fixed
+number of epochs trains BC on a few episodes: each epoch is a pass over the data, so fewer episodes mean fewer
+gradient steps. Prints a Markdown table.
+
+Usage: python experiments/bc_epochs.py EPOCHS[,EPOCHS...] DEMOS.parquet [DEMOS.parquet ...]
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+from pathlib import Path
+
+from sumo_rail.drivers.policies import PolicyShape
+from sumo_rail.learning.bc import BcSettings, behaviour_cloning
+from sumo_rail.runners.tables import read_demonstrations
+
+TRAIN_CLASS_BALANCE = 0.75
+"""`sumo-rail train`'s --bc-class-balance default."""
+
+
+def main(epochs: list[int], paths: list[Path]) -> None:
+    print("| demonstrations | episodes | training decisions | epochs | gradient steps | training accuracy | "
+          "held-out accuracy |")
+    print("|---|---:|---:|---:|---:|---:|---:|")
+    for path in paths:
+        demos = read_demonstrations(path)
+        shape = PolicyShape("mlp", demos.observations.shape[1], 10)
+        for count in epochs:
+            settings = BcSettings(epochs=count, class_balance=TRAIN_CLASS_BALANCE)
+            _, report = behaviour_cloning(demos, shape, settings)
+            steps = count * math.ceil(report.train_rows / settings.batch_size)
+            held_out = "n/a" if report.holdout_accuracy is None else f"{report.holdout_accuracy:.3f}"
+            print(f"| {path.name} | {len(set(demos.episodes))} | {report.train_rows:,} | {count} | {steps:,} | "
+                  f"{report.train_accuracy:.3f} | {held_out} |")
+
+
+if __name__ == "__main__":
+    main([int(count) for count in sys.argv[1].split(",")], [Path(path) for path in sys.argv[2:]])
