@@ -1,8 +1,8 @@
 """The figure of experiments/demonstrations_sweep.sh: on-policy agreement, lane-change recall and lane changes per
 episode of BC, RAIL and DAgger against the number of expert episodes they learned from, each point over the
 training seeds with its 95% interval (experiments/seeded.py) and each run's own estimate as a dot, the expert's
-lane changes dashed. Prints the table as Markdown, then RAIL - BC and DAgger - BC in agreement at each count
-(paired seed by seed and episode by episode: RAIL seed s starts from BC seed s), and writes
+lane changes dashed. Prints the table as Markdown, then RAIL - BC and DAgger - BC in agreement and lane changes
+at each count (paired seed by seed and episode by episode: RAIL seed s starts from BC seed s), and writes
 OUT_DIR/demonstrations.png.
 
 Usage: python experiments/demonstrations_plot.py OUT_DIR COUNT [COUNT ...]   (reads OUT_DIR/test_kCOUNT.parquet)
@@ -26,7 +26,8 @@ METHODS = {"bc": "BC", "rail": "RAIL", "dagger": "DAgger"}
 MEASURES = {"agreement": "on-policy agreement", "lane_change_recall": "lane-change recall",
             "lane_changes": "lane changes per episode"}
 COMPARED = ("rail", "dagger")
-"""Methods compared with BC (method - BC) in agreement."""
+"""Methods compared with BC (method - BC)."""
+DIFFERENCES = ("agreement", "lane_changes")
 DODGE = 1.08
 """Factor between neighbouring methods' x positions on the log axis."""
 
@@ -83,10 +84,12 @@ def main(out: Path, counts: list[int]) -> None:
                  if count in found else "-" for method in METHODS for measure in MEASURES]
         seeds = len(found[count]["bc"]) if count in found else 0
         print(f"| {count} | {seeds} | " + " | ".join(cells) + " |")
-    print("\n| expert episodes | " + " | ".join(f"{METHODS[method]} - BC agreement" for method in COMPARED) + " |")
-    print("|---:|" + "---|" * len(COMPARED))
+    print("\n| expert episodes | " + " | ".join(f"{METHODS[method]} - BC {measure.replace('_', ' ')}"
+                                               for measure in DIFFERENCES for method in COMPARED) + " |")
+    print("|---:|" + "---|" * len(COMPARED) * len(DIFFERENCES))
     for count, methods in found.items():
-        cells = [difference_cell(methods[method], methods["bc"], "agreement", 3) for method in COMPARED]
+        cells = [difference_cell(methods[method], methods["bc"], measure, digits_of(measure))
+                 for measure in DIFFERENCES for method in COMPARED]
         print(f"| {count} | " + " | ".join(cells) + " |")
     if found:
         first = next(iter(tests.values()))  # every count's test drives the expert on the same episodes
