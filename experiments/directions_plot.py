@@ -1,9 +1,13 @@
 """The figure of experiments/directions_sweep.sh: for each number of directions N, validation agreement with the
-expert against environment decisions (mean over training seeds, the seeds' range shaded), and the discriminator's
-mean return beside it (it moves with the discriminator, so it is the secondary panel). Prints a table of each N's
-cost (decisions per iteration: mean over seeds; wall time per iteration: the fastest seed's, as a run sharing the
-machine only gets slower) and last validation agreement, with N = 512 projected from a straight-line fit of the
-cost in N (a projection, not a run). Writes OUT_DIR/directions.png.
+expert against training iterations and against environment decisions (mean over training seeds, the seeds' range
+shaded), and the discriminator's mean return beside them (it moves with the discriminator, so it is the secondary
+panel). Prints a table of each N's cost (decisions per iteration: mean over seeds; wall time per iteration: the
+fastest seed's, as a run sharing the machine only gets slower), its last validation agreement, and whether each
+run's agreement has flattened: the slope of agreement over the run's last half of validations (at least
+TREND_POINTS of them) with its 95% interval: "rising" while the interval lies above 0 (the run was cut short),
+"flattened" once it lies below FLAT (a further rise, if any, is too slow to matter), "undecided" when it is too
+wide to say either. N = 512 is projected from a straight-line fit of the cost in N (a projection, not a run).
+Writes OUT_DIR/directions.png.
 
 Usage: python experiments/directions_plot.py OUT_DIR N [N ...]   (reads OUT_DIR/nN_sSEED/log.parquet)
 """
@@ -20,9 +24,17 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from matplotlib.ticker import EngFormatter, LogLocator, NullFormatter
 
+from sumo_rail.evaluation.statistics import Interval, slope
+
 PROJECTED = 512
 LAST = 3
 """Validations averaged for a run's final agreement (one validation of 20 episodes is noisy)."""
+TREND_POINTS = 4
+"""The fewest validations a run's trend is fitted on (its last half when it has more)."""
+TREND_PER = 10
+"""The trend's unit: change of agreement per this many iterations."""
+FLAT = 0.01
+"""A run has flattened when its trend's upper bound is below this [agreement per TREND_PER iterations]."""
 
 
 def logs(out: Path, size: int) -> list[pd.DataFrame]:
@@ -36,33 +48,51 @@ def logs(out: Path, size: int) -> list[pd.DataFrame]:
 
 
 def across_seeds(runs: list[pd.DataFrame], column: str) -> pd.DataFrame:
-    """Mean, min and max of a column over the seeds at each iteration all of them logged it."""
+    """Mean, min and max of a column over the seeds at each iteration all of them logged it (iterations done,
+    from 1, and decisions done)."""
     table = pd.concat([run.set_index("iteration")[[column, "decisions"]] for run in runs], axis=1,
                       keys=range(len(runs)))
     values = table.xs(column, axis=1, level=1).dropna()
     decisions = table.xs("decisions", axis=1, level=1).loc[values.index].mean(axis=1)
-    return pd.DataFrame({"decisions": decisions, "mean": values.mean(axis=1), "low": values.min(axis=1),
-                         "high": values.max(axis=1)})
+    return pd.DataFrame({"iteration": values.index + 1, "decisions": decisions, "mean": values.mean(axis=1),
+                         "low": values.min(axis=1), "high": values.max(axis=1)})
+
+
+def trend(run: pd.DataFrame) -> Interval:
+    """The slope of validation agreement [per TREND_PER iterations] over the run's last half of validations."""
+    validations = run.dropna(subset=["eval_agreement"])
+    last = validations.iloc[-max(TREND_POINTS, -(-len(validations) // 2)):]
+    found = slope(last["iteration"].to_numpy(), last["eval_agreement"].to_numpy())
+    return Interval(*(TREND_PER * value for value in (found.estimate, found.low, found.high)))
+
+
+def trend_word(found: Interval) -> str:
+    """'rising' where the trend's interval lies above 0, 'flattened' where it lies below FLAT, else 'undecided'."""
+    return "rising" if found.low > 0 else "flattened" if found.high < FLAT else "undecided"
 
 
 def plot(curves: dict[int, list[pd.DataFrame]]) -> Figure:
-    figure = Figure(figsize=(11, 4.2), layout="constrained")
+    figure = Figure(figsize=(15, 4.2), layout="constrained")
     FigureCanvasAgg(figure)
-    panels = figure.subplots(1, 2)
-    for axes, column, label in zip(panels, ("eval_agreement", "return_mean"),
-                                   ("validation agreement with the expert", "discriminator return (mean)"),
-                                   strict=True):
+    panels = figure.subplots(1, 3)
+    agreement = "validation agreement with the expert"
+    for axes, column, x, label in zip(panels, ("eval_agreement", "eval_agreement", "return_mean"),
+                                      ("iteration", "decisions", "iteration"),
+                                      (agreement, agreement, "discriminator return (mean)"), strict=True):
         for size, runs in curves.items():
             series = across_seeds(runs, column)
-            line, = axes.plot(series["decisions"], series["mean"], marker="o", markersize=3,
+            line, = axes.plot(series[x], series["mean"], marker="o", markersize=3,
                               label=f"N = {size} ({len(runs)} seed{'s' * (len(runs) > 1)})")
-            axes.fill_between(series["decisions"], series["low"], series["high"], color=line.get_color(), alpha=0.15)
-        axes.set(xlabel="environment decisions", ylabel=label, xscale="log")
-        axes.xaxis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))  # 10k, 20k, 50k, 100k, ...
-        axes.xaxis.set_major_formatter(EngFormatter())
-        axes.xaxis.set_minor_formatter(NullFormatter())
+            axes.fill_between(series[x], series["low"], series["high"], color=line.get_color(), alpha=0.15)
+        axes.set(xlabel="training iteration" if x == "iteration" else "environment decisions", ylabel=label)
         axes.grid(alpha=0.3)
-    panels[0].set_ylim(0, 1)
+    panels[1].set_xscale("log")
+    panels[1].xaxis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))  # 10k, 20k, 50k, 100k, ...
+    panels[1].xaxis.set_major_formatter(EngFormatter())
+    panels[1].xaxis.set_minor_formatter(NullFormatter())
+    top = max(0.3, *(run["eval_agreement"].max() for runs in curves.values() for run in runs))
+    for axes in panels[:2]:
+        axes.set_ylim(0, min(1.0, 1.15 * top))
     panels[0].legend(fontsize="small")
     return figure
 
@@ -70,8 +100,9 @@ def plot(curves: dict[int, list[pd.DataFrame]]) -> Figure:
 def main(out: Path, sizes: list[int]) -> None:
     curves = {size: runs for size in sizes if (runs := logs(out, size))}
     print("| N | seeds | iterations | decisions per iteration | wall time per iteration [s] | first validation "
-          f"agreement (mean over seeds) | mean of the last {LAST} validations (mean, range over seeds) |")
-    print("|---:|---:|---:|---:|---:|---:|---|")
+          f"agreement (mean over seeds) | mean of the last {LAST} validations (mean, range over seeds) | trend of "
+          f"agreement over the last half of validations, per {TREND_PER} iterations (each seed) |")
+    print("|---:|---:|---:|---:|---:|---:|---|---|")
     costs = []
     for size, runs in curves.items():
         steps = np.mean([run["env_steps"].mean() for run in runs])
@@ -80,12 +111,14 @@ def main(out: Path, sizes: list[int]) -> None:
         validations = [run["eval_agreement"].dropna() for run in runs]
         first = np.mean([values.iloc[0] for values in validations])
         last = [values.iloc[-LAST:].mean() for values in validations]
+        trends = "; ".join(f"{found.format(3, signed=True)} {trend_word(found)}"
+                           for found in map(trend, runs))
         print(f"| {size} | {len(runs)} | {min(len(run) for run in runs)} | {steps:,.0f} | {seconds:.1f} | "
-              f"{first:.3f} | {np.mean(last):.3f} ({min(last):.3f}-{max(last):.3f}) |")
+              f"{first:.3f} | {np.mean(last):.3f} ({min(last):.3f}-{max(last):.3f}) | {trends} |")
     if len(costs) >= 2:
         sizes_run, steps, seconds = (np.array(column, dtype=float) for column in zip(*costs, strict=True))
         projected = [np.polyval(np.polyfit(sizes_run, values, 1), PROJECTED) for values in (steps, seconds)]
-        print(f"| {PROJECTED} (projected) | - | - | {projected[0]:,.0f} | {projected[1]:.1f} | not run | not run |")
+        print(f"| {PROJECTED} (projected) | - | - | {projected[0]:,.0f} | {projected[1]:.1f} | not run | not run | - |")
     plot(curves).savefig(out / "directions.png", dpi=120)
 
 

@@ -102,6 +102,20 @@ def seeded_interval(sample: Sequence[Sample], reference: Sequence[Sample] | None
     return Interval(episodes.estimate, float(episodes.estimate - half), float(episodes.estimate + half))
 
 
+def slope(x: np.ndarray, y: np.ndarray) -> Interval:
+    """The least-squares slope of y on x [y per unit of x] with its interval: the slope +- t(n - 2) x its standard
+    error (scipy.stats.linregress), which assumes independent, equally noisy points about a straight line. NaN
+    bounds with fewer than three points."""
+    x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
+    if len(x) < 2 or len(np.unique(x)) < 2:
+        return Interval(np.nan, np.nan, np.nan)
+    fit = stats.linregress(x, y)
+    if len(x) < 3:
+        return Interval(float(fit.slope), np.nan, np.nan)
+    half = stats.t.ppf(0.5 + CONFIDENCE / 2, len(x) - 2) * fit.stderr
+    return Interval(float(fit.slope), float(fit.slope - half), float(fit.slope + half))
+
+
 def _sum_runs(runs: Sequence[Sample]) -> Sample:
     """Numerators and denominators summed over training runs, episode by episode."""
     return (np.sum([np.asarray(run[0], dtype=float) for run in runs], axis=0),

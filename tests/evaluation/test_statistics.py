@@ -9,6 +9,7 @@ from sumo_rail.evaluation.statistics import (
     paired_difference,
     ratio,
     seeded_interval,
+    slope,
 )
 
 
@@ -76,6 +77,28 @@ def test_seeded_interval_covers_the_method_mean_with_three_runs():
         found = seeded_interval(runs)
         covered += found.low <= 0.0 <= found.high
     assert covered / trials >= 0.9
+
+
+def test_slope_interval_covers_the_true_slope_and_separates_rising_from_flat():
+    rng = np.random.default_rng(3)
+    x = np.arange(6) * 5.0  # six validations, every 5 iterations
+    covered, rising_found, flat_called_rising, trials = 0, 0, 0, 400
+    for _ in range(trials):
+        rising = slope(x, 0.1 + 0.004 * x + rng.normal(0.0, 0.01, x.size))
+        flat = slope(x, 0.1 + rng.normal(0.0, 0.01, x.size))
+        covered += rising.low <= 0.004 <= rising.high
+        rising_found += rising.low > 0
+        flat_called_rising += flat.low > 0
+    assert 0.9 <= covered / trials <= 0.99
+    assert rising_found / trials > 0.95 and flat_called_rising / trials < 0.06
+
+
+def test_slope_of_a_line_and_of_too_few_points():
+    exact = slope(np.array([0.0, 1.0, 2.0, 3.0]), np.array([1.0, 3.0, 5.0, 7.0]))
+    assert (exact.estimate, exact.low, exact.high) == pytest.approx((2.0, 2.0, 2.0))
+    two = slope(np.array([0.0, 1.0]), np.array([0.0, 1.0]))
+    assert two.estimate == pytest.approx(1.0) and np.isnan(two.low)
+    assert np.isnan(slope(np.array([1.0, 1.0, 1.0]), np.array([0.0, 1.0, 2.0])).estimate)
 
 
 def test_degenerate_samples():
