@@ -9,7 +9,8 @@ TREND_POINTS of them) with its 95% interval: "rising" while the interval lies ab
 wide to say either. N = 512 is projected from a straight-line fit of the cost in N (a projection, not a run).
 Writes OUT_DIR/directions.png.
 
-Usage: python experiments/directions_plot.py OUT_DIR N [N ...]   (reads OUT_DIR/nN_sSEED/log.parquet)
+Usage: python experiments/directions_plot.py OUT_DIR [N ...]   (reads OUT_DIR/nN_sSEED/log.parquet; without N,
+every N found there)
 """
 
 from __future__ import annotations
@@ -27,6 +28,8 @@ from matplotlib.ticker import EngFormatter, LogLocator, NullFormatter
 from sumo_rail.evaluation.statistics import Interval, slope
 
 PROJECTED = 512
+RUN_FOLDER = re.compile(r"n(\d+)_s\d+")
+"""A run's folder: nN_sSEED."""
 LAST = 3
 """Validations averaged for a run's final agreement (one validation of 20 episodes is noisy)."""
 TREND_POINTS = 4
@@ -37,14 +40,20 @@ FLAT = 0.01
 """A run has flattened when its trend's upper bound is below this [agreement per TREND_PER iterations]."""
 
 
+def sizes_found(out: Path) -> list[int]:
+    """The numbers of directions of the runs in `out`, ascending."""
+    return sorted({int(found.group(1)) for folder in out.iterdir() if (found := RUN_FOLDER.fullmatch(folder.name))})
+
+
 def logs(out: Path, size: int) -> list[pd.DataFrame]:
     """The logs of every training seed of N = size, with cumulative decisions."""
-    found = []
+    runs = []
     for folder in sorted(out.glob(f"n{size}_s*")):
-        if re.fullmatch(rf"n{size}_s\d+", folder.name) and (folder / "log.parquet").is_file():
+        name = RUN_FOLDER.fullmatch(folder.name)
+        if name and int(name.group(1)) == size and (folder / "log.parquet").is_file():
             log = pd.read_parquet(folder / "log.parquet")
-            found.append(log.assign(decisions=log["env_steps"].cumsum()))
-    return found
+            runs.append(log.assign(decisions=log["env_steps"].cumsum()))
+    return runs
 
 
 def across_seeds(runs: list[pd.DataFrame], column: str) -> pd.DataFrame:
@@ -123,4 +132,5 @@ def main(out: Path, sizes: list[int]) -> None:
 
 
 if __name__ == "__main__":
-    main(Path(sys.argv[1]), [int(size) for size in sys.argv[2:]])
+    folder = Path(sys.argv[1])
+    main(folder, [int(size) for size in sys.argv[2:]] or sizes_found(folder))

@@ -2,9 +2,12 @@
 # The paper's directions sweep (issue 15): RAIL learning curves for N in {8, 16, 32, 64, 128}, several training
 # seeds, validation agreement every few iterations; experiments/directions_plot.py draws the curves (validation
 # agreement first, the discriminator's return beside it) and projects N = 512.
-# Usage: experiments/directions_sweep.sh DEMOS.parquet [OUT_DIR]   (resumable: runs resume)
+# Usage: experiments/directions_sweep.sh DEMOS.parquet [OUT_DIR]   (resumable: runs resume, and a larger ITERATIONS
+#   continues finished runs)
 #   (environment: SIZES, SEEDS, ITERATIONS, EVAL_EVERY, EVAL_EPISODES, BC_EPOCHS (default 0: from zero weights, as
-#   in the paper), STEP_SIZE, WORKERS, OVERRIDES: --set options matching how DEMOS was recorded)
+#   in the paper), STEP_SIZE, WORKERS, OVERRIDES: --set options matching how DEMOS was recorded, PUBLISH: a folder
+#   that receives each run's run.json, checkpoint.pt, log.parquet and policy_latest.npz and the figure and table,
+#   e.g. docs/results/directions_sweep; copied back into OUT_DIR, the runs continue in another session)
 set -euo pipefail
 demos=$1
 out=${2:-results/directions_sweep}
@@ -30,5 +33,13 @@ for seed in $seeds; do
       --workers "$workers" --seed "$seed" --out "$run" "${resume[@]}"
   done
 done
-# shellcheck disable=SC2086
-$python experiments/directions_plot.py "$out" $sizes | tee "$out/table.md"
+$python experiments/directions_plot.py "$out" | tee "$out/table.md"  # every run in OUT_DIR
+if [ -n "${PUBLISH:-}" ]; then
+  for seed in $seeds; do
+    for n in $sizes; do
+      mkdir -p "$PUBLISH/n${n}_s$seed"
+      cp "$out/n${n}_s$seed"/{run.json,checkpoint.pt,log.parquet,policy_latest.npz} "$PUBLISH/n${n}_s$seed/"
+    done
+  done
+  cp "$out/directions.png" "$out/table.md" "$PUBLISH/"
+fi
