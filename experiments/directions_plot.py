@@ -6,8 +6,9 @@ fastest seed's, as a run sharing the machine only gets slower), its last validat
 run's agreement has flattened: the slope of agreement over the run's last half of validations (at least
 TREND_POINTS of them) with its 95% interval: "rising" while the interval lies above 0 (the run was cut short),
 "flattened" once it lies below FLAT (a further rise, if any, is too slow to matter), "undecided" when it is too
-wide to say either. N = 512 is projected from a straight-line fit of the cost in N (a projection, not a run).
-Writes OUT_DIR/directions.png.
+wide to say either. Beside it, how far the search moved the weights against how far a search without signal
+would wander (`wander_ratio`; about 1 when the steps are noise). N = 512 is projected from a straight-line fit of
+the cost in N (a projection, not a run). Writes OUT_DIR/directions.png.
 
 Usage: python experiments/directions_plot.py OUT_DIR [N ...]   (reads OUT_DIR/nN_sSEED/log.parquet; without N,
 every N found there)
@@ -25,7 +26,11 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from matplotlib.ticker import EngFormatter, LogLocator, NullFormatter
 
+from sumo_rail.datasets import read_json_record
+from sumo_rail.drivers.policies import load_policy
 from sumo_rail.evaluation.statistics import Interval, slope
+from sumo_rail.learning.ars import NoiseAdaptation
+from sumo_rail.learning.rail import RailSettings
 
 PROJECTED = 512
 RUN_FOLDER = re.compile(r"n(\d+)_s\d+")
@@ -51,8 +56,9 @@ def logs(out: Path, size: int) -> list[pd.DataFrame]:
     for folder in sorted(out.glob(f"n{size}_s*")):
         name = RUN_FOLDER.fullmatch(folder.name)
         if name and int(name.group(1)) == size and (folder / "log.parquet").is_file():
-            log = pd.read_parquet(folder / "log.parquet")
-            runs.append(log.assign(decisions=log["env_steps"].cumsum()))
+            log = pd.read_parquet(folder / "log.parquet").assign(decisions=lambda log: log["env_steps"].cumsum())
+            log.attrs["folder"] = folder
+            runs.append(log)
     return runs
 
 
@@ -73,6 +79,22 @@ def trend(run: pd.DataFrame) -> Interval:
     last = validations.iloc[-max(TREND_POINTS, -(-len(validations) // 2)):]
     found = slope(last["iteration"].to_numpy(), last["eval_agreement"].to_numpy())
     return Interval(*(TREND_PER * value for value in (found.estimate, found.low, found.high)))
+
+
+def wander_ratio(folder: Path) -> float:
+    """||theta_T - theta_0|| over sqrt(2) alpha sqrt(T d / b): an ARS step is alpha / (b sigma_R) times a sum of b
+    terms (r+ - r-) delta, delta ~ N(0, I_d), so where the returns do not depend on the directions, (r+ - r-) /
+    sigma_R has a root mean square of about sqrt(2) and T steps wander that far. About 1: the weights moved as noise
+    would; well above 1: they drifted along a consistent direction. theta_0: BC's weights, or zeros without BC."""
+    record = read_json_record(folder / "run.json", "run record")
+    rail = record["settings"]["rail"]
+    settings = RailSettings(**{**rail, "noise": NoiseAdaptation(**rail["noise"])})
+    policy, metadata = load_policy(folder / "policy_latest.npz")
+    start = (load_policy(folder / "policy_bc.npz")[0].parameters if (folder / "policy_bc.npz").is_file()
+             else np.zeros_like(policy.parameters))
+    moved = float(np.linalg.norm(policy.parameters.astype(float) - start))
+    wander = np.sqrt(2) * settings.step_size * np.sqrt(metadata["iteration"] * policy.parameters.size / settings.kept)
+    return moved / wander
 
 
 def trend_word(found: Interval) -> str:
@@ -110,8 +132,9 @@ def main(out: Path, sizes: list[int]) -> None:
     curves = {size: runs for size in sizes if (runs := logs(out, size))}
     print("| N | seeds | iterations | decisions per iteration | wall time per iteration [s] | first validation "
           f"agreement (mean over seeds) | mean of the last {LAST} validations (mean, range over seeds) | trend of "
-          f"agreement over the last half of validations, per {TREND_PER} iterations (each seed) |")
-    print("|---:|---:|---:|---:|---:|---:|---|---|")
+          f"agreement over the last half of validations, per {TREND_PER} iterations (each seed) | weights moved / "
+          "noise's wander (each seed) |")
+    print("|---:|---:|---:|---:|---:|---:|---|---|---|")
     costs = []
     for size, runs in curves.items():
         steps = np.mean([run["env_steps"].mean() for run in runs])
@@ -122,12 +145,14 @@ def main(out: Path, sizes: list[int]) -> None:
         last = [values.iloc[-LAST:].mean() for values in validations]
         trends = "; ".join(f"{found.format(3, signed=True)} {trend_word(found)}"
                            for found in map(trend, runs))
+        wanders = ", ".join(f"{wander_ratio(run.attrs['folder']):.2f}" for run in runs)
         print(f"| {size} | {len(runs)} | {min(len(run) for run in runs)} | {steps:,.0f} | {seconds:.1f} | "
-              f"{first:.3f} | {np.mean(last):.3f} ({min(last):.3f}-{max(last):.3f}) | {trends} |")
+              f"{first:.3f} | {np.mean(last):.3f} ({min(last):.3f}-{max(last):.3f}) | {trends} | {wanders} |")
     if len(costs) >= 2:
         sizes_run, steps, seconds = (np.array(column, dtype=float) for column in zip(*costs, strict=True))
         projected = [np.polyval(np.polyfit(sizes_run, values, 1), PROJECTED) for values in (steps, seconds)]
-        print(f"| {PROJECTED} (projected) | - | - | {projected[0]:,.0f} | {projected[1]:.1f} | not run | not run | - |")
+        print(f"| {PROJECTED} (projected) | - | - | {projected[0]:,.0f} | {projected[1]:.1f} | not run | not run | - "
+              "| - |")
     plot(curves).savefig(out / "directions.png", dpi=120)
 
 
