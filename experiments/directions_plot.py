@@ -7,7 +7,7 @@ run's agreement has flattened: the slope of agreement over the run's last half o
 TREND_POINTS of them) with its 95% interval: "rising" while the interval lies above 0 (the run was cut short),
 "flattened" once it lies below FLAT (a further rise, if any, is too slow to matter), "undecided" when it is too
 wide to say either. Beside it, how far the search moved the weights against how far a search without signal
-would wander (`wander_ratio`; about 1 when the steps are noise). N = 512 is projected from a straight-line fit of
+would wander (experiments/wander.py; about 1 when the steps are noise). N = 512 is projected from a straight-line fit of
 the cost in N (a projection, not a run). Writes OUT_DIR/directions.png.
 
 Usage: python experiments/directions_plot.py OUT_DIR [N ...]   (reads OUT_DIR/nN_sSEED/log.parquet; without N,
@@ -25,12 +25,9 @@ import pandas as pd
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from matplotlib.ticker import EngFormatter, LogLocator, NullFormatter
+from wander import wander
 
-from sumo_rail.datasets import read_json_record
-from sumo_rail.drivers.policies import load_policy
 from sumo_rail.evaluation.statistics import Interval, slope
-from sumo_rail.learning.ars import NoiseAdaptation
-from sumo_rail.learning.rail import RailSettings
 
 PROJECTED = 512
 RUN_FOLDER = re.compile(r"n(\d+)_s\d+")
@@ -81,22 +78,6 @@ def trend(run: pd.DataFrame) -> Interval:
     return Interval(*(TREND_PER * value for value in (found.estimate, found.low, found.high)))
 
 
-def wander_ratio(folder: Path) -> float:
-    """||theta_T - theta_0|| over sqrt(2) alpha sqrt(T d / b): an ARS step is alpha / (b sigma_R) times a sum of b
-    terms (r+ - r-) delta, delta ~ N(0, I_d), so where the returns do not depend on the directions, (r+ - r-) /
-    sigma_R has a root mean square of about sqrt(2) and T steps wander that far. About 1: the weights moved as noise
-    would; well above 1: they drifted along a consistent direction. theta_0: BC's weights, or zeros without BC."""
-    record = read_json_record(folder / "run.json", "run record")
-    rail = record["settings"]["rail"]
-    settings = RailSettings(**{**rail, "noise": NoiseAdaptation(**rail["noise"])})
-    policy, metadata = load_policy(folder / "policy_latest.npz")
-    start = (load_policy(folder / "policy_bc.npz")[0].parameters if (folder / "policy_bc.npz").is_file()
-             else np.zeros_like(policy.parameters))
-    moved = float(np.linalg.norm(policy.parameters.astype(float) - start))
-    wander = np.sqrt(2) * settings.step_size * np.sqrt(metadata["iteration"] * policy.parameters.size / settings.kept)
-    return moved / wander
-
-
 def trend_word(found: Interval) -> str:
     """'rising' where the trend's interval lies above 0, 'flattened' where it lies below FLAT, else 'undecided'."""
     return "rising" if found.low > 0 else "flattened" if found.high < FLAT else "undecided"
@@ -145,7 +126,7 @@ def main(out: Path, sizes: list[int]) -> None:
         last = [values.iloc[-LAST:].mean() for values in validations]
         trends = "; ".join(f"{found.format(3, signed=True)} {trend_word(found)}"
                            for found in map(trend, runs))
-        wanders = ", ".join(f"{wander_ratio(run.attrs['folder']):.2f}" for run in runs)
+        wanders = ", ".join(f"{wander(run.attrs['folder']).ratio:.2f}" for run in runs)
         print(f"| {size} | {len(runs)} | {min(len(run) for run in runs)} | {steps:,.0f} | {seconds:.1f} | "
               f"{first:.3f} | {np.mean(last):.3f} ({min(last):.3f}-{max(last):.3f}) | {trends} | {wanders} |")
     if len(costs) >= 2:

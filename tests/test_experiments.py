@@ -1,6 +1,7 @@
 import subprocess
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 SCRIPTS = sorted((Path(__file__).parent.parent / "experiments").glob("*.sh"))
@@ -15,3 +16,42 @@ def test_experiment_scripts_parse_and_are_executable(script: Path):
 def test_every_documented_experiment_exists():
     assert {path.name for path in SCRIPTS} >= {"demo.sh", "imitation_table.sh", "directions_sweep.sh",
                                                "style_fidelity.sh"}
+
+
+def _searched_run(folder: Path, signal: float, iterations: int = 60) -> Path:
+    """A run folder whose linear policy took `iterations` ARS steps from zeros, with returns r+- = +-signal x
+    (delta . g) plus unit noise: signal 0 is a search without signal."""
+    import dataclasses
+    import json
+
+    from sumo_rail.datasets import FORMAT_VERSION
+    from sumo_rail.drivers.policies import Policy, PolicyShape, save_policy
+    from sumo_rail.learning.ars import ars_update
+    from sumo_rail.learning.rail import RailSettings
+
+    rng = np.random.default_rng(0)
+    settings, shape = RailSettings(directions=16, step_size=0.02), PolicyShape("linear", 40)
+    theta, gradient = np.zeros(shape.parameter_count, np.float32), rng.normal(size=shape.parameter_count)
+    for _ in range(iterations):
+        deltas = rng.normal(size=(settings.directions, theta.size))
+        along = signal * deltas @ gradient / np.linalg.norm(gradient)
+        plus, minus = (sign * along + rng.normal(size=settings.directions) for sign in (1, -1))
+        theta = ars_update(theta, deltas, plus, minus, settings.kept, settings.step_size).parameters
+    folder.mkdir()
+    rail = {**dataclasses.asdict(settings)}
+    (folder / "run.json").write_text(json.dumps({"format_version": FORMAT_VERSION, "settings": {"rail": rail}}))
+    save_policy(Policy(shape, theta), folder / "policy_latest.npz", {"iteration": iterations})
+    return folder
+
+
+def test_wander_ratio_tells_a_search_without_signal_from_a_drift(tmp_path: Path):
+    import sys
+
+    sys.path.insert(0, str(SCRIPTS[0].parent))
+    from wander import wander
+
+    noise = wander(_searched_run(tmp_path / "noise", signal=0.0))
+    drift = wander(_searched_run(tmp_path / "drift", signal=3.0))
+    assert 0.85 < noise.ratio < 1.15  # the weights wandered as far as noise goes
+    assert drift.ratio > 2.0  # a consistent direction carries them far beyond it
+    assert noise.iterations == 60 and noise.settings.kept == 8
