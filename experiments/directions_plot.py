@@ -5,10 +5,11 @@ panel). Prints a table of each N's cost (decisions per iteration: mean over seed
 fastest seed's, as a run sharing the machine only gets slower), its last validation agreement, and whether each
 run's agreement has flattened: the slope of agreement over the run's last half of validations (at least
 TREND_POINTS of them) with its 95% interval: "rising" while the interval lies above 0 (the run was cut short),
-"flattened" once it lies below FLAT (a further rise, if any, is too slow to matter), "undecided" when it is too
-wide to say either. Beside it, how far the search moved the weights against how far a search without signal
-would wander (experiments/wander.py; about 1 when the steps are noise). N = 512 is projected from a straight-line fit of
-the cost in N (a projection, not a run). Writes OUT_DIR/directions.png.
+"falling" where it lies below 0, "flattened" where it holds 0 and lies below FLAT (a further rise, if any, is too
+slow to matter), "undecided" when it is too wide to say. Runs with no validation yet are left out. Beside it,
+how far the search moved the weights against how far a search without signal would wander (experiments/wander.py;
+about 1 when the steps are noise). N = 512 is projected from a straight-line fit of the cost in N (a projection,
+not a run). Writes OUT_DIR/directions.png.
 
 Usage: python experiments/directions_plot.py OUT_DIR [N ...]   (reads OUT_DIR/nN_sSEED/log.parquet; without N,
 every N found there)
@@ -48,14 +49,15 @@ def sizes_found(out: Path) -> list[int]:
 
 
 def logs(out: Path, size: int) -> list[pd.DataFrame]:
-    """The logs of every training seed of N = size, with cumulative decisions."""
+    """The logs of every training seed of N = size that has a validation, with cumulative decisions."""
     runs = []
     for folder in sorted(out.glob(f"n{size}_s*")):
         name = RUN_FOLDER.fullmatch(folder.name)
         if name and int(name.group(1)) == size and (folder / "log.parquet").is_file():
             log = pd.read_parquet(folder / "log.parquet").assign(decisions=lambda log: log["env_steps"].cumsum())
             log.attrs["folder"] = folder
-            runs.append(log)
+            if log["eval_agreement"].notna().any():
+                runs.append(log)
     return runs
 
 
@@ -79,8 +81,11 @@ def trend(run: pd.DataFrame) -> Interval:
 
 
 def trend_word(found: Interval) -> str:
-    """'rising' where the trend's interval lies above 0, 'flattened' where it lies below FLAT, else 'undecided'."""
-    return "rising" if found.low > 0 else "flattened" if found.high < FLAT else "undecided"
+    """'rising' or 'falling' where the trend's interval lies above or below 0, else 'flattened' where it lies below
+    FLAT, else 'undecided'."""
+    if found.low > 0 or found.high < 0:
+        return "rising" if found.low > 0 else "falling"
+    return "flattened" if found.high < FLAT else "undecided"
 
 
 def plot(curves: dict[int, list[pd.DataFrame]]) -> Figure:
