@@ -55,3 +55,17 @@ def test_wander_ratio_tells_a_search_without_signal_from_a_drift(tmp_path: Path)
     assert 0.85 < noise.ratio < 1.15  # the weights wandered as far as noise goes
     assert drift.ratio > 2.0  # a consistent direction carries them far beyond it
     assert noise.iterations == 60 and noise.settings.kept == 8
+
+
+def test_directions_trend_words():
+    import sys
+
+    sys.path.insert(0, str(SCRIPTS[0].parent))
+    from directions_plot import trend_word
+
+    from sumo_rail.evaluation.statistics import Interval
+
+    assert trend_word(Interval(0.05, 0.01, 0.09)) == "rising"
+    assert trend_word(Interval(-0.04, -0.07, -0.01)) == "falling"
+    assert trend_word(Interval(-0.006, -0.014, 0.002)) == "flattened"
+    assert trend_word(Interval(0.01, -0.04, 0.06)) == "undecided"
