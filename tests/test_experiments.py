@@ -1,10 +1,23 @@
+import dataclasses
+import json
 import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-SCRIPTS = sorted((Path(__file__).parent.parent / "experiments").glob("*.sh"))
+from sumo_rail.datasets import FORMAT_VERSION
+from sumo_rail.drivers.policies import Policy, PolicyShape, save_policy
+from sumo_rail.evaluation.statistics import Interval
+from sumo_rail.learning.ars import ars_update
+from sumo_rail.learning.rail import RailSettings
+
+EXPERIMENTS = Path(__file__).parent.parent / "experiments"
+SCRIPTS = sorted(EXPERIMENTS.glob("*.sh"))
+sys.path.insert(0, str(EXPERIMENTS))  # the experiments' Python modules import each other by name
+from directions_plot import trend_word  # noqa: E402
+from wander import wander  # noqa: E402
 
 
 @pytest.mark.parametrize("script", SCRIPTS, ids=lambda path: path.name)
@@ -21,14 +34,6 @@ def test_every_documented_experiment_exists():
 def _searched_run(folder: Path, signal: float, iterations: int = 60) -> Path:
     """A run folder whose linear policy took `iterations` ARS steps from zeros, with returns r+- = +-signal x
     (delta . g) plus unit noise: signal 0 is a search without signal."""
-    import dataclasses
-    import json
-
-    from sumo_rail.datasets import FORMAT_VERSION
-    from sumo_rail.drivers.policies import Policy, PolicyShape, save_policy
-    from sumo_rail.learning.ars import ars_update
-    from sumo_rail.learning.rail import RailSettings
-
     rng = np.random.default_rng(0)
     settings, shape = RailSettings(directions=16, step_size=0.02), PolicyShape("linear", 40)
     theta, gradient = np.zeros(shape.parameter_count, np.float32), rng.normal(size=shape.parameter_count)
@@ -38,18 +43,13 @@ def _searched_run(folder: Path, signal: float, iterations: int = 60) -> Path:
         plus, minus = (sign * along + rng.normal(size=settings.directions) for sign in (1, -1))
         theta = ars_update(theta, deltas, plus, minus, settings.kept, settings.step_size).parameters
     folder.mkdir()
-    rail = {**dataclasses.asdict(settings)}
-    (folder / "run.json").write_text(json.dumps({"format_version": FORMAT_VERSION, "settings": {"rail": rail}}))
+    record = {"format_version": FORMAT_VERSION, "settings": {"rail": dataclasses.asdict(settings)}}
+    (folder / "run.json").write_text(json.dumps(record))
     save_policy(Policy(shape, theta), folder / "policy_latest.npz", {"iteration": iterations})
     return folder
 
 
 def test_wander_ratio_tells_a_search_without_signal_from_a_drift(tmp_path: Path):
-    import sys
-
-    sys.path.insert(0, str(SCRIPTS[0].parent))
-    from wander import wander
-
     noise = wander(_searched_run(tmp_path / "noise", signal=0.0))
     drift = wander(_searched_run(tmp_path / "drift", signal=3.0))
     assert 0.85 < noise.ratio < 1.15  # the weights wandered as far as noise goes
@@ -58,13 +58,6 @@ def test_wander_ratio_tells_a_search_without_signal_from_a_drift(tmp_path: Path)
 
 
 def test_directions_trend_words():
-    import sys
-
-    sys.path.insert(0, str(SCRIPTS[0].parent))
-    from directions_plot import trend_word
-
-    from sumo_rail.evaluation.statistics import Interval
-
     assert trend_word(Interval(0.05, 0.01, 0.09)) == "rising"
     assert trend_word(Interval(-0.04, -0.07, -0.01)) == "falling"
     assert trend_word(Interval(-0.006, -0.014, 0.002)) == "flattened"
