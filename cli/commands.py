@@ -7,6 +7,7 @@ from typing import TYPE_CHECKING, Any
 
 import click
 from sumo_rail_cli.options import (
+    SearchOptions,
     backend_options,
     bc_summary,
     build_backend,
@@ -20,6 +21,7 @@ from sumo_rail_cli.options import (
     output_options,
     resolve_config,
     run_folder_options,
+    search_options,
     tensorboard_logger,
     tensorboard_option,
 )
@@ -205,58 +207,21 @@ def _write_videos(videos: dict[str, bytes], video_dir: Path | None) -> list[str]
 @click.command("train")
 @config_options
 @imitation_options
-@click.option("--directions", type=click.IntRange(min=1), default=32, show_default=True, help="N, directions.")
-@click.option("--top", type=click.IntRange(min=1), default=None, help="b, best directions kept [default: N / 2].")
-@click.option("--step-size", type=click.FloatRange(min=0, min_open=True), default=0.02, show_default=True,
-              help="alpha, the ARS step size (the paper's 0.001 changes 0.1% of decisions in 3 iterations; "
-                   "see docs/results.md).")
-@click.option("--noise", type=click.FloatRange(min=0, min_open=True), default=0.03, show_default=True,
-              help="nu_init, the perturbation scale.")
-@click.option("--noise-increment", type=click.FloatRange(min=0), default=0.001, show_default=True,
-              help="tau, added to nu at each check without improvement.")
-@click.option("--noise-every", type=click.IntRange(min=1), default=10, show_default=True,
-              help="eta, iterations between noise checks.")
-@click.option("--traffic", type=click.Choice(["common", "independent"]), default="independent", show_default=True,
-              help="common: every direction of an iteration drives the same episodes (common random numbers); "
-                   "independent: each direction its own.")
-@click.option("--episodes-per-rollout", type=click.IntRange(min=1), default=1, show_default=True,
-              help="Episodes each perturbed rollout drives (its return is their mean).")
-@click.option("--freeze-normalizer/--merge-normalizer", default=True, show_default=True,
-              help="Keep BC's observation statistics, or merge every rollout's states into them (the paper's).")
-@click.option("--disc-hidden", type=click.IntRange(min=1), default=64, show_default=True,
-              help="Discriminator units per hidden layer.")
-@click.option("--disc-lr", type=click.FloatRange(min=0, min_open=True), default=3e-4, show_default=True,
-              help="Discriminator Adam step size.")
-@click.option("--disc-steps", type=click.IntRange(min=1), default=10, show_default=True,
-              help="Discriminator gradient steps per iteration.")
+@search_options
 @click.option("--iterations", type=click.IntRange(min=1), default=200, show_default=True,
               help="Iterations in total (with --resume: including those already done).")
 @run_folder_options("iteration", eval_every=10)
 @tensorboard_option
 def train_command(config_path: Path | None, overrides: tuple[str, ...], demos: Path, kind: str, hidden: int,
-                  bc_epochs: int, bc_class_balance: float, directions: int, top: int | None, step_size: float,
-                  noise: float, noise_increment: float, noise_every: int, traffic: str, episodes_per_rollout: int,
-                  freeze_normalizer: bool, disc_hidden: int, disc_lr: float, disc_steps: int, iterations: int,
-                  workers: int,
+                  bc_epochs: int, bc_class_balance: float, search: SearchOptions, iterations: int, workers: int,
                   backend_name: str, address: str | None, seed: int, eval_every: int, eval_episodes: int, out: Path,
                   resume: bool, tensorboard_dir: Path | None) -> None:
     """Learn a driving policy from demonstrations with RAIL (BC initialisation, then ARS with an LS-GAN reward)."""
     config = resolve_config(config_path, overrides)
-    from sumo_rail.learning.ars import NoiseAdaptation
-    from sumo_rail.learning.discriminator import DiscriminatorSettings
-    from sumo_rail.learning.rail import RailSettings
     from sumo_rail.learning.training import RunError, RunSettings, Validation, train
 
-    try:
-        rail = RailSettings(directions=directions, top=top, step_size=step_size,
-                            noise=NoiseAdaptation(noise, noise_increment, noise_every), seed=seed,
-                            common_traffic=traffic == "common", episodes_per_rollout=episodes_per_rollout,
-                            freeze_normalizer=freeze_normalizer)
-        discriminator = DiscriminatorSettings(hidden=disc_hidden, learning_rate=disc_lr,
-                                              steps_per_iteration=disc_steps, seed=seed)
-        settings = RunSettings(str(demos), kind, hidden, bc_epochs, rail, discriminator, bc_class_balance)
-    except ValueError as error:
-        raise click.UsageError(str(error)) from error
+    rail, discriminator = search.settings(seed)
+    settings = RunSettings(str(demos), kind, hidden, bc_epochs, rail, discriminator, bc_class_balance)
     backend = build_backend(backend_name, workers, address)
     bar = episode_progress(iterations, "training")
     bar.unit = "iteration"

@@ -4,9 +4,11 @@ outputs."""
 from __future__ import annotations
 
 import contextlib
+import functools
 import signal
 import tomllib
 from collections.abc import Callable, Iterator
+from dataclasses import dataclass, fields
 from pathlib import Path
 from types import FrameType
 from typing import TYPE_CHECKING, Any
@@ -18,6 +20,8 @@ from sumo_rail.config import Config, ConfigError
 
 if TYPE_CHECKING:
     from sumo_rail.learning.bc import BcReport
+    from sumo_rail.learning.discriminator import DiscriminatorSettings
+    from sumo_rail.learning.rail import RailSettings
     from sumo_rail.runners.backends import RolloutBackend
 
 
@@ -221,3 +225,106 @@ def make_interruptible() -> None:
 
 def _raise_keyboard_interrupt(signal_number: int, frame: FrameType | None) -> None:
     raise KeyboardInterrupt
+
+
+@dataclass(frozen=True)
+class SearchOptions:
+    """The ARS and discriminator options of `search_options`, as given."""
+
+    directions: int
+    top: int | None
+    step_size: float
+    noise: float
+    noise_increment: float
+    noise_every: int
+    flip_rate: float | None
+    fitness: str
+    traffic: str
+    episodes_per_rollout: int
+    freeze_normalizer: bool
+    disc_hidden: int
+    disc_lr: float
+    disc_steps: int
+    disc_reward: str
+    disc_balance: float
+    disc_penalty: float
+    disc_replay: int
+
+    def settings(self, seed: int) -> tuple[RailSettings, DiscriminatorSettings]:
+        """The RAIL and discriminator settings; an inconsistent combination is a usage error (exit 2)."""
+        from sumo_rail.learning.ars import NoiseAdaptation
+        from sumo_rail.learning.discriminator import DiscriminatorSettings
+        from sumo_rail.learning.rail import RailSettings
+
+        try:
+            rail = RailSettings(directions=self.directions, top=self.top, step_size=self.step_size,
+                                noise=NoiseAdaptation(self.noise, self.noise_increment, self.noise_every), seed=seed,
+                                common_traffic=self.traffic == "common", episodes_per_rollout=self.episodes_per_rollout,
+                                freeze_normalizer=self.freeze_normalizer, fitness=self.fitness,
+                                flip_rate=self.flip_rate)
+            discriminator = DiscriminatorSettings(hidden=self.disc_hidden, learning_rate=self.disc_lr,
+                                                  steps_per_iteration=self.disc_steps, seed=seed,
+                                                  reward_form=self.disc_reward, balance=self.disc_balance,
+                                                  gradient_penalty=self.disc_penalty, replay=self.disc_replay)
+        except ValueError as error:
+            raise click.UsageError(str(error)) from error
+        return rail, discriminator
+
+
+def search_options(command: Callable[..., Any]) -> Callable[..., Any]:
+    """RAIL's ARS and discriminator options, what train and step-signal share; the command receives them as one
+    `search: SearchOptions` argument."""
+    options = [
+        click.option("--directions", type=click.IntRange(min=1), default=32, show_default=True, help="N, directions."),
+        click.option("--top", type=click.IntRange(min=1), default=None,
+                     help="b, best directions kept [default: N / 2]."),
+        click.option("--step-size", type=click.FloatRange(min=0, min_open=True), default=0.02, show_default=True,
+                     help="alpha, the ARS step size (the paper's 0.001 changes 0.1% of decisions in 3 iterations; "
+                          "see docs/results.md)."),
+        click.option("--noise", type=click.FloatRange(min=0, min_open=True), default=0.03, show_default=True,
+                     help="nu_init, the perturbation scale."),
+        click.option("--noise-increment", type=click.FloatRange(min=0), default=0.001, show_default=True,
+                     help="tau, added to nu at each check without improvement."),
+        click.option("--noise-every", type=click.IntRange(min=1), default=10, show_default=True,
+                     help="eta, iterations between noise checks."),
+        click.option("--flip-rate", type=click.FloatRange(min=0, max=1, min_open=True, max_open=True), default=None,
+                     help="Set nu at every iteration so that the perturbations change this share of the policy's "
+                          "decisions on the expert's states (replaces --noise, --noise-increment, --noise-every)."),
+        click.option("--fitness", type=click.Choice(["std", "rank"]), default="std", show_default=True,
+                     help="std: returns divided by their std (ARS); rank: centred ranks (Salimans et al. 2017)."),
+        click.option("--traffic", type=click.Choice(["common", "independent"]), default="independent",
+                     show_default=True,
+                     help="common: every direction of an iteration drives the same episodes (common random numbers); "
+                          "independent: each direction its own."),
+        click.option("--episodes-per-rollout", type=click.IntRange(min=1), default=1, show_default=True,
+                     help="Episodes each perturbed rollout drives (its return is their mean)."),
+        click.option("--freeze-normalizer/--merge-normalizer", default=True, show_default=True,
+                     help="Keep BC's observation statistics, or merge every rollout's states into them (the "
+                          "paper's)."),
+        click.option("--disc-hidden", type=click.IntRange(min=1), default=64, show_default=True,
+                     help="Discriminator units per hidden layer."),
+        click.option("--disc-lr", type=click.FloatRange(min=0, min_open=True), default=3e-4, show_default=True,
+                     help="Discriminator Adam step size."),
+        click.option("--disc-steps", type=click.IntRange(min=1), default=10, show_default=True,
+                     help="Discriminator gradient steps per iteration."),
+        click.option("--disc-reward", type=click.Choice(["logit", "contrast"]), default="logit", show_default=True,
+                     help="logit: log D - log(1 - D), the paper's; contrast: minus its mean over the actions at the "
+                          "same state (rewards the choice of action, not the state)."),
+        click.option("--disc-balance", type=click.FloatRange(min=0), default=0.0, show_default=True,
+                     help="Discriminator minibatches weigh pairs by (1 / their action's frequency)^p: 0 uniform, 1 "
+                          "every action alike."),
+        click.option("--disc-penalty", type=click.FloatRange(min=0), default=0.0, show_default=True,
+                     help="Weight of the gradient penalty on expert pairs (R1)."),
+        click.option("--disc-replay", type=click.IntRange(min=1), default=1, show_default=True,
+                     help="Iterations of policy pairs the discriminator trains on (1: the current one)."),
+    ]
+    names = [field.name for field in fields(SearchOptions)]
+
+    @functools.wraps(command)
+    def with_search(*args: Any, **kwargs: Any) -> Any:
+        search = SearchOptions(**{name: kwargs.pop(name) for name in names})
+        return command(*args, search=search, **kwargs)
+
+    for option in reversed(options):
+        with_search = option(with_search)
+    return with_search

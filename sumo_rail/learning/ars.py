@@ -18,6 +18,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.stats import rankdata
 
 
 @dataclass(frozen=True, eq=False)
@@ -32,12 +33,28 @@ class ArsStep:
     """Indices of the top b directions, shape (b,), by max(r+, r-) descending, ties by lower index."""
 
 
+FITNESS_SHAPINGS = ("std", "rank")
+"""How `ars_update` scales the returns: 'std' divides by sigma_R (ARS); 'rank' replaces them by centred ranks."""
+
+
+def centred_ranks(returns: np.ndarray) -> np.ndarray:
+    """Salimans et al. (2017)'s fitness shaping: each return's rank among all of them (ties share their mean rank)
+    mapped linearly onto [-0.5, 0.5], same shape."""
+    values = np.asarray(returns, dtype=np.float64)
+    if values.size < 2:
+        return np.zeros_like(values)
+    return (rankdata(values, method="average").reshape(values.shape) - 1.0) / (values.size - 1) - 0.5
+
+
 def ars_update(parameters: np.ndarray, deltas: np.ndarray, returns_plus: np.ndarray, returns_minus: np.ndarray,
-               top: int, step_size: float) -> ArsStep:
+               top: int, step_size: float, shaping: str = "std") -> ArsStep:
     """One ARS V2-t step from N directions `deltas` (N, P) and the returns (N,) of theta +- nu delta_k.
 
-    theta + step_size / (top sigma_R) * sum_{k in top} (r+_k - r-_k) delta_k, computed in float64 and cast to
-    float32; if sigma_R is 0 (all selected returns equal) the parameters are returned unchanged.
+    'std' shaping: theta + step_size / (top sigma_R) * sum_{k in top} (r+_k - r-_k) delta_k, computed in float64
+    and cast to float32; if sigma_R is 0 (all selected returns equal) the parameters are returned unchanged.
+    'rank' shaping: the 2N returns are replaced by their centred ranks (`centred_ranks`) and the step is
+    step_size / top * sum_{k in top} (rank+_k - rank-_k) delta_k, with no division by sigma_R (reported all the
+    same); the top directions are chosen on the returns either way.
     """
     theta = np.asarray(parameters)
     deltas = np.asarray(deltas)
@@ -53,12 +70,19 @@ def ars_update(parameters: np.ndarray, deltas: np.ndarray, returns_plus: np.ndar
         raise ValueError("returns must be finite")
     if not 1 <= top <= count:
         raise ValueError(f"top must be between 1 and the number of directions {count}, got {top}")
+    if shaping not in FITNESS_SHAPINGS:
+        raise ValueError(f"fitness shaping must be one of {', '.join(FITNESS_SHAPINGS)}, got {shaping!r}")
     selected = np.argsort(-np.maximum(plus, minus), kind="stable")[:top]
     reward_std = float(np.std(np.concatenate([plus[selected], minus[selected]])))
     if reward_std == 0.0:
         return ArsStep(theta.astype(np.float32), reward_std, selected)
+    if shaping == "rank":
+        ranks = centred_ranks(np.concatenate([plus, minus]))
+        plus, minus, scale = ranks[:count], ranks[count:], step_size / top
+    else:
+        scale = step_size / (top * reward_std)
     step = (plus[selected] - minus[selected]) @ deltas[selected].astype(np.float64)
-    new = theta.astype(np.float64) + step_size / (top * reward_std) * step
+    new = theta.astype(np.float64) + scale * step
     return ArsStep(new.astype(np.float32), reward_std, selected)
 
 

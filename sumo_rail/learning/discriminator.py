@@ -25,6 +25,9 @@ from sumo_rail.learning.torch_threads import single_thread
 logger = logging.getLogger(__name__)
 
 
+REWARD_FORMS = ("logit", "contrast")
+"""The forms of the discriminator's reward (`DiscriminatorSettings.reward_form`)."""
+
 
 @dataclass(frozen=True)
 class DiscriminatorSettings:
@@ -39,6 +42,19 @@ class DiscriminatorSettings:
     reward_clip: float = 1e-3
     """D is clipped to [clip, 1 - clip] before the log, bounding the reward by log((1 - clip) / clip)."""
     seed: int = 0
+    reward_form: str = "logit"
+    """'logit': log D(s, a) - log(1 - D(s, a)), the paper's reward; 'contrast': that minus its mean over every action
+    at the same state, so the part that depends on the state alone (how expert-like the visited traffic is) cancels
+    and only the choice among the actions at that state is rewarded."""
+    balance: float = 0.0
+    """Minibatches draw each side's pairs with weights (1 / frequency of their action on that side)^balance: 0 draws
+    pairs uniformly, 1 every action equally often (the rare lane changes as often as keeping the lane)."""
+    gradient_penalty: float = 0.0
+    """Weight of the mean squared norm of the gradient of D's logit with respect to its input at expert pairs (R1,
+    Mescheder et al. 2018), added to the loss: it keeps D smooth rather than chasing the last policy's pairs."""
+    replay: int = 1
+    """Policy pairs of this many most recent `train` calls (RAIL iterations) are the policy side of each minibatch;
+    1: the current call's only, as the paper."""
 
 
 @dataclass(frozen=True)
@@ -71,6 +87,12 @@ class Discriminator:
         if not 0.0 < settings.reward_clip < 0.5 or settings.steps_per_iteration < 1 or settings.batch_size < 1:
             raise ValueError(f"discriminator settings need 0 < reward_clip < 0.5, steps_per_iteration >= 1 and "
                              f"batch_size >= 1, got {settings}")
+        if settings.reward_form not in REWARD_FORMS:
+            raise ValueError(f"the discriminator's reward form must be one of {', '.join(REWARD_FORMS)}, got "
+                             f"{settings.reward_form!r}")
+        if settings.balance < 0 or settings.gradient_penalty < 0 or settings.replay < 1:
+            raise ValueError(f"discriminator settings need balance >= 0, gradient_penalty >= 0 and replay >= 1, got "
+                             f"{settings}")
         self.observation_size, self.actions, self.settings = observation_size, actions, settings
         self._mean = torch.as_tensor(mean, dtype=torch.float32)
         self._scale = torch.as_tensor(1.0 / np.where(std < MIN_STD, 1.0, std), dtype=torch.float32)
@@ -84,6 +106,8 @@ class Discriminator:
             nn.init.uniform_(layer.bias, -bound, bound, generator=self._generator)
         self._network = nn.Sequential(linears[0], nn.Tanh(), linears[1], nn.Tanh(), linears[2])
         self._optimiser = torch.optim.Adam(self._network.parameters(), lr=settings.learning_rate)
+        self._replay: list[torch.Tensor] = []
+        """Policy inputs of the last `settings.replay` train calls, oldest first."""
 
     def probability(self, observations: np.ndarray, actions: np.ndarray) -> np.ndarray:
         """D of pairs (observations (B, n), actions (B,)), shape (B,) float64."""
@@ -91,10 +115,27 @@ class Discriminator:
         return 0.5 * (1.0 + np.tanh(0.5 * logits))  # the sigmoid, without overflow
 
     def reward(self, observations: np.ndarray, actions: np.ndarray) -> np.ndarray:
-        """RAIL reward log D - log(1 - D) with D clipped to [clip, 1 - clip], shape (B,) float64 (nats)."""
+        """RAIL's reward of pairs, shape (B,) float64 (nats), in the settings' form: log D - log(1 - D) with D clipped
+        to [clip, 1 - clip]; with the 'contrast' form minus the mean of that over all actions at the same state."""
         clip = self.settings.reward_clip
-        d = np.clip(self.probability(observations, actions), clip, 1.0 - clip)
-        return np.log(d) - np.log1p(-d)
+        if self.settings.reward_form == "logit":
+            d = np.clip(self.probability(observations, actions), clip, 1.0 - clip)
+            return np.log(d) - np.log1p(-d)
+        observations = np.asarray(observations, dtype=np.float32)
+        rows = len(observations)
+        every = np.tile(np.arange(self.actions), rows)
+        d = np.clip(self.probability(np.repeat(observations, self.actions, axis=0), every), clip, 1.0 - clip)
+        log_odds = (np.log(d) - np.log1p(-d)).reshape(rows, self.actions)
+        taken = log_odds[np.arange(rows), np.asarray(actions, dtype=np.int64)]
+        return taken - log_odds.mean(axis=1)
+
+    def lowest_reward(self) -> float:
+        """The lowest reward the clipped D can give in the settings' form (nats): -log((1 - clip) / clip) for
+        'logit'; for 'contrast', the taken action at the lowest log odds and every other at the highest."""
+        bound = float(np.log1p(-self.settings.reward_clip) - np.log(self.settings.reward_clip))
+        if self.settings.reward_form == "logit":
+            return -bound
+        return -bound - (self.actions - 2) * bound / self.actions
 
     def train(self, expert_observations: np.ndarray, expert_actions: np.ndarray, policy_observations: np.ndarray,
               policy_actions: np.ndarray) -> DiscriminatorReport:
@@ -103,39 +144,61 @@ class Discriminator:
         policy = self._inputs(policy_observations, policy_actions)
         if len(expert) == 0 or len(policy) == 0:
             raise ValueError("discriminator training needs at least one expert pair and one policy pair")
+        self._replay = [*self._replay, policy][-self.settings.replay:]
         with single_thread():
-            return self._train(expert, policy)
+            return self._train(expert, torch.cat(self._replay), policy)
 
-    def _train(self, expert: torch.Tensor, policy: torch.Tensor) -> DiscriminatorReport:
-        """The steps of `train` on input tensors (B, n + actions); the report is measured on all of them."""
+    def _train(self, expert: torch.Tensor, policy: torch.Tensor, current: torch.Tensor) -> DiscriminatorReport:
+        """The steps of `train` on input tensors (B, n + actions), the policy side drawn from `policy`; the report is
+        measured on the expert's pairs and the `current` policy pairs."""
         batch = self.settings.batch_size
+        expert_weights, policy_weights = self._sampling_weights(expert), self._sampling_weights(policy)
         for _ in range(self.settings.steps_per_iteration):
-            expert_rows = torch.randint(len(expert), (batch,), generator=self._generator)
-            policy_rows = torch.randint(len(policy), (batch,), generator=self._generator)
-            loss = lsgan_loss(torch.sigmoid(self._network(expert[expert_rows])),
-                              torch.sigmoid(self._network(policy[policy_rows])))
+            expert_rows = self._draw(expert_weights, len(expert), batch)
+            policy_rows = self._draw(policy_weights, len(policy), batch)
+            expert_batch = expert[expert_rows].requires_grad_(self.settings.gradient_penalty > 0)
+            expert_logits = self._network(expert_batch)
+            loss = lsgan_loss(torch.sigmoid(expert_logits), torch.sigmoid(self._network(policy[policy_rows])))
+            if self.settings.gradient_penalty > 0:
+                gradient, = torch.autograd.grad(expert_logits.sum(), expert_batch, create_graph=True)
+                loss = loss + self.settings.gradient_penalty * gradient.pow(2).sum(dim=1).mean()
             self._optimiser.zero_grad()
             loss.backward()
             self._optimiser.step()
         with torch.no_grad():
-            d_expert, d_policy = torch.sigmoid(self._network(expert)), torch.sigmoid(self._network(policy))
+            d_expert, d_policy = torch.sigmoid(self._network(expert)), torch.sigmoid(self._network(current))
         correct = int((d_expert > 0.5).sum()) + int((d_policy < 0.5).sum())
         report = DiscriminatorReport(loss=float(lsgan_loss(d_expert, d_policy)),
-                                     accuracy=correct / (len(expert) + len(policy)))
+                                     accuracy=correct / (len(expert) + len(current)))
         logger.debug("discriminator: loss %.4f, accuracy %.3f", report.loss, report.accuracy)
         return report
 
+    def _sampling_weights(self, inputs: torch.Tensor) -> torch.Tensor | None:
+        """Row weights (1 / frequency of the row's action)^balance, or None to draw rows uniformly."""
+        if self.settings.balance == 0:
+            return None
+        actions = inputs[:, self.observation_size:].argmax(dim=1)
+        counts = torch.bincount(actions, minlength=self.actions).to(torch.float64)
+        return counts[actions].pow(-self.settings.balance)
+
+    def _draw(self, weights: torch.Tensor | None, rows: int, batch: int) -> torch.Tensor:
+        """`batch` row indices drawn with replacement, uniformly or by `weights`, from the own generator."""
+        if weights is None:
+            return torch.randint(rows, (batch,), generator=self._generator)
+        return torch.multinomial(weights, batch, replacement=True, generator=self._generator)
+
     def state(self) -> dict[str, Any]:
-        """Model, optimiser and generator state as tensors and plain types (torch.load(weights_only=True) reads it).
-        A copy: later training does not change it."""
+        """Model, optimiser, generator and replayed pairs as tensors and plain types (torch.load(weights_only=True)
+        reads it). A copy: later training does not change it."""
         return copy.deepcopy({"model": self._network.state_dict(), "optimizer": self._optimiser.state_dict(),
-                              "generator": self._generator.get_state()})
+                              "generator": self._generator.get_state(), "replay": self._replay})
 
     def load_state(self, state: dict[str, Any]) -> None:
         """Resume from `state()` of a discriminator built with the same sizes and settings."""
         self._network.load_state_dict(state["model"])
         self._optimiser.load_state_dict(copy.deepcopy(state["optimizer"]))
         self._generator.set_state(state["generator"])
+        self._replay = list(state.get("replay", []))  # absent in checkpoints written before replay existed
 
     def _inputs(self, observations: np.ndarray, actions: np.ndarray) -> torch.Tensor:
         """Normalised observations and one-hot actions, shape (B, n + actions) float32."""

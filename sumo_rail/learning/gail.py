@@ -229,8 +229,7 @@ class RewardLabeller:
 
     def __init__(self, discriminator: Discriminator, envs: int, horizon: int) -> None:
         self.discriminator, self.horizon = discriminator, horizon
-        clip = discriminator.settings.reward_clip
-        self.lowest_reward = float(np.log(clip) - np.log1p(-clip))
+        self.lowest_reward = discriminator.lowest_reward()
         self._episodes: list[list[float]] = [[] for _ in range(envs)]
         self._observations: list[np.ndarray] = []
         self._actions: list[np.ndarray] = []

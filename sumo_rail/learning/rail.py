@@ -27,11 +27,12 @@ import numpy as np
 
 from sumo_rail.config import Config
 from sumo_rail.drivers.policies import Policy, PolicyShape
-from sumo_rail.learning.ars import NoiseAdaptation, adapt_noise, ars_update
-from sumo_rail.learning.noise import direction
+from sumo_rail.learning.ars import FITNESS_SHAPINGS, NoiseAdaptation, adapt_noise, ars_update
+from sumo_rail.learning.noise import direction, directions, noise_for_flip_rate
 from sumo_rail.learning.normalize import RunningStats
-from sumo_rail.runners.rollout import run_episode
+from sumo_rail.runners.rollout import Driver, DriverSpec, run_episode
 from sumo_rail.seeding import Purpose, episode_seeds
+from sumo_rail.sim.traffic import TrafficView
 
 if TYPE_CHECKING:
     from sumo_rail.learning.discriminator import Discriminator
@@ -63,6 +64,13 @@ class RailSettings:
     """Keep the observation statistics the run started with (BC's, or the demonstrations' without BC); False merges
     every rollout's states into them, as the paper does. Frozen was best on validation episodes (docs/results.md,
     "RAIL ablations")."""
+    fitness: str = "std"
+    """How the step scales the returns: 'std' divides by sigma_R (ARS, the paper); 'rank' uses centred ranks
+    (Salimans et al. 2017), `ars.centred_ranks`."""
+    flip_rate: float | None = None
+    """When set, nu is chosen at every iteration so that the iteration's perturbations change this share of the
+    policy's decisions on CALIBRATION_STATES of the expert's states (`noise.noise_for_flip_rate`), in place of the
+    paper's nu schedule (`noise`)."""
 
     def __post_init__(self) -> None:
         if self.directions < 1:
@@ -73,6 +81,10 @@ class RailSettings:
             raise ValueError(f"the step size must be positive, got {self.step_size}")
         if self.episodes_per_rollout < 1:
             raise ValueError(f"--episodes-per-rollout must be at least 1, got {self.episodes_per_rollout}")
+        if self.fitness not in FITNESS_SHAPINGS:
+            raise ValueError(f"--fitness must be one of {', '.join(FITNESS_SHAPINGS)}, got {self.fitness!r}")
+        if self.flip_rate is not None and not 0.0 < self.flip_rate < 1.0:
+            raise ValueError(f"--flip-rate must be between 0 and 1, got {self.flip_rate}")
 
     @property
     def kept(self) -> int:
@@ -90,6 +102,8 @@ class Trajectory:
     """Shape (T,) int64."""
     collided: bool
     steps: int
+    expert_actions: np.ndarray | None = None
+    """Shape (T,) int64: what the expert would have done at each decision (when the task asked it), else None."""
 
 
 @dataclass(frozen=True)
@@ -107,6 +121,8 @@ class RolloutTask:
     sign: int
     nu: float
     episode_seeds: tuple[int, ...]
+    expert: DriverSpec | None = None
+    """Asked at every decision what it would do (it never drives); its answers come back as `expert_actions`."""
 
     def run(self, context: WorkerContext) -> list[Trajectory]:
         """One trajectory per episode seed."""
@@ -115,12 +131,25 @@ class RolloutTask:
                         self.observation_mean, self.observation_std)
         trajectories = []
         for seed in self.episode_seeds:
-            result = run_episode(context.env(self.config), lambda observation, traffic: policy.act(observation),
-                                 seed, record=True)
+            labels: list[int] = []
+            expert = None if self.expert is None else self.expert.create(self.config, seed)
+            result = run_episode(context.env(self.config), _asking(policy, expert, labels), seed, record=True)
             assert result.steps is not None
             trajectories.append(Trajectory(result.steps["observation"], result.steps["action"].astype(np.int64),
-                                           bool(result.metrics["collisions"]), int(result.metrics["steps"])))
+                                           bool(result.metrics["collisions"]), int(result.metrics["steps"]),
+                                           np.array(labels, np.int64) if self.expert is not None else None))
         return trajectories
+
+
+def _asking(policy: Policy, expert: Driver | None, labels: list[int]) -> Driver:
+    """The policy as a driver that, when `expert` is given, first appends the expert's action to `labels`."""
+    if expert is None:
+        return lambda observation, traffic: policy.act(observation)
+
+    def drive(observation: np.ndarray, traffic: TrafficView) -> int:
+        labels.append(expert(observation, traffic))
+        return policy.act(observation)
+    return drive
 
 
 @dataclass
@@ -158,6 +187,16 @@ class IterationLog:
     collisions: int
 
 
+CALIBRATION_STATES = 2000
+"""Expert states on which `RailSettings.flip_rate` is measured (evenly spaced through the demonstrations)."""
+
+
+def calibration_states(observations: np.ndarray) -> np.ndarray:
+    """Up to CALIBRATION_STATES rows of `observations`, evenly spaced, in order."""
+    rows = np.linspace(0, len(observations) - 1, min(CALIBRATION_STATES, len(observations))).round().astype(int)
+    return np.asarray(observations)[rows]
+
+
 def rollout_return(rewards: np.ndarray, collided: bool, horizon: int, lowest_reward: float) -> float:
     """Mean reward per decision; a collision's missing decisions up to `horizon` count at `lowest_reward`."""
     if collided and len(rewards) < horizon:
@@ -175,6 +214,10 @@ def run_iteration(state: TrainingState, shape: PolicyShape, config: Config, sett
     seeds = [tuple(drawn[(0 if settings.common_traffic else k) * per_rollout:][:per_rollout]) for k in range(n)]
     noise_seed = settings.seed
     mean, std = state.stats.mean.copy(), state.stats.std.copy()
+    deltas = directions(noise_seed, state.iteration, n, shape.parameter_count)
+    if settings.flip_rate is not None:
+        state.nu = noise_for_flip_rate(Policy(shape, state.parameters, mean, std), deltas, settings.flip_rate,
+                                       calibration_states(expert.observations))
     tasks = [RolloutTask(config, shape, state.parameters, mean, std, noise_seed, state.iteration, k, sign, state.nu,
                          seeds[k]) for k in range(n) for sign in (1, -1)]
     rollouts: list[list[Trajectory]] = backend.run(tasks, on_result=on_rollout)
@@ -183,11 +226,11 @@ def run_iteration(state: TrainingState, shape: PolicyShape, config: Config, sett
     policy_actions = np.concatenate([t.actions for t in trajectories])
     report = discriminator.train(expert.observations, expert.actions, policy_observations, policy_actions)
     horizon = round(config.env.max_episode_s / config.env.decision_period_s)
-    lowest = float(np.log(discriminator.settings.reward_clip) - np.log1p(-discriminator.settings.reward_clip))
+    lowest = discriminator.lowest_reward()
     returns = np.array([np.mean([rollout_return(discriminator.reward(t.observations, t.actions), t.collided, horizon,
                                                 lowest) for t in rollout]) for rollout in rollouts])
-    deltas = np.stack([direction(noise_seed, state.iteration, k, shape.parameter_count) for k in range(n)])
-    step = ars_update(state.parameters, deltas, returns[0::2], returns[1::2], settings.kept, settings.step_size)
+    step = ars_update(state.parameters, deltas, returns[0::2], returns[1::2], settings.kept, settings.step_size,
+                      settings.fitness)
     if not settings.freeze_normalizer:
         for trajectory in trajectories:
             state.stats = state.stats.merge(RunningStats.of(trajectory.observations))
@@ -196,7 +239,8 @@ def run_iteration(state: TrainingState, shape: PolicyShape, config: Config, sett
                        float(returns.max()), float(returns.std()), state.nu, step.reward_std, report.loss,
                        report.accuracy, int(sum(t.collided for t in trajectories)))
     state.best_return = max(state.best_return, log.return_mean)
-    state.nu = adapt_noise(state.nu, state.iteration, state.best_at_last_check, state.best_return, settings.noise)
+    if settings.flip_rate is None:
+        state.nu = adapt_noise(state.nu, state.iteration, state.best_at_last_check, state.best_return, settings.noise)
     if (state.iteration + 1) % settings.noise.every == 0:
         state.best_at_last_check = state.best_return
     state.iteration += 1

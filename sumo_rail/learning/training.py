@@ -223,7 +223,10 @@ def _resume(folder: Path, run_record: dict[str, Any], shape: PolicyShape,
     if not path.is_file():
         raise RunError(f"nothing to resume: {path} does not exist")
     stored = read_run_record(folder)
-    if stored["settings"] != run_record["settings"] or stored["config"] != run_record["config"]:
+    defaults = {"rail": dataclasses.asdict(RailSettings()),
+                "discriminator": dataclasses.asdict(DiscriminatorSettings())}
+    settings = with_defaults(stored["settings"], defaults)
+    if settings != run_record["settings"] or stored["config"] != run_record["config"]:
         raise RunError(f"run {folder} was started with other settings (see its run.json); resume it with the same "
                        f"options")
     checkpoint = _load_checkpoint(path)
@@ -244,6 +247,18 @@ def _resume(folder: Path, run_record: dict[str, Any], shape: PolicyShape,
     if len(logs) != state.iteration:
         raise RunError(f"checkpoint {path} is inconsistent: {len(logs)} log rows for {state.iteration} iterations")
     return state, logs
+
+
+def with_defaults(stored: dict[str, Any], defaults: dict[str, Any]) -> dict[str, Any]:
+    """`stored` settings with the settings added since it was written filled in from `defaults` (nested dicts
+    merged), so a run started before an option existed resumes as what it was: a run at that option's default."""
+    merged = dict(stored)
+    for key, default in defaults.items():
+        if key not in merged:
+            merged[key] = default
+        elif isinstance(default, dict) and isinstance(merged[key], dict):
+            merged[key] = with_defaults(merged[key], default)
+    return merged
 
 
 def read_run_record(folder: Path) -> dict[str, Any]:
