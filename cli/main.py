@@ -10,6 +10,7 @@ from sumo_rail_cli.dagger_command import dagger_command
 from sumo_rail_cli.export_command import export_minari_command
 from sumo_rail_cli.gail_command import gail_command
 from sumo_rail_cli.report_command import report_command
+from sumo_rail_cli.signal_command import step_signal_command
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})
@@ -27,4 +28,5 @@ cli.add_command(gail_command)
 cli.add_command(dagger_command)
 cli.add_command(report_command)
 cli.add_command(export_minari_command)
+cli.add_command(step_signal_command)
 

@@ -51,7 +51,8 @@ def noise_for_flip_rate(policy: Policy, deltas: np.ndarray, target: float, state
                         bisections: int = 30) -> float:
     """The perturbation scale nu at which `flip_rate` is `target` (0 < target < 1), found by bisection on log nu
     within NOISE_RANGE (the rate grows with nu); the range's end nearest the target where it cannot be reached
-    (at all-zero weights every nu flips alike, ties going to the lowest action)."""
+    (at all-zero weights, whose ties go to the lowest action, most perturbations change the decision at any nu: a
+    linear policy's logits only scale with nu)."""
     if not 0.0 < target < 1.0:
         raise ValueError(f"the target share of changed decisions must be between 0 and 1, got {target}")
     low, high = np.log(NOISE_RANGE[0]), np.log(NOISE_RANGE[1])

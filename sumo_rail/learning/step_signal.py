@@ -17,6 +17,7 @@ A reward can only lead the search to the expert where both its signal and its al
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
@@ -26,15 +27,24 @@ import numpy as np
 from sumo_rail.drivers.policies import Policy
 from sumo_rail.learning.ars import ars_update
 from sumo_rail.learning.noise import directions, flip_rate
+from sumo_rail.learning.normalize import RunningStats
 from sumo_rail.learning.rail import RailSettings, RolloutTask, Trajectory, rollout_return
 from sumo_rail.seeding import Purpose, episode_seeds
 
 if TYPE_CHECKING:
     from sumo_rail.config import Config
-    from sumo_rail.learning.discriminator import Discriminator
+    from sumo_rail.learning.discriminator import Discriminator, DiscriminatorSettings
     from sumo_rail.runners.backends import RolloutBackend
     from sumo_rail.runners.rollout import DriverSpec
 
+REWARD_VARIANTS: dict[str, dict[str, Any]] = {
+    "given": {},
+    "contrast": {"reward_form": "contrast"},
+    "balanced": {"balance": 1.0},
+    "balanced-contrast": {"balance": 1.0, "reward_form": "contrast"},
+    "penalty": {"gradient_penalty": 10.0},
+}
+"""Discriminators the meter compares, as changes to the given `DiscriminatorSettings` ("given": none)."""
 CONFIDENCE = 0.95
 RESAMPLES = 2000
 """Bootstrap resamples of the directions behind each interval."""
@@ -58,6 +68,9 @@ class Differences:
 
     plus: np.ndarray
     minus: np.ndarray
+
+    def to_dict(self) -> dict[str, list[list[float]]]:
+        return {"plus": self.plus.tolist(), "minus": self.minus.tolist()}
 
     @property
     def differences(self) -> np.ndarray:
@@ -152,7 +165,8 @@ def draw_seeds(settings: RailSettings, draw: int) -> list[tuple[int, ...]]:
 
 
 def run_draws(policy: Policy, config: Config, settings: RailSettings, nu: float, expert: DriverSpec | None,
-              backend: RolloutBackend, draws: Sequence[int] = (0, 1), iteration: int = 0) -> Rollouts:
+              backend: RolloutBackend, draws: Sequence[int] = (0, 1), iteration: int = 0,
+              on_rollout: Callable[[int, Any], None] | None = None) -> Rollouts:
     """The 2N rollouts of theta +- nu delta_k (directions of `iteration` with noise seed `settings.seed`) in each
     draw, the expert (when given) asked at every decision. The same draw number twice gives the same traffic
     twice."""
@@ -162,7 +176,7 @@ def run_draws(policy: Policy, config: Config, settings: RailSettings, nu: float,
         tasks = [RolloutTask(config, policy.shape, policy.parameters, policy.observation_mean, policy.observation_std,
                              settings.seed, iteration, k, sign, nu, seeds[k], expert)
                  for k in range(settings.directions) for sign in (1, -1)]
-        rollouts.append(backend.run(tasks))
+        rollouts.append(backend.run(tasks, on_result=on_rollout))
     return rollouts
 
 
@@ -204,14 +218,29 @@ class Meter:
     warmup_directions: int = 8
     """Directions (both signs, one episode each) of each warm-up round."""
 
+    def rollouts(self, settings: RailSettings) -> int:
+        """Rollouts `measure` runs: the warm-up's and the two draws' 2N each."""
+        return self.warmup_rounds * 2 * self.warmup_directions + 2 * 2 * settings.directions
+
+
+def variants(settings: DiscriminatorSettings, names: Sequence[str], expert_observations: np.ndarray
+             ) -> dict[str, Discriminator]:
+    """A fresh discriminator per REWARD_VARIANTS name, normalised by the expert's statistics as in training."""
+    from sumo_rail.learning.discriminator import Discriminator
+
+    expert = RunningStats.of(expert_observations)
+    return {name: Discriminator(expert_observations.shape[1], expert.mean.copy(), expert.std.copy(),
+                                dataclasses.replace(settings, **REWARD_VARIANTS[name])) for name in names}
+
 
 def warm_up(discriminators: dict[str, Discriminator], policy: Policy, config: Config, settings: RailSettings,
-            nu: float, expert_pairs: tuple[np.ndarray, np.ndarray], meter: Meter, backend: RolloutBackend) -> None:
+            nu: float, expert_pairs: tuple[np.ndarray, np.ndarray], meter: Meter, backend: RolloutBackend,
+            on_rollout: Callable[[int, Any], None] | None = None) -> None:
     """Train every discriminator `meter.warmup_rounds` times, round i on the rollouts of the directions of iteration
     i + 1 (the measured draws use iteration 0) in traffic of draws 2 + i, in place."""
     warm = RailSettings(directions=meter.warmup_directions, seed=settings.seed)
     for round_ in range(meter.warmup_rounds):
-        rollouts = run_draws(policy, config, warm, nu, None, backend, draws=(2 + round_,), iteration=1 + round_)
+        rollouts = run_draws(policy, config, warm, nu, None, backend, (2 + round_,), 1 + round_, on_rollout)
         observations, actions = pairs(rollouts)
         for discriminator in discriminators.values():
             discriminator.train(*expert_pairs, observations, actions)
@@ -219,13 +248,15 @@ def warm_up(discriminators: dict[str, Discriminator], policy: Policy, config: Co
 
 def measure(policy: Policy, config: Config, settings: RailSettings, nu: float, expert: DriverSpec,
             discriminators: dict[str, Discriminator], expert_pairs: tuple[np.ndarray, np.ndarray],
-            calibration: np.ndarray, backend: RolloutBackend, meter: Meter = Meter()) -> dict[str, Any]:
+            calibration: np.ndarray, backend: RolloutBackend, meter: Meter = Meter(),
+            on_rollout: Callable[[int, Any], None] | None = None) -> dict[str, Any]:
     """The meter's report for one policy and setting: nu, the flip rate on `calibration` states, the agreement's
     own signal, and each named discriminator's signal and alignment (each warmed up, then trained once on the
-    measured draws' pairs and scoring them, as a RAIL iteration does)."""
+    measured draws' pairs and scoring them, as a RAIL iteration does); `returns` keeps every rollout's return per
+    measure (draw x direction), so other step settings (b, fitness shaping) can be scored afterwards."""
     deltas = directions(settings.seed, 0, settings.directions, policy.shape.parameter_count)
-    warm_up(discriminators, policy, config, settings, nu, expert_pairs, meter, backend)
-    rollouts = run_draws(policy, config, settings, nu, expert, backend)
+    warm_up(discriminators, policy, config, settings, nu, expert_pairs, meter, backend, on_rollout)
+    rollouts = run_draws(policy, config, settings, nu, expert, backend, on_rollout=on_rollout)
     agreement = agreement_returns(rollouts)
     top, shaping = settings.kept, settings.fitness
     horizon = round(config.env.max_episode_s / config.env.decision_period_s)
@@ -236,10 +267,12 @@ def measure(policy: Policy, config: Config, settings: RailSettings, nu: float, e
         "agreement_mean": float(np.mean([agreement.plus, agreement.minus])),
         "agreement": {key: value.to_dict() for key, value in signal(deltas, agreement, top, shaping).items()},
         "rewards": {},
+        "returns": {"agreement": agreement.to_dict()},
     }
     for name, discriminator in discriminators.items():
         discriminator.train(*expert_pairs, observations, actions)
         returns = reward_returns(rollouts, discriminator, horizon)
+        report["returns"][name] = returns.to_dict()
         report["rewards"][name] = {
             "signal": {key: value.to_dict() for key, value in signal(deltas, returns, top, shaping).items()},
             "alignment": {key: value.to_dict()

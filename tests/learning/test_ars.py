@@ -3,7 +3,7 @@ import math
 import numpy as np
 import pytest
 
-from sumo_rail.learning.ars import NoiseAdaptation, adapt_noise, ars_update
+from sumo_rail.learning.ars import NoiseAdaptation, adapt_noise, ars_update, centred_ranks
 from sumo_rail.learning.noise import directions
 
 
@@ -108,3 +108,23 @@ def test_noise_grows_while_stagnating_and_resets_on_improvement():
     assert adapt_noise(0.05, 4, 1.0, 1.0, schedule) == 0.05  # not a check iteration: unchanged
     assert adapt_noise(0.05, 5, 1.0, 1.0, schedule) == pytest.approx(0.051)  # check, equal is not an improvement
     assert adapt_noise(0.05, 5, 1.0, 1.5, schedule) == 0.03
+
+
+def test_rank_shaping_ignores_the_scale_of_the_returns_and_keeps_the_top_directions():
+    deltas = directions(3, 0, 6, 10)
+    plus, minus = np.array([3.0, -1.0, 0.5, 8.0, 2.0, -4.0]), np.array([1.0, 0.0, 0.4, -2.0, 2.5, -5.0])
+    theta = np.zeros(10, np.float32)
+    ranked = ars_update(theta, deltas, plus, minus, 3, 0.1, "rank")
+    squashed = ars_update(theta, deltas, np.cbrt(plus) * 100, np.cbrt(minus) * 100, 3, 0.1, "rank")
+    assert np.array_equal(ranked.parameters, squashed.parameters)  # any increasing transform: the same step
+    assert ranked.selected.tolist() == ars_update(theta, deltas, plus, minus, 3, 0.1).selected.tolist() == [3, 0, 4]
+    ranks = centred_ranks(np.concatenate([plus, minus]))
+    assert ranks.min() == -0.5 and ranks.max() == 0.5 and ranks.sum() == pytest.approx(0.0)
+    expected = 0.1 / 3 * sum((ranks[k] - ranks[6 + k]) * deltas[k].astype(np.float64) for k in (3, 0, 4))
+    np.testing.assert_allclose(ranked.parameters, expected, rtol=1e-6)
+    with pytest.raises(ValueError, match="fitness shaping"):
+        ars_update(theta, deltas, plus, minus, 3, 0.1, "softmax")
+
+
+def test_centred_ranks_share_ties():
+    assert centred_ranks(np.array([1.0, 1.0, 3.0])).tolist() == [-0.25, -0.25, 0.5]

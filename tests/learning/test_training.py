@@ -1,3 +1,6 @@
+import dataclasses
+import json
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -45,13 +48,20 @@ def small_config_module():
                              "env": {"ego_start_min_m": 300.0, "ego_start_max_m": 500.0}})
 
 
-def run_settings(demos_path, kind="mlp"):
-    return RunSettings(str(demos_path), kind, 4, 3, RailSettings(directions=3, top=2, step_size=0.01, seed=1),
-                       DiscriminatorSettings(seed=1, steps_per_iteration=2))
+def run_settings(demos_path, kind="mlp", remedies=False):
+    """Small settings; `remedies`: every option that issue 25 added away from its default."""
+    rail = RailSettings(directions=3, top=2, step_size=0.01, seed=1)
+    discriminator = DiscriminatorSettings(seed=1, steps_per_iteration=2)
+    if remedies:
+        rail = dataclasses.replace(rail, fitness="rank", flip_rate=0.1, episodes_per_rollout=2)
+        discriminator = dataclasses.replace(discriminator, reward_form="contrast", balance=1.0, gradient_penalty=1.0,
+                                            replay=2)
+    return RunSettings(str(demos_path), kind, 4, 3, rail, discriminator)
 
 
-def test_same_weights_with_one_or_two_workers_and_after_resuming(tmp_path, demos_path, small_config_module):
-    settings, validation = run_settings(demos_path), Validation(every=2, episodes=1)
+@pytest.mark.parametrize("remedies", [False, True], ids=["paper", "remedies"])
+def test_same_weights_with_one_or_two_workers_and_after_resuming(tmp_path, demos_path, small_config_module, remedies):
+    settings, validation = run_settings(demos_path, remedies=remedies), Validation(every=2, episodes=1)
     with ProcessPoolBackend(1) as one:
         train(tmp_path / "one", settings, small_config_module, 3, one, resume=False, validation=validation)
     with ProcessPoolBackend(2) as two:
@@ -69,6 +79,27 @@ def test_same_weights_with_one_or_two_workers_and_after_resuming(tmp_path, demos
     assert (log["eval_average_speed_kmh"].dropna() > 30).all()
     pd.testing.assert_frame_equal(log.drop(columns="wall_time_s"),
                                   pd.read_parquet(tmp_path / "split" / "log.parquet").drop(columns="wall_time_s"))
+    stored = json.loads((tmp_path / "one" / "run.json").read_text())["settings"]
+    assert stored == json.loads(json.dumps(settings.to_dict()))
+    if remedies:  # nu is set by the flip rate at every iteration, not by the paper's schedule
+        assert log["nu"].nunique() == 3 and not np.isclose(log["nu"], settings.rail.noise.initial).any()
+
+
+def test_a_run_started_before_the_newer_options_resumes_at_their_defaults(tmp_path, demos_path, small_config_module):
+    settings = run_settings(demos_path)
+    with SerialBackend() as backend:
+        train(tmp_path / "run", settings, small_config_module, 1, backend, resume=False)
+        record = json.loads((tmp_path / "run" / "run.json").read_text())
+        for key in ("fitness", "flip_rate"):
+            del record["settings"]["rail"][key]
+        del record["settings"]["discriminator"]["reward_form"]
+        (tmp_path / "run" / "run.json").write_text(json.dumps(record))
+        train(tmp_path / "run", settings, small_config_module, 2, backend, resume=True)
+        with pytest.raises(RunError, match="other settings"):
+            train(tmp_path / "run", dataclasses.replace(settings, rail=dataclasses.replace(settings.rail,
+                                                                                          fitness="rank")),
+                  small_config_module, 3, backend, resume=True)
+    assert len(pd.read_parquet(tmp_path / "run" / "log.parquet")) == 2
 
 
 def test_without_bc_a_frozen_normaliser_holds_the_demonstrations_statistics(tmp_path, demos_path,

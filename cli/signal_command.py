@@ -1,0 +1,131 @@
+"""The command `step-signal`: the meter of one ARS step (its signal and where it points), without training."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import click
+from sumo_rail_cli.options import (
+    SearchOptions,
+    backend_options,
+    build_backend,
+    config_options,
+    episode_progress,
+    library_errors,
+    make_interruptible,
+    resolve_config,
+    search_options,
+)
+
+from sumo_rail.drivers.expert import DEFAULT_STYLE, STYLES
+from sumo_rail.learning.step_signal import REWARD_VARIANTS
+
+
+@click.command("step-signal")
+@config_options
+@click.option("--demos", type=click.Path(path_type=Path, dir_okay=False), required=True,
+              help="Expert demonstrations (the discriminator's expert pairs and the flip rate's states).")
+@click.option("--policy", "policy_path", type=click.Path(path_type=Path, dir_okay=False), required=True,
+              help="Policy file at whose weights the step is measured (e.g. a run's policy_bc.npz).")
+@click.option("--zero-weights", is_flag=True,
+              help="Measure at all-zero weights of the policy's shape and normaliser (RAIL without BC).")
+@click.option("--style", type=click.Choice(sorted(STYLES)), default=DEFAULT_STYLE, show_default=True,
+              help="The expert asked at every decision for agreement.")
+@click.option("--reward", "rewards", multiple=True, type=click.Choice(list(REWARD_VARIANTS)),
+              default=tuple(REWARD_VARIANTS), show_default=True,
+              help="Discriminators to measure, as changes to the --disc-* options (repeatable).")
+@click.option("--warmup-rounds", type=click.IntRange(min=0), default=5, show_default=True,
+              help="Training calls of each discriminator on the policy's perturbed rollouts before the measured step.")
+@search_options
+@click.option("--workers", type=click.IntRange(min=1), default=1, show_default=True,
+              help="Worker processes, each running one SUMO; the result does not depend on it.")
+@backend_options
+@click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True,
+              help="Seed of the directions, the traffic draws and the discriminators.")
+@click.option("--out", type=click.Path(path_type=Path, dir_okay=False), default=None,
+              help="JSON file for the report (with its settings and provenance), written atomically.")
+def step_signal_command(config_path: Path | None, overrides: tuple[str, ...], demos: Path, policy_path: Path,
+                        zero_weights: bool, style: str, rewards: tuple[str, ...], warmup_rounds: int,
+                        search: SearchOptions, workers: int, backend_name: str, address: str | None, seed: int,
+                        out: Path | None) -> None:
+    """Measure one ARS step of RAIL without training: how much of it two independent draws of traffic agree on
+    (signal) and whether the directions the discriminator's reward prefers raise agreement with the expert
+    (alignment), with 95% intervals over the directions."""
+    config = resolve_config(config_path, overrides)
+    rail, discriminator_settings = search.settings(seed)
+    import numpy as np
+
+    from sumo_rail.drivers.policies import Policy, load_policy
+    from sumo_rail.learning.noise import directions, noise_for_flip_rate
+    from sumo_rail.learning.rail import calibration_states
+    from sumo_rail.learning.step_signal import Meter, measure, variants
+    from sumo_rail.learning.training import write_atomically
+    from sumo_rail.runners.rollout import ExpertDriver
+    from sumo_rail.runners.tables import provenance, read_demonstrations
+    from sumo_rail.sim.observation import observation_space
+
+    with library_errors():
+        demonstrations = read_demonstrations(demos, observation_space(config).shape[0])
+        policy, _ = load_policy(policy_path)
+    if policy.shape.observation_size != demonstrations.observations.shape[1]:
+        raise click.UsageError(f"policy {policy_path} sees {policy.shape.observation_size} observation values but "
+                               f"the configuration gives {demonstrations.observations.shape[1]}")
+    if zero_weights:
+        policy = Policy(policy.shape, np.zeros_like(policy.parameters), policy.observation_mean,
+                        policy.observation_std)
+    calibration = calibration_states(demonstrations.observations)
+    nu = (rail.noise.initial if rail.flip_rate is None else noise_for_flip_rate(
+        policy, directions(rail.seed, 0, rail.directions, policy.shape.parameter_count), rail.flip_rate, calibration))
+    meter = Meter(warmup_rounds=warmup_rounds)
+    discriminators = variants(discriminator_settings, rewards, demonstrations.observations)
+    backend = build_backend(backend_name, workers, address)
+    bar = episode_progress(meter.rollouts(rail), "step signal")
+    bar.unit = "rollout"
+    make_interruptible()
+    with library_errors(), backend, bar:
+        try:
+            report = measure(policy, config, rail, nu, ExpertDriver(style), discriminators,
+                             (demonstrations.observations, demonstrations.actions), calibration, backend, meter,
+                             on_rollout=lambda index, result: bar.update())
+        except KeyboardInterrupt:
+            raise click.ClickException("interrupted; nothing was written") from None
+    record = {**report, "policy": str(policy_path), "zero_weights": zero_weights, "expert_style": style,
+              "demos": str(demos), "meter": {"warmup_rounds": warmup_rounds},
+              "settings": {"rail": _plain(rail), "discriminator": _plain(discriminator_settings)},
+              **provenance("step_signal", config, seed)}
+    click.echo(signal_table(record))
+    if out is not None:
+        try:
+            write_atomically(out, json.dumps(record, indent=2, sort_keys=True).encode())
+        except OSError as error:
+            raise click.ClickException(f"cannot write {out}: {error.strerror or error}") from error
+        click.echo(f"wrote {out}")
+
+
+def _plain(settings: Any) -> dict[str, Any]:
+    import dataclasses
+
+    return dataclasses.asdict(settings)
+
+
+def _estimate(estimate: dict[str, float]) -> str:
+    return f"{estimate['value']:+.2f} [{estimate['low']:+.2f}, {estimate['high']:+.2f}]"
+
+
+def signal_table(record: dict[str, Any]) -> str:
+    """The report as Markdown: one row for the agreement and one per discriminator."""
+    agreement = record["agreement"]
+    lines = [f"nu {record['nu']:.4g}: the perturbations change {record['flip_rate']:.1%} of the policy's decisions on "
+             f"the expert's states; {record['decisions']} decisions measured, agreement {record['agreement_mean']:.3f}",
+             "", "| return | signal: correlation | signal: step cosine | alignment across draws | alignment within "
+             "draws | alignment: step cosine |", "|---|---|---|---|---|---|",
+             f"| agreement with the expert | {_estimate(agreement['correlation'])} | "
+             f"{_estimate(agreement['step_cosine'])} | | | |"]
+    for name, reward in record["rewards"].items():
+        signal, alignment = reward["signal"], reward["alignment"]
+        lines.append(f"| discriminator: {name} | {_estimate(signal['correlation'])} | "
+                     f"{_estimate(signal['step_cosine'])} | {_estimate(alignment['across'])} | "
+                     f"{_estimate(alignment['within'])} | {_estimate(alignment['step_cosine'])} |")
+    return "\n".join(lines)
