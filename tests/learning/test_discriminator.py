@@ -98,3 +98,86 @@ def test_bad_input_is_rejected():
         discriminator.reward(np.zeros((3, N + 1)), np.zeros(3, np.int64))
     with pytest.raises(ValueError, match="actions must be in"):
         discriminator.reward(np.zeros((1, N)), np.array([5]))
+
+
+def test_the_contrast_reward_removes_what_depends_on_the_state_alone():
+    expert, actions, policy, _ = pairs(400, seed=5)
+    plain = make(DiscriminatorSettings(learning_rate=3e-3))
+    contrast = make(DiscriminatorSettings(learning_rate=3e-3, reward_form="contrast"))
+    for discriminator in (plain, contrast):
+        for _ in range(5):
+            discriminator.train(expert, actions, policy, np.random.default_rng(0).integers(0, 5, 400))
+    every = np.tile(np.arange(5), 400)
+    states = np.repeat(policy, 5, axis=0)
+    contrasts = contrast.reward(states, every).reshape(400, 5)
+    logits = plain.reward(states, every).reshape(400, 5)  # same seed and data: the same network
+    np.testing.assert_allclose(contrasts.sum(axis=1), 0.0, atol=1e-9)
+    np.testing.assert_allclose(contrasts, logits - logits.mean(axis=1, keepdims=True), rtol=1e-9, atol=1e-9)
+    assert np.all(contrasts >= contrast.lowest_reward()) and np.all(logits >= plain.lowest_reward())
+    saturated = make(DiscriminatorSettings(reward_form="contrast"))
+    state = saturated.state()
+    state["model"]["4.weight"][:] = 0.0
+    state["model"]["4.bias"][:] = 0.0
+    state["model"]["0.weight"][:] = 0.0
+    state["model"]["0.bias"][:] = 0.0
+    # one hidden unit per action: D of action 0 is clipped low, every other action's high (first layer: one-hot)
+    state["model"]["0.weight"][0, N] = 1.0
+    state["model"]["2.weight"][:] = 0.0
+    state["model"]["2.bias"][:] = 0.0
+    state["model"]["2.weight"][0, 0] = 1.0
+    state["model"]["4.weight"][0, 0] = -1e5
+    state["model"]["4.bias"][0] = 1e4
+    saturated.load_state(state)
+    assert saturated.reward(policy[:1], np.array([0]))[0] == pytest.approx(saturated.lowest_reward())
+
+
+def test_balanced_minibatches_teach_the_rare_action_of_the_expert():
+    """The expert takes action 3 on 2% of its states, the policy never; only a balanced discriminator learns to
+    reward it there within a few steps."""
+    rng = np.random.default_rng(6)
+    observations = rng.normal(size=(3000, N)).astype(np.float32)
+    expert_actions = np.where(np.arange(3000) % 50 == 0, 3, 0)
+    rewards = {}
+    for balance in (0.0, 1.0):
+        discriminator = make(DiscriminatorSettings(learning_rate=3e-3, balance=balance, batch_size=128))
+        for _ in range(3):
+            discriminator.train(observations, expert_actions, observations, np.zeros(3000, np.int64))
+        rewards[balance] = discriminator.reward(observations[:200], np.full(200, 3)).mean()
+    assert rewards[1.0] > rewards[0.0] + 0.5
+
+
+def test_the_gradient_penalty_keeps_the_discriminator_smoother_at_expert_pairs():
+    data = pairs(1000, seed=7)
+
+    def slope(penalty: float) -> float:
+        discriminator = make(DiscriminatorSettings(learning_rate=3e-3, gradient_penalty=penalty))
+        for _ in range(10):
+            discriminator.train(*data)
+        step = np.zeros(N, np.float32)
+        step[0] = 0.05
+        return float(np.abs(discriminator.reward(data[0] + step, data[1]) - discriminator.reward(*data[:2])).mean())
+
+    assert slope(10.0) < 0.5 * slope(0.0)
+
+
+def test_replay_trains_on_the_previous_calls_policy_pairs_too(tmp_path: Path):
+    first, second = pairs(300, seed=8), pairs(300, seed=9)
+    replayed, current = make(DiscriminatorSettings(replay=2)), make(DiscriminatorSettings(replay=1))
+    for discriminator in (replayed, current):
+        discriminator.train(*first)
+    assert np.array_equal(replayed.probability(*first[:2]), current.probability(*first[:2]))  # nothing to replay yet
+    replayed.train(*second)
+    current.train(*second)
+    assert not np.array_equal(replayed.probability(*second[:2]), current.probability(*second[:2]))
+    torch.save(replayed.state(), tmp_path / "state.pt")
+    resumed = make(DiscriminatorSettings(replay=2))
+    resumed.load_state(torch.load(tmp_path / "state.pt", weights_only=True))
+    assert resumed.train(*first) == replayed.train(*first)  # the replayed pairs are part of the state
+
+
+def test_new_settings_are_checked():
+    for settings, words in ((DiscriminatorSettings(reward_form="softmax"), "reward form"),
+                            (DiscriminatorSettings(balance=-1.0), "balance"),
+                            (DiscriminatorSettings(replay=0), "replay")):
+        with pytest.raises(ValueError, match=words):
+            make(settings)
