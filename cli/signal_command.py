@@ -55,6 +55,8 @@ def step_signal_command(config_path: Path | None, overrides: tuple[str, ...], de
     (alignment), with 95% intervals over the directions."""
     config = resolve_config(config_path, overrides)
     rail, discriminator_settings = search.settings(seed)
+    if rail.directions < 3:
+        raise click.UsageError("--directions must be at least 3: the meter correlates the draws across directions")
     import numpy as np
 
     from sumo_rail.drivers.policies import Policy, load_policy
