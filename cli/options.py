@@ -239,6 +239,7 @@ class SearchOptions:
     noise_every: int
     flip_rate: float | None
     fitness: str
+    reward: str
     traffic: str
     episodes_per_rollout: int
     freeze_normalizer: bool
@@ -261,7 +262,7 @@ class SearchOptions:
                                 noise=NoiseAdaptation(self.noise, self.noise_increment, self.noise_every), seed=seed,
                                 common_traffic=self.traffic == "common", episodes_per_rollout=self.episodes_per_rollout,
                                 freeze_normalizer=self.freeze_normalizer, fitness=self.fitness,
-                                flip_rate=self.flip_rate)
+                                flip_rate=self.flip_rate, reward=self.reward)
             discriminator = DiscriminatorSettings(hidden=self.disc_hidden, learning_rate=self.disc_lr,
                                                   steps_per_iteration=self.disc_steps, seed=seed,
                                                   reward_form=self.disc_reward, balance=self.disc_balance,
@@ -292,6 +293,11 @@ def search_options(command: Callable[..., Any]) -> Callable[..., Any]:
                           "decisions on the expert's states (replaces --noise, --noise-increment, --noise-every)."),
         click.option("--fitness", type=click.Choice(["std", "rank"]), default="std", show_default=True,
                      help="std: returns divided by their std (ARS); rank: centred ranks (Salimans et al. 2017)."),
+        click.option("--reward", type=click.Choice(["discriminator", "agreement"]), default="discriminator",
+                     show_default=True,
+                     help="discriminator: RAIL's. agreement: a control, not imitation: the expert is asked at every "
+                          "decision of every rollout and the return is the share of decisions it would have made alike "
+                          "(what the search reaches with it bounds what any reward can)."),
         click.option("--traffic", type=click.Choice(["common", "independent"]), default="independent",
                      show_default=True,
                      help="common: every direction of an iteration drives the same episodes (common random numbers); "

@@ -33,9 +33,9 @@ from sumo_rail.learning.step_signal import REWARD_VARIANTS
               help="Measure at all-zero weights of the policy's shape and normaliser (RAIL without BC).")
 @click.option("--style", type=click.Choice(sorted(STYLES)), default=DEFAULT_STYLE, show_default=True,
               help="The expert asked at every decision for agreement.")
-@click.option("--reward", "rewards", multiple=True, type=click.Choice(list(REWARD_VARIANTS)),
+@click.option("--discriminator", "rewards", multiple=True, type=click.Choice(list(REWARD_VARIANTS)),
               default=tuple(REWARD_VARIANTS), show_default=True,
-              help="Discriminators to measure, as changes to the --disc-* options (repeatable).")
+              help="Discriminators whose rewards are measured, as changes to the --disc-* options (repeatable).")
 @click.option("--warmup-rounds", type=click.IntRange(min=0), default=5, show_default=True,
               help="Training calls of each discriminator on the policy's perturbed rollouts before the measured step.")
 @search_options

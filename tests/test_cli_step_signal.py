@@ -36,7 +36,7 @@ def policy(tmp_path_factory) -> Path:
 
 def test_the_report_holds_every_measure_with_its_settings_and_is_reproducible(tmp_path, demos, policy):
     args = ["step-signal", *SMALL, "--demos", str(demos), "--policy", str(policy), "--directions", "3",
-            "--warmup-rounds", "0", "--reward", "given", "--reward", "contrast", "--flip-rate", "0.1"]
+            "--warmup-rounds", "0", "--discriminator", "given", "--discriminator", "contrast", "--flip-rate", "0.1"]
     first = invoke(*args, "--out", str(tmp_path / "a.json"))
     assert first.exit_code == 0, first.output
     second = invoke(*args, "--workers", "2", "--out", str(tmp_path / "b.json"))

@@ -26,11 +26,12 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from sumo_rail.config import Config
+from sumo_rail.drivers.expert import DEFAULT_STYLE
 from sumo_rail.drivers.policies import Policy, PolicyShape
 from sumo_rail.learning.ars import FITNESS_SHAPINGS, NoiseAdaptation, adapt_noise, ars_update
 from sumo_rail.learning.noise import direction, directions, noise_for_flip_rate
 from sumo_rail.learning.normalize import RunningStats
-from sumo_rail.runners.rollout import Driver, DriverSpec, run_episode
+from sumo_rail.runners.rollout import Driver, DriverSpec, ExpertDriver, run_episode
 from sumo_rail.seeding import Purpose, episode_seeds
 from sumo_rail.sim.traffic import TrafficView
 
@@ -38,6 +39,10 @@ if TYPE_CHECKING:
     from sumo_rail.learning.discriminator import Discriminator
     from sumo_rail.runners.backends import RolloutBackend, WorkerContext
     from sumo_rail.runners.tables import Demonstrations
+
+
+REWARDS = ("discriminator", "agreement")
+"""What scores a rollout (`RailSettings.reward`)."""
 
 
 @dataclass(frozen=True)
@@ -67,6 +72,11 @@ class RailSettings:
     fitness: str = "std"
     """How the step scales the returns: 'std' divides by sigma_R (ARS, the paper); 'rank' uses centred ranks
     (Salimans et al. 2017), `ars.centred_ranks`."""
+    reward: str = "discriminator"
+    """'discriminator': RAIL's reward. 'agreement': a control, not imitation from demonstrations: the expert is asked
+    at every decision of every rollout (as DAgger asks it) and a rollout's return is the share of its decisions the
+    expert would have made alike, the reward every discriminator stands in for; what the search reaches with it
+    bounds what it can reach with any reward at the same budget."""
     flip_rate: float | None = None
     """When set, nu is chosen at every iteration so that the iteration's perturbations change this share of the
     policy's decisions on CALIBRATION_STATES of the expert's states (`noise.noise_for_flip_rate`), in place of the
@@ -83,6 +93,8 @@ class RailSettings:
             raise ValueError(f"--episodes-per-rollout must be at least 1, got {self.episodes_per_rollout}")
         if self.fitness not in FITNESS_SHAPINGS:
             raise ValueError(f"--fitness must be one of {', '.join(FITNESS_SHAPINGS)}, got {self.fitness!r}")
+        if self.reward not in REWARDS:
+            raise ValueError(f"--reward must be one of {', '.join(REWARDS)}, got {self.reward!r}")
         if self.flip_rate is not None and not 0.0 < self.flip_rate < 1.0:
             raise ValueError(f"--flip-rate must be between 0 and 1, got {self.flip_rate}")
 
@@ -204,6 +216,21 @@ def rollout_return(rewards: np.ndarray, collided: bool, horizon: int, lowest_rew
     return float(rewards.mean())
 
 
+def discriminator_returns(rollouts: list[list[Trajectory]], discriminator: Discriminator, horizon: int) -> np.ndarray:
+    """Each rollout's return, shape (rollouts,): the mean over its episodes of `rollout_return` of the
+    discriminator's rewards."""
+    lowest = discriminator.lowest_reward()
+    return np.array([np.mean([rollout_return(discriminator.reward(t.observations, t.actions), t.collided, horizon,
+                                             lowest) for t in rollout]) for rollout in rollouts])
+
+
+def agreement_returns(rollouts: list[list[Trajectory]], horizon: int) -> np.ndarray:
+    """Each rollout's agreement with the expert, shape (rollouts,): the mean over its episodes of `rollout_return` of
+    1 where the expert would have chosen the action taken, else 0 (a collision's missing decisions count as 0)."""
+    return np.array([np.mean([rollout_return((t.actions == t.expert_actions).astype(np.float64), t.collided, horizon,
+                                             0.0) for t in rollout]) for rollout in rollouts])
+
+
 def run_iteration(state: TrainingState, shape: PolicyShape, config: Config, settings: RailSettings,
                   discriminator: Discriminator, expert: Demonstrations, backend: RolloutBackend,
                   on_rollout: Callable[[int, Any], None] | None = None) -> IterationLog:
@@ -218,17 +245,17 @@ def run_iteration(state: TrainingState, shape: PolicyShape, config: Config, sett
     if settings.flip_rate is not None:
         state.nu = noise_for_flip_rate(Policy(shape, state.parameters, mean, std), deltas, settings.flip_rate,
                                        calibration_states(expert.observations))
+    asked = ExpertDriver(expert.metadata.get("style") or DEFAULT_STYLE) if settings.reward == "agreement" else None
     tasks = [RolloutTask(config, shape, state.parameters, mean, std, noise_seed, state.iteration, k, sign, state.nu,
-                         seeds[k]) for k in range(n) for sign in (1, -1)]
+                         seeds[k], asked) for k in range(n) for sign in (1, -1)]
     rollouts: list[list[Trajectory]] = backend.run(tasks, on_result=on_rollout)
     trajectories = [trajectory for rollout in rollouts for trajectory in rollout]
     policy_observations = np.concatenate([t.observations for t in trajectories])
     policy_actions = np.concatenate([t.actions for t in trajectories])
     report = discriminator.train(expert.observations, expert.actions, policy_observations, policy_actions)
     horizon = round(config.env.max_episode_s / config.env.decision_period_s)
-    lowest = discriminator.lowest_reward()
-    returns = np.array([np.mean([rollout_return(discriminator.reward(t.observations, t.actions), t.collided, horizon,
-                                                lowest) for t in rollout]) for rollout in rollouts])
+    returns = (agreement_returns(rollouts, horizon) if settings.reward == "agreement"
+               else discriminator_returns(rollouts, discriminator, horizon))
     step = ars_update(state.parameters, deltas, returns[0::2], returns[1::2], settings.kept, settings.step_size,
                       settings.fitness)
     if not settings.freeze_normalizer:

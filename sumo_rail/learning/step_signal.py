@@ -28,7 +28,13 @@ from sumo_rail.drivers.policies import Policy
 from sumo_rail.learning.ars import ars_update
 from sumo_rail.learning.noise import directions, flip_rate
 from sumo_rail.learning.normalize import RunningStats
-from sumo_rail.learning.rail import RailSettings, RolloutTask, Trajectory, rollout_return
+from sumo_rail.learning.rail import (
+    RailSettings,
+    RolloutTask,
+    Trajectory,
+    agreement_returns,
+    discriminator_returns,
+)
 from sumo_rail.seeding import Purpose, episode_seeds
 
 if TYPE_CHECKING:
@@ -180,23 +186,19 @@ def run_draws(policy: Policy, config: Config, settings: RailSettings, nu: float,
     return rollouts
 
 
-def agreement_returns(rollouts: Rollouts) -> Differences:
-    """Each rollout's agreement with the expert: the share of its decisions at which the expert would have chosen the
-    same action (pooled over its episodes)."""
-    return _differences(rollouts, lambda rollout: float(
-        sum(np.count_nonzero(t.actions == t.expert_actions) for t in rollout) / sum(len(t.actions) for t in rollout)))
+def agreement_differences(rollouts: Rollouts, horizon: int) -> Differences:
+    """Each rollout's agreement with the expert (`rail.agreement_returns`: the share of its decisions the expert would
+    have made alike)."""
+    return _differences([agreement_returns(draw, horizon) for draw in rollouts])
 
 
-def reward_returns(rollouts: Rollouts, discriminator: Discriminator, horizon: int) -> Differences:
-    """Each rollout's return as RAIL scores it (`rail.rollout_return`, mean over its episodes)."""
-    lowest = discriminator.lowest_reward()
-    return _differences(rollouts, lambda rollout: float(np.mean([
-        rollout_return(discriminator.reward(t.observations, t.actions), t.collided, horizon, lowest)
-        for t in rollout])))
+def reward_differences(rollouts: Rollouts, discriminator: Discriminator, horizon: int) -> Differences:
+    """Each rollout's return as RAIL scores it (`rail.discriminator_returns`)."""
+    return _differences([discriminator_returns(draw, discriminator, horizon) for draw in rollouts])
 
 
-def _differences(rollouts: Rollouts, score: Callable[[list[Trajectory]], float]) -> Differences:
-    scores = np.array([[score(rollout) for rollout in draw] for draw in rollouts])
+def _differences(returns: list[np.ndarray]) -> Differences:
+    scores = np.stack(returns)
     return Differences(scores[:, 0::2], scores[:, 1::2])
 
 
@@ -257,9 +259,9 @@ def measure(policy: Policy, config: Config, settings: RailSettings, nu: float, e
     deltas = directions(settings.seed, 0, settings.directions, policy.shape.parameter_count)
     warm_up(discriminators, policy, config, settings, nu, expert_pairs, meter, backend, on_rollout)
     rollouts = run_draws(policy, config, settings, nu, expert, backend, on_rollout=on_rollout)
-    agreement = agreement_returns(rollouts)
-    top, shaping = settings.kept, settings.fitness
     horizon = round(config.env.max_episode_s / config.env.decision_period_s)
+    agreement = agreement_differences(rollouts, horizon)
+    top, shaping = settings.kept, settings.fitness
     observations, actions = pairs(rollouts)
     report: dict[str, Any] = {
         "nu": nu, "flip_rate": flip_rate(policy, deltas, nu, calibration),
@@ -271,7 +273,7 @@ def measure(policy: Policy, config: Config, settings: RailSettings, nu: float, e
     }
     for name, discriminator in discriminators.items():
         discriminator.train(*expert_pairs, observations, actions)
-        returns = reward_returns(rollouts, discriminator, horizon)
+        returns = reward_differences(rollouts, discriminator, horizon)
         report["returns"][name] = returns.to_dict()
         report["rewards"][name] = {
             "signal": {key: value.to_dict() for key, value in signal(deltas, returns, top, shaping).items()},

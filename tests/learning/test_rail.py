@@ -6,6 +6,7 @@ import pytest
 from sumo_rail.config import Config
 from sumo_rail.drivers.policies import PolicyShape
 from sumo_rail.learning.discriminator import Discriminator, DiscriminatorSettings
+from sumo_rail.learning.noise import directions
 from sumo_rail.learning.normalize import RunningStats
 from sumo_rail.learning.rail import RailSettings, TrainingState, Trajectory, run_iteration
 from sumo_rail.runners.backends import RolloutBackend
@@ -23,14 +24,18 @@ class FakeBackend(RolloutBackend):
 
     def run(self, tasks, on_result=None):
         self.tasks += list(tasks)
-        return [[self.trajectory(seed, task.sign * task.index) for seed in task.episode_seeds] for task in tasks]
+        return [[self.trajectory(seed, task.sign * task.index, task.expert is not None and task.sign > 0)
+                 for seed in task.episode_seeds] for task in tasks]
 
     @staticmethod
-    def trajectory(seed: int, offset: int) -> Trajectory:
+    def trajectory(seed: int, offset: int, agreeing: bool) -> Trajectory:
+        """Made-up decisions; when the task asked an expert, it agrees with every decision of the positive signs
+        and with none of the negative ones."""
         rng = np.random.default_rng(seed)
         steps = int(rng.integers(5, 9))
         observations = (rng.normal(size=(steps, SIZE)) + 0.1 * offset).astype(np.float32)
-        return Trajectory(observations, rng.integers(0, 5, steps), False, steps)
+        actions = rng.integers(0, 5, steps)
+        return Trajectory(observations, actions, False, steps, actions if agreeing else (actions + 1) % 5)
 
     def close(self) -> None:
         pass
@@ -79,3 +84,15 @@ def test_top_defaults_to_half_the_directions_for_any_n():
         RailSettings(directions=8, top=9)
     with pytest.raises(ValueError, match="--episodes-per-rollout"):
         RailSettings(episodes_per_rollout=0)
+
+
+def test_the_agreement_reward_asks_the_expert_and_climbs_agreement():
+    backend, start, state = iterate(RailSettings(directions=4, top=4, reward="agreement"))
+    assert all(task.expert is not None for task in backend.tasks)
+    assert all(task.expert is None for task in iterate(RailSettings(directions=4))[0].tasks)  # RAIL never asks
+    # every + rollout agrees fully, every - never: the step is the sum of the directions
+    total = directions(0, 0, 4, start.parameters.size).sum(axis=0).astype(np.float64)
+    step = (state.parameters - start.parameters).astype(np.float64)
+    assert step @ total / np.linalg.norm(step) / np.linalg.norm(total) == pytest.approx(1.0, abs=1e-5)
+    with pytest.raises(ValueError, match="--reward"):
+        RailSettings(reward="oracle")

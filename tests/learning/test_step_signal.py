@@ -11,10 +11,10 @@ from sumo_rail.learning.rail import RailSettings
 from sumo_rail.learning.step_signal import (
     REWARD_VARIANTS,
     Differences,
-    agreement_returns,
+    agreement_differences,
     alignment,
     draw_seeds,
-    reward_returns,
+    reward_differences,
     run_draws,
     signal,
     variants,
@@ -93,17 +93,17 @@ def test_the_same_traffic_twice_reads_full_signal_in_sumo(small_config: Config):
         other = run_draws(policy, config, settings, 0.5, ExpertDriver(), backend, draws=(0, 1))
     trajectory = same[0][0][0]
     assert trajectory.expert_actions is not None and len(trajectory.expert_actions) == len(trajectory.actions)
-    agreement = agreement_returns(same)
+    agreement = agreement_differences(same, horizon=600)
     assert np.all((agreement.plus >= 0) & (agreement.plus <= 1))
     np.testing.assert_array_equal(agreement.plus[0], agreement.plus[1])
     deltas = np.random.default_rng(0).standard_normal((4, shape.parameter_count)).astype(np.float32)
     assert signal(deltas, agreement, 2, "std")["correlation"].value == pytest.approx(1.0)
     observations = np.concatenate([t.observations for t in same[0][0]])
     discriminator = variants(DiscriminatorSettings(), ["contrast"], observations)["contrast"]
-    rewards = reward_returns(same, discriminator, horizon=600)
+    rewards = reward_differences(same, discriminator, horizon=600)
     np.testing.assert_array_equal(rewards.plus[0], rewards.plus[1])
-    assert not np.array_equal(reward_returns(other, discriminator, 600).plus[0],
-                              reward_returns(other, discriminator, 600).plus[1])
+    assert not np.array_equal(reward_differences(other, discriminator, 600).plus[0],
+                              reward_differences(other, discriminator, 600).plus[1])
 
 
 def test_every_reward_variant_builds_a_discriminator():
