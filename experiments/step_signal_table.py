@@ -52,8 +52,9 @@ def main_table(reports: list[tuple[str, dict[str, Any]]]) -> str:
             head = (f"| {describe(report)} | {report['nu']:.3g} | {report['flip_rate']:.1%} | "
                     f"{report['agreement_mean']:.3f} | {estimate(report['agreement']['correlation'])} "
                     if first else "| | | | | ")
+            aligned = reward["alignment"]
             lines.append(f"{head}| {name} | {estimate(reward['signal']['correlation'])} | "
-                         f"{estimate(reward['alignment']['across'])} | {estimate(reward['alignment']['step_cosine'])} |")
+                         f"{estimate(aligned['across'])} | {estimate(aligned['step_cosine'])} |")
             first = False
     return "\n".join(lines)
 
