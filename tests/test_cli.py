@@ -1,9 +1,15 @@
+import contextlib
 import os
+import queue
+import re
 import signal
 import subprocess
 import sys
+import threading
 import time
+from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -186,16 +192,70 @@ def test_gui_without_a_display_is_a_one_sentence_error():
     assert "sumo-gui" in result.stderr and "Traceback" not in result.stderr
 
 
+@contextlib.contextmanager
+def command_process(*args: str, **popen: Any) -> Iterator[tuple[subprocess.Popen, queue.Queue]]:
+    """`sumo-rail ARGS` in a child process, with its output lines (stdout and stderr together; progress goes to
+    stderr as plain lines, it not being a terminal) on a queue as they come, None at the end. The child is killed
+    on leaving, so that a failing test leaves no process behind."""
+    process = subprocess.Popen([sys.executable, "-m", "sumo_rail_cli", *args], stdout=subprocess.PIPE,
+                               stderr=subprocess.STDOUT, text=True, **popen)
+    lines: queue.Queue = queue.Queue()
+
+    def read() -> None:
+        for line in process.stdout:
+            lines.put(line)
+        lines.put(None)
+
+    reader = threading.Thread(target=read, daemon=True)
+    reader.start()
+    try:
+        yield process, lines
+    finally:
+        process.kill()
+        process.wait()
+        reader.join(timeout=10)
+        process.stdout.close()
+
+
+def read_until(lines: queue.Queue, pattern: str, timeout_s: float = 300.0) -> str:
+    """The output up to and including the first line matching `pattern`; fails if the output ends first or no
+    such line comes within `timeout_s` [s] (a bound on a hang, not on speed)."""
+    seen: list[str] = []
+    deadline = time.monotonic() + timeout_s
+    while True:
+        try:
+            line = lines.get(timeout=max(deadline - time.monotonic(), 0.0))
+        except queue.Empty:
+            pytest.fail(f"no line matching {pattern!r} within {timeout_s:.0f} s; output so far:\n{''.join(seen)}")
+        if line is None:
+            pytest.fail(f"the command ended without a line matching {pattern!r}; its output:\n{''.join(seen)}")
+        seen.append(line)
+        if re.search(pattern, line):
+            return "".join(seen)
+
+
+def rest_of(lines: queue.Queue, timeout_s: float = 60.0) -> str:
+    """The output after what was read, up to its end (which must come within `timeout_s` [s])."""
+    rest: list[str] = []
+    try:
+        rest.extend(iter(lambda: lines.get(timeout=timeout_s), None))
+    except queue.Empty:
+        pytest.fail(f"the output did not end within {timeout_s:.0f} s; its last lines:\n{''.join(rest[-20:])}")
+    return "".join(rest)
+
+
 def test_ctrl_c_leaves_no_partial_output(tmp_path):
     out = tmp_path / "demos.parquet"
-    process = subprocess.Popen([sys.executable, "-m", "sumo_rail_cli", "record-expert", *SMALL,
-                                "--episodes", "200", "--workers", "2", "--out", str(out)],
-                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    time.sleep(6)
-    process.send_signal(signal.SIGINT)
-    _, stderr = process.communicate(timeout=60)
-    assert process.returncode != 0 and "Traceback" not in stderr
-    assert list(tmp_path.iterdir()) == []
+    with command_process("record-expert", *SMALL, "--episodes", "200", "--workers", "2", "--out", str(out)) as (
+            process, lines):
+        # a progress line: episodes are recorded, and a command writing as it goes would have begun its file
+        output = read_until(lines, r"^recording: [1-9]\d*/200 episodes")
+        assert "200/200" not in output, "the recording ended before it could be interrupted"
+        process.send_signal(signal.SIGINT)
+        assert process.wait(timeout=60) == 1  # click's answer to Ctrl-C: "Aborted!", exit 1
+        output += rest_of(lines)
+    assert "Aborted!" in output and "Traceback" not in output, output
+    assert list(tmp_path.iterdir()) == []  # neither the file nor a temporary
 
 
 def test_train_bad_input(tmp_path):
@@ -209,21 +269,20 @@ def test_train_interrupted_keeps_a_checkpoint_and_resumes(tmp_path):
     demos = tmp_path / "demos.parquet"
     assert invoke("record-expert", *SMALL, "--episodes", "2", "--out", str(demos)).exit_code == 0
     run = tmp_path / "run"
-    command = [sys.executable, "-m", "sumo_rail_cli", "train", *SMALL, "--demos", str(demos), "--directions", "2",
+    command = ["train", *SMALL, "--demos", str(demos), "--directions", "2",
                "--top", "1", "--iterations", "500", "--out", str(run)]
     # started with SIGINT ignored, as a shell script's background job is: Ctrl-C must still stop it
-    process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                               preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_IGN))
-    deadline = time.time() + 120
-    while not (run / "checkpoint.pt").exists() and time.time() < deadline:
-        time.sleep(0.5)
-    process.send_signal(signal.SIGINT)
-    stdout, stderr = process.communicate(timeout=60)
-    assert process.returncode == 1 and "--resume" in stderr and "Traceback" not in stderr
+    with command_process(*command, preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_IGN)) as (process,
+                                                                                                       lines):
+        output = read_until(lines, r"^training: [1-9]\d*/500 iterations")  # at least one iteration is complete
+        process.send_signal(signal.SIGINT)
+        assert process.wait(timeout=60) == 1
+        output += rest_of(lines)
+    assert "--resume" in output and "Traceback" not in output, output
     done = len(pd.read_parquet(run / "log.parquet"))
     assert 1 <= done < 500
     assert not [p for p in run.iterdir() if p.name.endswith(".tmp")]
-    assert "behaviour cloning: train accuracy" in stdout + stderr  # BC initialises RAIL by default
+    assert "behaviour cloning: train accuracy" in output  # BC initialises RAIL by default
     result = invoke("train", *SMALL, "--demos", str(demos), "--directions", "2", "--top", "1",
                     "--iterations", str(done + 1), "--eval-episodes", "1", "--out", str(run), "--resume")
     assert result.exit_code == 0, result.output

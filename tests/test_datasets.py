@@ -1,4 +1,5 @@
 import os
+from pathlib import Path
 
 import pyarrow as pa
 import pytest
@@ -18,14 +19,55 @@ def test_output_path_checks(tmp_path):
     with pytest.raises(DatasetError, match="folder"):
         check_output_path(tmp_path, overwrite=True)
     locked = tmp_path / "locked"
-    locked.mkdir(mode=0o500)
+    locked.mkdir(mode=0o555)
     try:
-        if os.geteuid() != 0:  # root can write anywhere
-            with pytest.raises(DatasetError, match="not writable"):
-                check_output_path(locked / "x.parquet", overwrite=False)
+        assert "not writable" in check_as_a_user(locked)
     finally:
         locked.chmod(0o700)
     assert existing.read_text() == "keep me"
+
+
+NOBODY = 65534
+"""The user id and group id of `nobody`."""
+
+
+def check_as_a_user(folder: Path) -> str:
+    """The message of `check_output_path` on a new file in `folder` ("" if it passes), as a user who is not root:
+    root can write anywhere (CI runs as root), so there it is asked in a forked child that has become nobody."""
+    if os.geteuid() != 0:
+        return output_path_message(folder / "x.parquet")
+    read_end, write_end = os.pipe()
+    pid = os.fork()
+    if pid == 0:  # the child: reports through the pipe and exits, never returning into pytest
+        try:
+            os.close(read_end)
+            os.chdir(folder)  # tmp_path's parents may be closed to other users; `folder` is open to all
+            os.setgroups([])
+            os.setgid(NOBODY)
+            os.setuid(NOBODY)
+            message = output_path_message(Path("x.parquet"))
+        except BaseException as error:
+            message = f"cannot check as nobody: {error!r}"
+        try:
+            os.write(write_end, message.encode())
+        finally:
+            os._exit(0)
+    os.close(write_end)
+    with os.fdopen(read_end, "rb") as pipe:
+        message = pipe.read().decode()
+    os.waitpid(pid, 0)
+    if message.startswith("cannot check as nobody"):
+        pytest.skip(f"the not-writable check needs a user other than root, and {message}")
+    return message
+
+
+def output_path_message(path: Path) -> str:
+    try:
+        check_output_path(path, overwrite=False)
+    except DatasetError as error:
+        return str(error)
+    return ""
+
 
 def test_interrupted_write_leaves_neither_file_nor_temporary(tmp_path, monkeypatch):
     path = tmp_path / "demos.parquet"

@@ -507,14 +507,26 @@ def test_a_cache_entry_damaged_while_running_is_rebuilt_and_the_episode_is_the_s
 
 
 def test_a_command_runs_on_a_damaged_cache(tmp_path: Path, cache_template: Path, monkeypatch: pytest.MonkeyPatch):
-    """End to end: evaluate's worker processes find a truncated warm state and rebuild it."""
+    """End to end: evaluate's worker processes find truncated warm states, rebuild them, and the results are those
+    of the intact cache."""
     cache = tmp_path / "cache"
     shutil.copytree(cache_template, cache)
     monkeypatch.setenv("SUMO_RAIL_CACHE", str(cache))
-    for path in cache.glob("states/*/state_*.xml"):
+    evaluate = ["evaluate", *SMALL, "--policy", "keep", "--episodes", "2", "--workers", "2", "--out"]
+    before = set(cache.glob("states/*"))
+    intact = CliRunner().invoke(cli, [*evaluate, str(tmp_path / "intact.parquet")])
+    assert intact.exit_code == 0, intact.output
+    [test_pool] = set(cache.glob("states/*")) - before  # evaluate's warm states (the test pool), built by that run
+    states = {path: path.read_bytes() for path in sorted(test_pool.glob("state_*.xml"))}
+    for path in states:
         _truncated(path)
-    result = CliRunner().invoke(cli, ["evaluate", *SMALL, "--policy", "keep", "--episodes", "2", "--workers", "2"])
-    assert result.exit_code == 0, result.output
+    damaged = CliRunner().invoke(cli, [*evaluate, str(tmp_path / "damaged.parquet")])
+    assert damaged.exit_code == 0, damaged.output
+    for path, intact_state in states.items():  # rebuilt: the same state again
+        assert path.read_bytes().split(b"<snapshot", 1)[-1] == intact_state.split(b"<snapshot", 1)[-1], path.name
+    for name in ("{}.parquet", "{}.decisions.parquet"):  # the same episodes and decisions
+        pd.testing.assert_frame_equal(pd.read_parquet(tmp_path / name.format("damaged")),
+                                      pd.read_parquet(tmp_path / name.format("intact")))
 
 
 # ---------------------------------------------------------------------------------------------------------------------

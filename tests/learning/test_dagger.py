@@ -1,6 +1,8 @@
 """DAgger on the small scenario: labels are the expert's, the dataset aggregates, and the result does not depend
 on workers or on an interruption."""
 
+from dataclasses import dataclass
+
 import numpy as np
 import pandas as pd
 import pyarrow.parquet as pq
@@ -8,13 +10,16 @@ import pytest
 from test_cli import SMALL, invoke
 
 from sumo_rail.config import Config
+from sumo_rail.drivers.expert import make_expert
 from sumo_rail.drivers.policies import Policy, PolicyShape, load_policy
-from sumo_rail.learning.bc import BcSettings
+from sumo_rail.learning import dagger
+from sumo_rail.learning.bc import BcReport, BcSettings
 from sumo_rail.learning.dagger import DaggerSettings, DaggerTask, train_dagger
 from sumo_rail.learning.training import RunError, Validation
-from sumo_rail.runners.backends import ProcessPoolBackend, SerialBackend
-from sumo_rail.runners.rollout import EpisodeTask, ExpertDriver
+from sumo_rail.runners.backends import ProcessPoolBackend, SerialBackend, WorkerContext
+from sumo_rail.runners.rollout import EpisodeTask, ExpertDriver, PolicyDriver, run_episode
 from sumo_rail.runners.tables import DEMONSTRATIONS, demonstrations_table, provenance
+from sumo_rail.sim.actions import Action
 
 CONFIG = Config.from_dict({"scenario": {"length_m": 1500.0, "warmup_s": 120.0, "snapshots": 3,
                                         "snapshot_interval_s": 10.0},
@@ -35,26 +40,76 @@ def demos(tmp_path_factory):
 
 
 def settings(demos, **changes) -> DaggerSettings:
-    return DaggerSettings(str(demos), "mlp", 4, episodes_per_round=2, bc=BcSettings(epochs=3, class_balance=0.75),
-                          **changes)
+    return DaggerSettings(str(demos), "mlp", 4, bc=BcSettings(epochs=3, class_balance=0.75),
+                          **{"episodes_per_round": 2, **changes})
 
 
-def test_labels_are_the_experts_whoever_drives():
+def test_labels_are_the_experts_whoever_drives(tmp_path, demos, monkeypatch):
     with SerialBackend() as backend:
-        policy = keeping_policy()
-        expert_only, = backend.run([DaggerTask(CONFIG, policy, "normal", 1.0, 5)])
+        expert_only, = backend.run([DaggerTask(CONFIG, going_left_policy(), "normal", 1.0, 5)])
         recorded, = backend.run([EpisodeTask(CONFIG, ExpertDriver("normal"), 5, record=True)])
-        mixed, = backend.run([DaggerTask(CONFIG, policy, "normal", 0.0, 5)])
     assert expert_only.policy_decisions == 0
     assert np.array_equal(expert_only.labels, recorded.steps["action"])  # the expert drove: labels = its actions
     assert np.array_equal(expert_only.observations, recorded.steps["observation"])
-    assert mixed.policy_decisions == len(mixed.labels) > 0
+
+    # The learner drives every decision (beta 0): the states it visits, which the expert's own driving does not lead
+    # to, enter the aggregated dataset labelled with what the expert would do there, never with its own action.
+    learner = going_left_policy()
+    monkeypatch.setattr(dagger, "behaviour_cloning", lambda data, shape, bc: (learner, BC_REPORT))
+    backend = TaskRecordingBackend()
+    with backend:
+        train_dagger(tmp_path / "run", settings(demos, episodes_per_round=1, beta=0.0, seed=2), CONFIG, 1, backend,
+                     resume=False, validation=Validation(0))
+        task, = backend.tasks
+        assert task.policy is learner and task.beta == 0.0
+        driven, = backend.run([LearnerAskingTheExpert(CONFIG, learner, "normal", task.seed)])
+    dataset = pq.read_table(tmp_path / "run" / "dataset.parquet")
+    new = np.array(dataset.column("episode").to_pylist()) > max(pq.read_table(demos).column("episode").to_pylist())
+    observations = np.stack(dataset.column("observation").to_pylist())[new]
+    labels = np.array(dataset.column("action").to_pylist())[new]
+    assert np.array_equal(observations, driven["observation"])  # the learner's very states
+    assert np.array_equal(labels, driven["expert"])  # labelled with the expert's decisions there
+    assert len(set(labels)) > 1  # (this seed's traffic asks the expert for more than one action)
+    assert set(driven["action"]) == {Action.LANE_LEFT} and Action.LANE_LEFT not in labels  # never the learner's
 
 
-def keeping_policy() -> Policy:
-    """A policy that always keeps (zero weights), to drive against the expert."""
+BC_REPORT = BcReport(train_accuracy=0.0, holdout_accuracy=None, losses=[], train_rows=0, holdout_rows=0)
+
+
+def going_left_policy() -> Policy:
+    """A policy that always changes to the left lane (only its bias is non-zero), which the expert never does at the
+    states it leads to."""
     shape = PolicyShape("linear", 56)
-    return Policy(shape, np.zeros(shape.parameter_count, np.float32))
+    parameters = np.zeros(shape.parameter_count, np.float32)
+    parameters[shape.actions * shape.observation_size + Action.LANE_LEFT] = 1.0
+    return Policy(shape, parameters)
+
+
+class TaskRecordingBackend(SerialBackend):
+    """A serial backend that keeps the tasks of its last run."""
+
+    def run(self, tasks, on_result=None):
+        self.tasks = list(tasks)
+        return super().run(tasks, on_result)
+
+
+@dataclass(frozen=True)
+class LearnerAskingTheExpert:
+    """The recorded steps of the episode `policy` alone drives from `seed`, with the decision of the expert of `style`,
+    asked apart from DAgger, in the traffic of each step ("expert")."""
+
+    config: Config
+    policy: Policy
+    style: str
+    seed: int
+
+    def run(self, context: WorkerContext) -> dict[str, np.ndarray]:
+        expert = make_expert(self.style, self.config.env.speed_step_mps, self.config.expert.view_range_m)
+        decisions: list[int] = []
+        steps = run_episode(context.env(self.config), PolicyDriver(self.policy, "learner").create(self.config, 0),
+                            self.seed, record=True,
+                            probe=lambda traffic, action, info: decisions.append(int(expert.decide(traffic)))).steps
+        return {**steps, "expert": np.array(decisions)}
 
 
 def test_same_policy_with_one_or_two_workers_and_after_resuming(tmp_path, demos):

@@ -46,6 +46,28 @@ class Square:
 
 
 @dataclass(frozen=True)
+class Gated:
+    """Writes its pid into `started` (if given; atomically) when it starts, waits until the file `gate` exists (at most
+    `patience_s` [s], so that a test whose gate never opens fails on its assertions rather than hanging), then
+    returns (value, value**2)."""
+
+    value: int
+    gate: Path
+    started: Path | None = None
+    patience_s: float = 30.0
+
+    def run(self, context: WorkerContext) -> tuple[int, int]:
+        if self.started is not None:
+            staged = self.started.with_name(self.started.name + ".tmp")
+            staged.write_text(str(os.getpid()))
+            staged.replace(self.started)
+        deadline = time.monotonic() + self.patience_s
+        while not self.gate.exists() and time.monotonic() < deadline:
+            time.sleep(0.01)
+        return self.value, self.value**2
+
+
+@dataclass(frozen=True)
 class DieOnce:
     """SIGKILLs its own worker the first time (writing the pid to `marker`), then returns its pid."""
 
@@ -60,16 +82,16 @@ class DieOnce:
 
 @dataclass(frozen=True)
 class HangOnce:
-    """Sleeps 60 s the first time (creating `marker`), then returns `value`."""
+    """Sleeps 60 s the first time (writing its pid to `marker`), then returns (`value`, its pid)."""
 
     marker: Path
     value: int
 
-    def run(self, context: WorkerContext) -> int:
+    def run(self, context: WorkerContext) -> tuple[int, int]:
         if not self.marker.exists():
-            self.marker.touch()
+            self.marker.write_text(str(os.getpid()))
             time.sleep(60.0)
-        return self.value
+        return self.value, os.getpid()
 
 
 @dataclass(frozen=True)
@@ -151,16 +173,21 @@ def pool():
 
 
 def test_serial_and_process_pool_return_results_in_task_order(tmp_path):
-    tasks = squares(6, step_s=0.05)
+    """Each even task waits until the next task's result has arrived, so two workers finish them in the order
+    1, 0, 3, 2, 5, 4 whatever the machine's speed; the results come back in task order all the same."""
     arrivals: dict[str, list[int]] = {"serial": [], "process": []}
+
+    def arrived(index: int, result: Any) -> None:
+        arrivals["process"].append(index)
+        (tmp_path / f"arrived_{index}").touch()
+
+    gated = [Gated(value, tmp_path / f"arrived_{value + 1}") if value % 2 == 0 else Square(value) for value in range(6)]
     with SerialBackend() as serial, ProcessPoolBackend(2) as pool:
-        warm_up(pool, tmp_path / "warm")
-        serial_results = serial.run(tasks, lambda index, result: arrivals["serial"].append(index))
-        pool_results = pool.run(tasks, lambda index, result: arrivals["process"].append(index))
-    assert serial_results == pool_results == expected(tasks)
+        serial_results = serial.run(squares(6), lambda index, result: arrivals["serial"].append(index))
+        pool_results = pool.run(gated, arrived)
+    assert serial_results == pool_results == expected(squares(6))
     assert arrivals["serial"] == list(range(6))
-    assert sorted(arrivals["process"]) == list(range(6))
-    assert arrivals["process"][0] == 1, "the second worker's shorter task should finish first"
+    assert arrivals["process"] == [1, 0, 3, 2, 5, 4]
 
 
 def test_workers_are_reused_across_runs(pool):
@@ -212,11 +239,13 @@ def test_a_worker_killed_from_outside_is_replaced_and_results_match(pool, tmp_pa
 
 
 def test_a_hanging_task_times_out_and_is_retried_on_a_fresh_worker(tmp_path, caplog):
-    start = time.monotonic()
     with ProcessPoolBackend(2, task_timeout_s=1.0) as pool:
         results = pool.run([Square(1), HangOnce(tmp_path / "hung", 5), Square(2)])
-    assert results == [(1, 1), 5, (2, 4)]
-    assert time.monotonic() - start < 20.0
+        hung_pid = int((tmp_path / "hung").read_text())
+        assert hung_pid not in pool.pids  # the hanging worker was replaced...
+        assert_no_process([hung_pid])  # ...and is gone, rather than left to finish its 60 s
+    assert results[0] == (1, 1) and results[2] == (2, 4)
+    assert results[1][0] == 5 and results[1][1] != hung_pid  # the retry's answer, from another worker
     assert "task 1: timed out after 1.0 s" in caplog.text
 
 
@@ -245,15 +274,18 @@ def test_serial_backend_wraps_task_exceptions():
         serial.run([Fail()])
 
 
-def test_interrupt_during_a_run_propagates_and_the_pool_stays_usable(pool):
+def test_interrupt_during_a_run_propagates_and_the_pool_stays_usable(pool, tmp_path):
     def interrupt(index: int, result: Any) -> None:
         raise KeyboardInterrupt
 
-    with pytest.raises(KeyboardInterrupt):
-        pool.run([Square(0), Square(1, 5.0)], interrupt)
-    start = time.monotonic()
+    busy, release = tmp_path / "busy", tmp_path / "release"
+    with pytest.raises(KeyboardInterrupt):  # task 0's result arrives once task 1 is running, and interrupts the run
+        pool.run([Gated(0, gate=busy), Gated(7, gate=release, started=busy)], interrupt)
+    abandoned = int(busy.read_text())
+    release.touch()  # were the interrupted task still running, it would now answer (7, 49) into the next run
     assert pool.run(squares(2)) == expected(squares(2))
-    assert time.monotonic() - start < 4.0, "the interrupted task should have been abandoned"
+    assert abandoned not in pool.pids
+    assert_no_process([abandoned])
 
 
 def test_close_is_idempotent_and_leaves_no_worker_process():
@@ -278,27 +310,33 @@ def process_exited(pid: int) -> bool:
 
 
 @pytest.mark.skipif(not Path("/proc/self/status").exists(), reason="needs /proc")
-def test_busy_workers_exit_when_their_parent_is_killed():
+def test_busy_workers_exit_when_their_parent_is_killed(tmp_path):
+    started = tmp_path / "started"
+    started.mkdir()
     script = textwrap.dedent(f"""
         import sys
+        from pathlib import Path
         sys.path.insert(0, {str(Path(__file__).parent)!r})
         from test_backends import Square
         from sumo_rail.runners.backends import ProcessPoolBackend
         pool = ProcessPoolBackend(2)
         pool.run([Square(0), Square(1)])
         print(*pool.pids, flush=True)
-        pool.run([Square(0, 60.0), Square(1, 60.0)])
+        pool.run([Square(0, 60.0, Path({str(started)!r})), Square(1, 60.0, Path({str(started)!r}))])
     """)
     parent = subprocess.Popen([sys.executable, "-c", script], stdout=subprocess.PIPE, text=True)
     try:
         pids = [int(pid) for pid in parent.stdout.readline().split()]
         assert len(pids) == 2
-        time.sleep(0.3)
+        deadline = time.monotonic() + 30.0
+        while len(list(started.iterdir())) < 2 and time.monotonic() < deadline:
+            time.sleep(0.01)
+        assert sorted(int(path.name) for path in started.iterdir()) == sorted(pids)  # both are in their 60 s task
     finally:
         parent.kill()
         parent.wait()
         parent.stdout.close()
-    deadline = time.monotonic() + 5.0
+    deadline = time.monotonic() + 30.0  # they go within a second; the bound only stops a test that would hang
     while not all(process_exited(pid) for pid in pids) and time.monotonic() < deadline:
         time.sleep(0.05)
     assert all(process_exited(pid) for pid in pids)

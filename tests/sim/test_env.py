@@ -44,10 +44,12 @@ def test_registered_id_makes_the_env():
         env.close()
 
 
+@pytest.mark.filterwarnings("error")  # a warning of the checker is a failure
 def test_gymnasium_env_checker_passes(env):
     gymnasium_check_env(env, skip_render_check=True)
 
 
+@pytest.mark.filterwarnings("error")  # a warning of the checker is a failure
 def test_stable_baselines3_env_checker_passes(env):
     sb3_check_env(env, warn=True)
 
