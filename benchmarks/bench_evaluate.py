@@ -8,15 +8,13 @@ docs/benchmarks.md.
 
 from __future__ import annotations
 
-import argparse
 import os
 import platform
 import statistics
 import sys
 import time
-from pathlib import Path
 
-from doc_section import write_section
+from doc_section import bench_parser, write_section
 
 from sumo_rail.config import Config
 from sumo_rail.datasets import sumo_version
@@ -30,16 +28,13 @@ DRIVERS = (ExpertDriver(DEFAULT_STYLE), KeepDriver(), RandomDriver())
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__)
-    parser.add_argument("--episodes", type=int, default=8, help="episodes per driver and round")
-    parser.add_argument("--rounds", type=int, default=5, help="alternating plain / compared rounds")
-    parser.add_argument("--out", type=Path, default=Path("docs/benchmarks.md"))
-    args = parser.parse_args()
+    args = bench_parser(__doc__, 8, "episodes per driver and round", 5,
+                        "alternating plain / compared rounds").parse_args()
     config = Config()
     seeds = episode_seeds(Purpose.EVALUATE, 1000, args.episodes)
     plain = [EpisodeTask(config, driver, seed, pool="test", warm_state=k) for driver in DRIVERS
              for k, seed in enumerate(seeds)]
-    compared = [EvaluationTask(task, DEFAULT_STYLE) for task in plain]
+    compared = [EvaluationTask(task, ExpertDriver(DEFAULT_STYLE)) for task in plain]
     rates: dict[str, list[float]] = {"plain": [], "compared": []}
     decisions = 0
     with SerialBackend() as backend:

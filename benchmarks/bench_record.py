@@ -32,7 +32,7 @@ from sumo_rail.seeding import Purpose, episode_seeds
 def recording_seconds(config: Config, workers: int, episodes: int, out: Path) -> float:
     start = time.perf_counter()
     with ProcessPoolBackend(workers) as backend:
-        record_demonstrations(config, DEFAULT_STYLE, 0, episodes, backend, out)
+        record_demonstrations(config, ExpertDriver(DEFAULT_STYLE), DEFAULT_STYLE, 0, episodes, backend, out)
     return time.perf_counter() - start
 
 

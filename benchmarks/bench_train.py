@@ -31,6 +31,7 @@ from sumo_rail.learning.rail import RailSettings
 from sumo_rail.learning.training import RunSettings, train
 from sumo_rail.runners.backends import ProcessPoolBackend, SerialBackend, Task
 from sumo_rail.runners.record import record_demonstrations
+from sumo_rail.runners.rollout import ExpertDriver
 
 
 class TimedBackend:
@@ -82,7 +83,7 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as folder:
         demos = Path(folder) / "demos.parquet"
         with ProcessPoolBackend(2) as pool:
-            record_demonstrations(config, "normal", 0, args.demo_episodes, pool, demos)
+            record_demonstrations(config, ExpertDriver("normal"), "normal", 0, args.demo_episodes, pool, demos)
         settings = RunSettings(str(demos), "mlp", 10, 20, RailSettings(directions=args.directions,
                                                                        top=args.directions // 2),
                                DiscriminatorSettings())

@@ -15,46 +15,47 @@ from sumo_rail_cli.options import (
     config_options,
     episode_options,
     episode_progress,
+    expert_option,
     imitation_options,
     library_errors,
     make_interruptible,
     output_options,
     resolve_config,
+    resolve_expert_option,
     run_folder_options,
     search_options,
     tensorboard_logger,
     tensorboard_option,
 )
 
-from sumo_rail.drivers.expert import DEFAULT_STYLE, STYLES
 from sumo_rail.seeding import EVALUATION_EPISODES
 
 if TYPE_CHECKING:
     from sumo_rail.learning.bc import BcReport
-
-_STYLE = click.Choice(sorted(STYLES))
 
 
 @click.command("record-expert")
 @config_options
 @episode_options(default_seed=0, default_episodes=40)
 @backend_options
-@click.option("--style", type=_STYLE, default=DEFAULT_STYLE, show_default=True, help="Expert driving style.")
+@expert_option("Who is recorded.")
 @output_options(required=True)
 def record_expert(config_path: Path | None, overrides: tuple[str, ...], episodes: int, seed: int, workers: int,
-                  backend_name: str, address: str | None, style: str, out: Path, overwrite: bool) -> None:
-    """Record the rule-based expert's demonstrations: one Parquet row per decision."""
+                  backend_name: str, address: str | None, expert: str, out: Path, overwrite: bool) -> None:
+    """Record an expert's demonstrations (the rule-based driver of a style, or any policy file): one Parquet row per
+    decision."""
     config = resolve_config(config_path, overrides)
     check_output(out, overwrite)
+    driver = resolve_expert_option(expert, config)
     from sumo_rail.runners.record import record_demonstrations
 
     backend = build_backend(backend_name, workers, address)
     with library_errors(), backend, episode_progress(episodes, "recording") as bar:
-        metrics = record_demonstrations(config, style, seed, episodes, backend, out,
+        metrics = record_demonstrations(config, driver, expert, seed, episodes, backend, out,
                                         on_episode=lambda index, result: bar.update())
     decisions = sum(row["steps"] for row in metrics)
     collisions = sum(row["collisions"] for row in metrics)
-    click.echo(f"wrote {out}: {episodes} episodes, {decisions} decisions, style {style}, {collisions} collisions")
+    click.echo(f"wrote {out}: {episodes} episodes, {decisions} decisions, expert {expert}, {collisions} collisions")
 
 
 @click.command("evaluate")
@@ -66,13 +67,10 @@ def record_expert(config_path: Path | None, overrides: tuple[str, ...], episodes
               help="Policy file evaluated by sampling each action from the softmax of its logits (named 'NAME "
                    "(sampled)'; repeatable; after the --policy drivers), with a generator seeded by the episode's "
                    "seed.")
-@click.option("--style", type=_STYLE, default=DEFAULT_STYLE, show_default=True,
-              help="Style of --policy expert (expert:STYLE picks one per driver).")
+@expert_option("The expert: the driver --policy expert, and who is asked at every decision what it would do, for "
+               "drivers whose policy file does not record the expert it learned from.", "--reference-style")
 @click.option("--reference", default=None, metavar="NAME",
               help="Driver the others are compared with, paired by seed (default: the first --policy).")
-@click.option("--reference-style", type=_STYLE, default=DEFAULT_STYLE, show_default=True,
-              help="Expert asked at every decision what it would do, for drivers whose policy file does not record "
-                   "the expert style it learned from.")
 @click.option("--pool", type=click.Choice(["test", "validation"]), default="test", show_default=True,
               help="Warm traffic states the episodes start from: test (held out from everything) or validation (for "
                    "choosing settings; use another --seed than the test runs' too).")
@@ -91,7 +89,7 @@ def record_expert(config_path: Path | None, overrides: tuple[str, ...], episodes
               help="With --video: episodes recorded per driver  [default: 1].")
 @output_options(required=False)
 def evaluate_command(config_path: Path | None, overrides: tuple[str, ...], policies: tuple[str, ...],
-                     sampled_policies: tuple[Path, ...], style: str, reference: str | None, reference_style: str,
+                     sampled_policies: tuple[Path, ...], expert: str, reference: str | None,
                      pool: str, episodes: int, seed: int, workers: int, backend_name: str, address: str | None,
                      gui: bool, gui_delay_ms: float | None, video_dir: Path | None, video_episodes: int | None,
                      out: Path | None, overwrite: bool) -> None:
@@ -113,21 +111,22 @@ def evaluate_command(config_path: Path | None, overrides: tuple[str, ...], polic
         decisions_path,
         evaluate,
         parse_driver,
-        parse_policy,
         unique_names,
         write_evaluation,
     )
     from sumo_rail.evaluation.summary import distance_summary, summary_table
     from sumo_rail.runners.backends import SerialBackend
+    from sumo_rail.runners.experts import parse_policy
     from sumo_rail.seeding import Purpose, episode_seeds
 
     if out is not None:
         check_output(decisions_path(out), overwrite)
+    expert_driver = resolve_expert_option(expert, config)
 
     drivers = []
     for text in policies:
         try:
-            drivers.append(parse_driver(text, config, style))
+            drivers.append(parse_driver(text, config, expert_driver))
         except PolicyFileError as error:
             raise click.ClickException(str(error)) from error
         except ValueError as error:
@@ -147,18 +146,17 @@ def evaluate_command(config_path: Path | None, overrides: tuple[str, ...], polic
     backend = (SerialBackend(render_mode="human", gui_delay_ms=100.0 if gui_delay_ms is None else gui_delay_ms)
                if gui else build_backend(backend_name, workers, address))
     with library_errors(), backend, episode_progress(len(drivers) * episodes, "evaluating") as bar:
-        evaluation = evaluate(drivers, config, seeds, backend, reference_style, pool,
+        evaluation = evaluate(drivers, config, seeds, backend, expert_driver, pool,
                               on_episode=lambda index, result: bar.update(),
                               video_episodes=(video_episodes or 1) if video_dir is not None else 0)
         if out is not None:
             write_evaluation(evaluation, config, seed, out, policies=list(policies),
                              sampled_policies=[str(path) for path in sampled_policies], episode_seeds=seeds,
-                             reference_style=reference_style, pool=pool)
+                             expert=expert, pool=pool)
         written_videos = _write_videos(evaluation.videos, video_dir)
     click.echo(summary_table(evaluation.metrics, reference))
-    expert = f"expert-{reference_style}"
-    if expert in names and len(names) > 1:
-        click.echo("\n" + distance_summary(evaluation.decisions, expert, config.scenario.lanes))
+    if expert_driver.name in names and len(names) > 1:
+        click.echo("\n" + distance_summary(evaluation.decisions, expert_driver.name, config.scenario.lanes))
     if out is not None:
         click.echo(f"wrote {out}: {len(evaluation.metrics)} episodes; {decisions_path(out)}: "
                    f"{len(evaluation.decisions)} decisions")

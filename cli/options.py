@@ -334,3 +334,26 @@ def search_options(command: Callable[..., Any]) -> Callable[..., Any]:
     for option in reversed(options):
         with_search = option(with_search)
     return with_search
+
+
+def expert_option(help_text: str, *aliases: str, default: str | None = "normal"
+                  ) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
+    """--expert STYLE|POLICY_FILE (aliases --style and `aliases`): who the expert is; `resolve_expert_option` builds
+    it."""
+    return click.option("--expert", "--style", *aliases, "expert", default=default, show_default=default is not None,
+                        metavar="STYLE|POLICY_FILE", help=help_text + " A rule-based style (calm, normal, sporty) or a "
+                        "policy file whose observation layout is this configuration's.")
+
+
+def resolve_expert_option(expert: str, config: Config) -> Any:
+    """The expert driver of --expert; an unknown name is a usage error (exit 2), an unusable policy file a
+    one-sentence error (exit 1)."""
+    from sumo_rail.drivers.policies import PolicyFileError
+    from sumo_rail.runners.experts import resolve_expert
+
+    try:
+        return resolve_expert(expert, config)
+    except PolicyFileError as error:
+        raise click.ClickException(str(error)) from error
+    except ValueError as error:
+        raise click.BadParameter(str(error), param_hint="'--expert'") from error

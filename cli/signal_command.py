@@ -13,13 +13,14 @@ from sumo_rail_cli.options import (
     build_backend,
     config_options,
     episode_progress,
+    expert_option,
     library_errors,
     make_interruptible,
     resolve_config,
+    resolve_expert_option,
     search_options,
 )
 
-from sumo_rail.drivers.expert import DEFAULT_STYLE, STYLES
 from sumo_rail.learning.step_signal import REWARD_VARIANTS
 
 
@@ -31,8 +32,7 @@ from sumo_rail.learning.step_signal import REWARD_VARIANTS
               help="Policy file at whose weights the step is measured (e.g. a run's policy_bc.npz).")
 @click.option("--zero-weights", is_flag=True,
               help="Measure at all-zero weights of the policy's shape and normaliser (RAIL without BC).")
-@click.option("--style", type=click.Choice(sorted(STYLES)), default=DEFAULT_STYLE, show_default=True,
-              help="The expert asked at every decision for agreement.")
+@expert_option("Who is asked at every decision for agreement [default: the demonstrations' expert].", default=None)
 @click.option("--discriminator", "rewards", multiple=True, type=click.Choice(list(REWARD_VARIANTS)),
               default=tuple(REWARD_VARIANTS), show_default=True,
               help="Discriminators whose rewards are measured, as changes to the --disc-* options (repeatable).")
@@ -47,7 +47,7 @@ from sumo_rail.learning.step_signal import REWARD_VARIANTS
 @click.option("--out", type=click.Path(path_type=Path, dir_okay=False), default=None,
               help="JSON file for the report (with its settings and provenance), written atomically.")
 def step_signal_command(config_path: Path | None, overrides: tuple[str, ...], demos: Path, policy_path: Path,
-                        zero_weights: bool, style: str, rewards: tuple[str, ...], warmup_rounds: int,
+                        zero_weights: bool, expert: str | None, rewards: tuple[str, ...], warmup_rounds: int,
                         search: SearchOptions, workers: int, backend_name: str, address: str | None, seed: int,
                         out: Path | None) -> None:
     """Measure one ARS step of RAIL without training: how much of it two independent draws of traffic agree on
@@ -64,13 +64,15 @@ def step_signal_command(config_path: Path | None, overrides: tuple[str, ...], de
     from sumo_rail.learning.rail import calibration_states
     from sumo_rail.learning.step_signal import Meter, measure, variants
     from sumo_rail.learning.training import write_atomically
-    from sumo_rail.runners.rollout import ExpertDriver
+    from sumo_rail.runners.experts import demonstrations_expert
     from sumo_rail.runners.tables import provenance, read_demonstrations
     from sumo_rail.sim.observation import observation_space
 
     with library_errors():
         demonstrations = read_demonstrations(demos, observation_space(config).shape[0])
         policy, _ = load_policy(policy_path)
+    expert = expert or demonstrations_expert(demonstrations.metadata)
+    asked = resolve_expert_option(expert, config)
     if policy.shape.observation_size != demonstrations.observations.shape[1]:
         raise click.UsageError(f"policy {policy_path} sees {policy.shape.observation_size} observation values but "
                                f"the configuration gives {demonstrations.observations.shape[1]}")
@@ -88,12 +90,12 @@ def step_signal_command(config_path: Path | None, overrides: tuple[str, ...], de
     make_interruptible()
     with library_errors(), backend, bar:
         try:
-            report = measure(policy, config, rail, nu, ExpertDriver(style), discriminators,
+            report = measure(policy, config, rail, nu, asked, discriminators,
                              (demonstrations.observations, demonstrations.actions), calibration, backend, meter,
                              on_rollout=lambda index, result: bar.update())
         except KeyboardInterrupt:
             raise click.ClickException("interrupted; nothing was written") from None
-    record = {**report, "policy": str(policy_path), "zero_weights": zero_weights, "expert_style": style,
+    record = {**report, "policy": str(policy_path), "zero_weights": zero_weights, "expert": expert,
               "demos": str(demos), "meter": {"warmup_rounds": warmup_rounds},
               "settings": {"rail": _plain(rail), "discriminator": _plain(discriminator_settings)},
               **provenance("step_signal", config, seed)}

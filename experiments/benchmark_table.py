@@ -14,9 +14,10 @@ import pandas as pd
 from seeded import difference_cell, digits_of, seed_samples, training_seeds, value_cell
 
 from sumo_rail.datasets import read_metadata
-from sumo_rail.evaluation.evaluate import SAMPLED_SUFFIX, decisions_path
+from sumo_rail.evaluation.evaluate import decisions_path
 from sumo_rail.evaluation.statistics import Sample, interval, seeded_interval
 from sumo_rail.evaluation.summary import distance_summary, measure_samples
+from sumo_rail.runners.experts import SAMPLED_SUFFIX
 
 EXPERT = "expert-normal"
 METHODS = {  # key: (label, run folder stem, policy in it)

@@ -16,7 +16,7 @@ import pandas as pd
 from ablation_table import MEASURES
 from seeded import difference_cell, digits_of, seed_samples, training_seeds, value_cell
 
-from sumo_rail.evaluation.evaluate import SAMPLED_SUFFIX
+from sumo_rail.runners.experts import SAMPLED_SUFFIX
 
 VARIANTS = {"all": "GAIL, every choice on", "nonorm": "GAIL, no reward normalisation",
             "nowarmup": "GAIL, no critic warm-up"}

@@ -14,22 +14,23 @@ import pyarrow as pa
 
 from sumo_rail.config import Config
 from sumo_rail.datasets import write_parquet
-from sumo_rail.drivers.expert import DEFAULT_STYLE, STYLES, make_expert
-from sumo_rail.drivers.policies import PolicyFileError, load_policy
+from sumo_rail.drivers.expert import DEFAULT_STYLE, STYLES
 from sumo_rail.evaluation.fidelity import CONFUSION_COLUMNS, DECISION_FIELDS, RATE_COLUMNS, DecisionProbe
 from sumo_rail.runners.backends import RolloutBackend, WorkerContext
-from sumo_rail.runners.rollout import DriverSpec, EpisodeTask, ExpertDriver, KeepDriver, PolicyDriver, RandomDriver
+from sumo_rail.runners.experts import parse_policy, resolve_expert
+from sumo_rail.runners.rollout import DriverSpec, EpisodeTask, ExpertDriver, KeepDriver, RandomDriver
 from sumo_rail.runners.tables import EPISODE_METRICS, METRIC_COLUMNS, metrics_table, provenance
 from sumo_rail.runners.video import FrameRecorder, encode_mp4, video_name
 from sumo_rail.sim.env import HighwayEnv
-from sumo_rail.sim.observation import observation_names
 
 
-def parse_driver(text: str, config: Config, default_style: str) -> DriverSpec:
-    """'expert', 'expert:STYLE', 'keep', 'random', or the path of a saved policy file (`parse_policy`)."""
+def parse_driver(text: str, config: Config, expert: DriverSpec) -> DriverSpec:
+    """'expert' (the given `expert`), 'expert:STYLE', 'keep', 'random', or the path of a saved policy file
+    (`parse_policy`)."""
     name, _, style = text.partition(":")
     if name == "expert":
-        style = style or default_style
+        if not style:
+            return expert
         if style not in STYLES:
             raise ValueError(f"unknown expert style {style!r}; known styles: {', '.join(sorted(STYLES))}")
         return ExpertDriver(style)
@@ -40,34 +41,10 @@ def parse_driver(text: str, config: Config, default_style: str) -> DriverSpec:
     return parse_policy(Path(text), config)
 
 
-def parse_policy(path: Path, config: Config, sampled: bool = False) -> PolicyDriver:
-    """The saved policy file at `path` as a driver named by `policy_name`; `sampled`: it draws its actions from the
-    softmax of its logits instead of taking their argmax, and its name ends in " (sampled)"."""
-    policy, metadata = load_policy(path)
-    expected = observation_names(config)
-    if policy.shape.observation_size != len(expected):
-        raise PolicyFileError(f"policy {path} expects {policy.shape.observation_size} observations, the "
-                              f"environment gives {len(expected)}")
-    stored = metadata.get("observation_names")
-    if stored is not None and list(stored) != expected:
-        raise PolicyFileError(f"policy {path} was trained on a different observation layout than this environment's")
-    style = metadata.get("expert_style")
-    name = policy_name(path) + (SAMPLED_SUFFIX if sampled else "")
-    return PolicyDriver(policy, name, expert_style=style if style in STYLES else None, sampled=sampled)
-
-
-SAMPLED_SUFFIX = " (sampled)"
-"""Ends the table name of a policy evaluated by sampling."""
-
-
-def policy_name(path: Path) -> str:
-    """A policy file's name in tables: RUN/STEM for a file of a training run folder (it holds run.json), so
-    runs/a/policy_bc.npz and runs/b/policy_bc.npz stay apart; the file's stem otherwise."""
-    return f"{path.parent.resolve().name}/{path.stem}" if (path.parent / "run.json").is_file() else path.stem
-
-
+DEFAULT_REFERENCE = ExpertDriver(DEFAULT_STYLE)
+"""The expert drivers are compared with when nothing else is said."""
 FIDELITY_TYPES: dict[str, pa.DataType] = {
-    "reference_style": pa.string(), **{name: pa.int32() for name in CONFUSION_COLUMNS},
+    "reference": pa.string(), **{name: pa.int32() for name in CONFUSION_COLUMNS},
     **{name: pa.float64() for name in RATE_COLUMNS},
 }
 """Metrics columns added by the on-policy comparison with the reference expert."""
@@ -91,16 +68,15 @@ class EvaluatedEpisode:
 
 @dataclass(frozen=True)
 class EvaluationTask:
-    """One episode of one driver, watched by the reference expert of `reference_style`."""
+    """One episode of one driver, watched by the reference expert (any driver)."""
 
     episode: EpisodeTask
-    reference_style: str
+    reference: DriverSpec
     video: bool = False
     """Also record the episode as an MP4 of bird's-eye frames."""
 
     def run(self, context: WorkerContext) -> EvaluatedEpisode:
-        config = self.episode.config
-        probe = DecisionProbe(make_expert(self.reference_style, config.env.speed_step_mps, config.expert.view_range_m))
+        probe = DecisionProbe(self.reference.create(self.episode.config, self.episode.seed))
         recorder: FrameRecorder | None = None
 
         def record(env: HighwayEnv) -> FrameRecorder:
@@ -112,7 +88,7 @@ class EvaluationTask:
         video = None
         if recorder is not None:
             video = encode_mp4(recorder.frames, 1.0 / self.episode.config.env.decision_period_s)
-        return EvaluatedEpisode({**result.metrics, "reference_style": self.reference_style,
+        return EvaluatedEpisode({**result.metrics, "reference": self.reference.name,
                                  **probe.episode_columns()}, probe.decision_columns(), video)
 
 
@@ -127,17 +103,20 @@ class Evaluation:
 
 
 def evaluate(drivers: Sequence[DriverSpec], config: Config, seeds: Sequence[int], backend: RolloutBackend,
-             reference_style: str = DEFAULT_STYLE, pool: str = "test",
+             reference: DriverSpec = DEFAULT_REFERENCE, pool: str = "test",
              on_episode: Callable[[int, Any], None] | None = None, video_episodes: int = 0) -> Evaluation:
     """Every driver on every seed, drivers in the given order. Episode k starts from warm state
     k mod `scenario.snapshots` of `pool`, so up to that many episodes never share a traffic state; each
-    decision is compared with the reference expert (the policy's own expert style when its file records one,
-    else `reference_style`). The first `video_episodes` episodes of every driver are also recorded as MP4s."""
+    decision is compared with the reference expert: the expert a policy's file records (whose demonstrations
+    trained it), else `reference`. The first `video_episodes` episodes of every driver are also recorded as
+    MP4s."""
     names = unique_names(drivers)
     warm_states = config.scenario.snapshots
+    references = [resolve_expert(driver.expert, config) if getattr(driver, "expert", None) else reference
+                  for driver in drivers]
     tasks = [EvaluationTask(EpisodeTask(config, driver, seed, pool=pool, warm_state=k % warm_states),
-                            getattr(driver, "expert_style", None) or reference_style, video=k < video_episodes)
-             for driver in drivers for k, seed in enumerate(seeds)]
+                            driver_reference, video=k < video_episodes)
+             for driver, driver_reference in zip(drivers, references, strict=True) for k, seed in enumerate(seeds)]
     results = backend.run(tasks, on_result=on_episode)
     rows, decisions, videos = [], [], {}
     for index, result in enumerate(results):

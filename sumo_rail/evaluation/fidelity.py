@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from sumo_rail.drivers.expert import Expert
+from sumo_rail.runners.rollout import Driver
 from sumo_rail.sim.actions import Action
 from sumo_rail.sim.traffic import TrafficView, lane_gaps
 
@@ -77,15 +77,16 @@ def rates(confusion: np.ndarray) -> dict[str, float]:
 
 
 class DecisionProbe:
-    """Watches one episode's decisions (a `sumo_rail.runners.rollout.DecisionProbe`) and asks `reference` at each."""
+    """Watches one episode's decisions (a `sumo_rail.runners.rollout.DecisionProbe`) and asks `reference` (the expert:
+    any driver) at each what it would have done."""
 
-    def __init__(self, reference: Expert) -> None:
+    def __init__(self, reference: Driver) -> None:
         self.reference = reference
         self.confusion = np.zeros((len(Action), len(Action)), dtype=np.int64)
         self._rows: list[tuple[Any, ...]] = []
 
-    def __call__(self, traffic: TrafficView, action: int, info: dict[str, Any]) -> None:
-        expert_action = int(self.reference.decide(traffic))
+    def __call__(self, observation: np.ndarray, traffic: TrafficView, action: int, info: dict[str, Any]) -> None:
+        expert_action = int(self.reference(observation, traffic))
         self.confusion[action, expert_action] += 1
         ego = traffic.ego
         leader = lane_gaps(traffic, ego.lane)

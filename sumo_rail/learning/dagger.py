@@ -28,7 +28,6 @@ import pyarrow.parquet as pq
 
 from sumo_rail.config import Config
 from sumo_rail.datasets import read_metadata, write_parquet
-from sumo_rail.drivers.expert import make_expert
 from sumo_rail.drivers.policies import Policy, PolicyShape, save_policy
 from sumo_rail.learning.bc import BcReport, BcSettings, behaviour_cloning
 from sumo_rail.learning.training import (
@@ -37,10 +36,12 @@ from sumo_rail.learning.training import (
     signals_deferred,
     validate,
     validation_columns,
+    with_defaults,
     write_atomically,
 )
 from sumo_rail.runners.backends import RolloutBackend, WorkerContext
-from sumo_rail.runners.rollout import run_episode
+from sumo_rail.runners.experts import demonstrations_expert, resolve_expert
+from sumo_rail.runners.rollout import DriverSpec, run_episode
 from sumo_rail.runners.tables import Demonstrations, provenance, read_demonstrations
 from sumo_rail.seeding import Purpose, episode_seeds
 from sumo_rail.sim.observation import observation_space
@@ -63,6 +64,8 @@ class DaggerSettings:
     """beta_r = beta * beta_decay^(r - 1)."""
     bc: BcSettings = dataclasses.field(default_factory=lambda: BcSettings(class_balance=0.75))
     seed: int = 0
+    expert: str | None = None
+    """Who labels: a style or a policy file (`experts.resolve_expert`); None: the demonstrations' expert."""
 
     def __post_init__(self) -> None:
         if self.episodes_per_round < 1:
@@ -93,12 +96,12 @@ class DaggerTask:
 
     config: Config
     policy: Policy
-    style: str
+    expert: DriverSpec
     beta: float
     seed: int
 
     def run(self, context: WorkerContext) -> LabelledEpisode:
-        expert = make_expert(self.style, self.config.env.speed_step_mps, self.config.expert.view_range_m)
+        expert = self.expert.create(self.config, self.seed)
         coin = np.random.default_rng(self.seed)
         observations: list[np.ndarray] = []
         labels: list[int] = []
@@ -106,7 +109,7 @@ class DaggerTask:
 
         def mixture(observation: np.ndarray, traffic: Any) -> int:
             nonlocal policy_decisions
-            label = int(expert.decide(traffic))
+            label = int(expert(observation, traffic))
             observations.append(observation)
             labels.append(label)
             if coin.random() < self.beta:
@@ -127,10 +130,10 @@ def train_dagger(folder: Path, settings: DaggerSettings, config: Config, rounds:
     folder, validation = Path(folder), validation or Validation()
     observation_size = observation_space(config).shape[0]
     demos = read_demonstrations(Path(settings.demos), observation_size)
-    style = demos.metadata.get("style", "normal")
+    style = settings.expert or demonstrations_expert(demos.metadata)
+    expert = resolve_expert(style, config)
     shape = PolicyShape(settings.kind, observation_size, settings.hidden)
-    run_record = {"settings": settings.to_dict(), "expert_style": style,
-                  **provenance("dagger_run", config, settings.seed)}
+    run_record = {"settings": settings.to_dict(), "expert": style, **provenance("dagger_run", config, settings.seed)}
     if resume:
         done, dataset, logs = _resume(folder, run_record)
         policy, _ = behaviour_cloning(dataset, shape, settings.bc)
@@ -149,7 +152,7 @@ def train_dagger(folder: Path, settings: DaggerSettings, config: Config, rounds:
         seeds = episode_seeds(Purpose.TRAIN, 10_000_000 * (settings.seed + 1) + round_ * settings.episodes_per_round,
                               settings.episodes_per_round)
         labelled: list[LabelledEpisode] = backend.run(
-            [DaggerTask(config, policy, style, beta, seed) for seed in seeds], on_result=on_episode)
+            [DaggerTask(config, policy, expert, beta, seed) for seed in seeds], on_result=on_episode)
         dataset = _aggregate(dataset, labelled)
         policy, report = behaviour_cloning(dataset, shape, settings.bc)
         logs.append(_row(round_, sum(len(e.labels) for e in labelled), sum(e.policy_decisions for e in labelled),
@@ -217,7 +220,8 @@ def _resume(folder: Path, run_record: dict[str, Any]) -> tuple[int, Demonstratio
         raise RunError(f"run {folder} has an unreadable run.json or checkpoint.json ({error})") from error
     if checkpoint.get("format") != CHECKPOINT_FORMAT:
         raise RunError(f"{checkpoint_path} is not a sumo-rail DAgger checkpoint")
-    if stored.get("settings") != run_record["settings"] or stored.get("config") != run_record["config"]:
+    settings = with_defaults(stored.get("settings", {}), {"expert": None})
+    if settings != run_record["settings"] or stored.get("config") != run_record["config"]:
         raise RunError(f"run {folder} was started with other settings; resume it with the same options")
     if read_metadata(folder / "dataset.parquet").get("round") != done:
         raise RunError(f"{folder / 'dataset.parquet'} does not belong to round {done} of the checkpoint")

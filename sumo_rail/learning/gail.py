@@ -76,6 +76,7 @@ from sumo_rail.learning.normalize import MIN_STD, RunningStats
 from sumo_rail.learning.rail import rollout_return
 from sumo_rail.learning.torch_threads import single_thread
 from sumo_rail.learning.training import RunError, write_atomically
+from sumo_rail.runners.experts import demonstrations_expert
 from sumo_rail.runners.tables import Demonstrations, provenance, read_demonstrations
 from sumo_rail.seeding import Purpose, episode_seeds
 from sumo_rail.sim.observation import observation_space
@@ -353,7 +354,7 @@ def train_gail(folder: Path, settings: GailSettings, config: Config,
     observation_size = observation_space(config).shape[0]
     demos = read_demonstrations(Path(settings.demos), observation_size)
     shape = PolicyShape(settings.kind, observation_size, settings.hidden)
-    run_record = {"settings": settings.to_dict(), "expert_style": demos.metadata.get("style"),
+    run_record = {"settings": settings.to_dict(), "expert": demonstrations_expert(demos.metadata),
                   **provenance("gail_run", config, settings.seed)}
     if folder.exists() and any(folder.iterdir()):
         raise RunError(f"run folder {folder} is not empty; choose another --out")

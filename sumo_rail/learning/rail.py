@@ -233,8 +233,10 @@ def agreement_returns(rollouts: list[list[Trajectory]], horizon: int) -> np.ndar
 
 def run_iteration(state: TrainingState, shape: PolicyShape, config: Config, settings: RailSettings,
                   discriminator: Discriminator, expert: Demonstrations, backend: RolloutBackend,
-                  on_rollout: Callable[[int, Any], None] | None = None) -> IterationLog:
-    """Advance `state` by one iteration in place and return its log row."""
+                  on_rollout: Callable[[int, Any], None] | None = None,
+                  asked: DriverSpec | None = None) -> IterationLog:
+    """Advance `state` by one iteration in place and return its log row; `asked`: the expert the agreement reward
+    asks (the demonstrations' rule-based expert when not given)."""
     n, per_rollout = settings.directions, settings.episodes_per_rollout
     sets = 1 if settings.common_traffic else n
     drawn = [episode_seeds(Purpose.TRAIN, int(state.rng.integers(2**31)), 1)[0] for _ in range(sets * per_rollout)]
@@ -245,7 +247,10 @@ def run_iteration(state: TrainingState, shape: PolicyShape, config: Config, sett
     if settings.flip_rate is not None:
         state.nu = noise_for_flip_rate(Policy(shape, state.parameters, mean, std), deltas, settings.flip_rate,
                                        calibration_states(expert.observations))
-    asked = ExpertDriver(expert.metadata.get("style") or DEFAULT_STYLE) if settings.reward == "agreement" else None
+    if settings.reward != "agreement":
+        asked = None
+    elif asked is None:
+        asked = ExpertDriver(expert.metadata.get("style") or DEFAULT_STYLE)
     tasks = [RolloutTask(config, shape, state.parameters, mean, std, noise_seed, state.iteration, k, sign, state.nu,
                          seeds[k], asked) for k in range(n) for sign in (1, -1)]
     rollouts: list[list[Trajectory]] = backend.run(tasks, on_result=on_rollout)

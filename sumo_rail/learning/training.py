@@ -46,6 +46,7 @@ from sumo_rail.learning.discriminator import Discriminator, DiscriminatorSetting
 from sumo_rail.learning.normalize import RunningStats
 from sumo_rail.learning.rail import RailSettings, TrainingState, run_iteration
 from sumo_rail.runners.backends import RolloutBackend
+from sumo_rail.runners.experts import demonstrations_expert, resolve_expert
 from sumo_rail.runners.rollout import PolicyDriver
 from sumo_rail.runners.tables import provenance, read_demonstrations
 from sumo_rail.seeding import Purpose, episode_seeds
@@ -113,11 +114,13 @@ def train(folder: Path, settings: RunSettings, config: Config, iterations: int, 
     observation_size = observation_space(config).shape[0]
     demos = read_demonstrations(Path(settings.demos), observation_size)
     shape = PolicyShape(settings.kind, observation_size, settings.hidden)
-    run_record = {"settings": settings.to_dict(), "expert_style": demos.metadata.get("style"),
+    expert = demonstrations_expert(demos.metadata)
+    run_record = {"settings": settings.to_dict(), "expert": expert,
                   **provenance("training_run", config, settings.rail.seed)}
     expert_stats = RunningStats.of(demos.observations)
     discriminator = Discriminator(observation_size, expert_stats.mean.copy(), expert_stats.std.copy(),
                                   settings.discriminator)
+    asked = resolve_expert(expert, config)  # the demonstrations' expert, checked before any work
     if resume:
         state, logs = _resume(folder, run_record, shape, discriminator)
     else:
@@ -125,10 +128,10 @@ def train(folder: Path, settings: RunSettings, config: Config, iterations: int, 
         state, logs = _initial_state(folder, settings, shape, demos, run_record, on_bc), []
     while state.iteration < iterations:
         started = time.perf_counter()
-        log = run_iteration(state, shape, config, settings.rail, discriminator, demos, backend, on_rollout)
+        log = run_iteration(state, shape, config, settings.rail, discriminator, demos, backend, on_rollout, asked)
         row = {**dataclasses.asdict(log), "wall_time_s": time.perf_counter() - started}
         policy = Policy(shape, state.parameters, state.stats.mean, state.stats.std)
-        row.update(validate(policy, config, backend, validation, demos.metadata.get("style"))
+        row.update(validate(policy, config, backend, validation, expert)
                    if validation.due(log.iteration, iterations - 1)
                    else dict.fromkeys(validation_columns()))
         logs.append(row)
@@ -146,11 +149,11 @@ def validation_columns() -> tuple[str, ...]:
 
 
 def validate(policy: Policy, config: Config, backend: RolloutBackend, validation: Validation,
-              expert_style: str | None) -> dict[str, float]:
-    """VALIDATION_METRICS of `policy` on the validation seeds and warm states, as eval_<measure>."""
+             expert: str) -> dict[str, float]:
+    """VALIDATION_METRICS of `policy` on the validation seeds and warm states, as eval_<measure>, agreement with
+    `expert` (a style or a policy file)."""
     seeds = episode_seeds(Purpose.EVALUATE, VALIDATION_BASE_SEED, validation.episodes)
-    evaluation = evaluate([PolicyDriver(policy, "policy", expert_style)], config, seeds, backend,
-                          pool="validation")
+    evaluation = evaluate([PolicyDriver(policy, "policy", expert)], config, seeds, backend, pool="validation")
     samples = measure_samples(evaluation.metrics)
     return {f"eval_{measure}": float(ratio(samples[measure])) for measure in VALIDATION_METRICS}
 

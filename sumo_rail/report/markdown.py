@@ -106,7 +106,10 @@ def _evaluation_plots(inputs: Inputs, add: Callable[[Plot, Callable[[], Figure]]
 
 
 def reference_expert(metrics) -> str:
-    """The driver name of the reference expert the metrics were compared with (expert-normal by default)."""
+    """The driver name of the reference expert the metrics were compared with (expert-normal by default; files
+    written before any driver could be the expert hold its style in `reference_style`)."""
+    if "reference" in metrics and len(metrics["reference"].dropna()):
+        return str(metrics["reference"].dropna().iloc[0])
     styles = metrics["reference_style"].dropna() if "reference_style" in metrics else []
     return f"expert-{styles.iloc[0] if len(styles) else 'normal'}"
 

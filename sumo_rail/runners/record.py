@@ -1,4 +1,4 @@
-"""Record the expert's demonstrations: episodes on a backend, one Parquet row per decision."""
+"""Record an expert's demonstrations (any driver): episodes on a backend, one Parquet row per decision."""
 
 from __future__ import annotations
 
@@ -11,22 +11,22 @@ from sumo_rail.config import Config
 from sumo_rail.datasets import write_parquet
 from sumo_rail.drivers.expert import STYLES
 from sumo_rail.runners.backends import RolloutBackend
-from sumo_rail.runners.rollout import EpisodeTask, ExpertDriver
+from sumo_rail.runners.rollout import DriverSpec, EpisodeTask, ExpertDriver
 from sumo_rail.runners.tables import DEMONSTRATIONS, demonstrations_table, provenance
 from sumo_rail.seeding import Purpose, episode_seeds
 from sumo_rail.sim.observation import observation_space
 
 
-def record_demonstrations(config: Config, style: str, seed: int, episodes: int, backend: RolloutBackend, out: Path,
-                          on_episode: Callable[[int, Any], None] | None = None) -> list[dict[str, Any]]:
-    """Run `episodes` expert episodes (seeds from `seed`, recording class), write them to `out`; returns metrics."""
-    if style not in STYLES:
-        raise ValueError(f"unknown expert style {style!r}; known styles: {', '.join(sorted(STYLES))}")
+def record_demonstrations(config: Config, expert: DriverSpec, name: str, seed: int, episodes: int,
+                          backend: RolloutBackend, out: Path, on_episode: Callable[[int, Any], None] | None = None
+                          ) -> list[dict[str, Any]]:
+    """Run `episodes` episodes of `expert` (seeds from `seed`, recording class) and write them to `out`, its metadata
+    naming the expert as `name` (a style or a policy file, as `experts.resolve_expert` reads it); returns metrics."""
     seeds = episode_seeds(Purpose.RECORD, seed, episodes)
-    driver = ExpertDriver(style)
-    results = backend.run([EpisodeTask(config, driver, s, record=True) for s in seeds], on_result=on_episode)
+    results = backend.run([EpisodeTask(config, expert, s, record=True) for s in seeds], on_result=on_episode)
     table = demonstrations_table(results, seeds, observation_space(config).shape[0])
-    write_parquet(table, out, provenance(DEMONSTRATIONS, config, seed, driver=driver.name, style=style,
-                                         style_parameters=dataclasses.asdict(STYLES[style]), episodes=episodes,
-                                         episode_seeds=seeds))
+    style = ({"style": expert.style, "style_parameters": dataclasses.asdict(STYLES[expert.style])}
+             if isinstance(expert, ExpertDriver) else {})
+    write_parquet(table, out, provenance(DEMONSTRATIONS, config, seed, driver=expert.name, expert=name, **style,
+                                         episodes=episodes, episode_seeds=seeds))
     return [result.metrics for result in results]

@@ -24,9 +24,9 @@ if TYPE_CHECKING:
     from sumo_rail.runners.backends import WorkerContext
 
 Driver = Callable[[np.ndarray, TrafficView], int]
-DecisionProbe = Callable[[TrafficView, int, dict[str, Any]], None]
-"""Called after each decision with the traffic the driver saw, its action and the step's info; it only
-watches (it cannot change what the driver does)."""
+DecisionProbe = Callable[[np.ndarray, TrafficView, int, dict[str, Any]], None]
+"""Called after each decision with the observation and traffic the driver saw, its action and the step's info; it
+only watches (it cannot change what the driver does)."""
 ACTION_COLUMNS = tuple(f"action_{action.name.lower()}" for action in Action)
 """Metrics columns counting each action, in action order."""
 
@@ -82,8 +82,8 @@ class PolicyDriver:
 
     policy: Policy
     name: str
-    expert_style: str | None = None
-    """Style of the expert whose demonstrations trained the policy, when its file records it."""
+    expert: str | None = None
+    """The expert whose demonstrations trained the policy (a style or a policy file), when its file records it."""
     sampled: bool = False
 
     def create(self, config: Config, seed: int) -> Driver:
@@ -111,14 +111,14 @@ def run_episode(env: HighwayEnv, driver: Driver, seed: int, record: bool = False
     observations: list[np.ndarray] = []
     done = terminated = truncated = False
     while not done:
-        traffic = env.traffic
+        traffic, seen = env.traffic, observation
         action = driver(observation, traffic)
         state = (info["speed_mps"], info["lane"], info["position_m"], info["set_point_mps"])
         if record:
             observations.append(observation)
         observation, reward, terminated, truncated, info = env.step(action)
         if probe is not None:
-            probe(traffic, action, info)
+            probe(seen, traffic, action, info)
         if record:
             rows.append((action, reward, info["reward_longitudinal"], info["reward_lateral"],
                          info["reward_collision"], *state, info["lane_change_in_progress"]))

@@ -3,7 +3,7 @@ import pytest
 from sumo_rail.evaluation.evaluate import evaluate
 from sumo_rail.runners.backends import SerialBackend
 from sumo_rail.runners.record import record_demonstrations
-from sumo_rail.runners.rollout import KeepDriver
+from sumo_rail.runners.rollout import ExpertDriver, KeepDriver
 from sumo_rail.seeding import Purpose, episode_seeds
 from sumo_rail.sim.env import HighwayEnv
 
@@ -25,7 +25,7 @@ def test_evaluation_starts_from_held_out_warm_states_one_per_episode(small_confi
     with WatchingBackend() as backend:
         evaluate([KeepDriver()], small_config, episode_seeds(Purpose.EVALUATE, 0, episodes), backend)
         evaluate([KeepDriver()], small_config, episode_seeds(Purpose.EVALUATE, 0, 1), backend, pool="validation")
-        record_demonstrations(small_config, "normal", 0, 1, backend, tmp_path / "demos.parquet")
+        record_demonstrations(small_config, ExpertDriver("normal"), "normal", 0, 1, backend, tmp_path / "demos.parquet")
     evaluated = [task.episode for task in backend.tasks[:episodes]]
     assert {task.pool for task in evaluated} == {"test"}
     assert [task.warm_state for task in evaluated] == [0, 1, 2, 0]  # distinct until the pool is exhausted

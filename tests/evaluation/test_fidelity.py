@@ -10,6 +10,9 @@ from sumo_rail.runners.rollout import ExpertDriver, KeepDriver, RandomDriver
 from sumo_rail.seeding import Purpose, episode_seeds
 from sumo_rail.sim.actions import Action
 
+NO_OBSERVATION = np.zeros(0)
+"""The rule-based expert reads the traffic view only."""
+
 
 def test_rates_of_a_hand_made_confusion_matrix():
     confusion = np.zeros((5, 5), dtype=int)
@@ -34,8 +37,8 @@ def test_probe_asks_the_expert_without_acting_and_records_behaviour():
     slow_leader = view([(1, 1040.0, 12.0, 22.0)], speed=24.0, set_point=30.0)   # the expert would go left
     open_road = view([], lane=0, speed=25.0, set_point=20.0)                      # the expert would accelerate
     assert expert.decide(slow_leader) is Action.LANE_LEFT and expert.decide(open_road) is Action.ACCELERATE
-    probe(slow_leader, int(Action.LANE_LEFT), {"lane_change_in_progress": True})
-    probe(open_road, int(Action.KEEP), {"lane_change_in_progress": False})
+    probe(NO_OBSERVATION, slow_leader, int(Action.LANE_LEFT), {"lane_change_in_progress": True})
+    probe(NO_OBSERVATION, open_road, int(Action.KEEP), {"lane_change_in_progress": False})
     columns = probe.episode_columns()
     assert columns["confusion_lane_left_lane_left"] == 1 and columns["confusion_keep_accelerate"] == 1
     assert sum(columns[name] for name in CONFUSION_COLUMNS) == 2
@@ -47,15 +50,15 @@ def test_probe_asks_the_expert_without_acting_and_records_behaviour():
     assert np.isnan(decisions["headway_s"][1])  # nobody ahead
     assert np.isnan(decisions["accepted_front_gap_m"]).all()  # nobody in the left lane to measure a gap to
     far = DecisionProbe(expert)
-    far(view([(1, 1300.0, 4.5, 20.0)], speed=5.0), 0, {})  # 295.5 m at 5 m/s: 59 s, capped
+    far(NO_OBSERVATION, view([(1, 1300.0, 4.5, 20.0)], speed=5.0), 0, {})  # 295.5 m at 5 m/s: 59 s, capped
     assert far.decision_columns()["headway_s"][0] == HEADWAY_CAP_S
 
 
 def test_accepted_gap_is_the_target_lanes_gap_when_the_change_starts():
     probe = DecisionProbe(make_expert("normal", speed_step_mps=2.0))
     traffic = view([(2, 1060.0, 4.5, 30.0), (2, 950.0, 4.5, 28.0)], lane=1, speed=25.0)
-    probe(traffic, int(Action.LANE_LEFT), {"lane_change_in_progress": True})
-    probe(traffic, int(Action.LANE_LEFT), {"lane_change_in_progress": False})   # refused: no gap accepted
+    probe(NO_OBSERVATION, traffic, int(Action.LANE_LEFT), {"lane_change_in_progress": True})
+    probe(NO_OBSERVATION, traffic, int(Action.LANE_LEFT), {"lane_change_in_progress": False})  # refused: no gap
     decisions = probe.decision_columns()
     assert decisions["accepted_front_gap_m"][0] == pytest.approx(1060.0 - 4.5 - 1000.0)
     assert decisions["accepted_rear_gap_m"][0] == pytest.approx(1000.0 - 4.5 - 950.0)

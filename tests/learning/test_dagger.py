@@ -46,7 +46,7 @@ def settings(demos, **changes) -> DaggerSettings:
 
 def test_labels_are_the_experts_whoever_drives(tmp_path, demos, monkeypatch):
     with SerialBackend() as backend:
-        expert_only, = backend.run([DaggerTask(CONFIG, going_left_policy(), "normal", 1.0, 5)])
+        expert_only, = backend.run([DaggerTask(CONFIG, going_left_policy(), ExpertDriver("normal"), 1.0, 5)])
         recorded, = backend.run([EpisodeTask(CONFIG, ExpertDriver("normal"), 5, record=True)])
     assert expert_only.policy_decisions == 0
     assert np.array_equal(expert_only.labels, recorded.steps["action"])  # the expert drove: labels = its actions

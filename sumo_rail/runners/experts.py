@@ -1,0 +1,73 @@
+"""Who the expert is: a style of the rule-based driver or any saved policy file, named by one string.
+
+The expert is whoever can be asked what it would do at a decision: the rule-based driver of a style reads the traffic
+view, a policy file reads the observation (so its observation layout must be the environment's). `resolve_expert`
+turns the string a user gives (`--expert normal`, `--expert runs/ppo/policy_latest.npz`) into a picklable driver
+recipe; outputs record that string (`expert` in run.json and the Parquet metadata) so a later command can ask the
+same expert again.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+from sumo_rail.config import Config
+from sumo_rail.drivers.expert import DEFAULT_STYLE, STYLES
+from sumo_rail.drivers.policies import PolicyFileError, load_policy
+from sumo_rail.runners.rollout import DriverSpec, ExpertDriver, PolicyDriver
+from sumo_rail.sim.observation import observation_names
+
+SAMPLED_SUFFIX = " (sampled)"
+"""Ends the table name of a policy evaluated by sampling."""
+
+
+def policy_name(path: Path) -> str:
+    """A policy file's name in tables: RUN/STEM for a file of a training run folder (it holds run.json), so
+    runs/a/policy_bc.npz and runs/b/policy_bc.npz stay apart; the file's stem otherwise."""
+    return f"{path.parent.resolve().name}/{path.stem}" if (path.parent / "run.json").is_file() else path.stem
+
+
+def parse_policy(path: Path, config: Config, sampled: bool = False, name: str | None = None) -> PolicyDriver:
+    """The saved policy file at `path` as a driver named `name` (default `policy_name`), after checking that it reads
+    the environment's observation layout; `sampled`: it draws its actions from the softmax of its logits instead of
+    taking their argmax, and its name ends in " (sampled)". Its `expert` is the expert its file records."""
+    policy, metadata = load_policy(path)
+    expected = observation_names(config)
+    if policy.shape.observation_size != len(expected):
+        raise PolicyFileError(f"policy {path} reads {policy.shape.observation_size} observation values but this "
+                              f"configuration's observation has {len(expected)}")
+    stored = metadata.get("observation_names")
+    if stored is not None and list(stored) != expected:
+        first = next(index for index, (mine, theirs) in enumerate(zip(stored, expected, strict=True))
+                     if mine != theirs)
+        raise PolicyFileError(f"policy {path} reads another observation layout than this configuration's (value "
+                              f"{first} is {stored[first]!r} there and {expected[first]!r} here)")
+    name = (name or policy_name(path)) + (SAMPLED_SUFFIX if sampled else "")
+    return PolicyDriver(policy, name, expert=recorded_expert(metadata), sampled=sampled)
+
+
+def resolve_expert(expert: str, config: Config) -> DriverSpec:
+    """The expert named `expert`: a style of the rule-based driver (`ExpertDriver`, named expert-STYLE), or the path
+    of a policy file (`parse_policy`, named expert-NAME). An unknown name is a ValueError listing the styles."""
+    if expert in STYLES:
+        return ExpertDriver(expert)
+    path = Path(expert)
+    if not path.suffix and not path.exists():
+        raise ValueError(f"unknown expert {expert!r}: not a style ({', '.join(sorted(STYLES))}) nor a policy file")
+    return parse_policy(path, config, name=f"expert-{policy_name(path)}")
+
+
+def recorded_expert(metadata: Mapping[str, Any]) -> str | None:
+    """The expert an output's metadata records (`expert`, or `expert_style` / `style` in files written before any
+    driver could be the expert), or None."""
+    for key in ("expert", "expert_style", "style"):
+        if isinstance(metadata.get(key), str):
+            return str(metadata[key])
+    return None
+
+
+def demonstrations_expert(metadata: Mapping[str, Any]) -> str:
+    """Who a demonstrations file recorded (its metadata), the default style for a file that does not say."""
+    return recorded_expert(metadata) or DEFAULT_STYLE

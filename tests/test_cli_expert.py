@@ -1,0 +1,82 @@
+"""Any driver as the expert (`--expert STYLE|POLICY_FILE`): recorded, asked for agreement and labelling, named in
+the outputs' metadata, and checked against the configuration's observation layout."""
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pyarrow.parquet as pq
+import pytest
+from click.testing import CliRunner
+from sumo_rail_cli.main import cli
+
+from sumo_rail.config import Config
+from sumo_rail.datasets import read_metadata
+from sumo_rail.drivers.policies import Policy, PolicyShape, save_policy
+from sumo_rail.runners.tables import read_demonstrations
+from sumo_rail.sim.observation import observation_names
+
+SMALL = ["--set", "scenario.length_m=900", "--set", "scenario.warmup_s=120", "--set", "scenario.snapshots=3",
+         "--set", "scenario.snapshot_interval_s=10", "--set", "env.ego_start_max_m=400"]
+CONFIG = Config.from_dict({"scenario": {"length_m": 900.0, "warmup_s": 120.0, "snapshots": 3,
+                                        "snapshot_interval_s": 10.0}, "env": {"ego_start_max_m": 400.0}})
+
+
+def invoke(*args: str):
+    return CliRunner().invoke(cli, list(args))
+
+
+@pytest.fixture(scope="module")
+def learned_expert(tmp_path_factory) -> Path:
+    """A policy that changes its decisions with the traffic (random weights), saved with the layout it reads."""
+    shape = PolicyShape("linear", len(observation_names(CONFIG)))
+    path = tmp_path_factory.mktemp("expert") / "learned.npz"
+    parameters = np.random.default_rng(3).normal(0, 1.0, shape.parameter_count)
+    save_policy(Policy(shape, parameters), path, {"observation_names": observation_names(CONFIG)})
+    return path
+
+
+def test_a_policy_file_as_the_expert_agrees_with_itself_exactly(tmp_path, learned_expert):
+    out = tmp_path / "metrics.parquet"
+    result = invoke("evaluate", *SMALL, "--policy", str(learned_expert), "--policy", "expert:normal", "--expert",
+                    str(learned_expert), "--episodes", "3", "--out", str(out))
+    assert result.exit_code == 0, result.output
+    metrics = pd.read_parquet(out)
+    mine = metrics[metrics["policy"] == "learned"]
+    assert (mine["agreement"] == 1.0).all() and (mine["reference"] == "expert-learned").all()
+    rule_based = metrics[metrics["policy"] == "expert-normal"]
+    assert (rule_based["agreement"] < 1.0).any()  # the rule-based driver is measured against the learned expert
+    assert read_metadata(out)["expert"] == str(learned_expert)
+
+
+def test_recording_a_policy_file_keeps_its_decisions_and_names_it(tmp_path, learned_expert):
+    out = tmp_path / "demos.parquet"
+    result = invoke("record-expert", *SMALL, "--expert", str(learned_expert), "--episodes", "2", "--out", str(out))
+    assert result.exit_code == 0, result.output
+    demos = read_demonstrations(out, len(observation_names(CONFIG)))
+    from sumo_rail.drivers.policies import load_policy
+
+    policy, _ = load_policy(learned_expert)
+    assert np.array_equal(np.argmax(policy.logits(demos.observations), axis=1), demos.actions)
+    assert len(set(demos.actions.tolist())) > 1
+    assert demos.metadata["expert"] == str(learned_expert) and "style" not in demos.metadata
+    # DAgger run on these demonstrations asks the same expert by default, and records it
+    run = tmp_path / "dagger"
+    result = invoke("dagger", *SMALL, "--demos", str(out), "--rounds", "1", "--episodes-per-round", "1",
+                    "--bc-epochs", "2", "--eval-every", "1", "--eval-episodes", "1", "--out", str(run))
+    assert result.exit_code == 0, result.output
+    assert json.loads((run / "run.json").read_text())["expert"] == str(learned_expert)
+    dataset = pq.read_table(run / "dataset.parquet")
+    labelled = np.stack(dataset.column("observation").to_pylist())
+    assert np.array_equal(np.argmax(policy.logits(labelled), axis=1), dataset.column("action").to_pylist())
+
+
+def test_an_expert_of_another_observation_layout_is_one_sentence(tmp_path, learned_expert):
+    result = invoke("evaluate", *SMALL, "--set", "observation.lane_block=1", "--expert", str(learned_expert),
+                    "--episodes", "1")
+    assert result.exit_code == 1 and "Traceback" not in result.output
+    assert str(learned_expert) in result.output and "observation" in result.output
+    unknown = invoke("record-expert", *SMALL, "--expert", "speedy", "--episodes", "1", "--out",
+                     str(tmp_path / "x.parquet"))
+    assert unknown.exit_code == 2 and "calm" in unknown.output and not (tmp_path / "x.parquet").exists()
