@@ -3,7 +3,7 @@
 Runs 'keep' episodes (the ego keeps its lane and set-point, as in bench_env's ratio) with timers wrapped around
 the parts of a decision: SUMO's steps (`simulationStep`), the per-step ego checks (the rest of
 `Simulation.advance`), the context query and its parsing (`Simulation.observe`), LIDAR + observation
-(`HighwayEnv._observe`), the rest of `HighwayEnv.step` (bookkeeping) and resets (amortised). The timers add
+(`Ego.observation`), the rest of `HighwayEnv.step` (bookkeeping) and resets (amortised). The timers add
 about 0.1 us per wrapped call. Prints a Markdown table; the environment's own cost is everything but SUMO's
 steps and resets. Usage: `python benchmarks/profile_env.py [--flow 3000] [--episodes 6] [--rounds 3]`.
 """
@@ -21,6 +21,7 @@ import libsumo
 
 from sumo_rail.config import Config
 from sumo_rail.sim import simulation
+from sumo_rail.sim.ego import Ego
 from sumo_rail.sim.env import HighwayEnv
 
 PARTS = ("SUMO steps", "per-step checks", "context query + parsing", "LIDAR + observation", "step bookkeeping",
@@ -49,7 +50,7 @@ def profile_round(config: Config, seeds: list[int]) -> dict[str, float]:
     """One round of episodes; microseconds per decision for each part."""
     timers = Timers()
     patches = [(libsumo, "simulationStep", "steps"), (simulation.Simulation, "advance", "advance"),
-               (simulation.Simulation, "observe", "observe"), (HighwayEnv, "_observe", "lidar"),
+               (simulation.Simulation, "observe", "observe"), (Ego, "observation", "lidar"),
                (HighwayEnv, "step", "step"), (HighwayEnv, "reset", "reset")]
     originals = [(owner, name, getattr(owner, name)) for owner, name, _ in patches]
     for owner, name, label in patches:

@@ -2,24 +2,42 @@
 
 Importing the package registers the Gymnasium environment `sumo_rail/Highway-v0`; SUMO itself is only
 started when an environment is reset. `sumo_rail.HighwayEnv` is the environment class
-(`sumo_rail.sim.env.HighwayEnv`), imported on first use.
+(`sumo_rail.sim.env.HighwayEnv`), imported on first use; `sumo_rail.parallel_env(egos=K, config=...)` makes the
+multi-ego PettingZoo environment (`sumo_rail.sim.parallel_env.ParallelHighwayEnv`): K egos on one road.
 
 The library has one subpackage per stage of the pipeline, each importing only from the stages before it:
 the top level (`config`, `seeding`, `datasets`) -> `sim` -> `drivers` -> `runners` -> `evaluation` ->
 `learning` -> `report`.
 """
 
+from __future__ import annotations
+
 from importlib.metadata import version
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import gymnasium
 
+if TYPE_CHECKING:
+    from pathlib import Path
+
+    from sumo_rail.config import Config
+    from sumo_rail.sim.parallel_env import ParallelHighwayEnv
+
 __version__ = version("sumo-rail")
 ENV_ID = "sumo_rail/Highway-v0"
-__all__ = ["ENV_ID", "HighwayEnv", "__version__"]
+__all__ = ["ENV_ID", "HighwayEnv", "__version__", "parallel_env"]
 
 if ENV_ID not in gymnasium.registry:
     gymnasium.register(id=ENV_ID, entry_point="sumo_rail.sim.env:HighwayEnv")
+
+
+def parallel_env(egos: int = 1, config: Config | dict[str, Any] | str | Path | None = None,
+                 transport: str = "libsumo") -> ParallelHighwayEnv:
+    """A PettingZoo ParallelEnv of `egos` egos (agents ego_0 ... ego_{K-1}) on one SUMO road, each driven as
+    `HighwayEnv`'s ego; `config` as `HighwayEnv` takes it (see `sumo_rail.sim.parallel_env`)."""
+    from sumo_rail.sim.parallel_env import ParallelHighwayEnv
+
+    return ParallelHighwayEnv(egos=egos, config=config, transport=transport)
 
 
 def __getattr__(name: str) -> Any:

@@ -13,12 +13,15 @@ import importlib.metadata
 import importlib.resources
 import json
 import logging
+import math
 import os
 import subprocess
 import tempfile
 import xml.etree.ElementTree as ElementTree
 from dataclasses import dataclass
 from pathlib import Path
+
+import numpy as np
 
 from sumo_rail.config import ConfigError, ScenarioConfig
 from sumo_rail.datasets import sumo_version
@@ -180,3 +183,50 @@ def _netconvert(nodes: Path, edges: Path, output: Path) -> None:
     if result.returncode != 0:
         message = (result.stderr or result.stdout).strip().splitlines()
         raise ConfigError(f"netconvert failed to build the highway: {message[-1] if message else 'no output'}")
+
+
+def warm_state_key(scenario: ScenarioConfig, built: BuiltNetwork, options: list[str], traffic_seed: int) -> str:
+    """The cache key of one warm-up run's states: the network, SUMO's `options` (without its input files), the
+    warm-up's times [s] and number of states, and its traffic seed."""
+    settings = {
+        "network": built.directory.name,
+        "options": options,
+        "warmup_s": scenario.warmup_s,
+        "snapshots": scenario.snapshots,
+        "snapshot_interval_s": scenario.snapshot_interval_s,
+        "traffic_seed": traffic_seed,
+    }
+    return hashlib.sha256(json.dumps(settings, sort_keys=True).encode()).hexdigest()[:16]
+
+
+def warm_state_problem(path: Path, k: int, scenario: ScenarioConfig) -> str | None:
+    """What is wrong with cached warm state `k` of `scenario` (None: usable): missing, not well-formed XML, not a
+    SUMO state or not of the time [s] warm state `k` is saved at."""
+    try:
+        root = ElementTree.parse(path).getroot()
+    except OSError as error:
+        return f"{path.name}: {error.strerror or error}"
+    except ElementTree.ParseError as error:
+        return f"{path.name} is not well-formed XML: {error}"
+    expected_s = scenario.warmup_s + k * scenario.snapshot_interval_s
+    try:
+        time_s = float(root.get("time", "nan"))
+    except ValueError:
+        time_s = math.nan
+    slack_s = (k + 1) * scenario.step_length_s + 1e-6  # each simulationStep(t) may overshoot t by a step
+    if root.tag != "snapshot" or not expected_s - 1e-6 <= time_s <= expected_s + slack_s:
+        return f"{path.name} is not SUMO's state at {expected_s:g} s"
+    return None
+
+
+def offset_polyline(points: np.ndarray, offset_m: float) -> np.ndarray:
+    """Shift each vertex of a polyline sideways by `offset_m` (positive = left of travel) [m]."""
+    direction = np.gradient(points, axis=0)
+    direction /= np.linalg.norm(direction, axis=1, keepdims=True)
+    normal_left = np.stack([-direction[:, 1], direction[:, 0]], axis=1)
+    return points + offset_m * normal_left
+
+
+def segments(points: np.ndarray) -> np.ndarray:
+    """Consecutive vertex pairs of a polyline as segments, shape (N - 1, 2, 2)."""
+    return np.stack([points[:-1], points[1:]], axis=1)

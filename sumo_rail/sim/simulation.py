@@ -14,14 +14,11 @@ generators, so it is not reproducible; a reload with `--load-state` is, and take
 from __future__ import annotations
 
 import fcntl
-import hashlib
-import json
 import logging
 import math
 import operator
 import os
-import xml.etree.ElementTree as ElementTree
-from dataclasses import dataclass
+from collections.abc import Sequence
 from pathlib import Path
 from types import ModuleType
 
@@ -31,72 +28,24 @@ from sumo_rail.config import ScenarioConfig
 from sumo_rail.datasets import describe
 from sumo_rail.sim import gui as sumo_gui
 from sumo_rail.sim import network
+from sumo_rail.sim.vehicles import EgoState, Neighbours, PeriodReport
 
 log = logging.getLogger(__name__)
 
 EGO_ID = "ego"
 LANE_CHANGE_MODE_TRACI_ONLY_SAFE = 0b1100000000
 """No autonomous lane changes; TraCI requests respect other drivers' gaps, without speed adaptation."""
-_LATERAL_EPSILON_M = 0.01
 _ACTIVE_LIBSUMO: Simulation | None = None
 WARM_STATE_POOLS = ("train", "validation", "test")
 """Disjoint sets of warm traffic states, by what the episodes are for."""
+ENTRY_WAIT_S = 30.0
+"""Longest wait of an ego for room at its start place at a reset [s] (simulated time)."""
 TRANSPORTS = ("libsumo", "traci")
 """How SUMO is driven: libsumo (SUMO linked into this process) or traci (a SUMO process, over a socket)."""
 
 
 class SimulationError(RuntimeError):
     """SUMO could not do what was asked (message is one sentence)."""
-
-
-@dataclass(frozen=True)
-class EgoState:
-    """The ego at the end of the last step. Positions [m], speed [m/s], heading [rad, math convention]."""
-
-    front_x: float
-    front_y: float
-    heading_rad: float
-    speed_mps: float
-    lane: int
-    lane_position_m: float
-    lateral_offset_m: float
-    """Distance of the ego's centre from its lane's centre line [m]; non-zero only while changing lanes."""
-    length_m: float
-    width_m: float
-
-    @property
-    def changing_lane(self) -> bool:
-        """The ego is between lanes (a lane change is under way)."""
-        return abs(self.lateral_offset_m) > _LATERAL_EPSILON_M
-
-
-@dataclass(frozen=True)
-class Neighbours:
-    """Vehicles around the ego (excluding it), from one context subscription; arrays have one row each."""
-
-    ids: tuple[str, ...]
-    front_xy: np.ndarray
-    """Front-bumper centres [m], shape (M, 2)."""
-    heading_rad: np.ndarray
-    """Headings [rad], 0 = +x, counter-clockwise, shape (M,)."""
-    speed_mps: np.ndarray
-    lane_position_m: np.ndarray
-    """Front-bumper distance from the start of the road [m]."""
-    length_m: np.ndarray
-    width_m: np.ndarray
-    lane: np.ndarray
-    """Lane index (0 = rightmost), shape (M,) int."""
-
-
-@dataclass(frozen=True)
-class PeriodReport:
-    """What happened during the SUMO steps of one decision period."""
-
-    ego_collided: bool
-    ego_left_network: bool
-    ego_teleported: bool
-    min_acceleration_mps2: float
-    teleports: int
 
 
 class Simulation:
@@ -196,18 +145,6 @@ class Simulation:
             raise SimulationError(f"SUMO failed to load the warm state: {describe(error)}"
                                   + (f" ({where})" if where else "")) from error
 
-    def _snapshot_key(self, traffic_seed: int) -> str:
-        s = self.scenario
-        settings = {
-            "network": self._built.directory.name,
-            "options": self._options()[4:],
-            "warmup_s": s.warmup_s,
-            "snapshots": s.snapshots,
-            "snapshot_interval_s": s.snapshot_interval_s,
-            "traffic_seed": traffic_seed,
-        }
-        return hashlib.sha256(json.dumps(settings, sort_keys=True).encode()).hexdigest()[:16]
-
     def _pool(self, pool: str) -> list[Path]:
         """Paths of a pool's warm states, built on first use."""
         if pool not in self._pools:
@@ -220,7 +157,8 @@ class Simulation:
     def _warm_snapshots(self, traffic_seed: int) -> list[Path]:
         """Paths of the warm states of one warm-up run, running it first when they are not cached yet or damaged;
         a lock file makes concurrent processes wait for the one that builds them."""
-        directory = network.cache_dir() / "states" / self._snapshot_key(traffic_seed)
+        directory = network.cache_dir() / "states" / network.warm_state_key(
+            self.scenario, self._built, self._options()[4:], traffic_seed)
         paths = [directory / f"state_{k:03d}.xml" for k in range(self.scenario.snapshots)]
         if not self._state_problems(paths):
             return paths
@@ -236,7 +174,8 @@ class Simulation:
         return paths
 
     def _state_problems(self, paths: list[Path]) -> list[str]:
-        return [problem for k, path in enumerate(paths) if (problem := self._state_problem(path, k)) is not None]
+        problems = (network.warm_state_problem(path, k, self.scenario) for k, path in enumerate(paths))
+        return [problem for problem in problems if problem is not None]
 
     def _run_warm_up(self, traffic_seed: int, paths: list[Path]) -> None:
         self._load(["--seed", str(traffic_seed)])
@@ -250,28 +189,18 @@ class Simulation:
             os.replace(temporary, path)
         log.info("saved %d warm states in %s", len(paths), paths[0].parent)
 
-    def _state_problem(self, path: Path, k: int) -> str | None:
-        """What is wrong with cached warm state `k` (None: usable): missing, not well-formed XML, not a SUMO state
-        or not of the time warm state `k` is saved at."""
-        try:
-            root = ElementTree.parse(path).getroot()
-        except OSError as error:
-            return f"{path.name}: {error.strerror or error}"
-        except ElementTree.ParseError as error:
-            return f"{path.name} is not well-formed XML: {error}"
-        expected_s = self.scenario.warmup_s + k * self.scenario.snapshot_interval_s
-        try:
-            time_s = float(root.get("time", "nan"))
-        except ValueError:
-            time_s = math.nan
-        slack_s = (k + 1) * self.scenario.step_length_s + 1e-6  # each simulationStep(t) may overshoot t by a step
-        if root.tag != "snapshot" or not expected_s - 1e-6 <= time_s <= expected_s + slack_s:
-            return f"{path.name} is not SUMO's state at {expected_s:g} s"
-        return None
-
     def reset(self, snapshot: int, sumo_seed: int, ego_lane: int, ego_position_m: float, pool: str = "train") -> None:
         """Reload warm state `snapshot` of `pool` with SUMO seed `sumo_seed` and insert the ego; steps until it
         is in."""
+        self.reset_egos(snapshot, sumo_seed, [(EGO_ID, ego_lane, ego_position_m)], pool)
+
+    def reset_egos(self, snapshot: int, sumo_seed: int, egos: Sequence[tuple[str, int, float]],
+                   pool: str = "train") -> list[str]:
+        """`reset` with several egos: queue each (vehicle id, lane, front position [m]) in this order, then step
+        until all are in (an ego drives on as soon as it is in). SUMO tries no other vehicle in a lane once one
+        fails there in a step, so egos still waiting take turns at being tried first. An ego not on the road after
+        `ENTRY_WAIT_S` (no room at its place all along, or gone already) sits the episode out: returns those ids,
+        in order (SimulationError when none of the egos is on the road)."""
         self._require_running()
         try:
             self._load(["--load-state", str(self._pool(pool)[snapshot]), "--seed", str(sumo_seed)])
@@ -280,22 +209,44 @@ class Simulation:
             network.build(self.scenario)
             self._pools.clear()
             self._load(["--load-state", str(self._pool(pool)[snapshot]), "--seed", str(sumo_seed)])
-        api = self._api
-        api.vehicle.add(EGO_ID, network.ROUTE_ID, typeID=network.EGO_TYPE, depart="now",
-                        departLane=str(ego_lane), departPos=repr(ego_position_m), departSpeed="max")
-        api.vehicle.setLaneChangeMode(EGO_ID, LANE_CHANGE_MODE_TRACI_ONLY_SAFE)
-        for _ in range(round(30.0 / self.scenario.step_length_s)):
-            api.simulationStep()
-            if EGO_ID in api.simulation.getDepartedIDList():
+        for ego in egos:
+            self._insert(*ego)
+        pending = list(egos)
+        for _ in range(round(ENTRY_WAIT_S / self.scenario.step_length_s)):
+            self._api.simulationStep()
+            departed = set(self._api.simulation.getDepartedIDList())
+            pending = [ego for ego in pending if ego[0] not in departed]
+            if not pending:
                 break
-        else:
-            raise SimulationError(f"the ego could not enter lane {ego_lane} at {ego_position_m:.1f} m within 30 s")
+            if len(pending) > 1:
+                for vehicle, _, _ in pending:
+                    self._api.vehicle.remove(vehicle)
+                pending = pending[1:] + pending[:1]
+                for ego in pending:
+                    self._insert(*ego)
+        for vehicle, lane, position_m in pending:
+            self._api.vehicle.remove(vehicle)  # out of the insertion queue
+            log.warning("ego %s could not enter lane %d at %.1f m within %g s", vehicle, lane, position_m,
+                        ENTRY_WAIT_S)
+        on_road = set(self._api.vehicle.getIDList()) if len(egos) > 1 else set()
+        absent = pending if len(egos) == 1 else [ego for ego in egos if ego[0] not in on_road]
+        if len(absent) == len(egos):
+            vehicle, lane, position_m = absent[0]
+            who = "the ego" if len(egos) == 1 else f"no ego could enter the road: ego {vehicle}"
+            raise SimulationError(f"{who} could not enter lane {lane} at {position_m:.1f} m within {ENTRY_WAIT_S:g} s")
         if self.gui:
-            self._follow_ego()
+            self._follow_ego(next(ego[0] for ego in egos if ego not in absent))
+        return [vehicle for vehicle, _, _ in absent]
 
-    def _follow_ego(self) -> None:
-        """Point sumo-gui's view at the ego: tracked, zoomed to its surroundings, drawn in red."""
-        sumo_gui.follow(self._api, EGO_ID)
+    def _insert(self, vehicle: str, lane: int, position_m: float) -> None:
+        """Queue an ego for insertion now in `lane` with its front at `position_m` [m], at the highest safe speed."""
+        self._api.vehicle.add(vehicle, network.ROUTE_ID, typeID=network.EGO_TYPE, depart="now",
+                              departLane=str(lane), departPos=repr(position_m), departSpeed="max")
+        self._api.vehicle.setLaneChangeMode(vehicle, LANE_CHANGE_MODE_TRACI_ONLY_SAFE)
+
+    def _follow_ego(self, vehicle: str = EGO_ID) -> None:
+        """Point sumo-gui's view at an ego: tracked, zoomed to its surroundings, drawn in red."""
+        sumo_gui.follow(self._api, vehicle)
 
     def screenshot(self, path: Path, width_px: int = 1280, height_px: int = 800) -> None:
         """Save sumo-gui's view to `path` (PNG) when the next step is drawn (sumo-gui only)."""
@@ -303,18 +254,18 @@ class Simulation:
             raise SimulationError("screenshots need sumo-gui (render_mode='human')")
         self._api.gui.screenshot(sumo_gui.VIEW, str(path), width_px, height_px)
 
-    def set_cruise_speed(self, speed_mps: float) -> None:
-        """Set the ego's cruise set-point [m/s]; SUMO's ACC model tracks it within safe gaps.
+    def set_cruise_speed(self, speed_mps: float, vehicle: str = EGO_ID) -> None:
+        """Set an ego's cruise set-point [m/s]; SUMO's ACC model tracks it within safe gaps.
 
         The set-point is the ego's desired speed, speed factor x speed limit. (Lowering the vehicle's maximum
         speed instead would be a hard cap that SUMO enforces at emergency deceleration, 9 m/s^2; a lower speed
         factor is reached at the ego type's comfortable deceleration.)
         """
-        self._api.vehicle.setSpeedFactor(EGO_ID, speed_mps / self.scenario.speed_limit_mps)
+        self._api.vehicle.setSpeedFactor(vehicle, speed_mps / self.scenario.speed_limit_mps)
 
-    def request_lane_change(self, lane: int, duration_s: float) -> None:
-        """Ask SUMO to move the ego to `lane` when safe within `duration_s`; unsafe changes wait, never forced."""
-        self._api.vehicle.changeLane(EGO_ID, lane, duration_s)
+    def request_lane_change(self, lane: int, duration_s: float, vehicle: str = EGO_ID) -> None:
+        """Ask SUMO to move an ego to `lane` when safe within `duration_s`; unsafe changes wait, never forced."""
+        self._api.vehicle.changeLane(vehicle, lane, duration_s)
 
     def advance(self, steps: int) -> PeriodReport:
         """Run `steps` SUMO steps, watching the ego for collisions, arrival, braking and teleports.
@@ -338,30 +289,74 @@ class Simulation:
             try:
                 accel = acceleration(EGO_ID)
             except api.TraCIException:  # type: ignore[attr-defined]
-                collided = EGO_ID in simulation.getCollidingVehiclesIDList()
-                left = not collided and EGO_ID in simulation.getArrivedIDList()
-                if collided or left:
-                    break
-                raise
+                collided, left = self._why_gone(EGO_ID)
+                break
             if accel < min_accel:
                 min_accel = accel
-        return PeriodReport(collided, left, ego_teleported, min_accel if min_accel < math.inf else 0.0, teleports)
+        return PeriodReport(collided, left, ego_teleported, _lowest(min_accel), teleports)
 
-    def observe(self) -> tuple[EgoState, Neighbours]:
-        """The ego and its neighbours within the context radius, from one context subscription.
+    def advance_egos(self, steps: int, vehicles: Sequence[str]) -> list[PeriodReport]:
+        """`advance` for several egos on one road: run `steps` SUMO steps, watching each ego of `vehicles` as
+        `advance` watches the one ego, until it is gone; the steps go on while any of them is on the road. One
+        report per ego, in order; an ego that is gone has the time it went (`left_at_s`) and the teleports until
+        then."""
+        api = self._api
+        step, simulation, acceleration = api.simulationStep, api.simulation, api.vehicle.getAcceleration
+        starting_teleports = simulation.getStartingTeleportNumber
+        on_road = list(vehicles)
+        min_accel = dict.fromkeys(on_road, math.inf)
+        teleported: set[str] = set()
+        teleports = 0
+        gone: dict[str, PeriodReport] = {}
+        for _ in range(steps):
+            step()
+            if starting_teleports():
+                starting = simulation.getStartingTeleportIDList()
+                teleports += len(starting)
+                teleported.update(starting)
+            for vehicle in on_road:
+                try:
+                    accel = acceleration(vehicle)
+                except api.TraCIException:  # type: ignore[attr-defined]
+                    collided, left = self._why_gone(vehicle)
+                    gone[vehicle] = PeriodReport(collided, left, vehicle in teleported, _lowest(min_accel[vehicle]),
+                                                 teleports, simulation.getTime())
+                    continue
+                if accel < min_accel[vehicle]:
+                    min_accel[vehicle] = accel
+            if gone.keys() & on_road:
+                on_road = [vehicle for vehicle in on_road if vehicle not in gone]
+                if not on_road:
+                    break
+        return [gone.get(vehicle) or PeriodReport(False, False, vehicle in teleported, _lowest(min_accel[vehicle]),
+                                                  teleports) for vehicle in vehicles]
+
+    def _why_gone(self, vehicle: str) -> tuple[bool, bool]:
+        """(collided, arrived) for an ego SUMO no longer answers about, after a step: collided (and so removed)
+        or arrived at the end of the road; SimulationError if neither."""
+        simulation = self._api.simulation
+        collided = vehicle in simulation.getCollidingVehiclesIDList()
+        if not (collided or vehicle in simulation.getArrivedIDList()):
+            raise SimulationError(f"SUMO lost ego {vehicle} without a collision or an arrival")
+        return collided, not collided
+
+    def observe(self, vehicle: str = EGO_ID) -> tuple[EgoState, Neighbours]:
+        """An ego and its neighbours (other egos included) within the context radius, from one context
+        subscription.
 
         Headings are SUMO's angles (degrees, 0 = north, clockwise) as math headings (radians, 0 = +x,
         counter-clockwise): radians(90 - angle). The subscription is made and dropped at each decision: SUMO
         answers a new subscription at once, and a standing one would be recomputed at every step of the decision
         period for nothing.
         """
-        tc, vehicle, fields = self._constants, self._api.vehicle, self._context_fields
-        vehicle.subscribeContext(EGO_ID, tc.CMD_GET_VEHICLE_VARIABLE, self.context_radius_m, self._context_variables)
-        results = vehicle.getContextSubscriptionResults(EGO_ID)
-        vehicle.unsubscribeContext(EGO_ID, tc.CMD_GET_VEHICLE_VARIABLE, self.context_radius_m)
-        (ego_x, ego_y), angle, speed, lane_position, length, width, lane = fields(results.pop(EGO_ID))
+        tc, fields = self._constants, self._context_fields
+        api = self._api.vehicle
+        api.subscribeContext(vehicle, tc.CMD_GET_VEHICLE_VARIABLE, self.context_radius_m, self._context_variables)
+        results = api.getContextSubscriptionResults(vehicle)
+        api.unsubscribeContext(vehicle, tc.CMD_GET_VEHICLE_VARIABLE, self.context_radius_m)
+        (ego_x, ego_y), angle, speed, lane_position, length, width, lane = fields(results.pop(vehicle))
         ego_state = EgoState(ego_x, ego_y, math.radians(90.0 - angle), speed, lane, lane_position,
-                             vehicle.getLateralLanePosition(EGO_ID), length, width)
+                             api.getLateralLanePosition(vehicle), length, width)
         flat: list[float] = []
         extend, radians = flat.extend, math.radians
         for (x, y), angle, speed, lane_position, length, width, lane in map(fields, results.values()):
@@ -382,10 +377,10 @@ class Simulation:
         lane = self._api.lane
         lanes = self.scenario.lanes
         right_id = f"{network.EDGE_ID}_0"
-        right = _offset_polyline(np.array(lane.getShape(right_id)), -lane.getWidth(right_id) / 2)
+        right = network.offset_polyline(np.array(lane.getShape(right_id)), -lane.getWidth(right_id) / 2)
         left_id = f"{network.EDGE_ID}_{lanes - 1}"
-        left = _offset_polyline(np.array(lane.getShape(left_id)), lane.getWidth(left_id) / 2)
-        return np.concatenate([_segments(right), _segments(left)])
+        left = network.offset_polyline(np.array(lane.getShape(left_id)), lane.getWidth(left_id) / 2)
+        return np.concatenate([network.segments(right), network.segments(left)])
 
     def close(self) -> None:
         """End SUMO; calling it again is harmless."""
@@ -405,6 +400,11 @@ class Simulation:
             raise SimulationError("this simulation is closed; create a new one")
 
 
+def _lowest(acceleration_mps2: float) -> float:
+    """A period's lowest acceleration [m/s^2], 0 when none was read."""
+    return acceleration_mps2 if acceleration_mps2 < math.inf else 0.0
+
+
 def _load_api(transport: str) -> ModuleType:
     if transport == "traci":
         # traci's own socket client: a plain `import traci` gives libsumo once LIBSUMO_AS_TRACI is set (below)
@@ -421,15 +421,3 @@ def _load_constants() -> ModuleType:
     import traci.constants
 
     return traci.constants
-
-
-def _offset_polyline(points: np.ndarray, offset_m: float) -> np.ndarray:
-    """Shift each vertex of a polyline sideways by `offset_m` (positive = left of travel) [m]."""
-    direction = np.gradient(points, axis=0)
-    direction /= np.linalg.norm(direction, axis=1, keepdims=True)
-    normal_left = np.stack([-direction[:, 1], direction[:, 0]], axis=1)
-    return points + offset_m * normal_left
-
-
-def _segments(points: np.ndarray) -> np.ndarray:
-    return np.stack([points[:-1], points[1:]], axis=1)

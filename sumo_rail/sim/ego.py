@@ -1,0 +1,173 @@
+"""One controlled vehicle's decisions, shared by the single-ego `HighwayEnv` and the multi-ego
+`ParallelHighwayEnv`: the action's command to SUMO, the observation (LIDAR kernel), rewards, metrics, info and
+the end of its episode.
+
+A decision is `command` (set-point and lane-change request), the simulation's period (`Simulation.advance`, or
+`advance_egos` for several egos), then `finish` with the ego's period report. The reward of a decision is
+longitudinal + lateral, or `env.collision_reward` when the ego collides (terminated); reaching the end of the
+road or the time limit truncates.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from gymnasium import spaces
+
+from sumo_rail.config import Config
+from sumo_rail.sim import kernels, lidar
+from sumo_rail.sim.actions import Action, command_for
+from sumo_rail.sim.rewards import EpisodeMetrics, OvertakeCounter, lateral_reward, longitudinal_reward, relations
+from sumo_rail.sim.simulation import Simulation
+from sumo_rail.sim.traffic import TrafficView, lane_block
+from sumo_rail.sim.vehicles import EgoState, Neighbours, PeriodReport
+
+_ACTIONS = tuple(Action)
+_INTEGERS = (int, np.integer)
+CONTEXT_MARGIN_M = 20.0
+"""Extra context-subscription radius [m] so that long vehicles whose front is just out of LIDAR range are seen."""
+StepResult = tuple[np.ndarray, float, bool, bool, dict[str, Any]]
+"""(observation, reward, terminated, truncated, info) of one decision, as Gymnasium's `step` returns them."""
+
+
+def checked_action(action: Any, space: spaces.Discrete) -> Action:
+    """`action` as an `Action`; ValueError when it is not in `space`."""
+    fast_path_valid = isinstance(action, _INTEGERS) and 0 <= action < len(_ACTIONS)
+    if not (fast_path_valid or space.contains(action)):
+        raise ValueError(f"action must be an integer in [0, {space.n}), got {action!r}")
+    return _ACTIONS[int(action)]
+
+
+def edge_rows(sim: Simulation) -> np.ndarray:
+    """The road-edge boxes the LIDAR kernel sees, (S, 6) rows of centre x, y, axis x, y, half length, half width
+    [m]."""
+    edges = lidar.edge_boxes(sim.road_edges())
+    return np.hstack([edges.centre_xy, edges.axis_xy, edges.half_size_m])
+
+
+class Ego:
+    """The decision loop of one ego (SUMO vehicle `vehicle`) over one episode; `edges` are `edge_rows(sim)`."""
+
+    def __init__(self, config: Config, vehicle: str, edges: np.ndarray) -> None:
+        self.config = config
+        self.vehicle = vehicle
+        self.edges = edges
+        self.set_point_mps = config.env.v_min_mps
+        """Cruise set-point [m/s]."""
+        self.lane = 0
+        self.changing_lane = False
+        self.start_time_s = self.start_position_m = 0.0
+        self.metrics = EpisodeMetrics()
+        self.overtakes = OvertakeCounter()
+        self.traffic: TrafficView | None = None
+        """The ego and its neighbours at the last decision (read directly from SUMO, not from the LIDAR)."""
+        self.last_observation = np.zeros(0, dtype=np.float32)
+        self.last_action: Action | None = None
+
+    def start(self, sim: Simulation) -> tuple[np.ndarray, dict[str, Any]]:
+        """Begin the episode once the ego is on the road: its set-point is its speed, within [v_min, v_max];
+        returns the first observation and info."""
+        cfg = self.config
+        ego, neighbours = sim.observe(self.vehicle)
+        self.set_point_mps = min(max(ego.speed_mps, cfg.env.v_min_mps), cfg.env.v_max_mps)
+        sim.set_cruise_speed(self.set_point_mps, self.vehicle)
+        self.lane = ego.lane
+        self.changing_lane = ego.changing_lane
+        self.start_time_s, self.start_position_m = sim.time_s, ego.lane_position_m
+        self.overtakes.update(neighbours.ids, self._relations(ego, neighbours))
+        self.last_observation = self.observation(ego, neighbours, ego.changing_lane)
+        self.traffic = TrafficView(ego, neighbours, self.set_point_mps, cfg.scenario.lanes)
+        return self.last_observation, self._info(ego, 0.0, 0.0, 0.0, False, "")
+
+    def command(self, sim: Simulation, action: Action) -> None:
+        """Give SUMO the command of this decision's `action` (before the period's steps)."""
+        cfg, metrics = self.config, self.metrics
+        self.last_action = action
+        command = command_for(action, self.set_point_mps, self.lane, cfg.scenario.lanes, cfg.env.speed_step_mps,
+                              cfg.env.v_min_mps, cfg.env.v_max_mps)
+        if command.set_point_mps != self.set_point_mps:
+            self.set_point_mps = command.set_point_mps
+            sim.set_cruise_speed(self.set_point_mps, self.vehicle)
+        if command.target_lane is not None:
+            sim.request_lane_change(command.target_lane, cfg.env.decision_period_s, self.vehicle)
+        metrics.decisions += 1
+        metrics.action_counts[action] += 1
+        metrics.invalid_actions += command.invalid
+
+    def finish(self, sim: Simulation, report: PeriodReport) -> StepResult:
+        """The decision's outcome after the period's steps, from the ego's period report."""
+        cfg, metrics = self.config, self.metrics
+        metrics.teleports += report.teleports
+        if report.ego_collided or report.ego_left_network:
+            return self._gone(sim, report)
+        ego, neighbours = sim.observe(self.vehicle)
+        # A change under way at either end of the period, or one that moved the ego to another lane within it.
+        changing = self.changing_lane or ego.changing_lane or ego.lane != self.lane
+        self.changing_lane = ego.changing_lane
+        metrics.lane_changes += abs(ego.lane - self.lane)
+        self.lane = ego.lane
+        r_long = longitudinal_reward(ego.speed_mps, cfg.env.v_min_mps, cfg.env.v_max_mps)
+        r_lat = lateral_reward(changing, cfg.env.lane_change_reward)
+        metrics.longitudinal_reward += r_long
+        metrics.lateral_reward += r_lat
+        metrics.hard_braking += report.min_acceleration_mps2 < -cfg.env.hard_brake_mps2
+        metrics.overtakes += self.overtakes.update(neighbours.ids, self._relations(ego, neighbours))
+        metrics.overtaken = self.overtakes.overtaken
+        metrics.speed_sum_mps += ego.speed_mps
+        metrics.simulated_s = sim.time_s - self.start_time_s
+        metrics.distance_m = ego.lane_position_m - self.start_position_m
+        reason = ""
+        if ego.lane_position_m >= cfg.scenario.length_m - cfg.env.end_margin_m:
+            reason = "end_of_road"
+        elif metrics.simulated_s >= cfg.env.max_episode_s - 1e-9:
+            reason = "time_limit"
+        self.last_observation = self.observation(ego, neighbours, ego.changing_lane)
+        self.traffic = TrafficView(ego, neighbours, self.set_point_mps, cfg.scenario.lanes)
+        info = self._info(ego, r_long, r_lat, 0.0, changing, reason)
+        return self.last_observation, r_long + r_lat, False, bool(reason), info
+
+    def _gone(self, sim: Simulation, report: PeriodReport) -> StepResult:
+        """The ego collided (terminated) or left the network (truncated); the last observation is repeated."""
+        metrics = self.metrics
+        metrics.simulated_s = (sim.time_s if report.left_at_s is None else report.left_at_s) - self.start_time_s
+        if report.ego_collided:
+            metrics.collisions += 1
+            reward, reason = self.config.env.collision_reward, "collision"
+        else:
+            reward, reason = 0.0, "end_of_road"
+        info = self._totals() | {"reward_longitudinal": 0.0, "reward_lateral": 0.0,
+                                 "reward_collision": reward, "termination": reason}
+        return self.last_observation, reward, report.ego_collided, not report.ego_collided, info
+
+    def _relations(self, ego: EgoState, neighbours: Neighbours) -> list[int]:
+        return relations(ego.lane_position_m, ego.length_m, neighbours.lane_position_m, neighbours.length_m)
+
+    def observation(self, ego: EgoState, neighbours: Neighbours, lane_change_in_progress: bool) -> np.ndarray:
+        """The observation, from the compiled kernel (the numpy `lidar.scan` + `build_observation` is its reference)."""
+        cfg = self.config
+        ego_row = np.array([ego.front_x, ego.front_y, ego.heading_rad, ego.length_m, ego.speed_mps,
+                            self.set_point_mps])
+        observation = kernels.observation_vector(
+            neighbours.front_xy, neighbours.heading_rad, neighbours.length_m, neighbours.width_m,
+            neighbours.speed_mps, self.edges, ego_row, ego.lane, lane_change_in_progress, cfg.lidar.beams,
+            cfg.lidar.range_m, cfg.env.v_min_mps, cfg.env.v_max_mps, cfg.scenario.lanes)
+        if cfg.observation.lane_block:
+            traffic = TrafficView(ego, neighbours, self.set_point_mps, cfg.scenario.lanes)
+            observation = np.concatenate([observation, lane_block(traffic, cfg.lidar.range_m, cfg.env.v_max_mps)])
+        return observation
+
+    def _totals(self) -> dict[str, Any]:
+        m = self.metrics
+        return {"lane_changes": m.lane_changes, "overtakes": m.overtakes, "overtaken": m.overtaken,
+                "collisions": m.collisions, "hard_braking": m.hard_braking, "teleports": m.teleports,
+                "invalid_actions": m.invalid_actions, "time_s": m.simulated_s, "distance_m": m.distance_m}
+
+    def _info(self, ego: EgoState, r_long: float, r_lat: float, r_collision: float, changing: bool,
+              reason: str) -> dict[str, Any]:
+        return self._totals() | {
+            "speed_mps": ego.speed_mps, "lane": ego.lane, "position_m": ego.lane_position_m,
+            "set_point_mps": self.set_point_mps, "lane_change_in_progress": changing,
+            "reward_longitudinal": r_long, "reward_lateral": r_lat, "reward_collision": r_collision,
+            "termination": reason,
+        }

@@ -1,0 +1,167 @@
+"""`ParallelHighwayEnv`: K controlled egos on one SUMO road, as a PettingZoo `ParallelEnv`
+(`sumo_rail.parallel_env(egos=K, config=...)`).
+
+Agents `ego_0` ... `ego_{K-1}` are SUMO vehicles of the same ids and the ego type. Each is driven exactly as
+`HighwayEnv`'s single ego (`sumo_rail.sim.ego.Ego`: the same actions, observation, rewards, info and metrics) and
+sees the other egos as traffic (they are vehicles within its LIDAR and context radius). Every decision runs one
+decision period of the shared simulation for all egos still driving, so a decision of K egos costs about one
+simulation period plus K observations.
+
+Starts: each reset draws, from the env's `np_random`, the warm state, SUMO's seed, then each ego's lane and
+position by the start-slot rule of `sumo_rail.sim.starts` (evenly spaced slots in the single ego's start window,
+ego_0 nearest the start of the road, widened past it when K slots of 40 m do not fit); with K = 1 the draws and
+the episode are `HighwayEnv`'s for the same seed. The episode starts once every ego is on the road (those that
+entered first drive on meanwhile); an ego that finds no room at its place within 30 s of simulated time (a dense
+left lane; 2 of 2400 egos in 150 resets at K = 16 on the default scenario) sits the episode out: `agents` after `reset`
+lacks it and it makes no decision (`Simulation.reset_egos`). The single ego would make `HighwayEnv.reset` fail
+there instead, as it does here when no ego enters. `reset(options=...)` takes `HighwayEnv`'s options ("pool",
+"warm_state"); others are ignored with a warning (PettingZoo's API test passes one).
+
+Ends: an ego that collides (terminated; SUMO removes the vehicles of a collision, two egos that collide both end)
+or reaches the end of the road (truncated) leaves `agents` while the others drive on; an ego truncated within the
+end margin drives on under SUMO's control as traffic for those behind it, until it leaves the network. All egos
+start together, so the time limit truncates every ego still driving at the same decision; the episode ends when
+`agents` is empty.
+
+For a rollout runner: before each `step`, `traffic(agent)` is that ego's `TrafficView` (what `HighwayEnv.traffic`
+gives for the single ego, so an expert can be asked at every decision), and `metrics(agent)` its episode totals
+(`decisions` is its number of steps); `infos[agent]` carries `HighwayEnv`'s info keys.
+"""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from gymnasium import spaces
+from gymnasium.utils import seeding
+from pettingzoo import ParallelEnv
+
+from sumo_rail.config import Config
+from sumo_rail.sim.actions import Action
+from sumo_rail.sim.ego import CONTEXT_MARGIN_M, Ego, checked_action, edge_rows
+from sumo_rail.sim.observation import observation_space
+from sumo_rail.sim.rewards import EpisodeMetrics
+from sumo_rail.sim.simulation import TRANSPORTS, Simulation
+from sumo_rail.sim.starts import RESET_OPTIONS, EpisodeStarts, start_slots, warm_state_options
+from sumo_rail.sim.traffic import TrafficView
+
+Observations = dict[str, np.ndarray]
+Infos = dict[str, dict[str, Any]]
+
+
+class ParallelHighwayEnv(ParallelEnv[str, np.ndarray, np.int64]):
+    """`egos` egos on `HighwayEnv`'s highway in one SUMO (libsumo by default, or traci over a socket)."""
+
+    metadata = {"name": "sumo_rail_highway_v0", "render_modes": [], "is_parallelizable": True}  # noqa: RUF012
+
+    def __init__(self, egos: int = 1, config: Config | Mapping[str, Any] | str | Path | None = None,
+                 transport: str = "libsumo") -> None:
+        if transport not in TRANSPORTS:
+            raise ValueError(f"transport must be one of {', '.join(TRANSPORTS)}, got {transport!r}")
+        self.config = Config.coerce(config)
+        self.slots = start_slots(self.config, egos)
+        """Start interval of each ego's front [m] (`sumo_rail.sim.starts.start_slots`)."""
+        self.transport = transport
+        self.possible_agents = [f"ego_{k}" for k in range(egos)]
+        self.agents: list[str] = []
+        self.observation_spaces = {agent: observation_space(self.config) for agent in self.possible_agents}
+        self.action_spaces = {agent: spaces.Discrete(len(Action)) for agent in self.possible_agents}
+        self._steps_per_decision = self.config.env.steps_per_decision(self.config.scenario.step_length_s)
+        self._np_random: np.random.Generator | None = None
+        self._sim: Simulation | None = None
+        self._edges: np.ndarray | None = None
+        self._egos: dict[str, Ego] = {}
+
+    def observation_space(self, agent: str) -> spaces.Box:
+        return self.observation_spaces[agent]
+
+    def action_space(self, agent: str) -> spaces.Discrete:
+        return self.action_spaces[agent]
+
+    @property
+    def np_random(self) -> np.random.Generator:
+        """The generator every reset draws from (seeded by `reset(seed=...)`, as a Gymnasium env's)."""
+        if self._np_random is None:
+            self._np_random, _ = seeding.np_random()
+        return self._np_random
+
+    def traffic(self, agent: str) -> TrafficView:
+        """`agent`'s view of the traffic at its last decision (read from SUMO, not from the LIDAR)."""
+        view = self._ego(agent).traffic
+        if view is None:
+            raise RuntimeError(f"{agent} could not enter the road in this episode (see `reset`)")
+        return view
+
+    def metrics(self, agent: str) -> EpisodeMetrics:
+        """`agent`'s totals of the current episode (they stay readable after it has left `agents`)."""
+        return self._ego(agent).metrics
+
+    def _ego(self, agent: str) -> Ego:
+        if agent not in self._egos:
+            if agent in self.possible_agents:
+                raise RuntimeError("call reset() before reading an ego")
+            raise KeyError(f"no agent {agent!r}; agents are {', '.join(self.possible_agents)}")
+        return self._egos[agent]
+
+    def reset(self, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[Observations, Infos]:
+        if seed is not None:
+            self._np_random, _ = seeding.np_random(seed)
+        cfg = self.config
+        if self._sim is None:
+            self._sim = Simulation(cfg.scenario, cfg.lidar.range_m + CONTEXT_MARGIN_M, transport=self.transport)
+        sim = self._sim
+        starts = EpisodeStarts.draw(self.np_random, cfg, sim.snapshot_count, len(self.possible_agents))
+        options = dict(options or {})
+        unknown = sorted(set(options) - set(RESET_OPTIONS))
+        if unknown:
+            warnings.warn(f"ignored unknown reset options {unknown}; known: {', '.join(RESET_OPTIONS)}",
+                          stacklevel=2)
+        pool, warm_state = warm_state_options({key: options[key] for key in RESET_OPTIONS if key in options},
+                                              sim.snapshot_count)
+        snapshot = starts.snapshot if warm_state is None else warm_state
+        absent = sim.reset_egos(snapshot, starts.sumo_seed,
+                                list(zip(self.possible_agents, starts.lanes, starts.positions_m, strict=True)), pool)
+        if self._edges is None:
+            self._edges = edge_rows(sim)
+        self._egos = {agent: Ego(cfg, agent, self._edges) for agent in self.possible_agents}
+        self.agents = [agent for agent in self.possible_agents if agent not in absent]
+        observations, infos = {}, {}
+        for agent in self.agents:
+            observations[agent], infos[agent] = self._egos[agent].start(sim)
+        return observations, infos
+
+    def step(self, actions: dict[str, Any]) -> tuple[Observations, dict[str, float], dict[str, bool],
+                                                     dict[str, bool], Infos]:
+        """One decision of every ego in `agents` (`actions` has exactly their actions); returns their outcomes,
+        and those that terminated or were truncated leave `agents`."""
+        if self._sim is None or not self.agents:
+            raise RuntimeError("call reset() before step()" if self._sim is None or not self._egos
+                               else "every ego has left the road; call reset()")
+        if set(actions) != set(self.agents):
+            missing, extra = sorted(set(self.agents) - set(actions)), sorted(set(actions) - set(self.agents))
+            raise ValueError(f"actions must be given for exactly the agents still driving, {self.agents}; "
+                             f"missing {missing}, not driving {extra}")
+        chosen = {agent: checked_action(actions[agent], self.action_spaces[agent]) for agent in self.agents}
+        sim, egos = self._sim, [self._egos[agent] for agent in self.agents]
+        for agent, ego in zip(self.agents, egos, strict=True):
+            ego.command(sim, chosen[agent])
+        reports = sim.advance_egos(self._steps_per_decision, [ego.vehicle for ego in egos])
+        observations, rewards, terminations, truncations, infos = {}, {}, {}, {}, {}
+        for agent, ego, report in zip(self.agents, egos, reports, strict=True):
+            (observations[agent], rewards[agent], terminations[agent], truncations[agent],
+             infos[agent]) = ego.finish(sim, report)
+        self.agents = [agent for agent in self.agents if not (terminations[agent] or truncations[agent])]
+        return observations, rewards, terminations, truncations, infos
+
+    def render(self) -> None:
+        raise NotImplementedError("ParallelHighwayEnv does not render; HighwayEnv draws one ego's frames")
+
+    def close(self) -> None:
+        if self._sim is not None:
+            self._sim.close()
+            self._sim = None
+        self.agents = []

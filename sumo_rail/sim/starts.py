@@ -1,0 +1,105 @@
+"""Where an episode starts: the warm traffic state, SUMO's seed and each ego's lane and position, all drawn from the
+env's `np_random` at reset, and the reset options that choose the warm state.
+
+The egos' start rule. The single ego starts in a uniformly drawn lane with its front uniformly in the start window
+[a, b] = [`env.ego_start_min_m`, `env.ego_start_max_m`]. K egos share that window in K consecutive slots of width
+w = (b - a) / K, widened to w = `MIN_SLOT_M` (40 m) when the window is too narrow for them, so that the slots
+then reach past b to a + K w (`start_slots`); ego k starts in slot k, ego_0 nearest the start of the road. Each
+ego's lane is drawn uniformly and its front uniformly in [a + k w, a + (k + 1) w - `GAP_M`] (the last slot
+keeps its whole width, up to b or a + K w), so consecutive egos start at least `GAP_M` (20 m) apart along the road.
+With one ego the slot is the window itself: the draws are exactly `HighwayEnv`'s. Pooled over egos, the starts
+cover the same window as the single ego's do over episodes (up to the gaps), whenever it is wide enough.
+
+The draws come in this order: the warm state, SUMO's seed, then lane and position of ego_0, ego_1, ...
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from sumo_rail.config import Config
+from sumo_rail.sim.simulation import WARM_STATE_POOLS
+
+_SUMO_SEED_BOUND = 2**31 - 1
+MIN_SLOT_M = 40.0
+"""Narrowest start slot of an ego when several share the road [m]."""
+GAP_M = 20.0
+"""Least distance between the start positions (fronts) of consecutive egos [m]."""
+
+
+def start_slots(config: Config, egos: int) -> list[tuple[float, float]]:
+    """The interval [m] in which each of `egos` egos starts its front, nearest the start of the road first (see
+    the module's docstring); ValueError when they do not fit on the road before its end margin."""
+    if not (isinstance(egos, int | np.integer) and egos >= 1):
+        raise ValueError(f"egos must be an integer >= 1, got {egos!r}")
+    low, high = config.env.ego_start_min_m, config.env.ego_start_max_m
+    if egos == 1:
+        return [(low, high)]
+    width = (high - low) / egos
+    if width < MIN_SLOT_M:
+        width = MIN_SLOT_M
+        high = low + egos * width
+        room = config.scenario.length_m - config.env.end_margin_m
+        if high >= room:
+            raise ValueError(f"{egos} egos need start slots of {MIN_SLOT_M:g} m from {low:g} m to {high:g} m, "
+                             f"past the road's end margin at {room:g} m; use fewer egos or a longer road")
+    return [(low + k * width, low + (k + 1) * width - GAP_M) for k in range(egos - 1)] + \
+        [(low + (egos - 1) * width, high)]
+
+
+@dataclass(frozen=True)
+class EpisodeStarts:
+    """Everything a reset with several egos draws from the env's `np_random`, in the order of the fields."""
+
+    snapshot: int
+    sumo_seed: int
+    lanes: tuple[int, ...]
+    """Each ego's start lane (0 = rightmost)."""
+    positions_m: tuple[float, ...]
+    """Each ego's start position (its front, from the start of the road) [m]."""
+
+    @classmethod
+    def draw(cls, rng: np.random.Generator, config: Config, snapshots: int, egos: int) -> EpisodeStarts:
+        slots = start_slots(config, egos)
+        snapshot, sumo_seed = int(rng.integers(snapshots)), int(rng.integers(_SUMO_SEED_BOUND))
+        lanes, positions = [], []
+        for low, high in slots:
+            lanes.append(int(rng.integers(config.scenario.lanes)))
+            positions.append(float(rng.uniform(low, high)))
+        return cls(snapshot, sumo_seed, tuple(lanes), tuple(positions))
+
+
+@dataclass(frozen=True)
+class EpisodeStart:
+    """Everything a reset of the single-ego env draws from its `np_random`, in this order."""
+
+    snapshot: int
+    sumo_seed: int
+    ego_lane: int
+    ego_position_m: float
+
+    @classmethod
+    def draw(cls, rng: np.random.Generator, config: Config, snapshots: int) -> EpisodeStart:
+        starts = EpisodeStarts.draw(rng, config, snapshots, egos=1)
+        return cls(starts.snapshot, starts.sumo_seed, starts.lanes[0], starts.positions_m[0])
+
+
+RESET_OPTIONS = ("pool", "warm_state")
+"""What reset's options may say: the warm-state pool and a fixed warm state (its index in the pool)."""
+
+
+def warm_state_options(options: dict[str, Any], snapshots: int) -> tuple[str, int | None]:
+    """The pool and fixed warm state asked for in reset's options (ValueError on unknown keys or values)."""
+    unknown = set(options) - set(RESET_OPTIONS)
+    if unknown:
+        raise ValueError(f"unknown reset options {sorted(unknown)}; known: 'pool', 'warm_state'")
+    pool = options.get("pool", "train")
+    if pool not in WARM_STATE_POOLS:
+        raise ValueError(f"reset option 'pool' must be one of {', '.join(WARM_STATE_POOLS)}, got {pool!r}")
+    warm_state = options.get("warm_state")
+    if warm_state is not None and not (isinstance(warm_state, int | np.integer) and 0 <= warm_state < snapshots):
+        raise ValueError(f"reset option 'warm_state' must be an integer in [0, {snapshots}), got {warm_state!r}")
+    return pool, None if warm_state is None else int(warm_state)

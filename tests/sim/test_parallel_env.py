@@ -1,0 +1,233 @@
+"""The multi-ego PettingZoo environment: its API, the single ego's episodes with K = 1, determinism, egos leaving,
+the start rule and egos seeing each other."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import gymnasium
+import libsumo
+import numpy as np
+import pytest
+from pettingzoo.test import parallel_api_test
+
+import sumo_rail
+from sumo_rail.sim import parallel_env, simulation
+from sumo_rail.sim.actions import Action
+from sumo_rail.sim.env import HighwayEnv
+from sumo_rail.sim.parallel_env import ParallelHighwayEnv
+from sumo_rail.sim.simulation import SimulationError
+from sumo_rail.sim.starts import GAP_M, MIN_SLOT_M, EpisodeStart, EpisodeStarts, start_slots
+from sumo_rail.sim.traffic import TrafficView
+from sumo_rail.sim.vehicles import Neighbours
+
+
+@pytest.fixture
+def make_env(small_config):
+    """`make_env(K)`: a K-ego env on the small scenario, closed after the test."""
+    made: list[ParallelHighwayEnv] = []
+
+    def make(egos: int) -> ParallelHighwayEnv:
+        made.append(sumo_rail.parallel_env(egos=egos, config=small_config))
+        return made[-1]
+    yield make
+    for env in made:
+        env.close()
+
+
+def drive(env: ParallelHighwayEnv, seed: int):
+    """One episode with seeded random actions: per decision (agents, observations, rewards, terminations,
+    truncations, infos, traffic views before the step); the reset's observations and infos first."""
+    rng = np.random.default_rng(seed)
+    observations, infos = env.reset(seed=seed)
+    decisions = [(list(env.agents), observations, {}, {}, {}, infos, {})]
+    while env.agents:
+        views = {agent: env.traffic(agent) for agent in env.agents}
+        actions = {agent: int(rng.integers(len(Action))) for agent in env.agents}
+        agents = list(env.agents)
+        decisions.append((agents, *env.step(actions), views))
+    return decisions
+
+
+def same_view(a: TrafficView, b: TrafficView) -> bool:
+    return a.ego == b.ego and a.set_point_mps == b.set_point_mps and a.neighbours.ids == b.neighbours.ids and all(
+        np.array_equal(getattr(a.neighbours, f.name), getattr(b.neighbours, f.name))
+        for f in dataclasses.fields(Neighbours)[1:])
+
+
+def test_pettingzoo_parallel_api_test_passes(make_env):
+    env = make_env(3)
+    with pytest.warns(UserWarning, match="ignored unknown reset options"):  # the API test passes {"options": 1}
+        parallel_api_test(env, num_cycles=1000)
+    assert env.possible_agents == ["ego_0", "ego_1", "ego_2"]
+    assert env.observation_space("ego_1") == HighwayEnv(env.config).observation_space
+    assert env.action_space("ego_2") == gymnasium.spaces.Discrete(5)
+
+
+@pytest.mark.parametrize(("seed", "options"), [(9, None), (4, {"pool": "validation", "warm_state": 1})])
+def test_one_ego_drives_highway_envs_episode_bit_for_bit(small_config, seed, options):
+    rng = np.random.default_rng(seed)
+    actions = rng.integers(len(Action), size=400).tolist()
+    single = HighwayEnv(small_config)
+    try:
+        observation, info = single.reset(seed=seed, options=options)
+        expected = [(observation, 0.0, False, False, info, None)]
+        for action in actions:
+            view = single.traffic
+            observation, reward, terminated, truncated, info = single.step(action)
+            expected.append((observation, reward, terminated, truncated, info, view))
+            if terminated or truncated:
+                break
+        expected_metrics = dataclasses.asdict(single.metrics)
+    finally:
+        single.close()
+    env = sumo_rail.parallel_env(egos=1, config=small_config)
+    try:
+        observations, infos = env.reset(seed=seed, options=options)
+        actual = [(observations["ego_0"], 0.0, False, False, infos["ego_0"], None)]
+        for action in actions[:len(expected) - 1]:
+            view = env.traffic("ego_0")
+            observations, rewards, terminations, truncations, infos = env.step({"ego_0": action})
+            actual.append((observations["ego_0"], rewards["ego_0"], terminations["ego_0"], truncations["ego_0"],
+                           infos["ego_0"], view))
+        assert env.agents == [] and dataclasses.asdict(env.metrics("ego_0")) == expected_metrics
+    finally:
+        env.close()
+    assert len(actual) == len(expected) > 40
+    for (*want, want_view), (*got, got_view) in zip(expected, actual, strict=True):
+        assert np.array_equal(got[0], want[0]) and got[0].dtype == want[0].dtype
+        assert got[1:] == want[1:]
+        assert want_view is None or same_view(got_view, want_view)
+
+
+def test_same_seed_same_trajectories_and_another_seed_differs(make_env):
+    env = make_env(4)
+    first, other, again = drive(env, 5), drive(env, 6), drive(env, 5)
+    assert len(first) == len(again)
+    for a, b in zip(first, again, strict=True):
+        assert a[0] == b[0] and a[2:6] == b[2:6]  # agents, rewards, terminations, truncations, infos
+        assert all(np.array_equal(a[1][agent], b[1][agent]) for agent in a[1])
+        assert all(same_view(a[6][agent], b[6][agent]) for agent in a[6])
+    assert not np.array_equal(first[0][1]["ego_0"], other[0][1]["ego_0"])
+
+
+def test_egos_that_finish_or_collide_leave_agents_while_the_others_drive_on(make_env):
+    env = make_env(4)
+    _, infos = env.reset(seed=2)
+    # ego_3, farthest down the road, is driven into a truck stopped ahead of it
+    libsumo.vehicle.setSpeedMode("ego_3", 0)
+    libsumo.vehicle.setSpeed("ego_3", 55.0)
+    libsumo.vehicle.add("blocker", "highway_route", typeID="truck", depart="now",
+                        departLane=str(infos["ego_3"]["lane"]), departPos=str(infos["ego_3"]["position_m"] + 60.0),
+                        departSpeed="0")
+    left_at: dict[str, int] = {}
+    endings: dict[str, tuple] = {}
+    decision = 0
+    while env.agents:
+        decision += 1
+        driving = list(env.agents)
+        _, rewards, terminations, truncations, infos = env.step(dict.fromkeys(driving, Action.KEEP))
+        assert set(rewards) == set(driving)
+        for agent in driving:
+            if terminations[agent] or truncations[agent]:
+                left_at[agent] = decision
+                endings[agent] = (terminations[agent], rewards[agent], infos[agent]["termination"])
+                assert agent not in env.agents
+        if "ego_3" in left_at and decision == left_at["ego_3"]:
+            assert env.agents and set(env.agents) <= {"ego_0", "ego_1", "ego_2"}
+            with pytest.raises(ValueError, match="not driving \\['ego_3'\\]"):
+                env.step({agent: Action.KEEP for agent in [*env.agents, "ego_3"]})
+    assert endings["ego_3"] == (True, -10.0, "collision") and env.metrics("ego_3").collisions == 1
+    assert all(endings[agent][::2] == (False, "end_of_road") for agent in ("ego_0", "ego_1", "ego_2"))
+    assert left_at["ego_3"] < max(left_at.values())  # the others drove on after the collision
+    assert all(env.metrics(agent).decisions == left_at[agent] for agent in left_at)
+    with pytest.raises(RuntimeError, match="every ego has left"):
+        env.step({})
+
+
+def test_start_slots_share_the_single_egos_window_and_widen_when_it_is_too_narrow(small_config):
+    assert start_slots(small_config, 1) == [(300.0, 500.0)]  # HighwayEnv's window
+    assert start_slots(small_config, 4) == [(300.0, 350.0 - GAP_M), (350.0, 400.0 - GAP_M),
+                                            (400.0, 450.0 - GAP_M), (450.0, 500.0)]
+    wide = start_slots(small_config, 16)  # 200 m / 16 < 40 m: slots of 40 m past the window
+    assert wide[0] == (300.0, 340.0 - GAP_M) and wide[-1] == (300.0 + 15 * MIN_SLOT_M, 300.0 + 16 * MIN_SLOT_M)
+    with pytest.raises(ValueError, match="30 egos need start slots"):
+        start_slots(small_config, 30)
+    for egos in (0, 2.5):
+        with pytest.raises(ValueError, match="egos must be an integer"):
+            start_slots(small_config, egos)
+    for seed in range(5):
+        one = EpisodeStarts.draw(np.random.default_rng(seed), small_config, 3, egos=1)
+        single = EpisodeStart.draw(np.random.default_rng(seed), small_config, 3)
+        assert (one.snapshot, one.sumo_seed, one.lanes[0], one.positions_m[0]) == dataclasses.astuple(single)
+
+
+def test_egos_enter_where_the_rule_draws_them(make_env, small_config):
+    env = make_env(4)
+    for seed in (0, 1):
+        _, infos = env.reset(seed=seed)
+        rng, _ = gymnasium.utils.seeding.np_random(seed)
+        starts = EpisodeStarts.draw(rng, small_config, small_config.scenario.snapshots, egos=4)
+        for k, agent in enumerate(env.agents):
+            low, high = env.slots[k]
+            assert low <= starts.positions_m[k] <= high
+            assert infos[agent]["lane"] == starts.lanes[k]  # egos make no lane change by themselves
+            departed_at_m = infos[agent]["position_m"] - libsumo.vehicle.getDistance(agent)
+            assert departed_at_m == pytest.approx(starts.positions_m[k], abs=0.01)
+        assert np.all(np.diff(starts.positions_m) >= GAP_M)
+
+
+def test_an_ego_that_finds_no_room_sits_the_episode_out(make_env, monkeypatch):
+    env = make_env(2)
+
+    class BothAtOnePlace:  # ego_1 is drawn where ego_0 stands, and waits one step at most
+        @staticmethod
+        def draw(rng, config, snapshots, egos):
+            return EpisodeStarts(0, 1, (1, 1), (400.0, 400.0))
+    monkeypatch.setattr(simulation, "ENTRY_WAIT_S", 0.1)
+    monkeypatch.setattr(parallel_env, "EpisodeStarts", BothAtOnePlace)
+    observations, infos = env.reset(seed=0)
+    assert env.agents == ["ego_0"] and set(observations) == set(infos) == {"ego_0"}
+    assert "ego_1" not in libsumo.vehicle.getIDList() + libsumo.simulation.getPendingVehicles()
+    with pytest.raises(RuntimeError, match="ego_1 could not enter the road"):
+        env.traffic("ego_1")
+    _, rewards, *_ = env.step({"ego_0": Action.KEEP})
+    assert set(rewards) == {"ego_0"} and env.metrics("ego_1").decisions == 0
+
+
+def test_each_ego_sees_the_others_as_traffic(make_env):
+    env = make_env(4)  # slots 50 m apart, within the 120 m context radius of each other
+    observations, _ = env.reset(seed=0)
+    assert "ego_1" in env.traffic("ego_0").neighbours.ids and "ego_0" in env.traffic("ego_1").neighbours.ids
+    hits = 0
+    for _ in range(30):
+        for agent in env.agents:
+            view = env.traffic(agent)
+            kept = np.array([vehicle not in env.possible_agents for vehicle in view.neighbours.ids])
+            others_gone = Neighbours(*(np.asarray(getattr(view.neighbours, f.name))[kept]
+                                       for f in dataclasses.fields(Neighbours)))
+            without = env._egos[agent].observation(view.ego, others_gone, view.ego.changing_lane)
+            hits += not np.array_equal(without, observations[agent])  # its LIDAR hits another ego
+        observations, *_ = env.step(dict.fromkeys(env.agents, Action.KEEP))
+    assert hits > 0, hits
+
+
+def test_bad_use_is_a_clear_error(make_env, small_config):
+    env = make_env(2)
+    with pytest.raises(RuntimeError, match="reset"):
+        env.step({"ego_0": 0, "ego_1": 0})
+    with pytest.raises(RuntimeError, match="reset"):
+        env.traffic("ego_0")
+    with pytest.raises(KeyError, match="no agent 'ego_7'"):
+        env.metrics("ego_7")
+    env.reset(seed=0)
+    with pytest.raises(ValueError, match="missing \\['ego_1'\\]"):
+        env.step({"ego_0": 0})
+    with pytest.raises(ValueError, match="action must be"):
+        env.step({"ego_0": 0, "ego_1": 5})
+    with pytest.raises(ValueError, match="warm_state"):
+        env.reset(seed=0, options={"warm_state": 99})
+    with pytest.raises(ValueError, match="transport"):
+        ParallelHighwayEnv(2, small_config, transport="socket")
+    with pytest.raises(SimulationError, match="one simulation per process"):
+        HighwayEnv(small_config).reset(seed=0)
