@@ -1,9 +1,10 @@
 """The meter's table and figure (issue 25): every report written by `sumo-rail step-signal --out` in a folder.
 
 Usage: python experiments/step_signal_table.py REPORTS_DIR [FIGURE.png]
-Prints Markdown: per setting, the agreement's own signal (what the best possible reward, agreement with the expert
-itself, would give the search) and each discriminator's signal and alignment; then the step cosines that other ARS
-step settings (b = N, centred ranks) give on the same rollouts, from the returns the reports keep.
+Prints Markdown: a condensed table (per setting, the agreement's own signal, the paper's discriminator and the best
+aligned other), then per setting the agreement's own signal (what the best possible reward, agreement with the
+expert itself, would give the search) and each discriminator's signal and alignment; then the step cosines that
+other ARS step settings (b = N, centred ranks) give on the same rollouts, from the returns the reports keep.
 """
 
 from __future__ import annotations
@@ -35,12 +36,20 @@ def describe(report: dict[str, Any]) -> str:
     start = "zero" if report["zero_weights"] else "BC"
     noise = f"flip rate {rail['flip_rate']:g}" if rail["flip_rate"] is not None else f"nu {rail['noise']['initial']:g}"
     traffic = ", common traffic" if rail["common_traffic"] else ""
-    return f"{start}, {noise}, {rail['episodes_per_rollout']} ep.{traffic}"
+    return f"{start}, N {rail['directions']}, {noise}, {rail['episodes_per_rollout']} ep.{traffic}"
+
+
+def order(report: dict[str, Any]) -> tuple[Any, ...]:
+    """Rows from BC to zero weights, then by noise, episodes per rollout, traffic and N."""
+    rail = report["settings"]["rail"]
+    return (report["zero_weights"], rail["flip_rate"] or 0.0, rail["episodes_per_rollout"], rail["common_traffic"],
+            rail["directions"])
 
 
 def load(folder: Path) -> list[tuple[str, dict[str, Any]]]:
     """(file stem, report) of every report in `folder`, by name."""
-    return [(path.stem, json.loads(path.read_text())) for path in sorted(folder.glob("*.json"))]
+    reports = [(path.stem, json.loads(path.read_text())) for path in folder.glob("*.json")]
+    return sorted(reports, key=lambda named: order(named[1]))
 
 
 def main_table(reports: list[tuple[str, dict[str, Any]]]) -> str:
@@ -56,6 +65,21 @@ def main_table(reports: list[tuple[str, dict[str, Any]]]) -> str:
             lines.append(f"{head}| {name} | {estimate(reward['signal']['correlation'])} | "
                          f"{estimate(aligned['across'])} | {estimate(aligned['step_cosine'])} |")
             first = False
+    return "\n".join(lines)
+
+
+def condensed_table(reports: list[tuple[str, dict[str, Any]]]) -> str:
+    """Per setting: the agreement's own signal, the paper's discriminator ("given") and the best aligned other."""
+    lines = ["| setting | decisions changed | agreement | signal of agreement itself | paper's reward: signal | "
+             "paper's reward: alignment | best aligned other reward |", "|---|---:|---:|---|---|---|---|"]
+    for _, report in reports:
+        given = report["rewards"]["given"]
+        others = {name: reward for name, reward in report["rewards"].items() if name != "given"}
+        best = max(others, key=lambda name: others[name]["alignment"]["across"]["value"])
+        lines.append(f"| {describe(report)} | {report['flip_rate']:.1%} | {report['agreement_mean']:.3f} | "
+                     f"{estimate(report['agreement']['correlation'])} | {estimate(given['signal']['correlation'])} | "
+                     f"{estimate(given['alignment']['across'])} | {best}: "
+                     f"{estimate(others[best]['alignment']['across'])} |")
     return "\n".join(lines)
 
 
@@ -112,6 +136,8 @@ def figure(reports: list[tuple[str, dict[str, Any]]], path: Path) -> None:
 
 def main(folder: str, figure_path: str | None = None) -> None:
     reports = load(Path(folder))
+    print(condensed_table(reports))
+    print()
     print(main_table(reports))
     print()
     print(step_table(reports))
