@@ -20,7 +20,6 @@ from sumo_rail_cli.options import (
     library_errors,
     make_interruptible,
     output_options,
-    resolve_config,
     resolve_expert_option,
     run_folder_options,
     search_options,
@@ -31,6 +30,7 @@ from sumo_rail_cli.options import (
 from sumo_rail.seeding import EVALUATION_EPISODES
 
 if TYPE_CHECKING:
+    from sumo_rail.config import Config
     from sumo_rail.learning.bc import BcReport
 
 
@@ -40,11 +40,10 @@ if TYPE_CHECKING:
 @backend_options
 @expert_option("Who is recorded.")
 @output_options(required=True)
-def record_expert(config_path: Path | None, overrides: tuple[str, ...], episodes: int, seed: int, workers: int,
+def record_expert(config: Config, episodes: int, seed: int, workers: int,
                   backend_name: str, address: str | None, expert: str, out: Path, overwrite: bool) -> None:
     """Record an expert's demonstrations (the rule-based driver of a style, or any policy file): one Parquet row per
     decision."""
-    config = resolve_config(config_path, overrides)
     check_output(out, overwrite)
     driver = resolve_expert_option(expert, config)
     from sumo_rail.runners.record import record_demonstrations
@@ -88,7 +87,7 @@ def record_expert(config_path: Path | None, overrides: tuple[str, ...], episodes
 @click.option("--video-episodes", type=click.IntRange(min=1), default=None, metavar="K",
               help="With --video: episodes recorded per driver  [default: 1].")
 @output_options(required=False)
-def evaluate_command(config_path: Path | None, overrides: tuple[str, ...], policies: tuple[str, ...],
+def evaluate_command(config: Config, policies: tuple[str, ...],
                      sampled_policies: tuple[Path, ...], expert: str, reference: str | None,
                      pool: str, episodes: int, seed: int, workers: int, backend_name: str, address: str | None,
                      gui: bool, gui_delay_ms: float | None, video_dir: Path | None, video_episodes: int | None,
@@ -100,7 +99,6 @@ def evaluate_command(config_path: Path | None, overrides: tuple[str, ...], polic
     action distributions to the reference expert's when that expert is among the drivers. --out gets one row per
     episode and NAME.decisions.parquet beside it one row per decision. --video writes DRIVER_episodeNNN_seedS.mp4
     files into a folder."""
-    config = resolve_config(config_path, overrides)
     check_output(out, overwrite)
     if gui_delay_ms is not None and not gui:
         raise click.UsageError("--gui-delay needs --gui")
@@ -210,12 +208,11 @@ def _write_videos(videos: dict[str, bytes], video_dir: Path | None) -> list[str]
               help="Iterations in total (with --resume: including those already done).")
 @run_folder_options("iteration", eval_every=10)
 @tensorboard_option
-def train_command(config_path: Path | None, overrides: tuple[str, ...], demos: Path, kind: str, hidden: int,
+def train_command(config: Config, demos: Path, kind: str, hidden: int,
                   bc_epochs: int, bc_class_balance: float, search: SearchOptions, iterations: int, workers: int,
                   backend_name: str, address: str | None, seed: int, eval_every: int, eval_episodes: int, out: Path,
                   resume: bool, tensorboard_dir: Path | None) -> None:
     """Learn a driving policy from demonstrations with RAIL (BC initialisation, then ARS with an LS-GAN reward)."""
-    config = resolve_config(config_path, overrides)
     from sumo_rail.learning.training import RunError, RunSettings, Validation, train
 
     rail, discriminator = search.settings(seed)

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import click
 from sumo_rail_cli.options import (
@@ -14,11 +14,13 @@ from sumo_rail_cli.options import (
     imitation_options,
     library_errors,
     make_interruptible,
-    resolve_config,
     run_folder_options,
     tensorboard_logger,
     tensorboard_option,
 )
+
+if TYPE_CHECKING:
+    from sumo_rail.config import Config
 
 
 @click.command("dagger")
@@ -35,7 +37,7 @@ from sumo_rail_cli.options import (
 @expert_option("Who labels the learner's states [default: the demonstrations' expert].", default=None)
 @run_folder_options("round", eval_every=1)
 @tensorboard_option
-def dagger_command(config_path: Path | None, overrides: tuple[str, ...], demos: Path, kind: str, hidden: int,
+def dagger_command(config: Config, demos: Path, kind: str, hidden: int,
                    bc_epochs: int, bc_class_balance: float, rounds: int, episodes_per_round: int, beta: float,
                    beta_decay: float, expert: str | None, workers: int, backend_name: str, address: str | None,
                    seed: int, eval_every: int, eval_episodes: int, out: Path, resume: bool,
@@ -46,7 +48,6 @@ def dagger_command(config_path: Path | None, overrides: tuple[str, ...], demos: 
     Writes run.json, dataset.parquet, policy_bc.npz, policy_latest.npz (evaluate it with evaluate --policy),
     log.parquet (one row per round) and checkpoint.json. Ctrl-C or SIGTERM keeps the last complete round;
     --resume continues it with the same result."""
-    config = resolve_config(config_path, overrides)
     from sumo_rail.learning.bc import BcSettings
     from sumo_rail.learning.dagger import DaggerSettings, train_dagger
     from sumo_rail.learning.training import RunError, Validation

@@ -13,12 +13,12 @@ from sumo_rail_cli.options import (
     imitation_options,
     library_errors,
     make_interruptible,
-    resolve_config,
     tensorboard_logger,
     tensorboard_option,
 )
 
 if TYPE_CHECKING:
+    from sumo_rail.config import Config
     from sumo_rail.learning.bc import BcReport
     from sumo_rail.learning.gail import GailResult, GailSettings
 
@@ -43,7 +43,7 @@ if TYPE_CHECKING:
 @click.option("--out", type=click.Path(path_type=Path, file_okay=False), required=True,
               help="Run folder (new or empty).")
 @tensorboard_option
-def gail_command(config_path: Path | None, overrides: tuple[str, ...], demos: Path, timesteps: int, kind: str,
+def gail_command(config: Config, demos: Path, timesteps: int, kind: str,
                  hidden: int, bc_epochs: int, bc_class_balance: float, envs: int, n_steps: int, learning_rate: float,
                  normalize_reward: bool, critic_warmup: int, seed: int, out: Path,
                  tensorboard_dir: Path | None) -> None:
@@ -54,7 +54,6 @@ def gail_command(config_path: Path | None, overrides: tuple[str, ...], demos: Pa
     SIGTERM stops after the current update with its files complete; a GAIL run cannot be resumed. Needs pip
     install 'sumo-rail[baselines]'.
     """
-    config = resolve_config(config_path, overrides)
     from sumo_rail.learning.discriminator import DiscriminatorSettings
     from sumo_rail.learning.gail import BaselineError, GailSettings, train_gail
     from sumo_rail.learning.training import RunError

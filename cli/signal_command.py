@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import click
 from sumo_rail_cli.options import (
@@ -16,12 +16,14 @@ from sumo_rail_cli.options import (
     expert_option,
     library_errors,
     make_interruptible,
-    resolve_config,
     resolve_expert_option,
     search_options,
 )
 
 from sumo_rail.learning.step_signal import REWARD_VARIANTS
+
+if TYPE_CHECKING:
+    from sumo_rail.config import Config
 
 
 @click.command("step-signal")
@@ -46,14 +48,13 @@ from sumo_rail.learning.step_signal import REWARD_VARIANTS
               help="Seed of the directions, the traffic draws and the discriminators.")
 @click.option("--out", type=click.Path(path_type=Path, dir_okay=False), default=None,
               help="JSON file for the report (with its settings and provenance), written atomically.")
-def step_signal_command(config_path: Path | None, overrides: tuple[str, ...], demos: Path, policy_path: Path,
+def step_signal_command(config: Config, demos: Path, policy_path: Path,
                         zero_weights: bool, expert: str | None, rewards: tuple[str, ...], warmup_rounds: int,
                         search: SearchOptions, workers: int, backend_name: str, address: str | None, seed: int,
                         out: Path | None) -> None:
     """Measure one ARS step of RAIL without training: how much of it two independent draws of traffic agree on
     (signal) and whether the directions the discriminator's reward prefers raise agreement with the expert
     (alignment), with 95% intervals over the directions."""
-    config = resolve_config(config_path, overrides)
     rail, discriminator_settings = search.settings(seed)
     if rail.directions < 3:
         raise click.UsageError("--directions must be at least 3: the meter correlates the draws across directions")

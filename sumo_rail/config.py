@@ -1,7 +1,8 @@
 """Settings as frozen dataclasses: documented defaults, TOML overrides, validation.
 
 Every field carries its unit in the docstring. `Config.from_toml` / `Config.with_overrides` reject unknown
-keys and impossible values with a one-sentence `ConfigError`; `Config.to_dict` is what outputs store.
+keys and impossible values with a one-sentence `ConfigError`; `Config.to_dict` is what outputs store. The defaults
+are the paper's setting; `Config.preset` gives the named settings of `PRESETS` (every command's `--preset`).
 """
 
 from __future__ import annotations
@@ -17,6 +18,17 @@ from typing import Any
 
 class ConfigError(ValueError):
     """A configuration value or file a user supplied is invalid (message is one sentence)."""
+
+
+PRESETS: dict[str, dict[str, dict[str, Any]]] = {
+    "paper": {},
+    "recommended": {"observation": {"lane_block": 1}},
+}
+"""Named settings, as changes to the defaults. paper: the defaults, the paper's setting (its 24-beam LIDAR is the
+whole observation). recommended: the benchmark's setting, the paper's plus the lane-wise block
+(observation.lane_block = 1), which shows the learner the cars one lane over that the beams miss and that the
+expert reacts to, so every learner can imitate the expert far more closely (docs/results.md, "What the learner
+can see")."""
 
 
 @dataclass(frozen=True)
@@ -196,6 +208,16 @@ class Config:
     @classmethod
     def from_toml(cls, path: str | Path) -> Config:
         """Read a TOML file with optional [scenario], [lidar], [env], [observation] and [expert] tables."""
+        return cls().with_toml(path)
+
+    @classmethod
+    def preset(cls, name: str) -> Config:
+        """The named setting `name` of PRESETS; an unknown name raises ConfigError."""
+        _require(name in PRESETS, f"unknown preset {name!r}; known: {', '.join(PRESETS)}")
+        return cls.from_dict(PRESETS[name])
+
+    def with_toml(self, path: str | Path) -> Config:
+        """A copy with the keys of a TOML file's tables replaced (the format of `from_toml`)."""
         try:
             with open(path, "rb") as handle:
                 data = tomllib.load(handle)
@@ -203,7 +225,7 @@ class Config:
             raise ConfigError(f"cannot read config file {path}: {error.strerror or error}") from error
         except tomllib.TOMLDecodeError as error:
             raise ConfigError(f"config file {path} is not valid TOML: {error}") from error
-        return cls.from_dict(data)
+        return self.with_overrides(data)
 
     @classmethod
     def coerce(cls, value: Config | Mapping[str, Any] | str | Path | None) -> Config:

@@ -17,6 +17,7 @@ import pyarrow.parquet as pq
 import pytest
 from click.testing import CliRunner
 from sumo_rail_cli.main import cli
+from sumo_rail_cli.options import resolve_config
 
 import sumo_rail
 from sumo_rail.config import Config
@@ -146,7 +147,7 @@ def test_evaluate_rejects_bad_policies_without_writing(tmp_path):
     out = tmp_path / "m.parquet"
     wrong_size = hand_made_policy(tmp_path / "wrong.npz", action=0, observation_size=60)
     result = invoke("evaluate", *SMALL, "--policy", str(wrong_size), "--out", str(out))
-    assert result.exit_code == 1 and "expects 60 observations" in result.output
+    assert result.exit_code == 1 and "reads 60 observation values" in result.output
     corrupt = tmp_path / "corrupt.npz"
     corrupt.write_bytes(b"garbage")
     result = invoke("evaluate", *SMALL, "--policy", str(corrupt), "--out", str(out))
@@ -182,6 +183,26 @@ def test_unknown_key_in_config_file(tmp_path: Path):
     path.write_text("[env]\ndecision_period = 1.0\n")
     result = invoke("evaluate", "--config", str(path))
     assert result.exit_code == 2 and "env.decision_period" in result.output
+
+
+def test_the_recommended_preset_is_the_lane_block_setting_in_every_output(tmp_path):
+    outs = {}
+    for name, args in (("preset", ["--preset", "recommended"]), ("set", ["--set", "observation.lane_block=1"])):
+        outs[name] = tmp_path / f"{name}.parquet"
+        result = invoke("record-expert", *SMALL, *args, "--episodes", "1", "--out", str(outs[name]))
+        assert result.exit_code == 0, result.output
+    assert read_metadata(outs["preset"])["config"] == read_metadata(outs["set"])["config"]
+    assert read_metadata(outs["preset"])["config"]["observation"]["lane_block"] == 1
+    assert pq.read_table(outs["preset"]).equals(pq.read_table(outs["set"]))
+
+
+def test_the_config_file_changes_the_preset_and_set_changes_both(tmp_path):
+    path = tmp_path / "c.toml"
+    path.write_text("[observation]\nlane_block = 0\n[scenario]\nlanes = 4\n")
+    assert resolve_config("recommended", None, ()) == Config.preset("recommended")
+    assert resolve_config("recommended", path, ()) == Config().with_overrides({"scenario": {"lanes": 4}})
+    assert resolve_config("recommended", path, ("scenario.lanes=3",)).scenario.lanes == 3
+    assert invoke("evaluate", "--preset", "best").exit_code == 2
 
 
 def test_gui_without_a_display_is_a_one_sentence_error():

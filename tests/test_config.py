@@ -55,3 +55,17 @@ def test_unreadable_or_malformed_toml_is_a_config_error(tmp_path: Path):
     bad.write_text("[scenario\nlanes = ")
     with pytest.raises(ConfigError, match="not valid TOML"):
         Config.from_toml(bad)
+
+
+def test_presets_are_named_changes_to_the_paper_setting():
+    assert Config.preset("paper") == Config()
+    assert Config.preset("recommended") == Config().with_overrides({"observation": {"lane_block": 1}})
+    with pytest.raises(ConfigError, match="unknown preset 'best'"):
+        Config.preset("best")
+
+
+def test_a_toml_file_changes_the_config_it_is_applied_to(tmp_path: Path):
+    path = tmp_path / "c.toml"
+    path.write_text("[scenario]\nlanes = 4\n")
+    config = Config.preset("recommended").with_toml(path)
+    assert (config.scenario.lanes, config.observation.lane_block) == (4, 1)
