@@ -1,7 +1,8 @@
 """The table of experiments/rail_remedies.sh: every variant against BC and against the paper's setting, paired by
 training seed and episode (experiments/seeded.py says how seeds are pooled). Prints Markdown.
 
-Usage: python experiments/remedies_table.py METRICS.parquet
+Usage: python experiments/remedies_table.py METRICS.parquet [METRICS.parquet ...]   (evaluations on the same validation
+episodes, e.g. later variants evaluated apart, are read as one)
 """
 
 from __future__ import annotations
@@ -26,8 +27,8 @@ LABELS = {
 }
 
 
-def main(path: str) -> None:
-    metrics = pd.read_parquet(path)
+def main(*paths: str) -> None:
+    metrics = pd.concat([pd.read_parquet(path) for path in paths]).drop_duplicates(["policy", "seed"])
     seeds = training_seeds(metrics, "bc")
     variants = [name for name in LABELS if training_seeds(metrics, name) == seeds]
     samples = {name: seed_samples(metrics, name, seeds) for name in variants}
