@@ -25,6 +25,7 @@ from sumo_rail_cli.options import (
     search_options,
     tensorboard_logger,
     tensorboard_option,
+    validation_summary,
 )
 
 from sumo_rail.seeding import EVALUATION_EPISODES
@@ -231,10 +232,7 @@ def train_command(config: Config, demos: Path, kind: str, hidden: int,
         bar.set_postfix(D_return=f"{row['return_mean']:+.3f}", steps_per_s=f"{steps_per_s:.0f}")
         bar.update()
         if row["eval_average_speed_kmh"] is not None:
-            bar.write(f"iteration {row['iteration'] + 1}: validation agreement {row['eval_agreement']:.3f} "
-                      f"(lane-change recall {row['eval_lane_change_recall']:.2f}), speed "
-                      f"{row['eval_average_speed_kmh']:.1f} km/h, overtakes {row['eval_overtakes']:.2f}, lane changes "
-                      f"{row['eval_lane_changes']:.2f}, collisions {row['eval_collisions']:.2f}")
+            bar.write(f"iteration {row['iteration'] + 1}: {validation_summary(row, eval_episodes)}")
 
     make_interruptible()  # Ctrl-C or SIGTERM: the last complete iteration is kept
     with library_errors(), tensorboard_logger(tensorboard_dir, "rail", out) as board, backend, bar:

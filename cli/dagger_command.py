@@ -17,6 +17,7 @@ from sumo_rail_cli.options import (
     run_folder_options,
     tensorboard_logger,
     tensorboard_option,
+    validation_summary,
 )
 
 if TYPE_CHECKING:
@@ -70,8 +71,7 @@ def dagger_command(config: Config, demos: Path, kind: str, hidden: int,
         text = (f"round {row['iteration']}: {row['dataset_rows']} labelled states, BC holdout accuracy "
                 f"{'n/a' if holdout is None else f'{holdout:.3f}'}")
         if row.get("eval_agreement") is not None:
-            text += (f", validation agreement {row['eval_agreement']:.3f} (lane-change recall "
-                     f"{row['eval_lane_change_recall']:.2f}), speed {row['eval_average_speed_kmh']:.1f} km/h")
+            text += f", {validation_summary(row, eval_episodes)}"
         bar.write(text)
 
     make_interruptible()  # Ctrl-C or SIGTERM: the last complete round is kept

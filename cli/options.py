@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import contextlib
 import functools
+import math
 import signal
 import tomllib
 from collections.abc import Callable, Iterator
@@ -230,6 +231,17 @@ def bc_summary(report: BcReport, policy_path: Path) -> str:
     holdout = "n/a" if report.holdout_accuracy is None else f"{report.holdout_accuracy:.3f}"
     return (f"behaviour cloning: train accuracy {report.train_accuracy:.3f}, holdout accuracy {holdout} "
             f"({report.holdout_rows} held-out decisions); saved {policy_path}")
+
+
+def validation_summary(row: dict[str, Any], episodes: int) -> str:
+    """A training log row's validation measures, agreement with the expert first, with its 95% interval over the
+    `episodes` validation episodes (an estimate from a few episodes is rough; the interval says how rough)."""
+    low, high = row.get("eval_agreement_low"), row.get("eval_agreement_high")
+    spread = "" if low is None or math.isnan(low) else f" [{low:.3f}, {high:.3f}]"
+    return (f"validation agreement {row['eval_agreement']:.3f}{spread} on {episodes} episode{'s' * (episodes != 1)} "
+            f"(lane-change recall {row['eval_lane_change_recall']:.2f}), speed {row['eval_average_speed_kmh']:.1f} "
+            f"km/h, overtakes {row['eval_overtakes']:.2f}, lane changes {row['eval_lane_changes']:.2f}, collisions "
+            f"{row['eval_collisions']:.2f}")
 
 
 def make_interruptible() -> None:

@@ -37,6 +37,7 @@ from sumo_rail.learning.training import (
     validate,
     validation_columns,
     with_defaults,
+    with_validation_columns,
     write_atomically,
 )
 from sumo_rail.runners.backends import RolloutBackend, WorkerContext
@@ -234,4 +235,4 @@ def _resume(folder: Path, run_record: dict[str, Any]) -> tuple[int, Demonstratio
     observations = table.column("observation").combine_chunks().flatten().to_numpy().reshape(-1, size)
     dataset = Demonstrations(observations, table.column("action").to_numpy().astype(np.int64),
                              table.column("episode").to_numpy(), {})
-    return done, dataset, [row for row in logs if row["iteration"] <= done]
+    return done, dataset, [with_validation_columns(row) for row in logs if row["iteration"] <= done]

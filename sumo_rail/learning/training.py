@@ -4,8 +4,9 @@ runs/NAME/ holds `run.json` (settings, config, provenance), `checkpoint.pt` (eve
 written with torch.save and read with `weights_only=True`, so loading never runs code), `policy_bc.npz`,
 `policy_latest.npz`, `policy_best.npz` (by mean discriminator return), `discriminator.pt` and `log.parquet`
 (one row per iteration; every `Validation.every` iterations it also holds the policy's mean episode metrics on
-validation seeds, `eval_*` columns, null otherwise). Every file is replaced atomically after each iteration, so an
-interrupted run keeps its last complete iteration and `--resume` continues from it bit for bit.
+validation seeds and the 95% interval of its agreement with the expert, `eval_*` columns, null otherwise). Every
+file is replaced atomically after each iteration, so an interrupted run keeps its last complete iteration and
+`--resume` continues from it bit for bit.
 """
 
 from __future__ import annotations
@@ -39,7 +40,7 @@ from sumo_rail.datasets import (
 )
 from sumo_rail.drivers.policies import Policy, PolicyShape, save_policy
 from sumo_rail.evaluation.evaluate import evaluate
-from sumo_rail.evaluation.statistics import ratio
+from sumo_rail.evaluation.statistics import interval, ratio
 from sumo_rail.evaluation.summary import measure_samples
 from sumo_rail.learning.bc import BcReport, BcSettings, behaviour_cloning
 from sumo_rail.learning.discriminator import Discriminator, DiscriminatorSettings
@@ -78,6 +79,9 @@ VALIDATION_METRICS = ("agreement", "lane_change_recall", "lane_change_precision"
                       "lane_changes", "longitudinal_reward", "lateral_reward", "collisions")
 """Measures the log holds as eval_<measure>: the agreement rates with the expert (pooled over the validation
 decisions) and the episode metrics' means."""
+VALIDATION_INTERVAL = ("eval_agreement_low", "eval_agreement_high")
+"""The log's bounds of the 95% interval of eval_agreement (bootstrap over the validation episodes, as `evaluate`
+gives it; NaN with one episode). Logs written before them lack them (`with_validation_columns`)."""
 
 
 @dataclass(frozen=True)
@@ -144,18 +148,25 @@ def train(folder: Path, settings: RunSettings, config: Config, iterations: int, 
 
 
 def validation_columns() -> tuple[str, ...]:
-    """The log's eval_<measure> columns."""
-    return tuple(f"eval_{metric}" for metric in VALIDATION_METRICS)
+    """The log's eval_<measure> columns and the agreement's interval."""
+    return (*(f"eval_{metric}" for metric in VALIDATION_METRICS), *VALIDATION_INTERVAL)
+
+
+def with_validation_columns(row: dict[str, Any]) -> dict[str, Any]:
+    """A log row of a run started before some validation column existed, with that column added (null)."""
+    return row | {name: None for name in validation_columns() if name not in row}
 
 
 def validate(policy: Policy, config: Config, backend: RolloutBackend, validation: Validation,
              expert: str) -> dict[str, float]:
     """VALIDATION_METRICS of `policy` on the validation seeds and warm states, as eval_<measure>, agreement with
-    `expert` (a style or a policy file)."""
+    `expert` (a style or a policy file), and the agreement's 95% interval (VALIDATION_INTERVAL)."""
     seeds = episode_seeds(Purpose.EVALUATE, VALIDATION_BASE_SEED, validation.episodes)
     evaluation = evaluate([PolicyDriver(policy, "policy", expert)], config, seeds, backend, pool="validation")
     samples = measure_samples(evaluation.metrics)
-    return {f"eval_{measure}": float(ratio(samples[measure])) for measure in VALIDATION_METRICS}
+    agreement = interval(samples["agreement"])
+    return {**{f"eval_{measure}": float(ratio(samples[measure])) for measure in VALIDATION_METRICS},
+            "eval_agreement_low": agreement.low, "eval_agreement_high": agreement.high}
 
 
 def _start_folder(folder: Path, run_record: dict[str, Any]) -> None:
@@ -240,7 +251,7 @@ def _resume(folder: Path, run_record: dict[str, Any], shape: PolicyShape,
         discriminator.load_state(checkpoint["discriminator"])
         state = TrainingState(int(checkpoint["iteration"]), checkpoint["parameters"].numpy(), stats, checkpoint["nu"],
                               checkpoint["best_return"], checkpoint["best_at_last_check"], rng)
-        logs = [dict(row) for row in checkpoint["log"]]
+        logs = [with_validation_columns(dict(row)) for row in checkpoint["log"]]
     except KeyError as error:
         raise RunError(f"checkpoint {path} lacks its entry {error}") from error
     except (TypeError, ValueError, AttributeError, RuntimeError) as error:

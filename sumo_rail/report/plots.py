@@ -59,7 +59,8 @@ def learning_curves(runs: list[Run]) -> Figure:
 
 
 def validation_curves(runs: list[Run]) -> Figure:
-    """Validation metrics (mean over validation episodes) vs cumulative env steps, one panel per metric."""
+    """Validation metrics (mean over validation episodes) vs cumulative env steps, one panel per metric; agreement
+    with its 95% interval as a band where the log holds it."""
     figure = _figure(15, 7.5)
     panels = figure.subplots(2, 3, sharex=True).ravel()
     for axes, (column, label) in zip(panels, VALIDATION_PANELS, strict=True):
@@ -68,6 +69,9 @@ def validation_curves(runs: list[Run]) -> Figure:
             if not rows.empty:
                 axes.plot(rows["cumulative_env_steps"], rows[column], color=_colour(index), marker="o",
                           markersize=4, label=run.name)
+                if column == "eval_agreement" and {f"{column}_low", f"{column}_high"} <= set(rows.columns):
+                    axes.fill_between(rows["cumulative_env_steps"], rows[f"{column}_low"], rows[f"{column}_high"],
+                                      color=_colour(index), alpha=0.15, linewidth=0)
         if all(run.evaluated[column].isna().all() for run in runs):
             axes.text(0.5, 0.5, "not in these logs (runs from before it was measured)", ha="center",
                       va="center", transform=axes.transAxes, color="grey")

@@ -4,12 +4,23 @@ import json
 import numpy as np
 import pandas as pd
 import pytest
+import torch
+from test_cli import SMALL, hand_made_policy, invoke
 
 from sumo_rail.datasets import write_parquet
 from sumo_rail.drivers.policies import MIN_STD, load_policy
+from sumo_rail.evaluation.summary import intervals
 from sumo_rail.learning.discriminator import DiscriminatorSettings
 from sumo_rail.learning.rail import RailSettings, rollout_return
-from sumo_rail.learning.training import RunError, RunSettings, Validation, train
+from sumo_rail.learning.training import (
+    VALIDATION_BASE_SEED,
+    VALIDATION_INTERVAL,
+    RunError,
+    RunSettings,
+    Validation,
+    train,
+    validate,
+)
 from sumo_rail.runners.backends import ProcessPoolBackend, SerialBackend
 from sumo_rail.runners.rollout import EpisodeTask, ExpertDriver
 from sumo_rail.runners.tables import DEMONSTRATIONS, demonstrations_table, provenance
@@ -94,12 +105,17 @@ def test_a_run_started_before_the_newer_options_resumes_at_their_defaults(tmp_pa
             del record["settings"]["rail"][key]
         del record["settings"]["discriminator"]["reward_form"]
         (tmp_path / "run" / "run.json").write_text(json.dumps(record))
+        checkpoint = torch.load(tmp_path / "run" / "checkpoint.pt", weights_only=True)  # a log without the interval
+        checkpoint["log"] = [{key: value for key, value in row.items() if key not in VALIDATION_INTERVAL}
+                             for row in checkpoint["log"]]
+        torch.save(checkpoint, tmp_path / "run" / "checkpoint.pt")
         train(tmp_path / "run", settings, small_config_module, 2, backend, resume=True)
         with pytest.raises(RunError, match="other settings"):
             train(tmp_path / "run", dataclasses.replace(settings, rail=dataclasses.replace(settings.rail,
                                                                                           fitness="rank")),
                   small_config_module, 3, backend, resume=True)
-    assert len(pd.read_parquet(tmp_path / "run" / "log.parquet")) == 2
+    log = pd.read_parquet(tmp_path / "run" / "log.parquet")
+    assert len(log) == 2 and log["eval_agreement_low"].isna().all()
 
 
 def test_without_bc_a_frozen_normaliser_holds_the_demonstrations_statistics(tmp_path, demos_path,
@@ -147,6 +163,20 @@ def test_validation_schedule():
     assert not any(Validation(every=0).due(i, last=6) for i in range(7))
     with pytest.raises(ValueError):
         Validation(every=1, episodes=0)
+
+
+def test_validation_is_what_evaluate_gives_on_the_validation_episodes(tmp_path, small_config_module):
+    path = hand_made_policy(tmp_path / "keep.npz", action=0)
+    policy, _ = load_policy(path)
+    with SerialBackend() as backend:
+        row = validate(policy, small_config_module, backend, Validation(every=1, episodes=3), "normal")
+    result = invoke("evaluate", *SMALL, "--policy", str(path), "--pool", "validation", "--seed",
+                    str(VALIDATION_BASE_SEED), "--episodes", "3", "--out", str(tmp_path / "m.parquet"))
+    assert result.exit_code == 0, result.output
+    evaluated = intervals(pd.read_parquet(tmp_path / "m.parquet")).set_index("measure").loc["agreement"]
+    assert (row["eval_agreement"], row["eval_agreement_low"], row["eval_agreement_high"]) == (
+        evaluated["estimate"], evaluated["low"], evaluated["high"])
+    assert row["eval_agreement_low"] <= row["eval_agreement"] <= row["eval_agreement_high"]
 
 
 def test_run_folder_rules(tmp_path, demos_path, small_config_module):
