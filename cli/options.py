@@ -270,6 +270,7 @@ class SearchOptions:
     reward: str
     traffic: str
     episodes_per_rollout: int
+    egos: int
     freeze_normalizer: bool
     disc_hidden: int
     disc_lr: float
@@ -289,6 +290,7 @@ class SearchOptions:
             rail = RailSettings(directions=self.directions, top=self.top, step_size=self.step_size,
                                 noise=NoiseAdaptation(self.noise, self.noise_increment, self.noise_every), seed=seed,
                                 common_traffic=self.traffic == "common", episodes_per_rollout=self.episodes_per_rollout,
+                                egos=self.egos,
                                 freeze_normalizer=self.freeze_normalizer, fitness=self.fitness,
                                 flip_rate=self.flip_rate, reward=self.reward)
             discriminator = DiscriminatorSettings(hidden=self.disc_hidden, learning_rate=self.disc_lr,
@@ -332,6 +334,9 @@ def search_options(command: Callable[..., Any]) -> Callable[..., Any]:
                           "independent: each direction its own."),
         click.option("--episodes-per-rollout", type=click.IntRange(min=1), default=1, show_default=True,
                      help="Episodes each perturbed rollout drives (its return is their mean)."),
+        click.option("--egos", type=click.IntRange(min=1), default=1, show_default=True,
+                     help="Rollouts that share one simulation, each driving its own ego (the others are traffic to "
+                          "it); 1: one rollout per simulation, as the paper."),
         click.option("--freeze-normalizer/--merge-normalizer", default=True, show_default=True,
                      help="Keep BC's observation statistics, or merge every rollout's states into them (the "
                           "paper's)."),

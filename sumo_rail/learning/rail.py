@@ -39,6 +39,7 @@ if TYPE_CHECKING:
     from sumo_rail.learning.discriminator import Discriminator
     from sumo_rail.runners.backends import RolloutBackend, WorkerContext
     from sumo_rail.runners.tables import Demonstrations
+    from sumo_rail.sim.parallel_env import ParallelHighwayEnv
 
 
 REWARDS = ("discriminator", "agreement")
@@ -77,6 +78,9 @@ class RailSettings:
     at every decision of every rollout (as DAgger asks it) and a rollout's return is the share of its decisions the
     expert would have made alike, the reward every discriminator stands in for; what the search reaches with it
     bounds what it can reach with any reward at the same budget."""
+    egos: int = 1
+    """Rollouts that share one simulation, each on its own ego (`SharedRolloutTask`); 1: one rollout per
+    simulation, as the paper."""
     flip_rate: float | None = None
     """When set, nu is chosen at every iteration so that the iteration's perturbations change this share of the
     policy's decisions on CALIBRATION_STATES of the expert's states (`noise.noise_for_flip_rate`), in place of the
@@ -93,6 +97,8 @@ class RailSettings:
             raise ValueError(f"--episodes-per-rollout must be at least 1, got {self.episodes_per_rollout}")
         if self.fitness not in FITNESS_SHAPINGS:
             raise ValueError(f"--fitness must be one of {', '.join(FITNESS_SHAPINGS)}, got {self.fitness!r}")
+        if self.egos < 1:
+            raise ValueError(f"--egos must be at least 1, got {self.egos}")
         if self.reward not in REWARDS:
             raise ValueError(f"--reward must be one of {', '.join(REWARDS)}, got {self.reward!r}")
         if self.flip_rate is not None and not 0.0 < self.flip_rate < 1.0:
@@ -151,6 +157,66 @@ class RolloutTask:
                                            bool(result.metrics["collisions"]), int(result.metrics["steps"]),
                                            np.array(labels, np.int64) if self.expert is not None else None))
         return trajectories
+
+
+@dataclass(frozen=True)
+class SharedRolloutTask:
+    """Several rollouts of one iteration in one simulation: member j, (index, sign), drives ego_j of a
+    `ParallelHighwayEnv` with theta + sign * nu * delta(iteration, index), on every episode seed; the other members
+    are traffic to it."""
+
+    config: Config
+    shape: PolicyShape
+    parameters: np.ndarray
+    observation_mean: np.ndarray
+    observation_std: np.ndarray
+    noise_seed: int
+    iteration: int
+    members: tuple[tuple[int, int], ...]
+    nu: float
+    episode_seeds: tuple[int, ...]
+    expert: DriverSpec | None = None
+
+    def run(self, context: WorkerContext) -> list[list[Trajectory]]:
+        """Per member, one trajectory per episode seed (with no decision where its ego found no room)."""
+        size = self.shape.parameter_count
+        policies = [Policy(self.shape, self.parameters + np.float32(sign * self.nu)
+                           * direction(self.noise_seed, self.iteration, index, size),
+                           self.observation_mean, self.observation_std) for index, sign in self.members]
+        env = context.parallel_env(self.config, len(self.members))
+        trajectories: list[list[Trajectory]] = [[] for _ in self.members]
+        for seed in self.episode_seeds:
+            experts = [None if self.expert is None else self.expert.create(self.config, seed) for _ in self.members]
+            for member, trajectory in enumerate(_shared_episode(env, policies, experts, seed)):
+                trajectories[member].append(trajectory)
+        return trajectories
+
+
+def _shared_episode(env: ParallelHighwayEnv, policies: list[Policy], experts: list[Driver | None],
+                    seed: int) -> list[Trajectory]:
+    """One episode of `env`, ego_j driven by policies[j] (and experts[j], when given, asked at each of its
+    decisions): each ego's trajectory, in ego order."""
+    observations, _ = env.reset(seed=seed)
+    agents = list(env.possible_agents)
+    seen: dict[str, list[np.ndarray]] = {agent: [] for agent in agents}
+    taken: dict[str, list[int]] = {agent: [] for agent in agents}
+    labels: dict[str, list[int]] = {agent: [] for agent in agents}
+    while env.agents:
+        actions = {}
+        for agent in env.agents:
+            member = agents.index(agent)
+            expert = experts[member]
+            if expert is not None:
+                labels[agent].append(expert(observations[agent], env.traffic(agent)))
+            actions[agent] = policies[member].act(observations[agent])
+            seen[agent].append(observations[agent])
+            taken[agent].append(actions[agent])
+        observations, _, _, _, _ = env.step(actions)
+    size = env.observation_space(agents[0]).shape[0]
+    return [Trajectory(np.array(seen[agent], np.float32).reshape(-1, size), np.array(taken[agent], np.int64),
+                       bool(env.metrics(agent).collisions), len(taken[agent]),
+                       None if experts[member] is None else np.array(labels[agent], np.int64))
+            for member, agent in enumerate(agents)]
 
 
 def _asking(policy: Policy, expert: Driver | None, labels: list[int]) -> Driver:
@@ -216,19 +282,45 @@ def rollout_return(rewards: np.ndarray, collided: bool, horizon: int, lowest_rew
     return float(rewards.mean())
 
 
+def run_rollouts(policy: Policy, config: Config, noise_seed: int, iteration: int, nu: float,
+                 seeds: list[tuple[int, ...]], expert: DriverSpec | None, egos: int, backend: RolloutBackend,
+                 on_rollout: Callable[[int, Any], None] | None = None) -> list[list[Trajectory]]:
+    """The 2N rollouts of theta +- nu delta_k (k < len(seeds), direction k on its episode `seeds[k]`), in the order
+    (0, +), (0, -), (1, +), ...: one per task with one ego, or `egos` consecutive rollouts per simulation, sharing
+    the episode seeds of the first one's direction (`SharedRolloutTask`)."""
+    members = [(k, sign) for k in range(len(seeds)) for sign in (1, -1)]
+    fields = (config, policy.shape, policy.parameters, policy.observation_mean, policy.observation_std, noise_seed,
+              iteration)
+    if egos == 1:
+        return backend.run([RolloutTask(*fields, k, sign, nu, seeds[k], expert) for k, sign in members],
+                           on_result=on_rollout)
+    groups = [tuple(members[start:start + egos]) for start in range(0, len(members), egos)]
+    shared = backend.run([SharedRolloutTask(*fields, group, nu, seeds[group[0][0]], expert) for group in groups],
+                         on_result=on_rollout)
+    return [rollout for group in shared for rollout in group]
+
+
+def _returns(rollouts: list[list[Trajectory]], score: Callable[[Trajectory], float]) -> np.ndarray:
+    """Each rollout's mean score over its episodes with decisions; a rollout with none (its ego never found room on
+    the road, which only several egos per simulation can cause) gets the mean of the others, no signal either way."""
+    returns = np.array([np.mean([score(t) for t in rollout if t.steps > 0]) if any(t.steps > 0 for t in rollout)
+                        else np.nan for rollout in rollouts])
+    return np.where(np.isnan(returns), np.nanmean(returns), returns)
+
+
 def discriminator_returns(rollouts: list[list[Trajectory]], discriminator: Discriminator, horizon: int) -> np.ndarray:
     """Each rollout's return, shape (rollouts,): the mean over its episodes of `rollout_return` of the
     discriminator's rewards."""
     lowest = discriminator.lowest_reward()
-    return np.array([np.mean([rollout_return(discriminator.reward(t.observations, t.actions), t.collided, horizon,
-                                             lowest) for t in rollout]) for rollout in rollouts])
+    return _returns(rollouts, lambda t: rollout_return(discriminator.reward(t.observations, t.actions), t.collided,
+                                                       horizon, lowest))
 
 
 def agreement_returns(rollouts: list[list[Trajectory]], horizon: int) -> np.ndarray:
     """Each rollout's agreement with the expert, shape (rollouts,): the mean over its episodes of `rollout_return` of
     1 where the expert would have chosen the action taken, else 0 (a collision's missing decisions count as 0)."""
-    return np.array([np.mean([rollout_return((t.actions == t.expert_actions).astype(np.float64), t.collided, horizon,
-                                             0.0) for t in rollout]) for rollout in rollouts])
+    return _returns(rollouts, lambda t: rollout_return((t.actions == t.expert_actions).astype(np.float64),
+                                                       t.collided, horizon, 0.0))
 
 
 def run_iteration(state: TrainingState, shape: PolicyShape, config: Config, settings: RailSettings,
@@ -251,9 +343,9 @@ def run_iteration(state: TrainingState, shape: PolicyShape, config: Config, sett
         asked = None
     elif asked is None:
         asked = ExpertDriver(expert.metadata.get("style") or DEFAULT_STYLE)
-    tasks = [RolloutTask(config, shape, state.parameters, mean, std, noise_seed, state.iteration, k, sign, state.nu,
-                         seeds[k], asked) for k in range(n) for sign in (1, -1)]
-    rollouts: list[list[Trajectory]] = backend.run(tasks, on_result=on_rollout)
+    policy = Policy(shape, state.parameters, mean, std)
+    rollouts = run_rollouts(policy, config, noise_seed, state.iteration, state.nu, seeds, asked, settings.egos,
+                            backend, on_rollout)
     trajectories = [trajectory for rollout in rollouts for trajectory in rollout]
     policy_observations = np.concatenate([t.observations for t in trajectories])
     policy_actions = np.concatenate([t.actions for t in trajectories])

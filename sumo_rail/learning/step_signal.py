@@ -30,10 +30,10 @@ from sumo_rail.learning.noise import directions, flip_rate
 from sumo_rail.learning.normalize import RunningStats
 from sumo_rail.learning.rail import (
     RailSettings,
-    RolloutTask,
     Trajectory,
     agreement_returns,
     discriminator_returns,
+    run_rollouts,
 )
 from sumo_rail.seeding import Purpose, episode_seeds
 
@@ -179,10 +179,8 @@ def run_draws(policy: Policy, config: Config, settings: RailSettings, nu: float,
     rollouts = []
     for draw in draws:
         seeds = draw_seeds(settings, draw)
-        tasks = [RolloutTask(config, policy.shape, policy.parameters, policy.observation_mean, policy.observation_std,
-                             settings.seed, iteration, k, sign, nu, seeds[k], expert)
-                 for k in range(settings.directions) for sign in (1, -1)]
-        rollouts.append(backend.run(tasks, on_result=on_rollout))
+        rollouts.append(run_rollouts(policy, config, settings.seed, iteration, nu, seeds, expert, settings.egos,
+                                     backend, on_rollout))
     return rollouts
 
 

@@ -27,6 +27,7 @@ from typing import Any, Protocol, Self
 
 from sumo_rail.config import Config
 from sumo_rail.sim.env import HighwayEnv
+from sumo_rail.sim.parallel_env import ParallelHighwayEnv
 
 log = logging.getLogger(__name__)
 
@@ -49,27 +50,38 @@ class Task(Protocol):
 
 
 class WorkerContext:
-    """Per-process state of a worker: caches one HighwayEnv per Config (libsumo allows one simulation per
-    process, so when a task asks for a different Config the old env is closed first)."""
+    """Per-process state of a worker: caches one env, a HighwayEnv per Config or a ParallelHighwayEnv per Config
+    and number of egos (libsumo allows one simulation per process, so when a task asks for another env the old one
+    is closed first)."""
 
     def __init__(self, render_mode: str | None = None, gui_delay_ms: float = 100.0) -> None:
         self._render_mode = render_mode
         self._gui_delay_ms = gui_delay_ms
-        self._config: Config | None = None
-        self._env: HighwayEnv | None = None
+        self._key: tuple[Config, int | None] | None = None
+        self._env: HighwayEnv | ParallelHighwayEnv | None = None
 
     def env(self, config: Config) -> HighwayEnv:
-        """The env of `config`, created on first use and kept for later tasks with an equal config."""
-        if self._env is None or self._config != config:
+        """The single-ego env of `config`, created on first use and kept for later tasks with an equal config."""
+        if self._env is None or self._key != (config, None):
             self.close()
             self._env = HighwayEnv(config, render_mode=self._render_mode, gui_delay_ms=self._gui_delay_ms)
-            self._config = config
+            self._key = (config, None)
+        assert isinstance(self._env, HighwayEnv)
+        return self._env
+
+    def parallel_env(self, config: Config, egos: int) -> ParallelHighwayEnv:
+        """The env of `egos` egos on `config`'s road, created on first use and kept like `env`."""
+        if self._env is None or self._key != (config, egos):
+            self.close()
+            self._env = ParallelHighwayEnv(egos, config)
+            self._key = (config, egos)
+        assert isinstance(self._env, ParallelHighwayEnv)
         return self._env
 
     def close(self) -> None:
         """Close the cached env, if any."""
         if self._env is not None:
-            env, self._env, self._config = self._env, None, None
+            env, self._env, self._key = self._env, None, None
             env.close()
 
 

@@ -4,13 +4,14 @@ import numpy as np
 import pytest
 
 from sumo_rail.config import Config
-from sumo_rail.drivers.policies import PolicyShape
+from sumo_rail.drivers.policies import Policy, PolicyShape
 from sumo_rail.learning.discriminator import Discriminator, DiscriminatorSettings
 from sumo_rail.learning.noise import directions
 from sumo_rail.learning.normalize import RunningStats
-from sumo_rail.learning.rail import RailSettings, TrainingState, Trajectory, run_iteration
-from sumo_rail.runners.backends import RolloutBackend
+from sumo_rail.learning.rail import RailSettings, TrainingState, Trajectory, run_iteration, run_rollouts
+from sumo_rail.runners.backends import RolloutBackend, SerialBackend
 from sumo_rail.runners.tables import Demonstrations
+from sumo_rail.sim.observation import observation_space
 
 SIZE = 6
 
@@ -96,3 +97,23 @@ def test_the_agreement_reward_asks_the_expert_and_climbs_agreement():
     assert step @ total / np.linalg.norm(step) / np.linalg.norm(total) == pytest.approx(1.0, abs=1e-5)
     with pytest.raises(ValueError, match="--reward"):
         RailSettings(reward="oracle")
+
+
+def test_shared_rollouts_drive_each_ego_by_its_own_perturbation_in_task_order(small_config):
+    """Two egos per simulation: each rollout comes back in the order of one-ego rollouts, every ego's decisions are
+    its own perturbed policy's, and the same seeds give the same trajectories."""
+    size = observation_space(small_config).shape[0]
+    shape = PolicyShape("linear", size)
+    policy = Policy(shape, np.random.default_rng(0).normal(0, 0.3, shape.parameter_count).astype(np.float32))
+    seeds = [(2,), (5,)]
+    with SerialBackend() as backend:
+        shared = run_rollouts(policy, small_config, 7, 0, 0.5, seeds, None, 2, backend)
+        again = run_rollouts(policy, small_config, 7, 0, 0.5, seeds, None, 2, backend)
+    assert len(shared) == 4 and all(len(rollout) == 1 for rollout in shared)
+    for (index, sign), (trajectory,) in zip([(0, 1), (0, -1), (1, 1), (1, -1)], shared, strict=True):
+        delta = directions(7, 0, 2, shape.parameter_count)[index]
+        perturbed = Policy(shape, policy.parameters + np.float32(sign * 0.5) * delta)
+        assert trajectory.steps == len(trajectory.actions) > 0
+        assert np.array_equal(np.argmax(perturbed.logits(trajectory.observations), axis=1), trajectory.actions)
+    assert all(np.array_equal(a[0].observations, b[0].observations) for a, b in zip(shared, again, strict=True))
+    assert not np.array_equal(shared[0][0].observations[:5], shared[1][0].observations[:5])  # two egos, two places

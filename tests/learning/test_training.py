@@ -64,7 +64,7 @@ def run_settings(demos_path, kind="mlp", remedies=False):
     rail = RailSettings(directions=3, top=2, step_size=0.01, seed=1)
     discriminator = DiscriminatorSettings(seed=1, steps_per_iteration=2)
     if remedies:
-        rail = dataclasses.replace(rail, fitness="rank", flip_rate=0.1, episodes_per_rollout=2)
+        rail = dataclasses.replace(rail, fitness="rank", flip_rate=0.1, episodes_per_rollout=2, egos=2)
         discriminator = dataclasses.replace(discriminator, reward_form="contrast", balance=1.0, gradient_penalty=1.0,
                                             replay=2)
     return RunSettings(str(demos_path), kind, 4, 3, rail, discriminator)
