@@ -1,32 +1,20 @@
 """The GAIL baseline: PPO (Stable-Baselines3) on the RAIL discriminator's reward, for the paper's comparison.
 
-Fair against RAIL: the PPO actor has exactly the layout of a `PolicyShape` (mlp: Linear(n, h) + tanh, then
-Linear(h, 5); linear: Linear(n, 5)) on observations normalised by FIXED statistics (the BC policy's, or the
-expert demonstrations' without BC), so `ppo_to_policy` exports it as a `Policy` that `sumo-rail evaluate`
-reads; the critic is a separate 64-64 tanh MLP. The discriminator, its settings and its expert normalisation are
-RAIL's. The environments run in `envs` spawned processes (libsumo: one simulation per process); the rewards are
-computed in this process by `LabelledVecEnv`, which keeps the raw pairs, replaces the env's reward with
-log D - log(1 - D) of the current discriminator (pairs are scored as they come, by the discriminator of the
-previous updates) and normalises the observations PPO sees. A collision adds (horizon - decisions so far) x the
-lowest reward to its final step, so ending early never pays. After every PPO update (n_steps x envs decisions)
-the discriminator takes its LS-GAN steps on the expert's pairs and that rollout's pairs, as RAIL does once per
-iteration. Stable-Baselines3 is imported only by the functions that need it (`require_stable_baselines3`).
+Fair against RAIL: PPO's actor is RAIL's policy layout on fixed observation statistics, initialised by the same BC
+(`gail_actor`), and the discriminator, its settings and its expert normalisation are RAIL's. The environments run
+in `envs` spawned processes (`gail_envs`); the rewards are computed in this process, from the discriminator, with a
+collision padded so that ending early never pays (`gail_rewards`). After every PPO update (n_steps x envs
+decisions) the discriminator takes its LS-GAN steps on the expert's pairs and that rollout's pairs, as RAIL does
+once per iteration. Stable-Baselines3 is imported only by the functions that need it (`require_stable_baselines3`).
 
 Two choices make PPO as strong as it fairly can be; each can be switched off (`GailSettings`) to measure it:
-- Reward normalisation (`normalize_reward`, on by default): Stable-Baselines3's VecNormalize for rewards only
-  (`normalised_rewards`) divides each reward by the running std of the discounted return and clips it to
-  +-REWARD_CLIP. A collision's padding is up to (horizon - 1) x the lowest reward (about -6.9 nats x 599 at the
-  defaults), thousands of times a decision's reward; unscaled, its value targets dominate the critic's squared
-  loss and, through the advantages, PPO's step, so one crash outweighs every decision's imitation signal. RAIL's
-  ARS divides its step by the std of its returns (sigma_R), so this gives PPO the analogous scaling (its standard
-  practice), not an advantage over RAIL. The observations keep their fixed normalisation (a running one would
-  move under the BC-initialised actor).
-- Critic warm-up (`critic_warmup`, 5 updates by default): the first updates freeze the actor
-  (`set_actor_trainable`) and train only the value network. PPO's critic starts untrained; the advantages it
-  gives in the first updates are noise that would walk the BC-initialised actor away from BC before the reward
-  is known. Warm-up decisions count in `timesteps` (and the discriminator trains after them as after every
-  update); the log says which updates had the actor frozen. The actor's parameters stay bit for bit, Adam keeps
-  no state for them, so its first real step is an ordinary first step.
+- Reward normalisation (`normalize_reward`, on by default; `gail_rewards.normalised_rewards`): PPO's rewards are
+  divided by the running std of the discounted return and clipped, the analogue of ARS dividing its step by the
+  std of its returns, so that a collision's padding cannot swamp the critic.
+- Critic warm-up (`critic_warmup`, 5 updates by default; `gail_actor.set_actor_trainable`): the first updates
+  freeze the actor and train only the value network, whose first advantages are noise. Warm-up decisions count in
+  `timesteps` (and the discriminator trains after them as after every update); the log says which updates had the
+  actor frozen.
 
 Reproducible: env k's first episode has the Purpose.TRAIN seed of episode k from base seed x envs, later ones
 follow from its `np_random`; PPO, BC and the discriminator are seeded and torch runs on one thread, so the same
@@ -60,37 +48,40 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-import numpy as np
 import pyarrow as pa
-import torch
-from gymnasium import spaces
-from torch import nn
 
 from sumo_rail.config import Config
 from sumo_rail.datasets import DatasetError, write_failure, write_parquet, written_together
 from sumo_rail.drivers.policies import Policy, PolicyShape, save_policy
-from sumo_rail.learning.bc import BcReport, BcSettings, behaviour_cloning, policy_to_torch
+from sumo_rail.learning.bc import BcReport, BcSettings, behaviour_cloning
 from sumo_rail.learning.discriminator import Discriminator, DiscriminatorSettings
-from sumo_rail.learning.gail_envs import LOST_ENV, EnvFactory, close_envs, lost_env_message
-from sumo_rail.learning.normalize import MIN_STD, RunningStats
-from sumo_rail.learning.rail import rollout_return
+from sumo_rail.learning.gail_actor import (
+    FixedNormalisation,
+    load_into_ppo,
+    policy_kwargs,
+    ppo_to_policy,
+    set_actor_trainable,
+)
+from sumo_rail.learning.gail_envs import LOST_ENV, close_envs, lost_env_message
+from sumo_rail.learning.gail_rewards import REWARD_CLIP as REWARD_CLIP  # importable from here, as before
+from sumo_rail.learning.gail_rewards import (
+    RewardLabeller,
+    labelled_vec_env,
+    normalised_rewards,
+    reward_std,
+)
+from sumo_rail.learning.normalize import RunningStats
 from sumo_rail.learning.torch_threads import single_thread
 from sumo_rail.learning.training import RunError, write_atomically
 from sumo_rail.runners.experts import demonstrations_expert
 from sumo_rail.runners.tables import Demonstrations, provenance, read_demonstrations
-from sumo_rail.seeding import Purpose, episode_seeds
 from sumo_rail.sim.observation import observation_space
 
 if TYPE_CHECKING:
     from stable_baselines3 import PPO
-    from stable_baselines3.common.policies import ActorCriticPolicy
     from stable_baselines3.common.vec_env import VecEnv
 
 INSTALL_HINT = "the GAIL baseline needs Stable-Baselines3: pip install 'sumo-rail[baselines]'"
-CRITIC_LAYERS = (64, 64)
-"""Hidden tanh units of PPO's value network (separate from the actor)."""
-REWARD_CLIP = 10.0
-"""Bound on PPO's normalised rewards (Stable-Baselines3's VecNormalize default)."""
 
 
 class BaselineError(RuntimeError):
@@ -159,173 +150,6 @@ class GailResult:
     timesteps: int
     interrupted: bool
     """Stopped by SIGINT / SIGTERM before the last update."""
-
-
-@dataclass(frozen=True)
-class FixedNormalisation:
-    """(observation - mean) / std in float64 exactly as `Policy` computes it, returned as float32 for PPO."""
-
-    mean: np.ndarray
-    std: np.ndarray
-
-    def __call__(self, observations: np.ndarray) -> np.ndarray:
-        scale = 1.0 / np.maximum(self.std, MIN_STD)
-        return ((np.asarray(observations, dtype=np.float64) - self.mean) * scale).astype(np.float32)
-
-
-def policy_kwargs(shape: PolicyShape) -> dict[str, Any]:
-    """SB3 `policy_kwargs` whose actor has exactly the layout of `shape`."""
-    actor = [shape.hidden] if shape.kind == "mlp" else []
-    return {"net_arch": {"pi": actor, "vf": list(CRITIC_LAYERS)}, "activation_fn": nn.Tanh}
-
-
-def _actor_linears(ppo_policy: ActorCriticPolicy) -> list[nn.Linear]:
-    """The actor's linear layers in `sumo_rail.drivers.policies` parameter-layout order."""
-    hidden = [layer for layer in ppo_policy.mlp_extractor.policy_net if isinstance(layer, nn.Linear)]
-    return [*hidden, ppo_policy.action_net]
-
-
-def load_into_ppo(policy: Policy, ppo_policy: ActorCriticPolicy) -> None:
-    """Copy `policy`'s weights into the PPO actor, whose observations must be normalised by the policy's statistics."""
-    sources, targets = policy_to_torch(policy).linears(), _actor_linears(ppo_policy)
-    if [layer.weight.shape for layer in sources] != [layer.weight.shape for layer in targets]:
-        raise ValueError(f"the PPO actor does not have the layout of a {policy.shape}")
-    with torch.no_grad():
-        for source, target in zip(sources, targets, strict=True):
-            target.weight.copy_(source.weight)
-            target.bias.copy_(source.bias)
-
-
-def set_actor_trainable(ppo_policy: ActorCriticPolicy, trainable: bool) -> None:
-    """Let PPO's updates move the actor or freeze it: a frozen parameter gets no gradient, so Adam leaves it and its
-    moments untouched while the critic (and its optimizer state) learns."""
-    for layer in _actor_linears(ppo_policy):
-        layer.requires_grad_(trainable)
-
-
-def ppo_to_policy(ppo_policy: ActorCriticPolicy, shape: PolicyShape, normalisation: FixedNormalisation) -> Policy:
-    """The PPO actor as a `Policy` on raw observations; act = PPO's deterministic predict (up to float32 near-ties)."""
-    parts = [tensor.detach().reshape(-1) for layer in _actor_linears(ppo_policy)
-             for tensor in (layer.weight, layer.bias)]
-    return Policy(shape, torch.cat(parts).numpy().astype(np.float32), normalisation.mean, normalisation.std)
-
-
-@dataclass(frozen=True)
-class Rollout:
-    """The pairs and discriminator returns of one PPO rollout."""
-
-    observations: np.ndarray
-    """Raw observations, shape (T x envs, n) float32."""
-    actions: np.ndarray
-    """Shape (T x envs,) int64."""
-    rewards: np.ndarray
-    """Discriminator reward of each pair, before any collision padding, shape (T x envs,) [nats]."""
-    returns: np.ndarray
-    """Per-decision return (`rail.rollout_return`) of each episode that ended in the rollout."""
-    collisions: int
-
-
-class RewardLabeller:
-    """Scores each env's (raw observation, action) with the discriminator, pads collisions and collects rollouts."""
-
-    def __init__(self, discriminator: Discriminator, envs: int, horizon: int) -> None:
-        self.discriminator, self.horizon = discriminator, horizon
-        self.lowest_reward = discriminator.lowest_reward()
-        self._episodes: list[list[float]] = [[] for _ in range(envs)]
-        self._observations: list[np.ndarray] = []
-        self._actions: list[np.ndarray] = []
-        self._rewards: list[np.ndarray] = []
-        self._returns: list[float] = []
-        self._collisions = 0
-
-    def label(self, observations: np.ndarray, actions: np.ndarray, dones: np.ndarray,
-              infos: list[dict[str, Any]]) -> np.ndarray:
-        """PPO's rewards (envs,) float32 for the actions taken on `observations`; `dones`/`infos` of that step."""
-        observations, actions = np.asarray(observations, dtype=np.float32), np.asarray(actions, dtype=np.int64)
-        rewards = self.discriminator.reward(observations, actions)
-        self._observations.append(observations.copy())
-        self._actions.append(actions.copy())
-        self._rewards.append(rewards)
-        padded = rewards.copy()
-        for env, (reward, done, info) in enumerate(zip(rewards, dones, infos, strict=True)):
-            episode = self._episodes[env]
-            episode.append(float(reward))
-            if done:
-                collided = info.get("termination") == "collision"
-                self._returns.append(rollout_return(np.array(episode), collided, self.horizon, self.lowest_reward))
-                if collided:
-                    self._collisions += 1
-                    padded[env] += max(self.horizon - len(episode), 0) * self.lowest_reward
-                episode.clear()
-        return padded.astype(np.float32)
-
-    def take(self) -> Rollout:
-        """The pairs labelled since the last call (episodes still running carry on)."""
-        rollout = Rollout(np.concatenate(self._observations), np.concatenate(self._actions),
-                          np.concatenate(self._rewards), np.array(self._returns), self._collisions)
-        self._observations, self._actions, self._rewards, self._returns, self._collisions = [], [], [], [], 0
-        return rollout
-
-
-def env_seeds(seed: int, envs: int) -> list[int]:
-    """Seeds of the envs' first episodes: disjoint for different seeds with the same number of envs."""
-    return episode_seeds(Purpose.TRAIN, seed * envs, envs)
-
-
-def labelled_vec_env(config: Config, envs: int, seed: int, labeller: RewardLabeller,
-                     normalisation: FixedNormalisation, error_dir: Path | None = None) -> VecEnv:
-    """`envs` spawned HighwayEnv processes behind a `LabelledVecEnv`; with `error_dir`, env k that fails writes
-    why to error_dir/env_k.txt and ends (see `EnvFactory`)."""
-    from stable_baselines3.common.vec_env import SubprocVecEnv, VecEnvWrapper
-
-    class LabelledVecEnv(VecEnvWrapper):
-        """Discriminator rewards and normalised observations (terminal ones too); the env's reward is dropped.
-        `seed` is a no-op: the env factories seed the envs."""
-
-        def __init__(self, venv: VecEnv) -> None:
-            shape = venv.observation_space.shape
-            super().__init__(venv, observation_space=spaces.Box(-np.inf, np.inf, shape, np.float32))
-            self._raw = np.zeros((venv.num_envs, *shape), dtype=np.float32)
-            self._actions = np.zeros(venv.num_envs, dtype=np.int64)
-
-        def seed(self, seed: int | None = None) -> list[int | None]:
-            return [None] * self.num_envs
-
-        def reset(self) -> np.ndarray:
-            self._raw = self.venv.reset()
-            return normalisation(self._raw)
-
-        def step_async(self, actions: np.ndarray) -> None:
-            self._actions = np.asarray(actions)
-            self.venv.step_async(actions)
-
-        def step_wait(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[dict[str, Any]]]:
-            raw, _, dones, infos = self.venv.step_wait()
-            rewards = labeller.label(self._raw, self._actions, dones, infos)
-            for info in infos:
-                if "terminal_observation" in info:
-                    info["terminal_observation"] = normalisation(info["terminal_observation"])
-            self._raw = raw
-            return normalisation(raw), rewards, dones, infos
-
-    factories = [EnvFactory(config, seed, None if error_dir is None else str(error_dir / f"env_{index}.txt"))
-                 for index, seed in enumerate(env_seeds(seed, envs))]
-    return LabelledVecEnv(SubprocVecEnv(factories, start_method="spawn"))
-
-
-def normalised_rewards(venv: VecEnv, gamma: float) -> VecEnv:
-    """`venv` with each reward divided by the running std of the envs' discounted returns (discount `gamma`, reset
-    at episode ends) and clipped to +-REWARD_CLIP: Stable-Baselines3's VecNormalize for rewards only (the
-    observations are already normalised by fixed statistics and pass unchanged)."""
-    from stable_baselines3.common.vec_env import VecNormalize
-
-    return VecNormalize(venv, norm_obs=False, norm_reward=True, clip_reward=REWARD_CLIP, gamma=gamma)
-
-
-def reward_std(model: PPO) -> float:
-    """What PPO's rewards are divided by now: the running std of the discounted return (1 without normalisation)."""
-    normaliser = model.get_vec_normalize_env()
-    return 1.0 if normaliser is None else float(np.sqrt(normaliser.ret_rms.var + normaliser.epsilon))
 
 
 def build_ppo(venv: VecEnv, shape: PolicyShape, settings: GailSettings) -> PPO:

@@ -1,19 +1,15 @@
 """The one module that talks to SUMO: libsumo in-process (the default), traci over a socket to a `sumo` process,
 or traci + sumo-gui when a window is asked for.
 
-Episodes start from warm traffic states, in three pools that never share a state: "train" (recording,
-training rollouts and plain Gymnasium use), "validation" (validation during training) and "test"
-(`evaluate`). Each pool is one warm-up run with its own traffic seed (`scenario.traffic_seed` + the pool's
-index) that saves `scenario.snapshots` states, cached on disk and shared by every process; each reset reloads
-one of them with a fresh `--seed`, so arrivals, desired speeds of new vehicles and driver imperfection differ
-between episode seeds while one seed always gives the same traffic.
+Episodes start from warm traffic states (`warm_states`: three pools that never share a state, cached on disk);
+each reset reloads one of them with a fresh `--seed`, so arrivals, desired speeds of new vehicles and driver
+imperfection differ between episode seeds while one seed always gives the same traffic.
 (`simulation.loadState` is not used: it does not restore SUMO's random number
 generators, so it is not reproducible; a reload with `--load-state` is, and takes about 10 ms.)
 """
 
 from __future__ import annotations
 
-import fcntl
 import logging
 import math
 import operator
@@ -29,6 +25,8 @@ from sumo_rail.datasets import describe
 from sumo_rail.sim import gui as sumo_gui
 from sumo_rail.sim import network
 from sumo_rail.sim.vehicles import EgoState, Neighbours, PeriodReport
+from sumo_rail.sim.warm_states import WARM_STATE_POOLS as WARM_STATE_POOLS  # importable from here, as before
+from sumo_rail.sim.warm_states import WarmStates
 
 log = logging.getLogger(__name__)
 
@@ -36,8 +34,6 @@ EGO_ID = "ego"
 LANE_CHANGE_MODE_TRACI_ONLY_SAFE = 0b1100000000
 """No autonomous lane changes; TraCI requests respect other drivers' gaps, without speed adaptation."""
 _ACTIVE_LIBSUMO: Simulation | None = None
-WARM_STATE_POOLS = ("train", "validation", "test")
-"""Disjoint sets of warm traffic states, by what the episodes are for."""
 ENTRY_WAIT_S = 30.0
 """Longest wait of an ego for room at its start place at a reset [s] (simulated time)."""
 TRANSPORTS = ("libsumo", "traci")
@@ -75,7 +71,7 @@ class Simulation:
                                    tc.VAR_WIDTH, tc.VAR_LANE_INDEX)
         self._context_fields = operator.itemgetter(*self._context_variables)
         self._start(["--seed", str(scenario.traffic_seed)])
-        self._pools: dict[str, list[Path]] = {}
+        self._warm_states = WarmStates(scenario, self._built, self._options()[4:], self._run_warm_up)
         self._running = True
         if self.transport == "libsumo":
             _ACTIVE_LIBSUMO = self
@@ -147,46 +143,20 @@ class Simulation:
 
     def _pool(self, pool: str) -> list[Path]:
         """Paths of a pool's warm states, built on first use."""
-        if pool not in self._pools:
-            if pool not in WARM_STATE_POOLS:
-                raise ValueError(f"warm-state pool must be one of {', '.join(WARM_STATE_POOLS)}, got {pool!r}")
-            with sumo_gui.unpaced(self._api):  # sumo-gui's pace is for episodes, not for building warm states
-                self._pools[pool] = self._warm_snapshots(self.scenario.traffic_seed + WARM_STATE_POOLS.index(pool))
-        return self._pools[pool]
-
-    def _warm_snapshots(self, traffic_seed: int) -> list[Path]:
-        """Paths of the warm states of one warm-up run, running it first when they are not cached yet or damaged;
-        a lock file makes concurrent processes wait for the one that builds them."""
-        directory = network.cache_dir() / "states" / network.warm_state_key(
-            self.scenario, self._built, self._options()[4:], traffic_seed)
-        paths = [directory / f"state_{k:03d}.xml" for k in range(self.scenario.snapshots)]
-        if not self._state_problems(paths):
-            return paths
-        directory.mkdir(parents=True, exist_ok=True)
-        with open(directory / ".lock", "w") as lock:
-            fcntl.flock(lock, fcntl.LOCK_EX)
-            problems = self._state_problems(paths)
-            if problems:
-                if any(path.exists() for path in paths):
-                    log.warning("cached warm states in %s are damaged (%s); running the warm-up again", directory,
-                                problems[0])
-                self._run_warm_up(traffic_seed, paths)
-        return paths
-
-    def _state_problems(self, paths: list[Path]) -> list[str]:
-        problems = (network.warm_state_problem(path, k, self.scenario) for k, path in enumerate(paths))
-        return [problem for problem in problems if problem is not None]
+        return self._warm_states.pool(pool)
 
     def _run_warm_up(self, traffic_seed: int, paths: list[Path]) -> None:
-        self._load(["--seed", str(traffic_seed)])
-        api = self._api
-        api.simulationStep(self.scenario.warmup_s)
-        for k, path in enumerate(paths):
-            if k:
-                api.simulationStep(api.simulation.getTime() + self.scenario.snapshot_interval_s)
-            temporary = path.with_suffix(f".{os.getpid()}.tmp")
-            api.simulation.saveState(str(temporary))
-            os.replace(temporary, path)
+        """Run the warm-up of `traffic_seed` and save its states to `paths` (each written aside, then renamed)."""
+        with sumo_gui.unpaced(self._api):  # sumo-gui's pace is for episodes, not for building warm states
+            self._load(["--seed", str(traffic_seed)])
+            api = self._api
+            api.simulationStep(self.scenario.warmup_s)
+            for k, path in enumerate(paths):
+                if k:
+                    api.simulationStep(api.simulation.getTime() + self.scenario.snapshot_interval_s)
+                temporary = path.with_suffix(f".{os.getpid()}.tmp")
+                api.simulation.saveState(str(temporary))
+                os.replace(temporary, path)
         log.info("saved %d warm states in %s", len(paths), paths[0].parent)
 
     def reset(self, snapshot: int, sumo_seed: int, ego_lane: int, ego_position_m: float, pool: str = "train") -> None:
@@ -207,7 +177,7 @@ class Simulation:
         except SimulationError as error:  # a cached file damaged since the start: rebuild what is damaged, once
             log.warning("%s; checking the cached network and warm states", error)
             network.build(self.scenario)
-            self._pools.clear()
+            self._warm_states.forget()
             self._load(["--load-state", str(self._pool(pool)[snapshot]), "--seed", str(sumo_seed)])
         for ego in egos:
             self._insert(*ego)

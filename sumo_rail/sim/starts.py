@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 
 from sumo_rail.config import Config
-from sumo_rail.sim.simulation import WARM_STATE_POOLS
+from sumo_rail.sim.warm_states import WARM_STATE_POOLS
 
 _SUMO_SEED_BOUND = 2**31 - 1
 MIN_SLOT_M = 40.0

@@ -1,0 +1,157 @@
+"""The rewards PPO sees in GAIL: the environments run in spawned processes (libsumo: one simulation per process,
+`gail_envs`); `labelled_vec_env` puts `LabelledVecEnv` in front of them, which keeps the raw (observation, action)
+pairs, replaces the env's reward with log D - log(1 - D) of the current discriminator (`RewardLabeller`; pairs are
+scored as they come, by the discriminator of the previous updates) and normalises the observations PPO sees by
+fixed statistics. A collision adds (horizon - decisions so far) x the lowest reward to its final step, so ending
+early never pays.
+
+Reward normalisation (`normalised_rewards`, on by default in `GailSettings`): Stable-Baselines3's VecNormalize for
+rewards only divides each reward by the running std of the discounted return and clips it to +-REWARD_CLIP. A
+collision's padding is up to (horizon - 1) x the lowest reward (about -6.9 nats x 599 at the defaults), thousands
+of times a decision's reward; unscaled, its value targets dominate the critic's squared loss and, through the
+advantages, PPO's step, so one crash outweighs every decision's imitation signal. RAIL's ARS divides its step by
+the std of its returns (sigma_R), so this gives PPO the analogous scaling (its standard practice), not an advantage
+over RAIL. The observations keep their fixed normalisation (a running one would move under the BC-initialised
+actor). Stable-Baselines3 is imported only by the functions that need it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from gymnasium import spaces
+
+from sumo_rail.config import Config
+from sumo_rail.learning.discriminator import Discriminator
+from sumo_rail.learning.gail_actor import FixedNormalisation
+from sumo_rail.learning.gail_envs import EnvFactory
+from sumo_rail.learning.rail import rollout_return
+from sumo_rail.seeding import Purpose, episode_seeds
+
+if TYPE_CHECKING:
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.vec_env import VecEnv
+
+REWARD_CLIP = 10.0
+"""Bound on PPO's normalised rewards (Stable-Baselines3's VecNormalize default)."""
+
+
+@dataclass(frozen=True)
+class Rollout:
+    """The pairs and discriminator returns of one PPO rollout."""
+
+    observations: np.ndarray
+    """Raw observations, shape (T x envs, n) float32."""
+    actions: np.ndarray
+    """Shape (T x envs,) int64."""
+    rewards: np.ndarray
+    """Discriminator reward of each pair, before any collision padding, shape (T x envs,) [nats]."""
+    returns: np.ndarray
+    """Per-decision return (`rail.rollout_return`) of each episode that ended in the rollout."""
+    collisions: int
+
+
+class RewardLabeller:
+    """Scores each env's (raw observation, action) with the discriminator, pads collisions and collects rollouts."""
+
+    def __init__(self, discriminator: Discriminator, envs: int, horizon: int) -> None:
+        self.discriminator, self.horizon = discriminator, horizon
+        self.lowest_reward = discriminator.lowest_reward()
+        self._episodes: list[list[float]] = [[] for _ in range(envs)]
+        self._observations: list[np.ndarray] = []
+        self._actions: list[np.ndarray] = []
+        self._rewards: list[np.ndarray] = []
+        self._returns: list[float] = []
+        self._collisions = 0
+
+    def label(self, observations: np.ndarray, actions: np.ndarray, dones: np.ndarray,
+              infos: list[dict[str, Any]]) -> np.ndarray:
+        """PPO's rewards (envs,) float32 for the actions taken on `observations`; `dones`/`infos` of that step."""
+        observations, actions = np.asarray(observations, dtype=np.float32), np.asarray(actions, dtype=np.int64)
+        rewards = self.discriminator.reward(observations, actions)
+        self._observations.append(observations.copy())
+        self._actions.append(actions.copy())
+        self._rewards.append(rewards)
+        padded = rewards.copy()
+        for env, (reward, done, info) in enumerate(zip(rewards, dones, infos, strict=True)):
+            episode = self._episodes[env]
+            episode.append(float(reward))
+            if done:
+                collided = info.get("termination") == "collision"
+                self._returns.append(rollout_return(np.array(episode), collided, self.horizon, self.lowest_reward))
+                if collided:
+                    self._collisions += 1
+                    padded[env] += max(self.horizon - len(episode), 0) * self.lowest_reward
+                episode.clear()
+        return padded.astype(np.float32)
+
+    def take(self) -> Rollout:
+        """The pairs labelled since the last call (episodes still running carry on)."""
+        rollout = Rollout(np.concatenate(self._observations), np.concatenate(self._actions),
+                          np.concatenate(self._rewards), np.array(self._returns), self._collisions)
+        self._observations, self._actions, self._rewards, self._returns, self._collisions = [], [], [], [], 0
+        return rollout
+
+
+def env_seeds(seed: int, envs: int) -> list[int]:
+    """Seeds of the envs' first episodes: disjoint for different seeds with the same number of envs."""
+    return episode_seeds(Purpose.TRAIN, seed * envs, envs)
+
+
+def labelled_vec_env(config: Config, envs: int, seed: int, labeller: RewardLabeller,
+                     normalisation: FixedNormalisation, error_dir: Path | None = None) -> VecEnv:
+    """`envs` spawned HighwayEnv processes behind a `LabelledVecEnv`; with `error_dir`, env k that fails writes
+    why to error_dir/env_k.txt and ends (see `EnvFactory`)."""
+    from stable_baselines3.common.vec_env import SubprocVecEnv, VecEnvWrapper
+
+    class LabelledVecEnv(VecEnvWrapper):
+        """Discriminator rewards and normalised observations (terminal ones too); the env's reward is dropped.
+        `seed` is a no-op: the env factories seed the envs."""
+
+        def __init__(self, venv: VecEnv) -> None:
+            shape = venv.observation_space.shape
+            super().__init__(venv, observation_space=spaces.Box(-np.inf, np.inf, shape, np.float32))
+            self._raw = np.zeros((venv.num_envs, *shape), dtype=np.float32)
+            self._actions = np.zeros(venv.num_envs, dtype=np.int64)
+
+        def seed(self, seed: int | None = None) -> list[int | None]:
+            return [None] * self.num_envs
+
+        def reset(self) -> np.ndarray:
+            self._raw = self.venv.reset()
+            return normalisation(self._raw)
+
+        def step_async(self, actions: np.ndarray) -> None:
+            self._actions = np.asarray(actions)
+            self.venv.step_async(actions)
+
+        def step_wait(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[dict[str, Any]]]:
+            raw, _, dones, infos = self.venv.step_wait()
+            rewards = labeller.label(self._raw, self._actions, dones, infos)
+            for info in infos:
+                if "terminal_observation" in info:
+                    info["terminal_observation"] = normalisation(info["terminal_observation"])
+            self._raw = raw
+            return normalisation(raw), rewards, dones, infos
+
+    factories = [EnvFactory(config, seed, None if error_dir is None else str(error_dir / f"env_{index}.txt"))
+                 for index, seed in enumerate(env_seeds(seed, envs))]
+    return LabelledVecEnv(SubprocVecEnv(factories, start_method="spawn"))
+
+
+def normalised_rewards(venv: VecEnv, gamma: float) -> VecEnv:
+    """`venv` with each reward divided by the running std of the envs' discounted returns (discount `gamma`, reset
+    at episode ends) and clipped to +-REWARD_CLIP: Stable-Baselines3's VecNormalize for rewards only (the
+    observations are already normalised by fixed statistics and pass unchanged)."""
+    from stable_baselines3.common.vec_env import VecNormalize
+
+    return VecNormalize(venv, norm_obs=False, norm_reward=True, clip_reward=REWARD_CLIP, gamma=gamma)
+
+
+def reward_std(model: PPO) -> float:
+    """What PPO's rewards are divided by now: the running std of the discounted return (1 without normalisation)."""
+    normaliser = model.get_vec_normalize_env()
+    return 1.0 if normaliser is None else float(np.sqrt(normaliser.ret_rms.var + normaliser.epsilon))
