@@ -9,22 +9,25 @@ import click
 from sumo_rail_cli.options import (
     SearchOptions,
     backend_options,
-    bc_summary,
     build_backend,
     check_output,
     config_options,
     episode_options,
-    episode_progress,
     expert_option,
     imitation_options,
-    library_errors,
-    make_interruptible,
     output_options,
     resolve_expert_option,
     run_folder_options,
     search_options,
-    tensorboard_logger,
     tensorboard_option,
+)
+from sumo_rail_cli.progress import progress
+from sumo_rail_cli.running import (
+    bc_summary,
+    interruptible_run,
+    kept_until_resume,
+    library_errors,
+    tensorboard_logger,
     validation_summary,
 )
 
@@ -50,7 +53,7 @@ def record_expert(config: Config, episodes: int, seed: int, workers: int,
     from sumo_rail.runners.record import record_demonstrations
 
     backend = build_backend(backend_name, workers, address)
-    with library_errors(), backend, episode_progress(episodes, "recording") as bar:
+    with library_errors(), backend, progress(episodes, "recording") as bar:
         metrics = record_demonstrations(config, driver, expert, seed, episodes, backend, out,
                                         on_episode=lambda index, result: bar.update())
     decisions = sum(row["steps"] for row in metrics)
@@ -144,7 +147,7 @@ def evaluate_command(config: Config, policies: tuple[str, ...],
     seeds = episode_seeds(Purpose.EVALUATE, seed, episodes)
     backend = (SerialBackend(render_mode="human", gui_delay_ms=100.0 if gui_delay_ms is None else gui_delay_ms)
                if gui else build_backend(backend_name, workers, address))
-    with library_errors(), backend, episode_progress(len(drivers) * episodes, "evaluating") as bar:
+    with library_errors(), backend, progress(len(drivers) * episodes, "evaluating") as bar:
         evaluation = evaluate(drivers, config, seeds, backend, expert_driver, pool,
                               on_episode=lambda index, result: bar.update(),
                               video_episodes=(video_episodes or 1) if video_dir is not None else 0)
@@ -219,8 +222,7 @@ def train_command(config: Config, demos: Path, kind: str, hidden: int,
     rail, discriminator = search.settings(seed)
     settings = RunSettings(str(demos), kind, hidden, bc_epochs, rail, discriminator, bc_class_balance)
     backend = build_backend(backend_name, workers, address)
-    bar = episode_progress(iterations, "training")
-    bar.unit = "iteration"
+    bar = progress(iterations, "training", unit="iteration")
 
     def show_bc(report: BcReport) -> None:
         bar.write(bc_summary(report, out / "policy_bc.npz"))
@@ -234,15 +236,9 @@ def train_command(config: Config, demos: Path, kind: str, hidden: int,
         if row["eval_average_speed_kmh"] is not None:
             bar.write(f"iteration {row['iteration'] + 1}: {validation_summary(row, eval_episodes)}")
 
-    make_interruptible()  # Ctrl-C or SIGTERM: the last complete iteration is kept
-    with library_errors(), tensorboard_logger(tensorboard_dir, "rail", out) as board, backend, bar:
-        try:
-            state = train(out, settings, config, iterations, backend, resume, Validation(eval_every, eval_episodes),
-                          on_bc=show_bc, on_iteration=show)
-        except RunError as error:
-            raise click.ClickException(str(error)) from error
-        except KeyboardInterrupt:
-            raise click.ClickException(f"interrupted; {out} keeps its last complete iteration, continue with "
-                                       f"--resume") from None
+    with interruptible_run(bar, kept_until_resume(out, "iteration"), backend,
+                           tensorboard_logger(tensorboard_dir, "rail", out), errors=(RunError,)) as board:
+        state = train(out, settings, config, iterations, backend, resume, Validation(eval_every, eval_episodes),
+                      on_bc=show_bc, on_iteration=show)
     click.echo(f"trained {state.iteration} iterations; policies in {out}")
 

@@ -9,16 +9,13 @@ import click
 from sumo_rail_cli.options import (
     build_backend,
     config_options,
-    episode_progress,
     expert_option,
     imitation_options,
-    library_errors,
-    make_interruptible,
     run_folder_options,
-    tensorboard_logger,
     tensorboard_option,
-    validation_summary,
 )
+from sumo_rail_cli.progress import progress
+from sumo_rail_cli.running import interruptible_run, kept_until_resume, tensorboard_logger, validation_summary
 
 if TYPE_CHECKING:
     from sumo_rail.config import Config
@@ -60,8 +57,7 @@ def dagger_command(config: Config, demos: Path, kind: str, hidden: int,
     except ValueError as error:
         raise click.UsageError(str(error)) from error
     backend = build_backend(backend_name, workers, address)
-    bar = episode_progress(rounds + 1, "DAgger")
-    bar.unit = "round"
+    bar = progress(rounds + 1, "DAgger", unit="round")
 
     def show(row: dict[str, Any]) -> None:
         if board is not None:
@@ -74,14 +70,8 @@ def dagger_command(config: Config, demos: Path, kind: str, hidden: int,
             text += f", {validation_summary(row, eval_episodes)}"
         bar.write(text)
 
-    make_interruptible()  # Ctrl-C or SIGTERM: the last complete round is kept
-    with library_errors(), tensorboard_logger(tensorboard_dir, "dagger", out) as board, backend, bar:
-        try:
-            train_dagger(out, settings, config, rounds, backend, resume, Validation(eval_every, eval_episodes),
-                         on_round=show)
-        except RunError as error:
-            raise click.ClickException(str(error)) from error
-        except KeyboardInterrupt:
-            raise click.ClickException(f"interrupted; {out} keeps its last complete round, continue with "
-                                       f"--resume") from None
+    with interruptible_run(bar, kept_until_resume(out, "round"), backend,
+                           tensorboard_logger(tensorboard_dir, "dagger", out), errors=(RunError,)) as board:
+        train_dagger(out, settings, config, rounds, backend, resume, Validation(eval_every, eval_episodes),
+                     on_round=show)
     click.echo(f"DAgger: {rounds} rounds; policy in {out / 'policy_latest.npz'}")

@@ -5,7 +5,8 @@ from __future__ import annotations
 from pathlib import Path
 
 import click
-from sumo_rail_cli.options import episode_progress, library_errors
+from sumo_rail_cli.progress import progress
+from sumo_rail_cli.running import library_errors
 
 
 @click.command("export-minari")
@@ -25,7 +26,7 @@ def export_minari_command(demos: Path, dataset_id: str, root: Path | None, overw
     with library_errors():
         episodes = len(read_episodes(demos)[1])
         try:
-            with episode_progress(episodes, "replaying") as bar:
+            with progress(episodes, "replaying") as bar:
                 summary = export_minari(demos, dataset_id, root, overwrite, on_episode=lambda index: bar.update())
         except ExportError as error:
             raise click.ClickException(str(error)) from error

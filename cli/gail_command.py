@@ -7,15 +7,13 @@ from typing import TYPE_CHECKING, Any
 
 import click
 from sumo_rail_cli.options import (
-    bc_summary,
     config_options,
-    episode_progress,
     imitation_options,
-    library_errors,
-    make_interruptible,
-    tensorboard_logger,
+    seed_option,
     tensorboard_option,
 )
+from sumo_rail_cli.progress import progress
+from sumo_rail_cli.running import bc_summary, interruptible_run, tensorboard_logger
 
 if TYPE_CHECKING:
     from sumo_rail.config import Config
@@ -39,7 +37,7 @@ if TYPE_CHECKING:
                    "(Stable-Baselines3's VecNormalize), so a collision's padding cannot swamp the critic.")
 @click.option("--critic-warmup", type=click.IntRange(min=0), default=5, show_default=True, metavar="K",
               help="First K updates with the actor frozen, only the critic learning (they count in --timesteps).")
-@click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True)
+@seed_option("Seed of everything the run draws; the same seed and --envs give the same policy.")
 @click.option("--out", type=click.Path(path_type=Path, file_okay=False), required=True,
               help="Run folder (new or empty).")
 @tensorboard_option
@@ -65,8 +63,7 @@ def gail_command(config: Config, demos: Path, timesteps: int, kind: str,
                                 critic_warmup=critic_warmup, seed=seed, discriminator=DiscriminatorSettings(seed=seed))
     except ValueError as error:
         raise click.UsageError(str(error)) from error
-    bar = episode_progress(settings.updates * settings.steps_per_update, "GAIL")
-    bar.unit = "timestep"
+    bar = progress(settings.updates * settings.steps_per_update, "GAIL", unit="timestep")
 
     def show_bc(report: BcReport) -> None:
         bar.write(bc_summary(report, out / "policy_bc.npz"))
@@ -77,14 +74,11 @@ def gail_command(config: Config, demos: Path, timesteps: int, kind: str,
         bar.set_postfix(D_return=f"{row['return_mean']:+.3f}", collisions=row["collisions"])
         bar.update(row["env_steps"])
 
-    make_interruptible()  # before the updates start; during them gail defers both to the update's end
-    with library_errors(), tensorboard_logger(tensorboard_dir, "gail", out) as board, bar:
-        try:
-            result = train_gail(out, settings, config, on_bc=show_bc, on_update=show)
-        except (BaselineError, RunError) as error:
-            raise click.ClickException(str(error)) from error
-        except KeyboardInterrupt:
-            raise click.ClickException(f"interrupted before the first update; {out} holds no trained policy") from None
+    # Ctrl-C before the updates start; during them gail defers it to the update's end (result.interrupted)
+    with interruptible_run(bar, f"interrupted before the first update; {out} holds no trained policy",
+                           board=tensorboard_logger(tensorboard_dir, "gail", out),
+                           errors=(BaselineError, RunError)) as board:
+        result = train_gail(out, settings, config, on_bc=show_bc, on_update=show)
     if result.interrupted:
         raise click.ClickException(f"interrupted after {result.updates} updates; {out / 'policy_latest.npz'} holds the "
                                    f"last one's policy (a GAIL run cannot be resumed)")

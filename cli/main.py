@@ -17,7 +17,11 @@ from sumo_rail_cli.signal_command import step_signal_command
 @click.version_option(package_name="sumo-rail", prog_name="sumo-rail")
 @click.option("-v", "--verbose", is_flag=True, help="Log progress details to stderr.")
 def cli(verbose: bool) -> None:
-    """Imitation learning of highway driving decisions (RAIL) in SUMO."""
+    """Imitation learning of highway driving decisions (RAIL) in SUMO.
+
+    The pipeline: record-expert records the expert; train (RAIL), dagger or gail learn from it; evaluate compares
+    the policies with the expert on held-out episodes; report plots runs and evaluations. Each command's --help is
+    its full reference; --preset recommended gives the benchmark's setting (default: the paper's)."""
     logging.basicConfig(level=logging.INFO if verbose else logging.WARNING, format="%(levelname)s %(message)s")
 
 

@@ -1,26 +1,22 @@
-"""Options shared by the commands: configuration (defaults, TOML, `--set`), episodes, seeds, workers, backends and
-outputs."""
+"""Options shared by the commands, and how each becomes what the library takes: the configuration (preset, TOML,
+`--set`), episodes, seeds, workers and backends, outputs, the expert, the imitation and run-folder options, and
+RAIL's search. How the long commands run (Ctrl-C, errors, progress) is `running`."""
 
 from __future__ import annotations
 
-import contextlib
 import functools
-import math
-import signal
 import tomllib
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from dataclasses import dataclass, fields
 from pathlib import Path
-from types import FrameType
 from typing import TYPE_CHECKING, Any
 
 import click
-from sumo_rail_cli.progress import progress
+from sumo_rail_cli.running import library_errors
 
 from sumo_rail.config import PRESETS, Config, ConfigError
 
 if TYPE_CHECKING:
-    from sumo_rail.learning.bc import BcReport
     from sumo_rail.learning.discriminator import DiscriminatorSettings
     from sumo_rail.learning.rail import RailSettings
     from sumo_rail.runners.backends import RolloutBackend
@@ -31,10 +27,9 @@ def config_options(command: Callable[..., Any]) -> Callable[..., Any]:
     settings they make as one `config: Config` argument (`resolve_config`)."""
     options = [
         click.option("--preset", type=click.Choice(list(PRESETS)), default="paper", show_default=True,
-                     help="Named setting that --config and --set change. paper: the paper's (a 24-beam LIDAR is "
-                          "the whole observation). recommended: the benchmark's, the paper's plus "
-                          "observation.lane_block=1 (the cars one lane over that the beams miss), with which every "
-                          "learner imitates the expert far more closely."),
+                     help="Named setting, which --config and --set change. paper: the paper's (the 24-beam LIDAR "
+                          "is the whole observation). recommended: the benchmark's, the paper's plus "
+                          "observation.lane_block=1, with which learners imitate the expert far more closely."),
         click.option("--config", "config_path", type=click.Path(path_type=Path, dir_okay=False),
                      help="TOML file whose [scenario], [lidar], [env], [observation] and [expert] tables change the "
                           "preset."),
@@ -64,7 +59,8 @@ def imitation_options(command: Callable[..., Any]) -> Callable[..., Any]:
         click.option("--hidden", type=click.IntRange(min=1), default=10, show_default=True,
                      help="Hidden units of mlp."),
         click.option("--bc-epochs", type=click.IntRange(min=0), default=20, show_default=True,
-                     help="Behaviour-cloning epochs that initialise the policy (0: no BC)."),
+                     help="Behaviour-cloning epochs that initialise the policy (0: no BC); few demonstrations need "
+                          "more (about 4000 / episodes, e.g. 100 for 40)."),
         click.option("--bc-class-balance", type=click.FloatRange(min=0), default=0.75, show_default=True,
                      help="Exponent p of BC's class weights (1/frequency)^p: 0 plain cross-entropy, 1 all actions "
                           "equal."),
@@ -75,15 +71,17 @@ def imitation_options(command: Callable[..., Any]) -> Callable[..., Any]:
 
 
 def episode_options(default_seed: int, default_episodes: int) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
-    """--episodes, --seed and --workers."""
+    """--episodes and --seed."""
     def decorate(command: Callable[..., Any]) -> Callable[..., Any]:
-        command = click.option("--workers", type=click.IntRange(min=1), default=1, show_default=True,
-                               help="Worker processes, each running one SUMO; results do not depend on it.")(command)
-        command = click.option("--seed", type=click.IntRange(min=0), default=default_seed, show_default=True,
-                               help="Base seed; episode k gets its own seed derived from it.")(command)
+        command = seed_option("Base seed; episode k gets its own seed derived from it.", default_seed)(command)
         return click.option("--episodes", type=click.IntRange(min=1), default=default_episodes, show_default=True,
                             help="Number of episodes.")(command)
     return decorate
+
+
+def seed_option(help_text: str, default: int = 0) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
+    """--seed."""
+    return click.option("--seed", type=click.IntRange(min=0), default=default, show_default=True, help=help_text)
 
 
 def output_options(required: bool) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
@@ -100,10 +98,8 @@ def run_folder_options(step: str, eval_every: int) -> Callable[[Callable[..., An
     `step`s (iteration, round), the run folder --out and --resume."""
     def decorate(command: Callable[..., Any]) -> Callable[..., Any]:
         options = [
-            click.option("--workers", type=click.IntRange(min=1), default=1, show_default=True,
-                         help="Worker processes, each running one SUMO; the result does not depend on it."),
             backend_options,
-            click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True),
+            seed_option("Seed of everything the run draws; the same seed and settings give the same policies."),
             click.option("--eval-every", type=click.IntRange(min=0), default=eval_every, show_default=True,
                          help=f"Evaluate the policy on validation episodes every this many {step}s and after the "
                               f"last (0: never)."),
@@ -120,14 +116,16 @@ def run_folder_options(step: str, eval_every: int) -> Callable[[Callable[..., An
 
 
 def backend_options(command: Callable[..., Any]) -> Callable[..., Any]:
-    """--backend process|ray and --address (ray only); build the backend with `build_backend`."""
+    """--workers, --backend process|ray and --address (ray only); build the backend with `build_backend`."""
     command = click.option("--address", metavar="auto|HOST:PORT",
                            help="Ray cluster to run on with --backend ray (default: a local Ray with --workers "
                                 "CPUs).")(command)
-    return click.option("--backend", "backend_name", type=click.Choice(["process", "ray"]), default="process",
-                        show_default=True,
-                        help="process: worker processes on this machine; ray: Ray actors, locally or on a cluster "
-                             "(needs pip install 'sumo-rail[ray]').")(command)
+    command = click.option("--backend", "backend_name", type=click.Choice(["process", "ray"]), default="process",
+                           show_default=True,
+                           help="process: worker processes on this machine; ray: Ray actors, locally or on a cluster "
+                                "(needs pip install 'sumo-rail[ray]').")(command)
+    return click.option("--workers", type=click.IntRange(min=1), default=1, show_default=True,
+                        help="Worker processes, each running one SUMO; results do not depend on it.")(command)
 
 
 def build_backend(name: str, workers: int, address: str | None) -> RolloutBackend:
@@ -163,52 +161,12 @@ def check_output(out: Path | None, overwrite: bool) -> None:
         raise click.BadParameter(str(error), param_hint="'--out'") from error
 
 
-@contextlib.contextmanager
-def library_errors() -> Iterator[None]:
-    """Errors a user can cause in the library become one-sentence click errors (exit 1), never tracebacks."""
-    from sumo_rail.datasets import DatasetError
-    from sumo_rail.drivers.policies import PolicyFileError
-    from sumo_rail.runners.backends import BackendError
-    from sumo_rail.sim.simulation import SimulationError
-
-    try:
-        yield
-    except (BackendError, DatasetError, PolicyFileError, SimulationError) as error:
-        raise click.ClickException(str(error)) from error
-
-
-def episode_progress(total: int, description: str) -> Any:
-    """Progress over episodes on stderr: a live bar with rate and time left on a terminal, a plain line every
-    few seconds otherwise (a file, a pipe, a CI log)."""
-    return progress(total, description, unit="episode")
-
-
 def tensorboard_option(command: Callable[..., Any]) -> Callable[..., Any]:
     """--tensorboard DIR: also log every training row to TensorBoard (optional extra)."""
     return click.option("--tensorboard", "tensorboard_dir", type=click.Path(path_type=Path, file_okay=False),
                         default=None, help="Also write TensorBoard logs into this folder (tensorboard --logdir DIR); "
                                            "log.parquet stays the record. Needs pip install "
                                            "'sumo-rail[tensorboard]'.")(command)
-
-
-@contextlib.contextmanager
-def tensorboard_logger(tensorboard_dir: Path | None, prefix: str, run_folder: Path) -> Iterator[Any]:
-    """A TensorBoardLogger for --tensorboard (None without it); a missing extra is a one-sentence error (exit 1)."""
-    if tensorboard_dir is None:
-        yield None
-        return
-    from sumo_rail.learning.tensorboard_log import TensorBoardError, TensorBoardLogger
-
-    try:
-        logger = TensorBoardLogger(tensorboard_dir, prefix, run_folder)
-    except TensorBoardError as error:
-        raise click.ClickException(str(error)) from error
-    try:
-        yield logger
-    except TensorBoardError as error:
-        raise click.ClickException(str(error)) from error
-    finally:
-        logger.close()
 
 
 def _parse_overrides(overrides: tuple[str, ...]) -> dict[str, dict[str, Any]]:
@@ -224,35 +182,6 @@ def _parse_overrides(overrides: tuple[str, ...]) -> dict[str, dict[str, Any]]:
             raise ConfigError(f"--set {key.strip()} has an unreadable value {raw.strip()!r}") from error
         sections.setdefault(section, {})[name] = value
     return sections
-
-
-def bc_summary(report: BcReport, policy_path: Path) -> str:
-    """One line on a behaviour-cloning result: train and held-out accuracy, where the policy was saved."""
-    holdout = "n/a" if report.holdout_accuracy is None else f"{report.holdout_accuracy:.3f}"
-    return (f"behaviour cloning: train accuracy {report.train_accuracy:.3f}, holdout accuracy {holdout} "
-            f"({report.holdout_rows} held-out decisions); saved {policy_path}")
-
-
-def validation_summary(row: dict[str, Any], episodes: int) -> str:
-    """A training log row's validation measures, agreement with the expert first, with its 95% interval over the
-    `episodes` validation episodes (an estimate from a few episodes is rough; the interval says how rough)."""
-    low, high = row.get("eval_agreement_low"), row.get("eval_agreement_high")
-    spread = "" if low is None or math.isnan(low) else f" [{low:.3f}, {high:.3f}]"
-    return (f"validation agreement {row['eval_agreement']:.3f}{spread} on {episodes} episode{'s' * (episodes != 1)} "
-            f"(lane-change recall {row['eval_lane_change_recall']:.2f}), speed {row['eval_average_speed_kmh']:.1f} "
-            f"km/h, overtakes {row['eval_overtakes']:.2f}, lane changes {row['eval_lane_changes']:.2f}, collisions "
-            f"{row['eval_collisions']:.2f}")
-
-
-def make_interruptible() -> None:
-    """Make SIGINT and SIGTERM raise KeyboardInterrupt, so that both stop a command as Ctrl-C does, even when it was
-    started with SIGINT ignored (as a shell script's background jobs are)."""
-    signal.signal(signal.SIGINT, signal.default_int_handler)
-    signal.signal(signal.SIGTERM, _raise_keyboard_interrupt)
-
-
-def _raise_keyboard_interrupt(signal_number: int, frame: FrameType | None) -> None:
-    raise KeyboardInterrupt
 
 
 @dataclass(frozen=True)

@@ -12,13 +12,13 @@ from sumo_rail_cli.options import (
     backend_options,
     build_backend,
     config_options,
-    episode_progress,
     expert_option,
-    library_errors,
-    make_interruptible,
     resolve_expert_option,
     search_options,
+    seed_option,
 )
+from sumo_rail_cli.progress import progress
+from sumo_rail_cli.running import interruptible_run, library_errors
 
 from sumo_rail.learning.step_signal import REWARD_VARIANTS
 
@@ -41,11 +41,8 @@ if TYPE_CHECKING:
 @click.option("--warmup-rounds", type=click.IntRange(min=0), default=5, show_default=True,
               help="Training calls of each discriminator on the policy's perturbed rollouts before the measured step.")
 @search_options
-@click.option("--workers", type=click.IntRange(min=1), default=1, show_default=True,
-              help="Worker processes, each running one SUMO; the result does not depend on it.")
 @backend_options
-@click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True,
-              help="Seed of the directions, the traffic draws and the discriminators.")
+@seed_option("Seed of the directions, the traffic draws and the discriminators.")
 @click.option("--out", type=click.Path(path_type=Path, dir_okay=False), default=None,
               help="JSON file for the report (with its settings and provenance), written atomically.")
 def step_signal_command(config: Config, demos: Path, policy_path: Path,
@@ -86,16 +83,11 @@ def step_signal_command(config: Config, demos: Path, policy_path: Path,
     meter = Meter(warmup_rounds=warmup_rounds)
     discriminators = variants(discriminator_settings, rewards, demonstrations.observations)
     backend = build_backend(backend_name, workers, address)
-    bar = episode_progress(meter.rollouts(rail), "step signal")
-    bar.unit = "rollout"
-    make_interruptible()
-    with library_errors(), backend, bar:
-        try:
-            report = measure(policy, config, rail, nu, asked, discriminators,
-                             (demonstrations.observations, demonstrations.actions), calibration, backend, meter,
-                             on_rollout=lambda index, result: bar.update())
-        except KeyboardInterrupt:
-            raise click.ClickException("interrupted; nothing was written") from None
+    bar = progress(meter.rollouts(rail), "step signal", unit="rollout")
+    with interruptible_run(bar, "interrupted; nothing was written", backend):
+        report = measure(policy, config, rail, nu, asked, discriminators,
+                         (demonstrations.observations, demonstrations.actions), calibration, backend, meter,
+                         on_rollout=lambda index, result: bar.update())
     record = {**report, "policy": str(policy_path), "zero_weights": zero_weights, "expert": expert,
               "demos": str(demos), "meter": {"warmup_rounds": warmup_rounds},
               "settings": {"rail": _plain(rail), "discriminator": _plain(discriminator_settings)},

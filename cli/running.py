@@ -1,0 +1,105 @@
+"""How the commands that run for long behave: errors a user can cause as one sentence, Ctrl-C and SIGTERM, the
+progress bar, the backend and TensorBoard closed on the way out, and the lines they print about training."""
+
+from __future__ import annotations
+
+import contextlib
+import math
+import signal
+from collections.abc import Iterator
+from contextlib import AbstractContextManager
+from pathlib import Path
+from types import FrameType
+from typing import TYPE_CHECKING, Any
+
+import click
+
+if TYPE_CHECKING:
+    from sumo_rail.learning.bc import BcReport
+
+
+@contextlib.contextmanager
+def library_errors() -> Iterator[None]:
+    """Errors a user can cause in the library become one-sentence click errors (exit 1), never tracebacks."""
+    from sumo_rail.datasets import DatasetError
+    from sumo_rail.drivers.policies import PolicyFileError
+    from sumo_rail.runners.backends import BackendError
+    from sumo_rail.sim.simulation import SimulationError
+
+    try:
+        yield
+    except (BackendError, DatasetError, PolicyFileError, SimulationError) as error:
+        raise click.ClickException(str(error)) from error
+
+
+@contextlib.contextmanager
+def interruptible_run(bar: AbstractContextManager[Any], interrupted: str,
+                      backend: AbstractContextManager[Any] | None = None,
+                      board: AbstractContextManager[Any] | None = None,
+                      errors: tuple[type[Exception], ...] = ()) -> Iterator[Any]:
+    """A long command's work: Ctrl-C or SIGTERM end it with the one sentence `interrupted` (exit 1), even when it was
+    started with SIGINT ignored; errors a user can cause (`library_errors`, and `errors`) are one sentence too. The
+    TensorBoard logger `board` (`tensorboard_logger`), the `backend` and the progress `bar` are entered in that
+    order and closed on the way out; yields what `board` yields (None without it)."""
+    make_interruptible()
+    with library_errors(), board or contextlib.nullcontext() as logger, backend or contextlib.nullcontext(), bar:
+        try:
+            yield logger
+        except errors as error:
+            raise click.ClickException(str(error)) from error
+        except KeyboardInterrupt:
+            raise click.ClickException(interrupted) from None
+
+
+def kept_until_resume(out: Path, step: str) -> str:
+    """What an interrupted resumable run says: its folder keeps its last complete `step` (iteration, round)."""
+    return f"interrupted; {out} keeps its last complete {step}, continue with --resume"
+
+
+def bc_summary(report: BcReport, policy_path: Path) -> str:
+    """One line on a behaviour-cloning result: train and held-out accuracy, where the policy was saved."""
+    holdout = "n/a" if report.holdout_accuracy is None else f"{report.holdout_accuracy:.3f}"
+    return (f"behaviour cloning: train accuracy {report.train_accuracy:.3f}, holdout accuracy {holdout} "
+            f"({report.holdout_rows} held-out decisions); saved {policy_path}")
+
+
+def validation_summary(row: dict[str, Any], episodes: int) -> str:
+    """A training log row's validation measures, agreement with the expert first, with its 95% interval over the
+    `episodes` validation episodes (an estimate from a few episodes is rough; the interval says how rough)."""
+    low, high = row.get("eval_agreement_low"), row.get("eval_agreement_high")
+    spread = "" if low is None or math.isnan(low) else f" [{low:.3f}, {high:.3f}]"
+    return (f"validation agreement {row['eval_agreement']:.3f}{spread} on {episodes} episode{'s' * (episodes != 1)} "
+            f"(lane-change recall {row['eval_lane_change_recall']:.2f}), speed {row['eval_average_speed_kmh']:.1f} "
+            f"km/h, overtakes {row['eval_overtakes']:.2f}, lane changes {row['eval_lane_changes']:.2f}, collisions "
+            f"{row['eval_collisions']:.2f}")
+
+
+def make_interruptible() -> None:
+    """Make SIGINT and SIGTERM raise KeyboardInterrupt, so that both stop a command as Ctrl-C does, even when it was
+    started with SIGINT ignored (as a shell script's background jobs are)."""
+    signal.signal(signal.SIGINT, signal.default_int_handler)
+    signal.signal(signal.SIGTERM, _raise_keyboard_interrupt)
+
+
+def _raise_keyboard_interrupt(signal_number: int, frame: FrameType | None) -> None:
+    raise KeyboardInterrupt
+
+
+@contextlib.contextmanager
+def tensorboard_logger(tensorboard_dir: Path | None, prefix: str, run_folder: Path) -> Iterator[Any]:
+    """A TensorBoardLogger for --tensorboard (None without it); a missing extra is a one-sentence error (exit 1)."""
+    if tensorboard_dir is None:
+        yield None
+        return
+    from sumo_rail.learning.tensorboard_log import TensorBoardError, TensorBoardLogger
+
+    try:
+        logger = TensorBoardLogger(tensorboard_dir, prefix, run_folder)
+    except TensorBoardError as error:
+        raise click.ClickException(str(error)) from error
+    try:
+        yield logger
+    except TensorBoardError as error:
+        raise click.ClickException(str(error)) from error
+    finally:
+        logger.close()
