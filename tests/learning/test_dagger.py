@@ -108,7 +108,8 @@ class LearnerAskingTheExpert:
         decisions: list[int] = []
         steps = run_episode(context.env(self.config), PolicyDriver(self.policy, "learner").create(self.config, 0),
                             self.seed, record=True,
-                            probe=lambda traffic, action, info: decisions.append(int(expert.decide(traffic)))).steps
+                            probe=lambda seen, traffic, action, info: decisions.append(int(expert.decide(traffic)))
+                            ).steps
         return {**steps, "expert": np.array(decisions)}
 
 
