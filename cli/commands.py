@@ -26,7 +26,6 @@ from sumo_rail_cli.running import (
     bc_summary,
     interruptible_run,
     kept_until_resume,
-    library_errors,
     tensorboard_logger,
     validation_summary,
 )
@@ -53,7 +52,8 @@ def record_expert(config: Config, episodes: int, seed: int, workers: int,
     from sumo_rail.runners.record import record_demonstrations
 
     backend = build_backend(backend_name, workers, address)
-    with library_errors(), backend, progress(episodes, "recording") as bar:
+    bar = progress(episodes, "recording")
+    with interruptible_run(bar, f"interrupted; nothing was written to {out}", backend):
         metrics = record_demonstrations(config, driver, expert, seed, episodes, backend, out,
                                         on_episode=lambda index, result: bar.update())
     decisions = sum(row["steps"] for row in metrics)
@@ -147,7 +147,8 @@ def evaluate_command(config: Config, policies: tuple[str, ...],
     seeds = episode_seeds(Purpose.EVALUATE, seed, episodes)
     backend = (SerialBackend(render_mode="human", gui_delay_ms=100.0 if gui_delay_ms is None else gui_delay_ms)
                if gui else build_backend(backend_name, workers, address))
-    with library_errors(), backend, progress(len(drivers) * episodes, "evaluating") as bar:
+    bar = progress(len(drivers) * episodes, "evaluating")
+    with interruptible_run(bar, "interrupted; nothing was written" if out is not None else "interrupted", backend):
         evaluation = evaluate(drivers, config, seeds, backend, expert_driver, pool,
                               on_episode=lambda index, result: bar.update(),
                               video_episodes=(video_episodes or 1) if video_dir is not None else 0)
