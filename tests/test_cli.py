@@ -267,11 +267,12 @@ def rest_of(lines: queue.Queue, timeout_s: float = 60.0) -> str:
 
 def test_ctrl_c_leaves_no_partial_output(tmp_path):
     out = tmp_path / "demos.parquet"
-    with command_process("record-expert", *SMALL, "--episodes", "200", "--workers", "2", "--out", str(out)) as (
+    # far more episodes than the first progress line (after 10 s) can see done, even on a fast idle machine
+    with command_process("record-expert", *SMALL, "--episodes", "20000", "--workers", "2", "--out", str(out)) as (
             process, lines):
         # a progress line: episodes are recorded, and a command writing as it goes would have begun its file
-        output = read_until(lines, r"^recording: [1-9]\d*/200 episodes")
-        assert "200/200" not in output, "the recording ended before it could be interrupted"
+        output = read_until(lines, r"^recording: [1-9]\d*/20000 episodes")
+        assert "20000/20000" not in output, "the recording ended before it could be interrupted"
         process.send_signal(signal.SIGINT)
         assert process.wait(timeout=60) == 1
         output += rest_of(lines)
