@@ -125,8 +125,9 @@ class Trajectory:
 
 
 @dataclass(frozen=True)
-class RolloutTask:
-    """One rollout of theta + sign * nu * delta(iteration, index); integers and theta cross the process boundary."""
+class Perturbations:
+    """theta and the integers that name its perturbations theta + sign * nu * delta(iteration, index): what crosses
+    the process boundary for a rollout (never a direction vector)."""
 
     config: Config
     shape: PolicyShape
@@ -135,6 +136,18 @@ class RolloutTask:
     observation_std: np.ndarray
     noise_seed: int
     iteration: int
+
+    def perturbed(self, index: int, sign: int, nu: float) -> Policy:
+        """theta + sign * nu * delta(iteration, index), with theta's observation statistics."""
+        delta = direction(self.noise_seed, self.iteration, index, self.shape.parameter_count)
+        return Policy(self.shape, self.parameters + np.float32(sign * nu) * delta, self.observation_mean,
+                      self.observation_std)
+
+
+@dataclass(frozen=True)
+class RolloutTask(Perturbations):
+    """One rollout of theta + sign * nu * delta(iteration, index), on its own simulation."""
+
     index: int
     sign: int
     nu: float
@@ -144,9 +157,7 @@ class RolloutTask:
 
     def run(self, context: WorkerContext) -> list[Trajectory]:
         """One trajectory per episode seed."""
-        delta = direction(self.noise_seed, self.iteration, self.index, self.shape.parameter_count)
-        policy = Policy(self.shape, self.parameters + np.float32(self.sign * self.nu) * delta,
-                        self.observation_mean, self.observation_std)
+        policy = self.perturbed(self.index, self.sign, self.nu)
         trajectories = []
         for seed in self.episode_seeds:
             labels: list[int] = []
@@ -160,18 +171,11 @@ class RolloutTask:
 
 
 @dataclass(frozen=True)
-class SharedRolloutTask:
+class SharedRolloutTask(Perturbations):
     """Several rollouts of one iteration in one simulation: member j, (index, sign), drives ego_j of a
     `ParallelHighwayEnv` with theta + sign * nu * delta(iteration, index), on every episode seed; the other members
     are traffic to it."""
 
-    config: Config
-    shape: PolicyShape
-    parameters: np.ndarray
-    observation_mean: np.ndarray
-    observation_std: np.ndarray
-    noise_seed: int
-    iteration: int
     members: tuple[tuple[int, int], ...]
     nu: float
     episode_seeds: tuple[int, ...]
@@ -179,10 +183,7 @@ class SharedRolloutTask:
 
     def run(self, context: WorkerContext) -> list[list[Trajectory]]:
         """Per member, one trajectory per episode seed (with no decision where its ego found no room)."""
-        size = self.shape.parameter_count
-        policies = [Policy(self.shape, self.parameters + np.float32(sign * self.nu)
-                           * direction(self.noise_seed, self.iteration, index, size),
-                           self.observation_mean, self.observation_std) for index, sign in self.members]
+        policies = [self.perturbed(index, sign, self.nu) for index, sign in self.members]
         env = context.parallel_env(self.config, len(self.members))
         trajectories: list[list[Trajectory]] = [[] for _ in self.members]
         for seed in self.episode_seeds:
