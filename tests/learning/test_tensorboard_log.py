@@ -31,7 +31,7 @@ def demos(tmp_path_factory):
 
 
 def test_train_logs_each_iteration_to_tensorboard_and_resume_continues_the_steps(demos, tmp_path):
-    pytest.importorskip("tensorboard", reason="--tensorboard is the optional extra sumo-rail[tensorboard]")
+    pytest.importorskip("tensorboard", reason="--tensorboard is the package's optional extra [tensorboard]")
     run, board = tmp_path / "run", tmp_path / "board"
     common = ["train", *SMALL, "--demos", str(demos), "--directions", "2", "--top", "1", "--bc-epochs", "1",
               "--eval-every", "0", "--out", str(run), "--tensorboard", str(board)]
@@ -47,8 +47,8 @@ def test_train_logs_each_iteration_to_tensorboard_and_resume_continues_the_steps
 
 
 def test_gail_logs_each_update_to_tensorboard(demos, tmp_path):
-    pytest.importorskip("tensorboard", reason="--tensorboard is the optional extra sumo-rail[tensorboard]")
-    pytest.importorskip("stable_baselines3", reason="gail is the optional extra sumo-rail[baselines]")
+    pytest.importorskip("tensorboard", reason="--tensorboard is the package's optional extra [tensorboard]")
+    pytest.importorskip("stable_baselines3", reason="gail is the package's optional extra [baselines]")
     run, board = tmp_path / "run", tmp_path / "run" / "tensorboard"  # inside the new run folder is fine
     result = CliRunner().invoke(cli, ["gail", *SMALL, "--demos", str(demos), "--timesteps", "256", "--n-steps",
                                       "64", "--envs", "2", "--bc-epochs", "1", "--out", str(run), "--tensorboard",
@@ -61,7 +61,7 @@ def test_gail_logs_each_update_to_tensorboard(demos, tmp_path):
 
 
 def test_dagger_logs_each_round_to_tensorboard_and_resume_continues_the_steps(demos, tmp_path):
-    pytest.importorskip("tensorboard", reason="--tensorboard is the optional extra sumo-rail[tensorboard]")
+    pytest.importorskip("tensorboard", reason="--tensorboard is the package's optional extra [tensorboard]")
     run, board = tmp_path / "run", tmp_path / "board"
     common = ["dagger", *SMALL, "--demos", str(demos), "--episodes-per-round", "1", "--bc-epochs", "1",
               "--eval-every", "0", "--out", str(run), "--tensorboard", str(board)]

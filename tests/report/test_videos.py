@@ -8,7 +8,7 @@ from sumo_rail.report.inputs import Inputs, ReportError
 from sumo_rail.report.markdown import write_report
 from sumo_rail.runners.video import encode_mp4, write_bytes
 
-pytest.importorskip("imageio_ffmpeg", reason="videos are the optional extra sumo-rail[video]")
+pytest.importorskip("imageio_ffmpeg", reason="videos are the package's optional extra [video]")
 
 
 def solid_video(path, colour, frames=8):

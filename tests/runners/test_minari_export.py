@@ -19,7 +19,7 @@ def demos(tmp_path_factory):
 
 
 def test_export_loads_with_minari_with_the_same_observations_actions_and_episodes(demos, tmp_path, monkeypatch):
-    minari = pytest.importorskip("minari", reason="the Minari export is the optional extra sumo-rail[minari]")
+    minari = pytest.importorskip("minari", reason="the Minari export is the package's optional extra [minari]")
     root = tmp_path / "minari"
     monkeypatch.setenv("MINARI_DATASETS_PATH", str(root))  # never the user's ~/.minari
     result = CliRunner().invoke(cli, ["export-minari", str(demos), "--name", "sumo-rail/expert-v0"])

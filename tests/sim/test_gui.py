@@ -1,6 +1,6 @@
 """sumo-gui under a virtual X display (Xvfb): an episode runs to its end, the view follows the ego, evaluate --gui
-writes its row. Skipped, saying why, where no Xvfb binary is installed (CI installs it when it runs as root); an
-installed Xvfb that does not start skips too, except in CI (CI=true), where it fails."""
+writes its row. Skipped, saying why, where no Xvfb binary is installed or it does not start, except in CI (CI=true,
+whose .ci/run installs Xvfb), where both fail."""
 
 import os
 import shutil
@@ -26,7 +26,7 @@ def display(tmp_path_factory):
     """A private Xvfb display (1280x800) for this module's tests; its number is chosen by Xvfb itself."""
     binary = shutil.which("Xvfb")
     if binary is None:
-        pytest.skip("no Xvfb binary: install the system package xvfb (apt-get install xvfb) to run the sumo-gui tests")
+        skip_outside_ci("no Xvfb binary: install the system package xvfb (apt-get install xvfb) to run the GUI tests")
     log = tmp_path_factory.mktemp("xvfb") / "xvfb.log"
     read_end, write_end = os.pipe()
     with log.open("wb") as log_file:
