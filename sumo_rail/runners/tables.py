@@ -103,7 +103,8 @@ def read_demonstrations(path: Path, observation_size: int | None = None) -> Demo
         raise DatasetError(f"{path} has no fixed-size observation column")
     size = observation_type.list_size
     if observation_size is not None and size != observation_size:
-        raise DatasetError(f"{path} has observations of size {size}, the environment gives {observation_size}")
+        raise DatasetError(f"{path} has observations of size {size}, the environment gives {observation_size}: "
+                           f"give the --preset (or --config / --set observation options) it was recorded with")
     if table.num_rows == 0:
         raise DatasetError(f"{path} holds no demonstrations")
     if not all(pa.types.is_integer(table.schema.field(name).type) for name in ("episode", "action")):

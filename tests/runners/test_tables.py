@@ -87,7 +87,7 @@ def test_bad_demonstration_files_give_one_sentence_errors(tmp_path):
         read_demonstrations(foreign)
     good = tmp_path / "good.parquet"
     write_demos(good)
-    with pytest.raises(DatasetError, match="size 56, the environment gives 60"):
+    with pytest.raises(DatasetError, match="size 56, the environment gives 60: give the --preset"):
         read_demonstrations(good, observation_size=60)
     metrics = tmp_path / "metrics.parquet"
     row = {name: 0 for name in tables.METRIC_COLUMNS} | {"policy": "x", "termination": "", "terminated": False,
