@@ -9,6 +9,7 @@ import click
 from sumo_rail_cli.options import (
     config_options,
     imitation_options,
+    ppo_options,
     seed_option,
     tensorboard_option,
 )
@@ -24,17 +25,7 @@ if TYPE_CHECKING:
 @click.command("gail")
 @config_options
 @imitation_options
-@click.option("--timesteps", type=click.IntRange(min=1), default=100_000, show_default=True,
-              help="Environment decisions in total (rounded up to whole updates of --n-steps x --envs).")
-@click.option("--envs", type=click.IntRange(min=1), default=2, show_default=True,
-              help="Environment processes; unlike train's --workers, the result depends on it.")
-@click.option("--n-steps", type=click.IntRange(min=1), default=512, show_default=True,
-              help="PPO decisions per env and update.")
-@click.option("--learning-rate", type=click.FloatRange(min=0, min_open=True), default=3e-4, show_default=True,
-              help="PPO's Adam step size.")
-@click.option("--normalize-reward/--no-normalize-reward", default=True, show_default=True,
-              help="Divide PPO's rewards by the running std of the discounted return and clip them to +-10 "
-                   "(Stable-Baselines3's VecNormalize), so a collision's padding cannot swamp the critic.")
+@ppo_options(default_timesteps=100_000)
 @click.option("--critic-warmup", type=click.IntRange(min=0), default=5, show_default=True, metavar="K",
               help="First K updates with the actor frozen, only the critic learning (they count in --timesteps).")
 @seed_option("Seed of everything the run draws; the same seed and --envs give the same policy.")
@@ -53,7 +44,8 @@ def gail_command(config: Config, demos: Path, timesteps: int, kind: str,
     install 'sumo-rail[baselines]'.
     """
     from sumo_rail.learning.discriminator import DiscriminatorSettings
-    from sumo_rail.learning.gail import BaselineError, GailSettings, train_gail
+    from sumo_rail.learning.gail import GailSettings, train_gail
+    from sumo_rail.learning.sb3_runs import BaselineError
     from sumo_rail.learning.training import RunError
 
     try:

@@ -9,6 +9,7 @@ from sumo_rail_cli.commands import evaluate_command, record_expert, train_comman
 from sumo_rail_cli.dagger_command import dagger_command
 from sumo_rail_cli.export_command import export_minari_command
 from sumo_rail_cli.gail_command import gail_command
+from sumo_rail_cli.ppo_command import ppo_command
 from sumo_rail_cli.report_command import report_command
 from sumo_rail_cli.signal_command import step_signal_command
 
@@ -19,7 +20,8 @@ from sumo_rail_cli.signal_command import step_signal_command
 def cli(verbose: bool) -> None:
     """Imitation learning of highway driving decisions (RAIL) in SUMO.
 
-    The pipeline: record-expert records the expert; train (RAIL), dagger or gail learn from it; evaluate compares
+    The pipeline: record-expert records the expert (a rule-based style, or a policy such as one ppo trains from
+    the env's reward); train (RAIL), dagger or gail learn from it; evaluate compares
     the policies with the expert on held-out episodes; report plots runs and evaluations. Each command's --help is
     its full reference; --preset recommended gives the benchmark's setting (default: the paper's)."""
     logging.basicConfig(level=logging.INFO if verbose else logging.WARNING, format="%(levelname)s %(message)s")
@@ -30,6 +32,7 @@ cli.add_command(evaluate_command)
 cli.add_command(train_command)
 cli.add_command(gail_command)
 cli.add_command(dagger_command)
+cli.add_command(ppo_command)
 cli.add_command(report_command)
 cli.add_command(export_minari_command)
 cli.add_command(step_signal_command)

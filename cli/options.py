@@ -51,13 +51,7 @@ def config_options(command: Callable[..., Any]) -> Callable[..., Any]:
 def imitation_options(command: Callable[..., Any]) -> Callable[..., Any]:
     """--demos, the actor (--policy, --hidden) and its behaviour-cloning initialisation (--bc-epochs,
     --bc-class-balance): what train and gail share."""
-    options = [
-        click.option("--demos", type=click.Path(path_type=Path, dir_okay=False), required=True,
-                     help="Expert demonstrations written by record-expert."),
-        click.option("--policy", "kind", type=click.Choice(["linear", "mlp"]), default="mlp", show_default=True,
-                     help="linear: obs -> 5 logits; mlp: obs -> --hidden tanh units -> 5 logits."),
-        click.option("--hidden", type=click.IntRange(min=1), default=10, show_default=True,
-                     help="Hidden units of mlp."),
+    bc_options = [
         click.option("--bc-epochs", type=click.IntRange(min=0), default=20, show_default=True,
                      help="Behaviour-cloning epochs that initialise the policy (0: no BC); few demonstrations need "
                           "more (about 4000 / episodes, e.g. 100 for 40)."),
@@ -65,9 +59,41 @@ def imitation_options(command: Callable[..., Any]) -> Callable[..., Any]:
                      help="Exponent p of BC's class weights (1/frequency)^p: 0 plain cross-entropy, 1 all actions "
                           "equal."),
     ]
-    for option in reversed(options):
+    for option in reversed(bc_options):
         command = option(command)
-    return command
+    return click.option("--demos", type=click.Path(path_type=Path, dir_okay=False), required=True,
+                        help="Expert demonstrations written by record-expert.")(policy_shape_options(command))
+
+
+def policy_shape_options(command: Callable[..., Any]) -> Callable[..., Any]:
+    """The trained policy's layout: --policy (kind) and --hidden."""
+    command = click.option("--hidden", type=click.IntRange(min=1), default=10, show_default=True,
+                           help="Hidden units of mlp.")(command)
+    return click.option("--policy", "kind", type=click.Choice(["linear", "mlp"]), default="mlp", show_default=True,
+                        help="linear: obs -> 5 logits; mlp: obs -> --hidden tanh units -> 5 logits.")(command)
+
+
+def ppo_options(default_timesteps: int) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
+    """What gail and ppo share: --timesteps, --envs, --n-steps, --learning-rate, --normalize-reward."""
+    options = [
+        click.option("--timesteps", type=click.IntRange(min=1), default=default_timesteps, show_default=True,
+                     help="Environment decisions in total (rounded up to whole updates of --n-steps x --envs)."),
+        click.option("--envs", type=click.IntRange(min=1), default=2, show_default=True,
+                     help="Environment processes; unlike train's --workers, the result depends on it."),
+        click.option("--n-steps", type=click.IntRange(min=1), default=512, show_default=True,
+                     help="PPO decisions per env and update."),
+        click.option("--learning-rate", type=click.FloatRange(min=0, min_open=True), default=3e-4,
+                     show_default=True, help="PPO's Adam step size."),
+        click.option("--normalize-reward/--no-normalize-reward", default=True, show_default=True,
+                     help="Divide PPO's rewards by the running std of the discounted return and clip them to +-10 "
+                          "(Stable-Baselines3's VecNormalize), so a collision's penalty cannot swamp the critic."),
+    ]
+
+    def decorate(command: Callable[..., Any]) -> Callable[..., Any]:
+        for option in reversed(options):
+            command = option(command)
+        return command
+    return decorate
 
 
 def episode_options(default_seed: int, default_episodes: int) -> Callable[[Callable[..., Any]], Callable[..., Any]]:

@@ -400,7 +400,8 @@ def test_a_full_disk_during_a_save_keeps_the_previous_iteration(workspace: Path,
 
 def test_a_full_disk_during_a_gail_update_keeps_the_previous_update(workspace: Path,
                                                                     monkeypatch: pytest.MonkeyPatch):
-    from sumo_rail.learning.gail import BaselineError, GailSettings, train_gail
+    from sumo_rail.learning.gail import GailSettings, train_gail
+    from sumo_rail.learning.sb3_runs import BaselineError
 
     original, saved = pq.write_table, {}
 
@@ -530,7 +531,7 @@ def test_a_command_runs_on_a_damaged_cache(tmp_path: Path, cache_template: Path,
 
 
 # ---------------------------------------------------------------------------------------------------------------------
-# Worker loss under gail.
+# Worker loss under gail and ppo.
 
 
 def _children(pid: int) -> list[int]:
@@ -549,21 +550,29 @@ def _is_env_process(pid: int) -> bool:
     return b"multiprocessing" in command and b"resource_tracker" not in command
 
 
+LOSING_RUNS = {
+    "GAIL": ["gail", *SMALL, "--demos", "demos.parquet", "--timesteps", "100000", "--envs", "1", "--n-steps", "32",
+             "--bc-epochs", "1", "--out", "sb3_run"],
+    "PPO": ["ppo", *SMALL, "--timesteps", "100000", "--envs", "1", "--n-steps", "32", "--out", "sb3_run"],
+}
+
+
+@pytest.mark.parametrize("run", sorted(LOSING_RUNS))
 @pytest.mark.parametrize("how", ["killed", "failing"])
-def test_a_lost_gail_environment_process_is_one_sentence(workspace: Path, tmp_path: Path, how: str):
+def test_a_lost_stable_baselines3_environment_process_is_one_sentence(workspace: Path, tmp_path: Path, how: str,
+                                                                       run: str):
     """An env process killed mid-run (kill -9), or one that fails as it starts (its cache is a file, not a folder):
     one sentence saying which process and what the run folder holds; no EOFError, no traceback from any process."""
     environment = dict(os.environ)
     if how == "failing":
         environment["SUMO_RAIL_CACHE"] = str(tmp_path / "not_a_folder")
         (tmp_path / "not_a_folder").write_text("")
-    command = [sys.executable, "-m", "sumo_rail_cli", "gail", *SMALL, "--demos", "demos.parquet",
-               "--timesteps", "100000", "--envs", "1", "--n-steps", "32", "--bc-epochs", "1", "--out", "gail_run"]
+    command = [sys.executable, "-m", "sumo_rail_cli", *LOSING_RUNS[run]]
     process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=environment)
     try:
         if how == "killed":
             deadline = time.time() + 120
-            while not (workspace / "gail_run" / "log.parquet").exists() and time.time() < deadline:
+            while not (workspace / "sb3_run" / "log.parquet").exists() and time.time() < deadline:
                 time.sleep(0.2)
             envs = [pid for pid in _children(process.pid) if _is_env_process(pid)]
             assert len(envs) == 1, envs
@@ -575,7 +584,7 @@ def test_a_lost_gail_environment_process_is_one_sentence(workspace: Path, tmp_pa
             process.communicate()
     assert process.returncode == 1 and "Traceback" not in stderr and "EOFError" not in stderr, stderr
     error = stderr.rstrip().splitlines()[-1]
-    assert error.startswith("Error: GAIL stopped during update "), error
+    assert error.startswith(f"Error: {run} stopped during update "), error
     if how == "killed":
         assert "environment process 0 was killed by signal 9" in error and "policy_latest.npz holds update" in error
     else:

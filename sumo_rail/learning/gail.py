@@ -37,28 +37,20 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import math
-import signal
 import tempfile
-import threading
 import time
-from collections.abc import Callable, Iterator
-from contextlib import contextmanager
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-import pyarrow as pa
-
 from sumo_rail.config import Config
-from sumo_rail.datasets import DatasetError, write_failure, write_parquet, written_together
 from sumo_rail.drivers.policies import Policy, PolicyShape, save_policy
 from sumo_rail.learning.bc import BcReport, BcSettings, behaviour_cloning
 from sumo_rail.learning.discriminator import Discriminator, DiscriminatorSettings
 from sumo_rail.learning.gail_actor import (
     FixedNormalisation,
     load_into_ppo,
-    policy_kwargs,
     ppo_to_policy,
     set_actor_trainable,
 )
@@ -71,6 +63,14 @@ from sumo_rail.learning.gail_rewards import (
     reward_std,
 )
 from sumo_rail.learning.normalize import RunningStats
+from sumo_rail.learning.sb3_runs import (
+    BaselineError,
+    PpoSchedule,
+    build_ppo,
+    require_stable_baselines3,
+    save_update,
+    stop_requests,
+)
 from sumo_rail.learning.torch_threads import single_thread
 from sumo_rail.learning.training import RunError, write_atomically
 from sumo_rail.runners.experts import demonstrations_expert
@@ -79,17 +79,9 @@ from sumo_rail.sim.observation import observation_space
 
 if TYPE_CHECKING:
     from stable_baselines3 import PPO
-    from stable_baselines3.common.vec_env import VecEnv
-
-INSTALL_HINT = "the GAIL baseline needs Stable-Baselines3: pip install 'sumo-rail[baselines]'"
-
-
-class BaselineError(RuntimeError):
-    """The baseline cannot run here (message is one sentence)."""
-
 
 @dataclass(frozen=True)
-class GailSettings:
+class GailSettings(PpoSchedule):
     """What defines a GAIL run (stored in run.json)."""
 
     demos: str
@@ -122,25 +114,11 @@ class GailSettings:
     discriminator: DiscriminatorSettings = field(default_factory=DiscriminatorSettings)
 
     def __post_init__(self) -> None:
-        if self.timesteps < 1 or self.envs < 1 or self.n_steps * self.envs < 2 or self.batch_size < 2:
-            raise ValueError(f"GAIL needs timesteps >= 1, envs >= 1, n_steps x envs >= 2 and batch_size >= 2, got "
-                             f"{self.timesteps}, {self.envs}, {self.n_steps} and {self.batch_size}")
-        if self.bc_epochs < 0 or self.ppo_epochs < 1 or self.learning_rate <= 0 or not 0 < self.gamma <= 1:
-            raise ValueError(f"GAIL needs bc_epochs >= 0, ppo_epochs >= 1, learning_rate > 0 and 0 < gamma <= 1, "
-                             f"got {self.bc_epochs}, {self.ppo_epochs}, {self.learning_rate} and {self.gamma}")
+        self.check_schedule("GAIL")
+        if self.bc_epochs < 0:
+            raise ValueError(f"GAIL needs bc_epochs >= 0, got {self.bc_epochs}")
         if self.critic_warmup < 0:
             raise ValueError(f"GAIL needs critic_warmup >= 0, got {self.critic_warmup}")
-
-    @property
-    def steps_per_update(self) -> int:
-        return self.n_steps * self.envs
-
-    @property
-    def updates(self) -> int:
-        return math.ceil(self.timesteps / self.steps_per_update)
-
-    def to_dict(self) -> dict[str, Any]:
-        return dataclasses.asdict(self)
 
 
 @dataclass(frozen=True)
@@ -150,23 +128,6 @@ class GailResult:
     timesteps: int
     interrupted: bool
     """Stopped by SIGINT / SIGTERM before the last update."""
-
-
-def build_ppo(venv: VecEnv, shape: PolicyShape, settings: GailSettings) -> PPO:
-    """PPO with the actor of `shape`, seeded with `settings.seed`, on the CPU."""
-    from stable_baselines3 import PPO
-
-    return PPO("MlpPolicy", venv, learning_rate=settings.learning_rate, n_steps=settings.n_steps,
-               batch_size=settings.batch_size, n_epochs=settings.ppo_epochs, gamma=settings.gamma,
-               policy_kwargs=policy_kwargs(shape), seed=settings.seed, device="cpu", verbose=0)
-
-
-def require_stable_baselines3() -> None:
-    """BaselineError with the install hint when Stable-Baselines3 is missing."""
-    try:
-        import stable_baselines3  # noqa: F401
-    except ImportError as error:
-        raise BaselineError(INSTALL_HINT) from error
 
 
 def train_gail(folder: Path, settings: GailSettings, config: Config,
@@ -231,7 +192,7 @@ def _updates(folder: Path, settings: GailSettings, shape: PolicyShape, model: PP
              on_update: Callable[[dict[str, Any]], None] | None, logs: list[dict[str, Any]]) -> None:
     """PPO updates, each followed by the discriminator's steps and the saves, until done or asked to stop; each
     update's log row is appended to `logs` once its files are saved."""
-    with _stop_requests() as stop:
+    with stop_requests() as stop:
         for update in range(settings.updates):
             started = time.perf_counter()
             frozen = update < settings.critic_warmup
@@ -248,34 +209,10 @@ def _updates(folder: Path, settings: GailSettings, shape: PolicyShape, model: PP
                    "entropy": -float(model.logger.name_to_value["train/entropy_loss"]),
                    "actor_frozen": frozen, "reward_std": reward_std(model),
                    "wall_time_s": time.perf_counter() - started}
-            try:
-                with written_together(folder) as staged:  # both or neither: a full disk keeps the last update's
-                    save_policy(ppo_to_policy(model.policy, shape, normalisation),
-                                staged.path(folder / "policy_latest.npz"), {**run_record, "iteration": update})
-                    write_parquet(pa.Table.from_pylist([*logs, row]), staged.path(folder / "log.parquet"),
-                                  {**run_record, "kind": "training_log"})
-            except (OSError, DatasetError) as error:
-                kept = f"it keeps update {update}'s policy and log" if update else "it holds no trained policy"
-                raise BaselineError(f"cannot save update {update + 1} in {folder} ({write_failure(error)}); {kept} "
-                                    f"(a GAIL run cannot be resumed)") from error
+            save_update(folder, ppo_to_policy(model.policy, shape, normalisation), [*logs, row], run_record,
+                        "GAIL")
             logs.append(row)
             if on_update is not None:
                 on_update(row)
             if stop.is_set():
                 break
-
-
-@contextmanager
-def _stop_requests() -> Iterator[threading.Event]:
-    """An event that SIGINT and SIGTERM set instead of interrupting (main thread only; handlers restored after)."""
-    stop = threading.Event()
-    if threading.current_thread() is not threading.main_thread():
-        yield stop
-        return
-    previous = {number: signal.signal(number, lambda caught, frame: stop.set())
-                for number in (signal.SIGINT, signal.SIGTERM)}
-    try:
-        yield stop
-    finally:
-        for number, handler in previous.items():
-            signal.signal(number, handler)

@@ -73,8 +73,8 @@ LOST_ENV = (EOFError, BrokenPipeError, ConnectionResetError)
 """What Stable-Baselines3's SubprocVecEnv raises when an environment process is gone."""
 
 
-def lost_env_message(venv: VecEnv | None, error_dir: Path, folder: Path, updates: int) -> str:
-    """One sentence: which environment process ended and how, and what the run folder holds."""
+def lost_env_message(venv: VecEnv | None, error_dir: Path, folder: Path, updates: int, run: str = "GAIL") -> str:
+    """One sentence: which environment process ended and how, and what the run folder (of a `run` run) holds."""
     processes = list(getattr(venv.unwrapped, "processes", [])) if venv is not None else []
     deadline = time.monotonic() + 2.0
     while processes and all(process.exitcode is None for process in processes) and time.monotonic() < deadline:
@@ -89,10 +89,10 @@ def lost_env_message(venv: VecEnv | None, error_dir: Path, folder: Path, updates
             causes.append(f"environment process {index} was killed by signal {-code}")
         elif code is not None:
             causes.append(f"environment process {index} exited with code {code}")
-    what = causes[0] if causes else "an environment process was lost"
+    cause = causes[0] if causes else "an environment process was lost"
     kept = (f"{folder / 'policy_latest.npz'} holds update {updates}'s policy" if updates
             else f"{folder} holds no trained policy")
-    return f"GAIL stopped during update {updates + 1}: {what}; {kept} (a GAIL run cannot be resumed)"
+    return f"{run} stopped during update {updates + 1}: {cause}; {kept} (a {run} run cannot be resumed)"
 
 
 def close_envs(venv: VecEnv, lost: bool) -> None:

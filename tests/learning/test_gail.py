@@ -18,21 +18,20 @@ from sumo_rail.drivers.policies import PolicyShape, load_policy
 from sumo_rail.learning.bc import BcSettings, behaviour_cloning
 from sumo_rail.learning.discriminator import Discriminator, DiscriminatorSettings
 from sumo_rail.learning.gail import (
-    INSTALL_HINT,
     REWARD_CLIP,
     FixedNormalisation,
     GailSettings,
     RewardLabeller,
-    build_ppo,
     load_into_ppo,
     normalised_rewards,
-    policy_kwargs,
     ppo_to_policy,
     set_actor_trainable,
     train_gail,
 )
+from sumo_rail.learning.gail_actor import policy_kwargs
 from sumo_rail.learning.normalize import RunningStats
 from sumo_rail.learning.rail import rollout_return
+from sumo_rail.learning.sb3_runs import INSTALL_HINT, build_ppo
 from sumo_rail.report.inputs import LOG_COLUMNS, read_run
 from sumo_rail.runners.tables import read_demonstrations
 

@@ -1,0 +1,210 @@
+"""The paper's expert: a driving policy trained by PPO (Stable-Baselines3) on the environment's own reward.
+
+The reward of a decision is the env's (`sumo_rail.sim.env`): the longitudinal reward (v - v_min) / (v_max - v_min)
+in [0, 1], the lateral penalty while a lane change is under way and the collision penalty; with
+`overtake_reward` > 0, that much more for every vehicle the ego overtakes in the decision (a documented shaping
+option, 0 by default). As in `gail`, PPO's rewards are divided by the running std of the discounted return and
+clipped (`normalize_reward`).
+
+The actor is a `PolicyShape` (`gail_actor.policy_kwargs`): by default the learners' own two-layer policy (10 tanh
+units), so a learner of the default size can imitate it exactly; it acts on the raw observation, whose entries
+the env already scales to [-1, 2] (`sumo_rail.sim.observation`), so the exported policy's statistics are mean 0,
+std 1. The critic is `gail_actor.CRITIC_LAYERS`.
+
+Reproducible as `gail`: env k's first episode has the Purpose.TRAIN seed of episode k from base seed x envs; PPO
+is seeded and torch runs on one thread, so the same settings give the same policy bit for bit (for the same
+number of envs).
+
+runs/NAME/ holds `run.json` (settings, config, provenance), `policy_latest.npz` and `log.parquet`, replaced
+together after every update. The log has one row per update: iteration, env_steps, episodes (ended in the
+update), return_mean / _max / _std (the env's undiscounted episode return, shaping included, of those episodes;
+NaN when none ended), speed_kmh, overtakes, lane_changes, collisions (per ended episode), entropy (nats),
+reward_std and wall_time_s. SIGINT / SIGTERM stop after the current update; there is no resume.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import tempfile
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from sumo_rail.config import Config
+from sumo_rail.drivers.policies import PolicyShape
+from sumo_rail.learning.gail_actor import FixedNormalisation, ppo_to_policy
+from sumo_rail.learning.gail_envs import LOST_ENV, EnvFactory, close_envs, lost_env_message
+from sumo_rail.learning.gail_rewards import env_seeds, normalised_rewards, reward_std
+from sumo_rail.learning.sb3_runs import (
+    BaselineError,
+    PpoSchedule,
+    build_ppo,
+    require_stable_baselines3,
+    save_update,
+    stop_requests,
+)
+from sumo_rail.learning.torch_threads import single_thread
+from sumo_rail.learning.training import RunError, write_atomically
+from sumo_rail.runners.tables import provenance
+from sumo_rail.sim.observation import observation_space
+
+if TYPE_CHECKING:
+    from stable_baselines3.common.vec_env import VecEnv
+
+INSTALL_HINT = "sumo-rail ppo needs Stable-Baselines3: pip install 'sumo-rail[baselines]'"
+KMH_PER_MPS = 3.6
+
+
+@dataclass(frozen=True)
+class PpoSettings(PpoSchedule):
+    """What defines a PPO driver run (stored in run.json)."""
+
+    timesteps: int = 400_000
+    """Environment decisions in total, rounded up to whole updates of n_steps x envs."""
+    kind: str = "mlp"
+    hidden: int = 10
+    envs: int = 2
+    """Environment processes; the result depends on it."""
+    n_steps: int = 512
+    """Decisions per env and update."""
+    learning_rate: float = 3e-4
+    batch_size: int = 64
+    ppo_epochs: int = 10
+    gamma: float = 0.99
+    """Discount per decision (0.5 s): a horizon of about 100 decisions."""
+    ent_coef: float = 0.01
+    """PPO's entropy bonus: keeps lane changes tried until their worth is learnt."""
+    normalize_reward: bool = True
+    overtake_reward: float = 0.0
+    """Shaping: reward per vehicle overtaken (0: the env's reward alone)."""
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        self.check_schedule("PPO")
+        if self.ent_coef < 0 or self.overtake_reward < 0:
+            raise ValueError(f"PPO needs ent_coef >= 0 and overtake_reward >= 0, got {self.ent_coef} and "
+                             f"{self.overtake_reward}")
+
+
+@dataclass(frozen=True)
+class PpoResult:
+    updates: int
+    timesteps: int
+    interrupted: bool
+    """Stopped by SIGINT / SIGTERM before the last update."""
+
+
+class EpisodeTally:
+    """The env's return (with the overtake shaping) and the end-of-episode totals of every episode that ends."""
+
+    def __init__(self, envs: int, overtake_reward: float) -> None:
+        self.overtake_reward = overtake_reward
+        self._returns = np.zeros(envs)
+        self._overtakes = np.zeros(envs, dtype=np.int64)
+        self.ended: list[dict[str, float]] = []
+
+    def shaped(self, rewards: np.ndarray, dones: np.ndarray, infos: list[dict[str, Any]]) -> np.ndarray:
+        """This step's rewards plus the overtake shaping; records the episodes that ended."""
+        overtakes = np.array([info["overtakes"] for info in infos], dtype=np.int64)
+        rewards = np.asarray(rewards, dtype=np.float64) + self.overtake_reward * (overtakes - self._overtakes)
+        self._returns += rewards
+        for env in np.flatnonzero(dones):
+            info = infos[env]
+            self.ended.append({"return": float(self._returns[env]),
+                               "speed_kmh": KMH_PER_MPS * info["distance_m"] / max(info["time_s"], 1e-9),
+                               "overtakes": info["overtakes"], "lane_changes": info["lane_changes"],
+                               "collisions": info["collisions"]})
+        overtakes[dones] = 0
+        self._returns[dones] = 0.0
+        self._overtakes = overtakes
+        return rewards.astype(np.float32)
+
+    def take(self) -> list[dict[str, float]]:
+        ended, self.ended = self.ended, []
+        return ended
+
+
+def driving_vec_env(config: Config, envs: int, seed: int, tally: EpisodeTally, error_dir: Path) -> VecEnv:
+    """`envs` spawned HighwayEnv processes whose rewards pass through `tally`; env k that fails writes why to
+    error_dir/env_k.txt and ends (`gail_envs.EnvFactory`)."""
+    from stable_baselines3.common.vec_env import SubprocVecEnv, VecEnvWrapper
+
+    class TalliedVecEnv(VecEnvWrapper):
+        """Rewards through `tally`; `seed` is a no-op: the env factories seed the envs."""
+
+        def seed(self, seed: int | None = None) -> list[int | None]:
+            return [None] * self.num_envs
+
+        def reset(self) -> np.ndarray:
+            return self.venv.reset()
+
+        def step_wait(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[dict[str, Any]]]:
+            observations, rewards, dones, infos = self.venv.step_wait()
+            return observations, tally.shaped(rewards, dones, infos), dones, infos
+
+    factories = [EnvFactory(config, env_seed, str(error_dir / f"env_{index}.txt"))
+                 for index, env_seed in enumerate(env_seeds(seed, envs))]
+    return TalliedVecEnv(SubprocVecEnv(factories, start_method="spawn"))
+
+
+def train_ppo_driver(folder: Path, settings: PpoSettings, config: Config,
+                     on_update: Callable[[dict[str, Any]], None] | None = None) -> PpoResult:
+    """Train into the empty or new `folder`; `on_update` gets each log row once its update is saved."""
+    require_stable_baselines3(INSTALL_HINT)
+    folder = Path(folder)
+    observation_size = observation_space(config).shape[0]
+    shape = PolicyShape(settings.kind, observation_size, settings.hidden)
+    identity = FixedNormalisation(np.zeros(observation_size), np.ones(observation_size))
+    run_record = {"settings": settings.to_dict(), **provenance("ppo_run", config, settings.seed)}
+    if folder.exists() and any(folder.iterdir()):
+        raise RunError(f"run folder {folder} is not empty; choose another --out")
+    folder.mkdir(parents=True, exist_ok=True)
+    write_atomically(folder / "run.json", json.dumps(run_record, indent=2, sort_keys=True).encode())
+    tally = EpisodeTally(settings.envs, settings.overtake_reward)
+    rows: list[dict[str, Any]] = []
+    venv, lost = None, False
+    with single_thread(), tempfile.TemporaryDirectory(prefix="sumo-rail-ppo-") as errors:
+        try:
+            venv = driving_vec_env(config, settings.envs, settings.seed, tally, Path(errors))
+            if settings.normalize_reward:
+                venv = normalised_rewards(venv, settings.gamma)
+            model = build_ppo(venv, shape, settings, ent_coef=settings.ent_coef)
+            with stop_requests() as stop:
+                for update in range(settings.updates):
+                    started = time.perf_counter()
+                    model.learn(settings.steps_per_update, reset_num_timesteps=False)
+                    row = {"iteration": update, "env_steps": settings.steps_per_update,
+                           **_episode_summary(tally.take()),
+                           "entropy": -float(model.logger.name_to_value["train/entropy_loss"]),
+                           "reward_std": reward_std(model), "wall_time_s": time.perf_counter() - started}
+                    save_update(folder, ppo_to_policy(model.policy, shape, identity), [*rows, row], run_record,
+                                "PPO")
+                    rows.append(row)
+                    if on_update is not None:
+                        on_update(row)
+                    if stop.is_set():
+                        break
+            return PpoResult(len(rows), model.num_timesteps, len(rows) < settings.updates)
+        except LOST_ENV as error:
+            lost = True
+            raise BaselineError(lost_env_message(venv, Path(errors), folder, len(rows), run="PPO")) from error
+        finally:
+            if venv is not None:
+                close_envs(venv, lost)
+
+
+def _episode_summary(episodes: list[dict[str, float]]) -> dict[str, float | int]:
+    """Log columns of the episodes that ended in an update (NaN means when none did)."""
+    returns = np.array([episode["return"] for episode in episodes])
+    summary: dict[str, float | int] = {"episodes": len(episodes)}
+    summary |= {"return_mean": float(returns.mean()), "return_max": float(returns.max()),
+                "return_std": float(returns.std())} if episodes else dict.fromkeys(
+        ("return_mean", "return_max", "return_std"), math.nan)
+    for column in ("speed_kmh", "overtakes", "lane_changes", "collisions"):
+        summary[column] = float(np.mean([episode[column] for episode in episodes])) if episodes else math.nan
+    return summary

@@ -1,0 +1,123 @@
+"""What the two Stable-Baselines3 trainers (`gail`, `ppo_driver`) share: the install check, PPO built with a
+`PolicyShape` actor, stopping after the current update on SIGINT / SIGTERM, and saving an update's policy and log
+together. Stable-Baselines3 is imported only by the functions that need it."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import signal
+import threading
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, Protocol
+
+import pyarrow as pa
+
+from sumo_rail.datasets import DatasetError, write_failure, write_parquet, written_together
+from sumo_rail.drivers.policies import Policy, PolicyShape, save_policy
+from sumo_rail.learning.gail_actor import policy_kwargs
+
+if TYPE_CHECKING:
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.vec_env import VecEnv
+
+INSTALL_HINT = "the GAIL baseline needs Stable-Baselines3: pip install 'sumo-rail[baselines]'"
+
+
+class BaselineError(RuntimeError):
+    """A Stable-Baselines3 run cannot go on (message is one sentence)."""
+
+
+class PpoHyperparameters(Protocol):
+    """The PPO settings `build_ppo` reads."""
+
+    learning_rate: float
+    n_steps: int
+    batch_size: int
+    ppo_epochs: int
+    gamma: float
+    seed: int
+
+
+class PpoSchedule:
+    """Mixin of the frozen settings dataclasses of a PPO run (fields timesteps, envs, n_steps, batch_size,
+    ppo_epochs, learning_rate, gamma): their checks, update size and count, and run.json form."""
+
+    timesteps: int
+    envs: int
+    n_steps: int
+    batch_size: int
+    ppo_epochs: int
+    learning_rate: float
+    gamma: float
+
+    def check_schedule(self, name: str) -> None:
+        """ValueError naming the first PPO setting out of range (`name`: "GAIL", "PPO")."""
+        if self.timesteps < 1 or self.envs < 1 or self.n_steps * self.envs < 2 or self.batch_size < 2:
+            raise ValueError(f"{name} needs timesteps >= 1, envs >= 1, n_steps x envs >= 2 and batch_size >= 2, "
+                             f"got {self.timesteps}, {self.envs}, {self.n_steps} and {self.batch_size}")
+        if self.ppo_epochs < 1 or self.learning_rate <= 0 or not 0 < self.gamma <= 1:
+            raise ValueError(f"{name} needs ppo_epochs >= 1, learning_rate > 0 and 0 < gamma <= 1, got "
+                             f"{self.ppo_epochs}, {self.learning_rate} and {self.gamma}")
+
+    @property
+    def steps_per_update(self) -> int:
+        return self.n_steps * self.envs
+
+    @property
+    def updates(self) -> int:
+        return math.ceil(self.timesteps / self.steps_per_update)
+
+    def to_dict(self) -> dict[str, Any]:
+        return dataclasses.asdict(self)  # type: ignore[call-overload]
+
+
+def require_stable_baselines3(hint: str = INSTALL_HINT) -> None:
+    """BaselineError with the install hint when Stable-Baselines3 is missing."""
+    try:
+        import stable_baselines3  # noqa: F401
+    except ImportError as error:
+        raise BaselineError(hint) from error
+
+
+def build_ppo(venv: VecEnv, shape: PolicyShape, settings: PpoHyperparameters, ent_coef: float = 0.0) -> PPO:
+    """PPO with the actor of `shape` (`gail_actor.policy_kwargs`), seeded with `settings.seed`, on the CPU."""
+    from stable_baselines3 import PPO
+
+    return PPO("MlpPolicy", venv, learning_rate=settings.learning_rate, n_steps=settings.n_steps,
+               batch_size=settings.batch_size, n_epochs=settings.ppo_epochs, gamma=settings.gamma,
+               ent_coef=ent_coef, policy_kwargs=policy_kwargs(shape), seed=settings.seed, device="cpu", verbose=0)
+
+
+@contextmanager
+def stop_requests() -> Iterator[threading.Event]:
+    """An event that SIGINT and SIGTERM set instead of interrupting (main thread only; handlers restored after)."""
+    stop = threading.Event()
+    if threading.current_thread() is not threading.main_thread():
+        yield stop
+        return
+    previous = {number: signal.signal(number, lambda caught, frame: stop.set())
+                for number in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield stop
+    finally:
+        for number, handler in previous.items():
+            signal.signal(number, handler)
+
+
+def save_update(folder: Path, policy: Policy, rows: list[dict[str, Any]], run_record: dict[str, Any],
+                what: str) -> None:
+    """Replace policy_latest.npz and log.parquet (`rows`, the last being this update's) together: both or, on a full
+    disk, neither; BaselineError saying what the folder keeps otherwise (`what` names the run, e.g. "GAIL")."""
+    update = len(rows) - 1
+    try:
+        with written_together(folder) as staged:
+            save_policy(policy, staged.path(folder / "policy_latest.npz"), {**run_record, "iteration": update})
+            write_parquet(pa.Table.from_pylist(rows), staged.path(folder / "log.parquet"),
+                          {**run_record, "kind": "training_log"})
+    except (OSError, DatasetError) as error:
+        kept = f"it keeps update {update}'s policy and log" if update else "it holds no trained policy"
+        raise BaselineError(f"cannot save update {update + 1} in {folder} ({write_failure(error)}); {kept} "
+                            f"(a {what} run cannot be resumed)") from error

@@ -1,0 +1,96 @@
+import json
+import sys
+
+import numpy as np
+import pandas as pd
+import pytest
+from test_cli import SMALL, invoke
+
+from sumo_rail.datasets import read_metadata
+from sumo_rail.drivers.policies import load_policy
+from sumo_rail.learning.ppo_driver import INSTALL_HINT, EpisodeTally, PpoSettings
+
+
+def info(overtakes: int, lane_changes: int = 0, distance_m: float = 100.0, time_s: float = 10.0) -> dict:
+    return {"overtakes": overtakes, "lane_changes": lane_changes, "distance_m": distance_m, "time_s": time_s,
+            "collisions": 0}
+
+
+def test_the_overtake_shaping_pays_each_new_overtake_once_and_restarts_with_the_episode():
+    tally = EpisodeTally(envs=2, overtake_reward=2.0)
+    no = np.array([False, False])
+    first = tally.shaped(np.array([0.5, 0.5]), no, [info(0), info(1)])
+    assert first.tolist() == [0.5, 2.5]
+    second = tally.shaped(np.array([0.5, 0.5]), np.array([True, False]), [info(2, 1, 250.0, 10.0), info(1)])
+    assert second.tolist() == [4.5, 0.5]  # env 0: two new overtakes; env 1: none since the last step
+    assert tally.take() == [{"return": 5.0, "speed_kmh": pytest.approx(90.0), "overtakes": 2, "lane_changes": 1,
+                             "collisions": 0}]
+    third = tally.shaped(np.array([0.5, 0.5]), no, [info(1), info(1)])  # env 0's new episode counts from 0 again
+    assert third.tolist() == [2.5, 0.5] and tally.take() == []
+
+
+def test_without_shaping_the_reward_is_the_envs():
+    tally = EpisodeTally(envs=1, overtake_reward=0.0)
+    assert tally.shaped(np.array([0.25]), np.array([False]), [info(3)]).tolist() == [0.25]
+
+
+def test_bad_settings_are_usage_errors(tmp_path):
+    with pytest.raises(ValueError, match="overtake_reward"):
+        PpoSettings(overtake_reward=-1.0)
+    result = invoke("ppo", "--envs", "1", "--n-steps", "1", "--out", str(tmp_path / "x"))
+    assert result.exit_code == 2 and "n_steps x envs >= 2" in result.output and not (tmp_path / "x").exists()
+    (tmp_path / "run").mkdir()
+    (tmp_path / "run" / "precious.txt").write_text("keep")
+    result = invoke("ppo", *SMALL, "--out", str(tmp_path / "run"))
+    assert result.exit_code == 1 and "not empty" in result.output and "Traceback" not in result.output
+    assert [path.name for path in (tmp_path / "run").iterdir()] == ["precious.txt"]
+
+
+@pytest.fixture(scope="module")
+def runs(tmp_path_factory):
+    """The same small PPO run twice, and once with another seed and the overtake shaping."""
+    root = tmp_path_factory.mktemp("ppo")
+    common = ("ppo", *SMALL, "--timesteps", "128", "--envs", "1", "--n-steps", "64", "--batch-size", "32")
+    folders = []
+    for name, extra in (("a", ()), ("b", ()), ("c", ("--seed", "1", "--overtake-reward", "1"))):
+        result = invoke(*common, *extra, "--out", str(root / name))
+        assert result.exit_code == 0, result.output
+        folders.append(root / name)
+    return folders
+
+
+def test_the_same_seed_gives_the_same_driver_bit_for_bit(runs):
+    a, b, c = runs
+    first, _ = load_policy(a / "policy_latest.npz")
+    second, _ = load_policy(b / "policy_latest.npz")
+    other, _ = load_policy(c / "policy_latest.npz")
+    assert np.array_equal(first.parameters, second.parameters)
+    assert not np.array_equal(first.parameters, other.parameters)
+    pd.testing.assert_frame_equal(pd.read_parquet(a / "log.parquet").drop(columns="wall_time_s"),
+                                  pd.read_parquet(b / "log.parquet").drop(columns="wall_time_s"))
+
+
+def test_the_run_folder_holds_a_policy_that_drives_and_serves_as_the_expert(runs, tmp_path):
+    folder = runs[2]
+    assert sorted(path.name for path in folder.iterdir()) == ["log.parquet", "policy_latest.npz", "run.json"]
+    record = json.loads((folder / "run.json").read_text())
+    assert record["kind"] == "ppo_run" and record["settings"]["overtake_reward"] == 1.0 and record["seed"] == 1
+    log = pd.read_parquet(folder / "log.parquet")
+    assert log["iteration"].tolist() == [0, 1] and log["env_steps"].tolist() == [64, 64]
+    assert read_metadata(folder / "log.parquet")["kind"] == "training_log"
+    assert (log["entropy"] > 0).all() and (log["reward_std"] != 1.0).all()
+    policy, metadata = load_policy(folder / "policy_latest.npz")
+    assert policy.shape.kind == "mlp" and policy.shape.hidden == 10 and metadata["iteration"] == 1
+    assert np.array_equal(policy.observation_mean, np.zeros(56)) and np.array_equal(policy.observation_std, np.ones(56))
+    expert = str(folder / "policy_latest.npz")
+    result = invoke("evaluate", *SMALL, "--policy", expert, "--expert", expert, "--episodes", "1",
+                    "--out", str(tmp_path / "evaluation.parquet"))
+    assert result.exit_code == 0, result.output
+    assert pd.read_parquet(tmp_path / "evaluation.parquet")["agreement"].tolist() == [1.0]
+
+
+def test_missing_stable_baselines3_is_a_one_line_hint(monkeypatch, tmp_path):
+    monkeypatch.setitem(sys.modules, "stable_baselines3", None)
+    result = invoke("ppo", "--out", str(tmp_path / "run"))
+    assert result.exit_code == 1 and INSTALL_HINT in result.output and "Traceback" not in result.output
+    assert not (tmp_path / "run").exists()
