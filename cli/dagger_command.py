@@ -32,13 +32,16 @@ if TYPE_CHECKING:
               help="Probability that the expert drives a decision in round 1.")
 @click.option("--beta-decay", type=click.FloatRange(0, 1), default=0.5, show_default=True,
               help="beta of round r: beta x beta-decay^(r - 1).")
+@click.option("--egos", type=click.IntRange(min=1), default=1, show_default=True,
+              help="Episodes of a round that share one simulation, each driving its own ego (the others are traffic "
+                   "to it); 1: one episode per simulation.")
 @expert_option("Who labels the learner's states [default: the demonstrations' expert].", default=None)
 @run_folder_options("round", eval_every=1)
 @tensorboard_option
 def dagger_command(config: Config, demos: Path, kind: str, hidden: int,
                    bc_epochs: int, bc_class_balance: float, rounds: int, episodes_per_round: int, beta: float,
-                   beta_decay: float, expert: str | None, workers: int, backend_name: str, address: str | None,
-                   seed: int, eval_every: int, eval_episodes: int, out: Path, resume: bool,
+                   beta_decay: float, egos: int, expert: str | None, workers: int, backend_name: str,
+                   address: str | None, seed: int, eval_every: int, eval_episodes: int, out: Path, resume: bool,
                    tensorboard_dir: Path | None) -> None:
     """Learn a driving policy with DAgger: BC on the demonstrations, then rounds in which the expert labels every
     state the policy (mixed with the expert, probability beta) visits, and BC again on all labels so far.
@@ -53,7 +56,7 @@ def dagger_command(config: Config, demos: Path, kind: str, hidden: int,
     try:
         settings = DaggerSettings(str(demos), kind, hidden, episodes_per_round, beta, beta_decay,
                                   BcSettings(epochs=max(bc_epochs, 1), class_balance=bc_class_balance, seed=seed),
-                                  seed, expert)
+                                  seed, expert, egos)
     except ValueError as error:
         raise click.UsageError(str(error)) from error
     backend = build_backend(backend_name, workers, address)

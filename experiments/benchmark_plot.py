@@ -10,7 +10,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from benchmark_table import EXPERT, METHODS, methods_found, read_evaluations
+from benchmark_table import METHODS, methods_found, read_evaluations
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
@@ -22,8 +22,8 @@ PANELS = {"agreement": "on-policy agreement with the expert", "lane_change_recal
 
 
 def main(out: Path, figure_path: Path) -> None:
-    metrics, _, _ = read_evaluations(out)
-    expert = measure_samples(metrics[metrics["policy"] == EXPERT].sort_values("seed"))
+    metrics, _, _, expert_name = read_evaluations(out)
+    expert = measure_samples(metrics[metrics["policy"] == expert_name].sort_values("seed"))
     found = methods_found(metrics)
     labels = [f"{METHODS[key][0]} ({len(seeds)} seeds)" for key, (seeds, _) in found.items()]
     figure = Figure(figsize=(12, 0.45 * len(found) + 2.2), layout="constrained")

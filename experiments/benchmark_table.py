@@ -20,6 +20,7 @@ from sumo_rail.evaluation.summary import distance_summary, measure_samples
 from sumo_rail.runners.experts import SAMPLED_SUFFIX
 
 EXPERT = "expert-normal"
+"""The rule-based expert's name in evaluations."""
 METHODS = {  # key: (label, run folder stem, policy in it)
     "bc_mlp": ("BC, two-layer", "bc_mlp", "policy_bc"),
     "rail_mlp": ("RAIL, two-layer", "rail_mlp", "policy_latest"),
@@ -37,27 +38,36 @@ MEASURES = ("agreement", "lane_change_recall", "lane_change_precision", "lateral
             "average_speed_kmh", "overtakes", "lane_changes", "collisions")
 
 
-def read_evaluations(out: Path) -> tuple[pd.DataFrame, pd.DataFrame, int]:
-    """All test_sSEED evaluations as one metrics table (the expert once), their per-decision records, and the
-    scenario's lane count."""
+def expert_driver(metrics: pd.DataFrame) -> str:
+    """The expert's name among an evaluation's drivers: expert-STYLE (rule-based) or expert-NAME (a policy file)."""
+    experts = sorted({name for name in metrics["policy"] if name.startswith("expert-")})
+    if len(experts) != 1:
+        raise SystemExit(f"expected one expert among the drivers, found {experts or 'none'}")
+    return experts[0]
+
+
+def read_evaluations(out: Path) -> tuple[pd.DataFrame, pd.DataFrame, int, str]:
+    """All test_sSEED evaluations as one metrics table (the expert once), their per-decision records, the
+    scenario's lane count and the expert's name (`expert_driver`)."""
     paths = sorted(out.glob("test_s*.parquet"))
     paths = [path for path in paths if not path.name.endswith(".decisions.parquet")]
     if not paths:
         raise SystemExit(f"no evaluation test_sSEED.parquet in {out} yet")
     metrics = [pd.read_parquet(path) for path in paths]
     decisions = [pd.read_parquet(decisions_path(path)) for path in paths]
-    expert_seeds = sorted(metrics[0].loc[metrics[0]["policy"] == EXPERT, "seed"])
+    expert = expert_driver(metrics[0])
+    expert_seeds = sorted(metrics[0].loc[metrics[0]["policy"] == expert, "seed"])
     for path, frame in zip(paths, metrics, strict=True):
         for driver, episodes in frame.groupby("policy"):
             if sorted(episodes["seed"]) != expert_seeds:
                 raise SystemExit(f"{path}: {driver} was not evaluated on the same episodes as {paths[0]}'s expert")
     lanes = int(read_metadata(paths[0])["config"]["scenario"]["lanes"])
     keep_expert = [True] + [False] * (len(paths) - 1)
-    return (pd.concat([frame[(frame["policy"] != EXPERT) | keep] for frame, keep in zip(metrics, keep_expert,
+    return (pd.concat([frame[(frame["policy"] != expert) | keep] for frame, keep in zip(metrics, keep_expert,
                                                                                           strict=True)]),
-            pd.concat([frame[(frame["policy"] != EXPERT) | keep] for frame, keep in zip(decisions, keep_expert,
+            pd.concat([frame[(frame["policy"] != expert) | keep] for frame, keep in zip(decisions, keep_expert,
                                                                                           strict=True)]),
-            lanes)
+            lanes, expert)
 
 
 def budget(out: Path, stem: str, seeds: list[int]) -> str:
@@ -93,10 +103,10 @@ def print_headline(expert: dict[str, Sample], found: dict[str, tuple[list[int], 
 
 
 def main(out: Path) -> None:
-    metrics, decisions, lanes = read_evaluations(out)
-    expert = measure_samples(metrics[metrics["policy"] == EXPERT].sort_values("seed"))
+    metrics, decisions, lanes, expert_name = read_evaluations(out)
+    expert = measure_samples(metrics[metrics["policy"] == expert_name].sort_values("seed"))
     found = methods_found(metrics)
-    episodes = int((metrics["policy"] == EXPERT).sum())
+    episodes = int((metrics["policy"] == expert_name).sum())
     print(f"{episodes} test episodes; cells: value [95% interval] over training runs and episodes "
           f"(experiments/seeded.py), each run's own estimate in brackets; differences paired by run and episode.\n")
     print_headline(expert, found)
@@ -126,7 +136,7 @@ def main(out: Path) -> None:
     print("|---|---:|---:|")
     for key, (seeds, _) in found.items():
         print(f"| {METHODS[key][0]} | {budget(out, METHODS[key][1], seeds)} |")
-    print("\n```\n" + distance_summary(decisions, EXPERT, lanes) + "\n```")
+    print("\n```\n" + distance_summary(decisions, expert_name, lanes) + "\n```")
 
 
 if __name__ == "__main__":

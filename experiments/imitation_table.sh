@@ -8,7 +8,9 @@
 #   (environment: SEEDS, KINDS (RAIL's and BC's policy shapes, default "mlp linear"), DEMOS_EPISODES, DIRECTIONS,
 #   ITERATIONS, DAGGER (1 or 0), DAGGER_ROUNDS, ROUND_EPISODES, GAIL (1 or 0), TEST_EPISODES, WORKERS, REPORT_SEED
 #   (whose runs `report` draws, default the first of SEEDS; "" for none), OVERRIDES: --set options of the setting,
-#   default the lane-wise block; "" for the paper's. More seeds of some methods, e.g. RAIL and BC two-layer only:
+#   default the lane-wise block; "" for the paper's, EXPERT: who is imitated, a style or a policy file (default
+#   normal; a PPO driver from `sumo-rail ppo` gives the realizable benchmark, docs/results.md). More seeds of some
+#   methods, e.g. RAIL and BC two-layer only:
 #   SEEDS="3 4" KINDS=mlp DAGGER=0 GAIL=0 REPORT_SEED="" experiments/imitation_table.sh)
 set -euo pipefail
 out=${1:-results/imitation_table}
@@ -25,13 +27,14 @@ test_episodes=${TEST_EPISODES:-250}
 workers=${WORKERS:-2}
 report_seed=${REPORT_SEED-${seeds%% *}}
 overrides=${OVERRIDES---set observation.lane_block=1}
+expert=${EXPERT:-normal}
 sumo_rail=${SUMO_RAIL:-.venv/bin/sumo-rail}
 python=${PYTHON:-.venv/bin/python}
 demos="$out/demos.parquet"
 mkdir -p "$out"
 # shellcheck disable=SC2086  # the overrides are several words on purpose
-[ -f "$demos" ] || $sumo_rail record-expert $overrides --episodes "$demos_episodes" --seed 0 --workers "$workers" \
-  --out "$demos"
+[ -f "$demos" ] || $sumo_rail record-expert $overrides --expert "$expert" --episodes "$demos_episodes" --seed 0 \
+  --workers "$workers" --out "$demos"
 for seed in $seeds; do
   policies=(--policy expert)
   for kind in $kinds; do
@@ -66,8 +69,8 @@ for seed in $seeds; do
     policies+=(--policy "$out/gail_s$seed/policy_latest.npz" --sample-policy "$out/gail_s$seed/policy_latest.npz")
   fi
   # shellcheck disable=SC2086
-  [ -f "$out/test_s$seed.parquet" ] || $sumo_rail evaluate $overrides "${policies[@]}" --seed 1000 \
-    --episodes "$test_episodes" --workers "$workers" --out "$out/test_s$seed.parquet" > "$out/test_s$seed.txt"
+  [ -f "$out/test_s$seed.parquet" ] || $sumo_rail evaluate $overrides --expert "$expert" "${policies[@]}" \
+    --seed 1000 --episodes "$test_episodes" --workers "$workers" --out "$out/test_s$seed.parquet" > "$out/test_s$seed.txt"
 done
 $python experiments/benchmark_table.py "$out" | tee "$out/table.md"
 $python experiments/benchmark_plot.py "$out" "$out/benchmark.png"

@@ -42,10 +42,11 @@ from sumo_rail.learning.training import (
 )
 from sumo_rail.runners.backends import RolloutBackend, WorkerContext
 from sumo_rail.runners.experts import demonstrations_expert, resolve_expert
-from sumo_rail.runners.rollout import DriverSpec, run_episode
+from sumo_rail.runners.rollout import Driver, DriverSpec, run_episode, run_shared_episode
 from sumo_rail.runners.tables import Demonstrations, provenance, read_demonstrations
 from sumo_rail.seeding import Purpose, episode_seeds
 from sumo_rail.sim.observation import observation_space
+from sumo_rail.sim.traffic import TrafficView
 
 CHECKPOINT_FORMAT = "sumo-rail dagger checkpoint 1"
 DATASET = "dagger_dataset"
@@ -67,10 +68,13 @@ class DaggerSettings:
     seed: int = 0
     expert: str | None = None
     """Who labels: a style or a policy file (`experts.resolve_expert`); None: the demonstrations' expert."""
+    egos: int = 1
+    """Egos per simulation: a round's episodes run K at a time in one SUMO (`SharedDaggerTask`)."""
 
     def __post_init__(self) -> None:
-        if self.episodes_per_round < 1:
-            raise ValueError(f"--episodes-per-round must be at least 1, got {self.episodes_per_round}")
+        if self.episodes_per_round < 1 or self.egos < 1:
+            raise ValueError(f"--episodes-per-round and --egos must be at least 1, got {self.episodes_per_round} and "
+                             f"{self.egos}")
         if not (0.0 <= self.beta <= 1.0 and 0.0 <= self.beta_decay <= 1.0):
             raise ValueError(f"--beta and --beta-decay must be in [0, 1], got {self.beta} and {self.beta_decay}")
 
@@ -102,25 +106,54 @@ class DaggerTask:
     seed: int
 
     def run(self, context: WorkerContext) -> LabelledEpisode:
-        expert = self.expert.create(self.config, self.seed)
-        coin = np.random.default_rng(self.seed)
-        observations: list[np.ndarray] = []
-        labels: list[int] = []
-        policy_decisions = 0
-
-        def mixture(observation: np.ndarray, traffic: Any) -> int:
-            nonlocal policy_decisions
-            label = int(expert(observation, traffic))
-            observations.append(observation)
-            labels.append(label)
-            if coin.random() < self.beta:
-                return label
-            policy_decisions += 1
-            return self.policy.act(observation)
-
+        mixture = _Mixture(self.policy, self.expert.create(self.config, self.seed), self.beta, self.seed)
         run_episode(context.env(self.config), mixture, self.seed)
-        return LabelledEpisode(np.stack(observations).astype(np.float32), np.array(labels, dtype=np.int64),
-                               policy_decisions)
+        return mixture.episode()
+
+
+class _Mixture:
+    """A driver that asks the expert at every decision, keeps the state and the expert's label, and follows the
+    expert with probability beta (a coin seeded by `seed`), else the policy."""
+
+    def __init__(self, policy: Policy, expert: Driver, beta: float, seed: int) -> None:
+        self.policy, self.expert, self.beta = policy, expert, beta
+        self.coin = np.random.default_rng(seed)
+        self.observations: list[np.ndarray] = []
+        self.labels: list[int] = []
+        self.policy_decisions = 0
+
+    def __call__(self, observation: np.ndarray, traffic: TrafficView) -> int:
+        label = int(self.expert(observation, traffic))
+        self.observations.append(observation)
+        self.labels.append(label)
+        if self.coin.random() < self.beta:
+            return label
+        self.policy_decisions += 1
+        return self.policy.act(observation)
+
+    def episode(self) -> LabelledEpisode:
+        return LabelledEpisode(np.stack(self.observations).astype(np.float32), np.array(self.labels, dtype=np.int64),
+                               self.policy_decisions)
+
+
+@dataclass(frozen=True)
+class SharedDaggerTask:
+    """Several episodes of a round in one simulation: ego j is driven by the mixture seeded by seeds[j] (its coin
+    and its expert), the simulation by seeds[0]; the other egos are traffic to it."""
+
+    config: Config
+    policy: Policy
+    expert: DriverSpec
+    beta: float
+    seeds: tuple[int, ...]
+
+    def run(self, context: WorkerContext) -> list[LabelledEpisode]:
+        """Each ego's labelled episode, in ego order (egos that found no room on the road left out)."""
+        mixtures = [_Mixture(self.policy, self.expert.create(self.config, seed), self.beta, seed)
+                    for seed in self.seeds]
+        env = context.parallel_env(self.config, len(self.seeds))
+        run_shared_episode(env, mixtures, self.seeds[0])
+        return [mixture.episode() for mixture in mixtures if mixture.labels]
 
 
 def train_dagger(folder: Path, settings: DaggerSettings, config: Config, rounds: int, backend: RolloutBackend,
@@ -152,8 +185,7 @@ def train_dagger(folder: Path, settings: DaggerSettings, config: Config, rounds:
         beta = settings.beta_of(round_)
         seeds = episode_seeds(Purpose.TRAIN, 10_000_000 * (settings.seed + 1) + round_ * settings.episodes_per_round,
                               settings.episodes_per_round)
-        labelled: list[LabelledEpisode] = backend.run(
-            [DaggerTask(config, policy, expert, beta, seed) for seed in seeds], on_result=on_episode)
+        labelled = _round_episodes(backend, config, policy, expert, beta, seeds, settings.egos, on_episode)
         dataset = _aggregate(dataset, labelled)
         policy, report = behaviour_cloning(dataset, shape, settings.bc)
         logs.append(_row(round_, sum(len(e.labels) for e in labelled), sum(e.policy_decisions for e in labelled),
@@ -164,6 +196,17 @@ def train_dagger(folder: Path, settings: DaggerSettings, config: Config, rounds:
         if on_round is not None:
             on_round(logs[-1])
     return policy
+
+
+def _round_episodes(backend: RolloutBackend, config: Config, policy: Policy, expert: DriverSpec, beta: float,
+                    seeds: list[int], egos: int, on_episode: Callable[[int, Any], None] | None,
+                    ) -> list[LabelledEpisode]:
+    """A round's labelled episodes: one simulation each (egos = 1) or `egos` seeds to a simulation."""
+    if egos == 1:
+        return backend.run([DaggerTask(config, policy, expert, beta, seed) for seed in seeds], on_result=on_episode)
+    shared = backend.run([SharedDaggerTask(config, policy, expert, beta, tuple(seeds[start:start + egos]))
+                          for start in range(0, len(seeds), egos)], on_result=on_episode)
+    return [episode for episodes in shared for episode in episodes]
 
 
 def _row(round_: int, decisions: int, policy_decisions: int, dataset: Demonstrations, report: BcReport,
@@ -221,7 +264,7 @@ def _resume(folder: Path, run_record: dict[str, Any]) -> tuple[int, Demonstratio
         raise RunError(f"run {folder} has an unreadable run.json or checkpoint.json ({error})") from error
     if checkpoint.get("format") != CHECKPOINT_FORMAT:
         raise RunError(f"{checkpoint_path} is not a sumo-rail DAgger checkpoint")
-    settings = with_defaults(stored.get("settings", {}), {"expert": None})
+    settings = with_defaults(stored.get("settings", {}), {"expert": None, "egos": 1})
     if settings != run_record["settings"] or stored.get("config") != run_record["config"]:
         raise RunError(f"run {folder} was started with other settings; resume it with the same options")
     if read_metadata(folder / "dataset.parquet").get("round") != done:

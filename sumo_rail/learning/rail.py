@@ -31,7 +31,7 @@ from sumo_rail.drivers.policies import Policy, PolicyShape
 from sumo_rail.learning.ars import FITNESS_SHAPINGS, NoiseAdaptation, adapt_noise, ars_update
 from sumo_rail.learning.noise import direction, directions, noise_for_flip_rate
 from sumo_rail.learning.normalize import RunningStats
-from sumo_rail.runners.rollout import Driver, DriverSpec, ExpertDriver, run_episode
+from sumo_rail.runners.rollout import Driver, DriverSpec, ExpertDriver, run_episode, run_shared_episode
 from sumo_rail.seeding import Purpose, episode_seeds
 from sumo_rail.sim.traffic import TrafficView
 
@@ -197,27 +197,11 @@ def _shared_episode(env: ParallelHighwayEnv, policies: list[Policy], experts: li
                     seed: int) -> list[Trajectory]:
     """One episode of `env`, ego_j driven by policies[j] (and experts[j], when given, asked at each of its
     decisions): each ego's trajectory, in ego order."""
-    observations, _ = env.reset(seed=seed)
-    agents = list(env.possible_agents)
-    seen: dict[str, list[np.ndarray]] = {agent: [] for agent in agents}
-    taken: dict[str, list[int]] = {agent: [] for agent in agents}
-    labels: dict[str, list[int]] = {agent: [] for agent in agents}
-    while env.agents:
-        actions = {}
-        for agent in env.agents:
-            member = agents.index(agent)
-            expert = experts[member]
-            if expert is not None:
-                labels[agent].append(expert(observations[agent], env.traffic(agent)))
-            actions[agent] = policies[member].act(observations[agent])
-            seen[agent].append(observations[agent])
-            taken[agent].append(actions[agent])
-        observations, _, _, _, _ = env.step(actions)
-    size = env.observation_space(agents[0]).shape[0]
-    return [Trajectory(np.array(seen[agent], np.float32).reshape(-1, size), np.array(taken[agent], np.int64),
-                       bool(env.metrics(agent).collisions), len(taken[agent]),
-                       None if experts[member] is None else np.array(labels[agent], np.int64))
-            for member, agent in enumerate(agents)]
+    labels: list[list[int]] = [[] for _ in policies]
+    drivers = [_asking(policy, expert, asked) for policy, expert, asked in zip(policies, experts, labels, strict=True)]
+    return [Trajectory(episode.observations, episode.actions, episode.collided, len(episode.actions),
+                       None if expert is None else np.array(asked, np.int64))
+            for episode, expert, asked in zip(run_shared_episode(env, drivers, seed), experts, labels, strict=True)]
 
 
 def _asking(policy: Policy, expert: Driver | None, labels: list[int]) -> Driver:

@@ -6,7 +6,7 @@ recipes (`DriverSpec`) and are built per episode, so a driver's randomness comes
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Protocol
 
@@ -22,6 +22,7 @@ from sumo_rail.sim.traffic import TrafficView
 
 if TYPE_CHECKING:
     from sumo_rail.runners.backends import WorkerContext
+    from sumo_rail.sim.parallel_env import ParallelHighwayEnv
 
 Driver = Callable[[np.ndarray, TrafficView], int]
 DecisionProbe = Callable[[np.ndarray, TrafficView, int, dict[str, Any]], None]
@@ -134,6 +135,36 @@ def run_episode(env: HighwayEnv, driver: Driver, seed: int, record: bool = False
         "termination": info["termination"], "terminated": terminated, "truncated": truncated,
     }
     return EpisodeResult(metrics, _step_columns(observations, rows) if record else None)
+
+
+@dataclass(frozen=True)
+class SharedEpisode:
+    """What one ego of a multi-ego episode saw and did."""
+
+    observations: np.ndarray
+    """Shape (T, n) float32 (T = 0 for an ego that found no room on the road)."""
+    actions: np.ndarray
+    """Shape (T,) int64."""
+    collided: bool
+
+
+def run_shared_episode(env: ParallelHighwayEnv, drivers: Sequence[Driver], seed: int) -> list[SharedEpisode]:
+    """Reset `env` with `seed` and drive ego_j with drivers[j] (asked in ego order at each decision) until every
+    ego has left: each ego's episode, in ego order."""
+    observations, _ = env.reset(seed=seed)
+    agents = list(env.possible_agents)
+    seen: dict[str, list[np.ndarray]] = {agent: [] for agent in agents}
+    taken: dict[str, list[int]] = {agent: [] for agent in agents}
+    while env.agents:
+        actions = {}
+        for agent in env.agents:
+            actions[agent] = int(drivers[agents.index(agent)](observations[agent], env.traffic(agent)))
+            seen[agent].append(observations[agent])
+            taken[agent].append(actions[agent])
+        observations, _, _, _, _ = env.step(actions)
+    size = env.observation_space(agents[0]).shape[0]
+    return [SharedEpisode(np.array(seen[agent], np.float32).reshape(-1, size), np.array(taken[agent], np.int64),
+                          bool(env.metrics(agent).collisions)) for agent in agents]
 
 
 _STEP_FIELDS = ("action", "reward", "reward_longitudinal", "reward_lateral", "reward_collision", "speed_mps",

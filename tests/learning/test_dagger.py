@@ -132,6 +132,34 @@ def test_same_policy_with_one_or_two_workers_and_after_resuming(tmp_path, demos)
         train_dagger(tmp_path / "one", settings(demos, beta=0.9), CONFIG, 3, SerialBackend(), resume=True)
 
 
+def test_rounds_shared_by_two_egos_are_the_same_for_any_worker_count_and_after_resuming(tmp_path, demos):
+    run = settings(demos, egos=2, episodes_per_round=4)
+    with SerialBackend() as serial:
+        train_dagger(tmp_path / "one", run, CONFIG, 2, serial, resume=False, validation=Validation(0))
+    with ProcessPoolBackend(2) as two:
+        train_dagger(tmp_path / "split", run, CONFIG, 1, two, resume=False, validation=Validation(0))
+        train_dagger(tmp_path / "split", run, CONFIG, 2, two, resume=True, validation=Validation(0))
+    uninterrupted, _ = load_policy(tmp_path / "one" / "policy_latest.npz")
+    resumed, _ = load_policy(tmp_path / "split" / "policy_latest.npz")
+    assert np.array_equal(uninterrupted.parameters, resumed.parameters)
+    dataset = pq.read_table(tmp_path / "one" / "dataset.parquet")
+    assert len(set(dataset.column("episode").to_pylist())) == 2 + 2 * 4  # every ego's episode is labelled
+
+
+@pytest.mark.parametrize(("beta", "expert_drives"), [(1.0, True), (0.0, False)])
+def test_in_a_shared_simulation_each_ego_follows_its_own_mixture(demos, beta, expert_drives):
+    policy = Policy(PolicyShape("linear", 56), np.zeros(5 * 56 + 5, np.float32))
+    task = dagger.SharedDaggerTask(CONFIG, policy, ExpertDriver("normal"), beta, (5, 6, 7))
+    context = WorkerContext()
+    try:
+        episodes = task.run(context)
+    finally:
+        context.close()
+    assert len(episodes) == 3 and all(len(episode.labels) > 0 for episode in episodes)
+    assert [episode.policy_decisions for episode in episodes] == [
+        0 if expert_drives else len(episode.labels) for episode in episodes]
+
+
 def test_dagger_command_end_to_end(tmp_path, demos):
     out = tmp_path / "run"
     result = invoke("dagger", *SMALL, "--demos", str(demos), "--rounds", "1", "--episodes-per-round", "1",
