@@ -113,8 +113,10 @@ class LearnerAskingTheExpert:
         return {**steps, "expert": np.array(decisions)}
 
 
-def test_same_policy_with_one_or_two_workers_and_after_resuming(tmp_path, demos):
-    run = settings(demos)
+@pytest.mark.parametrize("egos", [1, 2])
+def test_same_policy_with_one_or_two_workers_and_after_resuming(tmp_path, demos, egos):
+    """With two egos a round's two episodes share one simulation."""
+    run = settings(demos, egos=egos)
     with SerialBackend() as serial:
         train_dagger(tmp_path / "one", run, CONFIG, 2, serial, resume=False, validation=Validation(0))
     with ProcessPoolBackend(2) as two:
@@ -127,23 +129,9 @@ def test_same_policy_with_one_or_two_workers_and_after_resuming(tmp_path, demos)
     assert log["iteration"].tolist() == [0, 1, 2] and log["beta"].tolist() == [1.0, 0.5, 0.25]
     dataset = pq.read_table(tmp_path / "one" / "dataset.parquet")
     assert dataset.num_rows == log["dataset_rows"].iloc[-1] == log["dataset_rows"].iloc[0] + log["env_steps"].sum()
-    assert len(set(dataset.column("episode").to_pylist())) == 2 + 2 * 2
+    assert len(set(dataset.column("episode").to_pylist())) == 2 + 2 * 2  # every ego's episode is labelled
     with pytest.raises(RunError, match="other settings"):
         train_dagger(tmp_path / "one", settings(demos, beta=0.9), CONFIG, 3, SerialBackend(), resume=True)
-
-
-def test_rounds_shared_by_two_egos_are_the_same_for_any_worker_count_and_after_resuming(tmp_path, demos):
-    run = settings(demos, egos=2, episodes_per_round=4)
-    with SerialBackend() as serial:
-        train_dagger(tmp_path / "one", run, CONFIG, 2, serial, resume=False, validation=Validation(0))
-    with ProcessPoolBackend(2) as two:
-        train_dagger(tmp_path / "split", run, CONFIG, 1, two, resume=False, validation=Validation(0))
-        train_dagger(tmp_path / "split", run, CONFIG, 2, two, resume=True, validation=Validation(0))
-    uninterrupted, _ = load_policy(tmp_path / "one" / "policy_latest.npz")
-    resumed, _ = load_policy(tmp_path / "split" / "policy_latest.npz")
-    assert np.array_equal(uninterrupted.parameters, resumed.parameters)
-    dataset = pq.read_table(tmp_path / "one" / "dataset.parquet")
-    assert len(set(dataset.column("episode").to_pylist())) == 2 + 2 * 4  # every ego's episode is labelled
 
 
 @pytest.mark.parametrize(("beta", "expert_drives"), [(1.0, True), (0.0, False)])
