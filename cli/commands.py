@@ -42,9 +42,12 @@ if TYPE_CHECKING:
 @episode_options(default_seed=0, default_episodes=40)
 @backend_options
 @expert_option("Who is recorded.")
+@click.option("--egos", type=click.IntRange(min=1), default=1, show_default=True,
+              help="Episodes that share one simulation, each driving its own ego (the others are traffic to it); "
+                   "an ego that finds no room on the road is not recorded.")
 @output_options(required=True)
 def record_expert(config: Config, episodes: int, seed: int, workers: int,
-                  backend_name: str, address: str | None, expert: str, out: Path, overwrite: bool) -> None:
+                  backend_name: str, address: str | None, expert: str, egos: int, out: Path, overwrite: bool) -> None:
     """Record an expert's demonstrations (the rule-based driver of a style, or any policy file): one Parquet row per
     decision."""
     check_output(out, overwrite)
@@ -55,10 +58,11 @@ def record_expert(config: Config, episodes: int, seed: int, workers: int,
     bar = progress(episodes, "recording")
     with interruptible_run(bar, f"interrupted; nothing was written to {out}", backend):
         metrics = record_demonstrations(config, driver, expert, seed, episodes, backend, out,
-                                        on_episode=lambda index, result: bar.update())
+                                        on_episode=lambda index, result: bar.update(
+                                            len(result) if isinstance(result, list) else 1), egos=egos)
     decisions = sum(row["steps"] for row in metrics)
     collisions = sum(row["collisions"] for row in metrics)
-    click.echo(f"wrote {out}: {episodes} episodes, {decisions} decisions, expert {expert}, {collisions} collisions")
+    click.echo(f"wrote {out}: {len(metrics)} episodes, {decisions} decisions, expert {expert}, {collisions} collisions")
 
 
 @click.command("evaluate")

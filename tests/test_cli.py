@@ -70,6 +70,27 @@ def test_record_expert_is_identical_for_any_worker_count_and_run(tmp_path):
     assert table.num_rows == len(demos.actions) and set(table.column("episode_seed").to_pylist()) == {15, 18, 21}
 
 
+def test_record_expert_with_two_egos_a_simulation_is_identical_for_any_worker_count(tmp_path):
+    paths = []
+    for name, workers in (("a", "1"), ("b", "2")):
+        paths.append(tmp_path / f"{name}.parquet")
+        result = invoke("record-expert", *SMALL, "--episodes", "3", "--seed", "5", "--egos", "2", "--workers",
+                        workers, "--out", str(paths[-1]))
+        assert result.exit_code == 0, result.output
+        assert "wrote" in result.output and "3 episodes" in result.output
+    assert paths[0].read_bytes() == paths[1].read_bytes()
+    metadata = read_metadata(paths[0])
+    assert metadata["egos"] == 2 and metadata["episode_seeds"] == [15, 18, 21] and metadata["episodes"] == 3
+    table = pq.read_table(paths[0]).to_pandas()
+    assert sorted(table["episode_seed"].unique()) == [15, 18, 21] and table["episode"].max() == 2
+    alone = tmp_path / "alone.parquet"
+    assert invoke("record-expert", *SMALL, "--episodes", "3", "--seed", "5", "--out", str(alone)).exit_code == 0
+    columns = ["action", "position_m", "speed_mps"]
+    first_alone = pq.read_table(alone).to_pandas().query("episode == 0")[columns].reset_index(drop=True)
+    first_shared = table.query("episode == 0")[columns].reset_index(drop=True)
+    assert not first_alone.equals(first_shared)  # the same seed, with another ego on the road
+
+
 def test_record_expert_refuses_to_overwrite_and_bad_counts(tmp_path):
     out = tmp_path / "demos.parquet"
     out.write_text("precious")

@@ -152,7 +152,7 @@ class SharedDaggerTask:
         mixtures = [_Mixture(self.policy, self.expert.create(self.config, seed), self.beta, seed)
                     for seed in self.seeds]
         env = context.parallel_env(self.config, len(self.seeds))
-        run_shared_episode(env, mixtures, self.seeds[0])
+        run_shared_episode(env, mixtures, self.seeds[0])  # the mixtures keep what DAgger needs
         return [mixture.episode() for mixture in mixtures if mixture.labels]
 
 

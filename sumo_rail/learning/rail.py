@@ -196,12 +196,19 @@ class SharedRolloutTask(Perturbations):
 def _shared_episode(env: ParallelHighwayEnv, policies: list[Policy], experts: list[Driver | None],
                     seed: int) -> list[Trajectory]:
     """One episode of `env`, ego_j driven by policies[j] (and experts[j], when given, asked at each of its
-    decisions): each ego's trajectory, in ego order."""
+    decisions): each ego's trajectory, in ego order (with no decision for an ego that found no room)."""
     labels: list[list[int]] = [[] for _ in policies]
     drivers = [_asking(policy, expert, asked) for policy, expert, asked in zip(policies, experts, labels, strict=True)]
-    return [Trajectory(episode.observations, episode.actions, episode.collided, len(episode.actions),
-                       None if expert is None else np.array(asked, np.int64))
-            for episode, expert, asked in zip(run_shared_episode(env, drivers, seed), experts, labels, strict=True)]
+    size = env.observation_space(env.possible_agents[0]).shape[0]
+    trajectories = []
+    for result, expert, asked in zip(run_shared_episode(env, drivers, seed, record=True), experts, labels,
+                                     strict=True):
+        observations, actions = ((result.steps["observation"], result.steps["action"].astype(np.int64))
+                                 if result is not None and result.steps is not None
+                                 else (np.zeros((0, size), np.float32), np.zeros(0, np.int64)))
+        trajectories.append(Trajectory(observations, actions, bool(result and result.metrics["collisions"]),
+                                       len(actions), None if expert is None else np.array(asked, np.int64)))
+    return trajectories
 
 
 def _asking(policy: Policy, expert: Driver | None, labels: list[int]) -> Driver:

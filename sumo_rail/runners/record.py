@@ -11,22 +11,30 @@ from sumo_rail.config import Config
 from sumo_rail.datasets import write_parquet
 from sumo_rail.drivers.expert import STYLES
 from sumo_rail.runners.backends import RolloutBackend
-from sumo_rail.runners.rollout import DriverSpec, EpisodeTask, ExpertDriver
+from sumo_rail.runners.rollout import DriverSpec, EpisodeTask, ExpertDriver, SharedEpisodeTask
 from sumo_rail.runners.tables import DEMONSTRATIONS, demonstrations_table, provenance
 from sumo_rail.seeding import Purpose, episode_seeds
 from sumo_rail.sim.observation import observation_space
 
 
 def record_demonstrations(config: Config, expert: DriverSpec, name: str, seed: int, episodes: int,
-                          backend: RolloutBackend, out: Path, on_episode: Callable[[int, Any], None] | None = None
-                          ) -> list[dict[str, Any]]:
+                          backend: RolloutBackend, out: Path, on_episode: Callable[[int, Any], None] | None = None,
+                          egos: int = 1) -> list[dict[str, Any]]:
     """Run `episodes` episodes of `expert` (seeds from `seed`, recording class) and write them to `out`, its metadata
-    naming the expert as `name` (a style or a policy file, as `experts.resolve_expert` reads it); returns metrics."""
+    naming the expert as `name` (a style or a policy file, as `experts.resolve_expert` reads it); returns metrics.
+    With `egos` > 1 the episodes drive `egos` at a time in one simulation (`SharedEpisodeTask`), and an ego that
+    found no room on the road is left out (its seed is missing from the metadata's episode_seeds)."""
     seeds = episode_seeds(Purpose.RECORD, seed, episodes)
-    results = backend.run([EpisodeTask(config, expert, s, record=True) for s in seeds], on_result=on_episode)
+    if egos == 1:
+        results = backend.run([EpisodeTask(config, expert, s, record=True) for s in seeds], on_result=on_episode)
+    else:
+        shared = backend.run([SharedEpisodeTask(config, expert, tuple(seeds[start:start + egos]), record=True)
+                              for start in range(0, episodes, egos)], on_result=on_episode)
+        results = [result for group in shared for result in group if result is not None]
+        seeds = [result.metrics["seed"] for result in results]
     table = demonstrations_table(results, seeds, observation_space(config).shape[0])
     style = ({"style": expert.style, "style_parameters": dataclasses.asdict(STYLES[expert.style])}
              if isinstance(expert, ExpertDriver) else {})
     write_parquet(table, out, provenance(DEMONSTRATIONS, config, seed, driver=expert.name, expert=name, **style,
-                                         episodes=episodes, episode_seeds=seeds))
+                                         episodes=len(results), episode_seeds=seeds, egos=egos))
     return [result.metrics for result in results]

@@ -18,6 +18,7 @@ from sumo_rail.drivers.policies import Policy
 from sumo_rail.seeding import driver_generator
 from sumo_rail.sim.actions import Action
 from sumo_rail.sim.env import HighwayEnv
+from sumo_rail.sim.rewards import EpisodeMetrics
 from sumo_rail.sim.traffic import TrafficView
 
 if TYPE_CHECKING:
@@ -103,68 +104,94 @@ class EpisodeResult:
     steps: dict[str, np.ndarray] | None
 
 
+@dataclass(frozen=True)
+class SharedEpisodeTask:
+    """Several episodes of one driver in one simulation: ego j drives the driver seeded by seeds[j], the
+    simulation is seeded by seeds[0]; the other egos are traffic to it."""
+
+    config: Config
+    driver: DriverSpec
+    seeds: tuple[int, ...]
+    record: bool = False
+
+    def run(self, context: WorkerContext) -> list[EpisodeResult | None]:
+        """Each ego's episode (its metrics' seed: its own seed), in ego order; None for an ego that found no room."""
+        drivers = [self.driver.create(self.config, seed) for seed in self.seeds]
+        results = run_shared_episode(context.parallel_env(self.config, len(self.seeds)), drivers, self.seeds[0],
+                                     self.record)
+        return [None if result is None else EpisodeResult({**result.metrics, "seed": seed}, result.steps)
+                for result, seed in zip(results, self.seeds, strict=True)]
+
+
 def run_episode(env: HighwayEnv, driver: Driver, seed: int, record: bool = False,
                 options: dict[str, Any] | None = None, probe: DecisionProbe | None = None) -> EpisodeResult:
     """Reset with `seed` (and the env's reset `options`) and drive until the episode ends; `record` keeps every
     (state, action, reward); `probe` watches every decision."""
     observation, info = env.reset(seed=seed, options=options)
-    rows: list[tuple[Any, ...]] = []
-    observations: list[np.ndarray] = []
+    log = _EpisodeLog(record)
     done = terminated = truncated = False
     while not done:
-        traffic, seen = env.traffic, observation
+        traffic, seen, before = env.traffic, observation, info
         action = driver(observation, traffic)
-        state = (info["speed_mps"], info["lane"], info["position_m"], info["set_point_mps"])
-        if record:
-            observations.append(observation)
         observation, reward, terminated, truncated, info = env.step(action)
         if probe is not None:
             probe(seen, traffic, action, info)
-        if record:
-            rows.append((action, reward, info["reward_longitudinal"], info["reward_lateral"],
-                         info["reward_collision"], *state, info["lane_change_in_progress"]))
+        log.add(seen, action, reward, before, info)
         done = terminated or truncated
-    m = env.metrics
-    metrics: dict[str, Any] = {
-        "seed": seed, "steps": m.decisions, "simulated_s": m.simulated_s, "distance_m": m.distance_m,
-        "average_speed_kmh": m.average_speed_mps * 3.6, "overtakes": m.overtakes, "overtaken": m.overtaken,
-        "lane_changes": m.lane_changes, "longitudinal_reward": m.longitudinal_reward,
-        "lateral_reward": m.lateral_reward, "collisions": m.collisions, "hard_braking": m.hard_braking,
-        "teleports": m.teleports, "invalid_actions": m.invalid_actions,
-        **dict(zip(ACTION_COLUMNS, m.action_counts, strict=True)),
-        "termination": info["termination"], "terminated": terminated, "truncated": truncated,
-    }
-    return EpisodeResult(metrics, _step_columns(observations, rows) if record else None)
+    return log.result(env.metrics, seed, info, terminated, truncated)
 
 
-@dataclass(frozen=True)
-class SharedEpisode:
-    """What one ego of a multi-ego episode saw and did."""
-
-    observations: np.ndarray
-    """Shape (T, n) float32 (T = 0 for an ego that found no room on the road)."""
-    actions: np.ndarray
-    """Shape (T,) int64."""
-    collided: bool
-
-
-def run_shared_episode(env: ParallelHighwayEnv, drivers: Sequence[Driver], seed: int) -> list[SharedEpisode]:
+def run_shared_episode(env: ParallelHighwayEnv, drivers: Sequence[Driver], seed: int, record: bool = False,
+                       ) -> list[EpisodeResult | None]:
     """Reset `env` with `seed` and drive ego_j with drivers[j] (asked in ego order at each decision) until every
-    ego has left: each ego's episode, in ego order."""
-    observations, _ = env.reset(seed=seed)
+    ego has left: each ego's episode as `run_episode` gives it (its metrics' seed is `seed`), in ego order, None for
+    an ego that found no room on the road."""
+    observations, infos = env.reset(seed=seed)
     agents = list(env.possible_agents)
-    seen: dict[str, list[np.ndarray]] = {agent: [] for agent in agents}
-    taken: dict[str, list[int]] = {agent: [] for agent in agents}
+    logs = {agent: _EpisodeLog(record) for agent in env.agents}
+    ends: dict[str, tuple[dict[str, Any], bool, bool]] = {}
     while env.agents:
-        actions = {}
-        for agent in env.agents:
-            actions[agent] = int(drivers[agents.index(agent)](observations[agent], env.traffic(agent)))
-            seen[agent].append(observations[agent])
-            taken[agent].append(actions[agent])
-        observations, _, _, _, _ = env.step(actions)
-    size = env.observation_space(agents[0]).shape[0]
-    return [SharedEpisode(np.array(seen[agent], np.float32).reshape(-1, size), np.array(taken[agent], np.int64),
-                          bool(env.metrics(agent).collisions)) for agent in agents]
+        actions = {agent: int(drivers[agents.index(agent)](observations[agent], env.traffic(agent)))
+                   for agent in env.agents}
+        seen, before = observations, infos
+        observations, rewards, terminations, truncations, infos = env.step(actions)
+        for agent, action in actions.items():
+            logs[agent].add(seen[agent], action, rewards[agent], before[agent], infos[agent])
+            if terminations[agent] or truncations[agent]:
+                ends[agent] = (infos[agent], terminations[agent], truncations[agent])
+    return [logs[agent].result(env.metrics(agent), seed, *ends[agent]) if agent in logs else None
+            for agent in agents]
+
+
+class _EpisodeLog:
+    """One ego's decisions: always what it saw and did, with `record` every (state, action, reward) step column."""
+
+    def __init__(self, record: bool) -> None:
+        self.record = record
+        self.observations: list[np.ndarray] = []
+        self.rows: list[tuple[Any, ...]] = []
+
+    def add(self, observation: np.ndarray, action: int, reward: float, before: dict[str, Any],
+            info: dict[str, Any]) -> None:
+        """A decision: `before` is the info the driver decided on, `info` the step's."""
+        if self.record:
+            self.observations.append(observation)
+            self.rows.append((action, reward, info["reward_longitudinal"], info["reward_lateral"],
+                              info["reward_collision"], before["speed_mps"], before["lane"], before["position_m"],
+                              before["set_point_mps"], info["lane_change_in_progress"]))
+
+    def result(self, m: EpisodeMetrics, seed: int, info: dict[str, Any], terminated: bool,
+               truncated: bool) -> EpisodeResult:
+        metrics: dict[str, Any] = {
+            "seed": seed, "steps": m.decisions, "simulated_s": m.simulated_s, "distance_m": m.distance_m,
+            "average_speed_kmh": m.average_speed_mps * 3.6, "overtakes": m.overtakes, "overtaken": m.overtaken,
+            "lane_changes": m.lane_changes, "longitudinal_reward": m.longitudinal_reward,
+            "lateral_reward": m.lateral_reward, "collisions": m.collisions, "hard_braking": m.hard_braking,
+            "teleports": m.teleports, "invalid_actions": m.invalid_actions,
+            **dict(zip(ACTION_COLUMNS, m.action_counts, strict=True)),
+            "termination": info["termination"], "terminated": terminated, "truncated": truncated,
+        }
+        return EpisodeResult(metrics, _step_columns(self.observations, self.rows) if self.record else None)
 
 
 _STEP_FIELDS = ("action", "reward", "reward_longitudinal", "reward_lateral", "reward_collision", "speed_mps",

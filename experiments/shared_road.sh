@@ -1,0 +1,39 @@
+#!/usr/bin/env bash
+# What sharing the road does to learning (issue 28): RAIL and DAgger trained with K egos per simulation, in the
+# benchmark's setting and with its settings and seeds, against the benchmark's committed K = 1 runs of the same seeds
+# (docs/results/imitation_table/data: rail_mlp_sSEED, dagger_sSEED); the K runs are evaluated on the benchmark's test
+# episodes (seed 1000, 250 episodes, one ego each), which the committed K = 1 evaluations drove, and
+# experiments/shared_road_table.py pairs them seed by seed and episode by episode.
+# Usage: experiments/shared_road.sh DEMOS.parquet [OUT_DIR]   (DEMOS: the benchmark's demonstrations; resumable)
+#   (environment: EGOS (8), SEEDS (0 1 2), TEST_EPISODES (250), WORKERS (2))
+set -euo pipefail
+demos=$1
+out=${2:-results/shared_road}
+egos=${EGOS:-8}
+seeds=${SEEDS:-0 1 2}
+test_episodes=${TEST_EPISODES:-250}
+workers=${WORKERS:-2}
+overrides="--set observation.lane_block=1"
+sumo_rail=${SUMO_RAIL:-.venv/bin/sumo-rail}
+python=${PYTHON:-.venv/bin/python}
+committed=docs/results/imitation_table/data
+mkdir -p "$out"
+policies=()
+for seed in $seeds; do
+  rail="$out/rail_k${egos}_s$seed"
+  resume=(); [ -f "$rail/checkpoint.pt" ] && resume=(--resume)
+  # shellcheck disable=SC2086  # the overrides are several words on purpose
+  $sumo_rail train $overrides --demos "$demos" --policy mlp --directions 32 --iterations 40 --eval-every 0 \
+    --egos "$egos" --workers "$workers" --seed "$seed" --out "$rail" "${resume[@]}"
+  dagger="$out/dagger_k${egos}_s$seed"
+  resume=(); [ -f "$dagger/checkpoint.json" ] && resume=(--resume)
+  # shellcheck disable=SC2086
+  $sumo_rail dagger $overrides --demos "$demos" --rounds 5 --episodes-per-round 20 --eval-every 0 --egos "$egos" \
+    --workers "$workers" --seed "$seed" --out "$dagger" "${resume[@]}"
+  policies+=(--policy "$rail/policy_latest.npz" --policy "$dagger/policy_latest.npz")
+done
+# shellcheck disable=SC2086
+[ -f "$out/test_k$egos.parquet" ] || $sumo_rail evaluate $overrides "${policies[@]}" --seed 1000 \
+  --episodes "$test_episodes" --workers "$workers" --out "$out/test_k$egos.parquet" > "$out/test_k$egos.txt"
+$python experiments/shared_road_table.py "$egos" "$out/test_k$egos.parquet" $committed/test_s*[0-9].parquet \
+  | tee "$out/table.md"

@@ -1,0 +1,43 @@
+"""The table of experiments/shared_road.sh: RAIL and DAgger trained with K egos per simulation minus the same method
+trained with one, paired by training seed and test episode (experiments/seeded.py). Prints Markdown.
+
+Usage: python experiments/shared_road_table.py K METRICS.parquet [METRICS.parquet ...]   (evaluations on the same
+test episodes: the K runs' and the benchmark's committed test_sSEED.parquet)
+"""
+
+from __future__ import annotations
+
+import sys
+
+import pandas as pd
+from seeded import difference_cell, digits_of, seed_samples, training_seeds, value_cell
+
+MEASURES = ("agreement", "lane_change_recall", "average_speed_kmh", "overtakes", "lane_changes", "collisions")
+METHODS = {"RAIL, two-layer": "rail_mlp", "DAgger, two-layer": "dagger"}
+"""Label -> the K = 1 runs' folder stem; the K runs are rail_kK and dagger_kK."""
+
+
+def main(egos: int, *paths: str) -> None:
+    metrics = pd.concat([pd.read_parquet(path) for path in paths]).drop_duplicates(["policy", "seed"])
+    episodes = metrics.groupby("policy").size()
+    print(f"{episodes.max()} test episodes (one ego each); each driver pooled over its training seeds\n")
+    print("| method | egos per simulation in training | seeds | " + " | ".join(MEASURES) + " |")
+    print("|---|---|---|" + "---|" * len(MEASURES))
+    pairs = {}
+    for label, alone in METHODS.items():
+        shared = f"{alone.split('_')[0]}_k{egos}"
+        seeds = sorted(set(training_seeds(metrics, shared)) & set(training_seeds(metrics, alone)))
+        pairs[label] = seeds, [seed_samples(metrics, stem, seeds, "policy_latest") for stem in (shared, alone)]
+        for count, samples in zip((egos, 1), pairs[label][1], strict=True):
+            print(f"| {label} | {count} | {len(seeds)} | " + " | ".join(
+                value_cell(samples, measure, digits_of(measure)) for measure in MEASURES) + " |")
+    print(f"\nK = {egos} minus K = 1, paired by training seed and episode:\n")
+    print("| method | seeds | " + " | ".join(MEASURES) + " |")
+    print("|---|---|" + "---|" * len(MEASURES))
+    for label, (seeds, (shared, alone)) in pairs.items():
+        print(f"| {label} | {', '.join(map(str, seeds))} | " + " | ".join(
+            difference_cell(shared, alone, measure, digits_of(measure)) for measure in MEASURES) + " |")
+
+
+if __name__ == "__main__":
+    main(int(sys.argv[1]), *sys.argv[2:])
