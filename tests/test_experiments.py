@@ -62,3 +62,16 @@ def test_directions_trend_words():
     assert trend_word(Interval(-0.04, -0.07, -0.01)) == "falling"
     assert trend_word(Interval(-0.006, -0.014, 0.002)) == "flattened"
     assert trend_word(Interval(0.01, -0.04, 0.06)) == "undecided"
+
+
+def test_the_benchmark_table_finds_its_expert_whoever_it_is():
+    import pandas as pd
+    from benchmark_table import expert_driver
+
+    rule = pd.DataFrame({"policy": ["expert-normal", "bc_mlp_s0/policy_bc", "dagger_s0/policy_latest"]})
+    learnt = pd.DataFrame({"policy": ["expert-distilled/policy_latest", "dagger_s0/policy_latest"]})
+    assert expert_driver(rule) == "expert-normal"
+    assert expert_driver(learnt) == "expert-distilled/policy_latest"
+    for drivers in (["bc_mlp_s0/policy_bc"], ["expert-normal", "expert-calm"]):
+        with pytest.raises(SystemExit, match="expected one expert"):
+            expert_driver(pd.DataFrame({"policy": drivers}))
