@@ -32,13 +32,17 @@ if TYPE_CHECKING:
               help="Discount per decision.")
 @click.option("--overtake-reward", type=click.FloatRange(min=0), default=0.0, show_default=True,
               help="Reward shaping: added for every vehicle the ego overtakes (0: the env's reward alone).")
+@click.option("--keep-right-reward", type=click.FloatRange(min=0), default=0.0, show_default=True,
+              help="Reward shaping: added per decision in the rightmost lane, falling linearly to 0 in the leftmost "
+                   "(the rule-based expert's keep-right rule; 0: the env's reward alone).")
 @seed_option("Seed of everything the run draws; the same seed and --envs give the same policy.")
 @click.option("--out", type=click.Path(path_type=Path, file_okay=False), required=True,
               help="Run folder (new or empty).")
 @tensorboard_option
 def ppo_command(config: Config, kind: str, hidden: int, timesteps: int, envs: int, n_steps: int,
                 batch_size: int, learning_rate: float, ent_coef: float, gamma: float, normalize_reward: bool,
-                overtake_reward: float, seed: int, out: Path, tensorboard_dir: Path | None) -> None:
+                overtake_reward: float, keep_right_reward: float, seed: int, out: Path,
+                tensorboard_dir: Path | None) -> None:
     """Train a driver by PPO (Stable-Baselines3) on the env's reward: speed, lane-change cost, collisions.
 
     Writes run.json, policy_latest.npz (after every update: a policy file that evaluate --policy drives and that
@@ -53,7 +57,8 @@ def ppo_command(config: Config, kind: str, hidden: int, timesteps: int, envs: in
     try:
         settings = PpoSettings(timesteps=timesteps, kind=kind, hidden=hidden, envs=envs, n_steps=n_steps,
                                batch_size=batch_size, learning_rate=learning_rate, gamma=gamma, ent_coef=ent_coef,
-                               normalize_reward=normalize_reward, overtake_reward=overtake_reward, seed=seed)
+                               normalize_reward=normalize_reward, overtake_reward=overtake_reward,
+                               keep_right_reward=keep_right_reward, seed=seed)
     except ValueError as error:
         raise click.UsageError(str(error)) from error
     bar = progress(settings.updates * settings.steps_per_update, "PPO", unit="timestep")

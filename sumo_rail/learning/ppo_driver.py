@@ -1,10 +1,11 @@
 """The paper's expert: a driving policy trained by PPO (Stable-Baselines3) on the environment's own reward.
 
 The reward of a decision is the env's (`sumo_rail.sim.env`): the longitudinal reward (v - v_min) / (v_max - v_min)
-in [0, 1], the lateral penalty while a lane change is under way and the collision penalty; with
-`overtake_reward` > 0, that much more for every vehicle the ego overtakes in the decision (a documented shaping
-option, 0 by default). As in `gail`, PPO's rewards are divided by the running std of the discounted return and
-clipped (`normalize_reward`).
+in [0, 1], the lateral penalty while a lane change is under way and the collision penalty. Two documented shaping
+options, 0 by default: `overtake_reward` for every vehicle the ego overtakes in the decision, and
+`keep_right_reward` x (L - 1 - lane) / (L - 1) per decision for L lanes (all of it in the rightmost lane, none in
+the leftmost), the keep-right rule the rule-based expert follows. As in `gail`, PPO's rewards are divided by the
+running std of the discounted return and clipped (`normalize_reward`).
 
 The actor is a `PolicyShape` (`gail_actor.policy_kwargs`): by default the learners' own two-layer policy (10 tanh
 units), so a learner of the default size can imitate it exactly; it acts on the raw observation, whose entries
@@ -82,13 +83,15 @@ class PpoSettings(PpoSchedule):
     normalize_reward: bool = True
     overtake_reward: float = 0.0
     """Shaping: reward per vehicle overtaken (0: the env's reward alone)."""
+    keep_right_reward: float = 0.0
+    """Shaping: reward per decision in the rightmost lane, falling linearly to 0 in the leftmost."""
     seed: int = 0
 
     def __post_init__(self) -> None:
         self.check_schedule("PPO")
-        if self.ent_coef < 0 or self.overtake_reward < 0:
-            raise ValueError(f"PPO needs ent_coef >= 0 and overtake_reward >= 0, got {self.ent_coef} and "
-                             f"{self.overtake_reward}")
+        if min(self.ent_coef, self.overtake_reward, self.keep_right_reward) < 0:
+            raise ValueError(f"PPO needs ent_coef, overtake_reward and keep_right_reward >= 0, got {self.ent_coef}, "
+                             f"{self.overtake_reward} and {self.keep_right_reward}")
 
 
 @dataclass(frozen=True)
@@ -100,18 +103,22 @@ class PpoResult:
 
 
 class EpisodeTally:
-    """The env's return (with the overtake shaping) and the end-of-episode totals of every episode that ends."""
+    """The env's return (with the shaping) and the end-of-episode totals of every episode that ends."""
 
-    def __init__(self, envs: int, overtake_reward: float) -> None:
+    def __init__(self, envs: int, overtake_reward: float, keep_right_reward: float = 0.0, lanes: int = 5) -> None:
         self.overtake_reward = overtake_reward
+        self.keep_right_per_lane = keep_right_reward / max(lanes - 1, 1)
+        self.keep_right_reward = keep_right_reward
         self._returns = np.zeros(envs)
         self._overtakes = np.zeros(envs, dtype=np.int64)
         self.ended: list[dict[str, float]] = []
 
     def shaped(self, rewards: np.ndarray, dones: np.ndarray, infos: list[dict[str, Any]]) -> np.ndarray:
-        """This step's rewards plus the overtake shaping; records the episodes that ended."""
+        """This step's rewards plus the shaping; records the episodes that ended."""
         overtakes = np.array([info["overtakes"] for info in infos], dtype=np.int64)
-        rewards = np.asarray(rewards, dtype=np.float64) + self.overtake_reward * (overtakes - self._overtakes)
+        lanes_left_of_rightmost = np.array([info["lane"] for info in infos], dtype=np.float64)
+        rewards = (np.asarray(rewards, dtype=np.float64) + self.overtake_reward * (overtakes - self._overtakes)
+                   + self.keep_right_reward - self.keep_right_per_lane * lanes_left_of_rightmost)
         self._returns += rewards
         for env in np.flatnonzero(dones):
             info = infos[env]
@@ -165,7 +172,7 @@ def train_ppo_driver(folder: Path, settings: PpoSettings, config: Config,
         raise RunError(f"run folder {folder} is not empty; choose another --out")
     folder.mkdir(parents=True, exist_ok=True)
     write_atomically(folder / "run.json", json.dumps(run_record, indent=2, sort_keys=True).encode())
-    tally = EpisodeTally(settings.envs, settings.overtake_reward)
+    tally = EpisodeTally(settings.envs, settings.overtake_reward, settings.keep_right_reward, config.scenario.lanes)
     rows: list[dict[str, Any]] = []
     venv, lost = None, False
     with single_thread(), tempfile.TemporaryDirectory(prefix="sumo-rail-ppo-") as errors:

@@ -11,9 +11,10 @@ from sumo_rail.drivers.policies import load_policy
 from sumo_rail.learning.ppo_driver import INSTALL_HINT, EpisodeTally, PpoSettings
 
 
-def info(overtakes: int, lane_changes: int = 0, distance_m: float = 100.0, time_s: float = 10.0) -> dict:
+def info(overtakes: int, lane_changes: int = 0, distance_m: float = 100.0, time_s: float = 10.0,
+         lane: int = 0) -> dict:
     return {"overtakes": overtakes, "lane_changes": lane_changes, "distance_m": distance_m, "time_s": time_s,
-            "collisions": 0}
+            "collisions": 0, "lane": lane}
 
 
 def test_the_overtake_shaping_pays_each_new_overtake_once_and_restarts_with_the_episode():
@@ -27,6 +28,12 @@ def test_the_overtake_shaping_pays_each_new_overtake_once_and_restarts_with_the_
                              "collisions": 0}]
     third = tally.shaped(np.array([0.5, 0.5]), no, [info(1), info(1)])  # env 0's new episode counts from 0 again
     assert third.tolist() == [2.5, 0.5] and tally.take() == []
+
+
+def test_the_keep_right_shaping_pays_most_in_the_rightmost_lane_and_nothing_in_the_leftmost():
+    tally = EpisodeTally(envs=5, overtake_reward=0.0, keep_right_reward=0.4, lanes=5)
+    shaped = tally.shaped(np.zeros(5), np.zeros(5, dtype=bool), [info(0, lane=lane) for lane in range(5)])
+    np.testing.assert_allclose(shaped, [0.4, 0.3, 0.2, 0.1, 0.0], atol=1e-7)
 
 
 def test_without_shaping_the_reward_is_the_envs():
