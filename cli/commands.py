@@ -10,8 +10,10 @@ from sumo_rail_cli.options import (
     SearchOptions,
     backend_options,
     build_backend,
+    check_egos,
     check_output,
     config_options,
+    egos_option,
     episode_options,
     expert_option,
     imitation_options,
@@ -42,15 +44,14 @@ if TYPE_CHECKING:
 @episode_options(default_seed=0, default_episodes=40)
 @backend_options
 @expert_option("Who is recorded.")
-@click.option("--egos", type=click.IntRange(min=1), default=1, show_default=True,
-              help="Episodes that share one simulation, each driving its own ego (the others are traffic to it); "
-                   "an ego that finds no room on the road is not recorded.")
+@egos_option("Episodes", "An ego that finds no room is not recorded.")
 @output_options(required=True)
 def record_expert(config: Config, episodes: int, seed: int, workers: int,
                   backend_name: str, address: str | None, expert: str, egos: int, out: Path, overwrite: bool) -> None:
     """Record an expert's demonstrations (the rule-based driver of a style, or any policy file): one Parquet row per
     decision."""
     check_output(out, overwrite)
+    check_egos(config, egos)
     driver = resolve_expert_option(expert, config)
     from sumo_rail.runners.record import record_demonstrations
 
@@ -224,6 +225,7 @@ def train_command(config: Config, demos: Path, kind: str, hidden: int,
     """Learn a driving policy from demonstrations with RAIL (BC initialisation, then ARS with an LS-GAN reward)."""
     from sumo_rail.learning.training import RunError, RunSettings, Validation, train
 
+    check_egos(config, search.egos)
     rail, discriminator = search.settings(seed)
     settings = RunSettings(str(demos), kind, hidden, bc_epochs, rail, discriminator, bc_class_balance)
     backend = build_backend(backend_name, workers, address)

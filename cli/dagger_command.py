@@ -8,7 +8,9 @@ from typing import TYPE_CHECKING, Any
 import click
 from sumo_rail_cli.options import (
     build_backend,
+    check_egos,
     config_options,
+    egos_option,
     expert_option,
     imitation_options,
     run_folder_options,
@@ -32,9 +34,7 @@ if TYPE_CHECKING:
               help="Probability that the expert drives a decision in round 1.")
 @click.option("--beta-decay", type=click.FloatRange(0, 1), default=0.5, show_default=True,
               help="beta of round r: beta x beta-decay^(r - 1).")
-@click.option("--egos", type=click.IntRange(min=1), default=1, show_default=True,
-              help="Episodes of a round that share one simulation, each driving its own ego (the others are traffic "
-                   "to it); 1: one episode per simulation.")
+@egos_option("Episodes of a round")
 @expert_option("Who labels the learner's states [default: the demonstrations' expert].", default=None)
 @run_folder_options("round", eval_every=1)
 @tensorboard_option
@@ -59,6 +59,7 @@ def dagger_command(config: Config, demos: Path, kind: str, hidden: int,
                                   seed, expert, egos)
     except ValueError as error:
         raise click.UsageError(str(error)) from error
+    check_egos(config, egos)
     backend = build_backend(backend_name, workers, address)
     bar = progress(rounds + 1, "DAgger", unit="round")
 

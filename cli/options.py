@@ -86,7 +86,7 @@ def ppo_options(default_timesteps: int) -> Callable[[Callable[..., Any]], Callab
                      show_default=True, help="PPO's Adam step size."),
         click.option("--normalize-reward/--no-normalize-reward", default=True, show_default=True,
                      help="Divide PPO's rewards by the running std of the discounted return and clip them to +-10 "
-                          "(Stable-Baselines3's VecNormalize), so a collision's penalty cannot swamp the critic."),
+                          "(Stable-Baselines3's VecNormalize), so that one collision cannot swamp the critic."),
     ]
 
     def decorate(command: Callable[..., Any]) -> Callable[..., Any]:
@@ -94,6 +94,25 @@ def ppo_options(default_timesteps: int) -> Callable[[Callable[..., Any]], Callab
             command = option(command)
         return command
     return decorate
+
+
+def egos_option(shared: str, note: str = "") -> Callable[[Callable[..., Any]], Callable[..., Any]]:
+    """--egos K: `shared` (e.g. "Episodes of a round") drive K at a time in one simulation (`check_egos` checks that
+    K egos fit on the road)."""
+    return click.option("--egos", type=click.IntRange(min=1), default=1, show_default=True,
+                        help=f"{shared} that share one simulation, K at a time, each driving its own ego (the others "
+                             f"are traffic to it; an ego that finds no room on the road sits its episode out)."
+                             f"{' ' + note if note else ''}")
+
+
+def check_egos(config: Config, egos: int) -> None:
+    """A usage error when `egos` egos do not fit on the configuration's road."""
+    from sumo_rail.sim.starts import start_slots
+
+    try:
+        start_slots(config, egos)
+    except ValueError as error:
+        raise click.BadParameter(str(error), param_hint="'--egos'") from error
 
 
 def episode_options(default_seed: int, default_episodes: int) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
@@ -289,9 +308,7 @@ def search_options(command: Callable[..., Any]) -> Callable[..., Any]:
                           "independent: each direction its own."),
         click.option("--episodes-per-rollout", type=click.IntRange(min=1), default=1, show_default=True,
                      help="Episodes each perturbed rollout drives (its return is their mean)."),
-        click.option("--egos", type=click.IntRange(min=1), default=1, show_default=True,
-                     help="Rollouts that share one simulation, each driving its own ego (the others are traffic to "
-                          "it); 1: one rollout per simulation, as the paper."),
+        egos_option("Rollouts of an iteration", "1: one rollout per simulation, as the paper."),
         click.option("--freeze-normalizer/--merge-normalizer", default=True, show_default=True,
                      help="Keep BC's observation statistics, or merge every rollout's states into them (the "
                           "paper's)."),

@@ -81,6 +81,7 @@ def test_record_expert_with_two_egos_a_simulation_is_identical_for_any_worker_co
     assert paths[0].read_bytes() == paths[1].read_bytes()
     metadata = read_metadata(paths[0])
     assert metadata["egos"] == 2 and metadata["episode_seeds"] == [15, 18, 21] and metadata["episodes"] == 3
+    assert metadata["simulation_seeds"] == [15, 21] and metadata["requested_episodes"] == 3
     table = pq.read_table(paths[0]).to_pandas()
     assert sorted(table["episode_seed"].unique()) == [15, 18, 21] and table["episode"].max() == 2
     alone = tmp_path / "alone.parquet"
@@ -89,6 +90,14 @@ def test_record_expert_with_two_egos_a_simulation_is_identical_for_any_worker_co
     first_alone = pq.read_table(alone).to_pandas().query("episode == 0")[columns].reset_index(drop=True)
     first_shared = table.query("episode == 0")[columns].reset_index(drop=True)
     assert not first_alone.equals(first_shared)  # the same seed, with another ego on the road
+
+
+@pytest.mark.parametrize("command", [["record-expert"], ["dagger", "--demos", "d.parquet"],
+                                     ["train", "--demos", "d.parquet"]])
+def test_more_egos_than_the_road_holds_is_a_usage_error_before_any_work(tmp_path, command):
+    result = invoke(*command, *SMALL, "--egos", "400", "--out", str(tmp_path / "out"))
+    assert result.exit_code == 2 and "'--egos'" in result.output and "use fewer egos" in result.output
+    assert "Traceback" not in result.output and not (tmp_path / "out").exists()
 
 
 def test_record_expert_refuses_to_overwrite_and_bad_counts(tmp_path):

@@ -42,7 +42,7 @@ from sumo_rail.learning.training import (
 )
 from sumo_rail.runners.backends import RolloutBackend, WorkerContext
 from sumo_rail.runners.experts import demonstrations_expert, resolve_expert
-from sumo_rail.runners.rollout import Driver, DriverSpec, run_episode, run_shared_episode
+from sumo_rail.runners.rollout import Driver, DriverSpec, run_episode, run_shared_episode, shared_groups
 from sumo_rail.runners.tables import Demonstrations, provenance, read_demonstrations
 from sumo_rail.seeding import Purpose, episode_seeds
 from sumo_rail.sim.observation import observation_space
@@ -204,8 +204,8 @@ def _round_episodes(backend: RolloutBackend, config: Config, policy: Policy, exp
     """A round's labelled episodes: one simulation each (egos = 1) or `egos` seeds to a simulation."""
     if egos == 1:
         return backend.run([DaggerTask(config, policy, expert, beta, seed) for seed in seeds], on_result=on_episode)
-    shared = backend.run([SharedDaggerTask(config, policy, expert, beta, tuple(seeds[start:start + egos]))
-                          for start in range(0, len(seeds), egos)], on_result=on_episode)
+    shared = backend.run([SharedDaggerTask(config, policy, expert, beta, group)
+                          for group in shared_groups(seeds, egos)], on_result=on_episode)
     return [episode for episodes in shared for episode in episodes]
 
 

@@ -80,6 +80,9 @@ from sumo_rail.sim.observation import observation_space
 if TYPE_CHECKING:
     from stable_baselines3 import PPO
 
+INSTALL_HINT = "the GAIL baseline needs Stable-Baselines3: pip install 'sumo-rail[baselines]'"
+
+
 @dataclass(frozen=True)
 class GailSettings(PpoSchedule):
     """What defines a GAIL run (stored in run.json)."""
@@ -134,7 +137,7 @@ def train_gail(folder: Path, settings: GailSettings, config: Config,
                on_bc: Callable[[BcReport], None] | None = None,
                on_update: Callable[[dict[str, Any]], None] | None = None) -> GailResult:
     """Run GAIL into the empty or new `folder`; `on_bc` gets the BC report, `on_update` each log row."""
-    require_stable_baselines3()
+    require_stable_baselines3(INSTALL_HINT)
     folder = Path(folder)
     observation_size = observation_space(config).shape[0]
     demos = read_demonstrations(Path(settings.demos), observation_size)

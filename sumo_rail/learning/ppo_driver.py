@@ -18,9 +18,10 @@ number of envs).
 
 runs/NAME/ holds `run.json` (settings, config, provenance), `policy_latest.npz` and `log.parquet`, replaced
 together after every update. The log has one row per update: iteration, env_steps, episodes (ended in the
-update), return_mean / _max / _std (the env's undiscounted episode return, shaping included, of those episodes;
-NaN when none ended), speed_kmh, overtakes, lane_changes, collisions (per ended episode), entropy (nats),
-reward_std and wall_time_s. SIGINT / SIGTERM stop after the current update; there is no resume.
+update), return_mean / _max / _std (the undiscounted episode return PPO trains on, the env's reward plus any
+shaping, of those episodes; NaN when none ended), speed_kmh, overtakes, lane_changes, collisions (per ended
+episode), entropy (nats), reward_std and wall_time_s. SIGINT / SIGTERM stop after the current update; there is
+no resume.
 """
 
 from __future__ import annotations

@@ -31,7 +31,14 @@ from sumo_rail.drivers.policies import Policy, PolicyShape
 from sumo_rail.learning.ars import FITNESS_SHAPINGS, NoiseAdaptation, adapt_noise, ars_update
 from sumo_rail.learning.noise import direction, directions, noise_for_flip_rate
 from sumo_rail.learning.normalize import RunningStats
-from sumo_rail.runners.rollout import Driver, DriverSpec, ExpertDriver, run_episode, run_shared_episode
+from sumo_rail.runners.rollout import (
+    Driver,
+    DriverSpec,
+    ExpertDriver,
+    run_episode,
+    run_shared_episode,
+    shared_groups,
+)
 from sumo_rail.seeding import Purpose, episode_seeds
 from sumo_rail.sim.traffic import TrafficView
 
@@ -286,7 +293,7 @@ def run_rollouts(policy: Policy, config: Config, noise_seed: int, iteration: int
     if egos == 1:
         return backend.run([RolloutTask(*fields, k, sign, nu, seeds[k], expert) for k, sign in members],
                            on_result=on_rollout)
-    groups = [tuple(members[start:start + egos]) for start in range(0, len(members), egos)]
+    groups = shared_groups(members, egos)
     shared = backend.run([SharedRolloutTask(*fields, group, nu, seeds[group[0][0]], expert) for group in groups],
                          on_result=on_rollout)
     return [rollout for group in shared for rollout in group]

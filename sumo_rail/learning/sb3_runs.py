@@ -23,9 +23,6 @@ if TYPE_CHECKING:
     from stable_baselines3 import PPO
     from stable_baselines3.common.vec_env import VecEnv
 
-INSTALL_HINT = "the GAIL baseline needs Stable-Baselines3: pip install 'sumo-rail[baselines]'"
-
-
 class BaselineError(RuntimeError):
     """A Stable-Baselines3 run cannot go on (message is one sentence)."""
 
@@ -74,8 +71,8 @@ class PpoSchedule:
         return dataclasses.asdict(self)  # type: ignore[call-overload]
 
 
-def require_stable_baselines3(hint: str = INSTALL_HINT) -> None:
-    """BaselineError with the install hint when Stable-Baselines3 is missing."""
+def require_stable_baselines3(hint: str) -> None:
+    """BaselineError with `hint` (what needs it, how to install it) when Stable-Baselines3 is missing."""
     try:
         import stable_baselines3  # noqa: F401
     except ImportError as error:

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, Protocol
+from typing import TYPE_CHECKING, Any, Protocol, TypeVar
 
 import numpy as np
 
@@ -25,6 +25,7 @@ if TYPE_CHECKING:
     from sumo_rail.runners.backends import WorkerContext
     from sumo_rail.sim.parallel_env import ParallelHighwayEnv
 
+T = TypeVar("T")
 Driver = Callable[[np.ndarray, TrafficView], int]
 DecisionProbe = Callable[[np.ndarray, TrafficView, int, dict[str, Any]], None]
 """Called after each decision with the observation and traffic the driver saw, its action and the step's info; it
@@ -104,6 +105,12 @@ class EpisodeResult:
     steps: dict[str, np.ndarray] | None
 
 
+def shared_groups(items: Sequence[T], egos: int) -> list[tuple[T, ...]]:
+    """`items` (episode seeds, rollouts) in consecutive groups of `egos`, the last one possibly smaller: what shares
+    one simulation."""
+    return [tuple(items[start:start + egos]) for start in range(0, len(items), egos)]
+
+
 @dataclass(frozen=True)
 class SharedEpisodeTask:
     """Several episodes of one driver in one simulation: ego j drives the driver seeded by seeds[j], the
@@ -164,7 +171,8 @@ def run_shared_episode(env: ParallelHighwayEnv, drivers: Sequence[Driver], seed:
 
 
 class _EpisodeLog:
-    """One ego's decisions: always what it saw and did, with `record` every (state, action, reward) step column."""
+    """One ego's episode: with `record`, every decision's (observation, state, action, reward) for the step
+    columns; the metrics row at its end either way."""
 
     def __init__(self, record: bool) -> None:
         self.record = record

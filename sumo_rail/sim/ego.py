@@ -128,7 +128,8 @@ class Ego:
         return self.last_observation, r_long + r_lat, False, bool(reason), info
 
     def _gone(self, sim: Simulation, report: PeriodReport) -> StepResult:
-        """The ego collided (terminated) or left the network (truncated); the last observation is repeated."""
+        """The ego collided (terminated) or left the network (truncated); the last observation and the last known
+        state (speed, lane, position, set-point, no lane change under way) are repeated."""
         metrics = self.metrics
         metrics.simulated_s = (sim.time_s if report.left_at_s is None else report.left_at_s) - self.start_time_s
         if report.ego_collided:
@@ -136,8 +137,13 @@ class Ego:
             reward, reason = self.config.env.collision_reward, "collision"
         else:
             reward, reason = 0.0, "end_of_road"
-        info = self._totals() | {"reward_longitudinal": 0.0, "reward_lateral": 0.0,
-                                 "reward_collision": reward, "termination": reason}
+        if self.traffic is None:
+            raise RuntimeError("the ego left before its first decision")
+        last = self.traffic.ego
+        info = self._totals() | {"speed_mps": last.speed_mps, "lane": last.lane, "position_m": last.lane_position_m,
+                                 "set_point_mps": self.set_point_mps, "lane_change_in_progress": False,
+                                 "reward_longitudinal": 0.0, "reward_lateral": 0.0, "reward_collision": reward,
+                                 "termination": reason}
         return self.last_observation, reward, report.ego_collided, not report.ego_collided, info
 
     def _relations(self, ego: EgoState, neighbours: Neighbours) -> list[int]:

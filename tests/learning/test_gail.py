@@ -18,6 +18,7 @@ from sumo_rail.drivers.policies import PolicyShape, load_policy
 from sumo_rail.learning.bc import BcSettings, behaviour_cloning
 from sumo_rail.learning.discriminator import Discriminator, DiscriminatorSettings
 from sumo_rail.learning.gail import (
+    INSTALL_HINT,
     REWARD_CLIP,
     FixedNormalisation,
     GailSettings,
@@ -31,7 +32,7 @@ from sumo_rail.learning.gail import (
 from sumo_rail.learning.gail_actor import policy_kwargs
 from sumo_rail.learning.normalize import RunningStats
 from sumo_rail.learning.rail import rollout_return
-from sumo_rail.learning.sb3_runs import INSTALL_HINT, build_ppo
+from sumo_rail.learning.sb3_runs import build_ppo
 from sumo_rail.report.inputs import LOG_COLUMNS, read_run
 from sumo_rail.runners.tables import read_demonstrations
 

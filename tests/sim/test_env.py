@@ -6,6 +6,7 @@ from gymnasium.utils.env_checker import check_env as gymnasium_check_env
 from stable_baselines3.common.env_checker import check_env as sb3_check_env
 
 import sumo_rail
+from sumo_rail.runners.rollout import run_episode
 from sumo_rail.sim.actions import Action
 from sumo_rail.sim.env import HighwayEnv
 from sumo_rail.sim.observation import observation_names
@@ -135,18 +136,39 @@ def test_impossible_lane_changes_do_nothing_and_are_counted(env):
     assert info["invalid_actions"] == expected >= 1
 
 
-def test_collision_terminates_with_penalty(env):
-    _, info = env.reset(seed=6)
+def _drive_into_a_blocker(lane: int, position_m: float) -> None:
+    """The ego, without SUMO's safety checks, at 55 m/s towards a truck standing 60 m ahead in its lane."""
     libsumo.vehicle.setSpeedMode(EGO_ID, 0)
     libsumo.vehicle.setSpeed(EGO_ID, 55.0)
-    libsumo.vehicle.add("blocker", "highway_route", typeID="truck", depart="now", departLane=str(info["lane"]),
-                        departPos=str(info["position_m"] + 60.0), departSpeed="0")
+    libsumo.vehicle.add("blocker", "highway_route", typeID="truck", depart="now", departLane=str(lane),
+                        departPos=str(position_m + 60.0), departSpeed="0")
+
+
+def test_collision_terminates_with_penalty_and_the_info_of_any_step(env):
+    _, info = env.reset(seed=6)
+    _drive_into_a_blocker(info["lane"], info["position_m"])
+    _, _, _, _, first = env.step(Action.KEEP)
     for _ in range(40):
         _, reward, terminated, truncated, info = env.step(Action.KEEP)
         if terminated or truncated:
             break
     assert terminated and not truncated
     assert reward == -10.0 and info["collisions"] == 1 and info["termination"] == "collision"
+    assert set(info) == set(first) and info["lane_change_in_progress"] is False  # the last known state
+
+
+def test_a_collision_is_recorded_like_any_decision(env):
+    added = []
+
+    def crash(observation: np.ndarray, traffic) -> int:
+        if not added:
+            _drive_into_a_blocker(traffic.ego.lane, traffic.ego.lane_position_m)
+            added.append(True)
+        return Action.KEEP
+
+    result = run_episode(env, crash, seed=6, record=True)
+    assert result.metrics["collisions"] == 1 and result.metrics["termination"] == "collision"
+    assert len(result.steps["action"]) == result.metrics["steps"] and result.steps["reward"][-1] == -10.0
 
 
 def test_out_of_space_action_and_step_before_reset_are_errors(small_config):
