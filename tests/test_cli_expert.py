@@ -50,6 +50,23 @@ def test_a_policy_file_as_the_expert_agrees_with_itself_exactly(tmp_path, learne
     assert read_metadata(out)["expert"] == str(learned_expert)
 
 
+def test_a_distilled_expert_is_its_own_reference_not_the_expert_it_learned_from(tmp_path):
+    """A policy file that records the expert it learned from (as every trained policy does), as --expert: the
+    expert driver is compared with itself, a learner of it with it."""
+    shape = PolicyShape("linear", len(observation_names(CONFIG)))
+    distilled = tmp_path / "distilled.npz"
+    parameters = np.random.default_rng(4).normal(0, 1.0, shape.parameter_count)
+    metadata = {"observation_names": observation_names(CONFIG), "expert": "normal"}
+    save_policy(Policy(shape, parameters), distilled, metadata)
+    out = tmp_path / "metrics.parquet"
+    result = invoke("evaluate", *SMALL, "--policy", "expert", "--expert", str(distilled), "--episodes", "2",
+                    "--out", str(out))
+    assert result.exit_code == 0, result.output
+    metrics = pd.read_parquet(out)
+    assert metrics["policy"].unique().tolist() == ["expert-distilled"]
+    assert (metrics["agreement"] == 1.0).all() and (metrics["reference"] == "expert-distilled").all()
+
+
 def test_recording_a_policy_file_keeps_its_decisions_and_names_it(tmp_path, learned_expert):
     out = tmp_path / "demos.parquet"
     result = invoke("record-expert", *SMALL, "--expert", str(learned_expert), "--episodes", "2", "--out", str(out))

@@ -9,6 +9,7 @@ same expert again.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -50,13 +51,15 @@ def parse_policy(path: Path, config: Config, sampled: bool = False, name: str | 
 
 def resolve_expert(expert: str, config: Config) -> DriverSpec:
     """The expert named `expert`: a style of the rule-based driver (`ExpertDriver`, named expert-STYLE), or the path
-    of a policy file (`parse_policy`, named expert-NAME). An unknown name is a ValueError listing the styles."""
+    of a policy file (`parse_policy`, named expert-NAME, whose own expert is itself even when its file records
+    another). An unknown name is a ValueError listing the styles."""
     if expert in STYLES:
         return ExpertDriver(expert)
     path = Path(expert)
     if not path.suffix and not path.exists():
         raise ValueError(f"unknown expert {expert!r}: not a style ({', '.join(sorted(STYLES))}) nor a policy file")
-    return parse_policy(path, config, name=f"expert-{policy_name(path)}")
+    # its reference is itself (it is the expert), not the expert its file records it learned from
+    return dataclasses.replace(parse_policy(path, config, name=f"expert-{policy_name(path)}"), expert=expert)
 
 
 def recorded_expert(metadata: Mapping[str, Any]) -> str | None:
