@@ -36,8 +36,6 @@ or samples from its softmax, the policy PPO trains (`--sample-policy`).
 from __future__ import annotations
 
 import dataclasses
-import json
-import tempfile
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -54,7 +52,6 @@ from sumo_rail.learning.gail_actor import (
     ppo_to_policy,
     set_actor_trainable,
 )
-from sumo_rail.learning.gail_envs import LOST_ENV, close_envs, lost_env_message
 from sumo_rail.learning.gail_rewards import REWARD_CLIP as REWARD_CLIP  # importable from here, as before
 from sumo_rail.learning.gail_rewards import (
     RewardLabeller,
@@ -64,15 +61,15 @@ from sumo_rail.learning.gail_rewards import (
 )
 from sumo_rail.learning.normalize import RunningStats
 from sumo_rail.learning.sb3_runs import (
-    BaselineError,
     PpoSchedule,
     build_ppo,
+    env_processes,
     require_stable_baselines3,
     save_update,
+    start_run_folder,
     stop_requests,
 )
 from sumo_rail.learning.torch_threads import single_thread
-from sumo_rail.learning.training import RunError, write_atomically
 from sumo_rail.runners.experts import demonstrations_expert
 from sumo_rail.runners.tables import Demonstrations, provenance, read_demonstrations
 from sumo_rail.sim.observation import observation_space
@@ -144,10 +141,7 @@ def train_gail(folder: Path, settings: GailSettings, config: Config,
     shape = PolicyShape(settings.kind, observation_size, settings.hidden)
     run_record = {"settings": settings.to_dict(), "expert": demonstrations_expert(demos.metadata),
                   **provenance("gail_run", config, settings.seed)}
-    if folder.exists() and any(folder.iterdir()):
-        raise RunError(f"run folder {folder} is not empty; choose another --out")
-    folder.mkdir(parents=True, exist_ok=True)
-    write_atomically(folder / "run.json", json.dumps(run_record, indent=2, sort_keys=True).encode())
+    start_run_folder(folder, run_record)
     with single_thread():
         initial, normalisation = _initial_policy(folder, settings, shape, demos, run_record, on_bc)
         expert_stats = RunningStats.of(demos.observations)
@@ -156,23 +150,16 @@ def train_gail(folder: Path, settings: GailSettings, config: Config,
         horizon = round(config.env.max_episode_s / config.env.decision_period_s)
         labeller = RewardLabeller(discriminator, settings.envs, horizon)
         logs: list[dict[str, Any]] = []
-        venv, lost = None, False
-        with tempfile.TemporaryDirectory(prefix="sumo-rail-gail-") as errors:
-            try:
-                venv = labelled_vec_env(config, settings.envs, settings.seed, labeller, normalisation, Path(errors))
-                if settings.normalize_reward:
-                    venv = normalised_rewards(venv, settings.gamma)
-                model = build_ppo(venv, shape, settings)
-                if initial is not None:
-                    load_into_ppo(initial, model.policy)
-                _updates(folder, settings, shape, model, labeller, demos, normalisation, run_record, on_update, logs)
-                return GailResult(len(logs), model.num_timesteps, len(logs) < settings.updates)
-            except LOST_ENV as error:
-                lost = True
-                raise BaselineError(lost_env_message(venv, Path(errors), folder, len(logs))) from error
-            finally:
-                if venv is not None:
-                    close_envs(venv, lost)
+        with env_processes(folder, "GAIL", lambda: len(logs)) as processes:
+            processes.venv = labelled_vec_env(config, settings.envs, settings.seed, labeller, normalisation,
+                                              processes.error_dir)
+            if settings.normalize_reward:
+                processes.venv = normalised_rewards(processes.venv, settings.gamma)
+            model = build_ppo(processes.venv, shape, settings)
+            if initial is not None:
+                load_into_ppo(initial, model.policy)
+            _updates(folder, settings, shape, model, labeller, demos, normalisation, run_record, on_update, logs)
+            return GailResult(len(logs), model.num_timesteps, len(logs) < settings.updates)
 
 
 def _initial_policy(folder: Path, settings: GailSettings, shape: PolicyShape, demos: Demonstrations,

@@ -26,9 +26,7 @@ no resume.
 
 from __future__ import annotations
 
-import json
 import math
-import tempfile
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -40,18 +38,18 @@ import numpy as np
 from sumo_rail.config import Config
 from sumo_rail.drivers.policies import PolicyShape
 from sumo_rail.learning.gail_actor import FixedNormalisation, ppo_to_policy
-from sumo_rail.learning.gail_envs import LOST_ENV, EnvFactory, close_envs, lost_env_message
+from sumo_rail.learning.gail_envs import EnvFactory
 from sumo_rail.learning.gail_rewards import env_seeds, normalised_rewards, reward_std
 from sumo_rail.learning.sb3_runs import (
-    BaselineError,
     PpoSchedule,
     build_ppo,
+    env_processes,
     require_stable_baselines3,
     save_update,
+    start_run_folder,
     stop_requests,
 )
 from sumo_rail.learning.torch_threads import single_thread
-from sumo_rail.learning.training import RunError, write_atomically
 from sumo_rail.runners.tables import provenance
 from sumo_rail.sim.observation import observation_space
 
@@ -169,41 +167,28 @@ def train_ppo_driver(folder: Path, settings: PpoSettings, config: Config,
     shape = PolicyShape(settings.kind, observation_size, settings.hidden)
     identity = FixedNormalisation(np.zeros(observation_size), np.ones(observation_size))
     run_record = {"settings": settings.to_dict(), **provenance("ppo_run", config, settings.seed)}
-    if folder.exists() and any(folder.iterdir()):
-        raise RunError(f"run folder {folder} is not empty; choose another --out")
-    folder.mkdir(parents=True, exist_ok=True)
-    write_atomically(folder / "run.json", json.dumps(run_record, indent=2, sort_keys=True).encode())
+    start_run_folder(folder, run_record)
     tally = EpisodeTally(settings.envs, settings.overtake_reward, settings.keep_right_reward, config.scenario.lanes)
     rows: list[dict[str, Any]] = []
-    venv, lost = None, False
-    with single_thread(), tempfile.TemporaryDirectory(prefix="sumo-rail-ppo-") as errors:
-        try:
-            venv = driving_vec_env(config, settings.envs, settings.seed, tally, Path(errors))
-            if settings.normalize_reward:
-                venv = normalised_rewards(venv, settings.gamma)
-            model = build_ppo(venv, shape, settings, ent_coef=settings.ent_coef)
-            with stop_requests() as stop:
-                for update in range(settings.updates):
-                    started = time.perf_counter()
-                    model.learn(settings.steps_per_update, reset_num_timesteps=False)
-                    row = {"iteration": update, "env_steps": settings.steps_per_update,
-                           **_episode_summary(tally.take()),
-                           "entropy": -float(model.logger.name_to_value["train/entropy_loss"]),
-                           "reward_std": reward_std(model), "wall_time_s": time.perf_counter() - started}
-                    save_update(folder, ppo_to_policy(model.policy, shape, identity), [*rows, row], run_record,
-                                "PPO")
-                    rows.append(row)
-                    if on_update is not None:
-                        on_update(row)
-                    if stop.is_set():
-                        break
-            return PpoResult(len(rows), model.num_timesteps, len(rows) < settings.updates)
-        except LOST_ENV as error:
-            lost = True
-            raise BaselineError(lost_env_message(venv, Path(errors), folder, len(rows), run="PPO")) from error
-        finally:
-            if venv is not None:
-                close_envs(venv, lost)
+    with single_thread(), env_processes(folder, "PPO", lambda: len(rows)) as processes:
+        processes.venv = driving_vec_env(config, settings.envs, settings.seed, tally, processes.error_dir)
+        if settings.normalize_reward:
+            processes.venv = normalised_rewards(processes.venv, settings.gamma)
+        model = build_ppo(processes.venv, shape, settings, ent_coef=settings.ent_coef)
+        with stop_requests() as stop:
+            for update in range(settings.updates):
+                started = time.perf_counter()
+                model.learn(settings.steps_per_update, reset_num_timesteps=False)
+                row = {"iteration": update, "env_steps": settings.steps_per_update, **_episode_summary(tally.take()),
+                       "entropy": -float(model.logger.name_to_value["train/entropy_loss"]),
+                       "reward_std": reward_std(model), "wall_time_s": time.perf_counter() - started}
+                save_update(folder, ppo_to_policy(model.policy, shape, identity), [*rows, row], run_record, "PPO")
+                rows.append(row)
+                if on_update is not None:
+                    on_update(row)
+                if stop.is_set():
+                    break
+        return PpoResult(len(rows), model.num_timesteps, len(rows) < settings.updates)
 
 
 def _episode_summary(episodes: list[dict[str, float]]) -> dict[str, float | int]:

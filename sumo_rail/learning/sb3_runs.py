@@ -5,11 +5,14 @@ together. Stable-Baselines3 is imported only by the functions that need it."""
 from __future__ import annotations
 
 import dataclasses
+import json
 import math
 import signal
+import tempfile
 import threading
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol
 
@@ -18,6 +21,8 @@ import pyarrow as pa
 from sumo_rail.datasets import DatasetError, write_failure, write_parquet, written_together
 from sumo_rail.drivers.policies import Policy, PolicyShape, save_policy
 from sumo_rail.learning.gail_actor import policy_kwargs
+from sumo_rail.learning.gail_envs import LOST_ENV, close_envs, lost_env_message
+from sumo_rail.learning.training import RunError, write_atomically
 
 if TYPE_CHECKING:
     from stable_baselines3 import PPO
@@ -86,6 +91,40 @@ def build_ppo(venv: VecEnv, shape: PolicyShape, settings: PpoHyperparameters, en
     return PPO("MlpPolicy", venv, learning_rate=settings.learning_rate, n_steps=settings.n_steps,
                batch_size=settings.batch_size, n_epochs=settings.ppo_epochs, gamma=settings.gamma,
                ent_coef=ent_coef, policy_kwargs=policy_kwargs(shape), seed=settings.seed, device="cpu", verbose=0)
+
+
+@dataclass
+class EnvProcesses:
+    """What `env_processes` watches: the folder env processes report failures into, and the vec env once built."""
+
+    error_dir: Path
+    venv: VecEnv | None = None
+
+
+@contextmanager
+def env_processes(folder: Path, run: str, updates_done: Callable[[], int]) -> Iterator[EnvProcesses]:
+    """The environment processes' lifetime: a temporary folder they report failures into; on leaving, the vec env
+    (`EnvProcesses.venv`, set by the caller) is closed, and a lost process (killed, crashed) becomes one
+    BaselineError sentence naming it and what the run `folder` keeps after `updates_done()` updates."""
+    with tempfile.TemporaryDirectory(prefix=f"sumo-rail-{run.lower()}-") as errors:
+        processes, lost = EnvProcesses(Path(errors)), False
+        try:
+            yield processes
+        except LOST_ENV as error:
+            lost = True
+            raise BaselineError(lost_env_message(processes.venv, processes.error_dir, folder, updates_done(),
+                                                 run=run)) from error
+        finally:
+            if processes.venv is not None:
+                close_envs(processes.venv, lost)
+
+
+def start_run_folder(folder: Path, run_record: dict[str, Any]) -> None:
+    """Create the new or empty run `folder` with its run.json (RunError, one sentence, when it is not empty)."""
+    if folder.exists() and any(folder.iterdir()):
+        raise RunError(f"run folder {folder} is not empty; choose another --out")
+    folder.mkdir(parents=True, exist_ok=True)
+    write_atomically(folder / "run.json", json.dumps(run_record, indent=2, sort_keys=True).encode())
 
 
 @contextmanager
