@@ -35,14 +35,21 @@ if TYPE_CHECKING:
 @click.option("--keep-right-reward", type=click.FloatRange(min=0), default=0.0, show_default=True,
               help="Reward shaping: added per decision in the rightmost lane, falling linearly to 0 in the leftmost "
                    "(the rule-based expert's keep-right rule; 0: the env's reward alone).")
+@click.option("--init", "init", type=click.Path(path_type=Path, dir_okay=False, exists=True), default=None,
+              metavar="POLICY_FILE", help="Start the actor from this policy file (a BC, DAgger or earlier PPO policy "
+              "of the same --policy/--hidden and observation layout) instead of a random one: RL fine-tuning of a "
+              "cloned driver.")
+@click.option("--critic-warmup", type=click.IntRange(min=0), default=5, show_default=True,
+              help="With --init: first updates that train the critic alone, the actor frozen (they count in "
+                   "--timesteps).")
 @seed_option("Seed of everything the run draws; the same seed and --envs give the same policy.")
 @click.option("--out", type=click.Path(path_type=Path, file_okay=False), required=True,
               help="Run folder (new or empty).")
 @tensorboard_option
 def ppo_command(config: Config, kind: str, hidden: int, timesteps: int, envs: int, n_steps: int,
                 batch_size: int, learning_rate: float, ent_coef: float, gamma: float, normalize_reward: bool,
-                overtake_reward: float, keep_right_reward: float, seed: int, out: Path,
-                tensorboard_dir: Path | None) -> None:
+                overtake_reward: float, keep_right_reward: float, init: Path | None, critic_warmup: int, seed: int,
+                out: Path, tensorboard_dir: Path | None) -> None:
     """Train a driver by PPO (Stable-Baselines3) on the env's reward: speed, lane-change cost, collisions.
 
     Writes run.json, policy_latest.npz (after every update: a policy file that evaluate --policy drives and that
@@ -50,7 +57,8 @@ def ppo_command(config: Config, kind: str, hidden: int, timesteps: int, envs: in
     overtakes, lane changes and collisions of the episodes that ended). Ctrl-C or SIGTERM stops after the current
     update with its files complete; a PPO run cannot be resumed. Needs pip install 'sumo-rail[baselines]'.
     """
-    from sumo_rail.learning.ppo_driver import PpoSettings, train_ppo_driver
+    from sumo_rail.drivers.policies import PolicyFileError
+    from sumo_rail.learning.ppo_driver import PpoSettings, initial_policy, train_ppo_driver
     from sumo_rail.learning.sb3_runs import BaselineError
     from sumo_rail.learning.training import RunError
 
@@ -58,9 +66,17 @@ def ppo_command(config: Config, kind: str, hidden: int, timesteps: int, envs: in
         settings = PpoSettings(timesteps=timesteps, kind=kind, hidden=hidden, envs=envs, n_steps=n_steps,
                                batch_size=batch_size, learning_rate=learning_rate, gamma=gamma, ent_coef=ent_coef,
                                normalize_reward=normalize_reward, overtake_reward=overtake_reward,
-                               keep_right_reward=keep_right_reward, seed=seed)
+                               keep_right_reward=keep_right_reward,
+                               init=None if init is None else str(init), critic_warmup=critic_warmup, seed=seed)
     except ValueError as error:
         raise click.UsageError(str(error)) from error
+    if init is not None:
+        try:
+            initial_policy(init, settings.shape(config), config)
+        except PolicyFileError as error:
+            raise click.ClickException(str(error)) from error
+        except ValueError as error:
+            raise click.BadParameter(str(error), param_hint="'--init'") from error
     bar = progress(settings.updates * settings.steps_per_update, "PPO", unit="timestep")
 
     def show(row: dict[str, Any]) -> None:

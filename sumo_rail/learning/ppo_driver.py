@@ -10,7 +10,10 @@ running std of the discounted return and clipped (`normalize_reward`).
 The actor is a `PolicyShape` (`gail_actor.policy_kwargs`): by default the learners' own two-layer policy (10 tanh
 units), so a learner of the default size can imitate it exactly; it acts on the raw observation, whose entries
 the env already scales to [-1, 2] (`sumo_rail.sim.observation`), so the exported policy's statistics are mean 0,
-std 1. The critic is `gail_actor.CRITIC_LAYERS`.
+std 1. With `init` (a policy file of the same shape and observation layout: a BC, DAgger or earlier PPO policy)
+PPO starts from that policy, on its observation statistics, and its first `critic_warmup` updates train the
+critic alone (`gail_actor.set_actor_trainable`, as in GAIL): BC pre-training then RL fine-tuning. The critic is
+`gail_actor.CRITIC_LAYERS`.
 
 Reproducible as `gail`: env k's first episode has the Purpose.TRAIN seed of episode k from base seed x envs; PPO
 is seeded and torch runs on one thread, so the same settings give the same policy bit for bit (for the same
@@ -20,8 +23,8 @@ runs/NAME/ holds `run.json` (settings, config, provenance), `policy_latest.npz` 
 together after every update. The log has one row per update: iteration, env_steps, episodes (ended in the
 update), return_mean / _max / _std (the undiscounted episode return PPO trains on, the env's reward plus any
 shaping, of those episodes; NaN when none ended), speed_kmh, overtakes, lane_changes, collisions (per ended
-episode), entropy (nats), reward_std and wall_time_s. SIGINT / SIGTERM stop after the current update; there is
-no resume.
+episode), entropy (nats), actor_frozen, reward_std and wall_time_s. SIGINT / SIGTERM stop after the current
+update; there is no resume.
 """
 
 from __future__ import annotations
@@ -36,8 +39,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from sumo_rail.config import Config
-from sumo_rail.drivers.policies import PolicyShape
-from sumo_rail.learning.gail_actor import FixedNormalisation, ppo_to_policy
+from sumo_rail.drivers.policies import Policy, PolicyShape
+from sumo_rail.learning.gail_actor import FixedNormalisation, load_into_ppo, ppo_to_policy, set_actor_trainable
 from sumo_rail.learning.gail_envs import EnvFactory
 from sumo_rail.learning.gail_rewards import env_seeds, normalised_rewards, reward_std
 from sumo_rail.learning.sb3_runs import (
@@ -50,6 +53,7 @@ from sumo_rail.learning.sb3_runs import (
     stop_requests,
 )
 from sumo_rail.learning.torch_threads import single_thread
+from sumo_rail.runners.experts import parse_policy
 from sumo_rail.runners.tables import provenance
 from sumo_rail.sim.observation import observation_space
 
@@ -84,13 +88,27 @@ class PpoSettings(PpoSchedule):
     """Shaping: reward per vehicle overtaken (0: the env's reward alone)."""
     keep_right_reward: float = 0.0
     """Shaping: reward per decision in the rightmost lane, falling linearly to 0 in the leftmost."""
+    init: str | None = None
+    """Policy file the actor starts from (None: PPO's own random initialisation)."""
+    critic_warmup: int = 5
+    """With `init`: first updates with the actor frozen while the critic learns; they count in `timesteps`."""
     seed: int = 0
 
     def __post_init__(self) -> None:
         self.check_schedule("PPO")
-        if min(self.ent_coef, self.overtake_reward, self.keep_right_reward) < 0:
-            raise ValueError(f"PPO needs ent_coef, overtake_reward and keep_right_reward >= 0, got {self.ent_coef}, "
-                             f"{self.overtake_reward} and {self.keep_right_reward}")
+        if min(self.ent_coef, self.overtake_reward, self.keep_right_reward, self.critic_warmup) < 0:
+            raise ValueError(f"PPO needs ent_coef, overtake_reward, keep_right_reward and critic_warmup >= 0, got "
+                             f"{self.ent_coef}, {self.overtake_reward}, {self.keep_right_reward} and "
+                             f"{self.critic_warmup}")
+
+    def shape(self, config: Config) -> PolicyShape:
+        """The actor's layout on `config`'s observation."""
+        return PolicyShape(self.kind, observation_space(config).shape[0], self.hidden)
+
+    @property
+    def frozen_updates(self) -> int:
+        """Updates at the start in which only the critic learns."""
+        return self.critic_warmup if self.init is not None else 0
 
 
 @dataclass(frozen=True)
@@ -135,23 +153,33 @@ class EpisodeTally:
         return ended
 
 
-def driving_vec_env(config: Config, envs: int, seed: int, tally: EpisodeTally, error_dir: Path) -> VecEnv:
-    """`envs` spawned HighwayEnv processes whose rewards pass through `tally`; env k that fails writes why to
-    error_dir/env_k.txt and ends (`gail_envs.EnvFactory`)."""
+def driving_vec_env(config: Config, envs: int, seed: int, tally: EpisodeTally, normalisation: FixedNormalisation,
+                    error_dir: Path) -> VecEnv:
+    """`envs` spawned HighwayEnv processes whose rewards pass through `tally` and observations through
+    `normalisation`; env k that fails writes why to error_dir/env_k.txt and ends (`gail_envs.EnvFactory`)."""
+    from gymnasium import spaces
     from stable_baselines3.common.vec_env import SubprocVecEnv, VecEnvWrapper
 
     class TalliedVecEnv(VecEnvWrapper):
-        """Rewards through `tally`; `seed` is a no-op: the env factories seed the envs."""
+        """Rewards through `tally`, normalised observations (terminal ones too); `seed` is a no-op: the env
+        factories seed the envs."""
+
+        def __init__(self, venv: VecEnv) -> None:
+            shape = venv.observation_space.shape
+            super().__init__(venv, observation_space=spaces.Box(-np.inf, np.inf, shape, np.float32))
 
         def seed(self, seed: int | None = None) -> list[int | None]:
             return [None] * self.num_envs
 
         def reset(self) -> np.ndarray:
-            return self.venv.reset()
+            return normalisation(self.venv.reset())
 
         def step_wait(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[dict[str, Any]]]:
             observations, rewards, dones, infos = self.venv.step_wait()
-            return observations, tally.shaped(rewards, dones, infos), dones, infos
+            for info in infos:
+                if "terminal_observation" in info:
+                    info["terminal_observation"] = normalisation(info["terminal_observation"])
+            return normalisation(observations), tally.shaped(rewards, dones, infos), dones, infos
 
     factories = [EnvFactory(config, env_seed, str(error_dir / f"env_{index}.txt"))
                  for index, env_seed in enumerate(env_seeds(seed, envs))]
@@ -163,32 +191,54 @@ def train_ppo_driver(folder: Path, settings: PpoSettings, config: Config,
     """Train into the empty or new `folder`; `on_update` gets each log row once its update is saved."""
     require_stable_baselines3(INSTALL_HINT)
     folder = Path(folder)
-    observation_size = observation_space(config).shape[0]
-    shape = PolicyShape(settings.kind, observation_size, settings.hidden)
-    identity = FixedNormalisation(np.zeros(observation_size), np.ones(observation_size))
+    shape = settings.shape(config)
+    observation_size = shape.observation_size
+    initial = None if settings.init is None else initial_policy(Path(settings.init), shape, config)
+    normalisation = (FixedNormalisation(np.zeros(observation_size), np.ones(observation_size)) if initial is None
+                     else FixedNormalisation(initial.observation_mean, initial.observation_std))
     run_record = {"settings": settings.to_dict(), **provenance("ppo_run", config, settings.seed)}
     start_run_folder(folder, run_record)
     tally = EpisodeTally(settings.envs, settings.overtake_reward, settings.keep_right_reward, config.scenario.lanes)
     rows: list[dict[str, Any]] = []
     with single_thread(), env_processes(folder, "PPO", lambda: len(rows)) as processes:
-        processes.venv = driving_vec_env(config, settings.envs, settings.seed, tally, processes.error_dir)
+        processes.venv = driving_vec_env(config, settings.envs, settings.seed, tally, normalisation,
+                                         processes.error_dir)
         if settings.normalize_reward:
             processes.venv = normalised_rewards(processes.venv, settings.gamma)
         model = build_ppo(processes.venv, shape, settings, ent_coef=settings.ent_coef)
+        if initial is not None:
+            load_into_ppo(initial, model.policy)
         with stop_requests() as stop:
             for update in range(settings.updates):
                 started = time.perf_counter()
+                frozen = update < settings.frozen_updates
+                set_actor_trainable(model.policy, not frozen)
                 model.learn(settings.steps_per_update, reset_num_timesteps=False)
                 row = {"iteration": update, "env_steps": settings.steps_per_update, **_episode_summary(tally.take()),
                        "entropy": -float(model.logger.name_to_value["train/entropy_loss"]),
-                       "reward_std": reward_std(model), "wall_time_s": time.perf_counter() - started}
-                save_update(folder, ppo_to_policy(model.policy, shape, identity), [*rows, row], run_record, "PPO")
+                       "actor_frozen": frozen, "reward_std": reward_std(model),
+                       "wall_time_s": time.perf_counter() - started}
+                save_update(folder, ppo_to_policy(model.policy, shape, normalisation), [*rows, row], run_record, "PPO")
                 rows.append(row)
                 if on_update is not None:
                     on_update(row)
                 if stop.is_set():
                     break
         return PpoResult(len(rows), model.num_timesteps, len(rows) < settings.updates)
+
+
+def initial_policy(path: Path, shape: PolicyShape, config: Config) -> Policy:
+    """The policy file PPO starts from: it must read this configuration's observation layout (`parse_policy`'s
+    PolicyFileError otherwise) and have the run's `shape` (ValueError naming both)."""
+    policy = parse_policy(path, config).policy
+    if _layout(policy.shape) != _layout(shape):
+        raise ValueError(f"--init policy {path} is a {_layout(policy.shape)} policy but the run asks for a "
+                         f"{_layout(shape)} one (--policy, --hidden)")
+    return policy
+
+
+def _layout(shape: PolicyShape) -> str:
+    return f"{shape.kind} ({shape.hidden} hidden units)" if shape.kind == "mlp" else shape.kind
 
 
 def _episode_summary(episodes: list[dict[str, float]]) -> dict[str, float | int]:

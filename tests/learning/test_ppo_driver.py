@@ -4,11 +4,12 @@ import sys
 import numpy as np
 import pandas as pd
 import pytest
-from test_cli import SMALL, invoke
+from test_cli import SMALL, SMALL_CONFIG, invoke
 
 from sumo_rail.datasets import read_metadata
-from sumo_rail.drivers.policies import load_policy
+from sumo_rail.drivers.policies import Policy, PolicyShape, load_policy, save_policy
 from sumo_rail.learning.ppo_driver import INSTALL_HINT, EpisodeTally, PpoSettings
+from sumo_rail.sim.observation import observation_names
 
 
 def info(overtakes: int, lane_changes: int = 0, distance_m: float = 100.0, time_s: float = 10.0,
@@ -101,3 +102,38 @@ def test_missing_stable_baselines3_is_a_one_line_hint(monkeypatch, tmp_path):
     result = invoke("ppo", "--out", str(tmp_path / "run"))
     assert result.exit_code == 1 and INSTALL_HINT in result.output and "Traceback" not in result.output
     assert not (tmp_path / "run").exists()
+
+
+def cloned_driver(path, observation_size: int = 56):
+    """A random two-layer policy on non-trivial observation statistics, as a BC run would save it."""
+    rng = np.random.default_rng(7)
+    shape = PolicyShape("mlp", observation_size, 10)
+    policy = Policy(shape, rng.normal(0, 0.3, shape.parameter_count).astype(np.float32),
+                    rng.normal(0, 0.5, observation_size), rng.uniform(0.5, 2.0, observation_size))
+    save_policy(policy, path, {"observation_names": observation_names(SMALL_CONFIG)[:observation_size]})
+    return policy
+
+
+@pytest.mark.parametrize("warmup", [2, 0])
+def test_init_starts_the_actor_from_the_policy_file_and_the_critic_warmup_keeps_it_there(tmp_path, warmup):
+    initial = cloned_driver(tmp_path / "bc.npz")
+    result = invoke("ppo", *SMALL, "--timesteps", "128", "--envs", "1", "--n-steps", "64", "--batch-size", "32",
+                    "--init", str(tmp_path / "bc.npz"), "--critic-warmup", str(warmup), "--out", str(tmp_path / "run"))
+    assert result.exit_code == 0, result.output
+    trained, _ = load_policy(tmp_path / "run" / "policy_latest.npz")
+    assert np.array_equal(trained.observation_mean, initial.observation_mean)
+    assert np.array_equal(trained.observation_std, initial.observation_std)
+    assert np.array_equal(trained.parameters, initial.parameters) == (warmup == 2)
+    assert pd.read_parquet(tmp_path / "run" / "log.parquet")["actor_frozen"].tolist() == [warmup == 2] * 2
+    assert json.loads((tmp_path / "run" / "run.json").read_text())["settings"]["init"] == str(tmp_path / "bc.npz")
+
+
+def test_an_init_policy_of_another_shape_or_observation_is_refused_before_any_work(tmp_path):
+    cloned_driver(tmp_path / "bc.npz")
+    result = invoke("ppo", *SMALL, "--init", str(tmp_path / "bc.npz"), "--policy", "linear", "--out",
+                    str(tmp_path / "run"))
+    assert result.exit_code == 2 and "is a mlp (10 hidden units) policy but the run asks for a linear" in result.output
+    cloned_driver(tmp_path / "short.npz", observation_size=30)
+    result = invoke("ppo", *SMALL, "--init", str(tmp_path / "short.npz"), "--out", str(tmp_path / "run"))
+    assert result.exit_code == 1 and "reads 30 observation values" in result.output
+    assert "Traceback" not in result.output and not (tmp_path / "run").exists()
