@@ -7,6 +7,7 @@ from typing import TYPE_CHECKING, Any
 
 import click
 from sumo_rail_cli.options import (
+    check_egos,
     config_options,
     imitation_options,
     ppo_options,
@@ -25,16 +26,14 @@ if TYPE_CHECKING:
 @click.command("gail")
 @config_options
 @imitation_options
-@ppo_options(default_timesteps=100_000)
-@click.option("--critic-warmup", type=click.IntRange(min=0), default=5, show_default=True, metavar="K",
-              help="First K updates with the actor frozen, only the critic learning (they count in --timesteps).")
+@ppo_options(default_timesteps=100_000, critic_help="")
 @seed_option("Seed of everything the run draws; the same seed and --envs give the same policy.")
 @click.option("--out", type=click.Path(path_type=Path, file_okay=False), required=True,
               help="Run folder (new or empty).")
 @tensorboard_option
 def gail_command(config: Config, demos: Path, timesteps: int, kind: str,
-                 hidden: int, bc_epochs: int, bc_class_balance: float, envs: int, n_steps: int, learning_rate: float,
-                 normalize_reward: bool, critic_warmup: int, seed: int, out: Path,
+                 hidden: int, bc_epochs: int, bc_class_balance: float, envs: int, egos: int, n_steps: int,
+                 learning_rate: float, normalize_reward: bool, critic_warmup: int, seed: int, out: Path,
                  tensorboard_dir: Path | None) -> None:
     """Train the GAIL baseline: PPO (Stable-Baselines3) on RAIL's discriminator reward, with RAIL's actor.
 
@@ -50,11 +49,12 @@ def gail_command(config: Config, demos: Path, timesteps: int, kind: str,
 
     try:
         settings = GailSettings(str(demos), timesteps=timesteps, kind=kind, hidden=hidden, bc_epochs=bc_epochs,
-                                bc_class_balance=bc_class_balance, envs=envs, n_steps=n_steps,
+                                bc_class_balance=bc_class_balance, envs=envs, egos=egos, n_steps=n_steps,
                                 learning_rate=learning_rate, normalize_reward=normalize_reward,
                                 critic_warmup=critic_warmup, seed=seed, discriminator=DiscriminatorSettings(seed=seed))
     except ValueError as error:
         raise click.UsageError(str(error)) from error
+    check_egos(config, egos)
     bar = progress(settings.updates * settings.steps_per_update, "GAIL", unit="timestep")
 
     def show_bc(report: BcReport) -> None:

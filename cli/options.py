@@ -73,20 +73,28 @@ def policy_shape_options(command: Callable[..., Any]) -> Callable[..., Any]:
                         help="linear: obs -> 5 logits; mlp: obs -> --hidden tanh units -> 5 logits.")(command)
 
 
-def ppo_options(default_timesteps: int) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
-    """What gail and ppo share: --timesteps, --envs, --n-steps, --learning-rate, --normalize-reward."""
+def ppo_options(default_timesteps: int, critic_help: str) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
+    """What gail and ppo share: --timesteps, --envs, --egos, --n-steps, --learning-rate, --normalize-reward and
+    --critic-warmup (`critic_help` ends its help)."""
     options = [
         click.option("--timesteps", type=click.IntRange(min=1), default=default_timesteps, show_default=True,
                      help="Environment decisions in total (rounded up to whole updates of --n-steps x --envs)."),
         click.option("--envs", type=click.IntRange(min=1), default=2, show_default=True,
                      help="Environment processes; unlike train's --workers, the result depends on it."),
+        click.option("--egos", type=click.IntRange(min=1), default=1, show_default=True,
+                     help="Egos per environment process, sharing its simulation (PPO's envs are --envs x --egos): an "
+                          "ego whose episode ends is replaced at once by a new one in the start window while the "
+                          "others drive on. The result depends on it."),
         click.option("--n-steps", type=click.IntRange(min=1), default=512, show_default=True,
-                     help="PPO decisions per env and update."),
+                     help="PPO decisions per env (ego) and update."),
         click.option("--learning-rate", type=click.FloatRange(min=0, min_open=True), default=3e-4,
                      show_default=True, help="PPO's Adam step size."),
         click.option("--normalize-reward/--no-normalize-reward", default=True, show_default=True,
                      help="Divide PPO's rewards by the running std of the discounted return and clip them to +-10 "
                           "(Stable-Baselines3's VecNormalize), so that one collision cannot swamp the critic."),
+        click.option("--critic-warmup", type=click.IntRange(min=0), default=5, show_default=True, metavar="K",
+                     help=f"First K updates with the actor frozen, only the critic learning (they count in "
+                          f"--timesteps){critic_help}."),
     ]
 
     def decorate(command: Callable[..., Any]) -> Callable[..., Any]:

@@ -7,6 +7,7 @@ from typing import TYPE_CHECKING, Any
 
 import click
 from sumo_rail_cli.options import (
+    check_egos,
     config_options,
     policy_shape_options,
     ppo_options,
@@ -23,7 +24,7 @@ if TYPE_CHECKING:
 @click.command("ppo")
 @config_options
 @policy_shape_options
-@ppo_options(default_timesteps=400_000)
+@ppo_options(default_timesteps=400_000, critic_help="; with --init only")
 @click.option("--batch-size", type=click.IntRange(min=2), default=64, show_default=True,
               help="PPO minibatch size [decisions].")
 @click.option("--ent-coef", type=click.FloatRange(min=0), default=0.01, show_default=True,
@@ -39,14 +40,11 @@ if TYPE_CHECKING:
               metavar="POLICY_FILE", help="Start the actor from this policy file (a BC, DAgger or earlier PPO policy "
               "of the same --policy/--hidden and observation layout) instead of a random one: RL fine-tuning of a "
               "cloned driver.")
-@click.option("--critic-warmup", type=click.IntRange(min=0), default=5, show_default=True,
-              help="With --init: first updates that train the critic alone, the actor frozen (they count in "
-                   "--timesteps).")
 @seed_option("Seed of everything the run draws; the same seed and --envs give the same policy.")
 @click.option("--out", type=click.Path(path_type=Path, file_okay=False), required=True,
               help="Run folder (new or empty).")
 @tensorboard_option
-def ppo_command(config: Config, kind: str, hidden: int, timesteps: int, envs: int, n_steps: int,
+def ppo_command(config: Config, kind: str, hidden: int, timesteps: int, envs: int, egos: int, n_steps: int,
                 batch_size: int, learning_rate: float, ent_coef: float, gamma: float, normalize_reward: bool,
                 overtake_reward: float, keep_right_reward: float, init: Path | None, critic_warmup: int, seed: int,
                 out: Path, tensorboard_dir: Path | None) -> None:
@@ -63,13 +61,14 @@ def ppo_command(config: Config, kind: str, hidden: int, timesteps: int, envs: in
     from sumo_rail.learning.training import RunError
 
     try:
-        settings = PpoSettings(timesteps=timesteps, kind=kind, hidden=hidden, envs=envs, n_steps=n_steps,
-                               batch_size=batch_size, learning_rate=learning_rate, gamma=gamma, ent_coef=ent_coef,
-                               normalize_reward=normalize_reward, overtake_reward=overtake_reward,
-                               keep_right_reward=keep_right_reward,
-                               init=None if init is None else str(init), critic_warmup=critic_warmup, seed=seed)
+        settings = PpoSettings(timesteps=timesteps, kind=kind, hidden=hidden, envs=envs, egos=egos,
+                               n_steps=n_steps, batch_size=batch_size, learning_rate=learning_rate, gamma=gamma,
+                               ent_coef=ent_coef, normalize_reward=normalize_reward, overtake_reward=overtake_reward,
+                               keep_right_reward=keep_right_reward, init=None if init is None else str(init),
+                               critic_warmup=critic_warmup, seed=seed)
     except ValueError as error:
         raise click.UsageError(str(error)) from error
+    check_egos(config, egos)
     if init is not None:
         try:
             initial_policy(init, settings.shape(config), config)

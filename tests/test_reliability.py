@@ -554,6 +554,8 @@ LOSING_RUNS = {
     "GAIL": ["gail", *SMALL, "--demos", "demos.parquet", "--timesteps", "100000", "--envs", "1", "--n-steps", "32",
              "--bc-epochs", "1", "--out", "sb3_run"],
     "PPO": ["ppo", *SMALL, "--timesteps", "100000", "--envs", "1", "--n-steps", "32", "--out", "sb3_run"],
+    "PPO with two egos a process": ["ppo", *SMALL, "--timesteps", "100000", "--envs", "1", "--egos", "2",
+                                    "--n-steps", "32", "--out", "sb3_run"],
 }
 
 
@@ -584,7 +586,7 @@ def test_a_lost_stable_baselines3_environment_process_is_one_sentence(workspace:
             process.communicate()
     assert process.returncode == 1 and "Traceback" not in stderr and "EOFError" not in stderr, stderr
     error = stderr.rstrip().splitlines()[-1]
-    assert error.startswith(f"Error: {run} stopped during update "), error
+    assert error.startswith(f"Error: {run.split()[0]} stopped during update "), error
     if how == "killed":
         assert "environment process 0 was killed by signal 9" in error and "policy_latest.npz holds update" in error
     else:

@@ -69,6 +69,7 @@ from sumo_rail.learning.sb3_runs import (
     start_run_folder,
     stop_requests,
 )
+from sumo_rail.learning.shared_road import driving_processes
 from sumo_rail.learning.torch_threads import single_thread
 from sumo_rail.runners.experts import demonstrations_expert
 from sumo_rail.runners.tables import Demonstrations, provenance, read_demonstrations
@@ -95,8 +96,10 @@ class GailSettings(PpoSchedule):
     """`BcSettings.class_balance`."""
     envs: int = 2
     """Environment processes; the result depends on it."""
+    egos: int = 1
+    """Egos per environment process (`shared_road`): PPO's envs are envs x egos; the result depends on it."""
     n_steps: int = 512
-    """Decisions per env and update."""
+    """Decisions per env (ego) and update."""
     learning_rate: float = 3e-4
     """PPO's Adam step size."""
     batch_size: int = 64
@@ -148,11 +151,11 @@ def train_gail(folder: Path, settings: GailSettings, config: Config,
         discriminator = Discriminator(observation_size, expert_stats.mean.copy(), expert_stats.std.copy(),
                                       settings.discriminator)
         horizon = round(config.env.max_episode_s / config.env.decision_period_s)
-        labeller = RewardLabeller(discriminator, settings.envs, horizon)
+        labeller = RewardLabeller(discriminator, settings.vec_envs, horizon)
         logs: list[dict[str, Any]] = []
         with env_processes(folder, "GAIL", lambda: len(logs)) as processes:
-            processes.venv = labelled_vec_env(config, settings.envs, settings.seed, labeller, normalisation,
-                                              processes.error_dir)
+            processes.venv = labelled_vec_env(driving_processes(config, settings.envs, settings.egos, settings.seed,
+                                                                processes.error_dir), labeller, normalisation)
             if settings.normalize_reward:
                 processes.venv = normalised_rewards(processes.venv, settings.gamma)
             model = build_ppo(processes.venv, shape, settings)

@@ -36,13 +36,13 @@ class EnvFactory:
         try:
             env = HighwayEnv(self.config)
         except Exception as error:
-            _exit_reporting(self.error_file, error)
+            exit_reporting(self.error_file, error)
         env.np_random, _ = seeding.np_random(self.seed)
         return env if self.error_file is None else _ReportingEnv(env, self.error_file)
 
 
 class _ReportingEnv(gym.Wrapper):
-    """Passes everything through; an exception in reset or step ends the process via `_exit_reporting`."""
+    """Passes everything through; an exception in reset or step ends the process via `exit_reporting`."""
 
     def __init__(self, env: gym.Env, error_file: str) -> None:
         super().__init__(env)
@@ -52,16 +52,16 @@ class _ReportingEnv(gym.Wrapper):
         try:
             return self.env.reset(**kwargs)
         except Exception as error:
-            _exit_reporting(self._error_file, error)
+            exit_reporting(self._error_file, error)
 
     def step(self, action: Any) -> Any:
         try:
             return self.env.step(action)
         except Exception as error:
-            _exit_reporting(self._error_file, error)
+            exit_reporting(self._error_file, error)
 
 
-def _exit_reporting(error_file: str | None, error: Exception) -> NoReturn:
+def exit_reporting(error_file: str | None, error: Exception) -> NoReturn:
     """Write `error` in one line to `error_file` and end the process (re-raise without a file)."""
     if error_file is None:
         raise error

@@ -18,18 +18,14 @@ actor). Stable-Baselines3 is imported only by the functions that need it.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from gymnasium import spaces
 
-from sumo_rail.config import Config
 from sumo_rail.learning.discriminator import Discriminator
 from sumo_rail.learning.gail_actor import FixedNormalisation
-from sumo_rail.learning.gail_envs import EnvFactory
 from sumo_rail.learning.rail import rollout_return
-from sumo_rail.seeding import Purpose, episode_seeds
 
 if TYPE_CHECKING:
     from stable_baselines3 import PPO
@@ -96,16 +92,9 @@ class RewardLabeller:
         return rollout
 
 
-def env_seeds(seed: int, envs: int) -> list[int]:
-    """Seeds of the envs' first episodes: disjoint for different seeds with the same number of envs."""
-    return episode_seeds(Purpose.TRAIN, seed * envs, envs)
-
-
-def labelled_vec_env(config: Config, envs: int, seed: int, labeller: RewardLabeller,
-                     normalisation: FixedNormalisation, error_dir: Path | None = None) -> VecEnv:
-    """`envs` spawned HighwayEnv processes behind a `LabelledVecEnv`; with `error_dir`, env k that fails writes
-    why to error_dir/env_k.txt and ends (see `EnvFactory`)."""
-    from stable_baselines3.common.vec_env import SubprocVecEnv, VecEnvWrapper
+def labelled_vec_env(venv: VecEnv, labeller: RewardLabeller, normalisation: FixedNormalisation) -> VecEnv:
+    """The driving envs `venv` (`shared_road.driving_processes`) behind a `LabelledVecEnv`."""
+    from stable_baselines3.common.vec_env import VecEnvWrapper
 
     class LabelledVecEnv(VecEnvWrapper):
         """Discriminator rewards and normalised observations (terminal ones too); the env's reward is dropped.
@@ -137,9 +126,7 @@ def labelled_vec_env(config: Config, envs: int, seed: int, labeller: RewardLabel
             self._raw = raw
             return normalisation(raw), rewards, dones, infos
 
-    factories = [EnvFactory(config, seed, None if error_dir is None else str(error_dir / f"env_{index}.txt"))
-                 for index, seed in enumerate(env_seeds(seed, envs))]
-    return LabelledVecEnv(SubprocVecEnv(factories, start_method="spawn"))
+    return LabelledVecEnv(venv)
 
 
 def normalised_rewards(venv: VecEnv, gamma: float) -> VecEnv:

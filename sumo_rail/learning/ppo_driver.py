@@ -41,8 +41,7 @@ import numpy as np
 from sumo_rail.config import Config
 from sumo_rail.drivers.policies import Policy, PolicyShape
 from sumo_rail.learning.gail_actor import FixedNormalisation, load_into_ppo, ppo_to_policy, set_actor_trainable
-from sumo_rail.learning.gail_envs import EnvFactory
-from sumo_rail.learning.gail_rewards import env_seeds, normalised_rewards, reward_std
+from sumo_rail.learning.gail_rewards import normalised_rewards, reward_std
 from sumo_rail.learning.sb3_runs import (
     PpoSchedule,
     build_ppo,
@@ -52,6 +51,7 @@ from sumo_rail.learning.sb3_runs import (
     start_run_folder,
     stop_requests,
 )
+from sumo_rail.learning.shared_road import driving_processes
 from sumo_rail.learning.torch_threads import single_thread
 from sumo_rail.runners.experts import parse_policy
 from sumo_rail.runners.tables import provenance
@@ -74,8 +74,10 @@ class PpoSettings(PpoSchedule):
     hidden: int = 10
     envs: int = 2
     """Environment processes; the result depends on it."""
+    egos: int = 1
+    """Egos per environment process (`shared_road`): PPO's envs are envs x egos; the result depends on it."""
     n_steps: int = 512
-    """Decisions per env and update."""
+    """Decisions per env (ego) and update."""
     learning_rate: float = 3e-4
     batch_size: int = 64
     ppo_epochs: int = 10
@@ -153,12 +155,11 @@ class EpisodeTally:
         return ended
 
 
-def driving_vec_env(config: Config, envs: int, seed: int, tally: EpisodeTally, normalisation: FixedNormalisation,
-                    error_dir: Path) -> VecEnv:
-    """`envs` spawned HighwayEnv processes whose rewards pass through `tally` and observations through
-    `normalisation`; env k that fails writes why to error_dir/env_k.txt and ends (`gail_envs.EnvFactory`)."""
+def driving_vec_env(venv: VecEnv, tally: EpisodeTally, normalisation: FixedNormalisation) -> VecEnv:
+    """The driving envs `venv` (`shared_road.driving_processes`) with rewards through `tally` and observations
+    through `normalisation`."""
     from gymnasium import spaces
-    from stable_baselines3.common.vec_env import SubprocVecEnv, VecEnvWrapper
+    from stable_baselines3.common.vec_env import VecEnvWrapper
 
     class TalliedVecEnv(VecEnvWrapper):
         """Rewards through `tally`, normalised observations (terminal ones too); `seed` is a no-op: the env
@@ -181,9 +182,7 @@ def driving_vec_env(config: Config, envs: int, seed: int, tally: EpisodeTally, n
                     info["terminal_observation"] = normalisation(info["terminal_observation"])
             return normalisation(observations), tally.shaped(rewards, dones, infos), dones, infos
 
-    factories = [EnvFactory(config, env_seed, str(error_dir / f"env_{index}.txt"))
-                 for index, env_seed in enumerate(env_seeds(seed, envs))]
-    return TalliedVecEnv(SubprocVecEnv(factories, start_method="spawn"))
+    return TalliedVecEnv(venv)
 
 
 def train_ppo_driver(folder: Path, settings: PpoSettings, config: Config,
@@ -198,11 +197,12 @@ def train_ppo_driver(folder: Path, settings: PpoSettings, config: Config,
                      else FixedNormalisation(initial.observation_mean, initial.observation_std))
     run_record = {"settings": settings.to_dict(), **provenance("ppo_run", config, settings.seed)}
     start_run_folder(folder, run_record)
-    tally = EpisodeTally(settings.envs, settings.overtake_reward, settings.keep_right_reward, config.scenario.lanes)
+    tally = EpisodeTally(settings.vec_envs, settings.overtake_reward, settings.keep_right_reward,
+                         config.scenario.lanes)
     rows: list[dict[str, Any]] = []
     with single_thread(), env_processes(folder, "PPO", lambda: len(rows)) as processes:
-        processes.venv = driving_vec_env(config, settings.envs, settings.seed, tally, normalisation,
-                                         processes.error_dir)
+        processes.venv = driving_vec_env(driving_processes(config, settings.envs, settings.egos, settings.seed,
+                                                           processes.error_dir), tally, normalisation)
         if settings.normalize_reward:
             processes.venv = normalised_rewards(processes.venv, settings.gamma)
         model = build_ppo(processes.venv, shape, settings, ent_coef=settings.ent_coef)

@@ -44,11 +44,12 @@ class PpoHyperparameters(Protocol):
 
 
 class PpoSchedule:
-    """Mixin of the frozen settings dataclasses of a PPO run (fields timesteps, envs, n_steps, batch_size,
+    """Mixin of the frozen settings dataclasses of a PPO run (fields timesteps, envs, egos, n_steps, batch_size,
     ppo_epochs, learning_rate, gamma): their checks, update size and count, and run.json form."""
 
     timesteps: int
     envs: int
+    egos: int
     n_steps: int
     batch_size: int
     ppo_epochs: int
@@ -57,16 +58,22 @@ class PpoSchedule:
 
     def check_schedule(self, name: str) -> None:
         """ValueError naming the first PPO setting out of range (`name`: "GAIL", "PPO")."""
-        if self.timesteps < 1 or self.envs < 1 or self.n_steps * self.envs < 2 or self.batch_size < 2:
-            raise ValueError(f"{name} needs timesteps >= 1, envs >= 1, n_steps x envs >= 2 and batch_size >= 2, "
-                             f"got {self.timesteps}, {self.envs}, {self.n_steps} and {self.batch_size}")
+        if self.timesteps < 1 or min(self.envs, self.egos) < 1 or self.steps_per_update < 2 or self.batch_size < 2:
+            raise ValueError(f"{name} needs timesteps >= 1, envs >= 1, egos >= 1, n_steps x envs x egos >= 2 and "
+                             f"batch_size >= 2, got {self.timesteps}, {self.envs}, {self.egos}, {self.n_steps} and "
+                             f"{self.batch_size}")
         if self.ppo_epochs < 1 or self.learning_rate <= 0 or not 0 < self.gamma <= 1:
             raise ValueError(f"{name} needs ppo_epochs >= 1, learning_rate > 0 and 0 < gamma <= 1, got "
                              f"{self.ppo_epochs}, {self.learning_rate} and {self.gamma}")
 
     @property
+    def vec_envs(self) -> int:
+        """PPO's envs: envs x egos."""
+        return self.envs * self.egos
+
+    @property
     def steps_per_update(self) -> int:
-        return self.n_steps * self.envs
+        return self.n_steps * self.vec_envs
 
     @property
     def updates(self) -> int:

@@ -23,6 +23,9 @@ end margin drives on under SUMO's control as traffic for those behind it, until 
 start together, so the time limit truncates every ego still driving at the same decision; the episode ends when
 `agents` is empty.
 
+Respawns: `respawn(agent)` starts a new episode of an ego that has left while the others drive on (a new vehicle
+placed at once in the start window), for learners that keep every ego busy (`sumo_rail.learning.shared_road`).
+
 For a rollout runner: before each `step`, `traffic(agent)` is that ego's `TrafficView` (what `HighwayEnv.traffic`
 gives for the single ego, so an expert can be asked at every decision), and `metrics(agent)` its episode totals
 (`decisions` is its number of steps); `infos[agent]` carries `HighwayEnv`'s info keys.
@@ -45,10 +48,12 @@ from sumo_rail.sim.actions import Action
 from sumo_rail.sim.ego import CONTEXT_MARGIN_M, Ego, checked_action, edge_rows
 from sumo_rail.sim.observation import observation_space
 from sumo_rail.sim.rewards import EpisodeMetrics
-from sumo_rail.sim.simulation import TRANSPORTS, Simulation
+from sumo_rail.sim.simulation import TRANSPORTS, Simulation, SimulationError
 from sumo_rail.sim.starts import RESET_OPTIONS, EpisodeStarts, start_slots, warm_state_options
 from sumo_rail.sim.traffic import TrafficView
 
+RESPAWN_DRAWS = 100
+"""Most places `ParallelHighwayEnv.respawn` tries before it gives up."""
 Observations = dict[str, np.ndarray]
 Infos = dict[str, dict[str, Any]]
 
@@ -75,6 +80,7 @@ class ParallelHighwayEnv(ParallelEnv[str, np.ndarray, np.int64]):
         self._sim: Simulation | None = None
         self._edges: np.ndarray | None = None
         self._egos: dict[str, Ego] = {}
+        self._respawns: dict[str, int] = {}
 
     def observation_space(self, agent: str) -> spaces.Box:
         return self.observation_spaces[agent]
@@ -128,6 +134,7 @@ class ParallelHighwayEnv(ParallelEnv[str, np.ndarray, np.int64]):
         if self._edges is None:
             self._edges = edge_rows(sim)
         self._egos = {agent: Ego(cfg, agent, self._edges) for agent in self.possible_agents}
+        self._respawns = dict.fromkeys(self.possible_agents, 0)
         self.agents = [agent for agent in self.possible_agents if agent not in absent]
         observations, infos = {}, {}
         for agent in self.agents:
@@ -156,6 +163,31 @@ class ParallelHighwayEnv(ParallelEnv[str, np.ndarray, np.int64]):
              infos[agent]) = ego.finish(sim, report)
         self.agents = [agent for agent in self.agents if not (terminations[agent] or truncations[agent])]
         return observations, rewards, terminations, truncations, infos
+
+    def respawn(self, agent: str) -> tuple[np.ndarray, dict[str, Any]]:
+        """Start a new episode of `agent`, which is not driving (it ended, or sat the episode out), while the others
+        drive on: a new SUMO vehicle (id AGENT.N at its N-th respawn since the reset) is placed at once
+        (`Simulation.place_ego`) in a lane and at a front position drawn from `np_random` as the single ego's start
+        (uniform lane, uniform in the start window), redrawn up to `RESPAWN_DRAWS` times until the place is safe.
+        `agent` rejoins `agents`; returns its first observation and info. SimulationError when no draw is safe."""
+        if self._sim is None or not self._egos:
+            raise RuntimeError("call reset() before respawn()")
+        self._ego(agent)
+        if agent in self.agents:
+            raise ValueError(f"{agent} is driving; only an ego that has left the road can respawn")
+        cfg, sim = self.config, self._sim
+        self._respawns[agent] += 1
+        vehicle = f"{agent}.{self._respawns[agent]}"
+        for _ in range(RESPAWN_DRAWS):
+            lane = int(self.np_random.integers(cfg.scenario.lanes))
+            position_m = float(self.np_random.uniform(cfg.env.ego_start_min_m, cfg.env.ego_start_max_m))
+            if sim.place_ego(vehicle, lane, position_m, cfg.env.v_max_mps):
+                break
+        else:
+            raise SimulationError(f"no safe place for {agent} to respawn in {RESPAWN_DRAWS} draws of its start window")
+        ego = self._egos[agent] = Ego(cfg, vehicle, self._edges)
+        self.agents = [name for name in self.possible_agents if name in self.agents or name == agent]
+        return ego.start(sim)
 
     def render(self) -> None:
         raise NotImplementedError("ParallelHighwayEnv does not render; HighwayEnv draws one ego's frames")

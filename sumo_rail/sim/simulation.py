@@ -36,6 +36,10 @@ LANE_CHANGE_MODE_TRACI_ONLY_SAFE = 0b1100000000
 _ACTIVE_LIBSUMO: Simulation | None = None
 ENTRY_WAIT_S = 30.0
 """Longest wait of an ego for room at its start place at a reset [s] (simulated time)."""
+REACTION_S = 1.0
+"""Reaction time in `Simulation.place_ego`'s safety margins [s] (traffic acts every 0.5 s, with tau up to 1.2 s)."""
+PLACE_MARGIN_M = 5.0
+"""Extra distance in `Simulation.place_ego`'s safety margins [m]."""
 TRANSPORTS = ("libsumo", "traci")
 """How SUMO is driven: libsumo (SUMO linked into this process) or traci (a SUMO process, over a socket)."""
 
@@ -207,6 +211,64 @@ class Simulation:
         if self.gui:
             self._follow_ego(next(ego[0] for ego in egos if ego not in absent))
         return [vehicle for vehicle, _, _ in absent]
+
+    def place_ego(self, vehicle: str, lane: int, position_m: float, max_speed_mps: float) -> bool:
+        """Put a new ego on the road at once, between two steps, in `lane` with its front at `position_m` [m], at
+        its leader's speed (at most `max_speed_mps`), when that is safe; False (and nothing placed) when it is not.
+
+        SUMO inserts a vehicle added now only at the next step; `vehicle.moveTo` forces it in at once, skipping
+        SUMO's insertion checks, so they are made here. No vehicle may overlap the place (vehicles changing into or
+        out of `lane` count as in it); the gap to the leader must exceed the difference of the two braking distances
+        (the ego's at its type's deceleration), and the follower's gap to the ego SUMO's secure gap for the
+        follower (`getSecureGap`), each plus what the rear vehicle covers in `REACTION_S` and `PLACE_MARGIN_M`.
+        """
+        api = self._api.vehicle
+        ego_type = self._api.vehicletype
+        ego_length_m, ego_min_gap_m = ego_type.getLength(network.EGO_TYPE), ego_type.getMinGap(network.EGO_TYPE)
+        ego_decel_mps2 = ego_type.getDecel(network.EGO_TYPE)
+        ahead, behind = [], []
+        for other, front_m, rear_m in self._lane_occupants(lane):
+            if rear_m >= position_m:
+                ahead.append((rear_m, other))
+            elif front_m <= position_m - ego_length_m:
+                behind.append((front_m, other))
+            else:
+                return False
+        speed_mps = max_speed_mps
+        if ahead:
+            rear_m, leader = min(ahead)
+            leader_speed = api.getSpeed(leader)
+            speed_mps = min(speed_mps, leader_speed)
+            braking_m = max(speed_mps**2 / (2 * ego_decel_mps2) - leader_speed**2 / (2 * api.getDecel(leader)), 0.0)
+            if rear_m - position_m - ego_min_gap_m < braking_m + speed_mps * REACTION_S + PLACE_MARGIN_M:
+                return False
+        if behind:
+            front_m, follower = max(behind)
+            follower_speed = api.getSpeed(follower)
+            secure_m = api.getSecureGap(follower, follower_speed, speed_mps, ego_decel_mps2)
+            gap_m = position_m - ego_length_m - front_m - api.getMinGap(follower)
+            if gap_m < secure_m + follower_speed * REACTION_S + PLACE_MARGIN_M:
+                return False
+        api.add(vehicle, network.ROUTE_ID, typeID=network.EGO_TYPE, depart="now", departLane=str(lane),
+                departPos=repr(position_m), departSpeed=repr(speed_mps))
+        api.moveTo(vehicle, f"{network.EDGE_ID}_{lane}", position_m)
+        api.setLaneChangeMode(vehicle, LANE_CHANGE_MODE_TRACI_ONLY_SAFE)
+        return True
+
+    def _lane_occupants(self, lane: int) -> list[tuple[str, float, float]]:
+        """(id, front, rear) [m along the road] of every vehicle in `lane` or changing into or out of it (off its
+        lane's centre line)."""
+        lanes, api = self._api.lane, self._api.vehicle
+        vehicles = list(lanes.getLastStepVehicleIDs(f"{network.EDGE_ID}_{lane}"))
+        for neighbour in (lane - 1, lane + 1):
+            if 0 <= neighbour < self.scenario.lanes:
+                vehicles += [vehicle for vehicle in lanes.getLastStepVehicleIDs(f"{network.EDGE_ID}_{neighbour}")
+                             if api.getLateralLanePosition(vehicle) != 0.0]
+        occupants = []
+        for vehicle in vehicles:
+            front_m = api.getLanePosition(vehicle)
+            occupants.append((vehicle, front_m, front_m - api.getLength(vehicle)))
+        return occupants
 
     def _insert(self, vehicle: str, lane: int, position_m: float) -> None:
         """Queue an ego for insertion now in `lane` with its front at `position_m` [m], at the highest safe speed."""

@@ -229,7 +229,7 @@ def test_gail_refuses_a_non_empty_out_and_bad_sizes(tmp_path, demos_path):
     assert result.exit_code == 1 and "not empty" in result.output and "Traceback" not in result.output
     assert [path.name for path in (tmp_path / "run").iterdir()] == ["precious.txt"]
     result = invoke("gail", "--demos", str(demos_path), "--envs", "1", "--n-steps", "1", "--out", str(tmp_path / "x"))
-    assert result.exit_code == 2 and "n_steps x envs >= 2" in result.output
+    assert result.exit_code == 2 and "n_steps x envs x egos >= 2" in result.output
     result = invoke("gail", "--demos", str(demos_path), "--critic-warmup", "-1", "--out", str(tmp_path / "x"))
     assert result.exit_code == 2 and "--critic-warmup" in result.output and "Traceback" not in result.output
 

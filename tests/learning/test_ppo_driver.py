@@ -46,7 +46,7 @@ def test_bad_settings_are_usage_errors(tmp_path):
     with pytest.raises(ValueError, match="overtake_reward"):
         PpoSettings(overtake_reward=-1.0)
     result = invoke("ppo", "--envs", "1", "--n-steps", "1", "--out", str(tmp_path / "x"))
-    assert result.exit_code == 2 and "n_steps x envs >= 2" in result.output and not (tmp_path / "x").exists()
+    assert result.exit_code == 2 and "n_steps x envs x egos >= 2" in result.output and not (tmp_path / "x").exists()
     (tmp_path / "run").mkdir()
     (tmp_path / "run" / "precious.txt").write_text("keep")
     result = invoke("ppo", *SMALL, "--out", str(tmp_path / "run"))

@@ -231,3 +231,49 @@ def test_bad_use_is_a_clear_error(make_env, small_config):
         ParallelHighwayEnv(2, small_config, transport="socket")
     with pytest.raises(SimulationError, match="one simulation per process"):
         HighwayEnv(small_config).reset(seed=0)
+
+
+def test_an_ended_ego_respawns_at_once_in_the_start_window_while_the_others_drive_on(make_env, small_config):
+    env = make_env(3)
+    with pytest.raises(RuntimeError, match="reset"):
+        env.respawn("ego_0")
+    env.reset(seed=1)
+    with pytest.raises(ValueError, match="ego_0 is driving"):
+        env.respawn("ego_0")
+    ended: list[str] = []
+    while not ended:
+        _, _, terminations, truncations, _ = env.step(dict.fromkeys(env.agents, Action.ACCELERATE))
+        ended = [agent for agent in terminations if terminations[agent] or truncations[agent]]
+    others = list(env.agents)
+    observation, info = env.respawn(ended[0])
+    assert env.agents == [agent for agent in env.possible_agents if agent in [*others, ended[0]]]
+    assert f"{ended[0]}.1" in libsumo.vehicle.getIDList() and env.metrics(ended[0]).decisions == 0
+    assert env.observation_space(ended[0]).contains(observation)
+    assert small_config.env.ego_start_min_m <= info["position_m"] <= small_config.env.ego_start_max_m
+    assert info["distance_m"] == 0.0 and info["termination"] == ""
+    assert env.traffic(ended[0]).ego.lane_position_m == info["position_m"]
+    _, rewards, *_ = env.step(dict.fromkeys(env.agents, Action.KEEP))
+    assert set(rewards) == set(env.agents) | {ended[0]} and env.metrics(ended[0]).decisions == 1
+
+
+def test_a_respawn_is_placed_only_where_it_is_safe(make_env):
+    env = make_env(1)
+    env.reset(seed=3)
+    sim = env._sim
+    lane = 2
+    vehicles = sorted(libsumo.lane.getLastStepVehicleIDs(f"highway_{lane}"), key=libsumo.vehicle.getLanePosition)
+    occupied_m = libsumo.vehicle.getLanePosition(vehicles[len(vehicles) // 2])
+    assert not sim.place_ego("on_top", lane, occupied_m, 33.33)
+    assert not sim.place_ego("tailgated", lane, occupied_m + 4.5 + 1.0, 33.33)  # that vehicle 1 m behind its rear
+    assert not {"on_top", "tailgated"} & set(libsumo.vehicle.getIDList() + libsumo.simulation.getPendingVehicles())
+    placed = [position_m for position_m in np.arange(100.0, 1400.0, 10.0)
+              if sim.place_ego(f"placed_{position_m:.0f}", lane, float(position_m), 33.33)]
+    assert placed  # safe places exist on a light road, and each is at least a secure gap from the next
+    for position_m in placed:
+        vehicle = f"placed_{position_m:.0f}"
+        assert libsumo.vehicle.getLanePosition(vehicle) == position_m and libsumo.vehicle.getSpeed(vehicle) <= 33.33
+    collisions = set()
+    for _ in range(300):  # 30 s: nobody crashes into a placed vehicle, nor it into anybody
+        libsumo.simulationStep()
+        collisions |= set(libsumo.simulation.getCollidingVehiclesIDList())
+    assert not collisions, collisions

@@ -1,0 +1,187 @@
+"""Several egos per SUMO for Stable-Baselines3's learners (`gail --egos K`, `ppo --egos K`): `shared_road_vec_env`.
+
+SB3 steps every env of a VecEnv at once and restarts one as soon as its episode ends; in a shared simulation an ego
+cannot restart alone by a reset, so the egos of a `RespawningRoad` respawn instead: an ego that ends is replaced at
+once by a new one in the start window (`ParallelHighwayEnv.respawn`) while the others drive on. Each env index
+always has an ego driving, and the step that ends an ego's episode returns what SB3's own auto-resetting
+`SubprocVecEnv` returns: done, the episode's last observation as info["terminal_observation"],
+info["TimeLimit.truncated"] for a truncation (end of road, time limit), and the new episode's first observation.
+The road itself is reset only by the VecEnv's reset (SB3 does it once, before the first rollout); the traffic
+then flows on.
+
+Env index i is ego i % K of process i // K. Process p's road is first reset with the seed of `env_seeds(seed,
+processes)[p]`, as `gail`'s env p is, and every respawn draws from that road's `np_random`, so the same seed, K and
+process count give the same rollouts bit for bit. A process that fails writes why to error_dir/env_P.txt and ends
+(`gail_envs.exit_reporting`); the parent then reports the lost process in one sentence (`sb3_runs.env_processes`).
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+import signal
+from collections.abc import Sequence
+from multiprocessing.connection import Connection
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from gymnasium import spaces
+
+from sumo_rail.config import Config
+from sumo_rail.learning.gail_envs import EnvFactory, exit_reporting
+from sumo_rail.seeding import Purpose, episode_seeds
+from sumo_rail.sim.actions import Action
+from sumo_rail.sim.observation import observation_space
+from sumo_rail.sim.parallel_env import ParallelHighwayEnv
+
+if TYPE_CHECKING:
+    from stable_baselines3.common.vec_env import VecEnv
+
+StepBatch = tuple[np.ndarray, np.ndarray, np.ndarray, list[dict[str, Any]]]
+"""(observations (K, n), rewards (K,), dones (K,), infos) of one step of the K egos, SB3's VecEnv layout."""
+
+
+def env_seeds(seed: int, envs: int) -> list[int]:
+    """Seeds of the envs' first episodes: disjoint for different seeds with the same number of envs."""
+    return episode_seeds(Purpose.TRAIN, seed * envs, envs)
+
+
+def driving_processes(config: Config, processes: int, egos: int, seed: int, error_dir: Path) -> VecEnv:
+    """The driving envs of an SB3 learner: `processes` spawned SUMO processes with `egos` egos each. With one ego,
+    SB3's `SubprocVecEnv` of `HighwayEnv`s (`gail_envs.EnvFactory`: env p's first episode is that of
+    reset(seed=env_seeds(seed, processes)[p])); with several, `shared_road_vec_env`. A process that fails writes
+    why to error_dir/env_P.txt and ends."""
+    if egos == 1:
+        from stable_baselines3.common.vec_env import SubprocVecEnv
+
+        factories = [EnvFactory(config, env_seed, str(error_dir / f"env_{index}.txt"))
+                     for index, env_seed in enumerate(env_seeds(seed, processes))]
+        return SubprocVecEnv(factories, start_method="spawn")
+    return shared_road_vec_env(config, processes, egos, seed, error_dir)
+
+
+class RespawningRoad:
+    """K egos on one road that never stop: each that ends respawns at once (see the module's docstring)."""
+
+    def __init__(self, config: Config, egos: int, seed: int) -> None:
+        self.env = ParallelHighwayEnv(egos, config)
+        self.seed: int | None = seed
+        """Seed of the first reset (later resets go on drawing from the road's generator)."""
+
+    def reset(self) -> np.ndarray:
+        """Reset the road; an ego that could not enter respawns. Returns the egos' first observations (K, n)."""
+        observations, _ = self.env.reset(seed=self.seed)
+        self.seed = None
+        for agent in self.env.possible_agents:
+            if agent not in observations:
+                observations[agent], _ = self.env.respawn(agent)
+        return np.stack([observations[agent] for agent in self.env.possible_agents])
+
+    def step(self, actions: Sequence[int]) -> StepBatch:
+        """One decision of every ego (`actions` in agent order); an ego whose episode ended respawns."""
+        agents = self.env.possible_agents
+        observations, rewards, terminations, truncations, infos = self.env.step(dict(zip(agents, actions,
+                                                                                      strict=True)))
+        dones = np.zeros(len(agents), dtype=bool)
+        for index, agent in enumerate(agents):
+            if terminations[agent] or truncations[agent]:
+                dones[index] = True
+                infos[agent]["TimeLimit.truncated"] = truncations[agent] and not terminations[agent]
+                infos[agent]["terminal_observation"] = observations[agent]
+                observations[agent], _ = self.env.respawn(agent)
+        return (np.stack([observations[agent] for agent in agents]),
+                np.array([rewards[agent] for agent in agents], dtype=np.float32), dones,
+                [infos[agent] for agent in agents])
+
+    def close(self) -> None:
+        self.env.close()
+
+
+def _road_process(remote: Connection, parent_remote: Connection, config: Config, egos: int, seed: int,
+                  error_file: str) -> None:
+    """A worker process: one `RespawningRoad` answering "reset", "step" and "close" over `remote`."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C reaches the whole group; the parent decides
+    parent_remote.close()
+    try:
+        road = RespawningRoad(config, egos, seed)
+        while True:
+            command, data = remote.recv()
+            if command == "reset":
+                remote.send(road.reset())
+            elif command == "step":
+                remote.send(road.step(data))
+            else:
+                road.close()
+                remote.close()
+                return
+    except EOFError:  # the parent is gone
+        return
+    except Exception as error:
+        exit_reporting(error_file, error)
+
+
+def shared_road_vec_env(config: Config, processes: int, egos: int, seed: int, error_dir: Path) -> VecEnv:
+    """An SB3 VecEnv of `processes` x `egos` envs: `processes` spawned SUMO processes with `egos` respawning egos
+    each."""
+    from stable_baselines3.common.vec_env import VecEnv
+
+    class SharedRoadVecEnv(VecEnv):
+        """Env i is ego i % egos of process i // egos; `processes` are the worker processes (for lost-env
+        reports)."""
+
+        def __init__(self) -> None:
+            super().__init__(processes * egos, observation_space(config), spaces.Discrete(len(Action)))
+            context = multiprocessing.get_context("spawn")
+            self.remotes, self.processes = [], []
+            for index, process_seed in enumerate(env_seeds(seed, processes)):
+                remote, worker_remote = context.Pipe()
+                process = context.Process(target=_road_process, daemon=True,
+                                          args=(worker_remote, remote, config, egos, process_seed,
+                                                str(error_dir / f"env_{index}.txt")))
+                process.start()
+                worker_remote.close()
+                self.remotes.append(remote)
+                self.processes.append(process)
+            self._actions = np.zeros(self.num_envs, dtype=np.int64)
+            self.closed = False
+
+        def reset(self) -> np.ndarray:
+            for remote in self.remotes:
+                remote.send(("reset", None))
+            return np.concatenate([remote.recv() for remote in self.remotes])
+
+        def step_async(self, actions: np.ndarray) -> None:
+            for index, remote in enumerate(self.remotes):
+                remote.send(("step", [int(action) for action in actions[index * egos:(index + 1) * egos]]))
+
+        def step_wait(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[dict[str, Any]]]:
+            batches = [remote.recv() for remote in self.remotes]
+            return (np.concatenate([batch[0] for batch in batches]), np.concatenate([batch[1] for batch in batches]),
+                    np.concatenate([batch[2] for batch in batches]), [info for batch in batches for info in batch[3]])
+
+        def close(self) -> None:
+            if self.closed:
+                return
+            for remote in self.remotes:
+                remote.send(("close", None))
+            for process in self.processes:
+                process.join()
+            self.closed = True
+
+        def get_attr(self, attr_name: str, indices: Any = None) -> list[Any]:
+            if attr_name == "render_mode":  # SB3 asks; the egos do not render
+                return [None] * len(self._get_indices(indices))
+            raise AttributeError(f"a shared-road VecEnv does not expose its envs' {attr_name!r}")
+
+        def set_attr(self, attr_name: str, value: Any, indices: Any = None) -> None:
+            raise AttributeError(f"a shared-road VecEnv does not expose its envs' {attr_name!r}")
+
+        def env_method(self, method_name: str, *method_args: Any, indices: Any = None, **method_kwargs: Any
+                       ) -> list[Any]:
+            raise AttributeError(f"a shared-road VecEnv does not expose its envs' {method_name!r}")
+
+        def env_is_wrapped(self, wrapper_class: type, indices: Any = None) -> list[bool]:
+            return [False] * self.num_envs
+
+    return SharedRoadVecEnv()
+

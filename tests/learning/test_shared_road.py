@@ -1,0 +1,102 @@
+"""Several egos per SUMO for Stable-Baselines3: respawning roads, their VecEnv, and `ppo`/`gail` with --egos."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pandas as pd
+import pytest
+from test_cli import SMALL, SMALL_CONFIG, invoke
+
+from sumo_rail.drivers.policies import load_policy
+from sumo_rail.learning.shared_road import RespawningRoad, env_seeds, shared_road_vec_env
+
+
+def drive(road: RespawningRoad, steps: int, seed: int):
+    """`steps` decisions of seeded random actions; the reset's observations, then each step's batch."""
+    rng = np.random.default_rng(seed)
+    batches = [road.reset()]
+    for _ in range(steps):
+        batches.append(road.step(rng.integers(0, 5, size=road.env.max_num_agents).tolist()))
+    return batches
+
+
+@pytest.fixture(scope="module")
+def roads():
+    """The same three-ego road driven twice for 400 decisions."""
+    runs = []
+    for _ in range(2):
+        road = RespawningRoad(SMALL_CONFIG, egos=3, seed=5)
+        try:
+            runs.append(drive(road, 400, seed=0))
+        finally:
+            road.close()
+    return runs
+
+
+def test_every_ego_always_drives_and_an_ended_episode_is_reported_as_sb3_does(roads):
+    ended = 0
+    for observations, rewards, dones, infos in roads[0][1:]:
+        assert observations.shape == (3, 56) and rewards.shape == dones.shape == (3,)
+        for ego in np.flatnonzero(dones):
+            ended += 1
+            info = infos[ego]
+            truncated = info["termination"] in ("end_of_road", "time_limit")
+            assert info["TimeLimit.truncated"] == truncated and info["termination"] in ("collision", "end_of_road")
+            assert info["terminal_observation"].shape == (56,)
+            assert not np.array_equal(info["terminal_observation"], observations[ego])  # a new episode's first
+        for ego in np.flatnonzero(~dones):
+            assert "terminal_observation" not in infos[ego]
+    assert ended >= 3  # 400 decisions on the small road: each ego ended at least once and drove on
+
+
+def test_the_same_seed_gives_the_same_rollouts_bit_for_bit(roads):
+    for (a, b) in zip(roads[0][1:], roads[1][1:], strict=True):
+        for left, right in zip(a[:3], b[:3], strict=True):
+            assert np.array_equal(left, right)
+        assert [info["position_m"] for info in a[3]] == [info["position_m"] for info in b[3]]
+
+
+def test_the_vec_env_is_its_processes_roads_side_by_side(tmp_path):
+    rng = np.random.default_rng(1)
+    actions = rng.integers(0, 5, size=(60, 4))
+    venv = shared_road_vec_env(SMALL_CONFIG, processes=2, egos=2, seed=3, error_dir=tmp_path)
+    try:
+        vectorised = [venv.reset()] + [venv.step(step)[0] for step in actions]
+    finally:
+        venv.close()
+    for process, road_seed in enumerate(env_seeds(3, 2)):
+        road = RespawningRoad(SMALL_CONFIG, egos=2, seed=road_seed)
+        try:
+            alone = [road.reset()] + [road.step(step[2 * process:2 * process + 2].tolist())[0] for step in actions]
+        finally:
+            road.close()
+        for together, by_itself in zip(vectorised, alone, strict=True):
+            assert np.array_equal(together[2 * process:2 * process + 2], by_itself)
+
+
+@pytest.mark.parametrize("command", ["ppo", "gail"])
+def test_ppo_and_gail_with_several_egos_a_process_are_reproducible(tmp_path, command):
+    extra = (["--demos", str(tmp_path / "demos.parquet"), "--bc-epochs", "1"] if command == "gail"
+             else ["--batch-size", "32"])
+    if command == "gail":
+        result = invoke("record-expert", *SMALL, "--episodes", "2", "--out", str(tmp_path / "demos.parquet"))
+        assert result.exit_code == 0, result.output
+    common = (command, *SMALL, "--timesteps", "256", "--envs", "1", "--egos", "2", "--n-steps", "64",
+              "--critic-warmup", "0", *extra)
+    for name in ("a", "b"):
+        result = invoke(*common, "--out", str(tmp_path / name))
+        assert result.exit_code == 0, result.output
+    first, _ = load_policy(tmp_path / "a" / "policy_latest.npz")
+    second, _ = load_policy(tmp_path / "b" / "policy_latest.npz")
+    assert np.array_equal(first.parameters, second.parameters)
+    log = pd.read_parquet(tmp_path / "a" / "log.parquet")
+    assert log["env_steps"].tolist() == [128, 128]  # 64 decisions of each of the two egos per update
+    assert json.loads((tmp_path / "a" / "run.json").read_text())["settings"]["egos"] == 2
+
+
+def test_too_many_egos_for_the_road_is_a_usage_error(tmp_path):
+    result = invoke("ppo", *SMALL, "--egos", "40", "--out", str(tmp_path / "run"))
+    assert result.exit_code == 2 and "40 egos need start slots" in result.output
+    assert not (tmp_path / "run").exists()
