@@ -212,14 +212,16 @@ class Simulation:
             self._follow_ego(next(ego[0] for ego in egos if ego not in absent))
         return [vehicle for vehicle, _, _ in absent]
 
-    def place_ego(self, vehicle: str, lane: int, position_m: float, max_speed_mps: float) -> bool:
+    def place_ego(self, vehicle: str, lane: int, position_m: float, max_speed_mps: float,
+                  min_speed_mps: float = 0.0) -> bool:
         """Put a new ego on the road at once, between two steps, in `lane` with its front at `position_m` [m], at
-        its leader's speed (at most `max_speed_mps`), when that is safe; False (and nothing placed) when it is not.
+        the highest speed in [`min_speed_mps`, `max_speed_mps`] that is safe there; False (and nothing placed) when
+        none is.
 
         SUMO inserts a vehicle added now only at the next step; `vehicle.moveTo` forces it in at once, skipping
         SUMO's insertion checks, so they are made here. No vehicle may overlap the place (vehicles changing into or
-        out of `lane` count as in it); the gap to the leader must exceed the difference of the two braking distances
-        (the ego's at its type's deceleration), and the follower's gap to the ego SUMO's secure gap for the
+        out of `lane` count as in it). The gap to the leader must exceed the ego's braking distance at its type's
+        deceleration minus the leader's at its own, and the follower's gap to the ego SUMO's secure gap for the
         follower (`getSecureGap`), each plus what the rear vehicle covers in `REACTION_S` and `PLACE_MARGIN_M`.
         """
         api = self._api.vehicle
@@ -238,10 +240,15 @@ class Simulation:
         if ahead:
             rear_m, leader = min(ahead)
             leader_speed = api.getSpeed(leader)
-            speed_mps = min(speed_mps, leader_speed)
-            braking_m = max(speed_mps**2 / (2 * ego_decel_mps2) - leader_speed**2 / (2 * api.getDecel(leader)), 0.0)
-            if rear_m - position_m - ego_min_gap_m < braking_m + speed_mps * REACTION_S + PLACE_MARGIN_M:
+            # the largest v with gap >= v^2 / 2b - v_l^2 / 2b_l + v REACTION_S + margin
+            room_m = (rear_m - position_m - ego_min_gap_m - PLACE_MARGIN_M
+                      + leader_speed**2 / (2 * api.getDecel(leader)))
+            if room_m < 0:
                 return False
+            safe_mps = ego_decel_mps2 * (math.sqrt(REACTION_S**2 + 2 * room_m / ego_decel_mps2) - REACTION_S)
+            speed_mps = min(speed_mps, safe_mps)
+        if speed_mps < min_speed_mps:
+            return False
         if behind:
             front_m, follower = max(behind)
             follower_speed = api.getSpeed(follower)
