@@ -24,6 +24,7 @@ from doc_section import bench_parser, write_section
 import sumo_rail
 from sumo_rail.config import Config
 from sumo_rail.datasets import sumo_version
+from sumo_rail.learning.shared_road import RespawningRoad
 from sumo_rail.sim.env import HighwayEnv
 from sumo_rail.sim.parallel_env import ParallelHighwayEnv
 from sumo_rail.sim.simulation import Simulation
@@ -65,9 +66,35 @@ def multi_round(env: ParallelHighwayEnv, seeds: list[int], random_actions: bool)
     return result
 
 
+def respawn_round(road: RespawningRoad, periods: int, seed: int, random_actions: bool) -> Pass:
+    """`periods` decision periods of a road whose egos respawn, from its (untimed) reset; episodes are those that
+    ended."""
+    result = Pass(np.zeros(2), 0)
+    rng = np.random.default_rng(seed)
+    egos = road.env.max_num_agents
+    episode_decisions = np.zeros(egos, dtype=np.int64)
+    start = clocks()
+    while result.periods < periods:
+        actions = rng.integers(5, size=egos).tolist() if random_actions else [0] * egos
+        _, _, dones, infos = road.step(actions)
+        result.decisions += egos
+        result.periods += 1
+        episode_decisions += 1
+        for ego in np.flatnonzero(dones):
+            info = infos[ego]
+            result.episode_decisions.append(int(episode_decisions[ego]))
+            result.speeds_mps.append(info["distance_m"] / max(info["time_s"], 1e-9))
+            result.collisions += info["collisions"]
+        episode_decisions[dones] = 0
+    result.elapsed = clocks() - start
+    return result
+
+
 def measure(config: Config, seeds: list[int], rounds: int, random_actions: bool) -> dict[str, list[Pass]]:
-    """Alternating rounds of raw libsumo, the single-ego env and the multi-ego env for each K."""
-    passes: dict[str, list[Pass]] = {"raw": [], "single": [], **{f"K={k}": [] for k in EGOS}}
+    """Alternating rounds of raw libsumo, the single-ego env, the multi-ego env for each K and the respawning
+    road for each K."""
+    passes: dict[str, list[Pass]] = {"raw": [], "single": [], **{f"K={k}": [] for k in EGOS},
+                                     **{f"respawn K={k}": [] for k in EGOS}}
     for _ in range(rounds):
         single = HighwayEnv(config)
         single.reset(seed=0)  # SUMO started and the kernels loaded outside the timing
@@ -83,6 +110,11 @@ def measure(config: Config, seeds: list[int], rounds: int, random_actions: bool)
             env.reset(seed=0)
             passes[f"K={egos}"].append(multi_round(env, seeds, random_actions))
             env.close()
+        for egos in EGOS:
+            road = RespawningRoad(config, egos, seed=seeds[0])
+            road.reset()
+            passes[f"respawn K={egos}"].append(respawn_round(road, sum(decisions), seeds[0], random_actions))
+            road.close()
     return passes
 
 
@@ -97,11 +129,12 @@ def table(passes: dict[str, list[Pass]]) -> str:
             f"{rate(passes['raw'], 0):.0f} | | | | |",
             f"| single-ego `HighwayEnv` | {single:.0f} | 1.00 | {single / raw:.2f} | {rate(passes['single'], 0):.0f} "
             f"| {statistics.mean(passes['single'][-1].episode_decisions):.0f} | | | 1 |"]
-    for egos in EGOS:
-        multi = passes[f"K={egos}"]
+    for name, key in [(f"`parallel_env`, K = {k}", f"K={k}") for k in EGOS] + \
+            [(f"respawning egos (gail/ppo --egos), K = {k}", f"respawn K={k}") for k in EGOS]:
+        multi = passes[key]
         last = multi[-1]
         k_rate = rate(multi, 1)
-        rows.append(f"| `parallel_env`, K = {egos} | {k_rate:.0f} | **{k_rate / single:.2f}** | {k_rate / raw:.2f} | "
+        rows.append(f"| {name} | {k_rate:.0f} | **{k_rate / single:.2f}** | {k_rate / raw:.2f} | "
                     f"{rate(multi, 0):.0f} | {statistics.mean(last.episode_decisions):.0f} | "
                     f"{3.6 * statistics.mean(last.speeds_mps):.1f} | {last.collisions} | "
                     f"{last.decisions / last.periods:.1f} |")
@@ -124,6 +157,8 @@ def main() -> None:
                 if widened else "the window is wide enough for every K")
     at_8 = {name: rate(passes["K=8"], 1) / rate(passes["single"], 1)
             for name, passes in (("keep", keep), ("random", random))}
+    respawning_8 = {name: rate(passes["respawn K=8"], 1) / rate(passes["single"], 1)
+                    for name, passes in (("keep", keep), ("random", random))}
     section = f"""
 ## Several egos in one SUMO (issue 28)
 
@@ -144,14 +179,20 @@ one process, one core. Default scenario: {scenario.lanes} lanes, {scenario.lengt
   the mean number of egos deciding in each period. A 'keep' ego keeps the set-point it started with,
   its speed when it entered the road, which is the lowest set-point (36 km/h) when it entered behind a slow
   vehicle; one such ego in K drags an episode out.
-- The last four columns describe the last round's episodes (every ego of each).
+- Respawning egos (`sumo_rail/learning/shared_road.py`, what `gail --egos K` and `ppo --egos K` run in each
+  environment process): an ego that finishes is replaced at once in the start window, so all K egos decide in
+  every period. Each drives as many periods as the single-ego env's episodes have decisions (the same simulated
+  time), from one (untimed) reset.
+- The last four columns describe the last round's episodes (every ego of each; for respawning egos, the episodes
+  that ended).
 
 Egos keep their lane and set-point: at K = 8, **{at_8["keep"]:.2f}x** the single-ego env's decisions per core
-(target: at least 3x).
+(target: at least 3x); respawning egos at K = 8: **{respawning_8["keep"]:.2f}x**.
 
 {table(keep)}
 
-Random actions (more lane changes, which make SUMO itself slower): at K = 8, **{at_8["random"]:.2f}x**.
+Random actions (more lane changes, which make SUMO itself slower): at K = 8, **{at_8["random"]:.2f}x**; respawning
+egos at K = 8: **{respawning_8["random"]:.2f}x**.
 
 {table(random)}
 """
