@@ -1,5 +1,6 @@
-"""The table of experiments/shared_road.sh: RAIL and DAgger trained with K egos per simulation minus the same method
-trained with one, paired by training seed and test episode (experiments/seeded.py). Prints Markdown.
+"""The table of experiments/shared_road.sh: RAIL, DAgger and GAIL (by argmax and sampled) trained with K egos per
+simulation minus the same method trained with one, paired by training seed and test episode (experiments/seeded.py).
+Prints Markdown.
 
 Usage: python experiments/shared_road_table.py K METRICS.parquet [METRICS.parquet ...]   (evaluations on the same
 test episodes: the K runs' and the benchmark's committed test_sSEED.parquet)
@@ -13,8 +14,10 @@ import pandas as pd
 from seeded import difference_cell, digits_of, seed_samples, training_seeds, value_cell
 
 MEASURES = ("agreement", "lane_change_recall", "average_speed_kmh", "overtakes", "lane_changes", "collisions")
-METHODS = {"RAIL, two-layer": "rail_mlp", "DAgger, two-layer": "dagger"}
-"""Label -> the K = 1 runs' folder stem; the K runs are rail_kK and dagger_kK."""
+METHODS = {"RAIL, two-layer": ("rail_mlp", "policy_latest"), "DAgger, two-layer": ("dagger", "policy_latest"),
+           "GAIL, argmax": ("gail", "policy_latest"), "GAIL, sampled": ("gail", "policy_latest (sampled)")}
+"""Label -> the K = 1 runs' folder stem and driver name; the K runs are rail_kK, dagger_kK and gail_kK. A method
+whose runs are missing from the evaluations is left out."""
 
 
 def main(egos: int, *paths: str) -> None:
@@ -24,10 +27,12 @@ def main(egos: int, *paths: str) -> None:
     print("| method | egos per simulation in training | seeds | " + " | ".join(MEASURES) + " |")
     print("|---|---|---|" + "---|" * len(MEASURES))
     pairs = {}
-    for label, alone in METHODS.items():
+    for label, (alone, driver) in METHODS.items():
         shared = f"{alone.split('_')[0]}_k{egos}"
         seeds = sorted(set(training_seeds(metrics, shared)) & set(training_seeds(metrics, alone)))
-        pairs[label] = seeds, [seed_samples(metrics, stem, seeds, "policy_latest") for stem in (shared, alone)]
+        if not seeds:
+            continue
+        pairs[label] = seeds, [seed_samples(metrics, stem, seeds, driver) for stem in (shared, alone)]
         for count, samples in zip((egos, 1), pairs[label][1], strict=True):
             print(f"| {label} | {count} | {len(seeds)} | " + " | ".join(
                 value_cell(samples, measure, digits_of(measure)) for measure in MEASURES) + " |")
