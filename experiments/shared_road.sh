@@ -41,8 +41,9 @@ for seed in $seeds; do
     if [ ! -d "$gail_run" ]; then  # a GAIL run cannot be resumed: train aside, keep only finished runs
       rm -rf "$gail_run.partial"
       # shellcheck disable=SC2086
+      # the K = 1 run's update size, 512 decisions x envs, split among the egos: the same updates of the same size
       $sumo_rail gail $overrides --demos "$demos" --policy mlp --timesteps "$budget" --envs "$workers" \
-        --egos "$egos" --seed "$seed" --out "$gail_run.partial"
+        --egos "$egos" --n-steps $((512 / egos)) --seed "$seed" --out "$gail_run.partial"
       mv "$gail_run.partial" "$gail_run"
     fi
     gail_policies+=(--policy "$gail_run/policy_latest.npz" --sample-policy "$gail_run/policy_latest.npz")
