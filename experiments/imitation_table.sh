@@ -4,7 +4,8 @@
 # on the same held-out test episodes; experiments/benchmark_table.py makes the tables and
 # experiments/benchmark_plot.py the figure.
 # Usage: experiments/imitation_table.sh [OUT_DIR]   (resumable: finished runs and evaluations are skipped, RAIL and
-#   DAgger runs resume)
+#   DAgger runs resume; a first pass with GAIL=0 gives every other method's table early, and a second with GAIL=1
+#   trains GAIL and evaluates it apart on the same episodes, test_sSEED_gail.parquet)
 #   (environment: SEEDS, KINDS (RAIL's and BC's policy shapes, default "mlp linear"), DEMOS_EPISODES, DIRECTIONS,
 #   ITERATIONS, DAGGER (1 or 0), DAGGER_ROUNDS, ROUND_EPISODES, GAIL (1 or 0), TEST_EPISODES, WORKERS, REPORT_SEED
 #   (whose runs `report` draws, default the first of SEEDS; "" for none), OVERRIDES: --set options of the setting,
@@ -37,6 +38,7 @@ mkdir -p "$out"
   --workers "$workers" --out "$demos"
 for seed in $seeds; do
   policies=(--policy expert)
+  gail_policies=()
   for kind in $kinds; do
     run="$out/rail_${kind}_s$seed"
     resume=(); [ -f "$run/checkpoint.pt" ] && resume=(--resume)
@@ -66,11 +68,20 @@ for seed in $seeds; do
         --seed "$seed" --out "$out/gail_s$seed.partial"
       mv "$out/gail_s$seed.partial" "$out/gail_s$seed"
     fi
-    policies+=(--policy "$out/gail_s$seed/policy_latest.npz" --sample-policy "$out/gail_s$seed/policy_latest.npz")
+    gail_policies=(--policy "$out/gail_s$seed/policy_latest.npz" --sample-policy "$out/gail_s$seed/policy_latest.npz")
   fi
-  # shellcheck disable=SC2086
-  [ -f "$out/test_s$seed.parquet" ] || $sumo_rail evaluate $overrides --expert "$expert" "${policies[@]}" \
-    --seed 1000 --episodes "$test_episodes" --workers "$workers" --out "$out/test_s$seed.parquet" > "$out/test_s$seed.txt"
+  if [ ! -f "$out/test_s$seed.parquet" ]; then
+    # shellcheck disable=SC2086
+    $sumo_rail evaluate $overrides --expert "$expert" "${policies[@]}" "${gail_policies[@]}" --seed 1000 \
+      --episodes "$test_episodes" --workers "$workers" --out "$out/test_s$seed.parquet" > "$out/test_s$seed.txt"
+  elif [ ${#gail_policies[@]} -gt 0 ] && [ ! -f "$out/test_s${seed}_gail.parquet" ] && ! $python -c \
+      "import pandas as pd, sys; sys.exit(sys.argv[2] not in set(pd.read_parquet(sys.argv[1])['policy']))" \
+      "$out/test_s$seed.parquet" "gail_s$seed/policy_latest"; then
+    # a GAIL trained after the others' evaluation (a first pass with GAIL=0): evaluated apart, same episodes
+    # shellcheck disable=SC2086
+    $sumo_rail evaluate $overrides --expert "$expert" "${gail_policies[@]}" --seed 1000 --episodes "$test_episodes" \
+      --workers "$workers" --out "$out/test_s${seed}_gail.parquet" > "$out/test_s${seed}_gail.txt"
+  fi
 done
 $python experiments/benchmark_table.py "$out" | tee "$out/table.md"
 $python experiments/benchmark_plot.py "$out" "$out/benchmark.png"
