@@ -28,7 +28,7 @@ import numpy as np
 from gymnasium import spaces
 
 from sumo_rail.config import Config
-from sumo_rail.learning.gail_envs import EnvFactory, exit_reporting
+from sumo_rail.learning.gail_envs import LOST_ENV, EnvFactory, exit_reporting
 from sumo_rail.seeding import Purpose, episode_seeds
 from sumo_rail.sim.actions import Action
 from sumo_rail.sim.observation import observation_space
@@ -114,7 +114,7 @@ def _road_process(remote: Connection, parent_remote: Connection, config: Config,
                 road.close()
                 remote.close()
                 return
-    except EOFError:  # the parent is gone
+    except LOST_ENV:  # the parent is gone
         return
     except Exception as error:
         exit_reporting(error_file, error)
@@ -160,12 +160,21 @@ def shared_road_vec_env(config: Config, processes: int, egos: int, seed: int, er
                     np.concatenate([batch[2] for batch in batches]), [info for batch in batches for info in batch[3]])
 
         def close(self) -> None:
+            """Ask each process to close its road and wait for it; one that is gone, or does not end within 10 s,
+            is terminated."""
             if self.closed:
                 return
             for remote in self.remotes:
-                remote.send(("close", None))
-            for process in self.processes:
-                process.join()
+                try:
+                    remote.send(("close", None))
+                except LOST_ENV:
+                    pass
+            for process, remote in zip(self.processes, self.remotes, strict=True):
+                process.join(10)
+                if process.is_alive():
+                    process.terminate()
+                    process.join()
+                remote.close()
             self.closed = True
 
         def get_attr(self, attr_name: str, indices: Any = None) -> list[Any]:

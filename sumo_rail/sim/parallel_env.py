@@ -181,7 +181,7 @@ class ParallelHighwayEnv(ParallelEnv[str, np.ndarray, np.int64]):
         for _ in range(RESPAWN_DRAWS):
             lane = int(self.np_random.integers(cfg.scenario.lanes))
             position_m = float(self.np_random.uniform(cfg.env.ego_start_min_m, cfg.env.ego_start_max_m))
-            if sim.place_ego(vehicle, lane, position_m, cfg.env.v_max_mps, cfg.env.v_min_mps):
+            if sim.place_ego(vehicle, lane, position_m, cfg.env.v_max_mps):
                 break
         else:
             raise SimulationError(f"no safe place for {agent} to respawn in {RESPAWN_DRAWS} draws of its start window")

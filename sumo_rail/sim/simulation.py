@@ -212,17 +212,17 @@ class Simulation:
             self._follow_ego(next(ego[0] for ego in egos if ego not in absent))
         return [vehicle for vehicle, _, _ in absent]
 
-    def place_ego(self, vehicle: str, lane: int, position_m: float, max_speed_mps: float,
-                  min_speed_mps: float = 0.0) -> bool:
+    def place_ego(self, vehicle: str, lane: int, position_m: float, max_speed_mps: float) -> bool:
         """Put a new ego on the road at once, between two steps, in `lane` with its front at `position_m` [m], at
-        the highest speed in [`min_speed_mps`, `max_speed_mps`] that is safe there; False (and nothing placed) when
-        none is.
+        the highest speed up to `max_speed_mps` that is safe there; False (and nothing placed) when none is.
 
         SUMO inserts a vehicle added now only at the next step; `vehicle.moveTo` forces it in at once, skipping
         SUMO's insertion checks, so they are made here. No vehicle may overlap the place (vehicles changing into or
-        out of `lane` count as in it). The gap to the leader must exceed the ego's braking distance at its type's
-        deceleration minus the leader's at its own, and the follower's gap to the ego SUMO's secure gap for the
-        follower (`getSecureGap`), each plus what the rear vehicle covers in `REACTION_S` and `PLACE_MARGIN_M`.
+        out of `lane` count as in it). The gap to the leader (beyond the ego's minimum gap) must exceed what the ego
+        covers in `REACTION_S` plus `PLACE_MARGIN_M`, and that plus the ego's braking distance at its type's
+        deceleration minus the leader's at its own; the follower's gap to the ego must exceed SUMO's secure gap for
+        the follower (`getSecureGap`; for an ego follower, whose ACC model's is smaller, the same braking-distance
+        difference) plus what it covers in `REACTION_S` and `PLACE_MARGIN_M`.
         """
         api = self._api.vehicle
         ego_type = self._api.vehicletype
@@ -240,19 +240,18 @@ class Simulation:
         if ahead:
             rear_m, leader = min(ahead)
             leader_speed = api.getSpeed(leader)
-            # the largest v with gap >= v^2 / 2b - v_l^2 / 2b_l + v REACTION_S + margin
-            room_m = (rear_m - position_m - ego_min_gap_m - PLACE_MARGIN_M
-                      + leader_speed**2 / (2 * api.getDecel(leader)))
-            if room_m < 0:
+            gap_m = rear_m - position_m - ego_min_gap_m - PLACE_MARGIN_M
+            if gap_m <= 0:
                 return False
-            safe_mps = ego_decel_mps2 * (math.sqrt(REACTION_S**2 + 2 * room_m / ego_decel_mps2) - REACTION_S)
-            speed_mps = min(speed_mps, safe_mps)
-        if speed_mps < min_speed_mps:
-            return False
+            # the largest v with gap >= v REACTION_S and gap >= v^2 / 2b - v_l^2 / 2b_l + v REACTION_S
+            room_m = gap_m + leader_speed**2 / (2 * api.getDecel(leader))
+            braking_mps = ego_decel_mps2 * (math.sqrt(REACTION_S**2 + 2 * room_m / ego_decel_mps2) - REACTION_S)
+            speed_mps = min(speed_mps, gap_m / REACTION_S, braking_mps)
         if behind:
             front_m, follower = max(behind)
             follower_speed = api.getSpeed(follower)
-            secure_m = api.getSecureGap(follower, follower_speed, speed_mps, ego_decel_mps2)
+            braking_m = follower_speed**2 / (2 * api.getDecel(follower)) - speed_mps**2 / (2 * ego_decel_mps2)
+            secure_m = max(api.getSecureGap(follower, follower_speed, speed_mps, ego_decel_mps2), braking_m)
             gap_m = position_m - ego_length_m - front_m - api.getMinGap(follower)
             if gap_m < secure_m + follower_speed * REACTION_S + PLACE_MARGIN_M:
                 return False

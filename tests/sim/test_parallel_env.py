@@ -265,15 +265,23 @@ def test_a_respawn_is_placed_only_where_it_is_safe(make_env):
     occupied_m = libsumo.vehicle.getLanePosition(vehicles[len(vehicles) // 2])
     assert not sim.place_ego("on_top", lane, occupied_m, 33.33)
     assert not sim.place_ego("tailgated", lane, occupied_m + 4.5 + 1.0, 33.33)  # that vehicle 1 m behind its rear
-    assert not {"on_top", "tailgated"} & set(libsumo.vehicle.getIDList() + libsumo.simulation.getPendingVehicles())
+    rear_m = occupied_m - libsumo.vehicle.getLength(vehicles[len(vehicles) // 2])
+    libsumo.vehicle.setSpeed(vehicles[len(vehicles) // 2], 40.0)  # however fast the leader, not at its bumper
+    assert not sim.place_ego("tailgating", lane, rear_m - 1.0, 33.33)
+    assert not {"on_top", "tailgated", "tailgating"} & set(libsumo.vehicle.getIDList()
+                                                           + libsumo.simulation.getPendingVehicles())
+    start_s = libsumo.simulation.getTime()
     placed = [position_m for position_m in np.arange(100.0, 1400.0, 10.0)
               if sim.place_ego(f"placed_{position_m:.0f}", lane, float(position_m), 33.33)]
     assert placed  # safe places exist on a light road, and each is at least a secure gap from the next
     for position_m in placed:
         vehicle = f"placed_{position_m:.0f}"
         assert libsumo.vehicle.getLanePosition(vehicle) == position_m and libsumo.vehicle.getSpeed(vehicle) <= 33.33
-    collisions = set()
+    collisions, lowest_mps2 = set(), 0.0
     for _ in range(300):  # 30 s: nobody crashes into a placed vehicle, nor it into anybody
         libsumo.simulationStep()
         collisions |= set(libsumo.simulation.getCollidingVehiclesIDList())
+        lowest_mps2 = min([lowest_mps2, *(libsumo.vehicle.getAcceleration(f"placed_{position_m:.0f}")
+                                          for position_m in placed if libsumo.simulation.getTime() < 2.0 + start_s)])
     assert not collisions, collisions
+    assert lowest_mps2 > -4.0, lowest_mps2  # and none starts with an emergency stop (SUMO's: -9 m/s^2)
