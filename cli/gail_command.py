@@ -27,7 +27,7 @@ if TYPE_CHECKING:
 @config_options
 @imitation_options
 @ppo_options(default_timesteps=100_000, critic_help="")
-@seed_option("Seed of everything the run draws; the same seed and --envs give the same policy.")
+@seed_option("Seed of everything the run draws; the same seed, --envs and --egos give the same policy.")
 @click.option("--out", type=click.Path(path_type=Path, file_okay=False), required=True,
               help="Run folder (new or empty).")
 @tensorboard_option

@@ -78,7 +78,8 @@ def ppo_options(default_timesteps: int, critic_help: str) -> Callable[[Callable[
     --critic-warmup (`critic_help` ends its help)."""
     options = [
         click.option("--timesteps", type=click.IntRange(min=1), default=default_timesteps, show_default=True,
-                     help="Environment decisions in total (rounded up to whole updates of --n-steps x --envs)."),
+                     help="Environment decisions in total (rounded up to whole updates of --n-steps x --envs x "
+                          "--egos)."),
         click.option("--envs", type=click.IntRange(min=1), default=2, show_default=True,
                      help="Environment processes; unlike train's --workers, the result depends on it."),
         click.option("--egos", type=click.IntRange(min=1), default=1, show_default=True,

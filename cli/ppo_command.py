@@ -40,7 +40,7 @@ if TYPE_CHECKING:
               metavar="POLICY_FILE", help="Start the actor from this policy file (a BC, DAgger or earlier PPO policy "
               "of the same --policy/--hidden and observation layout) instead of a random one: RL fine-tuning of a "
               "cloned driver.")
-@seed_option("Seed of everything the run draws; the same seed and --envs give the same policy.")
+@seed_option("Seed of everything the run draws; the same seed, --envs and --egos give the same policy.")
 @click.option("--out", type=click.Path(path_type=Path, file_okay=False), required=True,
               help="Run folder (new or empty).")
 @tensorboard_option
