@@ -21,6 +21,7 @@ whose runs are missing from the evaluations is left out."""
 
 
 def main(egos: int, *paths: str) -> None:
+    paths = tuple(path for path in paths if not path.endswith(".decisions.parquet"))  # a shell glob may catch them
     metrics = pd.concat([pd.read_parquet(path) for path in paths]).drop_duplicates(["policy", "seed"])
     episodes = metrics.groupby("policy").size()
     print(f"{episodes.max()} test episodes (one ego each); each driver pooled over its training seeds\n")
