@@ -75,3 +75,24 @@ def test_the_benchmark_table_finds_its_expert_whoever_it_is():
     for drivers in (["bc_mlp_s0/policy_bc"], ["expert-normal", "expert-calm"]):
         with pytest.raises(SystemExit, match="expected one expert"):
             expert_driver(pd.DataFrame({"policy": drivers}))
+
+
+def test_disagreements_split_by_kind_and_pool_training_seeds():
+    import pandas as pd
+    from disagreements import disagreement_kinds
+
+    keep, faster, slower, left, right = range(5)
+    rows = [("expert-ppo/policy_latest", keep, keep),
+            ("dagger_s0/policy_latest", keep, keep), ("dagger_s0/policy_latest", right, keep),
+            ("dagger_s1/policy_latest", faster, keep), ("dagger_s1/policy_latest", keep, slower),
+            ("bc_mlp_s0/policy_bc", slower, faster), ("bc_mlp_s0/policy_bc", keep, left)]
+    decisions = pd.DataFrame(rows, columns=["policy", "action", "expert_action"])
+    table = disagreement_kinds(decisions).set_index("method")
+    assert list(table.index) == ["dagger", "bc_mlp"]  # the expert is no learner; seeds pool into one method
+    assert table.loc["dagger", "decisions"] == 4 and table.loc["dagger", "disagreement"] == 0.75
+    assert table.loc["dagger", "learner keeps"] == 0.5 and table.loc["dagger", "expert keeps"] == 0.75
+    assert table.loc["dagger", "expert keeps, learner changes lane"] == pytest.approx(1 / 3)
+    assert table.loc["dagger", "expert keeps, learner changes speed"] == pytest.approx(1 / 3)
+    assert table.loc["dagger", "expert changes speed, learner keeps"] == pytest.approx(1 / 3)
+    assert table.loc["bc_mlp", "expert changes lane, learner does not"] == 0.5
+    assert table.loc["bc_mlp", "other"] == pytest.approx(0.5)  # accelerate against decelerate
