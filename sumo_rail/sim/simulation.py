@@ -207,7 +207,9 @@ class Simulation:
         if len(absent) == len(egos):
             vehicle, lane, position_m = absent[0]
             who = "the ego" if len(egos) == 1 else f"no ego could enter the road: ego {vehicle}"
-            raise SimulationError(f"{who} could not enter lane {lane} at {position_m:.1f} m within {ENTRY_WAIT_S:g} s")
+            raise SimulationError(f"{who} could not enter lane {lane} at {position_m:.1f} m within {ENTRY_WAIT_S:g} s: "
+                                  f"traffic is too dense there (scenario.flow_veh_per_h is "
+                                  f"{self.scenario.flow_veh_per_h:g} veh/h; a lower flow leaves room)")
         if self.gui:
             self._follow_ego(next(ego[0] for ego in egos if ego not in absent))
         return [vehicle for vehicle, _, _ in absent]

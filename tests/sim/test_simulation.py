@@ -1,3 +1,5 @@
+import dataclasses
+
 import libsumo
 import numpy as np
 import pytest
@@ -94,3 +96,13 @@ def test_warm_state_pools_never_share_a_state(sim):
     assert vehicles_of_state(train) and vehicles_of_state(test)
     with pytest.raises(ValueError, match="warm-state pool"):
         sim.reset(snapshot=0, sumo_seed=1, ego_lane=2, ego_position_m=400.0, pool="holdout")
+
+
+def test_an_ego_with_no_room_to_enter_is_an_error_naming_the_traffic_flow(small_config):
+    jammed = dataclasses.replace(small_config.scenario, flow_veh_per_h=14000.0)
+    simulation = Simulation(jammed, context_radius_m=120.0)
+    try:
+        with pytest.raises(SimulationError, match="could not enter lane 2 .*scenario.flow_veh_per_h is 14000 veh/h"):
+            simulation.reset(snapshot=0, sumo_seed=1, ego_lane=2, ego_position_m=400.0)
+    finally:
+        simulation.close()
