@@ -71,6 +71,7 @@ class ParallelHighwayEnv(ParallelEnv[str, np.ndarray, np.int64]):
         self.slots = start_slots(self.config, egos)
         """Start interval of each ego's front [m] (`sumo_rail.sim.starts.start_slots`)."""
         self.transport = transport
+        self.render_mode: str | None = None  # PettingZoo's attribute: this env does not render
         self.possible_agents = [f"ego_{k}" for k in range(egos)]
         self.agents: list[str] = []
         self.observation_spaces = {agent: observation_space(self.config) for agent in self.possible_agents}

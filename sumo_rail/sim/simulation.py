@@ -10,6 +10,7 @@ generators, so it is not reproducible; a reload with `--load-state` is, and take
 
 from __future__ import annotations
 
+import itertools
 import logging
 import math
 import operator
@@ -41,6 +42,9 @@ REACTION_S = 1.0
 PLACE_MARGIN_M = 5.0
 """Extra distance in `Simulation.place_ego`'s safety margins [m]."""
 TRANSPORTS = ("libsumo", "traci")
+
+_TRACI_LABELS = itertools.count()
+"""traci connections are named: each simulation over traci has its own, so several can run in one process."""
 """How SUMO is driven: libsumo (SUMO linked into this process) or traci (a SUMO process, over a socket)."""
 
 
@@ -60,16 +64,15 @@ class Simulation:
         self.transport = "traci" if gui else transport
         if self.transport == "libsumo" and _ACTIVE_LIBSUMO is not None:
             raise SimulationError(
-                "libsumo runs one simulation per process and one is already open here; close it first "
-                "or run the second one in another process")
+                "libsumo runs one simulation per process and one is already open here; close it first, run the "
+                "second one in another process, or use transport='traci' (a SUMO process each, slower)")
         self.scenario = scenario
         self.context_radius_m = context_radius_m
         self.gui = gui
         self.gui_delay_ms = gui_delay_ms
         self._built = network.build(scenario)
-        self._api = _load_api(self.transport)
-        if gui:
-            self._api = sumo_gui.PacedApi(self._api, gui_delay_ms / 1000.0)
+        self._client = _load_api(self.transport)
+        self._label = f"sumo_rail_{next(_TRACI_LABELS)}"
         self._constants = tc = _load_constants()
         self._context_variables = (tc.VAR_POSITION, tc.VAR_ANGLE, tc.VAR_SPEED, tc.VAR_LANEPOSITION, tc.VAR_LENGTH,
                                    tc.VAR_WIDTH, tc.VAR_LANE_INDEX)
@@ -130,17 +133,24 @@ class Simulation:
             raise SimulationError("sumo-gui needs a display and neither DISPLAY nor WAYLAND_DISPLAY is set; "
                                   "run headless instead (--gui-off)")
         retries = {"numRetries": 3} if self.gui else {}
+        command = [binary, *self._options(), *gui_options, *extra]
         try:
-            self._api.start([binary, *self._options(), *gui_options, *extra], **retries)
-        except self._api.TraCIException as error:  # type: ignore[attr-defined]
+            if self.transport == "traci":
+                self._client.start(command, label=self._label, doSwitch=False, **retries)
+                api = self._client.getConnection(self._label)
+            else:
+                self._client.start(command)
+                api = self._client
+        except self._client.TraCIException as error:  # type: ignore[attr-defined]
             raise SimulationError(f"SUMO failed to start: {describe(error)}") from error
         except FatalTraCIError as error:
             raise SimulationError(f"sumo-gui did not start (is a display available?): {describe(error)}") from error
+        self._api = sumo_gui.PacedApi(api, self.gui_delay_ms / 1000.0) if self.gui else api
 
     def _load(self, extra: list[str]) -> None:
         try:
             self._api.load([*self._options(), *self._gui_options(), *extra])
-        except self._api.TraCIException as error:  # type: ignore[attr-defined]
+        except self._client.TraCIException as error:  # type: ignore[attr-defined]
             where = next((line.strip() for line in str(error).splitlines() if "In file" in line), "")
             raise SimulationError(f"SUMO failed to load the warm state: {describe(error)}"
                                   + (f" ({where})" if where else "")) from error
@@ -328,7 +338,7 @@ class Simulation:
                 ego_teleported |= EGO_ID in starting
             try:
                 accel = acceleration(EGO_ID)
-            except api.TraCIException:  # type: ignore[attr-defined]
+            except self._client.TraCIException:  # type: ignore[attr-defined]
                 collided, left = self._why_gone(EGO_ID)
                 break
             if accel < min_accel:
@@ -357,7 +367,7 @@ class Simulation:
             for vehicle in on_road:
                 try:
                     accel = acceleration(vehicle)
-                except api.TraCIException:  # type: ignore[attr-defined]
+                except self._client.TraCIException:  # type: ignore[attr-defined]
                     collided, left = self._why_gone(vehicle)
                     gone[vehicle] = PeriodReport(collided, left, vehicle in teleported, _lowest(min_accel[vehicle]),
                                                  teleports, simulation.getTime())

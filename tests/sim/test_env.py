@@ -75,6 +75,19 @@ def test_traci_gives_the_libsumo_episode_bit_for_bit_and_can_run_beside_it(env, 
     assert np.array_equal(traci_episode[0], libsumo_episode[0]) and np.array_equal(traci_episode[1], libsumo_episode[1])
 
 
+def test_several_traci_envs_run_in_one_process_as_a_gymnasium_sync_vector_env(small_config):
+    actions = [Action.ACCELERATE, Action.LANE_LEFT, Action.KEEP, Action.DECELERATE, Action.LANE_RIGHT] * 4
+    envs = gymnasium.vector.SyncVectorEnv([lambda: HighwayEnv(small_config, transport="traci")] * 3)
+    try:
+        first, _ = envs.reset(seed=[7, 7, 8])
+        steps = [envs.step(np.full(3, action)) for action in actions]
+    finally:
+        envs.close()
+    observations = np.stack([first] + [step[0] for step in steps])  # (decisions, envs, observation)
+    assert np.array_equal(observations[:, 0], observations[:, 1])  # each env its own SUMO: same seed, same episode
+    assert not np.array_equal(observations[:, 0], observations[:, 2])
+
+
 def test_unknown_transport_is_a_clear_error(small_config):
     with pytest.raises(ValueError, match="transport must be one of libsumo, traci"):
         HighwayEnv(small_config, transport="socket")

@@ -9,7 +9,7 @@ import gymnasium
 import libsumo
 import numpy as np
 import pytest
-from pettingzoo.test import parallel_api_test
+from pettingzoo.test import parallel_api_test, parallel_seed_test
 
 import sumo_rail
 from sumo_rail.sim import parallel_env, simulation
@@ -62,6 +62,11 @@ def test_pettingzoo_parallel_api_test_passes(make_env):
     assert env.possible_agents == ["ego_0", "ego_1", "ego_2"]
     assert env.observation_space("ego_1") == HighwayEnv(env.config).observation_space
     assert env.action_space("ego_2") == gymnasium.spaces.Discrete(5)
+
+
+def test_pettingzoo_parallel_seed_test_passes_with_two_envs_in_one_process_over_traci(small_config):
+    assert sumo_rail.parallel_env(egos=2, config=small_config).render_mode is None
+    parallel_seed_test(lambda: sumo_rail.parallel_env(egos=3, config=small_config, transport="traci"), num_cycles=40)
 
 
 @pytest.mark.parametrize(("seed", "options"), [(9, None), (4, {"pool": "validation", "warm_state": 1})])
