@@ -13,7 +13,8 @@ from sumo_rail_cli.main import cli
 
 from sumo_rail.config import Config
 from sumo_rail.datasets import read_metadata
-from sumo_rail.drivers.policies import Policy, PolicyShape, save_policy
+from sumo_rail.drivers.policies import Policy, PolicyFileError, PolicyShape, save_policy
+from sumo_rail.runners.experts import resolve_expert
 from sumo_rail.runners.tables import read_demonstrations
 from sumo_rail.sim.observation import observation_names
 
@@ -97,3 +98,18 @@ def test_an_expert_of_another_observation_layout_is_one_sentence(tmp_path, learn
     unknown = invoke("record-expert", *SMALL, "--expert", "speedy", "--episodes", "1", "--out",
                      str(tmp_path / "x.parquet"))
     assert unknown.exit_code == 2 and "calm" in unknown.output and not (tmp_path / "x.parquet").exists()
+
+
+def test_a_layout_mismatch_names_the_settings_the_policy_was_trained_with(tmp_path):
+    path = tmp_path / "trained.npz"
+    shape = PolicyShape("linear", len(observation_names(CONFIG)))
+    save_policy(Policy(shape, np.zeros(shape.parameter_count)), path,
+                {"observation_names": observation_names(CONFIG), "config": CONFIG.to_dict()})
+    other = Config.from_dict({**CONFIG.to_dict(), "observation": {"lane_block": 1}, "lidar": {"beams": 12}})
+    with pytest.raises(PolicyFileError, match=r"has 44; it was trained with --set lidar\.beams=24 --set observation\."
+                       r"lane_block=0 and this configuration has lidar\.beams=12 observation\.lane_block=1$"):
+        resolve_expert(str(path), other)
+    fewer_lanes = Config.from_dict({**CONFIG.to_dict(), "scenario": {**CONFIG.to_dict()["scenario"], "lanes": 4}})
+    with pytest.raises(PolicyFileError, match=r"--set scenario\.lanes=5 and this configuration has scenario\.lanes=4$"):
+        resolve_expert(str(path), fewer_lanes)
+    assert resolve_expert(str(path), CONFIG).name == "expert-trained"

@@ -23,6 +23,9 @@ from sumo_rail.sim.observation import observation_names
 SAMPLED_SUFFIX = " (sampled)"
 """Ends the table name of a policy evaluated by sampling."""
 
+LAYOUT_SETTINGS = (("lidar", "beams"), ("scenario", "lanes"), ("observation", "lane_block"))
+"""The settings that shape the observation layout (`observation_names`)."""
+
 
 def policy_name(path: Path) -> str:
     """A policy file's name in tables: RUN/STEM for a file of a training run folder (it holds run.json), so
@@ -38,15 +41,32 @@ def parse_policy(path: Path, config: Config, sampled: bool = False, name: str | 
     expected = observation_names(config)
     if policy.shape.observation_size != len(expected):
         raise PolicyFileError(f"policy {path} reads {policy.shape.observation_size} observation values but this "
-                              f"configuration's observation has {len(expected)}")
+                              f"configuration's observation has {len(expected)}{layout_hint(metadata, config)}")
     stored = metadata.get("observation_names")
     if stored is not None and list(stored) != expected:
         first = next(index for index, (mine, theirs) in enumerate(zip(stored, expected, strict=True))
                      if mine != theirs)
         raise PolicyFileError(f"policy {path} reads another observation layout than this configuration's (value "
-                              f"{first} is {stored[first]!r} there and {expected[first]!r} here)")
+                              f"{first} is {stored[first]!r} there and {expected[first]!r} here)"
+                              f"{layout_hint(metadata, config)}")
     name = (name or policy_name(path)) + (SAMPLED_SUFFIX if sampled else "")
     return PolicyDriver(policy, name, expert=recorded_expert(metadata), sampled=sampled)
+
+
+def layout_hint(metadata: Mapping[str, Any], config: Config) -> str:
+    """"; it was trained with --set observation.lane_block=1 and this configuration has observation.lane_block=0":
+    the layout settings where the training
+    configuration a policy file records differs from `config`, or "" when the file records none."""
+    trained, here = metadata.get("config"), config.to_dict()
+    if not isinstance(trained, Mapping):
+        return ""
+    differing = [(f"{section}.{key}", trained[section][key], here[section][key]) for section, key in LAYOUT_SETTINGS
+                 if isinstance(trained.get(section), Mapping) and key in trained[section]
+                 and trained[section][key] != here[section][key]]
+    if not differing:
+        return ""
+    return ("; it was trained with " + " ".join(f"--set {name}={theirs}" for name, theirs, _ in differing)
+            + " and this configuration has " + " ".join(f"{name}={mine}" for name, _, mine in differing))
 
 
 def resolve_expert(expert: str, config: Config) -> DriverSpec:

@@ -102,7 +102,7 @@ def test_an_ego_with_no_room_to_enter_is_an_error_naming_the_traffic_flow(small_
     jammed = dataclasses.replace(small_config.scenario, flow_veh_per_h=14000.0)
     simulation = Simulation(jammed, context_radius_m=120.0)
     try:
-        with pytest.raises(SimulationError, match="could not enter lane 2 .*scenario.flow_veh_per_h is 14000 veh/h"):
+        with pytest.raises(SimulationError, match=r"could not enter lane 2 .*scenario\.flow_veh_per_h is 14000 veh/h"):
             simulation.reset(snapshot=0, sumo_seed=1, ego_lane=2, ego_position_m=400.0)
     finally:
         simulation.close()
