@@ -16,13 +16,13 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from benchmark_table import expert_driver
 from seeded import difference_cell, digits_of, seed_samples, training_seeds, value_cell
 
 from sumo_rail.drivers.policies import load_policy
 from sumo_rail.evaluation.statistics import interval
 from sumo_rail.evaluation.summary import measure_samples
 
-EXPERT = "expert-normal"
 MEASURES = ("agreement", "lane_change_recall", "lane_change_precision", "average_speed_kmh", "overtakes",
             "lane_changes", "collisions")
 VARIANTS = ("bc", "bcnorm", "independent", "indfrozen", "crn", "frozen", "v2", "disc5")
@@ -52,7 +52,7 @@ def main(path: str) -> None:
           f"runs and episodes (experiments/seeded.py), each run's own estimate in brackets.\n")
     print("| variant | measure | value | minus BC | minus RAIL, independent traffic |")
     print("|---|---|---|---|---|")
-    expert = measure_samples(metrics[metrics["policy"] == EXPERT].sort_values("seed"))
+    expert = measure_samples(metrics[metrics["policy"] == expert_driver(metrics)].sort_values("seed"))
     for measure in MEASURES[3:]:  # the expert's own agreement and lane-change rates are 1
         print(f"| expert | {measure} | {interval(expert[measure]).format(digits_of(measure))} | | |")
     for variant in VARIANTS:

@@ -19,8 +19,6 @@ from sumo_rail.evaluation.statistics import Sample, interval, seeded_interval
 from sumo_rail.evaluation.summary import distance_summary, measure_samples
 from sumo_rail.runners.experts import SAMPLED_SUFFIX
 
-EXPERT = "expert-normal"
-"""The rule-based expert's name in evaluations."""
 METHODS = {  # key: (label, run folder stem, policy in it)
     "bc_mlp": ("BC, two-layer", "bc_mlp", "policy_bc"),
     "rail_mlp": ("RAIL, two-layer", "rail_mlp", "policy_latest"),

@@ -14,7 +14,7 @@ import sys
 from pathlib import Path
 
 import pandas as pd
-from benchmark_table import EXPERT
+from benchmark_table import expert_driver
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from seeded import difference_cell, digits_of, seed_samples, training_seeds
@@ -93,7 +93,7 @@ def main(out: Path, counts: list[int]) -> None:
         print(f"| {count} | " + " | ".join(cells) + " |")
     if found:
         first = next(iter(tests.values()))  # every count's test drives the expert on the same episodes
-        expert = measure_samples(first[first["policy"] == EXPERT].sort_values("seed"))
+        expert = measure_samples(first[first["policy"] == expert_driver(first)].sort_values("seed"))
         plot(found, float(ratio(expert["lane_changes"]))).savefig(out / "demonstrations.png", dpi=120)
 
 
