@@ -54,9 +54,9 @@ def parse_policy(path: Path, config: Config, sampled: bool = False, name: str | 
 
 
 def layout_hint(metadata: Mapping[str, Any], config: Config) -> str:
-    """"; it was trained with --set observation.lane_block=1 and this configuration has observation.lane_block=0":
-    the layout settings where the training
-    configuration a policy file records differs from `config`, or "" when the file records none."""
+    """The layout settings where the training configuration a policy file records differs from `config`, as
+    "; it was trained with --set observation.lane_block=1 and this configuration has observation.lane_block=0";
+    "" when they agree or the file records no configuration."""
     trained, here = metadata.get("config"), config.to_dict()
     if not isinstance(trained, Mapping):
         return ""

@@ -42,10 +42,9 @@ REACTION_S = 1.0
 PLACE_MARGIN_M = 5.0
 """Extra distance in `Simulation.place_ego`'s safety margins [m]."""
 TRANSPORTS = ("libsumo", "traci")
-
+"""How SUMO is driven: libsumo (SUMO linked into this process) or traci (a SUMO process, over a socket)."""
 _TRACI_LABELS = itertools.count()
 """traci connections are named: each simulation over traci has its own, so several can run in one process."""
-"""How SUMO is driven: libsumo (SUMO linked into this process) or traci (a SUMO process, over a socket)."""
 
 
 class SimulationError(RuntimeError):
