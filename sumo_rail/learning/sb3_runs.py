@@ -92,12 +92,17 @@ def require_stable_baselines3(hint: str) -> None:
 
 
 def build_ppo(venv: VecEnv, shape: PolicyShape, settings: PpoHyperparameters, ent_coef: float = 0.0) -> PPO:
-    """PPO with the actor of `shape` (`gail_actor.policy_kwargs`), seeded with `settings.seed`, on the CPU."""
+    """PPO with the actor of `shape` (`gail_actor.policy_kwargs`), seeded with `settings.seed`, on the CPU. Its
+    logger keeps each update's values (`model.logger.name_to_value`) and writes nowhere: SB3's default one makes an
+    empty /tmp/SB3-DATE directory at every `learn`, and the training commands call it once an update."""
     from stable_baselines3 import PPO
+    from stable_baselines3.common.logger import Logger
 
-    return PPO("MlpPolicy", venv, learning_rate=settings.learning_rate, n_steps=settings.n_steps,
-               batch_size=settings.batch_size, n_epochs=settings.ppo_epochs, gamma=settings.gamma,
-               ent_coef=ent_coef, policy_kwargs=policy_kwargs(shape), seed=settings.seed, device="cpu", verbose=0)
+    model = PPO("MlpPolicy", venv, learning_rate=settings.learning_rate, n_steps=settings.n_steps,
+                batch_size=settings.batch_size, n_epochs=settings.ppo_epochs, gamma=settings.gamma,
+                ent_coef=ent_coef, policy_kwargs=policy_kwargs(shape), seed=settings.seed, device="cpu", verbose=0)
+    model.set_logger(Logger(folder=None, output_formats=[]))
+    return model
 
 
 @dataclass

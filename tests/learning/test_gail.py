@@ -1,6 +1,7 @@
 # ruff: noqa: F811 (fixtures imported from test_training are redefined as parameters)
 import json
 import sys
+import tempfile
 
 import gymnasium as gym
 import numpy as np
@@ -155,6 +156,16 @@ def test_a_frozen_actor_stays_bit_identical_while_the_critic_learns(demos):
     set_actor_trainable(model.policy, True)
     model.learn(64, reset_num_timesteps=False)
     assert not np.array_equal(ppo_to_policy(model.policy, shape, normalisation).parameters, bc.parameters)
+
+
+def test_ppo_updates_leave_no_logger_directories_behind_and_keep_their_values(tmp_path, monkeypatch):
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))  # where SB3's default logger makes its directories
+    settings = GailSettings("unused", n_steps=64, envs=1, batch_size=32, ppo_epochs=1, seed=0)
+    model = build_ppo(DummyVecEnv([lambda: ToyEnv(2)]), PolicyShape("linear", 56), settings)
+    for _ in range(3):
+        model.learn(64, reset_num_timesteps=False)  # as the training commands call it: once an update
+    assert list(tmp_path.iterdir()) == []
+    assert np.isfinite(model.logger.name_to_value["train/entropy_loss"])
 
 
 def tiny_settings(demos_path) -> GailSettings:
