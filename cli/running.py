@@ -48,6 +48,7 @@ def interruptible_run(bar: AbstractContextManager[Any], interrupted: str,
         except errors as error:
             raise click.ClickException(str(error)) from error
         except KeyboardInterrupt:
+            ignore_stop_signals()  # more Ctrl-Cs must not break the closing of the backend and the bar
             raise click.ClickException(interrupted) from None
 
 
@@ -76,12 +77,20 @@ def validation_summary(row: dict[str, Any], episodes: int) -> str:
 
 def make_interruptible() -> None:
     """Make SIGINT and SIGTERM raise KeyboardInterrupt, so that both stop a command as Ctrl-C does, even when it was
-    started with SIGINT ignored (as a shell script's background jobs are)."""
-    signal.signal(signal.SIGINT, signal.default_int_handler)
-    signal.signal(signal.SIGTERM, _raise_keyboard_interrupt)
+    started with SIGINT ignored (as a shell script's background jobs are); the first one stops it, and the signals
+    after it are ignored while it closes (a burst of Ctrl-Cs would otherwise interrupt the closing)."""
+    signal.signal(signal.SIGINT, _stop_once)
+    signal.signal(signal.SIGTERM, _stop_once)
 
 
-def _raise_keyboard_interrupt(signal_number: int, frame: FrameType | None) -> None:
+def ignore_stop_signals() -> None:
+    """Ignore SIGINT and SIGTERM from now on (the command is already stopping)."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)
+
+
+def _stop_once(signal_number: int, frame: FrameType | None) -> None:
+    ignore_stop_signals()
     raise KeyboardInterrupt
 
 

@@ -139,10 +139,25 @@ def start_run_folder(folder: Path, run_record: dict[str, Any]) -> None:
     write_atomically(folder / "run.json", json.dumps(run_record, indent=2, sort_keys=True).encode())
 
 
+class StopRequest:
+    """Whether a stop was asked for: a plain flag, which a signal handler can set while another signal interrupts it
+    (a `threading.Event` takes a lock in `set`, so a second Ctrl-C arriving inside the first one's handler would
+    deadlock the main thread)."""
+
+    def __init__(self) -> None:
+        self.requested = False
+
+    def set(self) -> None:
+        self.requested = True
+
+    def is_set(self) -> bool:
+        return self.requested
+
+
 @contextmanager
-def stop_requests() -> Iterator[threading.Event]:
-    """An event that SIGINT and SIGTERM set instead of interrupting (main thread only; handlers restored after)."""
-    stop = threading.Event()
+def stop_requests() -> Iterator[StopRequest]:
+    """A flag that SIGINT and SIGTERM set instead of interrupting (main thread only; handlers restored after)."""
+    stop = StopRequest()
     if threading.current_thread() is not threading.main_thread():
         yield stop
         return

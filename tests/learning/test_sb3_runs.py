@@ -1,0 +1,46 @@
+"""What gail and ppo share: stopping on SIGINT / SIGTERM after the current update."""
+
+import signal
+import subprocess
+import sys
+import textwrap
+
+from sumo_rail.learning.sb3_runs import stop_requests
+
+SECOND_SIGNAL_INSIDE_THE_FIRST = textwrap.dedent("""
+    import signal, sys
+    from sumo_rail.learning.sb3_runs import stop_requests
+
+    with stop_requests() as stop:
+        handler = signal.getsignal(signal.SIGINT)
+        inside = []
+
+        def at_every_line(frame, event, arg):  # another Ctrl-C at each line the first one's handler runs
+            if event == "line" and not inside:
+                inside.append(True)
+                handler(signal.SIGINT, None)
+                inside.pop()
+            return at_every_line
+
+        sys.settrace(at_every_line)
+        handler(signal.SIGINT, None)
+        sys.settrace(None)
+    print("stopped" if stop.is_set() else "running")
+""")
+
+
+def test_a_second_ctrl_c_inside_the_first_ones_handler_does_not_deadlock():
+    # in a child process: a deadlocked main thread there is a timeout here (SIGKILL: the handlers hold SIGTERM)
+    result = subprocess.run([sys.executable, "-c", SECOND_SIGNAL_INSIDE_THE_FIRST], capture_output=True, text=True,
+                            timeout=60)
+    assert result.returncode == 0 and result.stdout.strip() == "stopped", result.stderr
+
+
+def test_signals_set_the_flag_inside_and_the_handlers_come_back_after():
+    before = signal.getsignal(signal.SIGTERM)
+    with stop_requests() as stop:
+        assert not stop.is_set()
+        signal.raise_signal(signal.SIGTERM)
+        signal.raise_signal(signal.SIGINT)
+        assert stop.is_set()
+    assert signal.getsignal(signal.SIGTERM) is before
