@@ -32,7 +32,7 @@ if ENV_ID not in gymnasium.registry:
 
 
 def parallel_env(egos: int = 1, config: Config | dict[str, Any] | str | Path | None = None,
-                 transport: str = "libsumo") -> ParallelHighwayEnv:
+                 transport: str = "auto") -> ParallelHighwayEnv:
     """A PettingZoo ParallelEnv of `egos` egos (agents ego_0 ... ego_{K-1}) on one SUMO road, each driven as
     `HighwayEnv`'s ego; `config` as `HighwayEnv` takes it (see `sumo_rail.sim.parallel_env`)."""
     from sumo_rail.sim.parallel_env import ParallelHighwayEnv

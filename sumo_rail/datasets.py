@@ -82,10 +82,10 @@ def write_parquet(table: pa.Table, path: Path, metadata: dict[str, Any]) -> None
 
 
 def describe(error: BaseException) -> str:
-    """`error` in one line: the first line of its message (at most 160 characters), else its type's name."""
+    """`error` in one line: the first line of its message (at most 300 characters), else its type's name."""
     text = next((line.strip() for line in str(error).splitlines() if line.strip()), "")
-    if len(text) > 160:
-        text = text[:157] + "..."
+    if len(text) > 300:
+        text = text[:297] + "..."
     return text or type(error).__name__
 
 

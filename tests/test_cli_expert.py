@@ -100,7 +100,7 @@ def test_an_expert_of_another_observation_layout_is_one_sentence(tmp_path, learn
     assert unknown.exit_code == 2 and "calm" in unknown.output and not (tmp_path / "x.parquet").exists()
 
 
-def test_a_layout_mismatch_names_the_settings_the_policy_was_trained_with(tmp_path):
+def test_a_layout_or_scale_mismatch_names_the_settings_the_policy_was_trained_with(tmp_path):
     path = tmp_path / "trained.npz"
     shape = PolicyShape("linear", len(observation_names(CONFIG)))
     save_policy(Policy(shape, np.zeros(shape.parameter_count)), path,
@@ -112,4 +112,8 @@ def test_a_layout_mismatch_names_the_settings_the_policy_was_trained_with(tmp_pa
     fewer_lanes = Config.from_dict({**CONFIG.to_dict(), "scenario": {**CONFIG.to_dict()["scenario"], "lanes": 4}})
     with pytest.raises(PolicyFileError, match=r"--set scenario\.lanes=5 and this configuration has scenario\.lanes=4$"):
         resolve_expert(str(path), fewer_lanes)
+    shorter_lidar = Config.from_dict({**CONFIG.to_dict(), "lidar": {"beams": 24, "range_m": 80.0}})
+    with pytest.raises(PolicyFileError, match=r"reads observations scaled otherwise than this configuration's; it was "
+                       r"trained with --set lidar\.range_m=100\.0 and this configuration has lidar\.range_m=80\.0$"):
+        resolve_expert(str(path), shorter_lidar)  # the same layout, other values
     assert resolve_expert(str(path), CONFIG).name == "expert-trained"

@@ -34,7 +34,7 @@ class EnvFactory:
     def __call__(self) -> gym.Env:
         signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C reaches the whole group; the parent decides
         try:
-            env = HighwayEnv(self.config)
+            env = HighwayEnv(self.config, transport="libsumo")
         except Exception as error:
             exit_reporting(self.error_file, error)
         env.np_random, _ = seeding.np_random(self.seed)

@@ -64,7 +64,7 @@ class RespawningRoad:
     """K egos on one road that never stop: each that ends respawns at once (see the module's docstring)."""
 
     def __init__(self, config: Config, egos: int, seed: int) -> None:
-        self.env = ParallelHighwayEnv(egos, config)
+        self.env = ParallelHighwayEnv(egos, config, transport="libsumo")
         self.seed: int | None = seed
         """Seed of the first reset (later resets go on drawing from the road's generator)."""
 

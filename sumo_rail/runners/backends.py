@@ -64,7 +64,8 @@ class WorkerContext:
         """The single-ego env of `config`, created on first use and kept for later tasks with an equal config."""
         if self._env is None or self._key != (config, None):
             self.close()
-            self._env = HighwayEnv(config, render_mode=self._render_mode, gui_delay_ms=self._gui_delay_ms)
+            self._env = HighwayEnv(config, render_mode=self._render_mode, transport="libsumo",
+                                   gui_delay_ms=self._gui_delay_ms)
             self._key = (config, None)
         assert isinstance(self._env, HighwayEnv)
         return self._env
@@ -73,7 +74,7 @@ class WorkerContext:
         """The env of `egos` egos on `config`'s road, created on first use and kept like `env`."""
         if self._env is None or self._key != (config, egos):
             self.close()
-            self._env = ParallelHighwayEnv(egos, config)
+            self._env = ParallelHighwayEnv(egos, config, transport="libsumo")
             self._key = (config, egos)
         assert isinstance(self._env, ParallelHighwayEnv)
         return self._env

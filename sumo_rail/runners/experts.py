@@ -25,6 +25,9 @@ SAMPLED_SUFFIX = " (sampled)"
 
 LAYOUT_SETTINGS = (("lidar", "beams"), ("scenario", "lanes"), ("observation", "lane_block"))
 """The settings that shape the observation layout (`observation_names`)."""
+SCALE_SETTINGS = (("lidar", "range_m"), ("env", "v_max_mps"), ("env", "v_min_mps"))
+"""The settings that scale the observation's values (`build_observation`): the same layout with other values of them
+means other inputs to a policy."""
 
 
 def policy_name(path: Path) -> str:
@@ -41,26 +44,29 @@ def parse_policy(path: Path, config: Config, sampled: bool = False, name: str | 
     expected = observation_names(config)
     if policy.shape.observation_size != len(expected):
         raise PolicyFileError(f"policy {path} reads {policy.shape.observation_size} observation values but this "
-                              f"configuration's observation has {len(expected)}{layout_hint(metadata, config)}")
+                              f"configuration's observation has {len(expected)}{differing_settings(metadata, config)}")
     stored = metadata.get("observation_names")
     if stored is not None and list(stored) != expected:
         first = next(index for index, (mine, theirs) in enumerate(zip(stored, expected, strict=True))
                      if mine != theirs)
         raise PolicyFileError(f"policy {path} reads another observation layout than this configuration's (value "
                               f"{first} is {stored[first]!r} there and {expected[first]!r} here)"
-                              f"{layout_hint(metadata, config)}")
+                              f"{differing_settings(metadata, config)}")
+    if scales := differing_settings(metadata, config, SCALE_SETTINGS):
+        raise PolicyFileError(f"policy {path} reads observations scaled otherwise than this configuration's{scales}")
     name = (name or policy_name(path)) + (SAMPLED_SUFFIX if sampled else "")
     return PolicyDriver(policy, name, expert=recorded_expert(metadata), sampled=sampled)
 
 
-def layout_hint(metadata: Mapping[str, Any], config: Config) -> str:
-    """The layout settings where the training configuration a policy file records differs from `config`, as
+def differing_settings(metadata: Mapping[str, Any], config: Config,
+                settings: tuple[tuple[str, str], ...] = LAYOUT_SETTINGS) -> str:
+    """The `settings` where the training configuration a policy file records differs from `config`, as
     "; it was trained with --set observation.lane_block=1 and this configuration has observation.lane_block=0";
     "" when they agree or the file records no configuration."""
     trained, here = metadata.get("config"), config.to_dict()
     if not isinstance(trained, Mapping):
         return ""
-    differing = [(f"{section}.{key}", trained[section][key], here[section][key]) for section, key in LAYOUT_SETTINGS
+    differing = [(f"{section}.{key}", trained[section][key], here[section][key]) for section, key in settings
                  if isinstance(trained.get(section), Mapping) and key in trained[section]
                  and trained[section][key] != here[section][key]]
     if not differing:

@@ -43,13 +43,14 @@ RENDER_MODES = ("human", "rgb_array")
 
 class HighwayEnv(gymnasium.Env[np.ndarray, np.int64]):
     """Five-lane SUMO highway with a 24-beam LIDAR and five high-level actions; `transport` drives SUMO through
-    libsumo (in-process, the fast default) or traci (a `sumo` process over a socket); render_mode "human" (sumo-gui)
+    libsumo (in-process, fast; one simulation per process) or traci (a `sumo` process over a socket); "auto", the
+    default, takes libsumo unless another env of this process holds it, then traci; render_mode "human" (sumo-gui)
     implies traci, with `gui_delay_ms` [ms] of wall time per SUMO step (100: real time at 0.1 s steps)."""
 
     metadata = {"render_modes": list(RENDER_MODES), "render_fps": 2}  # noqa: RUF012 - Gymnasium's class attribute
 
     def __init__(self, config: Config | Mapping[str, Any] | str | Path | None = None, render_mode: str | None = None,
-                 transport: str = "libsumo", gui_delay_ms: float = 100.0) -> None:
+                 transport: str = "auto", gui_delay_ms: float = 100.0) -> None:
         if render_mode not in (None, *RENDER_MODES):
             raise ValueError(f"render_mode must be None, 'human' (sumo-gui) or 'rgb_array', got {render_mode!r}")
         if transport not in TRANSPORTS:

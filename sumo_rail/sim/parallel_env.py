@@ -53,18 +53,19 @@ from sumo_rail.sim.starts import RESET_OPTIONS, EpisodeStarts, start_slots, warm
 from sumo_rail.sim.traffic import TrafficView
 
 RESPAWN_DRAWS = 100
-"""Most places `ParallelHighwayEnv.respawn` tries before it gives up."""
+"""Most places `ParallelHighwayEnv.respawn` tries in the start window, then as many again from the road's start to
+the window's end, before it gives up."""
 Observations = dict[str, np.ndarray]
 Infos = dict[str, dict[str, Any]]
 
 
 class ParallelHighwayEnv(ParallelEnv[str, np.ndarray, np.int64]):
-    """`egos` egos on `HighwayEnv`'s highway in one SUMO (libsumo by default, or traci over a socket)."""
+    """`egos` egos on `HighwayEnv`'s highway in one SUMO, over `transport` as `HighwayEnv`'s (auto by default)."""
 
     metadata = {"name": "sumo_rail_highway_v0", "render_modes": [], "is_parallelizable": True}  # noqa: RUF012
 
     def __init__(self, egos: int = 1, config: Config | Mapping[str, Any] | str | Path | None = None,
-                 transport: str = "libsumo") -> None:
+                 transport: str = "auto") -> None:
         if transport not in TRANSPORTS:
             raise ValueError(f"transport must be one of {', '.join(TRANSPORTS)}, got {transport!r}")
         self.config = Config.coerce(config)
@@ -169,8 +170,10 @@ class ParallelHighwayEnv(ParallelEnv[str, np.ndarray, np.int64]):
         """Start a new episode of `agent`, which is not driving (it ended, or sat the episode out), while the others
         drive on: a new SUMO vehicle (id AGENT.N at its N-th respawn since the reset) is placed at once
         (`Simulation.place_ego`) in a lane and at a front position drawn from `np_random` as the single ego's start
-        (uniform lane, uniform in the start window), redrawn up to `RESPAWN_DRAWS` times until the place is safe.
-        `agent` rejoins `agents`; returns its first observation and info. SimulationError when no draw is safe."""
+        (uniform lane, uniform in the start window), redrawn up to `RESPAWN_DRAWS` times until the place is safe;
+        when the egos have jammed the start window (slow learners do), up to `RESPAWN_DRAWS` more draws from the
+        road's start (one ego length in) to the window's end. `agent` rejoins `agents`; returns its first
+        observation and info. SimulationError when no draw is safe."""
         if self._sim is None or not self._egos:
             raise RuntimeError("call reset() before respawn()")
         self._ego(agent)
@@ -179,13 +182,16 @@ class ParallelHighwayEnv(ParallelEnv[str, np.ndarray, np.int64]):
         cfg, sim = self.config, self._sim
         self._respawns[agent] += 1
         vehicle = f"{agent}.{self._respawns[agent]}"
-        for _ in range(RESPAWN_DRAWS):
+        windows = ((cfg.env.ego_start_min_m, cfg.env.ego_start_max_m), (sim.ego_length_m, cfg.env.ego_start_max_m))
+        for low_m, high_m in (window for window in windows for _ in range(RESPAWN_DRAWS)):
             lane = int(self.np_random.integers(cfg.scenario.lanes))
-            position_m = float(self.np_random.uniform(cfg.env.ego_start_min_m, cfg.env.ego_start_max_m))
+            position_m = float(self.np_random.uniform(low_m, high_m))
             if sim.place_ego(vehicle, lane, position_m, cfg.env.v_max_mps):
                 break
         else:
-            raise SimulationError(f"no safe place for {agent} to respawn in {RESPAWN_DRAWS} draws of its start window")
+            raise SimulationError(f"no safe place for {agent} to respawn in {2 * RESPAWN_DRAWS} draws up to "
+                                  f"{cfg.env.ego_start_max_m:g} m: traffic is too dense there (scenario."
+                                  f"flow_veh_per_h is {cfg.scenario.flow_veh_per_h:g} veh/h)")
         ego = self._egos[agent] = Ego(cfg, vehicle, self._edges)
         self.agents = [name for name in self.possible_agents if name in self.agents or name == agent]
         return ego.start(sim)

@@ -10,11 +10,14 @@ generators, so it is not reproducible; a reload with `--load-state` is, and take
 
 from __future__ import annotations
 
+import contextlib
+import io
 import itertools
 import logging
 import math
 import operator
 import os
+import warnings
 from collections.abc import Sequence
 from pathlib import Path
 from types import ModuleType
@@ -41,8 +44,9 @@ REACTION_S = 1.0
 """Reaction time in `Simulation.place_ego`'s safety margins [s] (traffic acts every 0.5 s, with tau up to 1.2 s)."""
 PLACE_MARGIN_M = 5.0
 """Extra distance in `Simulation.place_ego`'s safety margins [m]."""
-TRANSPORTS = ("libsumo", "traci")
-"""How SUMO is driven: libsumo (SUMO linked into this process) or traci (a SUMO process, over a socket)."""
+TRANSPORTS = ("auto", "libsumo", "traci")
+"""How SUMO is driven: libsumo (SUMO linked into this process), traci (a SUMO process, over a socket; the same
+episodes, slower), or auto: libsumo unless another simulation of this process holds it, then traci."""
 _TRACI_LABELS = itertools.count()
 """traci connections are named: each simulation over traci has its own, so several can run in one process."""
 
@@ -52,14 +56,19 @@ class SimulationError(RuntimeError):
 
 
 class Simulation:
-    """One SUMO instance for the ego's episodes on one scenario; `gui` implies the traci transport, and sumo-gui
-    then follows the ego, waiting `gui_delay_ms` [ms] of wall time per step."""
+    """One SUMO instance for the ego's episodes on one scenario, driven by `transport` (`TRANSPORTS`); `gui` implies
+    traci, and sumo-gui then follows the ego, waiting `gui_delay_ms` [ms] of wall time per step."""
 
     def __init__(self, scenario: ScenarioConfig, context_radius_m: float, gui: bool = False,
                  transport: str = "libsumo", gui_delay_ms: float = 100.0) -> None:
         global _ACTIVE_LIBSUMO
         if transport not in TRANSPORTS:
             raise ValueError(f"transport must be one of {', '.join(TRANSPORTS)}, got {transport!r}")
+        if transport == "auto" and _ACTIVE_LIBSUMO is not None and not gui:
+            warnings.warn("libsumo runs one simulation per process and another one holds it: this one runs over "
+                          "traci (the same episodes, slower)", stacklevel=3)
+        if transport == "auto":
+            transport = "libsumo" if _ACTIVE_LIBSUMO is None else "traci"
         self.transport = "traci" if gui else transport
         if self.transport == "libsumo" and _ACTIVE_LIBSUMO is not None:
             raise SimulationError(
@@ -130,12 +139,13 @@ class Simulation:
 
         if self.gui and not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
             raise SimulationError("sumo-gui needs a display and neither DISPLAY nor WAYLAND_DISPLAY is set; "
-                                  "run headless instead (--gui-off)")
+                                  "run headless instead (--gui-off; in Python, render_mode None or 'rgb_array')")
         retries = {"numRetries": 3} if self.gui else {}
         command = [binary, *self._options(), *gui_options, *extra]
         try:
             if self.transport == "traci":
-                self._client.start(command, label=self._label, doSwitch=False, **retries)
+                with contextlib.redirect_stdout(io.StringIO()):  # traci prints each retry while SUMO starts up
+                    self._client.start(command, label=self._label, doSwitch=False, **retries)
                 api = self._client.getConnection(self._label)
             else:
                 self._client.start(command)
@@ -223,6 +233,11 @@ class Simulation:
             self._follow_ego(next(ego[0] for ego in egos if ego not in absent))
         return [vehicle for vehicle, _, _ in absent]
 
+    @property
+    def ego_length_m(self) -> float:
+        """Length of an ego vehicle [m]."""
+        return self._api.vehicletype.getLength(network.EGO_TYPE)
+
     def place_ego(self, vehicle: str, lane: int, position_m: float, max_speed_mps: float) -> bool:
         """Put a new ego on the road at once, between two steps, in `lane` with its front at `position_m` [m], at
         the highest speed up to `max_speed_mps` that is safe there; False (and nothing placed) when none is.
@@ -237,7 +252,7 @@ class Simulation:
         """
         api = self._api.vehicle
         ego_type = self._api.vehicletype
-        ego_length_m, ego_min_gap_m = ego_type.getLength(network.EGO_TYPE), ego_type.getMinGap(network.EGO_TYPE)
+        ego_length_m, ego_min_gap_m = self.ego_length_m, ego_type.getMinGap(network.EGO_TYPE)
         ego_decel_mps2 = ego_type.getDecel(network.EGO_TYPE)
         ahead, behind = [], []
         for other, front_m, rear_m in self._lane_occupants(lane):

@@ -75,12 +75,14 @@ def test_traci_gives_the_libsumo_episode_bit_for_bit_and_can_run_beside_it(env, 
     assert np.array_equal(traci_episode[0], libsumo_episode[0]) and np.array_equal(traci_episode[1], libsumo_episode[1])
 
 
-def test_several_traci_envs_run_in_one_process_as_a_gymnasium_sync_vector_env(small_config):
+def test_several_envs_run_in_one_process_as_a_gymnasium_sync_vector_env(small_config):
     actions = [Action.ACCELERATE, Action.LANE_LEFT, Action.KEEP, Action.DECELERATE, Action.LANE_RIGHT] * 4
-    envs = gymnasium.vector.SyncVectorEnv([lambda: HighwayEnv(small_config, transport="traci")] * 3)
+    envs = gymnasium.vector.SyncVectorEnv([lambda: HighwayEnv(small_config)] * 3)  # libsumo, then traci
     try:
-        first, _ = envs.reset(seed=[7, 7, 8])
+        with pytest.warns(UserWarning, match="runs over traci"):
+            first, _ = envs.reset(seed=[7, 7, 8])
         steps = [envs.step(np.full(3, action)) for action in actions]
+        assert [env.unwrapped._sim.transport for env in envs.envs] == ["libsumo", "traci", "traci"]
     finally:
         envs.close()
     observations = np.stack([first] + [step[0] for step in steps])  # (decisions, envs, observation)
@@ -89,7 +91,7 @@ def test_several_traci_envs_run_in_one_process_as_a_gymnasium_sync_vector_env(sm
 
 
 def test_unknown_transport_is_a_clear_error(small_config):
-    with pytest.raises(ValueError, match="transport must be one of libsumo, traci"):
+    with pytest.raises(ValueError, match="transport must be one of auto, libsumo, traci"):
         HighwayEnv(small_config, transport="socket")
 
 
@@ -198,8 +200,15 @@ def test_out_of_space_action_and_step_before_reset_are_errors(small_config):
     env.close()
 
 
-def test_second_env_in_one_process_gets_a_clear_error(env, small_config):
+def test_a_second_env_in_one_process_runs_over_traci_unless_libsumo_is_asked_for(env, small_config):
     env.reset(seed=0)
-    other = HighwayEnv(small_config)
-    with pytest.raises(SimulationError, match="one simulation per process"):
-        other.reset(seed=0)
+    strict = HighwayEnv(small_config, transport="libsumo")
+    with pytest.raises(SimulationError, match=r"one simulation per process.*transport='traci'"):
+        strict.reset(seed=0)
+    second = HighwayEnv(small_config)
+    try:
+        with pytest.warns(UserWarning, match="runs over traci"):
+            second.reset(seed=0)
+        assert second._sim.transport == "traci" and env._sim.transport == "libsumo"
+    finally:
+        second.close()

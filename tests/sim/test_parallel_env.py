@@ -64,9 +64,10 @@ def test_pettingzoo_parallel_api_test_passes(make_env):
     assert env.action_space("ego_2") == gymnasium.spaces.Discrete(5)
 
 
-def test_pettingzoo_parallel_seed_test_passes_with_two_envs_in_one_process_over_traci(small_config):
+def test_pettingzoo_parallel_seed_test_passes_with_two_envs_in_one_process(small_config):
     assert sumo_rail.parallel_env(egos=2, config=small_config).render_mode is None
-    parallel_seed_test(lambda: sumo_rail.parallel_env(egos=3, config=small_config, transport="traci"), num_cycles=40)
+    with pytest.warns(UserWarning, match="runs over traci"):  # the second env: libsumo is the first one's
+        parallel_seed_test(lambda: sumo_rail.parallel_env(egos=3, config=small_config), num_cycles=40)
 
 
 @pytest.mark.parametrize(("seed", "options"), [(9, None), (4, {"pool": "validation", "warm_state": 1})])
@@ -235,7 +236,7 @@ def test_bad_use_is_a_clear_error(make_env, small_config):
     with pytest.raises(ValueError, match="transport"):
         ParallelHighwayEnv(2, small_config, transport="socket")
     with pytest.raises(SimulationError, match="one simulation per process"):
-        HighwayEnv(small_config).reset(seed=0)
+        HighwayEnv(small_config, transport="libsumo").reset(seed=0)
 
 
 def test_an_ended_ego_respawns_at_once_in_the_start_window_while_the_others_drive_on(make_env, small_config):
@@ -259,6 +260,34 @@ def test_an_ended_ego_respawns_at_once_in_the_start_window_while_the_others_driv
     assert env.traffic(ended[0]).ego.lane_position_m == info["position_m"]
     _, rewards, *_ = env.step(dict.fromkeys(env.agents, Action.KEEP))
     assert set(rewards) == set(env.agents) | {ended[0]} and env.metrics(ended[0]).decisions == 1
+
+
+def test_a_jammed_start_window_sends_a_respawn_upstream_and_a_full_road_is_an_error(make_env, small_config,
+                                                                                      monkeypatch):
+    env = make_env(2)
+    env.reset(seed=2)
+    while len(env.agents) == 2:
+        env.step(dict.fromkeys(env.agents, Action.ACCELERATE))
+    ended = next(agent for agent in env.possible_agents if agent not in env.agents)
+    place = env._sim.place_ego
+    window_m = (small_config.env.ego_start_min_m, small_config.env.ego_start_max_m)
+    tried: list[float] = []
+
+    def jammed_window(vehicle, lane, position_m, max_speed_mps):  # no room in the start window
+        tried.append(position_m)
+        return not window_m[0] <= position_m <= window_m[1] and place(vehicle, lane, position_m, max_speed_mps)
+
+    monkeypatch.setattr(env._sim, "place_ego", jammed_window)
+    _, info = env.respawn(ended)
+    assert env._sim.ego_length_m <= info["position_m"] < window_m[0] and ended in env.agents
+    assert all(window_m[0] <= position_m <= window_m[1] for position_m in tried[:parallel_env.RESPAWN_DRAWS])
+    monkeypatch.setattr(env._sim, "place_ego", lambda *place_args: False)
+    while len(env.agents) == 2:
+        env.step(dict.fromkeys(env.agents, Action.ACCELERATE))
+    ended = next(agent for agent in env.possible_agents if agent not in env.agents)
+    with pytest.raises(SimulationError, match=rf"no safe place for {ended} to respawn in 200 draws up to 500 m: "
+                                              r"traffic is too dense there \(scenario\.flow_veh_per_h is 4000"):
+        env.respawn(ended)
 
 
 def test_a_respawn_is_placed_only_where_it_is_safe(make_env):
