@@ -186,6 +186,8 @@ def test_evaluate_rejects_bad_policies_without_writing(tmp_path):
     assert result.exit_code == 1 and "does not exist" in result.output
     result = invoke("evaluate", *SMALL, "--policy", "expert:reckless")
     assert result.exit_code == 2 and "reckless" in result.output
+    result = invoke("evaluate", *SMALL, "--policy", "expert:")  # a style left out is no style
+    assert result.exit_code == 2 and "unknown expert style ''" in result.output
     assert "Traceback" not in result.output and not out.exists()
 
 

@@ -98,6 +98,10 @@ def test_an_expert_of_another_observation_layout_is_one_sentence(tmp_path, learn
     unknown = invoke("record-expert", *SMALL, "--expert", "speedy", "--episodes", "1", "--out",
                      str(tmp_path / "x.parquet"))
     assert unknown.exit_code == 2 and "calm" in unknown.output and not (tmp_path / "x.parquet").exists()
+    for not_a_driver in ("", str(tmp_path)):  # nothing, a directory
+        result = invoke("record-expert", *SMALL, "--expert", not_a_driver, "--episodes", "1", "--out",
+                        str(tmp_path / "x.parquet"))
+        assert result.exit_code == 2 and "not a style" in result.output
 
 
 def test_a_layout_or_scale_mismatch_names_the_settings_the_policy_was_trained_with(tmp_path):

@@ -27,9 +27,9 @@ from sumo_rail.sim.env import HighwayEnv
 def parse_driver(text: str, config: Config, expert: DriverSpec) -> DriverSpec:
     """'expert' (the given `expert`), 'expert:STYLE', 'keep', 'random', or the path of a saved policy file
     (`parse_policy`)."""
-    name, _, style = text.partition(":")
+    name, colon, style = text.partition(":")
     if name == "expert":
-        if not style:
+        if not colon:
             return expert
         if style not in STYLES:
             raise ValueError(f"unknown expert style {style!r}; known styles: {', '.join(sorted(STYLES))}")

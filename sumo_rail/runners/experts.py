@@ -82,7 +82,7 @@ def resolve_expert(expert: str, config: Config) -> DriverSpec:
     if expert in STYLES:
         return ExpertDriver(expert)
     path = Path(expert)
-    if not path.suffix and not path.exists():
+    if not expert.strip() or path.is_dir() or (not path.suffix and not path.exists()):
         raise ValueError(f"unknown expert {expert!r}: not a style ({', '.join(sorted(STYLES))}) nor a policy file")
     # its reference is itself (it is the expert), not the expert its file records it learned from
     return dataclasses.replace(parse_policy(path, config, name=f"expert-{policy_name(path)}"), expert=expert)

@@ -33,7 +33,7 @@ GAP_M = 20.0
 def start_slots(config: Config, egos: int) -> list[tuple[float, float]]:
     """The interval [m] in which each of `egos` egos starts its front, nearest the start of the road first (see
     the module's docstring); ValueError when they do not fit on the road before its end margin."""
-    if not (isinstance(egos, int | np.integer) and egos >= 1):
+    if isinstance(egos, bool) or not (isinstance(egos, int | np.integer) and egos >= 1):
         raise ValueError(f"egos must be an integer >= 1, got {egos!r}")
     low, high = config.env.ego_start_min_m, config.env.ego_start_max_m
     if egos == 1:

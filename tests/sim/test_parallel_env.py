@@ -159,7 +159,7 @@ def test_start_slots_share_the_single_egos_window_and_widen_when_it_is_too_narro
     assert wide[0] == (300.0, 340.0 - GAP_M) and wide[-1] == (300.0 + 15 * MIN_SLOT_M, 300.0 + 16 * MIN_SLOT_M)
     with pytest.raises(ValueError, match="30 egos need start slots"):
         start_slots(small_config, 30)
-    for egos in (0, 2.5):
+    for egos in (0, 2.5, True):
         with pytest.raises(ValueError, match="egos must be an integer"):
             start_slots(small_config, egos)
     for seed in range(5):
