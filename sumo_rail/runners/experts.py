@@ -59,7 +59,7 @@ def parse_policy(path: Path, config: Config, sampled: bool = False, name: str | 
 
 
 def differing_settings(metadata: Mapping[str, Any], config: Config,
-                settings: tuple[tuple[str, str], ...] = LAYOUT_SETTINGS) -> str:
+                       settings: tuple[tuple[str, str], ...] = LAYOUT_SETTINGS) -> str:
     """The `settings` where the training configuration a policy file records differs from `config`, as
     "; it was trained with --set observation.lane_block=1 and this configuration has observation.lane_block=0";
     "" when they agree or the file records no configuration."""

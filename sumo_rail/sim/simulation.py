@@ -64,11 +64,11 @@ class Simulation:
         global _ACTIVE_LIBSUMO
         if transport not in TRANSPORTS:
             raise ValueError(f"transport must be one of {', '.join(TRANSPORTS)}, got {transport!r}")
-        if transport == "auto" and _ACTIVE_LIBSUMO is not None and not gui:
-            warnings.warn("libsumo runs one simulation per process and another one holds it: this one runs over "
-                          "traci (the same episodes, slower)", stacklevel=3)
         if transport == "auto":
             transport = "libsumo" if _ACTIVE_LIBSUMO is None else "traci"
+            if transport == "traci" and not gui:
+                warnings.warn("libsumo runs one simulation per process and another one holds it: this one runs over "
+                              "traci (the same episodes, slower)", stacklevel=3)
         self.transport = "traci" if gui else transport
         if self.transport == "libsumo" and _ACTIVE_LIBSUMO is not None:
             raise SimulationError(
