@@ -194,11 +194,17 @@ def build_backend(name: str, workers: int, address: str | None) -> RolloutBacken
 
 
 def resolve_config(preset: str, config_path: Path | None, overrides: tuple[str, ...]) -> Config:
-    """The preset, then the TOML file, then each --set; a bad value is a usage error (exit 2)."""
+    """The preset, then the TOML file, then each --set; a bad value, or a road that cannot be built (a missing or
+    broken network, a route not in it), is a usage error (exit 2), before any work."""
     try:
         config = Config.preset(preset)
         config = config.with_toml(config_path) if config_path else config
-        return config.with_overrides(_parse_overrides(overrides)) if overrides else config
+        config = config.with_overrides(_parse_overrides(overrides)) if overrides else config
+        if config.scenario.kind != "straight":
+            from sumo_rail.sim import network
+
+            network.build(config.scenario)
+        return config
     except ConfigError as error:
         raise click.UsageError(str(error)) from error
 
