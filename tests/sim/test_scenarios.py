@@ -94,10 +94,8 @@ def test_a_driver_that_ignores_the_route_stops_at_the_lane_end_and_fails(small_c
     env = HighwayEnv(road(small_config, "exit"))
     try:
         seed = 0
-        observation, info = env.reset(seed=seed)
-        while info["lane"] == 0:  # a start in a lane that does not reach the exit
+        while env.reset(seed=seed)[1]["lane"] == 0:  # a start in a lane that does not reach the exit
             seed += 1
-            observation, info = env.reset(seed=seed)
         done = False
         while not done:
             _, reward, terminated, truncated, info = env.step(0)  # keep: never moves right
