@@ -217,9 +217,10 @@ def test_unknown_key_in_config_file(tmp_path: Path):
     assert result.exit_code == 2 and "env.decision_period" in result.output
 
 
-def test_the_recommended_preset_is_the_lane_block_setting_in_every_output(tmp_path):
+def test_the_recommended_preset_is_the_lane_and_route_blocks_in_every_output(tmp_path):
     outs = {}
-    for name, args in (("preset", ["--preset", "recommended"]), ("set", ["--set", "observation.lane_block=1"])):
+    for name, args in (("preset", ["--preset", "recommended"]),
+                       ("set", ["--set", "observation.lane_block=1", "--set", "observation.route_block=1"])):
         outs[name] = tmp_path / f"{name}.parquet"
         result = invoke("record-expert", *SMALL, *args, "--episodes", "1", "--out", str(outs[name]))
         assert result.exit_code == 0, result.output
@@ -232,7 +233,8 @@ def test_the_config_file_changes_the_preset_and_set_changes_both(tmp_path):
     path = tmp_path / "c.toml"
     path.write_text("[observation]\nlane_block = 0\n[scenario]\nlanes = 4\n")
     assert resolve_config("recommended", None, ()) == Config.preset("recommended")
-    assert resolve_config("recommended", path, ()) == Config().with_overrides({"scenario": {"lanes": 4}})
+    assert resolve_config("recommended", path, ()) == Config().with_overrides({"scenario": {"lanes": 4},
+                                                                                "observation": {"route_block": 1}})
     assert resolve_config("recommended", path, ("scenario.lanes=3",)).scenario.lanes == 3
     assert invoke("evaluate", "--preset", "best").exit_code == 2
 

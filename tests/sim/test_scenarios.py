@@ -107,7 +107,7 @@ def test_a_driver_that_ignores_the_route_stops_at_the_lane_end_and_fails(small_c
 
 
 def test_a_user_network_built_with_netconvert_is_driven_along_its_route(small_config, tmp_path):
-    """A bend and a lane drop from 3 lanes to 2 on the left, in a network of the user's own."""
+    """A bend where the road narrows from 3 lanes to 2, in a network of the user's own."""
     (tmp_path / "road.nod.xml").write_text(
         '<nodes><node id="a" x="0" y="0"/><node id="b" x="900" y="0"/><node id="c" x="1500" y="400"/></nodes>')
     (tmp_path / "road.edg.xml").write_text(
