@@ -240,9 +240,9 @@ def _parse_overrides(overrides: tuple[str, ...]) -> dict[str, dict[str, Any]]:
         try:
             value = tomllib.loads(f"value = {raw}")["value"]
         except tomllib.TOMLDecodeError as error:
-            if not raw or raw[0] in "\"'[{" or any(character.isspace() for character in raw):
+            if not raw or raw[0] in "\"'[{":
                 raise ConfigError(f"--set {key.strip()} has an unreadable value {raw!r}") from error
-            value = raw  # a bare word (scenario.kind=merge, a file's path) is a string
+            value = raw  # bare words (scenario.kind=merge, a file's path, a route's edges) are a string
         sections.setdefault(section, {})[name] = value
     return sections
 

@@ -213,3 +213,16 @@ def test_the_cli_takes_a_road_by_its_bare_name_and_records_it_in_the_outputs_pro
                                       "--policy", "expert", "--episodes", "1", "--out", str(tmp_path / "x.parquet")])
     assert result.exit_code == 2 and "cannot read scenario.network" in result.output
     assert not (tmp_path / "x.parquet").exists()
+
+
+def test_set_reads_bare_words_and_edge_lists_as_strings_and_numbers_as_numbers():
+    from sumo_rail_cli.options import resolve_config
+
+    config = resolve_config("paper", None, ("scenario.route=e1 e2", "scenario.flow_veh_per_h=2000",
+                                            'scenario.traffic_file="my file.rou.xml"'))
+    assert (config.scenario.route, config.scenario.flow_veh_per_h) == ("e1 e2", 2000.0)
+    assert config.scenario.traffic_file == "my file.rou.xml"
+    with pytest.raises(Exception, match="unreadable value"):
+        resolve_config("paper", None, ('scenario.route="e1',))
+    with pytest.raises(Exception, match="must be a number"):
+        resolve_config("paper", None, ("scenario.flow_veh_per_h=lots",))
