@@ -226,3 +226,30 @@ def test_set_reads_bare_words_and_edge_lists_as_strings_and_numbers_as_numbers()
         resolve_config("paper", None, ('scenario.route="e1',))
     with pytest.raises(Exception, match="must be a number"):
         resolve_config("paper", None, ("scenario.flow_veh_per_h=lots",))
+
+
+def test_several_egos_share_a_ramp_and_respawn_on_it(small_config):
+    """The multi-ego env on merge_from_ramp: egos start on the route's first edge (the one-lane ramp), drive across
+    the joints, and an ended ego respawns there while the others drive on."""
+    from sumo_rail.sim.parallel_env import ParallelHighwayEnv
+
+    env = ParallelHighwayEnv(2, road(small_config, "merge_from_ramp"))
+    expert = make_expert("normal", env.config.env.speed_step_mps, env.config.expert.view_range_m)
+    try:
+        observations, _ = env.reset(seed=2)
+        assert {env.traffic(agent).ego.lane_id for agent in env.agents} == {"ramp_0"}
+        ended: set[str] = set()
+        for _ in range(400):
+            actions = {agent: expert(observations[agent], env.traffic(agent)) for agent in env.agents}
+            observations, _, terminations, truncations, infos = env.step(actions)
+            for agent in actions:
+                if terminations[agent] or truncations[agent]:
+                    assert infos[agent]["termination"] == "end_of_road" and infos[agent]["merges"] == 1
+                    ended.add(agent)
+                    observations[agent], _ = env.respawn(agent)
+                    assert env.traffic(agent).ego.lane_id == "ramp_0"
+            if len(ended) == 2:
+                break
+        assert ended == {"ego_0", "ego_1"}
+    finally:
+        env.close()
