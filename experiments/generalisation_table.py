@@ -1,7 +1,8 @@
 """The generalisation table (experiments/generalisation.sh): the expert on every road; BC and DAgger trained and tested
 on each road (a), trained on the straight road and tested on the others and at densities it never saw (b), BC
-trained on a mix of roads (c); each method pooled over its training seeds (experiments/seeded.py), with paired
-differences (b) - (a) and (c) - (a) on the same test episodes. Prints Markdown; writes the figure.
+trained on a mix of roads (c), and trained without the route block (d); each method pooled over its training seeds
+(experiments/seeded.py), with paired differences (b) - (a), (c) - (a) and (d) - (a) on the same test episodes.
+Prints Markdown; writes the figure.
 
 Usage: python experiments/generalisation_table.py OUT_DIR [FIGURE.png]
 """
@@ -25,6 +26,7 @@ from sumo_rail.evaluation.summary import measure_samples
 KINDS = ("straight", "merge", "merge_from_ramp", "lane_drop", "exit")
 METHODS = {"BC": ("dagger", "policy_bc"), "DAgger": ("dagger", "policy_latest")}
 MIX = {"BC, mixed roads": ("bc", "policy_bc")}
+NO_ROUTE = {"BC": ("no_route", "policy_bc"), "DAgger": ("no_route", "policy_latest")}
 SHOWN = ("agreement", "average_speed_kmh", "lane_changes", "failures", "merges")
 LABELS = {"agreement": "agreement", "average_speed_kmh": "speed [km/h]", "lane_changes": "lane changes",
           "failures": "failed episodes", "merges": "merges"}
@@ -108,6 +110,9 @@ def generalisation_table(out: Path, figure: dict[tuple[str, str, str], tuple[flo
         mixed = read(out, f"c_{kind}")
         if mixed is not None:
             lines += method_rows(mixed, own, kind, "(c) every road", MIX, METHODS, figure)
+        blind = read(out, f"d_{kind}")
+        if blind is not None:
+            lines += method_rows(blind, own, kind, f"(d) {kind}, no route block", NO_ROUTE, METHODS, figure)
     for name in sorted(path.stem for path in out.glob("b_straight_*.parquet") if "decisions" not in path.name):
         metrics = pd.read_parquet(out / f"{name}.parquet")
         flow = name.rsplit("_", 1)[1]
