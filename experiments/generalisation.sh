@@ -36,9 +36,9 @@ drivers() {  # the BC and DAgger policies trained on KIND
     printf -- '--policy %s --policy %s ' "$out/$kind/dagger_s$seed/policy_bc.npz" "$out/$kind/dagger_s$seed/policy_latest.npz"
   done
 }
-# the expert alone on every road, the full test set
+# the expert alone on every road, the full test set (EXPERT_EPISODES=0: skipped)
 for kind in $kinds; do
-  evaluate "$out/expert_$kind.parquet" "$kind" "$expert_episodes" --policy expert
+  [ "$expert_episodes" -gt 0 ] && evaluate "$out/expert_$kind.parquet" "$kind" "$expert_episodes" --policy expert
 done
 # (a) trained and tested on each road
 for kind in $kinds; do
