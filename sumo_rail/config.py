@@ -26,6 +26,8 @@ FEATURE_KINDS = ("merge", "merge_from_ramp", "lane_drop", "exit")
 """The generated roads with a feature (ramp, work zone, exit) at scenario.feature_at_m."""
 FEATURE_CLEARANCE_M = 400.0
 """Least distance from a feature's end to the end of the main road [m]."""
+LANE_CAPACITY_VEH_PER_H = 3000.0
+"""More traffic than this a lane is refused: a motorway lane carries about 2000-2400 veh/h at its best."""
 START_CLEARANCE_M = 200.0
 """Least distance from the ego's start window to the road's feature [m]: room to see it coming."""
 
@@ -108,6 +110,9 @@ class ScenarioConfig:
         _require(self.lane_width_m > 1.0, f"scenario.lane_width_m must exceed 1 m, got {self.lane_width_m}")
         _require(self.speed_limit_mps > 0, f"scenario.speed_limit_mps must be positive, got {self.speed_limit_mps}")
         _require(self.flow_veh_per_h > 0, f"scenario.flow_veh_per_h must be positive, got {self.flow_veh_per_h}")
+        _require(self.flow_veh_per_h <= LANE_CAPACITY_VEH_PER_H * self.lanes,
+                 f"scenario.flow_veh_per_h ({self.flow_veh_per_h:g} veh/h) is more than {self.lanes} lanes can carry "
+                 f"(about {LANE_CAPACITY_VEH_PER_H:g} veh/h a lane)")
         _require(0 < self.step_length_s <= 1.0, f"scenario.step_length_s must be in (0, 1] s, got {self.step_length_s}")
         _require(self.lane_change_duration_s >= 0,
                  f"scenario.lane_change_duration_s must not be negative, got {self.lane_change_duration_s}")
@@ -123,8 +128,9 @@ class ScenarioConfig:
 
     def _validate_feature(self) -> None:
         """The feature's settings: on the road, before its end, with lanes left over."""
-        _require(self.ramp_flow_veh_per_h >= 0,
-                 f"scenario.ramp_flow_veh_per_h must not be negative, got {self.ramp_flow_veh_per_h}")
+        _require(0 <= self.ramp_flow_veh_per_h <= LANE_CAPACITY_VEH_PER_H,
+                 f"scenario.ramp_flow_veh_per_h must be between 0 and what one lane can carry "
+                 f"({LANE_CAPACITY_VEH_PER_H:g} veh/h), got {self.ramp_flow_veh_per_h:g}")
         _require(0 <= self.exit_share < 1, f"scenario.exit_share must be in [0, 1), got {self.exit_share}")
         _require(self.feature_length_m >= 50, f"scenario.feature_length_m must be at least 50 m, got "
                                               f"{self.feature_length_m}")

@@ -253,3 +253,10 @@ def test_several_egos_share_a_ramp_and_respawn_on_it(small_config):
         assert ended == {"ego_0", "ego_1"}
     finally:
         env.close()
+
+
+def test_a_flow_no_road_can_hold_is_refused_before_anything_runs(small_config):
+    with pytest.raises(ConfigError, match=r"more than 5 lanes can carry"):
+        small_config.with_overrides({"scenario": {"flow_veh_per_h": 20000.0}})
+    with pytest.raises(ConfigError, match=r"ramp_flow_veh_per_h must be between 0 and what one lane can carry"):
+        small_config.with_overrides({"scenario": {"kind": "merge", **FEATURE, "ramp_flow_veh_per_h": 5000.0}})
