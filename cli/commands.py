@@ -52,7 +52,7 @@ def record_expert(config: Config, episodes: int, seed: int, workers: int,
     decision."""
     check_output(out, overwrite)
     check_egos(config, egos)
-    driver = resolve_expert_option(expert, config)
+    expert, driver = resolve_expert_option(expert, config)
     from sumo_rail.runners.record import record_demonstrations
 
     backend = build_backend(backend_name, workers, address)
@@ -76,7 +76,9 @@ def record_expert(config: Config, episodes: int, seed: int, workers: int,
                    "(sampled)'; repeatable; after the --policy drivers), with a generator seeded by the episode's "
                    "seed.")
 @expert_option("The expert: the driver --policy expert, and who is asked at every decision what it would do, for "
-               "drivers whose policy file does not record the expert it learned from.", "--reference-style")
+               "every driver. Without it each driver is compared with the expert its policy file records (the one "
+               "whose demonstrations trained it), others with the normal style; the table names it per driver.",
+               "--reference-style", default=None)
 @click.option("--reference", default=None, metavar="NAME",
               help="Driver the others are compared with, paired by seed (default: the first --policy).")
 @click.option("--pool", type=click.Choice(["test", "validation"]), default="test", show_default=True,
@@ -97,7 +99,7 @@ def record_expert(config: Config, episodes: int, seed: int, workers: int,
               help="With --video: episodes recorded per driver  [default: 1].")
 @output_options(required=False)
 def evaluate_command(config: Config, policies: tuple[str, ...],
-                     sampled_policies: tuple[Path, ...], expert: str, reference: str | None,
+                     sampled_policies: tuple[Path, ...], expert: str | None, reference: str | None,
                      pool: str, episodes: int, seed: int, workers: int, backend_name: str, address: str | None,
                      gui: bool, gui_delay_ms: float | None, video_dir: Path | None, video_episodes: int | None,
                      out: Path | None, overwrite: bool) -> None:
@@ -113,11 +115,13 @@ def evaluate_command(config: Config, policies: tuple[str, ...],
         raise click.UsageError("--gui-delay needs --gui")
     if video_episodes is not None and video_dir is None:
         raise click.UsageError("--video-episodes needs --video DIR")
+    from sumo_rail.drivers.expert import DEFAULT_STYLE
     from sumo_rail.drivers.policies import PolicyFileError
     from sumo_rail.evaluation.evaluate import (
         decisions_path,
         evaluate,
         parse_driver,
+        recorded_reference,
         unique_names,
         write_evaluation,
     )
@@ -128,9 +132,9 @@ def evaluate_command(config: Config, policies: tuple[str, ...],
 
     if out is not None:
         check_output(decisions_path(out), overwrite)
-    expert_driver = resolve_expert_option(expert, config)
+    recorded_expert, expert_driver = resolve_expert_option(expert or DEFAULT_STYLE, config)
 
-    drivers = []
+    drivers, sources = [], [*policies, *map(str, sampled_policies)]
     for text in policies:
         try:
             drivers.append(parse_driver(text, config, expert_driver))
@@ -140,10 +144,14 @@ def evaluate_command(config: Config, policies: tuple[str, ...],
             raise click.BadParameter(str(error), param_hint="'--policy'") from error
     try:
         drivers += [parse_policy(path, config, sampled=True) for path in sampled_policies]
+        # an explicit --expert is every driver's; without it, each its own file's
+        references = [expert_driver if expert is not None else recorded_reference(driver, source, config,
+                                                                                  expert_driver)
+                      for driver, source in zip(drivers, sources, strict=True)]
     except PolicyFileError as error:
         raise click.ClickException(str(error)) from error
     if gui:
-        drivers, episodes = drivers[:1], 1
+        drivers, references, episodes = drivers[:1], references[:1], 1
     names = unique_names(drivers)
     _check_video_dir(video_dir, names, overwrite)
     if reference is not None and reference not in names:
@@ -154,13 +162,13 @@ def evaluate_command(config: Config, policies: tuple[str, ...],
                if gui else build_backend(backend_name, workers, address))
     bar = progress(len(drivers) * episodes, "evaluating")
     with interruptible_run(bar, "interrupted; nothing was written" if out is not None else "interrupted", backend):
-        evaluation = evaluate(drivers, config, seeds, backend, expert_driver, pool,
+        evaluation = evaluate(drivers, config, seeds, backend, references, pool,
                               on_episode=lambda index, result: bar.update(),
                               video_episodes=(video_episodes or 1) if video_dir is not None else 0)
         if out is not None:
             write_evaluation(evaluation, config, seed, out, policies=list(policies),
                              sampled_policies=[str(path) for path in sampled_policies], episode_seeds=seeds,
-                             expert=expert, pool=pool)
+                             expert=recorded_expert if expert is not None else None, pool=pool)
         written_videos = _write_videos(evaluation.videos, video_dir)
     click.echo(summary_table(evaluation.metrics, reference))
     if expert_driver.name in names and len(names) > 1:

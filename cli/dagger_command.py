@@ -13,6 +13,7 @@ from sumo_rail_cli.options import (
     egos_option,
     expert_option,
     imitation_options,
+    resolve_expert_option,
     run_folder_options,
     tensorboard_option,
 )
@@ -53,6 +54,8 @@ def dagger_command(config: Config, demos: Path, kind: str, hidden: int,
     from sumo_rail.learning.dagger import DaggerSettings, train_dagger
     from sumo_rail.learning.training import RunError, Validation
 
+    if expert is not None:
+        expert, _ = resolve_expert_option(expert, config)
     try:
         settings = DaggerSettings(str(demos), kind, hidden, episodes_per_round, beta, beta_decay,
                                   BcSettings(epochs=max(bc_epochs, 1), class_balance=bc_class_balance, seed=seed),

@@ -359,14 +359,16 @@ def expert_option(help_text: str, *aliases: str, default: str | None = "normal"
                         "policy file whose observation layout is this configuration's.")
 
 
-def resolve_expert_option(expert: str, config: Config) -> Any:
-    """The expert driver of --expert; an unknown name is a usage error (exit 2), an unusable policy file a
-    one-sentence error (exit 1)."""
+def resolve_expert_option(expert: str, config: Config) -> tuple[str, Any]:
+    """How outputs record the expert of --expert (`experts.expert_reference`: a policy file by absolute path and
+    content hash) and its driver; an unknown name is a usage error (exit 2), an unusable policy file a one-sentence
+    error (exit 1)."""
     from sumo_rail.drivers.policies import PolicyFileError
-    from sumo_rail.runners.experts import resolve_expert
+    from sumo_rail.runners.experts import expert_reference, resolve_expert
 
     try:
-        return resolve_expert(expert, config)
+        reference = expert_reference(expert)
+        return reference, resolve_expert(reference, config)
     except PolicyFileError as error:
         raise click.ClickException(str(error)) from error
     except ValueError as error:

@@ -62,15 +62,19 @@ def step_signal_command(config: Config, demos: Path, policy_path: Path,
     from sumo_rail.learning.rail import calibration_states
     from sumo_rail.learning.step_signal import Meter, measure, variants
     from sumo_rail.learning.training import write_atomically
-    from sumo_rail.runners.experts import demonstrations_expert
+    from sumo_rail.runners.experts import demonstrations_expert, resolve_expert
     from sumo_rail.runners.tables import provenance, read_demonstrations
     from sumo_rail.sim.observation import observation_space
 
     with library_errors():
         demonstrations = read_demonstrations(demos, observation_space(config).shape[0])
         policy, _ = load_policy(policy_path)
-    expert = expert or demonstrations_expert(demonstrations.metadata)
-    asked = resolve_expert_option(expert, config)
+    if expert is not None:
+        expert, asked = resolve_expert_option(expert, config)
+    else:
+        expert = demonstrations_expert(demonstrations.metadata)
+        with library_errors():
+            asked = resolve_expert(expert, config, recorded_by=demos)
     if policy.shape.observation_size != demonstrations.observations.shape[1]:
         raise click.UsageError(f"policy {policy_path} sees {policy.shape.observation_size} observation values but "
                                f"the configuration gives {demonstrations.observations.shape[1]}")

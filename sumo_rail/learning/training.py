@@ -48,7 +48,7 @@ from sumo_rail.learning.normalize import RunningStats
 from sumo_rail.learning.rail import RailSettings, TrainingState, run_iteration
 from sumo_rail.runners.backends import RolloutBackend
 from sumo_rail.runners.experts import demonstrations_expert, resolve_expert
-from sumo_rail.runners.rollout import PolicyDriver
+from sumo_rail.runners.rollout import DriverSpec, PolicyDriver
 from sumo_rail.runners.tables import provenance, read_demonstrations
 from sumo_rail.seeding import Purpose, episode_seeds
 from sumo_rail.sim.observation import observation_space
@@ -124,7 +124,7 @@ def train(folder: Path, settings: RunSettings, config: Config, iterations: int, 
     expert_stats = RunningStats.of(demos.observations)
     discriminator = Discriminator(observation_size, expert_stats.mean.copy(), expert_stats.std.copy(),
                                   settings.discriminator)
-    asked = resolve_expert(expert, config)  # the demonstrations' expert, checked before any work
+    asked = resolve_expert(expert, config, recorded_by=settings.demos)  # checked before any work
     if resume:
         state, logs = _resume(folder, run_record, shape, discriminator)
     else:
@@ -135,7 +135,7 @@ def train(folder: Path, settings: RunSettings, config: Config, iterations: int, 
         log = run_iteration(state, shape, config, settings.rail, discriminator, demos, backend, on_rollout, asked)
         row = {**dataclasses.asdict(log), "wall_time_s": time.perf_counter() - started}
         policy = Policy(shape, state.parameters, state.stats.mean, state.stats.std)
-        row.update(validate(policy, config, backend, validation, expert)
+        row.update(validate(policy, config, backend, validation, asked)
                    if validation.due(log.iteration, iterations - 1)
                    else dict.fromkeys(validation_columns()))
         logs.append(row)
@@ -158,11 +158,11 @@ def with_validation_columns(row: dict[str, Any]) -> dict[str, Any]:
 
 
 def validate(policy: Policy, config: Config, backend: RolloutBackend, validation: Validation,
-             expert: str) -> dict[str, float]:
+             expert: DriverSpec) -> dict[str, float]:
     """VALIDATION_METRICS of `policy` on the validation seeds and warm states, as eval_<measure>, agreement with
-    `expert` (a style or a policy file), and the agreement's 95% interval (VALIDATION_INTERVAL)."""
+    `expert` (`resolve_expert`), and the agreement's 95% interval (VALIDATION_INTERVAL)."""
     seeds = episode_seeds(Purpose.EVALUATE, VALIDATION_BASE_SEED, validation.episodes)
-    evaluation = evaluate([PolicyDriver(policy, "policy", expert)], config, seeds, backend, pool="validation")
+    evaluation = evaluate([PolicyDriver(policy, "policy")], config, seeds, backend, expert, pool="validation")
     samples = measure_samples(evaluation.metrics)
     agreement = interval(samples["agreement"])
     return {**{f"eval_{measure}": float(ratio(samples[measure])) for measure in VALIDATION_METRICS},

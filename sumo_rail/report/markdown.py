@@ -46,7 +46,12 @@ def write_report(inputs: Inputs, out: Path, videos: Path | None = None) -> Path:
         plots.append(plot)
 
     runs = inputs.runs
-    if runs:
+    if runs and runs[0].method == "PPO":
+        add(Plot("learning_curves.png", "Learning curves",
+                 "Mean environment return (the env's reward plus any shaping, what PPO maximises) of the episodes "
+                 "that ended in each update (band: +- std, dashed: best episode) against cumulative environment "
+                 "steps."), lambda: learning_curves(runs))
+    elif runs:
         add(Plot("learning_curves.png", "Learning curves",
                  "Mean discriminator return of each iteration's rollouts (RAIL: the perturbed rollouts; GAIL: "
                  "the episodes of a PPO update) (band: +- std, dashed: best rollout) against cumulative "
@@ -122,7 +127,10 @@ def markdown(inputs: Inputs, plots: list[Plot]) -> str:
     """The report text: runs table, evaluation summary, and every plot with its caption."""
     lines = ["# sumo-rail report", ""]
     if inputs.runs:
+        environment = inputs.runs[0].method == "PPO"
         lines += ["## Training runs", "", *run_table(inputs.runs), "",
+                  "env return: mean over the episodes that ended in one PPO update of the environment's return (its "
+                  "reward plus any shaping); updates count from 1; wall time sums the updates." if environment else
                   "D return: mean over one iteration's rollouts (RAIL: perturbed rollouts; GAIL: a PPO update's "
                   "episodes) of the per-decision discriminator reward "
                   "log D - log(1 - D); iterations count from 1; wall time sums the iterations (without behaviour "
@@ -148,7 +156,8 @@ def markdown(inputs: Inputs, plots: list[Plot]) -> str:
 
 def run_table(runs: list[Run]) -> list[str]:
     """One Markdown table row per run."""
-    header = ("| run | policy | iterations | env steps | wall time (min) | final D return | best D return (iteration) "
+    name = runs[0].return_name if runs else "D return"
+    header = (f"| run | policy | iterations | env steps | wall time (min) | final {name} | best {name} (iteration) "
               "| validated at iteration | speed (km/h) | overtakes | lane changes | collisions |")
     rows = [header, "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for run in runs:
