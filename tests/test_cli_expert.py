@@ -167,7 +167,7 @@ def test_a_recorded_policy_expert_is_found_from_any_folder_and_a_changed_one_is_
     save_policy(Policy(shape, np.full(shape.parameter_count, 2.0)), tmp_path / "exp.npz",
                 {"observation_names": observation_names(CONFIG)})
     with pytest.raises(PolicyFileError, match=r"^the policy file .*exp\.npz, which demos\.parquet records as its "
-                                              r"expert, has changed since it was recorded \(its content hash differs\)$"):
+                       r"expert, has changed since it was recorded \(its content hash differs\)$"):
         resolve_expert(recorded, CONFIG, recorded_by="demos.parquet")
     (tmp_path / "exp.npz").unlink()
     with pytest.raises(PolicyFileError, match=r"^the policy file .*exp\.npz, which demos\.parquet records as its "
