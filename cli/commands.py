@@ -12,6 +12,7 @@ from sumo_rail_cli.options import (
     build_backend,
     check_egos,
     check_output,
+    check_run_folder,
     config_options,
     egos_option,
     episode_options,
@@ -23,7 +24,7 @@ from sumo_rail_cli.options import (
     search_options,
     tensorboard_option,
 )
-from sumo_rail_cli.progress import progress
+from sumo_rail_cli.progress import advance_to, complete, progress
 from sumo_rail_cli.running import (
     bc_summary,
     interruptible_run,
@@ -61,6 +62,7 @@ def record_expert(config: Config, episodes: int, seed: int, workers: int,
         metrics = record_demonstrations(config, driver, expert, seed, episodes, backend, out,
                                         on_episode=lambda index, result: bar.update(
                                             len(result) if isinstance(result, list) else 1), egos=egos)
+        complete(bar)
     decisions = sum(row["steps"] for row in metrics)
     collisions = sum(row["collisions"] for row in metrics)
     click.echo(f"wrote {out}: {len(metrics)} episodes, {decisions} decisions, expert {expert}, {collisions} collisions")
@@ -170,6 +172,7 @@ def evaluate_command(config: Config, policies: tuple[str, ...],
                              sampled_policies=[str(path) for path in sampled_policies], episode_seeds=seeds,
                              expert=recorded_expert if expert is not None else None, pool=pool)
         written_videos = _write_videos(evaluation.videos, video_dir)
+        complete(bar)
     click.echo(summary_table(evaluation.metrics, reference))
     if expert_driver.name in names and len(names) > 1:
         click.echo("\n" + distance_summary(evaluation.decisions, expert_driver.name, config.scenario.lanes))
@@ -234,6 +237,7 @@ def train_command(config: Config, demos: Path, kind: str, hidden: int,
     from sumo_rail.learning.training import RunError, RunSettings, Validation, train
 
     check_egos(config, search.egos)
+    check_run_folder(out)
     rail, discriminator = search.settings(seed)
     settings = RunSettings(str(demos), kind, hidden, bc_epochs, rail, discriminator, bc_class_balance)
     backend = build_backend(backend_name, workers, address)
@@ -247,7 +251,7 @@ def train_command(config: Config, demos: Path, kind: str, hidden: int,
             board.log(row)
         steps_per_s = row["env_steps"] / row["wall_time_s"]
         bar.set_postfix(D_return=f"{row['return_mean']:+.3f}", steps_per_s=f"{steps_per_s:.0f}")
-        bar.update()
+        advance_to(bar, row["iteration"] + 1)  # a resumed run starts from the iterations done
         if row["eval_average_speed_kmh"] is not None:
             bar.write(f"iteration {row['iteration'] + 1}: {validation_summary(row, eval_episodes)}")
 
@@ -255,5 +259,6 @@ def train_command(config: Config, demos: Path, kind: str, hidden: int,
                            tensorboard_logger(tensorboard_dir, "rail", out), errors=(RunError,)) as board:
         state = train(out, settings, config, iterations, backend, resume, Validation(eval_every, eval_episodes),
                       on_bc=show_bc, on_iteration=show)
+        complete(bar)
     click.echo(f"trained {state.iteration} iterations; policies in {out}")
 

@@ -9,6 +9,7 @@ import click
 from sumo_rail_cli.options import (
     build_backend,
     check_egos,
+    check_run_folder,
     config_options,
     egos_option,
     expert_option,
@@ -17,7 +18,7 @@ from sumo_rail_cli.options import (
     run_folder_options,
     tensorboard_option,
 )
-from sumo_rail_cli.progress import progress
+from sumo_rail_cli.progress import advance_to, complete, progress
 from sumo_rail_cli.running import interruptible_run, kept_until_resume, tensorboard_logger, validation_summary
 
 if TYPE_CHECKING:
@@ -63,13 +64,14 @@ def dagger_command(config: Config, demos: Path, kind: str, hidden: int,
     except ValueError as error:
         raise click.UsageError(str(error)) from error
     check_egos(config, egos)
+    check_run_folder(out)
     backend = build_backend(backend_name, workers, address)
     bar = progress(rounds + 1, "DAgger", unit="round")
 
     def show(row: dict[str, Any]) -> None:
         if board is not None:
             board.log(row)
-        bar.update()
+        advance_to(bar, row["iteration"] + 1)  # a resumed run starts from the rounds done
         holdout = row["bc_holdout_accuracy"]
         text = (f"round {row['iteration']}: {row['dataset_rows']} labelled states, BC holdout accuracy "
                 f"{'n/a' if holdout is None else f'{holdout:.3f}'}")
@@ -81,4 +83,5 @@ def dagger_command(config: Config, demos: Path, kind: str, hidden: int,
                            tensorboard_logger(tensorboard_dir, "dagger", out), errors=(RunError,)) as board:
         train_dagger(out, settings, config, rounds, backend, resume, Validation(eval_every, eval_episodes),
                      on_round=show)
+        complete(bar)
     click.echo(f"DAgger: {rounds} rounds; policy in {out / 'policy_latest.npz'}")

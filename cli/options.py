@@ -74,8 +74,8 @@ def policy_shape_options(command: Callable[..., Any]) -> Callable[..., Any]:
 
 
 def ppo_options(default_timesteps: int, critic_help: str) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
-    """What gail and ppo share: --timesteps, --envs, --egos, --n-steps, --learning-rate, --normalize-reward and
-    --critic-warmup (`critic_help` ends its help)."""
+    """What gail and ppo share: --timesteps, --envs, --egos, --n-steps, --learning-rate, --normalize-reward,
+    --critic-warmup (`critic_help` ends its help, which says its default) and --resume."""
     options = [
         click.option("--timesteps", type=click.IntRange(min=1), default=default_timesteps, show_default=True,
                      help="Environment decisions in total (rounded up to whole updates of --n-steps x --envs x "
@@ -93,9 +93,12 @@ def ppo_options(default_timesteps: int, critic_help: str) -> Callable[[Callable[
         click.option("--normalize-reward/--no-normalize-reward", default=True, show_default=True,
                      help="Divide PPO's rewards by the running std of the discounted return and clip them to +-10 "
                           "(Stable-Baselines3's VecNormalize), so that one collision cannot swamp the critic."),
-        click.option("--critic-warmup", type=click.IntRange(min=0), default=5, show_default=True, metavar="K",
+        click.option("--critic-warmup", type=click.IntRange(min=0), default=None, metavar="K",
                      help=f"First K updates with the actor frozen, only the critic learning (they count in "
                           f"--timesteps){critic_help}."),
+        click.option("--resume", is_flag=True,
+                     help="Continue the run in --out from its last complete update (with the same options; "
+                          "--timesteps may grow); see docs/reliability.md for what it restores exactly."),
     ]
 
     def decorate(command: Callable[..., Any]) -> Callable[..., Any]:
@@ -103,6 +106,16 @@ def ppo_options(default_timesteps: int, critic_help: str) -> Callable[[Callable[
             command = option(command)
         return command
     return decorate
+
+
+DEFAULT_BATCH = 64
+"""PPO's minibatch size [decisions] when none is given, or an update's decisions if fewer."""
+
+
+def minibatch_size(requested: int | None, n_steps: int, envs: int, egos: int) -> int:
+    """PPO's minibatch size: `requested`, else DEFAULT_BATCH or an update's n_steps x envs x egos decisions if fewer
+    (what Stable-Baselines3 does then, one minibatch of the whole update, without its warning)."""
+    return requested if requested is not None else min(DEFAULT_BATCH, n_steps * envs * egos)
 
 
 def egos_option(shared: str, note: str = "") -> Callable[[Callable[..., Any]], Callable[..., Any]]:
@@ -211,6 +224,16 @@ def check_output(out: Path | None, overwrite: bool) -> None:
         return
     try:
         check_output_path(out, overwrite)
+    except DatasetError as error:
+        raise click.BadParameter(str(error), param_hint="'--out'") from error
+
+
+def check_run_folder(out: Path) -> None:
+    """Refuse a run folder --out that cannot be made or written before any work starts (usage error, exit 2)."""
+    from sumo_rail.datasets import DatasetError, check_output_folder
+
+    try:
+        check_output_folder(out)
     except DatasetError as error:
         raise click.BadParameter(str(error), param_hint="'--out'") from error
 

@@ -576,6 +576,7 @@ def test_a_lost_stable_baselines3_environment_process_is_one_sentence(workspace:
             deadline = time.time() + 120
             while not (workspace / "sb3_run" / "log.parquet").exists() and time.time() < deadline:
                 time.sleep(0.2)
+            assert (workspace / "sb3_run" / "log.parquet").exists(), "no update was saved within 120 s"
             envs = [pid for pid in _children(process.pid) if _is_env_process(pid)]
             assert len(envs) == 1, envs
             os.kill(envs[0], signal.SIGKILL)
@@ -588,6 +589,6 @@ def test_a_lost_stable_baselines3_environment_process_is_one_sentence(workspace:
     error = stderr.rstrip().splitlines()[-1]
     assert error.startswith(f"Error: {run.split()[0]} stopped during update "), error
     if how == "killed":
-        assert "environment process 0 was killed by signal 9" in error and "policy_latest.npz holds update" in error
+        assert "environment process 0 was killed by signal 9" in error and "keeps update 1" in error
     else:
-        assert "environment process 0 failed: " in error and "not_a_folder" in error and "no trained policy" in error
+        assert "environment process 0 failed: " in error and "not_a_folder" in error and "no complete update" in error

@@ -34,6 +34,7 @@ from sumo_rail.learning.training import (
     RunError,
     Validation,
     signals_deferred,
+    start_run_folder,
     validate,
     validation_columns,
     with_defaults,
@@ -172,7 +173,7 @@ def train_dagger(folder: Path, settings: DaggerSettings, config: Config, rounds:
         done, dataset, logs = _resume(folder, run_record)
         policy, _ = behaviour_cloning(dataset, shape, settings.bc)
     else:
-        _start_folder(folder, run_record)
+        start_run_folder(folder, run_record)
         dataset, logs, done = demos, [], 0
         policy, report = behaviour_cloning(dataset, shape, settings.bc)
         save_policy(policy, folder / "policy_bc.npz", {**run_record, "bc_report": dataclasses.asdict(report)})
@@ -227,13 +228,6 @@ def _aggregate(dataset: Demonstrations, labelled: list[LabelledEpisode]) -> Demo
     return Demonstrations(np.concatenate([dataset.observations, *(e.observations for e in labelled)]),
                           np.concatenate([dataset.actions, *(e.labels for e in labelled)]),
                           np.concatenate([dataset.episodes, *episodes]), dataset.metadata)
-
-
-def _start_folder(folder: Path, run_record: dict[str, Any]) -> None:
-    if folder.exists() and any(folder.iterdir()):
-        raise RunError(f"run folder {folder} is not empty; pass --resume to continue it or choose another --out")
-    folder.mkdir(parents=True, exist_ok=True)
-    write_atomically(folder / "run.json", json.dumps(run_record, indent=2, sort_keys=True).encode())
 
 
 def _save(folder: Path, round_: int, dataset: Demonstrations, policy: Policy, logs: list[dict[str, Any]],
