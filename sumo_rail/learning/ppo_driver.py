@@ -19,8 +19,9 @@ Reproducible as `gail`: env k's first episode has the Purpose.TRAIN seed of epis
 is seeded and torch runs on one thread, so the same settings give the same policy bit for bit (for the same
 number of envs).
 
-runs/NAME/ holds `run.json` (settings, config, provenance), `policy_latest.npz` and `log.parquet`, replaced
-together after every update. The log has one row per update: iteration, env_steps, episodes (ended in the
+runs/NAME/ holds `run.json` (settings, config, provenance), `policy_latest.npz`, `log.parquet` and `checkpoint.pt`,
+replaced together after every update. The log has one row per update: iteration, env_steps (the decisions the
+envs returned in the update, counted as they come), episodes (ended in the
 update), return_mean / _max / _std (the undiscounted episode return PPO trains on, the env's reward plus any
 shaping, of those episodes; NaN when none ended), speed_kmh, overtakes, lane_changes, collisions (per ended
 episode), entropy (nats), actor_frozen, reward_std and wall_time_s. SIGINT / SIGTERM stop after the current
@@ -130,6 +131,8 @@ class EpisodeTally:
         self._returns = np.zeros(envs)
         self._overtakes = np.zeros(envs, dtype=np.int64)
         self.ended: list[dict[str, float]] = []
+        self.decisions = 0
+        """Decisions seen since the last `take` (all envs)."""
 
     def shaped(self, rewards: np.ndarray, dones: np.ndarray, infos: list[dict[str, Any]]) -> np.ndarray:
         """This step's rewards plus the shaping; records the episodes that ended."""
@@ -138,6 +141,7 @@ class EpisodeTally:
         rewards = (np.asarray(rewards, dtype=np.float64) + self.overtake_reward * (overtakes - self._overtakes)
                    + self.keep_right_reward - self.keep_right_per_lane * lanes_left_of_rightmost)
         self._returns += rewards
+        self.decisions += len(rewards)
         for env in np.flatnonzero(dones):
             info = infos[env]
             self.ended.append({"return": float(self._returns[env]),
@@ -150,7 +154,8 @@ class EpisodeTally:
         return rewards.astype(np.float32)
 
     def take(self) -> list[dict[str, float]]:
-        ended, self.ended = self.ended, []
+        """The episodes that ended since the last call (and the decision count starts again)."""
+        ended, self.ended, self.decisions = self.ended, [], 0
         return ended
 
 
@@ -222,7 +227,7 @@ def train_ppo_driver(folder: Path, settings: PpoSettings, config: Config,
                 frozen = update < settings.critic_warmup
                 set_actor_trainable(model.policy, not frozen)
                 model.learn(settings.steps_per_update, reset_num_timesteps=False)
-                row = {"iteration": update, "env_steps": settings.steps_per_update, **_episode_summary(tally.take()),
+                row = {"iteration": update, "env_steps": tally.decisions, **_episode_summary(tally.take()),
                        "entropy": -float(model.logger.name_to_value["train/entropy_loss"]),
                        "actor_frozen": frozen, "reward_std": reward_std(model),
                        "wall_time_s": time.perf_counter() - started}
