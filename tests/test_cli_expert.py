@@ -187,3 +187,44 @@ def test_demonstrations_whose_expert_file_is_gone_are_one_sentence_naming_them(t
                         "--out", str(tmp_path / command[0]))
         assert result.exit_code == 1 and "Traceback" not in result.output, result.output
         assert f"which {demos} records as its expert, does not exist" in result.output
+
+
+@pytest.mark.parametrize("setting, other", [("lidar.range_m", "80.0"), ("env.v_max_mps", "30.0"),
+                                            ("env.v_min_mps", "5.0")])
+def test_every_scale_setting_is_checked_against_a_policy_file_from_the_cli(tmp_path, setting, other):
+    path = tmp_path / "trained.npz"
+    shape = PolicyShape("linear", len(observation_names(CONFIG)))
+    save_policy(Policy(shape, np.zeros(shape.parameter_count)), path,
+                {"observation_names": observation_names(CONFIG), "config": CONFIG.to_dict()})
+    section, key = setting.split(".")
+    trained = CONFIG.to_dict()[section][key]
+    for option in ("--policy", "--expert"):
+        result = invoke("evaluate", *SMALL, "--set", f"{setting}={other}", option, str(path), "--episodes", "1")
+        assert result.exit_code == 1 and "Traceback" not in result.output, result.output
+        assert (f"reads observations scaled otherwise than this configuration's; it was trained with --set "
+                f"{setting}={trained} and this configuration has {setting}={float(other)}") in result.output
+
+
+def test_the_agreement_reward_asks_the_policy_file_the_demonstrations_recorded(tmp_path):
+    """The same demonstrations, once as recorded (by a policy file that always keeps its action) and once said to be
+    the normal style's: the agreement reward of the same first iteration differs, so it asks whom the file names."""
+    from test_cli import SMALL as ROAD
+    from test_cli import hand_made_policy
+
+    from sumo_rail.datasets import read_table, write_parquet
+
+    keeper = hand_made_policy(tmp_path / "keeper.npz", action=0)
+    demos = tmp_path / "demos.parquet"
+    assert invoke("record-expert", *ROAD, "--expert", str(keeper), "--episodes", "2", "--out",
+                  str(demos)).exit_code == 0
+    restyled = tmp_path / "restyled.parquet"
+    write_parquet(read_table(demos), restyled, {**read_metadata(demos), "expert": "normal"})
+    returns = []
+    for name in (demos, restyled):
+        run = tmp_path / name.stem
+        result = invoke("train", *ROAD, "--demos", str(name), "--reward", "agreement", "--policy", "linear",
+                        "--bc-epochs", "2", "--directions", "2", "--iterations", "1", "--eval-every", "0", "--out",
+                        str(run))
+        assert result.exit_code == 0, result.output
+        returns.append(pd.read_parquet(run / "log.parquet")["return_mean"].item())
+    assert returns[0] != returns[1]
