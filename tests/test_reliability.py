@@ -418,9 +418,12 @@ def test_a_full_disk_during_a_gail_update_keeps_the_previous_update(workspace: P
         train_gail(workspace / "gail_run", settings, SMALL_CONFIG, on_update=fail_from_the_second_update)
     monkeypatch.setattr(pq, "write_table", original)
     message = str(caught.value)
-    assert "cannot save update 2" in message and os.strerror(errno.ENOSPC) in message and "update 1's" in message
+    assert "cannot save update 2" in message and os.strerror(errno.ENOSPC) in message
+    assert "keeps update 1, the last complete one: make room and continue with --resume" in message
     assert saved and fingerprint(workspace / "gail_run") == saved  # update 1's files, untouched; no temporary left
     assert pd.read_parquet(workspace / "gail_run" / "log.parquet")["iteration"].tolist() == [0]
+    assert train_gail(workspace / "gail_run", settings, SMALL_CONFIG, resume=True).updates == 2  # room again
+    assert pd.read_parquet(workspace / "gail_run" / "log.parquet")["iteration"].tolist() == [0, 1]
 
 
 # ---------------------------------------------------------------------------------------------------------------------
