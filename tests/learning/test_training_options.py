@@ -7,19 +7,13 @@ import json
 import numpy as np
 import pytest
 from test_cli import SMALL, invoke
+from test_training import demos_path, small_config_module  # noqa: F401 (fixtures)
 
-from sumo_rail.config import Config
-from sumo_rail.datasets import write_parquet
 from sumo_rail.learning.discriminator import DiscriminatorSettings
 from sumo_rail.learning.rail import RailSettings
 from sumo_rail.learning.training import RunSettings, train
 from sumo_rail.runners.backends import SerialBackend
-from sumo_rail.runners.rollout import EpisodeTask, ExpertDriver
-from sumo_rail.runners.tables import DEMONSTRATIONS, demonstrations_table, provenance
 
-CONFIG = Config.from_dict({"scenario": {"length_m": 1500.0, "warmup_s": 120.0, "snapshots": 3,
-                                        "snapshot_interval_s": 10.0},
-                           "env": {"ego_start_min_m": 300.0, "ego_start_max_m": 500.0}})
 OPTIONS = {  # option: (value, where run.json's settings hold it, the value stored there); values all distinct
     "--policy": ("linear", ("kind",), "linear"), "--hidden": ("7", ("hidden",), 7),
     "--bc-epochs": ("2", ("bc_epochs",), 2), "--bc-class-balance": ("0.3", ("bc_class_balance",), 0.3),
@@ -44,18 +38,20 @@ OPTIONS = {  # option: (value, where run.json's settings hold it, the value stor
 
 
 @pytest.fixture(scope="module")
-def demos_path(tmp_path_factory):
-    path = tmp_path_factory.mktemp("demos") / "demos.parquet"
-    seeds = [0, 3]
-    with SerialBackend() as backend:
-        results = backend.run([EpisodeTask(CONFIG, ExpertDriver("normal"), s, record=True) for s in seeds])
-    write_parquet(demonstrations_table(results, seeds, 56), path, provenance(DEMONSTRATIONS, CONFIG, 0))
-    return path
+def demos(request):
+    """test_training's demonstrations (by name: the imported fixture)."""
+    return request.getfixturevalue("demos_path")
 
 
-def test_every_option_reaches_run_json_under_its_own_name(tmp_path, demos_path):
+@pytest.fixture(scope="module")
+def config(request):
+    """test_training's small road."""
+    return request.getfixturevalue("small_config_module")
+
+
+def test_every_option_reaches_run_json_under_its_own_name(tmp_path, demos):
     options = [part for option, (value, _, _) in OPTIONS.items() for part in (option, *([value] * (value is not None)))]
-    result = invoke("train", *SMALL, "--demos", str(demos_path), *options, "--iterations", "1", "--eval-every", "0",
+    result = invoke("train", *SMALL, "--demos", str(demos), *options, "--iterations", "1", "--eval-every", "0",
                     "--out", str(tmp_path / "run"))
     assert result.exit_code == 0, result.output
     settings = json.loads((tmp_path / "run" / "run.json").read_text())["settings"]
@@ -64,7 +60,7 @@ def test_every_option_reaches_run_json_under_its_own_name(tmp_path, demos_path):
         for key in path:
             found = found[key]
         assert found == stored, option
-    assert settings["discriminator"]["seed"] == 13 and settings["demos"] == str(demos_path)
+    assert settings["discriminator"]["seed"] == 13 and settings["demos"] == str(demos)
 
 
 BASE = RunSettings("", "linear", 4, 1, RailSettings(directions=2, top=2, step_size=0.05, seed=1),
@@ -92,21 +88,21 @@ class RecordingBackend(SerialBackend):
         return super().run(tasks, on_result)
 
 
-def one_iteration(folder, settings) -> tuple[np.ndarray, set[str]]:
+def one_iteration(folder, settings, config) -> tuple[np.ndarray, set[str]]:
     with RecordingBackend() as backend:
-        state = train(folder, settings, CONFIG, 1, backend, resume=False)
+        state = train(folder, settings, config, 1, backend, resume=False)
     return state.parameters, backend.task_types
 
 
 @pytest.fixture(scope="module")
-def base_iteration(tmp_path_factory, demos_path):
-    return one_iteration(tmp_path_factory.mktemp("base") / "run", dataclasses.replace(BASE, demos=str(demos_path)))
+def base_iteration(tmp_path_factory, demos, config):
+    return one_iteration(tmp_path_factory.mktemp("base") / "run", dataclasses.replace(BASE, demos=str(demos)), config)
 
 
 @pytest.mark.parametrize("change", sorted(CHANGES))
-def test_each_remedy_changes_the_iteration(tmp_path, demos_path, base_iteration, change):
+def test_each_remedy_changes_the_iteration(tmp_path, demos, config, base_iteration, change):
     base_parameters, base_tasks = base_iteration
-    parameters, tasks = one_iteration(tmp_path / "run", CHANGES[change](dataclasses.replace(BASE,
-                                                                                            demos=str(demos_path))))
+    parameters, tasks = one_iteration(tmp_path / "run", CHANGES[change](dataclasses.replace(BASE, demos=str(demos))),
+                                      config)
     assert not np.array_equal(parameters, base_parameters)
     assert ("SharedRolloutTask" in tasks) == (change == "--egos 2") and "SharedRolloutTask" not in base_tasks
