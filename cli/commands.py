@@ -150,7 +150,7 @@ def evaluate_command(config: Config, policies: tuple[str, ...],
         references = [expert_driver if expert is not None else recorded_reference(driver, source, config,
                                                                                   expert_driver)
                       for driver, source in zip(drivers, sources, strict=True)]
-    except PolicyFileError as error:
+    except ValueError as error:  # a PolicyFileError, or a file recording an expert that is no style nor file
         raise click.ClickException(str(error)) from error
     if gui:
         drivers, references, episodes = drivers[:1], references[:1], 1

@@ -228,3 +228,10 @@ def test_the_agreement_reward_asks_the_policy_file_the_demonstrations_recorded(t
         assert result.exit_code == 0, result.output
         returns.append(pd.read_parquet(run / "log.parquet")["return_mean"].item())
     assert returns[0] != returns[1]
+
+
+def test_a_recorded_expert_that_is_no_style_nor_file_names_the_file_that_records_it(tmp_path):
+    with pytest.raises(PolicyFileError, match=r"^demos\.parquet records the expert 'reckless', which is neither"):
+        resolve_expert("reckless", CONFIG, recorded_by="demos.parquet")
+    with pytest.raises(ValueError, match="unknown expert 'reckless'"):
+        resolve_expert("reckless", CONFIG)  # typed by a user: a usage error

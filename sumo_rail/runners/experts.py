@@ -101,7 +101,13 @@ def resolve_expert(expert: str, config: Config, recorded_by: Path | str | None =
     if expert in STYLES:
         return ExpertDriver(expert)
     text, _, digest = expert.partition(PINNED)
-    path = _expert_path(text)
+    try:
+        path = _expert_path(text)
+    except ValueError as error:
+        if recorded_by is None:
+            raise
+        raise PolicyFileError(f"{recorded_by} records the expert {expert!r}, which is neither a style "
+                              f"({', '.join(sorted(STYLES))}) nor a policy file") from error
     recorded = f", which {recorded_by} records as its expert," if recorded_by is not None else ""
     if recorded and not path.is_file():
         raise PolicyFileError(f"the policy file {path}{recorded} does not exist")
