@@ -1,12 +1,15 @@
 """gail and ppo from the outside: Ctrl-C (twice) ends a running run after its update with the files whole and the
-run continues with --resume; --egos is counted in the environment's decisions."""
+run continues with --resume, which repeats bit for bit; --egos is counted in the environment's decisions."""
 
+import json
+import shutil
 import signal
 import subprocess
 import sys
 import time
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 import pytest
 from click.testing import CliRunner
@@ -31,7 +34,8 @@ def demos(tmp_path_factory) -> Path:
 
 def runs(demos: Path) -> dict[str, list[str]]:
     common = [*SMALL, "--envs", "1", "--n-steps", "32"]
-    return {"ppo": ["ppo", *common], "gail": ["gail", *common, "--demos", str(demos), "--bc-epochs", "1"]}
+    return {"ppo": ["ppo", *common],
+            "gail": ["gail", *common, "--demos", str(demos), "--bc-epochs", "1", "--critic-warmup", "0"]}
 
 
 @pytest.mark.parametrize("command", ["ppo", "gail"])
@@ -78,3 +82,25 @@ def test_two_egos_a_process_drive_twice_the_decisions_counted_in_the_environment
         assert result.exit_code == 0, result.output
         steps[egos] = pd.read_parquet(tmp_path / f"egos{egos}" / "log.parquet")["env_steps"].tolist()
     assert steps == {1: [32], 2: [64]}
+
+
+@pytest.mark.parametrize("command", ["ppo", "gail"])
+def test_one_update_is_said_in_the_singular_and_resumed_runs_repeat_bit_for_bit(tmp_path, demos, command):
+    """A run of one update, continued twice from copies of its folder to three updates: the same files both times,
+    the first update kept, the progress ending at 100%."""
+    args = runs(demos)[command]
+    result = invoke(*args, "--timesteps", "32", "--out", str(tmp_path / "a"))
+    assert result.exit_code == 0 and "trained 1 PPO update (32 timesteps" in result.output, result.output
+    first, _ = load_policy(tmp_path / "a" / "policy_latest.npz")
+    shutil.copytree(tmp_path / "a", tmp_path / "b")
+    for name in ("a", "b"):
+        result = invoke(*args, "--timesteps", "96", "--resume", "--out", str(tmp_path / name))
+        assert result.exit_code == 0 and "trained 3 PPO updates (96 timesteps" in result.output, result.output
+        assert f"{command.upper()}: 96/96 timesteps (100%)" in result.output
+    a, b = (pd.read_parquet(tmp_path / name / "log.parquet").drop(columns="wall_time_s") for name in "ab")
+    pd.testing.assert_frame_equal(a, b)
+    assert a["iteration"].tolist() == [0, 1, 2]
+    assert (tmp_path / "a" / "policy_latest.npz").read_bytes() == (tmp_path / "b" / "policy_latest.npz").read_bytes()
+    resumed, _ = load_policy(tmp_path / "a" / "policy_latest.npz")
+    assert not np.array_equal(first.parameters, resumed.parameters)
+    assert json.loads((tmp_path / "a" / "run.json").read_text())["settings"]["timesteps"] == 96

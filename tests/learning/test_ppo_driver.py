@@ -1,5 +1,4 @@
 import json
-import shutil
 import sys
 
 import numpy as np
@@ -151,27 +150,6 @@ def test_ppo_refuses_a_warmup_without_init_and_a_batch_larger_than_an_update_bef
     result = invoke(*common, "--batch-size", "33")
     assert result.exit_code == 2 and "batch size 33 is larger than an update's 32 decisions" in result.output
     assert "Traceback" not in result.output and not (tmp_path / "run").exists()
-
-
-def test_one_update_is_said_in_the_singular_and_resumed_runs_repeat_bit_for_bit(tmp_path):
-    """A run of one update, continued twice from copies of its folder to three updates: the same files both times,
-    the first update kept, the progress ending at 100%."""
-    common = ("ppo", *SMALL, "--envs", "1", "--n-steps", "32", "--batch-size", "16")
-    result = invoke(*common, "--timesteps", "32", "--out", str(tmp_path / "a"))
-    assert result.exit_code == 0 and "trained 1 PPO update (32 timesteps)" in result.output, result.output
-    first, _ = load_policy(tmp_path / "a" / "policy_latest.npz")
-    shutil.copytree(tmp_path / "a", tmp_path / "b")
-    for name in ("a", "b"):
-        result = invoke(*common, "--timesteps", "96", "--resume", "--out", str(tmp_path / name))
-        assert result.exit_code == 0 and "trained 3 PPO updates (96 timesteps)" in result.output, result.output
-        assert "PPO: 96/96 timesteps (100%)" in result.output
-    a, b = (pd.read_parquet(tmp_path / name / "log.parquet").drop(columns="wall_time_s") for name in "ab")
-    pd.testing.assert_frame_equal(a, b)
-    assert a["iteration"].tolist() == [0, 1, 2]
-    assert (tmp_path / "a" / "policy_latest.npz").read_bytes() == (tmp_path / "b" / "policy_latest.npz").read_bytes()
-    resumed, _ = load_policy(tmp_path / "a" / "policy_latest.npz")
-    assert not np.array_equal(first.parameters, resumed.parameters)
-    assert json.loads((tmp_path / "a" / "run.json").read_text())["settings"]["timesteps"] == 96
 
 
 def test_resume_refuses_other_settings_a_damaged_checkpoint_and_nothing_to_resume(tmp_path):
