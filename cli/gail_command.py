@@ -16,7 +16,7 @@ from sumo_rail_cli.options import (
     seed_option,
     tensorboard_option,
 )
-from sumo_rail_cli.progress import progress
+from sumo_rail_cli.progress import complete, progress
 from sumo_rail_cli.running import (
     bc_summary,
     interruptible_run,
@@ -85,5 +85,7 @@ def gail_command(config: Config, demos: Path, timesteps: int, kind: str,
     with interruptible_run(bar, sb3_interrupted(out, resume), board=tensorboard_logger(tensorboard_dir, "gail", out),
                            errors=(BaselineError, RunError)) as board:
         result = train_gail(out, settings, config, on_bc=show_bc, on_update=show, resume=resume)
+        if not result.interrupted:
+            complete(bar)
     click.echo(sb3_outcome(result, out, settings.critic_warmup))
 

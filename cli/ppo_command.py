@@ -17,7 +17,7 @@ from sumo_rail_cli.options import (
     seed_option,
     tensorboard_option,
 )
-from sumo_rail_cli.progress import progress
+from sumo_rail_cli.progress import complete, progress
 from sumo_rail_cli.running import interruptible_run, sb3_interrupted, sb3_outcome, sb3_progress, tensorboard_logger
 
 if TYPE_CHECKING:
@@ -101,5 +101,7 @@ def ppo_command(config: Config, kind: str, hidden: int, timesteps: int, envs: in
     with interruptible_run(bar, sb3_interrupted(out, resume), board=tensorboard_logger(tensorboard_dir, "ppo", out),
                            errors=(BaselineError, RunError)) as board:
         result = train_ppo_driver(out, settings, config, on_update=show, resume=resume)
+        if not result.interrupted:
+            complete(bar)
     click.echo(sb3_outcome(result, out, settings.critic_warmup))
 
