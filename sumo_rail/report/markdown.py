@@ -11,6 +11,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
+import pandas as pd
 from matplotlib.figure import Figure
 
 from sumo_rail.evaluation.distributions import distance_table
@@ -161,12 +162,12 @@ def run_table(runs: list[Run]) -> list[str]:
               "| validated at iteration | speed (km/h) | overtakes | lane changes | collisions |")
     rows = [header, "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for run in runs:
-        log = run.log
-        best = int(log["return_mean"].idxmax())
+        log, returns = run.log, run.log["return_mean"].dropna()  # a ppo update in which no episode ended has none
+        best = "-" if returns.empty else (f"{returns.max():+.3f} "
+                                          f"({int(log['iteration'].loc[returns.idxmax()]) + 1})")
+        final = "-" if pd.isna(log["return_mean"].iloc[-1]) else f"{log['return_mean'].iloc[-1]:+.3f}"
         cells = [run.name, run.kind, f"{len(log)}", f"{int(log['env_steps'].sum()):,}",
-                 f"{log['wall_time_s'].sum() / 60:.1f}", f"{log['return_mean'].iloc[-1]:+.3f}",
-                 f"{log['return_mean'].iloc[best]:+.3f} ({int(log['iteration'].iloc[best]) + 1})",
-                 *_last_validation(run)]
+                 f"{log['wall_time_s'].sum() / 60:.1f}", final, best, *_last_validation(run)]
         rows.append("| " + " | ".join(cells) + " |")
     return rows
 

@@ -188,6 +188,12 @@ def test_a_ppo_run_is_labelled_by_the_environments_return_and_not_mixed_with_dis
     text = (tmp_path / "report" / "report.md").read_text()
     assert "| final env return | best env return (iteration) |" in text and "D return" not in text
     assert "Mean environment return" in text and "discriminator return" not in text
+    log = pd.read_parquet(ppo / "log.parquet").assign(return_mean=float("nan"))  # no episode ended in any update
+    write_parquet(pa.Table.from_pandas(log, preserve_index=False), ppo / "log.parquet",
+                  {**provenance("ppo_run", CONFIG, 0), "kind": "training_log"})
+    result = invoke("report", str(ppo), "--out", str(tmp_path / "report"))
+    assert result.exit_code == 0, result.output
+    assert "| 4 | 4,060 | 0.8 | - | - |" in (tmp_path / "report" / "report.md").read_text()
     rail = make_run(tmp_path / "rail", "mlp", evaluated=False)
     result = invoke("report", str(ppo), str(rail), "--out", str(tmp_path / "mixed"))
     assert result.exit_code == 1 and "Traceback" not in result.output
