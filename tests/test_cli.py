@@ -17,7 +17,7 @@ import pyarrow.parquet as pq
 import pytest
 from click.testing import CliRunner
 from sumo_rail_cli.main import cli
-from sumo_rail_cli.options import resolve_config
+from sumo_rail_cli.settings import resolve_config
 
 import sumo_rail
 from sumo_rail.config import Config
@@ -93,7 +93,8 @@ def test_record_expert_with_two_egos_a_simulation_is_identical_for_any_worker_co
 
 
 @pytest.mark.parametrize("command", [["record-expert"], ["dagger", "--demos", "d.parquet"],
-                                     ["train", "--demos", "d.parquet"]])
+                                     ["train", "--demos", "d.parquet"], ["ppo"], ["gail", "--demos", "d.parquet"],
+                                     ["step-signal", "--demos", "d.parquet", "--policy", "p.npz"]])
 def test_more_egos_than_the_road_holds_is_a_usage_error_before_any_work(tmp_path, command):
     result = invoke(*command, *SMALL, "--egos", "400", "--out", str(tmp_path / "out"))
     assert result.exit_code == 2 and "'--egos'" in result.output and "use fewer egos" in result.output
