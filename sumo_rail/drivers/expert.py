@@ -32,7 +32,7 @@ from sumo_rail.sim.traffic import NO_VEHICLE, LaneGaps, TrafficView, lane_gaps, 
 _COMFORT_DECEL_MPS2 = 3.0
 ROUTE_MARGIN_M = 150.0
 """Distance [m] kept before a lane's end when the route demands leaving it."""
-ROUTE_PER_LANE_M = 200.0
+ROUTE_PER_LANE_M = 300.0
 """Distance [m] allowed for each lane change the route demands."""
 URGENT_M = 250.0
 """Within this distance [m] of its lane's end the expert zip merges (the environment's `env.zip_merge_m`)."""
@@ -140,11 +140,14 @@ class Expert:
         share = URGENT_GAP_SHARE if lane_end_m <= URGENT_M else 1.0
         if self._safe(gaps, ego.speed_mps, share):
             return Action.LANE_LEFT if offset > 0 else Action.LANE_RIGHT
-        return self._seek_gap(gaps, ego.speed_mps, traffic.set_point_mps, share)
+        own_front_gap_m = lane_gaps(traffic, ego.lane).front_gap_m
+        return self._seek_gap(gaps, ego.speed_mps, traffic.set_point_mps, share, own_front_gap_m)
 
-    def _seek_gap(self, gaps: LaneGaps, ego_speed_mps: float, set_point_mps: float, gap_share: float) -> Action:
+    def _seek_gap(self, gaps: LaneGaps, ego_speed_mps: float, set_point_mps: float, gap_share: float,
+                  own_front_gap_m: float) -> Action:
         """The set-point change that opens a gap in the lane the route demands, at that lane's speed: pass a vehicle
-        alongside or let it pass, whichever side of it has more room; drop behind a leader too close; with a vehicle
+        alongside or let it pass, whichever side of it has more room (ahead, as far as its own leader `own_front_gap_m`
+        [m] lets it); drop behind a leader too close; with a vehicle
         too close behind, keep up with the lane while a much
         faster one passes by, else pull ahead where the gap in front has room for it or drop behind it; with room on
         both sides (a change held back only by closing speeds), match the lane's speed."""
@@ -153,17 +156,18 @@ class Expert:
         lane_speed = next((speed for speed in (gaps.front_speed_mps, gaps.rear_speed_mps) if np.isfinite(speed)),
                           style.desired_speed_mps)
         lowest, highest = MERGE_SPEED_SHARE * style.desired_speed_mps, style.desired_speed_mps + PASS_MARGIN_MPS
+        room_ahead_m = min(gaps.front_gap_m, own_front_gap_m)  # its own leader bounds how far ahead it can pull
         if gaps.alongside:  # pass it or let it pass, whichever side of it has more room
-            target_mps = ego_speed_mps + (PASS_MARGIN_MPS if gaps.front_gap_m > gaps.rear_gap_m else -PASS_MARGIN_MPS)
-        elif gaps.front_gap_m < needed_front:
-            target_mps = lane_speed - PASS_MARGIN_MPS
+            target_mps = ego_speed_mps + (PASS_MARGIN_MPS if room_ahead_m > gaps.rear_gap_m else -PASS_MARGIN_MPS)
+        elif gaps.front_gap_m < needed_front:  # drop behind the leader there
+            target_mps = gaps.front_speed_mps - PASS_MARGIN_MPS
         elif gaps.rear_gap_m < needed_rear:
-            if gaps.rear_speed_mps > ego_speed_mps + PASS_MARGIN_MPS:
-                target_mps = lane_speed
-            elif gaps.front_gap_m - needed_front > needed_rear - gaps.rear_gap_m + MERGE_ROOM_M:
-                target_mps = lane_speed + PASS_MARGIN_MPS
-            else:
-                target_mps = lane_speed - PASS_MARGIN_MPS
+            if gaps.rear_speed_mps > ego_speed_mps + PASS_MARGIN_MPS:  # it passes by on its own
+                target_mps = ego_speed_mps
+            elif room_ahead_m - needed_front > needed_rear - gaps.rear_gap_m + MERGE_ROOM_M:  # pull ahead of it
+                target_mps = max(gaps.rear_speed_mps + PASS_MARGIN_MPS, ego_speed_mps)
+            else:  # let it pass
+                target_mps = gaps.rear_speed_mps - PASS_MARGIN_MPS
         else:
             target_mps = lane_speed
         target_mps = min(max(target_mps, lowest), highest)
