@@ -6,6 +6,7 @@ from __future__ import annotations
 import dataclasses
 import subprocess
 
+import libsumo
 import numpy as np
 import pandas as pd
 import pytest
@@ -100,6 +101,7 @@ def test_a_driver_that_ignores_the_route_stops_at_the_lane_end_and_fails(small_c
         while not done:
             _, reward, terminated, truncated, info = env.step(0)  # keep: never moves right
             done = terminated or truncated
+        assert "ego" not in libsumo.vehicle.getIDList()  # taken off the lane it would block
     finally:
         env.close()
     assert terminated and info["termination"] == "missed_exit" and info["missed_exits"] == 1
