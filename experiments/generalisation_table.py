@@ -28,6 +28,7 @@ METHODS = {"BC": ("dagger", "policy_bc"), "DAgger": ("dagger", "policy_latest")}
 MIX = {"BC, mixed roads": ("bc", "policy_bc")}
 NO_ROUTE = {"BC": ("no_route", "policy_bc"), "DAgger": ("no_route", "policy_latest")}
 SHOWN = ("agreement", "average_speed_kmh", "lane_changes", "failures", "merges")
+PLOTTED = ("agreement", "failures")
 LABELS = {"agreement": "agreement", "average_speed_kmh": "speed [km/h]", "lane_changes": "lane changes",
           "failures": "failed episodes", "merges": "merges"}
 EXPERT_MEASURES = ("average_speed_kmh", "overtakes", "lane_changes", "collisions", "teleports", "merges",
@@ -90,8 +91,9 @@ def method_rows(metrics: pd.DataFrame, reference: pd.DataFrame | None, road: str
             if len(theirs) == len(mine):
                 difference = " / ".join(difference_cell(mine, theirs, name, 3 if name == "agreement" else 2)
                                         for name in ("agreement", "failures"))
-        found = seeded_interval([seed["agreement"] for seed in mine])
-        figure[(road, label, trained_on)] = (found.estimate, found.low, found.high)
+        for measure in PLOTTED:
+            found = seeded_interval([seed[measure] for seed in mine])
+            figure[(road, f"{label}, {trained_on.split(' ', 1)[0]}", measure)] = (found.estimate, found.low, found.high)
         rows.append(f"| {road} | {label} | {trained_on} | " + " | ".join(cells) + f" | {difference or '-'} |")
     return rows
 
@@ -125,25 +127,27 @@ def generalisation_table(out: Path, figure: dict[tuple[str, str, str], tuple[flo
 
 
 def plot(figure: dict[tuple[str, str, str], tuple[float, float, float]], path: Path) -> None:
+    """Agreement and failed episodes per road, one bar per method and training condition, with 95% intervals."""
     roads = list(dict.fromkeys(road for road, _, _ in figure))
-    series = list(dict.fromkeys((label, trained) for _, label, trained in figure))
-    fig, axis = plt.subplots(figsize=(12, 4.5))
+    series = list(dict.fromkeys(name for _, name, _ in figure))
+    fig, axes = plt.subplots(2, 1, figsize=(12, 7), sharex=True)
     width = 0.8 / max(len(series), 1)
-    for index, (label, trained) in enumerate(series):
-        points = [(position, figure[(road, label, t)]) for position, road in enumerate(roads)
-                  for lab, t in [(label, trained)] if (road, lab, t) in figure]
-        if not points:
-            continue
-        x = np.array([position for position, _ in points]) + (index - (len(series) - 1) / 2) * width
-        estimate = np.array([value[0] for _, value in points])
-        errors = np.array([[value[0] - value[1] for _, value in points], [value[2] - value[0] for _, value in points]])
-        axis.bar(x, estimate, width, yerr=errors, capsize=2, label=f"{label}, {trained.split(' ', 1)[0]} "
-                                                                   f"{trained.split(' ', 1)[1].split(' at')[0]}")
-    axis.set_xticks(range(len(roads)), roads, rotation=15)
-    axis.set_ylabel("agreement with the expert")
-    axis.set_ylim(0, 1)
-    axis.legend(fontsize=8, ncol=3)
-    axis.set_title("Agreement on each road: trained there (a), on the straight road only (b), on a mix (c); 95% CI")
+    for axis, measure in zip(axes, PLOTTED, strict=True):
+        for index, name in enumerate(series):
+            points = [(position, figure[(road, name, measure)]) for position, road in enumerate(roads)
+                      if (road, name, measure) in figure]
+            if not points:
+                continue
+            x = np.array([position for position, _ in points]) + (index - (len(series) - 1) / 2) * width
+            values = np.array([value for _, value in points])
+            errors = np.clip(np.stack([values[:, 0] - values[:, 1], values[:, 2] - values[:, 0]]), 0, None)
+            axis.bar(x, values[:, 0], width, yerr=errors, capsize=2, label=name)
+        axis.set_ylabel(LABELS[measure])
+        axis.set_ylim(0, 1)
+    axes[0].legend(fontsize=8, ncol=4, loc="upper right")
+    axes[1].set_xticks(range(len(roads)), roads, rotation=10)
+    axes[0].set_title("Each road: trained there (a), on the straight road only (b), on every road (c), without the "
+                      "route block (d); 95% intervals over 3 training seeds")
     fig.tight_layout()
     fig.savefig(path, dpi=110)
 
