@@ -7,6 +7,7 @@ import pandas as pd
 
 from sumo_rail.evaluation.distributions import distance_table
 from sumo_rail.evaluation.fidelity import CONFUSION_COLUMNS, RATES, agreement_counts
+from sumo_rail.evaluation.safety import SAFETY_MEASURES
 from sumo_rail.evaluation.statistics import (
     Interval,
     Sample,
@@ -19,8 +20,9 @@ from sumo_rail.evaluation.statistics import (
 EPISODE_MEASURES = ("average_speed_kmh", "overtakes", "lane_changes", "longitudinal_reward", "lateral_reward",
                     "collisions", "hard_braking", "invalid_actions", "distance_m", "steps")
 """Episode metrics summarised by their mean over episodes (the paper's first)."""
-MEASURES = (*RATES, *EPISODE_MEASURES)
-"""Rows of the summary: the agreement rates (pooled over decisions) first, then the episode means."""
+MEASURES = (*RATES, *EPISODE_MEASURES, *SAFETY_MEASURES)
+"""Rows of the summary: the agreement rates (pooled over decisions) first, then the episode means (the safety
+measures where a metrics file has them: files written before them do not)."""
 DETECTABLE = "*"
 
 
@@ -30,7 +32,8 @@ def measure_samples(episodes: pd.DataFrame) -> dict[str, Sample]:
     if set(CONFUSION_COLUMNS) <= set(episodes.columns):
         counts = agreement_counts(episodes[list(CONFUSION_COLUMNS)].to_numpy().reshape(-1, 5, 5))
         samples |= {name: (counts[top], counts[bottom]) for name, (top, bottom) in RATES.items()}
-    samples |= {name: mean_sample(episodes[name].to_numpy()) for name in EPISODE_MEASURES if name in episodes}
+    samples |= {name: mean_sample(episodes[name].to_numpy()) for name in (*EPISODE_MEASURES, *SAFETY_MEASURES)
+                if name in episodes}
     return samples
 
 
@@ -122,5 +125,5 @@ def _grid(rows: pd.DataFrame, drivers: list[str], cell) -> pd.DataFrame:
 
 
 def _format(row, signed: bool) -> str:
-    digits = 3 if row.measure in RATES else 2
+    digits = 3 if row.measure in RATES or row.measure.endswith("_share") else 2
     return Interval(row.estimate, row.low, row.high).format(digits, signed)

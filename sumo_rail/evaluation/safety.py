@@ -1,0 +1,103 @@
+"""Safety measures of a driver's episode, from SUMO's state (the privileged traffic view read at every decision,
+the same the expert reads), never from the LIDAR.
+
+Per decision (in the state the driver decided on):
+- time to collision (TTC) [s]: the smallest, over the ego's leader and its follower in the ego's lane, of the
+  bumper-to-bumper gap over the speed at which it closes (no closing: no TTC); capped at `TTC_CAP_S`;
+- time headway [s]: the gap to the leader in the ego's lane over the ego's speed; capped at `HEADWAY_CAP_S`.
+Per episode: the smallest TTC and headway (the cap when never below it), the share of decisions (of time, as
+decisions are evenly spaced) with a TTC below each of `TTC_THRESHOLDS_S`, and the share of decisions that were
+impossible actions (a lane change off the road).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from sumo_rail.sim.traffic import TrafficView, lane_gaps
+
+TTC_THRESHOLDS_S = (1.5, 3.0)
+"""TTC below 1.5 s: the critical encounters of traffic-conflict studies; below 3 s: the warning range of forward
+collision warning systems (a driver is alerted). [s]"""
+TTC_CAP_S = 10.0
+"""Times to collision above this (or none: nobody closing) are recorded as this [s]."""
+HEADWAY_CAP_S = 10.0
+"""Time headways above this are recorded as this [s]."""
+_MIN_SPEED_MPS = 0.1
+"""Speeds below this count as this in a time headway (a standing ego) [m/s]."""
+
+
+def time_to_collision(gap_m: float, follower_speed_mps: float, leader_speed_mps: float) -> float:
+    """Time until a follower `gap_m` [m] behind its leader's rear reaches it at constant speeds [s]; inf when it
+    does not close in (or there is no leader: an infinite gap); 0 when they touch already."""
+    if gap_m <= 0.0:
+        return 0.0
+    closing = follower_speed_mps - leader_speed_mps
+    return gap_m / closing if closing > 0.0 and math.isfinite(gap_m) else math.inf
+
+
+def time_headway(gap_m: float, speed_mps: float) -> float:
+    """Time the ego needs at `speed_mps` to cover the gap `gap_m` to its leader [s]; inf without a leader."""
+    return gap_m / max(speed_mps, _MIN_SPEED_MPS)
+
+
+def ego_time_to_collision(traffic: TrafficView) -> float:
+    """The ego's smallest TTC in its own lane: to its leader and from its follower [s] (inf: nobody closing)."""
+    ego = traffic.ego
+    gaps = lane_gaps(traffic, ego.lane)
+    return min(time_to_collision(gaps.front_gap_m, ego.speed_mps, gaps.front_speed_mps),
+               time_to_collision(gaps.rear_gap_m, gaps.rear_speed_mps, ego.speed_mps))
+
+
+def ego_time_headway(traffic: TrafficView) -> float:
+    """The ego's time headway to its leader in its own lane [s] (inf: no leader seen)."""
+    return time_headway(lane_gaps(traffic, traffic.ego.lane).front_gap_m, traffic.ego.speed_mps)
+
+
+def threshold_column(threshold_s: float) -> str:
+    """Episode column of the share of decisions with a TTC below `threshold_s`: ttc_below_1_5s_share..."""
+    return f"ttc_below_{threshold_s:g}s_share".replace(".", "_")
+
+
+SAFETY_MEASURES = ("min_ttc_s", *map(threshold_column, TTC_THRESHOLDS_S), "min_headway_s", "invalid_action_share")
+"""Episode columns of the safety measures, in table order."""
+SAFETY_DECISION_FIELDS = ("ttc_s",)
+"""Per-decision columns: the ego's TTC [s], capped at `TTC_CAP_S`."""
+
+
+def episode_measures(ttc_s: np.ndarray, headway_s: np.ndarray, invalid_actions: int) -> dict[str, float]:
+    """The episode's safety measures from its decisions' TTCs and headways [s] (uncapped; inf: none) and its count
+    of impossible actions; an episode without decisions has the caps and shares of 0."""
+    ttc_s, headway_s = np.asarray(ttc_s, dtype=float), np.asarray(headway_s, dtype=float)
+    decisions = len(ttc_s)
+    shares = {threshold_column(threshold): float(np.mean(ttc_s < threshold)) if decisions else 0.0
+              for threshold in TTC_THRESHOLDS_S}
+    return {"min_ttc_s": min(float(ttc_s.min(initial=math.inf)), TTC_CAP_S), **shares,
+            "min_headway_s": min(float(headway_s.min(initial=math.inf)), HEADWAY_CAP_S),
+            "invalid_action_share": invalid_actions / decisions if decisions else 0.0}
+
+
+class SafetyProbe:
+    """Watches one episode's decisions (a `sumo_rail.runners.rollout.DecisionProbe`) and keeps their safety
+    readings."""
+
+    def __init__(self) -> None:
+        self._ttc_s: list[float] = []
+        self._headway_s: list[float] = []
+        self._invalid_actions = 0
+
+    def __call__(self, observation: np.ndarray, traffic: TrafficView, action: int, info: dict[str, Any]) -> None:
+        self._ttc_s.append(ego_time_to_collision(traffic))
+        self._headway_s.append(ego_time_headway(traffic))
+        self._invalid_actions = int(info["invalid_actions"])
+
+    def episode_columns(self) -> dict[str, float]:
+        """The episode's SAFETY_MEASURES."""
+        return episode_measures(np.array(self._ttc_s), np.array(self._headway_s), self._invalid_actions)
+
+    def decision_columns(self) -> dict[str, np.ndarray]:
+        """One entry per decision in each of SAFETY_DECISION_FIELDS."""
+        return {"ttc_s": np.minimum(np.array(self._ttc_s, dtype=np.float64), TTC_CAP_S)}
