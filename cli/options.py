@@ -230,10 +230,13 @@ def _parse_overrides(overrides: tuple[str, ...]) -> dict[str, dict[str, Any]]:
         section, dot, name = key.strip().partition(".")
         if not separator or not dot or not section or not name:
             raise ConfigError(f"--set expects SECTION.KEY=VALUE, got {item!r}")
+        raw = raw.strip()
         try:
-            value = tomllib.loads(f"value = {raw.strip()}")["value"]
+            value = tomllib.loads(f"value = {raw}")["value"]
         except tomllib.TOMLDecodeError as error:
-            raise ConfigError(f"--set {key.strip()} has an unreadable value {raw.strip()!r}") from error
+            if not raw or raw[0] in "\"'[{" or any(character.isspace() for character in raw):
+                raise ConfigError(f"--set {key.strip()} has an unreadable value {raw!r}") from error
+            value = raw  # a bare word (scenario.kind=merge, a file's path) is a string
         sections.setdefault(section, {})[name] = value
     return sections
 

@@ -20,6 +20,16 @@ class ConfigError(ValueError):
     """A configuration value or file a user supplied is invalid (message is one sentence)."""
 
 
+SCENARIO_KINDS = ("straight", "merge", "merge_from_ramp", "lane_drop", "exit", "network")
+"""The roads of `ScenarioConfig.kind`."""
+FEATURE_KINDS = ("merge", "merge_from_ramp", "lane_drop", "exit")
+"""The generated roads with a feature (ramp, work zone, exit) at scenario.feature_at_m."""
+FEATURE_CLEARANCE_M = 400.0
+"""Least distance from a feature's end to the end of the main road [m]."""
+START_CLEARANCE_M = 200.0
+"""Least distance from the ego's start window to the road's feature [m]: room to see it coming."""
+
+
 PRESETS: dict[str, dict[str, dict[str, Any]]] = {
     "paper": {},
     "recommended": {"observation": {"lane_block": 1}},
@@ -33,12 +43,17 @@ can see")."""
 
 @dataclass(frozen=True)
 class ScenarioConfig:
-    """The highway, its traffic and the SUMO options that shape them."""
+    """The road, its traffic and the SUMO options that shape them (`sumo_rail.sim.scenarios` describes each kind)."""
 
+    kind: str = "straight"
+    """The road (`SCENARIO_KINDS`): straight (the paper's), merge (an on-ramp joins on the right), merge_from_ramp
+    (the same road, the ego starts on the ramp), lane_drop (a work zone where lanes end), exit (the ego's route
+    leaves by an off-ramp), or network (a SUMO network of your own: scenario.network, scenario.route)."""
     length_m: float = 3000.0
-    """Length of the straight highway [m]."""
+    """Length of the main road [m] (kind network: ignored, the route's own length counts)."""
     lanes: int = 5
-    """Number of lanes (lane 0 is the rightmost)."""
+    """Number of lanes of the main road (lane 0 is the rightmost; kind network: the lanes of the route's main
+    road, checked against the network)."""
     lane_width_m: float = 3.2
     """Width of each lane [m]."""
     speed_limit_mps: float = 33.33
@@ -63,8 +78,29 @@ class ScenarioConfig:
     """Simulated time between two saved warm states [s]."""
     traffic_seed: int = 0
     """SUMO seed of the warm-up run that produces the saved states."""
+    feature_at_m: float = 1500.0
+    """Where the road's feature begins along the main road [m]: the merge's acceleration lane, the work zone, the
+    exit's diverge (kinds merge, merge_from_ramp, lane_drop, exit)."""
+    feature_length_m: float = 300.0
+    """Length of the merge's acceleration lane and of the work zone [m]."""
+    dropped_lanes: int = 2
+    """Lanes that end at the work zone, counted from the right (kind lane_drop)."""
+    ramp_flow_veh_per_h: float = 600.0
+    """Mean arrival rate of traffic on the on-ramp [veh/h] (kinds merge, merge_from_ramp); Poisson arrivals."""
+    exit_share: float = 0.2
+    """Share of the main road's traffic that takes the exit (kind exit)."""
+    network: str = ""
+    """A SUMO network file (.net.xml) of your own (kind network), e.g. built by netconvert from OpenStreetMap."""
+    route: str = ""
+    """The ego's route on scenario.network: its edge ids in order, separated by spaces (kind network)."""
+    traffic_file: str = ""
+    """A SUMO route file with the background traffic on scenario.network (kind network); empty: a flow of
+    scenario.flow_veh_per_h along the ego's route, with the types of the built-in roads."""
 
     def validate(self) -> None:
+        _require(self.kind in SCENARIO_KINDS,
+                 f"unknown scenario.kind {self.kind!r}; known: {', '.join(SCENARIO_KINDS)}")
+        self._validate_feature()
         _require(self.length_m >= 500.0, f"scenario.length_m must be at least 500 m, got {self.length_m}")
         _require(1 <= self.lanes <= 10, f"scenario.lanes must be between 1 and 10, got {self.lanes}")
         _require(self.lane_width_m > 1.0, f"scenario.lane_width_m must exceed 1 m, got {self.lane_width_m}")
@@ -82,6 +118,27 @@ class ScenarioConfig:
         _require(self.snapshot_interval_s > 0,
                  f"scenario.snapshot_interval_s must be positive, got {self.snapshot_interval_s}")
         _require(0 <= self.traffic_seed < 2**31, f"scenario.traffic_seed must be in [0, 2^31), got {self.traffic_seed}")
+
+    def _validate_feature(self) -> None:
+        """The feature's settings: on the road, before its end, with lanes left over."""
+        _require(self.ramp_flow_veh_per_h >= 0,
+                 f"scenario.ramp_flow_veh_per_h must not be negative, got {self.ramp_flow_veh_per_h}")
+        _require(0 <= self.exit_share < 1, f"scenario.exit_share must be in [0, 1), got {self.exit_share}")
+        _require(self.feature_length_m >= 50, f"scenario.feature_length_m must be at least 50 m, got "
+                                              f"{self.feature_length_m}")
+        if self.kind == "lane_drop":
+            _require(1 <= self.dropped_lanes < self.lanes,
+                     f"scenario.dropped_lanes must be between 1 and scenario.lanes - 1 ({self.lanes - 1}), "
+                     f"got {self.dropped_lanes}")
+        if self.kind in FEATURE_KINDS:
+            end_m = self.feature_at_m + (0.0 if self.kind == "exit" else self.feature_length_m)
+            _require(200.0 <= self.feature_at_m and end_m + FEATURE_CLEARANCE_M <= self.length_m,
+                     f"the {self.kind} scenario's feature ({self.feature_at_m:g} m to {end_m:g} m) must lie between "
+                     f"200 m and {FEATURE_CLEARANCE_M:g} m before the road's end at {self.length_m:g} m; "
+                     f"change scenario.feature_at_m, scenario.feature_length_m or scenario.length_m")
+        if self.kind == "network":
+            _require(bool(self.network), "scenario.kind network needs scenario.network, the path of a .net.xml")
+            _require(bool(self.route.split()), "scenario.kind network needs scenario.route, the ego's edge ids")
 
 
 @dataclass(frozen=True)
@@ -112,8 +169,17 @@ class ObservationConfig:
     """1: append 12 lane-wise values (gap and relative speed of the nearest vehicle ahead and behind in the ego's
     lane and each neighbouring lane, within lidar.range_m); 0: the paper's LIDAR-only observation."""
 
+    route_block: int = 0
+    """1: append 4 route values, what a navigation system tells a driver (`sumo_rail.sim.route_progress`): how far
+    the ego's lane leads along its route, the lanes to move to the nearest lane that leads farthest, and the distances
+    to the next merge and the next diverge (exit), each within observation.route_range_m; 0: without them."""
+    route_range_m: float = 500.0
+    """How far ahead the route block looks [m]: lanes to cross before a lane's end need a few hundred metres."""
+
     def validate(self) -> None:
         _require(self.lane_block in (0, 1), f"observation.lane_block must be 0 or 1, got {self.lane_block}")
+        _require(self.route_block in (0, 1), f"observation.route_block must be 0 or 1, got {self.route_block}")
+        _require(self.route_range_m > 0, f"observation.route_range_m must be positive, got {self.route_range_m}")
 
 
 @dataclass(frozen=True)
@@ -177,6 +243,11 @@ class EnvConfig:
                  f"env.ego_start_max_m + env.end_margin_m must be shorter than the road "
                  f"({scenario.length_m} m), got {self.ego_start_max_m + self.end_margin_m}")
         _require(self.end_margin_m >= 0, f"env.end_margin_m must not be negative, got {self.end_margin_m}")
+        if scenario.kind in FEATURE_KINDS:
+            _require(self.ego_start_max_m + START_CLEARANCE_M <= scenario.feature_at_m,
+                     f"env.ego_start_max_m ({self.ego_start_max_m:g} m) must end at least {START_CLEARANCE_M:g} m "
+                     f"before the {scenario.kind} scenario's feature at scenario.feature_at_m "
+                     f"({scenario.feature_at_m:g} m)")
 
 
 @dataclass(frozen=True)
@@ -270,7 +341,10 @@ def _coerce(key: str, value: Any, kind: type) -> Any:
         return float(value)
     if kind is int and isinstance(value, int) and not isinstance(value, bool):
         return value
-    raise ConfigError(f"{key} must be {'a number' if kind is float else 'an integer'}, got {value!r}")
+    if kind is str and isinstance(value, str):
+        return value
+    names = {float: "a number", int: "an integer", str: "a string"}
+    raise ConfigError(f"{key} must be {names[kind]}, got {value!r}")
 
 
 def _require(condition: bool, message: str) -> None:

@@ -198,7 +198,8 @@ class _EpisodeLog:
             "average_speed_kmh": m.average_speed_mps * 3.6, "overtakes": m.overtakes, "overtaken": m.overtaken,
             "lane_changes": m.lane_changes, "longitudinal_reward": m.longitudinal_reward,
             "lateral_reward": m.lateral_reward, "collisions": m.collisions, "hard_braking": m.hard_braking,
-            "teleports": m.teleports, "invalid_actions": m.invalid_actions,
+            "teleports": m.teleports, "invalid_actions": m.invalid_actions, "merges": m.merges,
+            "merge_time_s": m.merge_time_s, "missed_exits": m.missed_exits, "lane_end_stops": m.lane_end_stops,
             **dict(zip(ACTION_COLUMNS, m.action_counts, strict=True)),
             "termination": info["termination"], "terminated": terminated, "truncated": truncated,
         }

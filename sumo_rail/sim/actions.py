@@ -29,8 +29,9 @@ class Command:
 
 
 def command_for(action: Action, set_point_mps: float, lane: int, lanes: int, speed_step_mps: float,
-                v_min_mps: float, v_max_mps: float) -> Command:
-    """The command for `action` given the current set-point [m/s] and lane; the set-point stays in [v_min, v_max]."""
+                v_min_mps: float, v_max_mps: float, lowest_lane: int = 0) -> Command:
+    """The command for `action` given the current set-point [m/s] and lane; the set-point stays in [v_min, v_max].
+    The lanes beside the ego are `lowest_lane` to `lanes - 1` (route lanes: an acceleration lane is -1)."""
     if action is Action.ACCELERATE:
         return Command(min(set_point_mps + speed_step_mps, v_max_mps), None, False)
     if action is Action.DECELERATE:
@@ -38,5 +39,5 @@ def command_for(action: Action, set_point_mps: float, lane: int, lanes: int, spe
     if action is Action.LANE_LEFT:
         return Command(set_point_mps, lane + 1, False) if lane + 1 < lanes else Command(set_point_mps, None, True)
     if action is Action.LANE_RIGHT:
-        return Command(set_point_mps, lane - 1, False) if lane > 0 else Command(set_point_mps, None, True)
+        return Command(set_point_mps, lane - 1, False) if lane > lowest_lane else Command(set_point_mps, None, True)
     return Command(set_point_mps, None, False)

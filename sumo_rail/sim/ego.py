@@ -4,8 +4,9 @@ the end of its episode.
 
 A decision is `command` (set-point and lane-change request), the simulation's period (`Simulation.advance`, or
 `advance_egos` for several egos), then `finish` with the ego's period report. The reward of a decision is
-longitudinal + lateral, or `env.collision_reward` when the ego collides (terminated); reaching the end of the
-road or the time limit truncates.
+longitudinal + lateral, or `env.collision_reward` when the ego collides (terminated); a stop at the end of a lane
+that does not lead along its route (a missed exit, a lane end; `route_progress`) terminates with
+`env.collision_reward` added; reaching the end of the route or the time limit truncates.
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ from sumo_rail.config import Config
 from sumo_rail.sim import kernels, lidar
 from sumo_rail.sim.actions import Action, command_for
 from sumo_rail.sim.rewards import EpisodeMetrics, OvertakeCounter, lateral_reward, longitudinal_reward, relations
+from sumo_rail.sim.route_progress import RouteProgress, route_block
 from sumo_rail.sim.simulation import Simulation
 from sumo_rail.sim.traffic import TrafficView, lane_block
 from sumo_rail.sim.vehicles import EgoState, Neighbours, PeriodReport
@@ -64,6 +66,7 @@ class Ego:
         """The ego and its neighbours at the last decision (read directly from SUMO, not from the LIDAR)."""
         self.last_observation = np.zeros(0, dtype=np.float32)
         self.last_action: Action | None = None
+        self.route_progress = RouteProgress(config.observation.route_range_m)
 
     def start(self, sim: Simulation) -> tuple[np.ndarray, dict[str, Any]]:
         """Begin the episode once the ego is on the road: its set-point is its speed, within [v_min, v_max];
@@ -75,6 +78,7 @@ class Ego:
         self.lane = ego.lane
         self.changing_lane = ego.changing_lane
         self.start_time_s, self.start_position_m = sim.time_s, ego.lane_position_m
+        self.route_progress.update(ego, sim.time_s, self.metrics)
         self.overtakes.update(neighbours.ids, self._relations(ego, neighbours))
         self.last_observation = self.observation(ego, neighbours, ego.changing_lane)
         self.traffic = TrafficView(ego, neighbours, self.set_point_mps, cfg.scenario.lanes)
@@ -84,8 +88,10 @@ class Ego:
         """Give SUMO the command of this decision's `action` (before the period's steps)."""
         cfg, metrics = self.config, self.metrics
         self.last_action = action
-        command = command_for(action, self.set_point_mps, self.lane, cfg.scenario.lanes, cfg.env.speed_step_mps,
-                              cfg.env.v_min_mps, cfg.env.v_max_mps)
+        route = self.traffic.ego.route if self.traffic is not None else None
+        lowest, highest = (0, cfg.scenario.lanes - 1) if route is None else (route.lowest_lane, route.highest_lane)
+        command = command_for(action, self.set_point_mps, self.lane, highest + 1, cfg.env.speed_step_mps,
+                              cfg.env.v_min_mps, cfg.env.v_max_mps, lowest)
         if command.set_point_mps != self.set_point_mps:
             self.set_point_mps = command.set_point_mps
             sim.set_cruise_speed(self.set_point_mps, self.vehicle)
@@ -117,13 +123,21 @@ class Ego:
         metrics.speed_sum_mps += ego.speed_mps
         metrics.simulated_s = sim.time_s - self.start_time_s
         metrics.distance_m = ego.lane_position_m - self.start_position_m
-        reason = ""
-        if ego.lane_position_m >= cfg.scenario.length_m - cfg.env.end_margin_m:
+        self.route_progress.update(ego, sim.time_s, metrics)
+        failure = self.route_progress.failure(ego)
+        reason = failure
+        if failure:
+            metrics.missed_exits += failure == "missed_exit"
+            metrics.lane_end_stops += failure == "lane_end"
+        elif ego.lane_position_m >= sim.route_map.length_m - cfg.env.end_margin_m:
             reason = "end_of_road"
         elif metrics.simulated_s >= cfg.env.max_episode_s - 1e-9:
             reason = "time_limit"
         self.last_observation = self.observation(ego, neighbours, ego.changing_lane)
         self.traffic = TrafficView(ego, neighbours, self.set_point_mps, cfg.scenario.lanes)
+        if failure:
+            info = self._info(ego, r_long, r_lat, cfg.env.collision_reward, changing, reason)
+            return self.last_observation, r_long + r_lat + cfg.env.collision_reward, True, False, info
         info = self._info(ego, r_long, r_lat, 0.0, changing, reason)
         return self.last_observation, r_long + r_lat, False, bool(reason), info
 
@@ -154,20 +168,25 @@ class Ego:
         cfg = self.config
         ego_row = np.array([ego.front_x, ego.front_y, ego.heading_rad, ego.length_m, ego.speed_mps,
                             self.set_point_mps])
+        lane_bit = min(max(ego.lane, 0), cfg.scenario.lanes - 1)  # an acceleration lane or ramp (-1) reads as lane 0
         observation = kernels.observation_vector(
             neighbours.front_xy, neighbours.heading_rad, neighbours.length_m, neighbours.width_m,
-            neighbours.speed_mps, self.edges, ego_row, ego.lane, lane_change_in_progress, cfg.lidar.beams,
+            neighbours.speed_mps, self.edges, ego_row, lane_bit, lane_change_in_progress, cfg.lidar.beams,
             cfg.lidar.range_m, cfg.env.v_min_mps, cfg.env.v_max_mps, cfg.scenario.lanes)
+        blocks = [observation]
         if cfg.observation.lane_block:
             traffic = TrafficView(ego, neighbours, self.set_point_mps, cfg.scenario.lanes)
-            observation = np.concatenate([observation, lane_block(traffic, cfg.lidar.range_m, cfg.env.v_max_mps)])
-        return observation
+            blocks.append(lane_block(traffic, cfg.lidar.range_m, cfg.env.v_max_mps))
+        if cfg.observation.route_block:
+            blocks.append(route_block(ego, cfg.observation.route_range_m, cfg.scenario.lanes))
+        return np.concatenate(blocks) if len(blocks) > 1 else observation
 
     def _totals(self) -> dict[str, Any]:
         m = self.metrics
         return {"lane_changes": m.lane_changes, "overtakes": m.overtakes, "overtaken": m.overtaken,
                 "collisions": m.collisions, "hard_braking": m.hard_braking, "teleports": m.teleports,
-                "invalid_actions": m.invalid_actions, "time_s": m.simulated_s, "distance_m": m.distance_m}
+                "invalid_actions": m.invalid_actions, "time_s": m.simulated_s, "distance_m": m.distance_m,
+                "merges": m.merges, "missed_exits": m.missed_exits, "lane_end_stops": m.lane_end_stops}
 
     def _info(self, ego: EgoState, r_long: float, r_lat: float, r_collision: float, changing: bool,
               reason: str) -> dict[str, Any]:

@@ -1,7 +1,8 @@
 """`HighwayEnv`: the Gymnasium environment composing the simulation, LIDAR, actions and rewards.
 
 Each reset draws, from the env's `np_random`, the warm traffic state, SUMO's seed, the ego's start lane and
-position, so `reset(seed=s)` followed by the same actions reproduces the same episode. `reset(options=...)`
+position (drawn again where that place has no room, `sumo_rail.sim.starts`), so `reset(seed=s)` followed by the
+same actions reproduces the same episode. `reset(options=...)`
 may choose the warm-state pool (`"pool"`: "train", the default, "validation" or "test"; see
 `sumo_rail.sim.simulation`) and fix the warm state (`"warm_state"`: its index in the pool) instead of drawing it.
 One decision lasts `env.decision_period_s`; the reward of a decision is longitudinal + lateral, or
@@ -29,8 +30,8 @@ from sumo_rail.sim.actions import Action
 from sumo_rail.sim.ego import CONTEXT_MARGIN_M, Ego, checked_action, edge_rows
 from sumo_rail.sim.observation import observation_space
 from sumo_rail.sim.rewards import EpisodeMetrics
-from sumo_rail.sim.simulation import EGO_ID, TRANSPORTS, Simulation
-from sumo_rail.sim.starts import EpisodeStart, warm_state_options
+from sumo_rail.sim.simulation import EGO_ID, TRANSPORTS, EgoCouldNotEnter, Simulation
+from sumo_rail.sim.starts import START_DRAWS, EpisodeStart, warm_state_options
 from sumo_rail.sim.traffic import TrafficView
 
 if TYPE_CHECKING:
@@ -94,11 +95,21 @@ class HighwayEnv(gymnasium.Env[np.ndarray, np.int64]):
                                    gui=self.render_mode == "human", transport=self.transport,
                                    gui_delay_ms=self.gui_delay_ms)
         sim = self._sim
-        start = EpisodeStart.draw(self.np_random, cfg, sim.snapshot_count)
+        start = EpisodeStart.draw(self.np_random, cfg, sim.snapshot_count, sim.start_lanes)
         pool, warm_state = warm_state_options(options or {}, sim.snapshot_count)
         if warm_state is not None:
             start = dataclasses.replace(start, snapshot=warm_state)
-        sim.reset(**dataclasses.asdict(start), pool=pool)
+        for attempt in range(START_DRAWS):
+            try:
+                sim.reset(**dataclasses.asdict(start), pool=pool)
+                break
+            except EgoCouldNotEnter as error:
+                if attempt + 1 == START_DRAWS:
+                    raise EgoCouldNotEnter(
+                        f"the ego found no room at {START_DRAWS} places of its start window "
+                        f"({cfg.env.ego_start_min_m:g} m to {cfg.env.ego_start_max_m:g} m): traffic is too dense "
+                        f"there (scenario.flow_veh_per_h is {cfg.scenario.flow_veh_per_h:g} veh/h)") from error
+                start = start.redraw(self.np_random, cfg, sim.start_lanes)
         if self._edges is None:
             self._edges = edge_rows(sim)
         self._ego = Ego(cfg, EGO_ID, self._edges)

@@ -1,4 +1,5 @@
-"""Build the highway's .net.xml and traffic file from the plain-XML sources in networks/.
+"""Build a road's .net.xml and traffic file from the plain-XML sources in networks/ (`scenarios`), or take a user's
+network (`user_network`).
 
 Outputs are cached under `cache_dir()/networks/<hash>/`, keyed by the sources' bytes, the scenario settings
 that shape them and the SUMO version, so they are rebuilt exactly when one of those changes. Files are
@@ -25,22 +26,33 @@ import numpy as np
 
 from sumo_rail.config import ConfigError, ScenarioConfig
 from sumo_rail.datasets import sumo_version
+from sumo_rail.sim import scenarios, user_network
 
 log = logging.getLogger(__name__)
 
-SOURCE_FILES = ("highway.nod.xml", "highway.edg.xml", "traffic.rou.xml")
 EDGE_ID = "highway"
-ROUTE_ID = "highway_route"
-EGO_TYPE = "ego"
+"""The straight road's one edge."""
+EGO_TYPE = scenarios.EGO_TYPE
 
 
 @dataclass(frozen=True)
 class BuiltNetwork:
-    """Paths of a built scenario."""
+    """Paths of a built scenario and the ego's route on it."""
 
     net_file: Path
     routes_file: Path
     directory: Path
+    ego_route: tuple[str, ...]
+    """The ego's edges, in order (`route_id` in the routes file)."""
+    traffic_file: Path | None = None
+    """A user's own traffic (kind network), loaded after `routes_file`."""
+    route_id: str = "ego_route"
+    """The ego's route in the routes file."""
+
+    @property
+    def route_files(self) -> str:
+        """SUMO's --route-files value."""
+        return ",".join(str(path) for path in (self.routes_file, self.traffic_file) if path is not None)
 
 
 def sources_dir() -> Path:
@@ -64,13 +76,18 @@ def sumo_binary(name: str) -> str:
 
 def build(scenario: ScenarioConfig, source_dir: Path | None = None) -> BuiltNetwork:
     """Build (or reuse from the cache) the network and traffic files for `scenario`."""
+    if scenario.kind == "network":
+        return user_network.build(scenario, cache_dir(), (source_dir or sources_dir()) / scenarios.VEHICLE_TYPES_FILE)
     source_dir = source_dir or sources_dir()
-    sources = {name: _read_source(source_dir / name) for name in SOURCE_FILES}
-    key = _cache_key(scenario, sources)
+    names = scenarios.source_names(scenario.kind)
+    road = scenarios.road_sources(scenario, {name: scenarios.read_source(source_dir / name) for name in names})
+    key = _cache_key(scenario, road)
     directory = cache_dir() / "networks" / key
-    built = BuiltNetwork(directory / "highway.net.xml", directory / "traffic.rou.xml", directory)
-    routes = _routes_xml(sources["traffic.rou.xml"], scenario)
-    problem = _cache_problem(built, scenario, routes)
+    stem = "highway" if scenario.kind == "straight" else scenario.kind
+    route_id = scenarios.KIND_SOURCES[scenario.kind].ego_route_id
+    built = BuiltNetwork(directory / f"{stem}.net.xml", directory / "traffic.rou.xml", directory, road.ego_route,
+                         route_id=route_id)
+    problem = _cache_problem(built, road.routes)
     if problem is None:
         return built
     if built.net_file.exists() or built.routes_file.exists():
@@ -78,20 +95,20 @@ def build(scenario: ScenarioConfig, source_dir: Path | None = None) -> BuiltNetw
     directory.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(dir=directory) as scratch:
         scratch_dir = Path(scratch)
-        nodes = _write(scratch_dir / "highway.nod.xml", _nodes_xml(sources["highway.nod.xml"], scenario))
-        edges = _write(scratch_dir / "highway.edg.xml", _edges_xml(sources["highway.edg.xml"], scenario))
-        net_tmp = scratch_dir / "highway.net.xml"
-        _netconvert(nodes, edges, net_tmp)
-        routes_tmp = _write(scratch_dir / "traffic.rou.xml", routes)
+        inputs = {kind: _write(scratch_dir / f"{stem}.{kind[:3]}.xml", data) for kind, data in road.files.items()
+                  if kind != "routes"}
+        net_tmp = scratch_dir / built.net_file.name
+        _netconvert(inputs, net_tmp)
+        routes_tmp = _write(scratch_dir / "traffic.rou.xml", road.routes)
         os.replace(routes_tmp, built.routes_file)
         os.replace(net_tmp, built.net_file)
     log.info("built network %s", directory)
     return built
 
 
-def _cache_problem(built: BuiltNetwork, scenario: ScenarioConfig, routes: bytes) -> str | None:
+def _cache_problem(built: BuiltNetwork, routes: bytes) -> str | None:
     """What is wrong with a cached network (None: usable): missing files, a traffic file other than the one the
-    sources give, a network file that is not well-formed or lacks the highway's lanes."""
+    sources give, a network file that is not well-formed or lacks an edge of the ego's route."""
     try:
         if built.routes_file.read_bytes() != routes:
             return f"{built.routes_file.name} differs from its sources"
@@ -100,26 +117,18 @@ def _cache_problem(built: BuiltNetwork, scenario: ScenarioConfig, routes: bytes)
         return error.strerror or str(error)
     except ElementTree.ParseError as error:
         return f"{built.net_file.name} is not well-formed XML: {error}"
-    edge = root.find(f"edge[@id='{EDGE_ID}']") if root.tag == "net" else None
-    if edge is None or len(edge.findall("lane")) != scenario.lanes:
-        return f"{built.net_file.name} does not hold the {scenario.lanes}-lane highway"
+    edges = {edge.get("id") for edge in root.iter("edge")} if root.tag == "net" else set()
+    missing = [edge for edge in built.ego_route if edge not in edges]
+    if missing:
+        return f"{built.net_file.name} lacks edge {missing[0]} of the ego's route"
     return None
 
 
-def _read_source(path: Path) -> bytes:
-    try:
-        data = path.read_bytes()
-        ElementTree.fromstring(data)
-    except OSError as error:
-        raise ConfigError(f"cannot read network source {path}: {error.strerror or error}") from error
-    except ElementTree.ParseError as error:
-        raise ConfigError(f"network source {path} is not well-formed XML: {error}") from error
-    return data
-
-
-def _cache_key(scenario: ScenarioConfig, sources: dict[str, bytes]) -> str:
+def _cache_key(scenario: ScenarioConfig, road: scenarios.RoadSources) -> str:
+    """The key of a road's cache folder: its sources with the scenario's settings applied, those settings and the
+    SUMO version."""
     digest = hashlib.sha256()
-    shaping = {
+    shaping: dict[str, object] = {
         "length_m": scenario.length_m,
         "lanes": scenario.lanes,
         "lane_width_m": scenario.lane_width_m,
@@ -127,41 +136,12 @@ def _cache_key(scenario: ScenarioConfig, sources: dict[str, bytes]) -> str:
         "flow_veh_per_h": scenario.flow_veh_per_h,
         "sumo": sumo_version(),
     }
+    if scenario.kind != "straight":
+        shaping["kind"] = scenario.kind
     digest.update(json.dumps(shaping, sort_keys=True).encode())
-    for name in SOURCE_FILES:
-        digest.update(name.encode() + b"\0" + sources[name] + b"\0")
+    for name, data in road.files.items():
+        digest.update(name.encode() + b"\0" + data + b"\0")
     return digest.hexdigest()[:16]
-
-
-def _find(root: ElementTree.Element, tag: str, element_id: str, source: str) -> ElementTree.Element:
-    element = root.find(f"{tag}[@id='{element_id}']")
-    if element is None:
-        raise ConfigError(f"network source {source} has no <{tag} id=\"{element_id}\">")
-    return element
-
-
-def _nodes_xml(data: bytes, scenario: ScenarioConfig) -> bytes:
-    root = ElementTree.fromstring(data)
-    _find(root, "node", "end", "highway.nod.xml").set("x", repr(scenario.length_m))
-    return ElementTree.tostring(root)
-
-
-def _edges_xml(data: bytes, scenario: ScenarioConfig) -> bytes:
-    root = ElementTree.fromstring(data)
-    edge = _find(root, "edge", EDGE_ID, "highway.edg.xml")
-    edge.set("numLanes", str(scenario.lanes))
-    edge.set("speed", repr(scenario.speed_limit_mps))
-    edge.set("width", repr(scenario.lane_width_m))
-    return ElementTree.tostring(root)
-
-
-def _routes_xml(data: bytes, scenario: ScenarioConfig) -> bytes:
-    root = ElementTree.fromstring(data)
-    _find(root, "vType", EGO_TYPE, "traffic.rou.xml")
-    _find(root, "route", ROUTE_ID, "traffic.rou.xml")
-    flow = _find(root, "flow", "traffic", "traffic.rou.xml")
-    flow.set("period", f"exp({scenario.flow_veh_per_h / 3600.0!r})")
-    return ElementTree.tostring(root)
 
 
 def _write(path: Path, data: bytes) -> Path:
@@ -169,11 +149,12 @@ def _write(path: Path, data: bytes) -> Path:
     return path
 
 
-def _netconvert(nodes: Path, edges: Path, output: Path) -> None:
+def _netconvert(inputs: dict[str, Path], output: Path) -> None:
     command = [
         sumo_binary("netconvert"),
-        "--node-files", str(nodes),
-        "--edge-files", str(edges),
+        "--node-files", str(inputs["nodes"]),
+        "--edge-files", str(inputs["edges"]),
+        *(["--connection-files", str(inputs["connections"])] if "connections" in inputs else []),
         "--output-file", str(output),
         "--no-turnarounds", "true",
         "--offset.disable-normalization", "true",
@@ -182,7 +163,7 @@ def _netconvert(nodes: Path, edges: Path, output: Path) -> None:
     result = subprocess.run(command, capture_output=True, text=True, check=False)
     if result.returncode != 0:
         message = (result.stderr or result.stdout).strip().splitlines()
-        raise ConfigError(f"netconvert failed to build the highway: {message[-1] if message else 'no output'}")
+        raise ConfigError(f"netconvert failed to build the road: {message[-1] if message else 'no output'}")
 
 
 def warm_state_key(scenario: ScenarioConfig, built: BuiltNetwork, options: list[str], traffic_seed: int) -> str:

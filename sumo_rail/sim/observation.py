@@ -5,11 +5,15 @@ Layout (float32), with B LIDAR beams and L lanes:
 - [B, 2B): relative speed along beam i / v_max, clipped to [-1, 1] (positive = moving away);
 - 2B: ego speed / v_max, clipped to [0, 2];
 - 2B + 1: cruise set-point, (v_set - v_min) / (v_max - v_min), in [0, 1] (the driver knows its own setting);
-- [2B + 2, 2B + 2 + L): current lane, one-hot (index 0 = rightmost lane);
+- [2B + 2, 2B + 2 + L): current lane, one-hot (index 0 = the main road's rightmost lane; an acceleration lane or
+  ramp right of it reads as lane 0);
 - 2B + 2 + L: 1 while the ego is between lanes (a lane change under way), else 0;
 - with `observation.lane_block = 1`, 12 more: for the lane right of, at and left of the ego, the gap to the
   nearest vehicle ahead / r_max, its relative speed / v_max, then the same behind
-  (`sumo_rail.sim.traffic.lane_block`).
+  (`sumo_rail.sim.traffic.lane_block`);
+- with `observation.route_block = 1`, 4 more: how far the ego's lane leads along its route, the lanes to move to
+  the nearest lane that leads farthest, the distances to the next merge and diverge
+  (`sumo_rail.sim.route_progress.route_block`).
 """
 
 from __future__ import annotations
@@ -18,6 +22,7 @@ import numpy as np
 from gymnasium import spaces
 
 from sumo_rail.config import Config
+from sumo_rail.sim.route_progress import ROUTE_BLOCK_FIELDS
 from sumo_rail.sim.traffic import LANE_BLOCK_FIELDS, LANE_BLOCK_LANES
 
 
@@ -30,15 +35,18 @@ def observation_names(config: Config) -> list[str]:
             + [f"lane_{k}" for k in range(config.scenario.lanes)]
             + ["lane_change_in_progress"]
             + ([f"{lane}_lane_{name}" for lane in LANE_BLOCK_LANES for name in LANE_BLOCK_FIELDS]
-               if config.observation.lane_block else []))
+               if config.observation.lane_block else [])
+            + (list(ROUTE_BLOCK_FIELDS) if config.observation.route_block else []))
 
 
 def observation_space(config: Config) -> spaces.Box:
     """Bounds of every entry, matching the layout above."""
     beams, lanes = config.lidar.beams, config.scenario.lanes
-    block = 3 * config.observation.lane_block
-    low = np.concatenate([np.zeros(beams), -np.ones(beams), [0.0, 0.0], np.zeros(lanes), [0.0], [0, -1, 0, -1] * block])
-    high = np.concatenate([np.ones(beams), np.ones(beams), [2.0, 1.0], np.ones(lanes), [1.0], [1, 1, 1, 1] * block])
+    block, route = 3 * config.observation.lane_block, config.observation.route_block
+    low = np.concatenate([np.zeros(beams), -np.ones(beams), [0.0, 0.0], np.zeros(lanes), [0.0], [0, -1, 0, -1] * block,
+                          [0, -1, 0, 0] * route])
+    high = np.concatenate([np.ones(beams), np.ones(beams), [2.0, 1.0], np.ones(lanes), [1.0], [1, 1, 1, 1] * block,
+                           [1, 1, 1, 1] * route])
     return spaces.Box(low.astype(np.float32), high.astype(np.float32), dtype=np.float32)
 
 

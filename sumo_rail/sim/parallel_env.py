@@ -122,7 +122,8 @@ class ParallelHighwayEnv(ParallelEnv[str, np.ndarray, np.int64]):
         if self._sim is None:
             self._sim = Simulation(cfg.scenario, cfg.lidar.range_m + CONTEXT_MARGIN_M, transport=self.transport)
         sim = self._sim
-        starts = EpisodeStarts.draw(self.np_random, cfg, sim.snapshot_count, len(self.possible_agents))
+        starts = EpisodeStarts.draw(self.np_random, cfg, sim.snapshot_count, len(self.possible_agents),
+                                    sim.start_lanes)
         options = dict(options or {})
         unknown = sorted(set(options) - set(RESET_OPTIONS))
         if unknown:
@@ -184,7 +185,7 @@ class ParallelHighwayEnv(ParallelEnv[str, np.ndarray, np.int64]):
         vehicle = f"{agent}.{self._respawns[agent]}"
         windows = ((cfg.env.ego_start_min_m, cfg.env.ego_start_max_m), (sim.ego_length_m, cfg.env.ego_start_max_m))
         for low_m, high_m in (window for window in windows for _ in range(RESPAWN_DRAWS)):
-            lane = int(self.np_random.integers(cfg.scenario.lanes))
+            lane = int(self.np_random.integers(sim.start_lanes))
             position_m = float(self.np_random.uniform(low_m, high_m))
             if sim.place_ego(vehicle, lane, position_m, cfg.env.v_max_mps):
                 break

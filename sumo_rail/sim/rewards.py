@@ -78,6 +78,14 @@ class EpisodeMetrics:
     teleports: int = 0
     invalid_actions: int = 0
     action_counts: list[int] = field(default_factory=lambda: [0] * 5)
+    merges: int = 0
+    """Moves out of a lane that ends along the route into one that leads farther (`sumo_rail.sim.route_progress`)."""
+    merge_time_s: float = 0.0
+    """Their time, summed [s]."""
+    missed_exits: int = 0
+    """1 when the episode ended standing at the end of a lane that leads off the route (its exit missed)."""
+    lane_end_stops: int = 0
+    """1 when the episode ended standing at the end of a lane that ends."""
 
     @property
     def average_speed_mps(self) -> float:

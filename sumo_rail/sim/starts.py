@@ -10,7 +10,9 @@ keeps its whole width, up to b or a + K w), so consecutive egos start at least `
 With one ego the slot is the window itself: the draws are exactly `HighwayEnv`'s. Pooled over egos, the starts
 cover the same window as the single ego's do over episodes (up to the gaps), whenever it is wide enough.
 
-The draws come in this order: the warm state, SUMO's seed, then lane and position of ego_0, ego_1, ...
+The draws come in this order: the warm state, SUMO's seed, then lane and position of ego_0, ego_1, ... Lanes are
+those of the route's first edge. Where the single ego finds no room at its drawn place (a crowded start), its lane
+and position are drawn again (`EpisodeStart.redraw`, the next draws), up to `START_DRAWS` places.
 """
 
 from __future__ import annotations
@@ -24,6 +26,8 @@ from sumo_rail.config import Config
 from sumo_rail.sim.warm_states import WARM_STATE_POOLS
 
 _SUMO_SEED_BOUND = 2**31 - 1
+START_DRAWS = 20
+"""Places tried for the single ego's start before a reset gives up: the road has no room anywhere in the window."""
 MIN_SLOT_M = 40.0
 """Narrowest start slot of an ego when several share the road [m]."""
 GAP_M = 20.0
@@ -62,12 +66,15 @@ class EpisodeStarts:
     """Each ego's start position (its front, from the start of the road) [m]."""
 
     @classmethod
-    def draw(cls, rng: np.random.Generator, config: Config, snapshots: int, egos: int) -> EpisodeStarts:
+    def draw(cls, rng: np.random.Generator, config: Config, snapshots: int, egos: int,
+             start_lanes: int | None = None) -> EpisodeStarts:
+        """Draw the starts; lanes among the `start_lanes` lanes of the route's first edge (default
+        scenario.lanes)."""
         slots = start_slots(config, egos)
         snapshot, sumo_seed = int(rng.integers(snapshots)), int(rng.integers(_SUMO_SEED_BOUND))
         lanes, positions = [], []
         for low, high in slots:
-            lanes.append(int(rng.integers(config.scenario.lanes)))
+            lanes.append(int(rng.integers(start_lanes or config.scenario.lanes)))
             positions.append(float(rng.uniform(low, high)))
         return cls(snapshot, sumo_seed, tuple(lanes), tuple(positions))
 
@@ -82,9 +89,17 @@ class EpisodeStart:
     ego_position_m: float
 
     @classmethod
-    def draw(cls, rng: np.random.Generator, config: Config, snapshots: int) -> EpisodeStart:
-        starts = EpisodeStarts.draw(rng, config, snapshots, egos=1)
+    def draw(cls, rng: np.random.Generator, config: Config, snapshots: int,
+             start_lanes: int | None = None) -> EpisodeStart:
+        starts = EpisodeStarts.draw(rng, config, snapshots, egos=1, start_lanes=start_lanes)
         return cls(starts.snapshot, starts.sumo_seed, starts.lanes[0], starts.positions_m[0])
+
+    def redraw(self, rng: np.random.Generator, config: Config, start_lanes: int | None = None) -> EpisodeStart:
+        """The same warm state and SUMO seed, with the ego's lane and position drawn again (its first place had no
+        room): the next draws of `rng`, so every driver of the episode's seed gets the same start."""
+        lane = int(rng.integers(start_lanes or config.scenario.lanes))
+        position_m = float(rng.uniform(config.env.ego_start_min_m, config.env.ego_start_max_m))
+        return EpisodeStart(self.snapshot, self.sumo_seed, lane, position_m)
 
 
 RESET_OPTIONS = ("pool", "warm_state")

@@ -3,9 +3,11 @@ an ego during one decision period. Plain data (no SUMO here); `sumo_rail.sim.sim
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
+
+from sumo_rail.sim.road import RouteView
 
 _LATERAL_EPSILON_M = 0.01
 
@@ -20,10 +22,15 @@ class EgoState:
     speed_mps: float
     lane: int
     lane_position_m: float
+    """Front-bumper position along the ego's route [m] (`sumo_rail.sim.road`)."""
     lateral_offset_m: float
     """Distance of the ego's centre from its lane's centre line [m]; non-zero only while changing lanes."""
     length_m: float
     width_m: float
+    lane_id: str = field(default="", repr=False, compare=False)
+    """SUMO's id of the lane the ego is in ("" where not known)."""
+    route: RouteView | None = field(default=None, repr=False, compare=False)
+    """What the ego knows of its route from where it is (None where not known)."""
 
     @property
     def changing_lane(self) -> bool:
@@ -42,11 +49,11 @@ class Neighbours:
     """Headings [rad], 0 = +x, counter-clockwise, shape (M,)."""
     speed_mps: np.ndarray
     lane_position_m: np.ndarray
-    """Front-bumper distance from the start of the road [m]."""
+    """Front-bumper position along the ego's route [m]; -inf for a vehicle on a road not linked to it."""
     length_m: np.ndarray
     width_m: np.ndarray
     lane: np.ndarray
-    """Lane index (0 = rightmost), shape (M,) int."""
+    """Route lane (0 = the main road's rightmost; `sumo_rail.sim.road`), shape (M,) int."""
 
 
 @dataclass(frozen=True)

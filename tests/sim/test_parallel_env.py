@@ -188,7 +188,7 @@ def test_an_ego_that_finds_no_room_sits_the_episode_out(make_env, monkeypatch):
 
     class BothAtOnePlace:  # ego_1 is drawn where ego_0 stands, and waits one step at most
         @staticmethod
-        def draw(rng, config, snapshots, egos):
+        def draw(rng, config, snapshots, egos, start_lanes):
             return EpisodeStarts(0, 1, (1, 1), (400.0, 400.0))
     monkeypatch.setattr(simulation, "ENTRY_WAIT_S", 0.1)
     monkeypatch.setattr(parallel_env, "EpisodeStarts", BothAtOnePlace)

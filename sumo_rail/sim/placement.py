@@ -1,0 +1,110 @@
+"""Putting egos on the road: queued for SUMO's insertion at a reset, or placed at once between two steps (a
+respawning ego). Egos start on the first edge of their route; lanes here are SUMO's indices on that edge."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+from sumo_rail.sim import network
+from sumo_rail.sim.sumo_api import LANE_CHANGE_MODE_TRACI_ONLY_SAFE
+
+REACTION_S = 1.0
+"""Reaction time in `EgoPlacement.place_ego`'s safety margins [s] (traffic acts every 0.5 s, with tau up to 1.2 s)."""
+PLACE_MARGIN_M = 5.0
+"""Extra distance in `EgoPlacement.place_ego`'s safety margins [m]."""
+
+
+class EgoPlacement:
+    """The placing part of `Simulation` (a mixin: `_api` and `_built` are the simulation's)."""
+
+    _api: Any
+    _built: network.BuiltNetwork
+
+    @property
+    def start_edge(self) -> str:
+        """The edge egos start on: the first of their route."""
+        return self._built.ego_route[0]
+
+    @property
+    def start_lanes(self) -> int:
+        """Lanes of the start edge."""
+        return self._api.edge.getLaneNumber(self.start_edge)
+
+    @property
+    def ego_length_m(self) -> float:
+        """Length of an ego vehicle [m]."""
+        return self._api.vehicletype.getLength(network.EGO_TYPE)
+
+    def place_ego(self, vehicle: str, lane: int, position_m: float, max_speed_mps: float) -> bool:
+        """Put a new ego on the road at once, between two steps, in `lane` of its start edge with its front at
+        `position_m` [m], at the highest speed up to `max_speed_mps` that is safe there; False (and nothing placed)
+        when none is.
+
+        SUMO inserts a vehicle added now only at the next step; `vehicle.moveTo` forces it in at once, skipping
+        SUMO's insertion checks, so they are made here. No vehicle may overlap the place (vehicles changing into or
+        out of `lane` count as in it). The gap to the leader (beyond the ego's minimum gap) must exceed what the ego
+        covers in `REACTION_S` plus `PLACE_MARGIN_M`, and that plus the ego's braking distance at its type's
+        deceleration minus the leader's at its own; the follower's gap to the ego must exceed SUMO's secure gap for
+        the follower (`getSecureGap`; for an ego follower, whose ACC model's is smaller, the same braking-distance
+        difference) plus what it covers in `REACTION_S` and `PLACE_MARGIN_M`.
+        """
+        api = self._api.vehicle
+        ego_type = self._api.vehicletype
+        ego_length_m, ego_min_gap_m = self.ego_length_m, ego_type.getMinGap(network.EGO_TYPE)
+        ego_decel_mps2 = ego_type.getDecel(network.EGO_TYPE)
+        ahead, behind = [], []
+        for other, front_m, rear_m in self._lane_occupants(lane):
+            if rear_m >= position_m:
+                ahead.append((rear_m, other))
+            elif front_m <= position_m - ego_length_m:
+                behind.append((front_m, other))
+            else:
+                return False
+        speed_mps = max_speed_mps
+        if ahead:
+            rear_m, leader = min(ahead)
+            leader_speed = api.getSpeed(leader)
+            gap_m = rear_m - position_m - ego_min_gap_m - PLACE_MARGIN_M
+            if gap_m <= 0:
+                return False
+            # the largest v with gap >= v REACTION_S and gap >= v^2 / 2b - v_l^2 / 2b_l + v REACTION_S
+            room_m = gap_m + leader_speed**2 / (2 * api.getDecel(leader))
+            braking_mps = ego_decel_mps2 * (math.sqrt(REACTION_S**2 + 2 * room_m / ego_decel_mps2) - REACTION_S)
+            speed_mps = min(speed_mps, gap_m / REACTION_S, braking_mps)
+        if behind:
+            front_m, follower = max(behind)
+            follower_speed = api.getSpeed(follower)
+            braking_m = follower_speed**2 / (2 * api.getDecel(follower)) - speed_mps**2 / (2 * ego_decel_mps2)
+            secure_m = max(api.getSecureGap(follower, follower_speed, speed_mps, ego_decel_mps2), braking_m)
+            gap_m = position_m - ego_length_m - front_m - api.getMinGap(follower)
+            if gap_m < secure_m + follower_speed * REACTION_S + PLACE_MARGIN_M:
+                return False
+        api.add(vehicle, self._built.route_id, typeID=network.EGO_TYPE, depart="now", departLane=str(lane),
+                departPos=repr(position_m), departSpeed=repr(speed_mps))
+        api.moveTo(vehicle, f"{self.start_edge}_{lane}", position_m)
+        api.setLaneChangeMode(vehicle, LANE_CHANGE_MODE_TRACI_ONLY_SAFE)
+        return True
+
+    def _lane_occupants(self, lane: int) -> list[tuple[str, float, float]]:
+        """(id, front, rear) [m along the start edge] of every vehicle in `lane` or changing into or out of it (off its
+        lane's centre line)."""
+        lanes, api = self._api.lane, self._api.vehicle
+        edge = self.start_edge
+        vehicles = list(lanes.getLastStepVehicleIDs(f"{edge}_{lane}"))
+        for neighbour in (lane - 1, lane + 1):
+            if 0 <= neighbour < self.start_lanes:
+                vehicles += [vehicle for vehicle in lanes.getLastStepVehicleIDs(f"{edge}_{neighbour}")
+                             if api.getLateralLanePosition(vehicle) != 0.0]
+        occupants = []
+        for vehicle in vehicles:
+            front_m = api.getLanePosition(vehicle)
+            occupants.append((vehicle, front_m, front_m - api.getLength(vehicle)))
+        return occupants
+
+    def _insert(self, vehicle: str, lane: int, position_m: float) -> None:
+        """Queue an ego for insertion now in `lane` of its start edge with its front at `position_m` [m], at the highest
+        safe speed."""
+        self._api.vehicle.add(vehicle, self._built.route_id, typeID=network.EGO_TYPE, depart="now",
+                              departLane=str(lane), departPos=repr(position_m), departSpeed="max")
+        self._api.vehicle.setLaneChangeMode(vehicle, LANE_CHANGE_MODE_TRACI_ONLY_SAFE)

@@ -1,0 +1,80 @@
+"""Reading the road and the vehicles around an ego, in the ego's route frame (`sumo_rail.sim.road`)."""
+
+from __future__ import annotations
+
+import math
+import operator
+from typing import Any
+
+import numpy as np
+
+from sumo_rail.sim import network
+from sumo_rail.sim.road import RouteMap
+from sumo_rail.sim.sumo_api import EGO_ID
+from sumo_rail.sim.vehicles import EgoState, Neighbours
+
+
+class Sensing:
+    """The reading part of `Simulation` (a mixin: `_api`, `_constants`, `context_radius_m` and `route_map` are the
+    simulation's)."""
+
+    _api: Any
+    _constants: Any
+    context_radius_m: float
+    route_map: RouteMap
+
+    def _context_setup(self) -> None:
+        tc = self._constants
+        self._context_variables = (tc.VAR_POSITION, tc.VAR_ANGLE, tc.VAR_SPEED, tc.VAR_LANEPOSITION, tc.VAR_LENGTH,
+                                   tc.VAR_WIDTH, tc.VAR_LANE_ID)
+        self._context_fields = operator.itemgetter(*self._context_variables)
+
+    def observe(self, vehicle: str = EGO_ID) -> tuple[EgoState, Neighbours]:
+        """An ego and its neighbours (other egos included) within the context radius, from one context
+        subscription. Positions along the road and lanes are the route frame's (`RouteMap.place`); the ego's state
+        carries its route view.
+
+        Headings are SUMO's angles (degrees, 0 = north, clockwise) as math headings (radians, 0 = +x,
+        counter-clockwise): radians(90 - angle). The subscription is made and dropped at each decision: SUMO
+        answers a new subscription at once, and a standing one would be recomputed at every step of the decision
+        period for nothing.
+        """
+        tc, fields, place = self._constants, self._context_fields, self.route_map.place
+        api = self._api.vehicle
+        api.subscribeContext(vehicle, tc.CMD_GET_VEHICLE_VARIABLE, self.context_radius_m, self._context_variables)
+        results = api.getContextSubscriptionResults(vehicle)
+        api.unsubscribeContext(vehicle, tc.CMD_GET_VEHICLE_VARIABLE, self.context_radius_m)
+        (ego_x, ego_y), angle, speed, lane_position, length, width, lane_id = fields(results.pop(vehicle))
+        position_m, lane = place(lane_id, lane_position)
+        ego_state = EgoState(ego_x, ego_y, math.radians(90.0 - angle), speed, lane, position_m,
+                             api.getLateralLanePosition(vehicle), length, width, lane_id=lane_id,
+                             route=self.route_map.view(lane_id, position_m))
+        flat: list[float] = []
+        extend, radians = flat.extend, math.radians
+        for (x, y), angle, speed, lane_position, length, width, lane_id in map(fields, results.values()):
+            position_m, lane = place(lane_id, lane_position)
+            extend((x, y, radians(90.0 - angle), speed, position_m, length, width, lane))
+        rows = np.array(flat, dtype=np.float64).reshape(len(results), 8)
+        neighbours = Neighbours(ids=tuple(results), front_xy=rows[:, :2], heading_rad=rows[:, 2],
+                                speed_mps=rows[:, 3], lane_position_m=rows[:, 4], length_m=rows[:, 5],
+                                width_m=rows[:, 6], lane=rows[:, 7].astype(np.int64))
+        return ego_state, neighbours
+
+    def vehicle_types(self, ids: tuple[str, ...]) -> list[str]:
+        """SUMO vehicle type of each vehicle in `ids` (e.g. "car", "truck"), for drawing."""
+        get_type = self._api.vehicle.getTypeID
+        return [get_type(vehicle) for vehicle in ids]
+
+    def road_edges(self) -> np.ndarray:
+        """The road's outer edges as line segments [m], shape (S, 2, 2): the right edges of the network's edges first,
+        then their left edges (each edge's rightmost and leftmost lane's outer side)."""
+        lane, edge = self._api.lane, self._api.edge
+        rights, lefts = [], []
+        for edge_id in [edge_id for edge_id in edge.getIDList() if not edge_id.startswith(":")]:
+            right_id, left_id = f"{edge_id}_0", f"{edge_id}_{edge.getLaneNumber(edge_id) - 1}"
+            right = network.offset_polyline(np.array(lane.getShape(right_id)), -lane.getWidth(right_id) / 2)
+            left = network.offset_polyline(np.array(lane.getShape(left_id)), lane.getWidth(left_id) / 2)
+            rights.append(network.segments(right))
+            lefts.append(network.segments(left))
+        return np.concatenate([*rights, *lefts])
+

@@ -1,0 +1,78 @@
+"""Running a decision period: SUMO's steps, watching each ego for collisions, arrival, braking and teleports."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from typing import Any
+
+from sumo_rail.sim.sumo_api import EGO_ID, SimulationError
+from sumo_rail.sim.vehicles import PeriodReport
+
+
+class Stepping:
+    """The stepping part of `Simulation` (a mixin: `_api` and `_client` are the simulation's)."""
+
+    _api: Any
+    _client: Any
+
+    def advance(self, steps: int) -> PeriodReport:
+        """`advance_egos` for the single ego."""
+        return self.advance_egos(steps, (EGO_ID,))[0]
+
+    def advance_egos(self, steps: int, vehicles: Sequence[str]) -> list[PeriodReport]:
+        """Run `steps` SUMO steps, watching each ego of `vehicles` until it is gone; the steps go on while any of them
+        is on the road. One report per ego, in order; an ego that is gone has the time it went (`left_at_s`) and the
+        teleports until then.
+
+        Per step: the step, the teleport count and each ego's acceleration. An ego is gone (collided, and so removed,
+        or arrived) exactly when asking for its acceleration fails; only then are the step's collision and arrival
+        lists read, collision first.
+        """
+        api = self._api
+        step, simulation, acceleration = api.simulationStep, api.simulation, api.vehicle.getAcceleration
+        starting_teleports = simulation.getStartingTeleportNumber
+        error = self._client.TraCIException
+        on_road = list(vehicles)
+        min_accel = dict.fromkeys(on_road, math.inf)
+        teleported: set[str] = set()
+        teleports = 0
+        gone: dict[str, PeriodReport] = {}
+        for _ in range(steps):
+            step()
+            if starting_teleports():
+                starting = simulation.getStartingTeleportIDList()
+                teleports += len(starting)
+                teleported.update(starting)
+            left = False
+            for vehicle in on_road:
+                try:
+                    accel = acceleration(vehicle)
+                except error:
+                    collided, arrived = self._why_gone(vehicle)
+                    gone[vehicle] = PeriodReport(collided, arrived, vehicle in teleported,
+                                                 _lowest(min_accel[vehicle]), teleports, simulation.getTime())
+                    left = True
+                    continue
+                if accel < min_accel[vehicle]:
+                    min_accel[vehicle] = accel
+            if left:
+                on_road = [vehicle for vehicle in on_road if vehicle not in gone]
+                if not on_road:
+                    break
+        return [gone.get(vehicle) or PeriodReport(False, False, vehicle in teleported, _lowest(min_accel[vehicle]),
+                                                  teleports) for vehicle in vehicles]
+
+    def _why_gone(self, vehicle: str) -> tuple[bool, bool]:
+        """(collided, arrived) for an ego SUMO no longer answers about, after a step: collided (and so removed)
+        or arrived at the end of its route; SimulationError if neither."""
+        simulation = self._api.simulation
+        collided = vehicle in simulation.getCollidingVehiclesIDList()
+        if not (collided or vehicle in simulation.getArrivedIDList()):
+            raise SimulationError(f"SUMO lost ego {vehicle} without a collision or an arrival")
+        return collided, not collided
+
+
+def _lowest(acceleration_mps2: float) -> float:
+    """A period's lowest acceleration [m/s^2], 0 when none was read."""
+    return acceleration_mps2 if acceleration_mps2 < math.inf else 0.0

@@ -1,0 +1,39 @@
+"""What every part of the simulation shares about SUMO's API: its error, the transports, the ego's id and lane-change
+mode, and loading libsumo or traci (imported only here and when a simulation starts)."""
+
+from __future__ import annotations
+
+import os
+from types import ModuleType
+
+EGO_ID = "ego"
+"""The single ego's vehicle id."""
+LANE_CHANGE_MODE_TRACI_ONLY_SAFE = 0b1100000000
+"""No autonomous lane changes; TraCI requests respect other drivers' gaps, without speed adaptation."""
+TRANSPORTS = ("auto", "libsumo", "traci")
+"""How SUMO is driven: libsumo (SUMO linked into this process), traci (a SUMO process, over a socket; the same
+episodes, slower), or auto: libsumo unless another simulation of this process holds it, then traci."""
+
+
+class SimulationError(RuntimeError):
+    """SUMO could not do what was asked (message is one sentence)."""
+
+
+def load_api(transport: str) -> ModuleType:
+    """libsumo, or traci's own socket client for "traci"."""
+    if transport == "traci":
+        # traci's own socket client: a plain `import traci` gives libsumo once LIBSUMO_AS_TRACI is set (below)
+        import traci.main
+
+        return traci.main
+    os.environ.setdefault("LIBSUMO_AS_TRACI", "quiet")
+    import libsumo
+
+    return libsumo
+
+
+def load_constants() -> ModuleType:
+    """TraCI's constants (variable ids)."""
+    import traci.constants
+
+    return traci.constants

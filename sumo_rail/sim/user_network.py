@@ -1,0 +1,84 @@
+"""A SUMO network of the user's own as the road (`scenario.kind = "network"`): checked, then used as it is.
+
+The network file (for example built by netconvert from an OpenStreetMap extract, docs/scenarios.md) and the ego's
+route (`scenario.route`) are checked with sumolib before SUMO starts: the file must be a SUMO network, every edge of
+the route must be in it and each must lead to the next. The routes file written to the cache holds the built-in
+vehicle types, the ego's route and, without `scenario.traffic_file`, a flow along that route.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import itertools
+import json
+import os
+import xml.etree.ElementTree as ElementTree
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from sumo_rail.config import ConfigError, ScenarioConfig
+from sumo_rail.datasets import sumo_version
+from sumo_rail.sim import scenarios
+
+if TYPE_CHECKING:
+    from sumo_rail.sim.network import BuiltNetwork
+
+
+def build(scenario: ScenarioConfig, cache_root: Path, vehicle_types_file: Path) -> BuiltNetwork:
+    """Check the user's network and route, and write the routes file for them into the cache."""
+    from sumo_rail.sim.network import BuiltNetwork
+
+    net_file = Path(scenario.network).expanduser().resolve()
+    ego_route = tuple(scenario.route.split())
+    net_bytes = _network_bytes(net_file)
+    check_route(net_file, ego_route, scenario.lanes)
+    traffic_file = None
+    if scenario.traffic_file:
+        traffic_file = Path(scenario.traffic_file).expanduser().resolve()
+        scenarios.read_source(traffic_file)
+    routes = scenarios.network_routes(scenario, scenarios.read_source(vehicle_types_file), ego_route,
+                                      with_flow=traffic_file is None)
+    digest = hashlib.sha256(json.dumps({"route": ego_route, "sumo": sumo_version(),
+                                        "traffic": str(traffic_file)}).encode())
+    digest.update(net_bytes + b"\0" + routes)
+    directory = cache_root / "networks" / digest.hexdigest()[:16]
+    routes_file = directory / "traffic.rou.xml"
+    if not (routes_file.exists() and routes_file.read_bytes() == routes):
+        directory.mkdir(parents=True, exist_ok=True)
+        temporary = routes_file.with_suffix(f".{os.getpid()}.tmp")
+        temporary.write_bytes(routes)
+        os.replace(temporary, routes_file)
+    return BuiltNetwork(net_file, routes_file, directory, ego_route, traffic_file)
+
+
+def _network_bytes(net_file: Path) -> bytes:
+    try:
+        data = net_file.read_bytes()
+        root = ElementTree.fromstring(data)
+    except OSError as error:
+        raise ConfigError(f"cannot read scenario.network {net_file}: {error.strerror or error}") from error
+    except ElementTree.ParseError as error:
+        raise ConfigError(f"scenario.network {net_file} is not well-formed XML: {error}") from error
+    if root.tag != "net":
+        raise ConfigError(f"scenario.network {net_file} is not a SUMO network (its root element is <{root.tag}>, "
+                          f"not <net>)")
+    return data
+
+
+def check_route(net_file: Path, ego_route: tuple[str, ...], lanes: int) -> None:
+    """ConfigError unless every edge of `ego_route` is in the network, each leads to the next, and the route's widest
+    edge has `lanes` lanes (the observation's lane count)."""
+    import sumolib
+
+    net = sumolib.net.readNet(str(net_file))
+    for edge in ego_route:
+        if not net.hasEdge(edge):
+            raise ConfigError(f"scenario.route's edge {edge!r} is not in {net_file.name}")
+    for source, target in itertools.pairwise(ego_route):
+        if net.getEdge(target) not in net.getEdge(source).getOutgoing():
+            raise ConfigError(f"scenario.route is not connected: edge {source!r} does not lead to {target!r} in "
+                              f"{net_file.name}")
+    widest = max(net.getEdge(edge).getLaneNumber() for edge in ego_route)
+    if widest != lanes:
+        raise ConfigError(f"scenario.lanes is {lanes} but the route's widest edge in {net_file.name} has {widest} "
+                          f"lanes; set --set scenario.lanes={widest}")
