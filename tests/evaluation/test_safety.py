@@ -3,7 +3,7 @@ import math
 import libsumo
 import numpy as np
 import pytest
-from scenes import view
+from scenes import two_vehicle_road, view
 
 from sumo_rail.evaluation.safety import (
     HEADWAY_CAP_S,
@@ -15,7 +15,6 @@ from sumo_rail.evaluation.safety import (
     episode_measures,
     time_to_collision,
 )
-from sumo_rail.sim import network
 from sumo_rail.sim.actions import Action
 from sumo_rail.sim.env import HighwayEnv
 from sumo_rail.sim.simulation import EGO_ID
@@ -41,13 +40,16 @@ def test_ego_ttc_is_the_smaller_of_its_leaders_and_its_followers_in_its_own_lane
 
 
 def test_episode_measures_count_shares_below_each_threshold_and_cap_the_minima():
-    measures = episode_measures(np.array([5.0, 2.0, 1.0, math.inf]), np.array([2.0, 1.2, 0.8, math.inf]), 1)
+    readings = {"jerk_max_mps3": np.array([0.0, 4.0, 1.0, 0.0]), "jerk_mean_mps3": np.array([0.0, 2.0, 1.0, 1.0]),
+                "cut_in_follower_accel_mps2": np.array([np.nan, -1.0, -3.5, np.nan]), "cut_ins": np.array([0, 1, 0, 0])}
+    measures = episode_measures(np.array([5.0, 2.0, 1.0, math.inf]), np.array([2.0, 1.2, 0.8, math.inf]), 1, readings)
     assert list(measures) == list(SAFETY_MEASURES)
     assert measures == {"min_ttc_s": 1.0, "ttc_below_1_5s_share": 0.25, "ttc_below_3s_share": 0.5,
-                        "min_headway_s": 0.8, "invalid_action_share": 0.25}
+                        "min_headway_s": 0.8, "invalid_action_share": 0.25, "jerk_max_mps3": 4.0,
+                        "jerk_mean_mps3": 1.0, "cut_ins": 1.0, "cut_in_follower_decel_mps2": 3.5}
     calm = episode_measures(np.array([math.inf, 40.0]), np.array([math.inf, math.inf]), 0)
     assert calm["min_ttc_s"] == TTC_CAP_S and calm["min_headway_s"] == HEADWAY_CAP_S
-    assert calm["ttc_below_3s_share"] == 0.0
+    assert calm["ttc_below_3s_share"] == 0.0 and calm["cut_in_follower_decel_mps2"] == 0.0  # no cut-in
 
 
 def test_a_constant_speed_follow_in_sumo_gives_its_known_headway_and_ttc(small_config):
@@ -55,21 +57,11 @@ def test_a_constant_speed_follow_in_sumo_gives_its_known_headway_and_ttc(small_c
     decision: the gap shrinks by 2 m every 0.5 s decision, so TTC = gap / 4 m/s and headway = gap / 30 m/s."""
     env = HighwayEnv(small_config)
     try:
-        env.reset(seed=0)
-        for vehicle in libsumo.vehicle.getIDList():
-            if vehicle != EGO_ID:
-                libsumo.vehicle.remove(vehicle)
+        edge = two_vehicle_road(env, "leader", 1, 30.0, 26.0)
         lane, ego_front_m = 1, 400.0
         leader_front_m = ego_front_m + 23.0 + 4.5  # 23 m bumper to bumper, 2 m less after the first decision
-        libsumo.vehicle.add("leader", network.ROUTE_ID, typeID="car", depart="now", departLane=str(lane),
-                            departPos=repr(leader_front_m), departSpeed="26")
-        for vehicle, speed in ((EGO_ID, 30.0), ("leader", 26.0)):
-            libsumo.vehicle.setSpeedMode(vehicle, 0)  # exactly this speed, no safety checks
-            libsumo.vehicle.setLaneChangeMode(vehicle, 0)
-            libsumo.vehicle.setSpeed(vehicle, speed)
-        env.step(Action.KEEP)  # both at their speeds, then put in place
-        libsumo.vehicle.moveTo("leader", f"{network.EDGE_ID}_{lane}", leader_front_m)
-        libsumo.vehicle.moveTo(EGO_ID, f"{network.EDGE_ID}_{lane}", ego_front_m)
+        libsumo.vehicle.moveTo("leader", f"{edge}_{lane}", leader_front_m)
+        libsumo.vehicle.moveTo(EGO_ID, f"{edge}_{lane}", ego_front_m)
         observation, _, _, _, info = env.step(Action.KEEP)
         probe = SafetyProbe()
         for _ in range(9):
@@ -83,3 +75,4 @@ def test_a_constant_speed_follow_in_sumo_gives_its_known_headway_and_ttc(small_c
     assert measures["min_ttc_s"] == pytest.approx(5.0 / 4.0, abs=1e-6)
     assert measures["min_headway_s"] == pytest.approx(5.0 / 30.0, abs=1e-6)
     assert measures["ttc_below_3s_share"] == pytest.approx(4 / 9) and measures["ttc_below_1_5s_share"] == 1 / 9
+    assert measures["jerk_max_mps3"] == 0.0 and measures["cut_ins"] == 0  # constant speed, no lane change
