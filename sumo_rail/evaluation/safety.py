@@ -94,7 +94,7 @@ def episode_measures(ttc_s: np.ndarray, headway_s: np.ndarray, invalid_actions: 
             "jerk_max_mps3": float(jerk_max.max(initial=0.0)),
             "jerk_mean_mps3": float(jerk_mean.mean()) if len(jerk_mean) else 0.0,
             "cut_ins": float(np.sum(readings.get("cut_ins", []))),
-            "cut_in_follower_decel_mps2": max(-float(np.nanmin(follower_accel, initial=np.inf)), 0.0)}
+            "cut_in_follower_decel_mps2": max(-float(follower_accel.min(initial=np.inf)), 0.0)}
 
 
 class SafetyProbe:
@@ -121,7 +121,7 @@ class SafetyProbe:
 
     def decision_columns(self) -> dict[str, np.ndarray]:
         """One entry per decision in each of SAFETY_DECISION_FIELDS."""
+        follower_accel = np.array(self._readings["cut_in_follower_accel_mps2"], dtype=np.float64)
         return {"ttc_s": np.minimum(np.array(self._ttc_s, dtype=np.float64), TTC_CAP_S),
                 "jerk_max_mps3": np.array(self._readings["jerk_max_mps3"], dtype=np.float64),
-                "cut_in_follower_decel_mps2": -np.array(self._readings["cut_in_follower_accel_mps2"],
-                                                        dtype=np.float64)}
+                "cut_in_follower_decel_mps2": np.where(np.isinf(follower_accel), np.nan, -follower_accel)}

@@ -165,7 +165,7 @@ class Ego:
         info = self._totals() | {"speed_mps": last.speed_mps, "lane": last.lane, "position_m": last.lane_position_m,
                                  "set_point_mps": self.set_point_mps, "lane_change_in_progress": False,
                                  "reward_longitudinal": 0.0, "reward_lateral": 0.0, "reward_collision": reward,
-                                 "termination": reason}
+                                 "termination": reason, **self.period_safety.update(report, None, None, None, True)}
         return self.last_observation, reward, report.ego_collided, not report.ego_collided, info
 
     def _relations(self, ego: EgoState, neighbours: Neighbours) -> list[int]:

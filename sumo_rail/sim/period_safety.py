@@ -17,9 +17,10 @@ CUT_IN_WINDOW_S = 3.0
 """How long the follower in the ego's new lane is watched after the ego's lane change starts [s]."""
 READINGS = ("jerk_max_mps3", "jerk_mean_mps3", "cut_in_follower_accel_mps2", "cut_ins")
 """A decision's readings (its `info` keys): the period's largest and mean absolute jerk of the ego [m/s^3], the
-lowest acceleration of the followers watched after cut-ins [m/s^2] (NaN: none watched), and the cut-ins whose
+lowest acceleration of the followers watched after cut-ins [m/s^2] (inf: none watched; not NaN, so that two equal
+episodes have equal infos), and the cut-ins whose
 follower starts to be watched at this decision (0 or 1)."""
-NO_READINGS = {"jerk_max_mps3": 0.0, "jerk_mean_mps3": 0.0, "cut_in_follower_accel_mps2": math.nan, "cut_ins": 0}
+NO_READINGS = {"jerk_max_mps3": 0.0, "jerk_mean_mps3": 0.0, "cut_in_follower_accel_mps2": math.inf, "cut_ins": 0}
 
 
 def jerks(accelerations_mps2: Sequence[float], previous_mps2: float | None, step_length_s: float) -> np.ndarray:
@@ -52,12 +53,13 @@ class PeriodSafety:
         """The vehicles whose acceleration the next period's steps should read."""
         return tuple(self._watching)
 
-    def update(self, report: PeriodReport, ego: EgoState, neighbours: Neighbours, requested_lane: int | None,
-               was_changing: bool) -> dict[str, float]:
-        """The readings of a period (`READINGS`), after which the ego is `ego` among `neighbours`; `requested_lane`:
-        the lane its decision asked to change to (None: none), `was_changing`: a change was under way before it. A
-        change that started in the period (the ego between lanes, or in the requested lane, after a request made
-        while no change was under way) is a cut-in: the nearest follower in that lane is watched from now on."""
+    def update(self, report: PeriodReport, ego: EgoState | None, neighbours: Neighbours | None,
+               requested_lane: int | None, was_changing: bool) -> dict[str, float]:
+        """The readings of a period (`READINGS`), after which the ego is `ego` among `neighbours` (None: it is gone);
+        `requested_lane`: the lane its decision asked to change to (None: none), `was_changing`: a change was under
+        way before it. A change that started in the period (the ego between lanes, or in the requested lane, after a
+        request made while no change was under way) is a cut-in: the nearest follower in that lane is watched from
+        now on."""
         period_jerks = jerks(report.accelerations_mps2, self._last_acceleration_mps2, self.step_length_s)
         if report.accelerations_mps2:
             self._last_acceleration_mps2 = report.accelerations_mps2[-1]
@@ -65,11 +67,12 @@ class PeriodSafety:
                      default=math.inf)
         self._watching = {vehicle: left - 1 for vehicle, left in self._watching.items() if left > 1}
         cut_ins = 0
-        if requested_lane is not None and not was_changing and (ego.changing_lane or ego.lane == requested_lane):
+        if (ego is not None and neighbours is not None and requested_lane is not None and not was_changing
+                and (ego.changing_lane or ego.lane == requested_lane)):
             follower = nearest_follower(ego, neighbours, requested_lane)
             if follower is not None:
                 self._watching[follower] = self._window
                 cut_ins = 1
         return {"jerk_max_mps3": float(period_jerks.max(initial=0.0)),
                 "jerk_mean_mps3": float(period_jerks.mean()) if len(period_jerks) else 0.0,
-                "cut_in_follower_accel_mps2": lowest if lowest < math.inf else math.nan, "cut_ins": cut_ins}
+                "cut_in_follower_accel_mps2": lowest, "cut_ins": cut_ins}

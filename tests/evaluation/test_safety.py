@@ -41,7 +41,7 @@ def test_ego_ttc_is_the_smaller_of_its_leaders_and_its_followers_in_its_own_lane
 
 def test_episode_measures_count_shares_below_each_threshold_and_cap_the_minima():
     readings = {"jerk_max_mps3": np.array([0.0, 4.0, 1.0, 0.0]), "jerk_mean_mps3": np.array([0.0, 2.0, 1.0, 1.0]),
-                "cut_in_follower_accel_mps2": np.array([np.nan, -1.0, -3.5, np.nan]), "cut_ins": np.array([0, 1, 0, 0])}
+                "cut_in_follower_accel_mps2": np.array([np.inf, -1.0, -3.5, np.inf]), "cut_ins": np.array([0, 1, 0, 0])}
     measures = episode_measures(np.array([5.0, 2.0, 1.0, math.inf]), np.array([2.0, 1.2, 0.8, math.inf]), 1, readings)
     assert list(measures) == list(SAFETY_MEASURES)
     assert measures == {"min_ttc_s": 1.0, "ttc_below_1_5s_share": 0.25, "ttc_below_3s_share": 0.5,

@@ -33,13 +33,13 @@ def test_a_started_change_watches_the_new_follower_for_the_window_only():
     safety = PeriodSafety(step_length_s=0.1, decision_period_s=0.5)
     changing = view([(2, 980.0, 4.5, 30.0)], lateral=0.3)  # between lanes, after a request for lane 2
     first = safety.update(report([0.0, 0.0]), changing.ego, changing.neighbours, 2, was_changing=False)
-    assert first["cut_ins"] == 1 and math.isnan(first["cut_in_follower_accel_mps2"]) and safety.watched() == ("v0",)
+    assert first["cut_ins"] == 1 and first["cut_in_follower_accel_mps2"] == math.inf and safety.watched() == ("v0",)
     periods = round(CUT_IN_WINDOW_S / 0.5)
     readings = [safety.update(report([0.0], {"v0": -1.0 - k}), changing.ego, changing.neighbours, None, True)
                 for k in range(periods + 1)]
     assert [reading["cut_in_follower_accel_mps2"] for reading in readings[:periods]] == [-1.0 - k for k in
                                                                                           range(periods)]
-    assert math.isnan(readings[periods]["cut_in_follower_accel_mps2"]) and safety.watched() == ()
+    assert readings[periods]["cut_in_follower_accel_mps2"] == math.inf and safety.watched() == ()
     assert sum(reading["cut_ins"] for reading in readings) == 0  # a change already under way is no new cut-in
     refused = PeriodSafety(0.1, 0.5).update(report(), view([(2, 980.0, 4.5, 30.0)]).ego, changing.neighbours, 2,
                                             was_changing=False)
@@ -62,6 +62,6 @@ def test_a_scripted_cut_in_in_sumo_reads_the_followers_known_deceleration(small_
     finally:
         env.close()
     follower = np.array([info["cut_in_follower_accel_mps2"] for info in infos])
-    assert math.isnan(follower[0])  # watched from the period after the one the change started in
-    assert np.nanmin(follower) == pytest.approx(-2.5, abs=1e-6)
-    assert np.isnan(follower[7])  # 3 s later it is no longer watched
+    assert follower[0] == math.inf  # watched from the period after the one the change started in
+    assert follower.min() == pytest.approx(-2.5, abs=1e-6)
+    assert follower[7] == math.inf  # 3 s later it is no longer watched
