@@ -220,6 +220,10 @@ class EnvConfig:
     """Nearest start position of the ego's front from the start of the road [m]."""
     ego_start_max_m: float = 700.0
     """Farthest start position of the ego's front from the start of the road [m]."""
+    zip_merge_m: float = 150.0
+    """Within this distance of the end of a lane that does not lead along its route, the ego's lane changes toward
+    the lanes that do are zip merges: SUMO makes them when no collision is immediate and the followers brake, as
+    its own drivers merge at a lane's end; elsewhere they wait for SUMO's safe gaps [m]."""
 
     def steps_per_decision(self, step_length_s: float) -> int:
         """SUMO steps in one decision period."""

@@ -1,12 +1,16 @@
 """The rule-based expert: privileged, deterministic, in the spirit of IDM/MOBIL, choosing among the five actions.
 
-The expert reads the traffic directly (`HighwayEnv.traffic`: lanes, gaps and speeds of its neighbours), not
-the LIDAR. Each decision, in this order:
+The expert reads the traffic directly (`HighwayEnv.traffic`: lanes, gaps and speeds of its neighbours, and its
+route as a navigation system tells it), not the LIDAR. Each decision, in this order:
 1. while a lane change is under way it only manages its speed;
-2. overtake on the left when a slower leader is in the way, the left lane lets it drive at least
+2. what the route demands: within `route_demand_m` of the end of a lane that does not lead along its route (a lane
+   drop, an acceleration lane, lanes past its exit), move toward the nearest lane that does when safe (into gaps
+   a third as long in the last `URGENT_M`), else change its set-point to open a gap there (`Expert._seek_gap`);
+3. overtake on the left when a slower leader is in the way, the left lane lets it drive at least
    `min_speed_gain_mps` faster, and the change is safe;
-3. otherwise return right when the right lane is free for `keep_right_s` at its desired speed and safe;
-4. otherwise move the cruise set-point toward its desired speed (SUMO's ACC keeps the gap to the leader).
+4. otherwise return right when the right lane is free for `keep_right_s` at its desired speed and safe;
+   (neither 3 nor 4 into a lane the route would soon demand leaving again)
+5. otherwise move the cruise set-point toward its desired speed (SUMO's ACC keeps the gap to the leader).
 
 A change is safe when nobody is alongside in the target lane, the gap to the new leader is at least
 `min_gap_m + front_time_gap_s * v_ego` plus the distance needed to shed any speed excess at 3 m/s^2, and the
@@ -21,9 +25,22 @@ from dataclasses import dataclass
 import numpy as np
 
 from sumo_rail.sim.actions import Action
+from sumo_rail.sim.road import RouteView
 from sumo_rail.sim.traffic import NO_VEHICLE, LaneGaps, TrafficView, lane_gaps, within
 
 _COMFORT_DECEL_MPS2 = 3.0
+ROUTE_MARGIN_M = 150.0
+"""Distance [m] kept before a lane's end when the route demands leaving it."""
+ROUTE_PER_LANE_M = 200.0
+"""Distance [m] allowed for each lane change the route demands."""
+URGENT_M = 150.0
+"""Within this distance [m] of its lane's end the expert merges into shorter gaps, or slows down for one."""
+URGENT_GAP_SHARE = 0.3
+"""Share of its time gaps it keeps when merging urgently."""
+MERGE_SPEED_SHARE = 0.6
+"""Lowest set-point, as a share of its desired speed, it slows to while looking for a gap to merge into."""
+PASS_MARGIN_MPS = 3.0
+"""How far above its desired speed it raises its set-point to pull ahead of a slower vehicle for a gap [m/s]."""
 
 
 @dataclass(frozen=True)
@@ -75,15 +92,22 @@ class Expert:
         if self.view_range_m < NO_VEHICLE:
             traffic = within(traffic, self.view_range_m)
         ego, style = traffic.ego, self.style
+        route = ego.route
         if not ego.changing_lane:
+            if route is not None:
+                demanded = self._route_change(traffic, route)
+                if demanded is not None:
+                    return demanded
+            lowest, highest = (0, traffic.lanes - 1) if route is None else (route.lowest_lane, route.highest_lane)
             own = lane_gaps(traffic, ego.lane)
             own_speed = self._lane_speed(own, style.look_ahead_s)
-            if ego.lane + 1 < traffic.lanes and own_speed < style.desired_speed_mps - style.min_speed_gain_mps:
+            if (ego.lane < highest and own_speed < style.desired_speed_mps - style.min_speed_gain_mps
+                    and _leads_on(route, ego.lane + 1)):
                 left = lane_gaps(traffic, ego.lane + 1)
                 if (self._lane_speed(left, style.look_ahead_s) >= own_speed + style.min_speed_gain_mps
                         and self._safe(left, ego.speed_mps)):
                     return Action.LANE_LEFT
-            if ego.lane > 0:
+            if ego.lane > lowest and _leads_on(route, ego.lane - 1):
                 right = lane_gaps(traffic, ego.lane - 1)
                 if (self._lane_speed(right, style.keep_right_s) >= style.desired_speed_mps - style.min_speed_gain_mps
                         and self._safe(right, ego.speed_mps)):
@@ -94,6 +118,38 @@ class Expert:
             return Action.DECELERATE
         return Action.KEEP
 
+    def _route_change(self, traffic: TrafficView, route: RouteView) -> Action | None:
+        """The route's demand, before any wish of its own: within `route_demand_m` of the end of a lane that does not
+        lead along the route, move toward the nearest lane that does when safe (nearer the end, with the time gaps
+        shrunk to `URGENT_GAP_SHARE`), else seek a gap there. None: nothing demanded now."""
+        ego = traffic.ego
+        offset = route.best_lane_offset(ego.lane)
+        lane_end_m = route.lane_end(ego.lane)
+        if offset == 0 or lane_end_m > route_demand_m(offset):
+            return None
+        target = ego.lane + (1 if offset > 0 else -1)
+        if not route.lowest_lane <= target <= route.highest_lane:
+            return None  # the lane to move to begins farther on (an on-ramp before its acceleration lane)
+        gaps = lane_gaps(traffic, target)
+        share = URGENT_GAP_SHARE if lane_end_m <= URGENT_M else 1.0
+        if self._safe(gaps, ego.speed_mps, share):
+            return Action.LANE_LEFT if offset > 0 else Action.LANE_RIGHT
+        return self._seek_gap(gaps, ego.speed_mps, traffic.set_point_mps, share)
+
+    def _seek_gap(self, gaps: LaneGaps, ego_speed_mps: float, set_point_mps: float, gap_share: float) -> Action:
+        """The set-point change that opens a gap in the lane the route demands: drop behind a vehicle alongside or a
+        leader too close; pull ahead of a slower vehicle close behind; else keep the speed (a faster one behind passes
+        by, and its gap comes along)."""
+        style = self.style
+        needed_front, needed_rear = self._needed(gaps, ego_speed_mps, gap_share)
+        lowest, highest = MERGE_SPEED_SHARE * style.desired_speed_mps, style.desired_speed_mps + PASS_MARGIN_MPS
+        if gaps.alongside or gaps.front_gap_m < needed_front:
+            return Action.DECELERATE if set_point_mps > lowest else Action.KEEP
+        rear_slower = np.isfinite(gaps.rear_speed_mps) and gaps.rear_speed_mps < ego_speed_mps
+        if gaps.rear_gap_m < needed_rear and rear_slower and set_point_mps < highest:
+            return Action.ACCELERATE
+        return Action.KEEP
+
     def _lane_speed(self, gaps: LaneGaps, horizon_s: float) -> float:
         """Speed the ego could hold in a lane: its leader's, if that is within `horizon_s` at the desired speed."""
         desired = self.style.desired_speed_mps
@@ -101,16 +157,38 @@ class Expert:
             return min(gaps.front_speed_mps, desired)
         return desired
 
-    def _safe(self, gaps: LaneGaps, ego_speed_mps: float) -> bool:
-        style = self.style
+    def _safe(self, gaps: LaneGaps, ego_speed_mps: float, gap_share: float = 1.0) -> bool:
+        """Nobody alongside and the gaps of the module's docstring, their time gaps scaled by `gap_share`."""
         if gaps.alongside:
             return False
+        needed_front, needed_rear = self._needed(gaps, ego_speed_mps, gap_share)
+        return gaps.front_gap_m >= needed_front and gaps.rear_gap_m >= needed_rear
+
+    def _needed(self, gaps: LaneGaps, ego_speed_mps: float, gap_share: float) -> tuple[float, float]:
+        """The front and rear gaps [m] a change into the lane of `gaps` needs."""
+        style = self.style
         excess = max(ego_speed_mps - gaps.front_speed_mps, 0.0) if np.isfinite(gaps.front_speed_mps) else 0.0
-        needed_front = style.min_gap_m + style.front_time_gap_s * ego_speed_mps + excess**2 / (2 * _COMFORT_DECEL_MPS2)
+        needed_front = (style.min_gap_m + gap_share * style.front_time_gap_s * ego_speed_mps
+                        + excess**2 / (2 * _COMFORT_DECEL_MPS2))
         closing = max(gaps.rear_speed_mps - ego_speed_mps, 0.0) if np.isfinite(gaps.rear_speed_mps) else 0.0
         rear_speed = gaps.rear_speed_mps if np.isfinite(gaps.rear_speed_mps) else 0.0
-        needed_rear = style.min_gap_m + style.rear_time_gap_s * rear_speed + closing**2 / (2 * _COMFORT_DECEL_MPS2)
-        return gaps.front_gap_m >= needed_front and gaps.rear_gap_m >= needed_rear
+        needed_rear = (style.min_gap_m + gap_share * style.rear_time_gap_s * rear_speed
+                       + closing**2 / (2 * _COMFORT_DECEL_MPS2))
+        return needed_front, needed_rear
+
+
+def route_demand_m(offset: int) -> float:
+    """How far before a lane's end [m] the expert starts the `offset` lane changes the route demands."""
+    return ROUTE_MARGIN_M + ROUTE_PER_LANE_M * abs(offset)
+
+
+def _leads_on(route: RouteView | None, lane: int) -> bool:
+    """A discretionary change into `lane` keeps the route: the lane leads on well past where the route would demand
+    a change out of it again."""
+    if route is None:
+        return True
+    offset = route.best_lane_offset(lane)
+    return offset == 0 or route.lane_end(lane) > route_demand_m(offset) + 2 * ROUTE_PER_LANE_M
 
 
 def make_expert(style_name: str, speed_step_mps: float, view_range_m: float = NO_VEHICLE) -> Expert:

@@ -20,7 +20,12 @@ from sumo_rail.evaluation.statistics import (
 EPISODE_MEASURES = ("average_speed_kmh", "overtakes", "lane_changes", "longitudinal_reward", "lateral_reward",
                     "collisions", "hard_braking", "invalid_actions", "distance_m", "steps")
 """Episode metrics summarised by their mean over episodes (the paper's first)."""
-MEASURES = (*RATES, *EPISODE_MEASURES, *SAFETY_MEASURES)
+ROUTE_MEASURES = ("failures", "merges", "seconds_per_merge", "missed_exits", "lane_end_stops")
+"""The route's measures (`sumo_rail.sim.route_progress`): failures (a collision, a missed exit or a stop at a lane end
+ends the episode: the share of episodes that failed), merges per episode and their mean time [s], missed exits and
+lane-end stops per episode; summarised where a road has merges or failures (none on the straight road but
+collisions, which have their own row)."""
+MEASURES = (*RATES, *EPISODE_MEASURES, *ROUTE_MEASURES, *SAFETY_MEASURES)
 """Rows of the summary: the agreement rates (pooled over decisions) first, then the episode means (the safety
 measures where a metrics file has them: files written before them do not)."""
 DETECTABLE = "*"
@@ -34,6 +39,23 @@ def measure_samples(episodes: pd.DataFrame) -> dict[str, Sample]:
         samples |= {name: (counts[top], counts[bottom]) for name, (top, bottom) in RATES.items()}
     samples |= {name: mean_sample(episodes[name].to_numpy()) for name in (*EPISODE_MEASURES, *SAFETY_MEASURES)
                 if name in episodes}
+    return samples | route_samples(episodes)
+
+
+def route_samples(episodes: pd.DataFrame) -> dict[str, Sample]:
+    """The `ROUTE_MEASURES` samples of episodes whose metrics hold them and that merged or failed on the route."""
+    if not {"merges", "missed_exits", "lane_end_stops"} <= set(episodes.columns):
+        return {}
+    merges = episodes["merges"].to_numpy()
+    stops = episodes["missed_exits"].to_numpy() + episodes["lane_end_stops"].to_numpy()
+    if not (merges.any() or stops.any()):
+        return {}
+    failed = ((episodes["collisions"].to_numpy() > 0) | (stops > 0)).astype(float)
+    samples = {"failures": mean_sample(failed), "merges": mean_sample(merges.astype(float)),
+               "missed_exits": mean_sample(episodes["missed_exits"].to_numpy().astype(float)),
+               "lane_end_stops": mean_sample(episodes["lane_end_stops"].to_numpy().astype(float))}
+    if merges.any():
+        samples["seconds_per_merge"] = (episodes["merge_time_s"].to_numpy(), merges.astype(float))
     return samples
 
 

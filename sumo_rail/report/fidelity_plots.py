@@ -18,7 +18,9 @@ RATE_LABELS = {"agreement": "agreement", "lane_change_recall": "lane-change\nrec
 MEASURE_UNITS = {"average_speed_kmh": "km/h", "distance_m": "m", "steps": "decisions", "overtakes": "per episode",
                  "lane_changes": "per episode", "collisions": "per episode", "hard_braking": "per episode",
                  "invalid_actions": "per episode", "longitudinal_reward": "sum per episode",
-                 "lateral_reward": "sum per episode", **dict.fromkeys(RATES, "share of decisions")}
+                 "lateral_reward": "sum per episode", "failures": "share of episodes", "merges": "per episode",
+                 "seconds_per_merge": "s", "missed_exits": "per episode", "lane_end_stops": "per episode",
+                 **dict.fromkeys(RATES, "share of decisions")}
 
 
 def agreement_bars(intervals: pd.DataFrame) -> Figure:

@@ -61,7 +61,8 @@ _METRIC_TYPES: dict[str, pa.DataType] = {
     "simulated_s": pa.float64(), "distance_m": pa.float64(), "average_speed_kmh": pa.float64(),
     "overtakes": pa.int32(), "overtaken": pa.int32(), "lane_changes": pa.int32(),
     "longitudinal_reward": pa.float64(), "lateral_reward": pa.float64(), "collisions": pa.int32(),
-    "hard_braking": pa.int32(), "teleports": pa.int32(), "invalid_actions": pa.int32(),
+    "hard_braking": pa.int32(), "teleports": pa.int32(), "invalid_actions": pa.int32(), "merges": pa.int32(),
+    "merge_time_s": pa.float64(), "missed_exits": pa.int32(), "lane_end_stops": pa.int32(),
     **{name: pa.int32() for name in ACTION_COLUMNS},
     "termination": pa.string(), "terminated": pa.bool_(), "truncated": pa.bool_(),
 }

@@ -21,7 +21,7 @@ from sumo_rail.sim import kernels, lidar
 from sumo_rail.sim.actions import Action, command_for
 from sumo_rail.sim.period_safety import NO_READINGS, PeriodSafety
 from sumo_rail.sim.rewards import EpisodeMetrics, OvertakeCounter, lateral_reward, longitudinal_reward, relations
-from sumo_rail.sim.route_progress import RouteProgress, route_block
+from sumo_rail.sim.route_progress import RouteProgress, route_block, zip_merge_change
 from sumo_rail.sim.simulation import Simulation
 from sumo_rail.sim.traffic import TrafficView, lane_block
 from sumo_rail.sim.vehicles import EgoState, Neighbours, PeriodReport
@@ -102,7 +102,9 @@ class Ego:
             sim.set_cruise_speed(self.set_point_mps, self.vehicle)
         self.requested_lane = command.target_lane
         if command.target_lane is not None:
-            sim.request_lane_change(command.target_lane, cfg.env.decision_period_s, self.vehicle)
+            zip_merge = route is not None and zip_merge_change(route, self.lane, command.target_lane,
+                                                               cfg.env.zip_merge_m)
+            sim.request_lane_change(command.target_lane, cfg.env.decision_period_s, self.vehicle, zip_merge)
         metrics.decisions += 1
         metrics.action_counts[action] += 1
         metrics.invalid_actions += command.invalid

@@ -15,6 +15,7 @@ import math
 import numpy as np
 
 from sumo_rail.sim.rewards import EpisodeMetrics
+from sumo_rail.sim.road import RouteView
 from sumo_rail.sim.vehicles import EgoState
 
 STOP_SPEED_MPS = 0.5
@@ -57,6 +58,13 @@ class RouteProgress:
         if not (lane_end_m <= STOP_ZONE_M and lane_end_m < max(route.lane_end_m)):
             return ""
         return "missed_exit" if abs(route.diverge_ahead_m - lane_end_m) <= STOP_ZONE_M else "lane_end"
+
+
+def zip_merge_change(route: RouteView, lane: int, target_lane: int, zip_merge_m: float) -> bool:
+    """A change from `lane` to `target_lane` is a zip merge: toward the nearest lane that leads farthest, within
+    `zip_merge_m` [m] of the end of a lane that does not."""
+    offset = route.best_lane_offset(lane)
+    return offset != 0 and (target_lane - lane) * offset > 0 and route.lane_end(lane) <= zip_merge_m
 
 
 def route_block(ego: EgoState, range_m: float, lanes: int) -> np.ndarray:

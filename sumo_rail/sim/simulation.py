@@ -29,9 +29,14 @@ from sumo_rail.sim.road import RouteMap
 from sumo_rail.sim.sensing import Sensing
 from sumo_rail.sim.stepping import Stepping
 from sumo_rail.sim.sumo_api import EGO_ID as EGO_ID  # importable from here, as before
+from sumo_rail.sim.sumo_api import (
+    LANE_CHANGE_MODE_TRACI_ONLY_SAFE,
+    LANE_CHANGE_MODE_ZIP_MERGE,
+    load_api,
+    load_constants,
+)
 from sumo_rail.sim.sumo_api import TRANSPORTS as TRANSPORTS
 from sumo_rail.sim.sumo_api import SimulationError as SimulationError
-from sumo_rail.sim.sumo_api import load_api, load_constants
 from sumo_rail.sim.vehicles import EgoState as EgoState
 from sumo_rail.sim.vehicles import Neighbours as Neighbours
 from sumo_rail.sim.warm_states import WARM_STATE_POOLS as WARM_STATE_POOLS
@@ -81,6 +86,8 @@ class Simulation(EgoPlacement, Stepping, Sensing):
         self._start(["--seed", str(scenario.traffic_seed)])
         self.route_map = RouteMap.from_sumo(self._api, self._built.ego_route, scenario.lanes)
         """The ego's route frame (`sumo_rail.sim.road`)."""
+        self._zip_merging: set[str] = set()
+        """Egos whose lane-change mode is `LANE_CHANGE_MODE_ZIP_MERGE`."""
         self._warm_states = WarmStates(scenario, self._built, self._options()[4:], self._run_warm_up)
         self._running = True
         if self.transport == "libsumo":
@@ -197,6 +204,7 @@ class Simulation(EgoPlacement, Stepping, Sensing):
             network.build(self.scenario)
             self._warm_states.forget()
             self._load(["--load-state", str(self._pool(pool)[snapshot]), "--seed", str(sumo_seed)])
+        self._zip_merging.clear()
         for ego in egos:
             self._insert(*ego)
         pending = list(egos)
@@ -247,11 +255,16 @@ class Simulation(EgoPlacement, Stepping, Sensing):
         """
         self._api.vehicle.setSpeedFactor(vehicle, speed_mps / self.scenario.speed_limit_mps)
 
-    def request_lane_change(self, lane: int, duration_s: float, vehicle: str = EGO_ID) -> None:
+    def request_lane_change(self, lane: int, duration_s: float, vehicle: str = EGO_ID, zip_merge: bool = False) -> None:
         """Ask SUMO to move an ego to route lane `lane` when safe within `duration_s`; unsafe changes wait, never
-        forced."""
+        forced. A `zip_merge` (out of a lane about to end, `route_progress.zip_merge_change`) needs only that no
+        collision is immediate, as SUMO's own drivers merge at a lane's end: the followers brake for it."""
         if not self.route_map.single_edge:
             lane = self.route_map.sumo_lane(self._api.vehicle.getLaneID(vehicle), lane)
+        if zip_merge != (vehicle in self._zip_merging):
+            self._zip_merging ^= {vehicle}
+            mode = LANE_CHANGE_MODE_ZIP_MERGE if zip_merge else LANE_CHANGE_MODE_TRACI_ONLY_SAFE
+            self._api.vehicle.setLaneChangeMode(vehicle, mode)
         self._api.vehicle.changeLane(vehicle, lane, duration_s)
 
     def close(self) -> None:

@@ -1,0 +1,87 @@
+#!/usr/bin/env bash
+# The generalisation table (issue 35, docs/results.md "Roads the drivers never saw"): on every road, the expert's
+# demonstrations, then BC and DAgger (one `dagger` run gives both: its policy_bc.npz is the BC row) with several seeds,
+# in the recommended setting with the route block; every driver evaluated on the same held-out test episodes of
+# (a) the road it was trained on, (b) for the straight road's drivers, every other road and two traffic densities it
+# never saw, and (c) BC trained on a mix of every road's demonstrations, on each road.
+# experiments/generalisation_table.py makes the tables and the figure.
+# Usage: experiments/generalisation.sh [OUT_DIR]   (resumable: what is written is skipped, DAgger runs resume)
+#   (environment: KINDS, SEEDS, DEMOS_EPISODES, MIX_EPISODES (per road), DAGGER_ROUNDS, ROUND_EPISODES,
+#   TEST_EPISODES, EXPERT_EPISODES (the expert alone on each road), DENSITIES (veh/h), WORKERS)
+set -euo pipefail
+out=${1:-results/generalisation}
+kinds=${KINDS:-straight merge merge_from_ramp lane_drop exit}
+seeds=${SEEDS:-0 1 2}
+demos_episodes=${DEMOS_EPISODES:-100}
+mix_episodes=${MIX_EPISODES:-20}
+dagger_rounds=${DAGGER_ROUNDS:-5}
+round_episodes=${ROUND_EPISODES:-20}
+test_episodes=${TEST_EPISODES:-100}
+expert_episodes=${EXPERT_EPISODES:-250}
+densities=${DENSITIES:-2000 6000}
+workers=${WORKERS:-2}
+sumo_rail=${SUMO_RAIL:-.venv/bin/sumo-rail}
+python=${PYTHON:-.venv/bin/python}
+setting=(--preset recommended --set observation.lane_block=1 --set observation.route_block=1)
+mkdir -p "$out"
+evaluate() {  # evaluate OUT_FILE KIND EPISODES [--set ...] --policy ...
+  local file=$1 kind=$2 episodes=$3; shift 3
+  [ -f "$file" ] || $sumo_rail evaluate "${setting[@]}" --set "scenario.kind=$kind" --episodes "$episodes" \
+    --seed 1000 --workers "$workers" --out "$file" "$@"
+}
+drivers() {  # the BC and DAgger policies trained on KIND
+  local kind=$1 seed
+  for seed in $seeds; do
+    printf -- '--policy %s --policy %s ' "$out/$kind/dagger_s$seed/policy_bc.npz" "$out/$kind/dagger_s$seed/policy_latest.npz"
+  done
+}
+# the expert alone on every road, the full test set
+for kind in $kinds; do
+  evaluate "$out/expert_$kind.parquet" "$kind" "$expert_episodes" --policy expert
+done
+# (a) trained and tested on each road
+for kind in $kinds; do
+  mkdir -p "$out/$kind"
+  demos="$out/$kind/demos.parquet"
+  [ -f "$demos" ] || $sumo_rail record-expert "${setting[@]}" --set "scenario.kind=$kind" --episodes "$demos_episodes" \
+    --seed 0 --workers "$workers" --out "$demos"
+  for seed in $seeds; do
+    run="$out/$kind/dagger_s$seed"
+    resume=(); [ -f "$run/checkpoint.json" ] && resume=(--resume)
+    [ -f "$run/policy_latest.npz" ] && [ ${#resume[@]} = 0 ] || $sumo_rail dagger "${setting[@]}" \
+      --set "scenario.kind=$kind" --demos "$demos" --rounds "$dagger_rounds" --episodes-per-round "$round_episodes" \
+      --eval-every 0 --workers "$workers" --seed "$seed" --out "$run" "${resume[@]}"
+  done
+  # shellcheck disable=SC2046  # the policies are several words on purpose
+  evaluate "$out/a_$kind.parquet" "$kind" "$test_episodes" --policy expert $(drivers "$kind")
+done
+# (b) the straight road's drivers on every other road, and on the straight road at other densities
+for kind in $kinds; do
+  [ "$kind" = straight ] && continue
+  # shellcheck disable=SC2046
+  evaluate "$out/b_$kind.parquet" "$kind" "$test_episodes" --policy expert $(drivers straight)
+done
+for flow in $densities; do
+  # shellcheck disable=SC2046
+  evaluate "$out/b_straight_$flow.parquet" straight "$test_episodes" --set "scenario.flow_veh_per_h=$flow" \
+    --policy expert $(drivers straight)
+done
+# (c) BC trained on a mix of every road, tested on each
+mixed=()
+for kind in $kinds; do
+  part="$out/$kind/demos_mix.parquet"
+  [ -f "$part" ] || $sumo_rail record-expert "${setting[@]}" --set "scenario.kind=$kind" --episodes "$mix_episodes" \
+    --seed 500 --workers "$workers" --out "$part"
+  mixed+=("$part")
+done
+[ -f "$out/mix_demos.parquet" ] || $python experiments/mix_demos.py "$out/mix_demos.parquet" "${mixed[@]}"
+mix_policies=()
+for seed in $seeds; do
+  run="$out/mix/bc_s$seed"
+  [ -f "$run/policy_bc.npz" ] || $sumo_rail dagger "${setting[@]}" --demos "$out/mix_demos.parquet" --rounds 0 \
+    --eval-every 0 --workers "$workers" --seed "$seed" --out "$run"
+  mix_policies+=(--policy "$run/policy_bc.npz")
+done
+for kind in $kinds; do
+  evaluate "$out/c_$kind.parquet" "$kind" "$test_episodes" --policy expert "${mix_policies[@]}"
+done

@@ -1,0 +1,35 @@
+"""Concatenate demonstration files recorded on different roads into one (the generalisation table's mixed training
+set, experiments/generalisation.sh): episodes renumbered in order, the first file's provenance with the files and roads
+mixed. Usage: python experiments/mix_demos.py OUT.parquet IN.parquet [IN.parquet ...]"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import pyarrow as pa
+import pyarrow.compute as pc
+import pyarrow.parquet as pq
+
+from sumo_rail.datasets import read_metadata, write_parquet
+
+
+def main(out: Path, sources: list[Path]) -> None:
+    tables, offset = [], 0
+    for source in sources:
+        table = pq.read_table(source)
+        episodes = table.column("episode")
+        table = table.set_column(table.schema.get_field_index("episode"), "episode",
+                                 pc.add(episodes, pa.scalar(offset, episodes.type)))
+        offset += int(pc.max(episodes).as_py()) + 1
+        tables.append(table.replace_schema_metadata(None))
+    metadata = read_metadata(sources[0]) | {"mixed_from": [str(source) for source in sources],
+                                             "mixed_scenarios": [read_metadata(source)["config"]["scenario"]["kind"]
+                                                                 for source in sources]}
+    mixed = pa.concat_tables(tables)
+    write_parquet(mixed, out, metadata)
+    print(f"wrote {out}: {mixed.num_rows} decisions of {offset} episodes from {len(sources)} files")
+
+
+if __name__ == "__main__":
+    main(Path(sys.argv[1]), [Path(name) for name in sys.argv[2:]])
