@@ -86,7 +86,7 @@ def main(folder: Path, figure: Path) -> None:
                      capsize=2)
         axis.set_xticks(np.arange(len(CONDITIONS)), [CONDITION_NAMES[c] for c in CONDITIONS], fontsize=8)
         axis.set_title(MEASURES[measure][0])
-    axes[0].legend(fontsize=8)
+    axes[1].legend(fontsize=8)
     fig.tight_layout()
     fig.savefig(figure, dpi=120)
 
