@@ -24,6 +24,7 @@ demo: $(STAMP)
 
 bench: $(STAMP)
 	$(PY) benchmarks/bench_env.py --out docs/benchmarks.md
+	$(PY) benchmarks/bench_roads.py --out docs/benchmarks.md
 	$(PY) benchmarks/bench_multi_ego.py --out docs/benchmarks.md
 	$(PY) benchmarks/bench_record.py --out docs/benchmarks.md
 	$(PY) benchmarks/bench_evaluate.py --out docs/benchmarks.md

@@ -64,7 +64,7 @@ def raw_round(sim: Simulation, config: Config, seeds: list[int],
     vehicles = []
     for seed, count in zip(seeds, decisions, strict=True):
         rng, _ = gymnasium.utils.seeding.np_random(seed)
-        start = EpisodeStart.draw(rng, config, sim.snapshot_count)
+        start = EpisodeStart.draw(rng, config, sim.snapshot_count, sim.start_lanes)
         t0 = clocks()
         sim.reset(**dataclasses.asdict(start))
         # the env's initial cruise set-point (kept by a 'keep' driver), so both egos drive alike

@@ -12,7 +12,7 @@ from sumo_rail_cli.options import (
     build_backend,
     check_egos,
     check_output,
-    config_options,
+    check_run_folder,
     egos_option,
     episode_options,
     expert_option,
@@ -23,7 +23,7 @@ from sumo_rail_cli.options import (
     search_options,
     tensorboard_option,
 )
-from sumo_rail_cli.progress import progress
+from sumo_rail_cli.progress import advance_to, complete, progress
 from sumo_rail_cli.running import (
     bc_summary,
     interruptible_run,
@@ -31,6 +31,7 @@ from sumo_rail_cli.running import (
     tensorboard_logger,
     validation_summary,
 )
+from sumo_rail_cli.settings import config_options
 
 from sumo_rail.seeding import EVALUATION_EPISODES
 
@@ -57,7 +58,7 @@ def record_expert(config: Config, episodes: int, seed: int, workers: int, backen
     check_egos(config, egos)
     if dart_noise and egos != 1:
         raise click.UsageError("--dart-noise records one ego per episode: leave out --egos")
-    driver = resolve_expert_option(expert, config)
+    expert, driver = resolve_expert_option(expert, config)
     from sumo_rail.runners.dart import ActionNoise
     from sumo_rail.runners.record import record_demonstrations
 
@@ -68,6 +69,7 @@ def record_expert(config: Config, episodes: int, seed: int, workers: int, backen
                                         on_episode=lambda index, result: bar.update(
                                             len(result) if isinstance(result, list) else 1), egos=egos,
                                         noise=ActionNoise(dart_noise) if dart_noise else None)
+        complete(bar)
     decisions = sum(row["steps"] for row in metrics)
     collisions = sum(row["collisions"] for row in metrics)
     noise = f", DART noise {dart_noise:g}" if dart_noise else ""
@@ -85,7 +87,9 @@ def record_expert(config: Config, episodes: int, seed: int, workers: int, backen
                    "(sampled)'; repeatable; after the --policy drivers), with a generator seeded by the episode's "
                    "seed.")
 @expert_option("The expert: the driver --policy expert, and who is asked at every decision what it would do, for "
-               "drivers whose policy file does not record the expert it learned from.", "--reference-style")
+               "every driver. Without it each driver is compared with the expert its policy file records (the one "
+               "whose demonstrations trained it), others with the normal style; the table names it per driver.",
+               "--reference-style", default=None)
 @click.option("--reference", default=None, metavar="NAME",
               help="Driver the others are compared with, paired by seed (default: the first --policy).")
 @click.option("--pool", type=click.Choice(["test", "validation"]), default="test", show_default=True,
@@ -106,7 +110,7 @@ def record_expert(config: Config, episodes: int, seed: int, workers: int, backen
               help="With --video: episodes recorded per driver  [default: 1].")
 @output_options(required=False)
 def evaluate_command(config: Config, policies: tuple[str, ...],
-                     sampled_policies: tuple[Path, ...], expert: str, reference: str | None,
+                     sampled_policies: tuple[Path, ...], expert: str | None, reference: str | None,
                      pool: str, episodes: int, seed: int, workers: int, backend_name: str, address: str | None,
                      gui: bool, gui_delay_ms: float | None, video_dir: Path | None, video_episodes: int | None,
                      out: Path | None, overwrite: bool) -> None:
@@ -122,11 +126,13 @@ def evaluate_command(config: Config, policies: tuple[str, ...],
         raise click.UsageError("--gui-delay needs --gui")
     if video_episodes is not None and video_dir is None:
         raise click.UsageError("--video-episodes needs --video DIR")
+    from sumo_rail.drivers.expert import DEFAULT_STYLE
     from sumo_rail.drivers.policies import PolicyFileError
     from sumo_rail.evaluation.evaluate import (
         decisions_path,
         evaluate,
         parse_driver,
+        recorded_reference,
         unique_names,
         write_evaluation,
     )
@@ -137,9 +143,9 @@ def evaluate_command(config: Config, policies: tuple[str, ...],
 
     if out is not None:
         check_output(decisions_path(out), overwrite)
-    expert_driver = resolve_expert_option(expert, config)
+    recorded_expert, expert_driver = resolve_expert_option(expert or DEFAULT_STYLE, config)
 
-    drivers = []
+    drivers, sources = [], [*policies, *map(str, sampled_policies)]
     for text in policies:
         try:
             drivers.append(parse_driver(text, config, expert_driver))
@@ -149,10 +155,14 @@ def evaluate_command(config: Config, policies: tuple[str, ...],
             raise click.BadParameter(str(error), param_hint="'--policy'") from error
     try:
         drivers += [parse_policy(path, config, sampled=True) for path in sampled_policies]
-    except PolicyFileError as error:
+        # an explicit --expert is every driver's; without it, each its own file's
+        references = [expert_driver if expert is not None else recorded_reference(driver, source, config,
+                                                                                  expert_driver)
+                      for driver, source in zip(drivers, sources, strict=True)]
+    except ValueError as error:  # a PolicyFileError, or a file recording an expert that is no style nor file
         raise click.ClickException(str(error)) from error
     if gui:
-        drivers, episodes = drivers[:1], 1
+        drivers, references, episodes = drivers[:1], references[:1], 1
     names = unique_names(drivers)
     _check_video_dir(video_dir, names, overwrite)
     if reference is not None and reference not in names:
@@ -163,14 +173,15 @@ def evaluate_command(config: Config, policies: tuple[str, ...],
                if gui else build_backend(backend_name, workers, address))
     bar = progress(len(drivers) * episodes, "evaluating")
     with interruptible_run(bar, "interrupted; nothing was written" if out is not None else "interrupted", backend):
-        evaluation = evaluate(drivers, config, seeds, backend, expert_driver, pool,
+        evaluation = evaluate(drivers, config, seeds, backend, references, pool,
                               on_episode=lambda index, result: bar.update(),
                               video_episodes=(video_episodes or 1) if video_dir is not None else 0)
         if out is not None:
             write_evaluation(evaluation, config, seed, out, policies=list(policies),
                              sampled_policies=[str(path) for path in sampled_policies], episode_seeds=seeds,
-                             expert=expert, pool=pool)
+                             expert=recorded_expert if expert is not None else None, pool=pool)
         written_videos = _write_videos(evaluation.videos, video_dir)
+        complete(bar)
     click.echo(summary_table(evaluation.metrics, reference))
     if expert_driver.name in names and len(names) > 1:
         click.echo("\n" + distance_summary(evaluation.decisions, expert_driver.name, config.scenario.lanes))
@@ -235,6 +246,7 @@ def train_command(config: Config, demos: Path, kind: str, hidden: int,
     from sumo_rail.learning.training import RunError, RunSettings, Validation, train
 
     check_egos(config, search.egos)
+    check_run_folder(out)
     rail, discriminator = search.settings(seed)
     settings = RunSettings(str(demos), kind, hidden, bc_epochs, rail, discriminator, bc_class_balance)
     backend = build_backend(backend_name, workers, address)
@@ -248,7 +260,7 @@ def train_command(config: Config, demos: Path, kind: str, hidden: int,
             board.log(row)
         steps_per_s = row["env_steps"] / row["wall_time_s"]
         bar.set_postfix(D_return=f"{row['return_mean']:+.3f}", steps_per_s=f"{steps_per_s:.0f}")
-        bar.update()
+        advance_to(bar, row["iteration"] + 1)  # a resumed run starts from the iterations done
         if row["eval_average_speed_kmh"] is not None:
             bar.write(f"iteration {row['iteration'] + 1}: {validation_summary(row, eval_episodes)}")
 
@@ -256,5 +268,6 @@ def train_command(config: Config, demos: Path, kind: str, hidden: int,
                            tensorboard_logger(tensorboard_dir, "rail", out), errors=(RunError,)) as board:
         state = train(out, settings, config, iterations, backend, resume, Validation(eval_every, eval_episodes),
                       on_bc=show_bc, on_iteration=show)
+        complete(bar)
     click.echo(f"trained {state.iteration} iterations; policies in {out}")
 

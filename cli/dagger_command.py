@@ -9,15 +9,17 @@ import click
 from sumo_rail_cli.options import (
     build_backend,
     check_egos,
-    config_options,
+    check_run_folder,
     egos_option,
     expert_option,
     imitation_options,
+    resolve_expert_option,
     run_folder_options,
     tensorboard_option,
 )
-from sumo_rail_cli.progress import progress
+from sumo_rail_cli.progress import advance_to, complete, progress
 from sumo_rail_cli.running import interruptible_run, kept_until_resume, tensorboard_logger, validation_summary
+from sumo_rail_cli.settings import config_options
 
 if TYPE_CHECKING:
     from sumo_rail.config import Config
@@ -53,6 +55,8 @@ def dagger_command(config: Config, demos: Path, kind: str, hidden: int,
     from sumo_rail.learning.dagger import DaggerSettings, train_dagger
     from sumo_rail.learning.training import RunError, Validation
 
+    if expert is not None:
+        expert, _ = resolve_expert_option(expert, config)
     try:
         settings = DaggerSettings(str(demos), kind, hidden, episodes_per_round, beta, beta_decay,
                                   BcSettings(epochs=max(bc_epochs, 1), class_balance=bc_class_balance, seed=seed),
@@ -60,13 +64,14 @@ def dagger_command(config: Config, demos: Path, kind: str, hidden: int,
     except ValueError as error:
         raise click.UsageError(str(error)) from error
     check_egos(config, egos)
+    check_run_folder(out)
     backend = build_backend(backend_name, workers, address)
     bar = progress(rounds + 1, "DAgger", unit="round")
 
     def show(row: dict[str, Any]) -> None:
         if board is not None:
             board.log(row)
-        bar.update()
+        advance_to(bar, row["iteration"] + 1)  # a resumed run starts from the rounds done
         holdout = row["bc_holdout_accuracy"]
         text = (f"round {row['iteration']}: {row['dataset_rows']} labelled states, BC holdout accuracy "
                 f"{'n/a' if holdout is None else f'{holdout:.3f}'}")
@@ -78,4 +83,5 @@ def dagger_command(config: Config, demos: Path, kind: str, hidden: int,
                            tensorboard_logger(tensorboard_dir, "dagger", out), errors=(RunError,)) as board:
         train_dagger(out, settings, config, rounds, backend, resume, Validation(eval_every, eval_episodes),
                      on_round=show)
+        complete(bar)
     click.echo(f"DAgger: {rounds} rounds; policy in {out / 'policy_latest.npz'}")

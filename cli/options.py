@@ -1,11 +1,10 @@
-"""Options shared by the commands, and how each becomes what the library takes: the configuration (preset, TOML,
-`--set`), episodes, seeds, workers and backends, outputs, the expert, the imitation and run-folder options, and
-RAIL's search. How the long commands run (Ctrl-C, errors, progress) is `running`."""
+"""Options shared by the commands, and how each becomes what the library takes: episodes, seeds, workers and
+backends, outputs, the expert, the imitation and run-folder options, and RAIL's search. The configuration (preset,
+TOML, `--set`) is `settings`; how the long commands run (Ctrl-C, errors, progress) is `running`."""
 
 from __future__ import annotations
 
 import functools
-import tomllib
 from collections.abc import Callable
 from dataclasses import dataclass, fields
 from pathlib import Path
@@ -14,38 +13,12 @@ from typing import TYPE_CHECKING, Any
 import click
 from sumo_rail_cli.running import library_errors
 
-from sumo_rail.config import PRESETS, Config, ConfigError
+from sumo_rail.config import Config
 
 if TYPE_CHECKING:
     from sumo_rail.learning.discriminator import DiscriminatorSettings
     from sumo_rail.learning.rail import RailSettings
     from sumo_rail.runners.backends import RolloutBackend
-
-
-def config_options(command: Callable[..., Any]) -> Callable[..., Any]:
-    """Add --preset NAME, --config FILE and repeatable --set SECTION.KEY=VALUE to a command, which receives the
-    settings they make as one `config: Config` argument (`resolve_config`)."""
-    options = [
-        click.option("--preset", type=click.Choice(list(PRESETS)), default="paper", show_default=True,
-                     help="Named setting, which --config and --set change. paper: the paper's (the 24-beam LIDAR "
-                          "is the whole observation). recommended: the benchmark's, the paper's plus "
-                          "observation.lane_block=1, with which learners imitate the expert far more closely."),
-        click.option("--config", "config_path", type=click.Path(path_type=Path, dir_okay=False),
-                     help="TOML file whose [scenario], [lidar], [env], [observation] and [expert] tables change the "
-                          "preset."),
-        click.option("--set", "overrides", multiple=True, metavar="SECTION.KEY=VALUE",
-                     help="Change one setting, e.g. --set scenario.lanes=4 --set env.decision_period_s=1.0 "
-                          "(repeatable; after --config)."),
-    ]
-
-    @functools.wraps(command)
-    def with_config(*args: Any, preset: str, config_path: Path | None, overrides: tuple[str, ...],
-                    **kwargs: Any) -> Any:
-        return command(*args, config=resolve_config(preset, config_path, overrides), **kwargs)
-
-    for option in reversed(options):
-        with_config = option(with_config)
-    return with_config
 
 
 def imitation_options(command: Callable[..., Any]) -> Callable[..., Any]:
@@ -74,8 +47,8 @@ def policy_shape_options(command: Callable[..., Any]) -> Callable[..., Any]:
 
 
 def ppo_options(default_timesteps: int, critic_help: str) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
-    """What gail and ppo share: --timesteps, --envs, --egos, --n-steps, --learning-rate, --normalize-reward and
-    --critic-warmup (`critic_help` ends its help)."""
+    """What gail and ppo share: --timesteps, --envs, --egos, --n-steps, --learning-rate, --normalize-reward,
+    --critic-warmup (`critic_help` ends its help, which says its default) and --resume."""
     options = [
         click.option("--timesteps", type=click.IntRange(min=1), default=default_timesteps, show_default=True,
                      help="Environment decisions in total (rounded up to whole updates of --n-steps x --envs x "
@@ -93,9 +66,12 @@ def ppo_options(default_timesteps: int, critic_help: str) -> Callable[[Callable[
         click.option("--normalize-reward/--no-normalize-reward", default=True, show_default=True,
                      help="Divide PPO's rewards by the running std of the discounted return and clip them to +-10 "
                           "(Stable-Baselines3's VecNormalize), so that one collision cannot swamp the critic."),
-        click.option("--critic-warmup", type=click.IntRange(min=0), default=5, show_default=True, metavar="K",
+        click.option("--critic-warmup", type=click.IntRange(min=0), default=None, metavar="K",
                      help=f"First K updates with the actor frozen, only the critic learning (they count in "
                           f"--timesteps){critic_help}."),
+        click.option("--resume", is_flag=True,
+                     help="Continue the run in --out from its last complete update (with the same options; "
+                          "--timesteps may grow); see docs/reliability.md for what it restores exactly."),
     ]
 
     def decorate(command: Callable[..., Any]) -> Callable[..., Any]:
@@ -103,6 +79,16 @@ def ppo_options(default_timesteps: int, critic_help: str) -> Callable[[Callable[
             command = option(command)
         return command
     return decorate
+
+
+DEFAULT_BATCH = 64
+"""PPO's minibatch size [decisions] when none is given, or an update's decisions if fewer."""
+
+
+def minibatch_size(requested: int | None, n_steps: int, envs: int, egos: int) -> int:
+    """PPO's minibatch size: `requested`, else DEFAULT_BATCH or an update's n_steps x envs x egos decisions if fewer
+    (what Stable-Baselines3 does then, one minibatch of the whole update, without its warning)."""
+    return requested if requested is not None else min(DEFAULT_BATCH, n_steps * envs * egos)
 
 
 def egos_option(shared: str, note: str = "") -> Callable[[Callable[..., Any]], Callable[..., Any]]:
@@ -193,16 +179,6 @@ def build_backend(name: str, workers: int, address: str | None) -> RolloutBacken
         return make_backend(name, workers, address=address)
 
 
-def resolve_config(preset: str, config_path: Path | None, overrides: tuple[str, ...]) -> Config:
-    """The preset, then the TOML file, then each --set; a bad value is a usage error (exit 2)."""
-    try:
-        config = Config.preset(preset)
-        config = config.with_toml(config_path) if config_path else config
-        return config.with_overrides(_parse_overrides(overrides)) if overrides else config
-    except ConfigError as error:
-        raise click.UsageError(str(error)) from error
-
-
 def check_output(out: Path | None, overwrite: bool) -> None:
     """Refuse an unusable --out before any work starts (usage error, exit 2)."""
     from sumo_rail.datasets import DatasetError, check_output_path
@@ -215,30 +191,22 @@ def check_output(out: Path | None, overwrite: bool) -> None:
         raise click.BadParameter(str(error), param_hint="'--out'") from error
 
 
+def check_run_folder(out: Path) -> None:
+    """Refuse a run folder --out that cannot be made or written before any work starts (usage error, exit 2)."""
+    from sumo_rail.datasets import DatasetError, check_output_folder
+
+    try:
+        check_output_folder(out)
+    except DatasetError as error:
+        raise click.BadParameter(str(error), param_hint="'--out'") from error
+
+
 def tensorboard_option(command: Callable[..., Any]) -> Callable[..., Any]:
     """--tensorboard DIR: also log every training row to TensorBoard (optional extra)."""
     return click.option("--tensorboard", "tensorboard_dir", type=click.Path(path_type=Path, file_okay=False),
                         default=None, help="Also write TensorBoard logs into this folder (tensorboard --logdir DIR); "
                                            "log.parquet stays the record. Needs pip install "
                                            "'sumo-rail[tensorboard]'.")(command)
-
-
-def _parse_overrides(overrides: tuple[str, ...]) -> dict[str, dict[str, Any]]:
-    sections: dict[str, dict[str, Any]] = {}
-    for item in overrides:
-        key, separator, raw = item.partition("=")
-        section, dot, name = key.strip().partition(".")
-        if not separator or not dot or not section or not name:
-            raise ConfigError(f"--set expects SECTION.KEY=VALUE, got {item!r}")
-        raw = raw.strip()
-        try:
-            value = tomllib.loads(f"value = {raw}")["value"]
-        except tomllib.TOMLDecodeError as error:
-            if not raw or raw[0] in "\"'[{" or any(character.isspace() for character in raw):
-                raise ConfigError(f"--set {key.strip()} has an unreadable value {raw!r}") from error
-            value = raw  # a bare word (scenario.kind=merge, a file's path) is a string
-        sections.setdefault(section, {})[name] = value
-    return sections
 
 
 @dataclass(frozen=True)
@@ -362,14 +330,16 @@ def expert_option(help_text: str, *aliases: str, default: str | None = "normal"
                         "policy file whose observation layout is this configuration's.")
 
 
-def resolve_expert_option(expert: str, config: Config) -> Any:
-    """The expert driver of --expert; an unknown name is a usage error (exit 2), an unusable policy file a
-    one-sentence error (exit 1)."""
+def resolve_expert_option(expert: str, config: Config) -> tuple[str, Any]:
+    """How outputs record the expert of --expert (`experts.expert_reference`: a policy file by absolute path and
+    content hash) and its driver; an unknown name is a usage error (exit 2), an unusable policy file a one-sentence
+    error (exit 1)."""
     from sumo_rail.drivers.policies import PolicyFileError
-    from sumo_rail.runners.experts import resolve_expert
+    from sumo_rail.runners.experts import expert_reference, resolve_expert
 
     try:
-        return resolve_expert(expert, config)
+        reference = expert_reference(expert)
+        return reference, resolve_expert(reference, config)
     except PolicyFileError as error:
         raise click.ClickException(str(error)) from error
     except ValueError as error:

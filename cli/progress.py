@@ -52,10 +52,11 @@ class PlainProgress:
         print(text, file=self._stream, flush=True)
 
     def close(self) -> None:
-        """Print the final count (once)."""
+        """Print the final count (once), unless nothing was counted or printed (a command that stops on its inputs
+        says why, without a "0/N" line before)."""
         if not self._closed:
             self._closed = True
-            if self._printed_n != self.n:
+            if self._printed_n != self.n and (self.n or self._printed_n is not None):
                 self._print()
 
     def _print(self) -> None:
@@ -82,6 +83,18 @@ def progress(total: int, description: str, unit: str = "episode", stream: IO[str
     if _is_terminal(stream):
         return tqdm(total=total, desc=description, unit=unit, dynamic_ncols=True, file=stream)
     return PlainProgress(total, description, unit, stream)
+
+
+def advance_to(bar: Any, done: int) -> None:
+    """Move `bar` (a tqdm bar or a `PlainProgress`) on to `done` units, e.g. after a resumed run's first step."""
+    if done > bar.n:
+        bar.update(done - bar.n)
+
+
+def complete(bar: Any) -> None:
+    """Move `bar` to its total: the work is done (whatever fewer units were counted: egos that sat out, steps done
+    before a resume)."""
+    advance_to(bar, bar.total)
 
 
 def _is_terminal(stream: IO[str]) -> bool:

@@ -18,16 +18,23 @@ if TYPE_CHECKING:
     from sumo_rail.learning.bc import BcReport
 
 
+USER_ERRORS = ("DatasetError", "PolicyFileError", "SimulationError")
+"""Exceptions a user causes (a file, a setting): raised in a worker's task, their message alone is the sentence."""
+
+
 @contextlib.contextmanager
 def library_errors() -> Iterator[None]:
-    """Errors a user can cause in the library become one-sentence click errors (exit 1), never tracebacks."""
+    """Errors a user can cause in the library become one-sentence click errors (exit 1), never tracebacks; one
+    raised by a worker's task says what it says, without the backend's "task N raised" around it."""
     from sumo_rail.datasets import DatasetError
     from sumo_rail.drivers.policies import PolicyFileError
-    from sumo_rail.runners.backends import BackendError
+    from sumo_rail.runners.backends import BackendError, TaskError
     from sumo_rail.sim.simulation import SimulationError
 
     try:
         yield
+    except TaskError as error:
+        raise click.ClickException(error.detail if error.raised in USER_ERRORS else str(error)) from error
     except (BackendError, DatasetError, PolicyFileError, SimulationError) as error:
         raise click.ClickException(str(error)) from error
 
@@ -55,6 +62,33 @@ def interruptible_run(bar: AbstractContextManager[Any], interrupted: str,
 def kept_until_resume(out: Path, step: str) -> str:
     """What an interrupted resumable run says: its folder keeps its last complete `step` (iteration, round)."""
     return f"interrupted; {out} keeps its last complete {step}, continue with --resume"
+
+
+def sb3_progress(bar: Any, row: dict[str, Any], steps_per_update: int) -> None:
+    """Move a gail or ppo progress bar (in timesteps) to the end of the update of log `row` (a resumed run starts
+    from the updates done)."""
+    from sumo_rail_cli.progress import advance_to
+
+    advance_to(bar, (row["iteration"] + 1) * steps_per_update)
+
+
+def sb3_interrupted(out: Path, resume: bool) -> str:
+    """What a gail or ppo run stopped outside its updates says (within them, the run stops at the update's end)."""
+    return kept_until_resume(out, "update") if resume else f"interrupted before the first update; {out} holds no " \
+        f"trained policy"
+
+
+def sb3_outcome(result: Any, out: Path, critic_warmup: int) -> str:
+    """The line a finished gail or ppo run prints (`result`: its GailResult or PpoResult), saying when the critic's
+    warm-up kept the actor frozen in some or all of the updates; a ClickException when it was interrupted."""
+    updates = f"{result.updates} PPO update{'s' * (result.updates != 1)}"
+    if result.interrupted:
+        raise click.ClickException(f"interrupted after {updates}; {out} keeps them, continue with --resume")
+    frozen = min(critic_warmup, result.updates)
+    note = ("" if not frozen else f"; the actor frozen in the first {frozen} for the critic's warm-up"
+            if frozen < result.updates else f"; the actor frozen in {f'all {frozen}' if frozen > 1 else 'it'} for the "
+            f"critic's warm-up, so the policy is the initial one")
+    return f"trained {updates} ({result.timesteps} timesteps{note}); policy in {out / 'policy_latest.npz'}"
 
 
 def bc_summary(report: BcReport, policy_path: Path) -> str:

@@ -11,14 +11,16 @@ from sumo_rail_cli.options import (
     SearchOptions,
     backend_options,
     build_backend,
-    config_options,
+    check_egos,
+    check_output,
     expert_option,
     resolve_expert_option,
     search_options,
     seed_option,
 )
-from sumo_rail_cli.progress import progress
+from sumo_rail_cli.progress import complete, progress
 from sumo_rail_cli.running import interruptible_run, library_errors
+from sumo_rail_cli.settings import config_options
 
 from sumo_rail.learning.step_signal import REWARD_VARIANTS
 
@@ -52,6 +54,8 @@ def step_signal_command(config: Config, demos: Path, policy_path: Path,
     """Measure one ARS step of RAIL without training: how much of it two independent draws of traffic agree on
     (signal) and whether the directions the discriminator's reward prefers raise agreement with the expert
     (alignment), with 95% intervals over the directions."""
+    check_output(out, overwrite=True)  # the report replaces an earlier one
+    check_egos(config, search.egos)
     rail, discriminator_settings = search.settings(seed)
     if rail.directions < 3:
         raise click.UsageError("--directions must be at least 3: the meter correlates the draws across directions")
@@ -62,15 +66,19 @@ def step_signal_command(config: Config, demos: Path, policy_path: Path,
     from sumo_rail.learning.rail import calibration_states
     from sumo_rail.learning.step_signal import Meter, measure, variants
     from sumo_rail.learning.training import write_atomically
-    from sumo_rail.runners.experts import demonstrations_expert
+    from sumo_rail.runners.experts import demonstrations_expert, resolve_expert
     from sumo_rail.runners.tables import provenance, read_demonstrations
     from sumo_rail.sim.observation import observation_space
 
     with library_errors():
         demonstrations = read_demonstrations(demos, observation_space(config).shape[0])
         policy, _ = load_policy(policy_path)
-    expert = expert or demonstrations_expert(demonstrations.metadata)
-    asked = resolve_expert_option(expert, config)
+    if expert is not None:
+        expert, asked = resolve_expert_option(expert, config)
+    else:
+        expert = demonstrations_expert(demonstrations.metadata)
+        with library_errors():
+            asked = resolve_expert(expert, config, recorded_by=demos)
     if policy.shape.observation_size != demonstrations.observations.shape[1]:
         raise click.UsageError(f"policy {policy_path} sees {policy.shape.observation_size} observation values but "
                                f"the configuration gives {demonstrations.observations.shape[1]}")
@@ -87,7 +95,8 @@ def step_signal_command(config: Config, demos: Path, policy_path: Path,
     with interruptible_run(bar, "interrupted; nothing was written", backend):
         report = measure(policy, config, rail, nu, asked, discriminators,
                          (demonstrations.observations, demonstrations.actions), calibration, backend, meter,
-                         on_rollout=lambda index, result: bar.update())
+                         on_rollout=lambda index, result: bar.update(_rollouts_in(result)))
+        complete(bar)
     record = {**report, "policy": str(policy_path), "zero_weights": zero_weights, "expert": expert,
               "demos": str(demos), "meter": {"warmup_rounds": warmup_rounds},
               "settings": {"rail": _plain(rail), "discriminator": _plain(discriminator_settings)},
@@ -99,6 +108,11 @@ def step_signal_command(config: Config, demos: Path, policy_path: Path,
         except OSError as error:
             raise click.ClickException(f"cannot write {out}: {error.strerror or error}") from error
         click.echo(f"wrote {out}")
+
+
+def _rollouts_in(result: list[Any]) -> int:
+    """Rollouts in one task's result: a shared road's (--egos) holds one list of trajectories per member."""
+    return len(result) if result and isinstance(result[0], list) else 1
 
 
 def _plain(settings: Any) -> dict[str, Any]:

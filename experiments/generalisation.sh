@@ -3,7 +3,8 @@
 # demonstrations, then BC and DAgger (one `dagger` run gives both: its policy_bc.npz is the BC row) with several seeds,
 # in the recommended setting with the route block; every driver evaluated on the same held-out test episodes of
 # (a) the road it was trained on, (b) for the straight road's drivers, every other road and two traffic densities it
-# never saw, and (c) BC trained on a mix of every road's demonstrations, on each road.
+# never saw, (c) BC trained on a mix of every road's demonstrations, on each road, and (d) without the route
+# block on each road with a feature (what lacking it costs; NO_ROUTE=0 skips it).
 # experiments/generalisation_table.py makes the tables and the figure.
 # Usage: experiments/generalisation.sh [OUT_DIR]   (resumable: what is written is skipped, DAgger runs resume)
 #   (environment: KINDS, SEEDS, DEMOS_EPISODES, MIX_EPISODES (per road), DAGGER_ROUNDS, ROUND_EPISODES,
@@ -35,9 +36,9 @@ drivers() {  # the BC and DAgger policies trained on KIND
     printf -- '--policy %s --policy %s ' "$out/$kind/dagger_s$seed/policy_bc.npz" "$out/$kind/dagger_s$seed/policy_latest.npz"
   done
 }
-# the expert alone on every road, the full test set
+# the expert alone on every road, the full test set (EXPERT_EPISODES=0: skipped)
 for kind in $kinds; do
-  evaluate "$out/expert_$kind.parquet" "$kind" "$expert_episodes" --policy expert
+  [ "$expert_episodes" -gt 0 ] && evaluate "$out/expert_$kind.parquet" "$kind" "$expert_episodes" --policy expert
 done
 # (a) trained and tested on each road
 for kind in $kinds; do
@@ -85,3 +86,24 @@ done
 for kind in $kinds; do
   evaluate "$out/c_$kind.parquet" "$kind" "$test_episodes" --policy expert "${mix_policies[@]}"
 done
+# (d) what the route block is worth: DAgger (and its BC) without it on every road with a feature, tested as (a)
+if [ "${NO_ROUTE:-1}" = 1 ]; then
+  for kind in $kinds; do
+    [ "$kind" = straight ] && continue
+    demos="$out/$kind/demos_no_route.parquet"  # the same episodes and decisions, without the route block
+    [ -f "$demos" ] || $sumo_rail record-expert "${setting[@]}" --set observation.route_block=0 \
+      --set "scenario.kind=$kind" --episodes "$demos_episodes" --seed 0 --workers "$workers" --out "$demos"
+    policies=()
+    for seed in $seeds; do
+      run="$out/$kind/no_route_s$seed"
+      resume=(); [ -f "$run/checkpoint.json" ] && resume=(--resume)
+      [ -f "$run/policy_latest.npz" ] && [ ${#resume[@]} = 0 ] || $sumo_rail dagger "${setting[@]}" \
+        --set observation.route_block=0 --set "scenario.kind=$kind" --demos "$demos" \
+        --rounds "$dagger_rounds" --episodes-per-round "$round_episodes" --eval-every 0 --workers "$workers" \
+        --seed "$seed" --out "$run" "${resume[@]}"
+      policies+=(--policy "$run/policy_bc.npz" --policy "$run/policy_latest.npz")
+    done
+    evaluate "$out/d_$kind.parquet" "$kind" "$test_episodes" --set observation.route_block=0 --policy expert \
+      "${policies[@]}"
+  done
+fi

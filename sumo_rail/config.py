@@ -26,19 +26,23 @@ FEATURE_KINDS = ("merge", "merge_from_ramp", "lane_drop", "exit")
 """The generated roads with a feature (ramp, work zone, exit) at scenario.feature_at_m."""
 FEATURE_CLEARANCE_M = 400.0
 """Least distance from a feature's end to the end of the main road [m]."""
+LANE_CAPACITY_VEH_PER_H = 3000.0
+"""More traffic than this a lane is refused: a motorway lane carries about 2000-2400 veh/h at its best."""
 START_CLEARANCE_M = 200.0
 """Least distance from the ego's start window to the road's feature [m]: room to see it coming."""
 
 
 PRESETS: dict[str, dict[str, dict[str, Any]]] = {
     "paper": {},
-    "recommended": {"observation": {"lane_block": 1}},
+    "recommended": {"observation": {"lane_block": 1, "route_block": 1}},
 }
 """Named settings, as changes to the defaults. paper: the defaults, the paper's setting (its 24-beam LIDAR is the
-whole observation). recommended: the benchmark's setting, the paper's plus the lane-wise block
-(observation.lane_block = 1), which shows the learner the cars one lane over that the beams miss and that the
-expert reacts to, so every learner can imitate the expert far more closely (docs/results.md, "What the learner
-can see")."""
+whole observation). recommended: the paper's plus the lane-wise block (observation.lane_block = 1), which shows the
+learner the cars one lane over that the beams miss and that the expert reacts to, so every learner can imitate the
+expert far more closely (docs/results.md, "What the learner can see"), and the route block
+(observation.route_block = 1), what a navigation system tells a driver of lanes that end, merges and exits. The
+benchmark's committed policies (docs/results/imitation_table) were trained before the route block existed:
+evaluate them with --preset recommended --set observation.route_block=0."""
 
 
 @dataclass(frozen=True)
@@ -106,6 +110,9 @@ class ScenarioConfig:
         _require(self.lane_width_m > 1.0, f"scenario.lane_width_m must exceed 1 m, got {self.lane_width_m}")
         _require(self.speed_limit_mps > 0, f"scenario.speed_limit_mps must be positive, got {self.speed_limit_mps}")
         _require(self.flow_veh_per_h > 0, f"scenario.flow_veh_per_h must be positive, got {self.flow_veh_per_h}")
+        _require(self.flow_veh_per_h <= LANE_CAPACITY_VEH_PER_H * self.lanes,
+                 f"scenario.flow_veh_per_h ({self.flow_veh_per_h:g} veh/h) is more than {self.lanes} lanes can carry "
+                 f"(about {LANE_CAPACITY_VEH_PER_H:g} veh/h a lane)")
         _require(0 < self.step_length_s <= 1.0, f"scenario.step_length_s must be in (0, 1] s, got {self.step_length_s}")
         _require(self.lane_change_duration_s >= 0,
                  f"scenario.lane_change_duration_s must not be negative, got {self.lane_change_duration_s}")
@@ -121,8 +128,9 @@ class ScenarioConfig:
 
     def _validate_feature(self) -> None:
         """The feature's settings: on the road, before its end, with lanes left over."""
-        _require(self.ramp_flow_veh_per_h >= 0,
-                 f"scenario.ramp_flow_veh_per_h must not be negative, got {self.ramp_flow_veh_per_h}")
+        _require(0 <= self.ramp_flow_veh_per_h <= LANE_CAPACITY_VEH_PER_H,
+                 f"scenario.ramp_flow_veh_per_h must be between 0 and what one lane can carry "
+                 f"({LANE_CAPACITY_VEH_PER_H:g} veh/h), got {self.ramp_flow_veh_per_h:g}")
         _require(0 <= self.exit_share < 1, f"scenario.exit_share must be in [0, 1), got {self.exit_share}")
         _require(self.feature_length_m >= 50, f"scenario.feature_length_m must be at least 50 m, got "
                                               f"{self.feature_length_m}")
@@ -220,7 +228,7 @@ class EnvConfig:
     """Nearest start position of the ego's front from the start of the road [m]."""
     ego_start_max_m: float = 700.0
     """Farthest start position of the ego's front from the start of the road [m]."""
-    zip_merge_m: float = 150.0
+    zip_merge_m: float = 250.0
     """Within this distance of the end of a lane that does not lead along its route, the ego's lane changes toward
     the lanes that do are zip merges: SUMO makes them when no collision is immediate and the followers brake, as
     its own drivers merge at a lane's end; elsewhere they wait for SUMO's safe gaps [m]."""

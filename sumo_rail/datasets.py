@@ -67,6 +67,19 @@ def check_output_path(path: Path, overwrite: bool) -> None:
         raise DatasetError(f"the folder of output {path} is not writable")
 
 
+def check_output_folder(folder: Path) -> None:
+    """Fail before any work if the run folder `folder` cannot be made or written: it is a file, or the folder it is
+    (or would be made) in is not a folder or not writable (read-only)."""
+    folder = Path(folder)
+    if folder.exists() and not folder.is_dir():
+        raise DatasetError(f"{folder} is a file, not a folder")
+    existing = next(parent for parent in (folder, *folder.parents, Path(".")) if parent.exists())
+    if not existing.is_dir():
+        raise DatasetError(f"run folder {folder} cannot be made: {existing} is a file")
+    if not os.access(existing, os.W_OK | os.X_OK):
+        raise DatasetError(f"run folder {folder} cannot be written: {existing} is not writable")
+
+
 def write_parquet(table: pa.Table, path: Path, metadata: dict[str, Any]) -> None:
     """Write `table` with `metadata` to `path` atomically: a temporary file in the same folder, then rename."""
     path = Path(path)

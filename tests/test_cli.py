@@ -17,7 +17,7 @@ import pyarrow.parquet as pq
 import pytest
 from click.testing import CliRunner
 from sumo_rail_cli.main import cli
-from sumo_rail_cli.options import resolve_config
+from sumo_rail_cli.settings import resolve_config
 
 import sumo_rail
 from sumo_rail.config import Config
@@ -93,7 +93,8 @@ def test_record_expert_with_two_egos_a_simulation_is_identical_for_any_worker_co
 
 
 @pytest.mark.parametrize("command", [["record-expert"], ["dagger", "--demos", "d.parquet"],
-                                     ["train", "--demos", "d.parquet"]])
+                                     ["train", "--demos", "d.parquet"], ["ppo"], ["gail", "--demos", "d.parquet"],
+                                     ["step-signal", "--demos", "d.parquet", "--policy", "p.npz"]])
 def test_more_egos_than_the_road_holds_is_a_usage_error_before_any_work(tmp_path, command):
     result = invoke(*command, *SMALL, "--egos", "400", "--out", str(tmp_path / "out"))
     assert result.exit_code == 2 and "'--egos'" in result.output and "use fewer egos" in result.output
@@ -217,9 +218,10 @@ def test_unknown_key_in_config_file(tmp_path: Path):
     assert result.exit_code == 2 and "env.decision_period" in result.output
 
 
-def test_the_recommended_preset_is_the_lane_block_setting_in_every_output(tmp_path):
+def test_the_recommended_preset_is_the_lane_and_route_blocks_in_every_output(tmp_path):
     outs = {}
-    for name, args in (("preset", ["--preset", "recommended"]), ("set", ["--set", "observation.lane_block=1"])):
+    for name, args in (("preset", ["--preset", "recommended"]),
+                       ("set", ["--set", "observation.lane_block=1", "--set", "observation.route_block=1"])):
         outs[name] = tmp_path / f"{name}.parquet"
         result = invoke("record-expert", *SMALL, *args, "--episodes", "1", "--out", str(outs[name]))
         assert result.exit_code == 0, result.output
@@ -232,7 +234,8 @@ def test_the_config_file_changes_the_preset_and_set_changes_both(tmp_path):
     path = tmp_path / "c.toml"
     path.write_text("[observation]\nlane_block = 0\n[scenario]\nlanes = 4\n")
     assert resolve_config("recommended", None, ()) == Config.preset("recommended")
-    assert resolve_config("recommended", path, ()) == Config().with_overrides({"scenario": {"lanes": 4}})
+    assert resolve_config("recommended", path, ()) == Config().with_overrides({"scenario": {"lanes": 4},
+                                                                                "observation": {"route_block": 1}})
     assert resolve_config("recommended", path, ("scenario.lanes=3",)).scenario.lanes == 3
     assert invoke("evaluate", "--preset", "best").exit_code == 2
 

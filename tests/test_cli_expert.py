@@ -14,7 +14,7 @@ from sumo_rail_cli.main import cli
 from sumo_rail.config import Config
 from sumo_rail.datasets import read_metadata
 from sumo_rail.drivers.policies import Policy, PolicyFileError, PolicyShape, save_policy
-from sumo_rail.runners.experts import resolve_expert
+from sumo_rail.runners.experts import expert_reference, resolve_expert
 from sumo_rail.runners.tables import read_demonstrations
 from sumo_rail.sim.observation import observation_names
 
@@ -48,7 +48,7 @@ def test_a_policy_file_as_the_expert_agrees_with_itself_exactly(tmp_path, learne
     assert (mine["agreement"] == 1.0).all() and (mine["reference"] == "expert-learned").all()
     rule_based = metrics[metrics["policy"] == "expert-normal"]
     assert (rule_based["agreement"] < 1.0).any()  # the rule-based driver is measured against the learned expert
-    assert read_metadata(out)["expert"] == str(learned_expert)
+    assert read_metadata(out)["expert"] == expert_reference(str(learned_expert))  # absolute path and hash
 
 
 def test_a_distilled_expert_is_its_own_reference_not_the_expert_it_learned_from(tmp_path):
@@ -78,13 +78,13 @@ def test_recording_a_policy_file_keeps_its_decisions_and_names_it(tmp_path, lear
     policy, _ = load_policy(learned_expert)
     assert np.array_equal(np.argmax(policy.logits(demos.observations), axis=1), demos.actions)
     assert len(set(demos.actions.tolist())) > 1
-    assert demos.metadata["expert"] == str(learned_expert) and "style" not in demos.metadata
+    assert demos.metadata["expert"] == expert_reference(str(learned_expert)) and "style" not in demos.metadata
     # DAgger run on these demonstrations asks the same expert by default, and records it
     run = tmp_path / "dagger"
     result = invoke("dagger", *SMALL, "--demos", str(out), "--rounds", "1", "--episodes-per-round", "1",
                     "--bc-epochs", "2", "--eval-every", "1", "--eval-episodes", "1", "--out", str(run))
     assert result.exit_code == 0, result.output
-    assert json.loads((run / "run.json").read_text())["expert"] == str(learned_expert)
+    assert json.loads((run / "run.json").read_text())["expert"] == expert_reference(str(learned_expert))
     dataset = pq.read_table(run / "dataset.parquet")
     labelled = np.stack(dataset.column("observation").to_pylist())
     assert np.array_equal(np.argmax(policy.logits(labelled), axis=1), dataset.column("action").to_pylist())
@@ -121,3 +121,117 @@ def test_a_layout_or_scale_mismatch_names_the_settings_the_policy_was_trained_wi
                        r"trained with --set lidar\.range_m=100\.0 and this configuration has lidar\.range_m=80\.0$"):
         resolve_expert(str(path), shorter_lidar)  # the same layout, other values
     assert resolve_expert(str(path), CONFIG).name == "expert-trained"
+
+
+def test_an_explicit_expert_is_every_drivers_and_without_it_each_its_own(tmp_path):
+    """A policy file that records the style it learned from: evaluated against itself as --expert it agrees 1.0;
+    without --expert it is compared with the style its file records, and the table names whom per driver."""
+    shape = PolicyShape("linear", len(observation_names(CONFIG)))
+    learner = tmp_path / "learner.npz"
+    parameters = np.random.default_rng(5).normal(0, 1.0, shape.parameter_count)
+    save_policy(Policy(shape, parameters), learner, {"observation_names": observation_names(CONFIG), "expert": "calm"})
+    named = invoke("evaluate", *SMALL, "--expert", str(learner), "--policy", str(learner), "--policy", "keep",
+                   "--episodes", "2", "--out", str(tmp_path / "named.parquet"))
+    assert named.exit_code == 0, named.output
+    metrics = pd.read_parquet(tmp_path / "named.parquet")
+    assert (metrics["reference"] == "expert-learner").all()
+    assert (metrics.loc[metrics["policy"] == "learner", "agreement"] == 1.0).all()
+    assert "learner: 2 episodes, agreement with expert-learner" in named.output
+    own = invoke("evaluate", *SMALL, "--policy", str(learner), "--policy", "keep", "--episodes", "2", "--out",
+                 str(tmp_path / "own.parquet"))
+    assert own.exit_code == 0, own.output
+    metrics = pd.read_parquet(tmp_path / "own.parquet")
+    by_driver = metrics.groupby("policy")["reference"].first().to_dict()
+    assert by_driver == {"learner": "expert-calm", "keep": "expert-normal"}
+    assert (metrics.loc[metrics["policy"] == "learner", "agreement"] < 1.0).any()
+    assert "learner: 2 episodes, agreement with expert-calm" in own.output
+    assert "keep was compared with another expert than learner" in own.output
+    assert read_metadata(tmp_path / "own.parquet")["expert"] is None
+
+
+def test_a_recorded_policy_expert_is_found_from_any_folder_and_a_changed_one_is_one_sentence(tmp_path,
+                                                                                          monkeypatch):
+    shape = PolicyShape("linear", len(observation_names(CONFIG)))
+    monkeypatch.chdir(tmp_path)
+    save_policy(Policy(shape, np.ones(shape.parameter_count)), Path("exp.npz"),
+                {"observation_names": observation_names(CONFIG)})
+    recorded = expert_reference("exp.npz")
+    assert recorded.startswith(str(tmp_path / "exp.npz") + "#sha256=")
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    monkeypatch.chdir(elsewhere)
+    save_policy(Policy(shape, np.zeros(shape.parameter_count)), Path("exp.npz"),
+                {"observation_names": observation_names(CONFIG)})  # another policy of the same name here
+    asked = resolve_expert(recorded, CONFIG, recorded_by="demos.parquet")
+    assert np.array_equal(asked.policy.parameters, np.ones(shape.parameter_count))  # the recorded one
+    save_policy(Policy(shape, np.full(shape.parameter_count, 2.0)), tmp_path / "exp.npz",
+                {"observation_names": observation_names(CONFIG)})
+    with pytest.raises(PolicyFileError, match=r"^the policy file .*exp\.npz, which demos\.parquet records as its "
+                       r"expert, has changed since it was recorded \(its content hash differs\)$"):
+        resolve_expert(recorded, CONFIG, recorded_by="demos.parquet")
+    (tmp_path / "exp.npz").unlink()
+    with pytest.raises(PolicyFileError, match=r"^the policy file .*exp\.npz, which demos\.parquet records as its "
+                                              r"expert, does not exist$"):
+        resolve_expert(recorded, CONFIG, recorded_by="demos.parquet")
+
+
+def test_demonstrations_whose_expert_file_is_gone_are_one_sentence_naming_them(tmp_path, learned_expert):
+    expert = tmp_path / "expert.npz"
+    expert.write_bytes(learned_expert.read_bytes())
+    demos = tmp_path / "demos.parquet"
+    result = invoke("record-expert", *SMALL, "--expert", str(expert), "--episodes", "1", "--out", str(demos))
+    assert result.exit_code == 0, result.output
+    expert.unlink()
+    for command in (("dagger", "--rounds", "1", "--episodes-per-round", "1"), ("train", "--iterations", "1")):
+        result = invoke(*command, *SMALL, "--demos", str(demos), "--bc-epochs", "1", "--eval-every", "0",
+                        "--out", str(tmp_path / command[0]))
+        assert result.exit_code == 1 and "Traceback" not in result.output, result.output
+        assert f"which {demos} records as its expert, does not exist" in result.output
+
+
+@pytest.mark.parametrize("setting, other", [("lidar.range_m", "80.0"), ("env.v_max_mps", "30.0"),
+                                            ("env.v_min_mps", "5.0")])
+def test_every_scale_setting_is_checked_against_a_policy_file_from_the_cli(tmp_path, setting, other):
+    path = tmp_path / "trained.npz"
+    shape = PolicyShape("linear", len(observation_names(CONFIG)))
+    save_policy(Policy(shape, np.zeros(shape.parameter_count)), path,
+                {"observation_names": observation_names(CONFIG), "config": CONFIG.to_dict()})
+    section, key = setting.split(".")
+    trained = CONFIG.to_dict()[section][key]
+    for option in ("--policy", "--expert"):
+        result = invoke("evaluate", *SMALL, "--set", f"{setting}={other}", option, str(path), "--episodes", "1")
+        assert result.exit_code == 1 and "Traceback" not in result.output, result.output
+        assert (f"reads observations scaled otherwise than this configuration's; it was trained with --set "
+                f"{setting}={trained} and this configuration has {setting}={float(other)}") in result.output
+
+
+def test_the_agreement_reward_asks_the_policy_file_the_demonstrations_recorded(tmp_path):
+    """The same demonstrations, once as recorded (by a policy file that always keeps its action) and once said to be
+    the normal style's: the agreement reward of the same first iteration differs, so it asks whom the file names."""
+    from test_cli import SMALL as ROAD
+    from test_cli import hand_made_policy
+
+    from sumo_rail.datasets import read_table, write_parquet
+
+    keeper = hand_made_policy(tmp_path / "keeper.npz", action=0)
+    demos = tmp_path / "demos.parquet"
+    assert invoke("record-expert", *ROAD, "--expert", str(keeper), "--episodes", "2", "--out",
+                  str(demos)).exit_code == 0
+    restyled = tmp_path / "restyled.parquet"
+    write_parquet(read_table(demos), restyled, {**read_metadata(demos), "expert": "normal"})
+    returns = []
+    for name in (demos, restyled):
+        run = tmp_path / name.stem
+        result = invoke("train", *ROAD, "--demos", str(name), "--reward", "agreement", "--policy", "linear",
+                        "--bc-epochs", "2", "--directions", "2", "--iterations", "1", "--eval-every", "0", "--out",
+                        str(run))
+        assert result.exit_code == 0, result.output
+        returns.append(pd.read_parquet(run / "log.parquet")["return_mean"].item())
+    assert returns[0] != returns[1]
+
+
+def test_a_recorded_expert_that_is_no_style_nor_file_names_the_file_that_records_it(tmp_path):
+    with pytest.raises(PolicyFileError, match=r"^demos\.parquet records the expert 'reckless', which is neither"):
+        resolve_expert("reckless", CONFIG, recorded_by="demos.parquet")
+    with pytest.raises(ValueError, match="unknown expert 'reckless'"):
+        resolve_expert("reckless", CONFIG)  # typed by a user: a usage error

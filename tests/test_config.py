@@ -59,7 +59,8 @@ def test_unreadable_or_malformed_toml_is_a_config_error(tmp_path: Path):
 
 def test_presets_are_named_changes_to_the_paper_setting():
     assert Config.preset("paper") == Config()
-    assert Config.preset("recommended") == Config().with_overrides({"observation": {"lane_block": 1}})
+    assert Config.preset("recommended") == Config().with_overrides({"observation": {"lane_block": 1,
+                                                                                    "route_block": 1}})
     with pytest.raises(ConfigError, match="unknown preset 'best'"):
         Config.preset("best")
 

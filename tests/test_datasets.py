@@ -1,11 +1,12 @@
 import os
+from collections.abc import Callable
 from pathlib import Path
 
 import pyarrow as pa
 import pytest
 
 from sumo_rail import datasets
-from sumo_rail.datasets import DatasetError, check_output_path, write_parquet
+from sumo_rail.datasets import DatasetError, check_output_folder, check_output_path, write_parquet
 
 
 def test_output_path_checks(tmp_path):
@@ -31,11 +32,13 @@ NOBODY = 65534
 """The user id and group id of `nobody`."""
 
 
-def check_as_a_user(folder: Path) -> str:
-    """The message of `check_output_path` on a new file in `folder` ("" if it passes), as a user who is not root:
-    root can write anywhere (CI runs as root), so there it is asked in a forked child that has become nobody."""
+def check_as_a_user(folder: Path, check: Callable[[Path], str] | None = None) -> str:
+    """The message of `check` (default `output_path_message`) on a new path in `folder` ("" if it passes), as a user
+    who is not root: root can write anywhere (CI runs as root), so there it is asked in a forked child that has become
+    nobody."""
+    check = check or output_path_message
     if os.geteuid() != 0:
-        return output_path_message(folder / "x.parquet")
+        return check(folder / "x.parquet")
     read_end, write_end = os.pipe()
     pid = os.fork()
     if pid == 0:  # the child: reports through the pipe and exits, never returning into pytest
@@ -45,7 +48,7 @@ def check_as_a_user(folder: Path) -> str:
             os.setgroups([])
             os.setgid(NOBODY)
             os.setuid(NOBODY)
-            message = output_path_message(Path("x.parquet"))
+            message = check(Path("x.parquet"))
         except BaseException as error:
             message = f"cannot check as nobody: {error!r}"
         try:
@@ -59,6 +62,29 @@ def check_as_a_user(folder: Path) -> str:
     if message.startswith("cannot check as nobody"):
         pytest.skip(f"the not-writable check needs a user other than root, and {message}")
     return message
+
+
+def output_folder_message(path: Path) -> str:
+    try:
+        check_output_folder(path / "run")
+    except DatasetError as error:
+        return str(error)
+    return ""
+
+
+def test_a_run_folder_that_cannot_be_made_or_written_is_refused_before_any_work(tmp_path):
+    locked = tmp_path / "locked"
+    locked.mkdir(mode=0o555)
+    try:
+        assert "cannot be written" in check_as_a_user(locked, output_folder_message)
+    finally:
+        locked.chmod(0o700)
+    (tmp_path / "file").write_text("")
+    with pytest.raises(DatasetError, match="is a file"):
+        check_output_folder(tmp_path / "file")
+    with pytest.raises(DatasetError, match=r"run folder .*run cannot be made: .*file is a file$"):
+        check_output_folder(tmp_path / "file" / "run")
+    check_output_folder(tmp_path / "new" / "run")  # made with its parents
 
 
 def output_path_message(path: Path) -> str:

@@ -418,9 +418,12 @@ def test_a_full_disk_during_a_gail_update_keeps_the_previous_update(workspace: P
         train_gail(workspace / "gail_run", settings, SMALL_CONFIG, on_update=fail_from_the_second_update)
     monkeypatch.setattr(pq, "write_table", original)
     message = str(caught.value)
-    assert "cannot save update 2" in message and os.strerror(errno.ENOSPC) in message and "update 1's" in message
+    assert "cannot save update 2" in message and os.strerror(errno.ENOSPC) in message
+    assert "keeps update 1, the last complete one: make room and continue with --resume" in message
     assert saved and fingerprint(workspace / "gail_run") == saved  # update 1's files, untouched; no temporary left
     assert pd.read_parquet(workspace / "gail_run" / "log.parquet")["iteration"].tolist() == [0]
+    assert train_gail(workspace / "gail_run", settings, SMALL_CONFIG, resume=True).updates == 2  # room again
+    assert pd.read_parquet(workspace / "gail_run" / "log.parquet")["iteration"].tolist() == [0, 1]
 
 
 # ---------------------------------------------------------------------------------------------------------------------
@@ -576,6 +579,7 @@ def test_a_lost_stable_baselines3_environment_process_is_one_sentence(workspace:
             deadline = time.time() + 120
             while not (workspace / "sb3_run" / "log.parquet").exists() and time.time() < deadline:
                 time.sleep(0.2)
+            assert (workspace / "sb3_run" / "log.parquet").exists(), "no update was saved within 120 s"
             envs = [pid for pid in _children(process.pid) if _is_env_process(pid)]
             assert len(envs) == 1, envs
             os.kill(envs[0], signal.SIGKILL)
@@ -588,6 +592,7 @@ def test_a_lost_stable_baselines3_environment_process_is_one_sentence(workspace:
     error = stderr.rstrip().splitlines()[-1]
     assert error.startswith(f"Error: {run.split()[0]} stopped during update "), error
     if how == "killed":
-        assert "environment process 0 was killed by signal 9" in error and "policy_latest.npz holds update" in error
+        assert "environment process 0 was killed by signal 9" in error and "keeps update " in error \
+            and error.endswith("the last complete one: continue with --resume")
     else:
-        assert "environment process 0 failed: " in error and "not_a_folder" in error and "no trained policy" in error
+        assert "environment process 0 failed: " in error and "not_a_folder" in error and "no complete update" in error

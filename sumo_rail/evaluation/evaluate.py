@@ -108,17 +108,15 @@ class Evaluation:
 
 
 def evaluate(drivers: Sequence[DriverSpec], config: Config, seeds: Sequence[int], backend: RolloutBackend,
-             reference: DriverSpec = DEFAULT_REFERENCE, pool: str = "test",
+             reference: DriverSpec | Sequence[DriverSpec] = DEFAULT_REFERENCE, pool: str = "test",
              on_episode: Callable[[int, Any], None] | None = None, video_episodes: int = 0) -> Evaluation:
     """Every driver on every seed, drivers in the given order. Episode k starts from warm state
     k mod `scenario.snapshots` of `pool`, so up to that many episodes never share a traffic state; each
-    decision is compared with the reference expert: the expert a policy's file records (whose demonstrations
-    trained it), else `reference`. The first `video_episodes` episodes of every driver are also recorded as
-    MP4s."""
+    decision is compared with the reference expert: `reference` for every driver, or one per driver (a sequence,
+    e.g. `recorded_reference`s). The first `video_episodes` episodes of every driver are also recorded as MP4s."""
     names = unique_names(drivers)
     warm_states = config.scenario.snapshots
-    references = [resolve_expert(driver.expert, config) if getattr(driver, "expert", None) else reference
-                  for driver in drivers]
+    references = list(reference) if isinstance(reference, Sequence) else [reference] * len(drivers)
     tasks = [EvaluationTask(EpisodeTask(config, driver, seed, pool=pool, warm_state=k % warm_states),
                             driver_reference, video=k < video_episodes)
              for driver, driver_reference in zip(drivers, references, strict=True) for k, seed in enumerate(seeds)]
@@ -134,6 +132,15 @@ def evaluate(drivers: Sequence[DriverSpec], config: Config, seeds: Sequence[int]
                                        "step": np.arange(steps), **result.decisions}))
     metrics = pd.DataFrame(rows, columns=[*METRIC_COLUMNS, *FIDELITY_TYPES])
     return Evaluation(metrics, pd.concat(decisions, ignore_index=True)[list(DECISION_TYPES)], videos)
+
+
+def recorded_reference(driver: DriverSpec, source: str, config: Config,
+                       fallback: DriverSpec = DEFAULT_REFERENCE) -> DriverSpec:
+    """The expert `driver` is compared with when no expert is named: the one its policy file `source` records
+    (whose demonstrations trained it; a PolicyFileError naming `source` when that file is gone or changed), else
+    `fallback`."""
+    recorded = getattr(driver, "expert", None)
+    return resolve_expert(recorded, config, recorded_by=source) if recorded else fallback
 
 
 def unique_names(drivers: Sequence[DriverSpec]) -> list[str]:

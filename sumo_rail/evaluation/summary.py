@@ -72,13 +72,23 @@ def intervals(metrics: pd.DataFrame, seed: int = 0) -> pd.DataFrame:
     return pd.DataFrame(rows, columns=["policy", "measure", "estimate", "low", "high"])
 
 
+def experts_of(metrics: pd.DataFrame) -> dict[str, str]:
+    """Whom each driver's decisions were compared with (the `reference` column), for metrics that say."""
+    if "reference" not in metrics:
+        return {}
+    named = metrics.dropna(subset=["reference"]).groupby("policy", sort=False)["reference"].first()
+    return {str(driver): str(expert) for driver, expert in named.items()}
+
+
 def paired_differences(metrics: pd.DataFrame, reference: str, seed: int = 0) -> pd.DataFrame:
     """Rows (policy, measure) for every driver but `reference`: the difference driver - reference on the seeds
-    both drove, with its interval and whether the interval excludes 0."""
+    both drove, with its interval and whether the interval excludes 0. Agreement rates only for drivers compared
+    with the same expert as `reference` (`experts_of`): agreements with two experts do not subtract."""
     if reference not in drivers_of(metrics):
         raise ValueError(f"reference driver {reference!r} is not among the evaluated drivers "
                          f"({', '.join(drivers_of(metrics))})")
     by_seed = {driver: frame.set_index("seed") for driver, frame in metrics.groupby("policy", sort=False)}
+    experts = experts_of(metrics)
     rows = []
     for driver in drivers_of(metrics):
         if driver == reference:
@@ -86,7 +96,10 @@ def paired_differences(metrics: pd.DataFrame, reference: str, seed: int = 0) -> 
         common = by_seed[driver].index.intersection(by_seed[reference].index).sort_values()
         ours = measure_samples(by_seed[driver].loc[common].reset_index())
         theirs = measure_samples(by_seed[reference].loc[common].reset_index())
+        other_expert = experts.get(driver) != experts.get(reference)
         for measure in ours.keys() & theirs.keys():
+            if other_expert and measure in RATES:
+                continue
             difference = paired_difference(ours[measure], theirs[measure], seed)
             rows.append({"policy": driver, "measure": measure, **vars(difference),
                          "detectable": difference.excludes_zero})
@@ -118,10 +131,17 @@ def summary_table(metrics: pd.DataFrame, reference: str | None = None, seed: int
     `reference` (default: the first driver), a * marking the intervals that exclude 0."""
     drivers = drivers_of(metrics)
     episodes = metrics.groupby("policy", sort=False).size()
-    header = ", ".join(f"{driver}: {episodes[driver]} episodes" for driver in drivers)
+    experts = experts_of(metrics)
+    header = "\n".join(f"{driver}: {episodes[driver]} episodes"
+                       + (f", agreement with {experts[driver]}" if driver in experts else "") for driver in drivers)
     means = _grid(intervals(metrics, seed), drivers, lambda row: _format(row, signed=False))
     text = f"{header}\nmean [95% interval], bootstrap over episodes:\n{means.to_string()}"
     reference = reference or drivers[0]
+    apart = [driver for driver in drivers if experts.get(driver) != experts.get(reference)]
+    if len(drivers) > 1 and apart:
+        text += (f"\n\n{', '.join(apart)} {'was' if len(apart) == 1 else 'were'} compared with another expert than "
+                 f"{reference}, so {'its agreement has' if len(apart) == 1 else 'their agreements have'} no "
+                 f"difference to {reference}'s below (pass --expert to compare every driver with one expert)")
     if len(drivers) > 1:
         differences = paired_differences(metrics, reference, seed)
         grid = _grid(differences, [driver for driver in drivers if driver != reference],

@@ -34,6 +34,7 @@ from sumo_rail.learning.training import (
     RunError,
     Validation,
     signals_deferred,
+    start_run_folder,
     validate,
     validation_columns,
     with_defaults,
@@ -165,18 +166,18 @@ def train_dagger(folder: Path, settings: DaggerSettings, config: Config, rounds:
     observation_size = observation_space(config).shape[0]
     demos = read_demonstrations(Path(settings.demos), observation_size)
     style = settings.expert or demonstrations_expert(demos.metadata)
-    expert = resolve_expert(style, config)
+    expert = resolve_expert(style, config, recorded_by=None if settings.expert else settings.demos)
     shape = PolicyShape(settings.kind, observation_size, settings.hidden)
     run_record = {"settings": settings.to_dict(), "expert": style, **provenance("dagger_run", config, settings.seed)}
     if resume:
         done, dataset, logs = _resume(folder, run_record)
         policy, _ = behaviour_cloning(dataset, shape, settings.bc)
     else:
-        _start_folder(folder, run_record)
+        start_run_folder(folder, run_record)
         dataset, logs, done = demos, [], 0
         policy, report = behaviour_cloning(dataset, shape, settings.bc)
         save_policy(policy, folder / "policy_bc.npz", {**run_record, "bc_report": dataclasses.asdict(report)})
-        logs.append(_row(0, 0, 0, dataset, report, 0.0, policy, config, backend, validation, style, rounds))
+        logs.append(_row(0, 0, 0, dataset, report, 0.0, policy, config, backend, validation, expert, rounds))
         _save(folder, 0, dataset, policy, logs, run_record)
         if on_round is not None:
             on_round(logs[-1])
@@ -189,7 +190,7 @@ def train_dagger(folder: Path, settings: DaggerSettings, config: Config, rounds:
         dataset = _aggregate(dataset, labelled)
         policy, report = behaviour_cloning(dataset, shape, settings.bc)
         logs.append(_row(round_, sum(len(e.labels) for e in labelled), sum(e.policy_decisions for e in labelled),
-                         dataset, report, time.perf_counter() - started, policy, config, backend, validation, style,
+                         dataset, report, time.perf_counter() - started, policy, config, backend, validation, expert,
                          rounds, beta))
         with signals_deferred():
             _save(folder, round_, dataset, policy, logs, run_record)
@@ -211,12 +212,12 @@ def _round_episodes(backend: RolloutBackend, config: Config, policy: Policy, exp
 
 def _row(round_: int, decisions: int, policy_decisions: int, dataset: Demonstrations, report: BcReport,
          wall_time_s: float, policy: Policy, config: Config, backend: RolloutBackend, validation: Validation,
-         style: str, rounds: int, beta: float = 1.0) -> dict[str, Any]:
+         expert: DriverSpec, rounds: int, beta: float = 1.0) -> dict[str, Any]:
     row = {"iteration": round_, "env_steps": decisions, "policy_decisions": policy_decisions, "beta": beta,
            "dataset_rows": len(dataset.actions), "bc_train_accuracy": report.train_accuracy,
            "bc_holdout_accuracy": report.holdout_accuracy, "wall_time_s": wall_time_s}
     due = validation.every > 0 and (round_ % validation.every == 0 or round_ == rounds)
-    return row | (validate(policy, config, backend, validation, style) if due
+    return row | (validate(policy, config, backend, validation, expert) if due
                   else dict.fromkeys(validation_columns()))
 
 
@@ -227,13 +228,6 @@ def _aggregate(dataset: Demonstrations, labelled: list[LabelledEpisode]) -> Demo
     return Demonstrations(np.concatenate([dataset.observations, *(e.observations for e in labelled)]),
                           np.concatenate([dataset.actions, *(e.labels for e in labelled)]),
                           np.concatenate([dataset.episodes, *episodes]), dataset.metadata)
-
-
-def _start_folder(folder: Path, run_record: dict[str, Any]) -> None:
-    if folder.exists() and any(folder.iterdir()):
-        raise RunError(f"run folder {folder} is not empty; pass --resume to continue it or choose another --out")
-    folder.mkdir(parents=True, exist_ok=True)
-    write_atomically(folder / "run.json", json.dumps(run_record, indent=2, sort_keys=True).encode())
 
 
 def _save(folder: Path, round_: int, dataset: Demonstrations, policy: Policy, logs: list[dict[str, Any]],

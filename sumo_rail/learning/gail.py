@@ -29,7 +29,8 @@ discriminator return, `rail.rollout_return`, of the episodes that ended in the r
 none did), discriminator_loss, discriminator_accuracy, collisions, wall_time_s; and episodes (ended in the
 rollout), entropy (PPO's mean policy entropy [nats]), actor_frozen (a critic warm-up update) and reward_std (what
 PPO's rewards were divided by at the update's end; 1 without normalisation). SIGINT / SIGTERM stop the run after
-the current update; there is no resume. `sumo-rail evaluate` takes the policy's argmax (`--policy`, as RAIL's)
+the current update, and `resume` continues from the last complete one (`sb3_resume` says what it restores
+exactly and what not). `sumo-rail evaluate` takes the policy's argmax (`--policy`, as RAIL's)
 or samples from its softmax, the policy PPO trains (`--sample-policy`).
 """
 
@@ -60,17 +61,18 @@ from sumo_rail.learning.gail_rewards import (
     reward_std,
 )
 from sumo_rail.learning.normalize import RunningStats
+from sumo_rail.learning.sb3_resume import learner_checkpoint, restore_learner, resume_run, resumed_env_seed
 from sumo_rail.learning.sb3_runs import (
     PpoSchedule,
     build_ppo,
     env_processes,
     require_stable_baselines3,
     save_update,
-    start_run_folder,
     stop_requests,
 )
 from sumo_rail.learning.shared_road import driving_processes
 from sumo_rail.learning.torch_threads import single_thread
+from sumo_rail.learning.training import start_run_folder
 from sumo_rail.runners.experts import demonstrations_expert
 from sumo_rail.runners.tables import Demonstrations, provenance, read_demonstrations
 from sumo_rail.sim.observation import observation_space
@@ -135,8 +137,9 @@ class GailResult:
 
 def train_gail(folder: Path, settings: GailSettings, config: Config,
                on_bc: Callable[[BcReport], None] | None = None,
-               on_update: Callable[[dict[str, Any]], None] | None = None) -> GailResult:
-    """Run GAIL into the empty or new `folder`; `on_bc` gets the BC report, `on_update` each log row."""
+               on_update: Callable[[dict[str, Any]], None] | None = None, resume: bool = False) -> GailResult:
+    """Run GAIL into the empty or new `folder`, or with `resume` continue the run in it from its last complete update
+    (`sb3_resume`); `on_bc` gets the BC report (new runs), `on_update` each new log row."""
     require_stable_baselines3(INSTALL_HINT)
     folder = Path(folder)
     observation_size = observation_space(config).shape[0]
@@ -144,23 +147,31 @@ def train_gail(folder: Path, settings: GailSettings, config: Config,
     shape = PolicyShape(settings.kind, observation_size, settings.hidden)
     run_record = {"settings": settings.to_dict(), "expert": demonstrations_expert(demos.metadata),
                   **provenance("gail_run", config, settings.seed)}
-    start_run_folder(folder, run_record)
+    checkpoint = resume_run(folder, run_record) if resume else None
+    if checkpoint is None:
+        start_run_folder(folder, run_record)
     with single_thread():
-        initial, normalisation = _initial_policy(folder, settings, shape, demos, run_record, on_bc)
+        if checkpoint is None:
+            initial, normalisation = _initial_policy(folder, settings, shape, demos, run_record, on_bc)
+            logs: list[dict[str, Any]] = []
+        else:
+            initial, normalisation, logs = None, checkpoint["normalisation"], checkpoint["log"]
         expert_stats = RunningStats.of(demos.observations)
         discriminator = Discriminator(observation_size, expert_stats.mean.copy(), expert_stats.std.copy(),
                                       settings.discriminator)
         horizon = round(config.env.max_episode_s / config.env.decision_period_s)
         labeller = RewardLabeller(discriminator, settings.vec_envs, horizon)
-        logs: list[dict[str, Any]] = []
         with env_processes(folder, "GAIL", lambda: len(logs)) as processes:
-            processes.venv = labelled_vec_env(driving_processes(config, settings.envs, settings.egos, settings.seed,
+            processes.venv = labelled_vec_env(driving_processes(config, settings.envs, settings.egos,
+                                                                resumed_env_seed(settings.seed, len(logs)),
                                                                 processes.error_dir), labeller, normalisation)
             if settings.normalize_reward:
                 processes.venv = normalised_rewards(processes.venv, settings.gamma)
             model = build_ppo(processes.venv, shape, settings)
             if initial is not None:
                 load_into_ppo(initial, model.policy)
+            if checkpoint is not None:
+                restore_learner(model, checkpoint, folder / "checkpoint.pt", discriminator)
             _updates(folder, settings, shape, model, labeller, demos, normalisation, run_record, on_update, logs)
             return GailResult(len(logs), model.num_timesteps, len(logs) < settings.updates)
 
@@ -186,7 +197,7 @@ def _updates(folder: Path, settings: GailSettings, shape: PolicyShape, model: PP
     """PPO updates, each followed by the discriminator's steps and the saves, until done or asked to stop; each
     update's log row is appended to `logs` once its files are saved."""
     with stop_requests() as stop:
-        for update in range(settings.updates):
+        for update in range(len(logs), settings.updates):
             started = time.perf_counter()
             frozen = update < settings.critic_warmup
             set_actor_trainable(model.policy, not frozen)
@@ -203,7 +214,8 @@ def _updates(folder: Path, settings: GailSettings, shape: PolicyShape, model: PP
                    "actor_frozen": frozen, "reward_std": reward_std(model),
                    "wall_time_s": time.perf_counter() - started}
             save_update(folder, ppo_to_policy(model.policy, shape, normalisation), [*logs, row], run_record,
-                        "GAIL")
+                        learner_checkpoint(model, normalisation, [*logs, row],
+                                           discriminator=labeller.discriminator.state()))
             logs.append(row)
             if on_update is not None:
                 on_update(row)

@@ -90,9 +90,9 @@ def lost_env_message(venv: VecEnv | None, error_dir: Path, folder: Path, updates
         elif code is not None:
             causes.append(f"environment process {index} exited with code {code}")
     cause = causes[0] if causes else "an environment process was lost"
-    kept = (f"{folder / 'policy_latest.npz'} holds update {updates}'s policy" if updates
-            else f"{folder} holds no trained policy")
-    return f"{run} stopped during update {updates + 1}: {cause}; {kept} (a {run} run cannot be resumed)"
+    kept = (f"{folder} keeps update {updates}, the last complete one: continue with --resume" if updates
+            else f"{folder} holds no complete update yet")
+    return f"{run} stopped during update {updates + 1}: {cause}; {kept}"
 
 
 def close_envs(venv: VecEnv, lost: bool) -> None:

@@ -19,12 +19,13 @@ Reproducible as `gail`: env k's first episode has the Purpose.TRAIN seed of epis
 is seeded and torch runs on one thread, so the same settings give the same policy bit for bit (for the same
 number of envs).
 
-runs/NAME/ holds `run.json` (settings, config, provenance), `policy_latest.npz` and `log.parquet`, replaced
-together after every update. The log has one row per update: iteration, env_steps, episodes (ended in the
+runs/NAME/ holds `run.json` (settings, config, provenance), `policy_latest.npz`, `log.parquet` and `checkpoint.pt`,
+replaced together after every update. The log has one row per update: iteration, env_steps (the decisions the
+envs returned in the update, counted as they come), episodes (ended in the
 update), return_mean / _max / _std (the undiscounted episode return PPO trains on, the env's reward plus any
 shaping, of those episodes; NaN when none ended), speed_kmh, overtakes, lane_changes, collisions (per ended
 episode), entropy (nats), actor_frozen, reward_std and wall_time_s. SIGINT / SIGTERM stop after the current
-update; there is no resume.
+update, and `resume` continues from the last complete one (`sb3_resume` says what it restores exactly and what not).
 """
 
 from __future__ import annotations
@@ -42,17 +43,18 @@ from sumo_rail.config import Config
 from sumo_rail.drivers.policies import Policy, PolicyShape
 from sumo_rail.learning.gail_actor import FixedNormalisation, load_into_ppo, ppo_to_policy, set_actor_trainable
 from sumo_rail.learning.gail_rewards import normalised_rewards, reward_std
+from sumo_rail.learning.sb3_resume import learner_checkpoint, restore_learner, resume_run, resumed_env_seed
 from sumo_rail.learning.sb3_runs import (
     PpoSchedule,
     build_ppo,
     env_processes,
     require_stable_baselines3,
     save_update,
-    start_run_folder,
     stop_requests,
 )
 from sumo_rail.learning.shared_road import driving_processes
 from sumo_rail.learning.torch_threads import single_thread
+from sumo_rail.learning.training import start_run_folder
 from sumo_rail.runners.experts import parse_policy
 from sumo_rail.runners.tables import provenance
 from sumo_rail.sim.observation import observation_space
@@ -92,8 +94,8 @@ class PpoSettings(PpoSchedule):
     """Shaping: reward per decision in the rightmost lane, falling linearly to 0 in the leftmost."""
     init: str | None = None
     """Policy file the actor starts from (None: PPO's own random initialisation)."""
-    critic_warmup: int = 5
-    """With `init`: first updates with the actor frozen while the critic learns; they count in `timesteps`."""
+    critic_warmup: int = 0
+    """With `init` only: first updates with the actor frozen while the critic learns; they count in `timesteps`."""
     seed: int = 0
 
     def __post_init__(self) -> None:
@@ -102,15 +104,13 @@ class PpoSettings(PpoSchedule):
             raise ValueError(f"PPO needs ent_coef, overtake_reward, keep_right_reward and critic_warmup >= 0, got "
                              f"{self.ent_coef}, {self.overtake_reward}, {self.keep_right_reward} and "
                              f"{self.critic_warmup}")
+        if self.critic_warmup and self.init is None:
+            raise ValueError("--critic-warmup needs --init: a critic warm-up keeps an initial actor while the critic "
+                             "learns, and without --init the actor is PPO's random one")
 
     def shape(self, config: Config) -> PolicyShape:
         """The actor's layout on `config`'s observation."""
         return PolicyShape(self.kind, observation_space(config).shape[0], self.hidden)
-
-    @property
-    def frozen_updates(self) -> int:
-        """Updates at the start in which only the critic learns."""
-        return self.critic_warmup if self.init is not None else 0
 
 
 @dataclass(frozen=True)
@@ -131,6 +131,8 @@ class EpisodeTally:
         self._returns = np.zeros(envs)
         self._overtakes = np.zeros(envs, dtype=np.int64)
         self.ended: list[dict[str, float]] = []
+        self.decisions = 0
+        """Decisions seen since the last `take` (all envs)."""
 
     def shaped(self, rewards: np.ndarray, dones: np.ndarray, infos: list[dict[str, Any]]) -> np.ndarray:
         """This step's rewards plus the shaping; records the episodes that ended."""
@@ -139,6 +141,7 @@ class EpisodeTally:
         rewards = (np.asarray(rewards, dtype=np.float64) + self.overtake_reward * (overtakes - self._overtakes)
                    + self.keep_right_reward - self.keep_right_per_lane * lanes_left_of_rightmost)
         self._returns += rewards
+        self.decisions += len(rewards)
         for env in np.flatnonzero(dones):
             info = infos[env]
             self.ended.append({"return": float(self._returns[env]),
@@ -151,7 +154,8 @@ class EpisodeTally:
         return rewards.astype(np.float32)
 
     def take(self) -> list[dict[str, float]]:
-        ended, self.ended = self.ended, []
+        """The episodes that ended since the last call (and the decision count starts again)."""
+        ended, self.ended, self.decisions = self.ended, [], 0
         return ended
 
 
@@ -186,39 +190,49 @@ def driving_vec_env(venv: VecEnv, tally: EpisodeTally, normalisation: FixedNorma
 
 
 def train_ppo_driver(folder: Path, settings: PpoSettings, config: Config,
-                     on_update: Callable[[dict[str, Any]], None] | None = None) -> PpoResult:
-    """Train into the empty or new `folder`; `on_update` gets each log row once its update is saved."""
+                     on_update: Callable[[dict[str, Any]], None] | None = None, resume: bool = False) -> PpoResult:
+    """Train into the empty or new `folder`, or with `resume` continue the run in it from its last complete update
+    (`sb3_resume`); `on_update` gets each new log row once its update is saved."""
     require_stable_baselines3(INSTALL_HINT)
     folder = Path(folder)
     shape = settings.shape(config)
-    observation_size = shape.observation_size
-    initial = None if settings.init is None else initial_policy(Path(settings.init), shape, config)
-    normalisation = (FixedNormalisation(np.zeros(observation_size), np.ones(observation_size)) if initial is None
-                     else FixedNormalisation(initial.observation_mean, initial.observation_std))
     run_record = {"settings": settings.to_dict(), **provenance("ppo_run", config, settings.seed)}
-    start_run_folder(folder, run_record)
+    if resume:
+        checkpoint = resume_run(folder, run_record)
+        initial, normalisation, rows = None, checkpoint["normalisation"], checkpoint["log"]
+    else:
+        checkpoint, initial = None, None if settings.init is None else initial_policy(Path(settings.init), shape,
+                                                                                       config)
+        normalisation = (FixedNormalisation(np.zeros(shape.observation_size), np.ones(shape.observation_size))
+                         if initial is None else FixedNormalisation(initial.observation_mean, initial.observation_std))
+        start_run_folder(folder, run_record)
+        rows = []
+    done = len(rows)
     tally = EpisodeTally(settings.vec_envs, settings.overtake_reward, settings.keep_right_reward,
                          config.scenario.lanes)
-    rows: list[dict[str, Any]] = []
     with single_thread(), env_processes(folder, "PPO", lambda: len(rows)) as processes:
-        processes.venv = driving_vec_env(driving_processes(config, settings.envs, settings.egos, settings.seed,
+        processes.venv = driving_vec_env(driving_processes(config, settings.envs, settings.egos,
+                                                           resumed_env_seed(settings.seed, done),
                                                            processes.error_dir), tally, normalisation)
         if settings.normalize_reward:
             processes.venv = normalised_rewards(processes.venv, settings.gamma)
         model = build_ppo(processes.venv, shape, settings, ent_coef=settings.ent_coef)
         if initial is not None:
             load_into_ppo(initial, model.policy)
+        if checkpoint is not None:
+            restore_learner(model, checkpoint, folder / "checkpoint.pt")
         with stop_requests() as stop:
-            for update in range(settings.updates):
+            for update in range(done, settings.updates):
                 started = time.perf_counter()
-                frozen = update < settings.frozen_updates
+                frozen = update < settings.critic_warmup
                 set_actor_trainable(model.policy, not frozen)
                 model.learn(settings.steps_per_update, reset_num_timesteps=False)
-                row = {"iteration": update, "env_steps": settings.steps_per_update, **_episode_summary(tally.take()),
+                row = {"iteration": update, "env_steps": tally.decisions, **_episode_summary(tally.take()),
                        "entropy": -float(model.logger.name_to_value["train/entropy_loss"]),
                        "actor_frozen": frozen, "reward_std": reward_std(model),
                        "wall_time_s": time.perf_counter() - started}
-                save_update(folder, ppo_to_policy(model.policy, shape, normalisation), [*rows, row], run_record, "PPO")
+                save_update(folder, ppo_to_policy(model.policy, shape, normalisation), [*rows, row], run_record,
+                            learner_checkpoint(model, normalisation, [*rows, row]))
                 rows.append(row)
                 if on_update is not None:
                     on_update(row)

@@ -1,11 +1,11 @@
 """What the two Stable-Baselines3 trainers (`gail`, `ppo_driver`) share: the install check, PPO built with a
 `PolicyShape` actor, stopping after the current update on SIGINT / SIGTERM, and saving an update's policy and log
-together. Stable-Baselines3 is imported only by the functions that need it."""
+together with the checkpoint `--resume` continues from (`sb3_resume`). Stable-Baselines3 is imported only by the
+functions that need it."""
 
 from __future__ import annotations
 
 import dataclasses
-import json
 import math
 import signal
 import tempfile
@@ -22,7 +22,6 @@ from sumo_rail.datasets import DatasetError, write_failure, write_parquet, writt
 from sumo_rail.drivers.policies import Policy, PolicyShape, save_policy
 from sumo_rail.learning.gail_actor import policy_kwargs
 from sumo_rail.learning.gail_envs import LOST_ENV, close_envs, lost_env_message
-from sumo_rail.learning.training import RunError, write_atomically
 
 if TYPE_CHECKING:
     from stable_baselines3 import PPO
@@ -62,6 +61,10 @@ class PpoSchedule:
             raise ValueError(f"{name} needs timesteps >= 1, envs >= 1, egos >= 1, n_steps x envs x egos >= 2 and "
                              f"batch_size >= 2, got {self.timesteps}, {self.envs}, {self.egos}, {self.n_steps} and "
                              f"{self.batch_size}")
+        if self.batch_size > self.steps_per_update:
+            raise ValueError(f"{name}'s batch size {self.batch_size} is larger than an update's "
+                             f"{self.steps_per_update} decisions (n_steps x envs x egos); choose at most "
+                             f"{self.steps_per_update}")
         if self.ppo_epochs < 1 or self.learning_rate <= 0 or not 0 < self.gamma <= 1:
             raise ValueError(f"{name} needs ppo_epochs >= 1, learning_rate > 0 and 0 < gamma <= 1, got "
                              f"{self.ppo_epochs}, {self.learning_rate} and {self.gamma}")
@@ -131,14 +134,6 @@ def env_processes(folder: Path, run: str, updates_done: Callable[[], int]) -> It
                 close_envs(processes.venv, lost)
 
 
-def start_run_folder(folder: Path, run_record: dict[str, Any]) -> None:
-    """Create the new or empty run `folder` with its run.json (RunError, one sentence, when it is not empty)."""
-    if folder.exists() and any(folder.iterdir()):
-        raise RunError(f"run folder {folder} is not empty; choose another --out")
-    folder.mkdir(parents=True, exist_ok=True)
-    write_atomically(folder / "run.json", json.dumps(run_record, indent=2, sort_keys=True).encode())
-
-
 class StopRequest:
     """Whether a stop was asked for: a plain flag, which a signal handler can set while another signal interrupts it
     (a `threading.Event` takes a lock in `set`, so a second Ctrl-C arriving inside the first one's handler would
@@ -171,16 +166,20 @@ def stop_requests() -> Iterator[StopRequest]:
 
 
 def save_update(folder: Path, policy: Policy, rows: list[dict[str, Any]], run_record: dict[str, Any],
-                what: str) -> None:
-    """Replace policy_latest.npz and log.parquet (`rows`, the last being this update's) together: both or, on a full
-    disk, neither; BaselineError saying what the folder keeps otherwise (`what` names the run, e.g. "GAIL")."""
+                checkpoint: dict[str, Any]) -> None:
+    """Replace policy_latest.npz, log.parquet (`rows`, the last being this update's) and checkpoint.pt
+    (`sb3_resume.learner_checkpoint`) together: all or, on a full disk, none; a BaselineError saying what the folder
+    keeps otherwise."""
+    import torch
+
     update = len(rows) - 1
     try:
         with written_together(folder) as staged:
             save_policy(policy, staged.path(folder / "policy_latest.npz"), {**run_record, "iteration": update})
             write_parquet(pa.Table.from_pylist(rows), staged.path(folder / "log.parquet"),
                           {**run_record, "kind": "training_log"})
+            torch.save(checkpoint, staged.path(folder / "checkpoint.pt"))  # last: it marks the update complete
     except (OSError, DatasetError) as error:
-        kept = f"it keeps update {update}'s policy and log" if update else "it holds no trained policy"
-        raise BaselineError(f"cannot save update {update + 1} in {folder} ({write_failure(error)}); {kept} "
-                            f"(a {what} run cannot be resumed)") from error
+        kept = f"it keeps update {update}, the last complete one" if update else "it holds no complete update yet"
+        raise BaselineError(f"cannot save update {update + 1} in {folder} ({write_failure(error)}); {kept}: make "
+                            f"room and continue with --resume") from error

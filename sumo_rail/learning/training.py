@@ -48,7 +48,7 @@ from sumo_rail.learning.normalize import RunningStats
 from sumo_rail.learning.rail import RailSettings, TrainingState, run_iteration
 from sumo_rail.runners.backends import RolloutBackend
 from sumo_rail.runners.experts import demonstrations_expert, resolve_expert
-from sumo_rail.runners.rollout import PolicyDriver
+from sumo_rail.runners.rollout import DriverSpec, PolicyDriver
 from sumo_rail.runners.tables import provenance, read_demonstrations
 from sumo_rail.seeding import Purpose, episode_seeds
 from sumo_rail.sim.observation import observation_space
@@ -124,18 +124,18 @@ def train(folder: Path, settings: RunSettings, config: Config, iterations: int, 
     expert_stats = RunningStats.of(demos.observations)
     discriminator = Discriminator(observation_size, expert_stats.mean.copy(), expert_stats.std.copy(),
                                   settings.discriminator)
-    asked = resolve_expert(expert, config)  # the demonstrations' expert, checked before any work
+    asked = resolve_expert(expert, config, recorded_by=settings.demos)  # checked before any work
     if resume:
         state, logs = _resume(folder, run_record, shape, discriminator)
     else:
-        _start_folder(folder, run_record)
+        start_run_folder(folder, run_record)
         state, logs = _initial_state(folder, settings, shape, demos, run_record, on_bc), []
     while state.iteration < iterations:
         started = time.perf_counter()
         log = run_iteration(state, shape, config, settings.rail, discriminator, demos, backend, on_rollout, asked)
         row = {**dataclasses.asdict(log), "wall_time_s": time.perf_counter() - started}
         policy = Policy(shape, state.parameters, state.stats.mean, state.stats.std)
-        row.update(validate(policy, config, backend, validation, expert)
+        row.update(validate(policy, config, backend, validation, asked)
                    if validation.due(log.iteration, iterations - 1)
                    else dict.fromkeys(validation_columns()))
         logs.append(row)
@@ -158,22 +158,27 @@ def with_validation_columns(row: dict[str, Any]) -> dict[str, Any]:
 
 
 def validate(policy: Policy, config: Config, backend: RolloutBackend, validation: Validation,
-             expert: str) -> dict[str, float]:
+             expert: DriverSpec) -> dict[str, float]:
     """VALIDATION_METRICS of `policy` on the validation seeds and warm states, as eval_<measure>, agreement with
-    `expert` (a style or a policy file), and the agreement's 95% interval (VALIDATION_INTERVAL)."""
+    `expert` (`resolve_expert`), and the agreement's 95% interval (VALIDATION_INTERVAL)."""
     seeds = episode_seeds(Purpose.EVALUATE, VALIDATION_BASE_SEED, validation.episodes)
-    evaluation = evaluate([PolicyDriver(policy, "policy", expert)], config, seeds, backend, pool="validation")
+    evaluation = evaluate([PolicyDriver(policy, "policy")], config, seeds, backend, expert, pool="validation")
     samples = measure_samples(evaluation.metrics)
     agreement = interval(samples["agreement"])
     return {**{f"eval_{measure}": float(ratio(samples[measure])) for measure in VALIDATION_METRICS},
             "eval_agreement_low": agreement.low, "eval_agreement_high": agreement.high}
 
 
-def _start_folder(folder: Path, run_record: dict[str, Any]) -> None:
-    if folder.exists() and any(folder.iterdir()):
+def start_run_folder(folder: Path, run_record: dict[str, Any]) -> None:
+    """Make the new or empty run `folder` (and its parents) with its run.json; a RunError, one sentence, when it is
+    not empty or cannot be made."""
+    if folder.is_dir() and any(folder.iterdir()):
         raise RunError(f"run folder {folder} is not empty; pass --resume to continue it or choose another --out")
-    folder.mkdir(parents=True, exist_ok=True)
-    write_atomically(folder / "run.json", json.dumps(run_record, indent=2, sort_keys=True).encode())
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        write_atomically(folder / "run.json", json.dumps(run_record, indent=2, sort_keys=True).encode())
+    except OSError as error:
+        raise RunError(f"cannot make the run folder {folder} ({write_failure(error)})") from error
 
 
 def _initial_state(folder: Path, settings: RunSettings, shape: PolicyShape, demos: Any, run_record: dict[str, Any],
@@ -243,7 +248,7 @@ def _resume(folder: Path, run_record: dict[str, Any], shape: PolicyShape,
     if settings != run_record["settings"] or stored["config"] != run_record["config"]:
         raise RunError(f"run {folder} was started with other settings (see its run.json); resume it with the same "
                        f"options")
-    checkpoint = _load_checkpoint(path)
+    checkpoint = load_checkpoint(path)
     try:
         rng = np.random.default_rng()
         rng.bit_generator.state = checkpoint["rng"]
@@ -289,9 +294,9 @@ def read_run_record(folder: Path) -> dict[str, Any]:
     return record
 
 
-def _load_checkpoint(path: Path) -> dict[str, Any]:
-    """checkpoint.pt as written by `_save_iteration`: its zip checksums verified (torch does not check them), loaded
-    with weights_only (no code runs), of this format."""
+def load_checkpoint(path: Path, expected: str = CHECKPOINT_FORMAT) -> dict[str, Any]:
+    """checkpoint.pt as written by `_save_iteration` (or a checkpoint of another `expected` format): its zip checksums
+    verified (torch does not check them), loaded with weights_only (no code runs), of that format."""
     if path.stat().st_size == 0:
         raise RunError(f"checkpoint {path} is empty (0 bytes)")
     try:
@@ -311,9 +316,9 @@ def _load_checkpoint(path: Path) -> dict[str, Any]:
         raise RunError(f"checkpoint {path} is unreadable ({describe(error)})") from error
     if not isinstance(checkpoint, dict) or "format" not in checkpoint:
         raise RunError(f"{path} is not a sumo-rail checkpoint")
-    if checkpoint["format"] != CHECKPOINT_FORMAT:
-        raise RunError(f"checkpoint {path} has format {checkpoint['format']!r}; this sumo-rail reads "
-                       f"{CHECKPOINT_FORMAT!r}")
+    if checkpoint["format"] != expected:
+        raise RunError(f"checkpoint {path} has format {checkpoint['format']!r}; this sumo-rail reads {expected!r} "
+                       f"here")
     return checkpoint
 
 

@@ -46,6 +46,13 @@ class Run:
     """'BC' and/or the trained policy ('RAIL', or 'GAIL' for a `sumo-rail gail` run) -> (policy, file name); the
     trained one is policy_latest.npz (what the tables evaluate), else policy_best.npz."""
     observation_names: list[str]
+    method: str = "RAIL"
+    """'RAIL', 'GAIL' or 'PPO' (`ppo`, whose return is the environment's reward, not a discriminator's)."""
+
+    @property
+    def return_name(self) -> str:
+        """What the log's return is: "D return" (a discriminator's) or "env return" (a `ppo` run's)."""
+        return "env return" if self.method == "PPO" else "D return"
 
     @property
     def kind(self) -> str:
@@ -80,6 +87,11 @@ def read_inputs(paths: list[Path]) -> Inputs:
             runs.append(read_run(path, _unique(path.name, [run.name for run in runs])))
         else:
             metrics.append((path, read_metrics(path)))
+    if len({run.return_name for run in runs}) > 1:
+        ppo = next(run for run in runs if run.method == "PPO")
+        other = next(run for run in runs if run.method != "PPO")
+        raise ReportError(f"{ppo.folder} is a ppo run, whose return is the environment's reward, and {other.folder} "
+                          f"returns a discriminator's, which do not share a plot: report them separately")
     decisions = [(path, read_decisions(decisions_path(path))) for path, _ in metrics
                  if decisions_path(path).is_file()]
     return Inputs(runs, _concatenate(metrics), [path for path, _ in metrics],
@@ -112,7 +124,7 @@ def read_run(folder: Path, name: str) -> Run:
             policies[label] = (policy, file)
     if len({policy.shape for policy, _ in policies.values()}) > 1:
         raise ReportError(f"the BC and {method} policies in {folder} have different shapes")
-    return Run(name, folder, settings, log, policies, _observation_names(policies, metadata))
+    return Run(name, folder, settings, log, policies, _observation_names(policies, metadata), method)
 
 
 def read_metrics(path: Path) -> pd.DataFrame:
@@ -162,14 +174,15 @@ def _require_columns(table: pd.DataFrame, columns: tuple[str, ...], path: Path) 
 
 
 def _read_run_record(path: Path) -> tuple[dict[str, Any], str]:
-    """run.json's settings and the training method ('GAIL' for a gail run, else 'RAIL'); ({}, 'RAIL') without it."""
+    """run.json's settings and the training method ('GAIL' for a gail run, 'PPO' for a ppo run, else 'RAIL'); ({},
+    'RAIL') without it."""
     if not path.is_file():
         return {}, "RAIL"
     record = read_json_record(path, "run record")
     settings = record.get("settings")
     if not isinstance(settings, dict):
         raise ReportError(f"{path} is not a sumo-rail run record")
-    return settings, "GAIL" if record.get("kind") == "gail_run" else "RAIL"
+    return settings, {"gail_run": "GAIL", "ppo_run": "PPO"}.get(str(record.get("kind")), "RAIL")
 
 
 def _observation_names(policies: dict[str, tuple[Policy, str]], metadata: dict[str, Any]) -> list[str]:

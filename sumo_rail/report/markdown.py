@@ -11,6 +11,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
+import pandas as pd
 from matplotlib.figure import Figure
 
 from sumo_rail.evaluation.distributions import distance_table
@@ -46,7 +47,12 @@ def write_report(inputs: Inputs, out: Path, videos: Path | None = None) -> Path:
         plots.append(plot)
 
     runs = inputs.runs
-    if runs:
+    if runs and runs[0].method == "PPO":
+        add(Plot("learning_curves.png", "Learning curves",
+                 "Mean environment return (the env's reward plus any shaping, what PPO maximises) of the episodes "
+                 "that ended in each update (band: +- std, dashed: best episode) against cumulative environment "
+                 "steps."), lambda: learning_curves(runs))
+    elif runs:
         add(Plot("learning_curves.png", "Learning curves",
                  "Mean discriminator return of each iteration's rollouts (RAIL: the perturbed rollouts; GAIL: "
                  "the episodes of a PPO update) (band: +- std, dashed: best rollout) against cumulative "
@@ -122,7 +128,10 @@ def markdown(inputs: Inputs, plots: list[Plot]) -> str:
     """The report text: runs table, evaluation summary, and every plot with its caption."""
     lines = ["# sumo-rail report", ""]
     if inputs.runs:
+        environment = inputs.runs[0].method == "PPO"
         lines += ["## Training runs", "", *run_table(inputs.runs), "",
+                  "env return: mean over the episodes that ended in one PPO update of the environment's return (its "
+                  "reward plus any shaping); updates count from 1; wall time sums the updates." if environment else
                   "D return: mean over one iteration's rollouts (RAIL: perturbed rollouts; GAIL: a PPO update's "
                   "episodes) of the per-decision discriminator reward "
                   "log D - log(1 - D); iterations count from 1; wall time sums the iterations (without behaviour "
@@ -148,16 +157,17 @@ def markdown(inputs: Inputs, plots: list[Plot]) -> str:
 
 def run_table(runs: list[Run]) -> list[str]:
     """One Markdown table row per run."""
-    header = ("| run | policy | iterations | env steps | wall time (min) | final D return | best D return (iteration) "
+    name = runs[0].return_name if runs else "D return"
+    header = (f"| run | policy | iterations | env steps | wall time (min) | final {name} | best {name} (iteration) "
               "| validated at iteration | speed (km/h) | overtakes | lane changes | collisions |")
     rows = [header, "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for run in runs:
-        log = run.log
-        best = int(log["return_mean"].idxmax())
+        log, returns = run.log, run.log["return_mean"].dropna()  # a ppo update in which no episode ended has none
+        best = "-" if returns.empty else (f"{returns.max():+.3f} "
+                                          f"({int(log['iteration'].loc[returns.idxmax()]) + 1})")
+        final = "-" if pd.isna(log["return_mean"].iloc[-1]) else f"{log['return_mean'].iloc[-1]:+.3f}"
         cells = [run.name, run.kind, f"{len(log)}", f"{int(log['env_steps'].sum()):,}",
-                 f"{log['wall_time_s'].sum() / 60:.1f}", f"{log['return_mean'].iloc[-1]:+.3f}",
-                 f"{log['return_mean'].iloc[best]:+.3f} ({int(log['iteration'].iloc[best]) + 1})",
-                 *_last_validation(run)]
+                 f"{log['wall_time_s'].sum() / 60:.1f}", final, best, *_last_validation(run)]
         rows.append("| " + " | ".join(cells) + " |")
     return rows
 

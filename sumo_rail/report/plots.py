@@ -30,12 +30,13 @@ METRIC_PANELS = (("average_speed_kmh", "average speed (km/h)"),
                  ("longitudinal_reward", "longitudinal reward (sum per episode)"),
                  ("lateral_reward", "lateral reward (sum per episode)"),
                  ("collisions", "collisions per episode"))
-POLICY_COLOURS = {"BC": "tab:orange", "RAIL": "tab:blue", "GAIL": "tab:green"}
+POLICY_COLOURS = {"BC": "tab:orange", "RAIL": "tab:blue", "GAIL": "tab:green", "PPO": "tab:purple"}
 WEIGHT_COLOURMAP = "RdBu_r"
 
 
 def learning_curves(runs: list[Run]) -> Figure:
-    """Mean discriminator return of each iteration's rollouts (band: +- std; dashed: max) vs cumulative env steps."""
+    """Mean return of each iteration's rollouts (band: +- std; dashed: max) vs cumulative env steps: the
+    discriminator's, or the environment's for `ppo` runs (`read_inputs` does not mix them)."""
     figure = _figure(9.5, 5.5)
     axes = figure.add_subplot()
     handles = []
@@ -51,8 +52,13 @@ def learning_curves(runs: list[Run]) -> Figure:
              Patch(color="grey", alpha=0.3, label="mean +- std"),
              Line2D([], [], color="grey", linestyle="--", label="best rollout")]
     axes.legend(handles=[*handles, *style], fontsize=9, loc="best")
-    axes.set(xlabel=STEPS_LABEL, ylabel="discriminator return\n(mean log D - log(1 - D) per decision)",
-             title="Learning curves: discriminator return of each iteration's rollouts")
+    if runs and runs[0].method == "PPO":
+        axes.set(ylabel="environment return\n(reward plus shaping per episode)",
+                 title="Learning curves: environment return of each update's episodes")
+    else:
+        axes.set(ylabel="discriminator return\n(mean log D - log(1 - D) per decision)",
+                 title="Learning curves: discriminator return of each iteration's rollouts")
+    axes.set(xlabel=STEPS_LABEL)
     axes.xaxis.set_major_formatter(STEPS_FORMAT)
     _grid(axes)
     return figure

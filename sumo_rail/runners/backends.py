@@ -94,6 +94,13 @@ class TaskError(BackendError):
     """A task raised an exception in a worker; message names the task index and the worker's exception type and
     message. Not retried (it would fail again)."""
 
+    def __init__(self, index: int, raised: str, detail: str) -> None:
+        super().__init__(f"task {index} raised {raised}: {detail}")
+        self.raised = raised
+        """The type name of the task's exception."""
+        self.detail = detail
+        """The task's exception's message."""
+
 
 class RolloutBackend(Protocol):
     """Runs tasks and returns their results in task order; usable as a context manager that closes it."""
@@ -135,7 +142,7 @@ class SerialBackend(RolloutBackend):
             try:
                 result = task.run(self._context)
             except Exception as exc:
-                raise TaskError(f"task {index} raised {type(exc).__name__}: {exc}") from exc
+                raise TaskError(index, type(exc).__name__, str(exc)) from exc
             results.append(result)
             if on_result is not None:
                 on_result(index, result)
@@ -227,7 +234,7 @@ class ProcessPoolBackend(RolloutBackend):
                         if not ok:
                             type_name, text, trace = payload
                             log.debug("task %d raised in worker %d:\n%s", index, worker.process.pid, trace)
-                            raise TaskError(f"task {index} raised {type_name}: {text}")
+                            raise TaskError(index, type_name, text)
                         results[index] = payload
                         remaining -= 1
                         if on_result is not None:

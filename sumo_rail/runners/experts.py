@@ -3,13 +3,15 @@
 The expert is whoever can be asked what it would do at a decision: the rule-based driver of a style reads the traffic
 view, a policy file reads the observation (so its observation layout must be the environment's). `resolve_expert`
 turns the string a user gives (`--expert normal`, `--expert runs/ppo/policy_latest.npz`) into a picklable driver
-recipe; outputs record that string (`expert` in run.json and the Parquet metadata) so a later command can ask the
-same expert again.
+recipe. Outputs record the expert as `expert_reference` writes it (`expert` in run.json and the Parquet metadata): a
+style, or a policy file's absolute path and content hash ("/abs/exp.npz#sha256=HEX"), so a later command, from any
+folder, asks the same expert again or says in one sentence that the file is gone or changed.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -75,17 +77,58 @@ def differing_settings(metadata: Mapping[str, Any], config: Config,
             + " and this configuration has " + " ".join(f"{name}={mine}" for name, _, mine in differing))
 
 
-def resolve_expert(expert: str, config: Config) -> DriverSpec:
-    """The expert named `expert`: a style of the rule-based driver (`ExpertDriver`, named expert-STYLE), or the path
-    of a policy file (`parse_policy`, named expert-NAME, whose own expert is itself even when its file records
-    another). An unknown name is a ValueError listing the styles."""
+PINNED = "#sha256="
+"""Separates a recorded policy-file expert's absolute path from the SHA-256 of its content."""
+
+
+def expert_reference(expert: str) -> str:
+    """How outputs record the expert named `expert`: a style as it is, a policy file as its absolute path and content
+    hash (`PINNED`); an already recorded one unchanged. A name that is neither is a ValueError listing the styles."""
+    if expert in STYLES or PINNED in expert:
+        return expert
+    path = _expert_path(expert)
+    if not path.is_file():
+        raise PolicyFileError(f"policy file {path} does not exist")
+    return f"{path.resolve()}{PINNED}{_content_hash(path)}"
+
+
+def resolve_expert(expert: str, config: Config, recorded_by: Path | str | None = None) -> DriverSpec:
+    """The expert named `expert` (as typed, or as `expert_reference` recorded it in the file `recorded_by`): a style
+    of the rule-based driver (`ExpertDriver`, named expert-STYLE), or a policy file (`parse_policy`, named
+    expert-NAME, whose own expert is itself even when its file records another). An unknown name is a ValueError
+    listing the styles; a recorded policy file that is gone or whose content changed is a PolicyFileError naming
+    `recorded_by`."""
     if expert in STYLES:
         return ExpertDriver(expert)
+    text, _, digest = expert.partition(PINNED)
+    try:
+        path = _expert_path(text)
+    except ValueError as error:
+        if recorded_by is None:
+            raise
+        raise PolicyFileError(f"{recorded_by} records the expert {expert!r}, which is neither a style "
+                              f"({', '.join(sorted(STYLES))}) nor a policy file") from error
+    recorded = f", which {recorded_by} records as its expert," if recorded_by is not None else ""
+    if recorded and not path.is_file():
+        raise PolicyFileError(f"the policy file {path}{recorded} does not exist")
+    if digest and path.is_file() and _content_hash(path) != digest:
+        raise PolicyFileError(f"the policy file {path}{recorded or ' (a recorded expert)'} has changed since it was "
+                              f"recorded (its content hash differs)")
+    # its reference is itself (it is the expert), not the expert its file records it learned from
+    return dataclasses.replace(parse_policy(path, config, name=f"expert-{policy_name(path)}"), expert=expert)
+
+
+def _expert_path(expert: str) -> Path:
+    """The policy file an expert name that is not a style means; a ValueError when it cannot be one."""
     path = Path(expert)
     if not expert.strip() or path.is_dir() or (not path.suffix and not path.exists()):
         raise ValueError(f"unknown expert {expert!r}: not a style ({', '.join(sorted(STYLES))}) nor a policy file")
-    # its reference is itself (it is the expert), not the expert its file records it learned from
-    return dataclasses.replace(parse_policy(path, config, name=f"expert-{policy_name(path)}"), expert=expert)
+    return path
+
+
+def _content_hash(path: Path) -> str:
+    """SHA-256 of the file's bytes, in hex."""
+    return hashlib.sha256(path.read_bytes()).hexdigest()
 
 
 def recorded_expert(metadata: Mapping[str, Any]) -> str | None:

@@ -116,7 +116,8 @@ class RayBackend(RolloutBackend):
                     try:
                         result = ray.get(ref)
                     except ray.exceptions.RayTaskError as error:
-                        raise TaskError(f"task {index} raised {_describe(error)}") from error
+                        raised, _, detail = _describe(error).partition(": ")
+                        raise TaskError(index, raised, detail) from error
                     except ray.exceptions.RayError as error:
                         self._retire(slot)
                         self._resubmit(index, f"Ray worker {slot.pid} was lost ({_describe(error)})", attempts,

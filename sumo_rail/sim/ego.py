@@ -146,6 +146,7 @@ class Ego:
         self.last_observation = self.observation(ego, neighbours, ego.changing_lane)
         self.traffic = TrafficView(ego, neighbours, self.set_point_mps, cfg.scenario.lanes)
         if failure:
+            sim.remove_ego(self.vehicle)  # standing at the lane's end, it would block it for the egos that drive on
             info = self._info(ego, r_long, r_lat, cfg.env.collision_reward, changing, reason)
             return self.last_observation, r_long + r_lat + cfg.env.collision_reward, True, False, info
         info = self._info(ego, r_long, r_lat, 0.0, changing, reason)

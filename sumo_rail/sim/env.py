@@ -136,7 +136,12 @@ class HighwayEnv(gymnasium.Env[np.ndarray, np.int64]):
         if self._sim is None or self._ego is None or self._ego.traffic is None:
             raise RuntimeError("call reset() before render()")
         if self._renderer is None:
-            self._renderer = FrameRenderer(self._sim.road_edges(), self.config.scenario.lanes)
+            if self._sim.route_map.single_edge:
+                self._renderer = FrameRenderer(self._sim.road_edges(), self.config.scenario.lanes)
+            else:
+                from sumo_rail.sim.map_render import MapRenderer
+
+                self._renderer = MapRenderer(self._sim.lane_shapes(), self.config.scenario.lanes)
         cfg, ego = self.config, self._ego
         traffic = ego.traffic
         # the observation holds distance / r_max, clipped to 1: exactly what the policy saw

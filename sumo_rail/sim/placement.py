@@ -86,6 +86,10 @@ class EgoPlacement:
         api.setLaneChangeMode(vehicle, LANE_CHANGE_MODE_TRACI_ONLY_SAFE)
         return True
 
+    def remove_ego(self, vehicle: str) -> None:
+        """Take an ego off the road (one that failed standing at a lane's end would block the lane for the rest)."""
+        self._api.vehicle.remove(vehicle)
+
     def _lane_occupants(self, lane: int) -> list[tuple[str, float, float]]:
         """(id, front, rear) [m along the start edge] of every vehicle in `lane` or changing into or out of it (off its
         lane's centre line)."""

@@ -97,10 +97,7 @@ class FrameRenderer:
         the LIDAR distance of each beam [m] (beam i at heading + i * 360/beams degrees, counter-clockwise);
         `range_m` the LIDAR range (a beam reading it hit nothing)."""
         ego_centre = _centre(np.array([ego.front_x, ego.front_y]), ego.heading_rad, ego.length_m)
-        ego_along = float((ego_centre - self.origin) @ self.direction)
-        # the road scrolls under the ego: a crop of the pre-drawn road, shifted by the ego's position
-        offset = round(ego_along * self.scale) % self._dash_period_px
-        image = self._background.crop((offset, 0, offset + self.width, self.height))
+        image, ego_along = self._road_under(ego_centre)
         draw = ImageDraw.Draw(image)
         if len(neighbours.ids):
             centres = neighbours.front_xy - 0.5 * neighbours.length_m[:, None] * _unit(neighbours.heading_rad)
@@ -113,6 +110,13 @@ class FrameRenderer:
         draw.polygon([tuple(p) for p in self.to_pixels(ego_corners, ego_along)[0]], fill=EGO, outline=(255, 255, 255))
         self._text.draw(image, (10, _TEXT_BAND_PX // 2), text.line(), TEXT)
         return np.asarray(image)
+
+    def _road_under(self, ego_centre: np.ndarray) -> tuple[Image.Image, float]:
+        """The road around the ego's centre [m] and where the ego is along it [m] (what `to_pixels` takes): the road
+        scrolls under the ego, a crop of the pre-drawn road shifted by the ego's position."""
+        ego_along = float((ego_centre - self.origin) @ self.direction)
+        offset = round(ego_along * self.scale) % self._dash_period_px
+        return self._background.crop((offset, 0, offset + self.width, self.height)), ego_along
 
     def _road_background(self) -> Image.Image:
         """The grass, the road, its edges and lane markings, one dash period wider than a frame; the text band."""

@@ -102,8 +102,8 @@ class RouteMap:
                 edge.lane_offset += shift
                 for index in range(edge.lanes):
                     places[f"{edge_id}_{index}"] = (edge.start_m, edge.lane_offset + index)
-        _place_internal_lanes(places, edges, edge_of, links, length)
-        ends = _lane_ends(route, edges, links, length)
+        _place_internal_lanes(places, edge_of, links, length)
+        ends = _lane_ends(route, edges, links)
         on_route = set(route)
         merges, diverges = [], []
         for source, target in itertools.pairwise(route):
@@ -204,36 +204,39 @@ def _place_edges(route: tuple[str, ...], edges: dict[str, _Edge], edge_of: dict[
             queue.append(joint.other)
 
 
-def _via_length(via: str, length: dict[str, float], links: dict[str, list[tuple[str, str]]]) -> float:
-    """Length of a chain of internal lanes starting at `via` [m] (0 for a direct link)."""
-    total = 0.0
-    while via and via.startswith(":"):
-        total += length[via]
+def _junction_lanes(via: str, links: dict[str, list[tuple[str, str]]]) -> list[str]:
+    """The chain of internal (junction) lanes a link runs through, from its first one `via` ("" for a direct link)."""
+    chain = []
+    while via.startswith(":") and via not in chain:
+        chain.append(via)
         following = links.get(via, [])
-        via = following[0][0] if following and following[0][0].startswith(":") else ""
-    return total
+        via = following[0][0] if following else ""
+    return chain
 
 
-def _place_internal_lanes(places: dict[str, tuple[float, int]], edges: dict[str, _Edge], edge_of: dict[str, str],
+def _via_length(via: str, length: dict[str, float], links: dict[str, list[tuple[str, str]]]) -> float:
+    """Length of the junction a link runs through [m] (0 for a direct link)."""
+    return sum(length[lane] for lane in _junction_lanes(via, links))
+
+
+def _place_internal_lanes(places: dict[str, tuple[float, int]], edge_of: dict[str, str],
                           links: dict[str, list[tuple[str, str]]], length: dict[str, float]) -> None:
     """Internal (junction) lanes start where the lane they leave ends, in its route lane."""
     for lane, outgoing in list(links.items()):
         if edge_of[lane].startswith(":") or lane not in places:
             continue
         start_m, route_lane = places[lane]
-        end_m = start_m + length[lane]
         for _, via in outgoing:
-            while via and via.startswith(":") and via not in places:
-                places[via] = (end_m, route_lane)
-                end_m += length[via]
-                following = links.get(via, [])
-                via = following[0][0] if following else ""
+            end_m = start_m + length[lane]
+            for internal in _junction_lanes(via, links):
+                places.setdefault(internal, (end_m, route_lane))
+                end_m += length[internal]
 
 
-def _lane_ends(route: tuple[str, ...], edges: dict[str, _Edge], links: dict[str, list[tuple[str, str]]],
-               length: dict[str, float]) -> dict[str, float]:
-    """For each lane of the route's edges (and the internal lanes it leads into), the position [m] where following it
-    along the route ends: inf where it reaches the route's end."""
+def _lane_ends(route: tuple[str, ...], edges: dict[str, _Edge], links: dict[str, list[tuple[str, str]]]
+               ) -> dict[str, float]:
+    """For each lane of the route's edges (and the junction lanes it leads into), the position [m] where following
+    it along the route ends: inf where it reaches the route's end."""
     ends: dict[str, float] = {}
     last = route[-1]
     for index in range(edges[last].lanes):
@@ -246,10 +249,8 @@ def _lane_ends(route: tuple[str, ...], edges: dict[str, _Edge], links: dict[str,
             reach = [(ends.get(to, end_of_edge), via) for to, via in links[lane] if to.rpartition("_")[0] == target]
             ends[lane] = max((end for end, _ in reach), default=end_of_edge)
             for end, via in reach:
-                while via and via.startswith(":"):
-                    ends[via] = max(ends.get(via, end), end)
-                    following = links.get(via, [])
-                    via = following[0][0] if following else ""
+                for internal in _junction_lanes(via, links):
+                    ends[internal] = max(ends.get(internal, end), end)
     return ends
 
 

@@ -65,6 +65,17 @@ class Sensing:
         get_type = self._api.vehicle.getTypeID
         return [get_type(vehicle) for vehicle in ids]
 
+    def lane_shapes(self) -> list[tuple[np.ndarray, float, bool]]:
+        """Every lane of the network, junctions' included, for drawing: its centre line [m], its width [m] and
+        whether it is its edge's rightmost or leftmost lane (an outer edge of the road)."""
+        lane, edge = self._api.lane, self._api.edge
+        shapes = []
+        for lane_id in lane.getIDList():
+            edge_id, _, index = lane_id.rpartition("_")
+            outer = not edge_id.startswith(":") and int(index) in (0, edge.getLaneNumber(edge_id) - 1)
+            shapes.append((np.array(lane.getShape(lane_id)), lane.getWidth(lane_id), outer))
+        return shapes
+
     def road_edges(self) -> np.ndarray:
         """The road's outer edges as line segments [m], shape (S, 2, 2): the right edges of the network's edges first,
         then their left edges (each edge's rightmost and leftmost lane's outer side)."""

@@ -220,10 +220,8 @@ class Simulation(EgoPlacement, Stepping, Sensing):
                 pending = pending[1:] + pending[:1]
                 for ego in pending:
                     self._insert(*ego)
-        for vehicle, lane, position_m in pending:
+        for vehicle, _, _ in pending:
             self._api.vehicle.remove(vehicle)  # out of the insertion queue
-            report = log.warning if len(egos) > 1 else log.info  # the single ego's start is drawn again
-            report("ego %s could not enter lane %d at %.1f m within %g s", vehicle, lane, position_m, ENTRY_WAIT_S)
         on_road = set(self._api.vehicle.getIDList()) if len(egos) > 1 else set()
         absent = pending if len(egos) == 1 else [ego for ego in egos if ego[0] not in on_road]
         if len(absent) == len(egos):
@@ -232,6 +230,9 @@ class Simulation(EgoPlacement, Stepping, Sensing):
             raise EgoCouldNotEnter(f"{who} could not enter lane {lane} at {position_m:.1f} m within "
                                    f"{ENTRY_WAIT_S:g} s: traffic is too dense there (scenario.flow_veh_per_h is "
                                    f"{self.scenario.flow_veh_per_h:g} veh/h; a lower flow leaves room)")
+        for vehicle, lane, position_m in pending:  # said only when the others drive on (the error says it otherwise)
+            log.warning("ego %s could not enter lane %d at %.1f m within %g s", vehicle, lane, position_m,
+                        ENTRY_WAIT_S)
         if self.gui:
             self._follow_ego(next(ego[0] for ego in egos if ego not in absent))
         return [vehicle for vehicle, _, _ in absent]

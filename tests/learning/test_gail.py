@@ -202,8 +202,8 @@ def test_the_same_seed_gives_the_same_policy_bit_for_bit(runs):
 
 def test_the_run_folder_is_read_by_report_and_evaluate(runs, demos_path):
     folder = runs[0][0]
-    assert sorted(path.name for path in folder.iterdir()) == ["log.parquet", "policy_bc.npz", "policy_latest.npz",
-                                                              "run.json"]
+    assert sorted(path.name for path in folder.iterdir()) == ["checkpoint.pt", "log.parquet", "policy_bc.npz",
+                                                              "policy_latest.npz", "run.json"]
     log = pd.read_parquet(folder / "log.parquet")
     assert set(LOG_COLUMNS) | {"discriminator_loss", "discriminator_accuracy", "collisions"} <= set(log.columns)
     assert log["iteration"].tolist() == [0, 1] and log["env_steps"].tolist() == [128, 128]
@@ -250,7 +250,8 @@ def test_gail_without_reward_normalisation_and_a_warmup_longer_than_the_run(tmp_
     result = invoke("gail", *SMALL, "--demos", str(demos_path), "--timesteps", "64", "--envs", "1", "--n-steps",
                     "64", "--bc-epochs", "1", "--no-normalize-reward", "--out", str(run))
     assert result.exit_code == 0, result.output
-    assert "actor frozen in all 1" in result.output and "the policy is the initial one" in result.output
+    assert ("trained 1 PPO update (64 timesteps; the actor frozen in it for the critic's warm-up, so the policy is "
+            "the initial one)") in result.output
     settings = json.loads((run / "run.json").read_text())["settings"]
     assert settings["normalize_reward"] is False and settings["critic_warmup"] == 5
     log = pd.read_parquet(run / "log.parquet")

@@ -80,9 +80,11 @@ def test_the_same_seed_gives_the_same_driver_bit_for_bit(runs):
 
 def test_the_run_folder_holds_a_policy_that_drives_and_serves_as_the_expert(runs, tmp_path):
     folder = runs[2]
-    assert sorted(path.name for path in folder.iterdir()) == ["log.parquet", "policy_latest.npz", "run.json"]
+    assert sorted(path.name for path in folder.iterdir()) == ["checkpoint.pt", "log.parquet", "policy_latest.npz",
+                                                               "run.json"]
     record = json.loads((folder / "run.json").read_text())
     assert record["kind"] == "ppo_run" and record["settings"]["overtake_reward"] == 1.0 and record["seed"] == 1
+    assert record["settings"]["critic_warmup"] == 0  # no warm-up without --init, and run.json says so
     log = pd.read_parquet(folder / "log.parquet")
     assert log["iteration"].tolist() == [0, 1] and log["env_steps"].tolist() == [64, 64]
     assert read_metadata(folder / "log.parquet")["kind"] == "training_log"
@@ -120,6 +122,8 @@ def test_init_starts_the_actor_from_the_policy_file_and_the_critic_warmup_keeps_
     result = invoke("ppo", *SMALL, "--timesteps", "128", "--envs", "1", "--n-steps", "64", "--batch-size", "32",
                     "--init", str(tmp_path / "bc.npz"), "--critic-warmup", str(warmup), "--out", str(tmp_path / "run"))
     assert result.exit_code == 0, result.output
+    assert ("the actor frozen in all 2 for the critic's warm-up, so the policy is the initial one" in result.output
+            ) == (warmup == 2)
     trained, _ = load_policy(tmp_path / "run" / "policy_latest.npz")
     assert np.array_equal(trained.observation_mean, initial.observation_mean)
     assert np.array_equal(trained.observation_std, initial.observation_std)
@@ -137,3 +141,25 @@ def test_an_init_policy_of_another_shape_or_observation_is_refused_before_any_wo
     result = invoke("ppo", *SMALL, "--init", str(tmp_path / "short.npz"), "--out", str(tmp_path / "run"))
     assert result.exit_code == 1 and "reads 30 observation values" in result.output
     assert "Traceback" not in result.output and not (tmp_path / "run").exists()
+
+
+def test_ppo_refuses_a_warmup_without_init_and_a_batch_larger_than_an_update_before_any_work(tmp_path):
+    common = ("ppo", *SMALL, "--envs", "1", "--n-steps", "32", "--out", str(tmp_path / "run"))
+    result = invoke(*common, "--critic-warmup", "3")
+    assert result.exit_code == 2 and "--critic-warmup needs --init" in result.output
+    result = invoke(*common, "--batch-size", "33")
+    assert result.exit_code == 2 and "batch size 33 is larger than an update's 32 decisions" in result.output
+    assert "Traceback" not in result.output and not (tmp_path / "run").exists()
+
+
+def test_resume_refuses_other_settings_a_damaged_checkpoint_and_nothing_to_resume(tmp_path):
+    common = ("ppo", *SMALL, "--envs", "1", "--n-steps", "32", "--batch-size", "16", "--resume")
+    result = invoke(*common, "--out", str(tmp_path / "none"))
+    assert result.exit_code == 1 and "nothing to resume" in result.output
+    run = tmp_path / "run"
+    assert invoke(*common[:-1], "--timesteps", "32", "--out", str(run)).exit_code == 0
+    result = invoke(*common, "--timesteps", "64", "--gamma", "0.9", "--out", str(run))
+    assert result.exit_code == 1 and "was started with other settings" in result.output
+    (run / "checkpoint.pt").write_bytes((run / "checkpoint.pt").read_bytes()[:500])
+    result = invoke(*common, "--timesteps", "64", "--out", str(run))
+    assert result.exit_code == 1 and "checkpoint" in result.output and "Traceback" not in result.output

@@ -169,7 +169,7 @@ def test_validation_is_what_evaluate_gives_on_the_validation_episodes(tmp_path, 
     path = hand_made_policy(tmp_path / "keep.npz", action=0)
     policy, _ = load_policy(path)
     with SerialBackend() as backend:
-        row = validate(policy, small_config_module, backend, Validation(every=1, episodes=3), "normal")
+        row = validate(policy, small_config_module, backend, Validation(every=1, episodes=3), ExpertDriver("normal"))
     result = invoke("evaluate", *SMALL, "--policy", str(path), "--pool", "validation", "--seed",
                     str(VALIDATION_BASE_SEED), "--episodes", "3", "--out", str(tmp_path / "m.parquet"))
     assert result.exit_code == 0, result.output

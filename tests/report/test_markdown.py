@@ -179,3 +179,23 @@ def test_policies_are_labelled_by_training_method_and_the_latest_is_shown(tmp_pa
     gail = read_run(make_run(tmp_path / "gail", "mlp", evaluated=False, method="gail_run"), "gail")
     assert list(rail.policies) == ["BC", "RAIL"] and list(gail.policies) == ["BC", "GAIL"]
     assert rail.policies["RAIL"][1] == "policy_latest.npz"
+
+
+def test_a_ppo_run_is_labelled_by_the_environments_return_and_not_mixed_with_discriminator_runs(tmp_path):
+    ppo = make_run(tmp_path / "ppo", "mlp", evaluated=False, method="ppo_run")
+    result = invoke("report", str(ppo), "--out", str(tmp_path / "report"))
+    assert result.exit_code == 0, result.output
+    text = (tmp_path / "report" / "report.md").read_text()
+    assert "| final env return | best env return (iteration) |" in text and "D return" not in text
+    assert "Mean environment return" in text and "discriminator return" not in text
+    log = pd.read_parquet(ppo / "log.parquet").assign(return_mean=float("nan"))  # no episode ended in any update
+    write_parquet(pa.Table.from_pandas(log, preserve_index=False), ppo / "log.parquet",
+                  {**provenance("ppo_run", CONFIG, 0), "kind": "training_log"})
+    result = invoke("report", str(ppo), "--out", str(tmp_path / "report"))
+    assert result.exit_code == 0, result.output
+    assert "| 4 | 4,060 | 0.8 | - | - |" in (tmp_path / "report" / "report.md").read_text()
+    rail = make_run(tmp_path / "rail", "mlp", evaluated=False)
+    result = invoke("report", str(ppo), str(rail), "--out", str(tmp_path / "mixed"))
+    assert result.exit_code == 1 and "Traceback" not in result.output
+    assert f"{ppo} is a ppo run, whose return is the environment's reward, and {rail} returns a discriminator's" \
+        in result.output

@@ -1,0 +1,264 @@
+"""The roads of scenario.kind driven in SUMO: their route frame, the expert's manoeuvres, a user's own network and
+what bad input says."""
+
+from __future__ import annotations
+
+import dataclasses
+import subprocess
+
+import libsumo
+import numpy as np
+import pandas as pd
+import pytest
+
+from sumo_rail.config import Config, ConfigError
+from sumo_rail.drivers.expert import make_expert
+from sumo_rail.sim import network
+from sumo_rail.sim.env import HighwayEnv
+from sumo_rail.sim.simulation import EgoCouldNotEnter, Simulation
+
+FEATURE = {"feature_at_m": 750.0, "feature_length_m": 250.0}
+"""The small test road's feature: past its start window (300 m to 500 m), 400 m before its end at 1500 m."""
+
+
+def road(small_config: Config, kind: str, **scenario: object) -> Config:
+    return small_config.with_overrides({"scenario": {"kind": kind, **FEATURE, **scenario},
+                                        "observation": {"lane_block": 1, "route_block": 1}})
+
+
+def drive(env: HighwayEnv, seed: int) -> tuple[dict, list[float], list[str]]:
+    """One episode of the normal expert: its last info, the ego's route positions and SUMO lane ids."""
+    cfg = env.config
+    expert = make_expert("normal", cfg.env.speed_step_mps, cfg.expert.view_range_m)
+    observation, info = env.reset(seed=seed)
+    positions, lane_ids = [], []
+    done = False
+    while not done:
+        assert env.observation_space.contains(observation)
+        positions.append(env.traffic.ego.lane_position_m)
+        lane_ids.append(env.traffic.ego.lane_id)
+        observation, _, terminated, truncated, info = env.step(expert(observation, env.traffic))
+        done = terminated or truncated
+    return info, positions, lane_ids
+
+
+@pytest.mark.parametrize("kind", ["merge", "merge_from_ramp", "lane_drop", "exit"])
+def test_each_roads_route_frame_numbers_lanes_from_the_main_roads_right_and_knows_where_lanes_end(small_config, kind):
+    config = road(small_config, kind)
+    sim = Simulation(config.scenario, 120.0)
+    try:
+        route_map = sim.route_map
+        start_lanes = sim.start_lanes
+    finally:
+        sim.close()
+    first_edge = route_map.route[0]
+    views = {lane: route_map.view(f"{first_edge}_{lane}", 400.0) for lane in range(start_lanes)}
+    if kind == "merge_from_ramp":  # the ramp (-1) leads into the acceleration lane, which ends after the feature
+        assert start_lanes == 1 and views[0].lowest_lane == views[0].highest_lane == -1
+        assert 750.0 + 250.0 - 20.0 < views[0].lane_end(-1) + 400.0 < 750.0 + 250.0 + 20.0
+        assert route_map.merges_m and not route_map.diverges_m
+    elif kind == "lane_drop":  # the two right lanes end at the work zone, the others lead to the route's end
+        ends = [views[0].lane_end(lane) + 400.0 for lane in range(5)]
+        assert all(740.0 < end < 760.0 for end in ends[:2]) and ends[2:] == [np.inf] * 3
+        assert views[0].best_lane_offset(0) == 2 and views[0].best_lane_offset(3) == 0
+    elif kind == "exit":  # only the rightmost lane reaches the off-ramp
+        assert views[0].lane_end(0) == np.inf and all(740.0 < views[0].lane_end(lane) + 400 < 760.0
+                                                      for lane in range(1, 5))
+        assert views[0].best_lane_offset(4) == -4 and route_map.diverges_m
+    else:  # the main road goes on; the acceleration lane beside it is lane -1 and ends
+        assert views[0].lowest_lane == 0 and views[0].highest_lane == 4 and route_map.merges_m
+        merge_edge = route_map.route[1]
+        assert route_map.edge_lanes(f"{merge_edge}_0") == (-1, 4)
+        assert route_map.place(f"{merge_edge}_0", 10.0)[1] == -1
+
+
+@pytest.mark.parametrize("kind", ["merge_from_ramp", "lane_drop", "exit"])
+def test_the_expert_completes_each_roads_manoeuvre(small_config, kind):
+    env = HighwayEnv(road(small_config, kind))
+    try:
+        seed = 0
+        while kind == "lane_drop" and env.reset(seed=seed)[1]["lane"] >= 2:  # a start in a lane that ends
+            seed += 1
+        info, positions, lane_ids = drive(env, seed)
+    finally:
+        env.close()
+    assert info["termination"] == "end_of_road" and info["collisions"] == 0 and info["teleports"] == 0
+    assert info["missed_exits"] == 0 and info["lane_end_stops"] == 0
+    assert np.all(np.diff(positions) >= 0)  # the route frame runs on across every joint
+    if kind == "exit":
+        assert lane_ids[-1].startswith("off_ramp")
+    else:
+        assert info["merges"] == 1
+
+
+def test_a_driver_that_ignores_the_route_stops_at_the_lane_end_and_fails(small_config):
+    env = HighwayEnv(road(small_config, "exit"))
+    try:
+        seed = 0
+        while env.reset(seed=seed)[1]["lane"] == 0:  # a start in a lane that does not reach the exit
+            seed += 1
+        done = False
+        while not done:
+            _, reward, terminated, truncated, info = env.step(0)  # keep: never moves right
+            done = terminated or truncated
+        assert "ego" not in libsumo.vehicle.getIDList()  # taken off the lane it would block
+    finally:
+        env.close()
+    assert terminated and info["termination"] == "missed_exit" and info["missed_exits"] == 1
+    assert reward <= env.config.env.collision_reward + 1.0
+
+
+def test_a_user_network_built_with_netconvert_is_driven_along_its_route(small_config, tmp_path):
+    """A bend where the road narrows from 3 lanes to 2, in a network of the user's own."""
+    (tmp_path / "road.nod.xml").write_text(
+        '<nodes><node id="a" x="0" y="0"/><node id="b" x="900" y="0"/><node id="c" x="1500" y="400"/></nodes>')
+    (tmp_path / "road.edg.xml").write_text(
+        '<edges><edge id="first" from="a" to="b" numLanes="3" speed="30"/>'
+        '<edge id="second" from="b" to="c" numLanes="2" speed="30"/></edges>')
+    net = tmp_path / "road.net.xml"
+    subprocess.run([network.sumo_binary("netconvert"), "--node-files", str(tmp_path / "road.nod.xml"),
+                    "--edge-files", str(tmp_path / "road.edg.xml"), "-o", str(net), "--no-turnarounds", "true"],
+                   check=True, capture_output=True)
+    config = small_config.with_overrides({"scenario": {"kind": "network", "network": str(net), "route": "first second",
+                                                       "lanes": 3, "flow_veh_per_h": 1500.0},
+                                          "observation": {"route_block": 1}})
+    env = HighwayEnv(config)
+    try:
+        info, positions, lane_ids = drive(env, 1)
+    finally:
+        env.close()
+    assert info["termination"] == "end_of_road" and info["collisions"] == 0 and info["lane_end_stops"] == 0
+    assert lane_ids[0].startswith("first") and lane_ids[-1].startswith("second")
+    assert np.all(np.diff(positions) >= 0) and positions[-1] > 900.0
+
+
+@pytest.mark.parametrize(("overrides", "message"), [
+    ({"kind": "roundabout"}, "unknown scenario.kind 'roundabout'"),
+    ({"kind": "exit", "feature_at_m": 1400.0}, "must lie between 200 m and 400 m before the road's end"),
+    ({"kind": "lane_drop", "dropped_lanes": 5}, "scenario.dropped_lanes must be between 1 and"),
+    ({"kind": "network"}, "needs scenario.network"),
+    ({"kind": "merge", "feature_at_m": 600.0}, "must end at least 200 m before"),
+])
+def test_impossible_roads_are_one_sentence(small_config, overrides, message):
+    with pytest.raises(ConfigError, match=message):
+        small_config.with_overrides({"scenario": {**FEATURE, **overrides}})
+
+
+def test_bad_user_networks_name_the_problem(small_config, tmp_path):
+    def built(**scenario: object) -> None:
+        network.build(small_config.with_overrides({"scenario": {"kind": "network", **scenario}}).scenario)
+
+    with pytest.raises(ConfigError, match=r"cannot read scenario\.network"):
+        built(network=str(tmp_path / "missing.net.xml"), route="a")
+    (tmp_path / "routes.xml").write_text("<routes/>")
+    with pytest.raises(ConfigError, match="is not a SUMO network"):
+        built(network=str(tmp_path / "routes.xml"), route="a")
+    straight = network.build(small_config.scenario).net_file
+    with pytest.raises(ConfigError, match="edge 'nowhere' is not in"):
+        built(network=str(straight), route="highway nowhere")
+    with pytest.raises(ConfigError, match=r"set --set scenario\.lanes=5"):
+        built(network=str(straight), route="highway", lanes=3)
+
+
+def test_a_crowded_start_is_drawn_again_the_same_way_for_every_driver(small_config, monkeypatch):
+    """The first drawn place is full: the ego starts at the next drawn place, the same for every reset of the seed;
+    with no room anywhere the reset says so in one sentence."""
+    reset = Simulation.reset
+    places: list[tuple[int, float]] = []
+
+    def first_place_full(sim, snapshot, sumo_seed, ego_lane, ego_position_m, pool="train"):
+        places.append((ego_lane, ego_position_m))
+        if len(places) % 2 == 1:
+            raise EgoCouldNotEnter("the ego could not enter")
+        reset(sim, snapshot, sumo_seed, ego_lane, ego_position_m, pool)
+
+    monkeypatch.setattr(Simulation, "reset", first_place_full)
+    env = HighwayEnv(small_config)
+    try:
+        first, _ = env.reset(seed=4)
+        again, _ = env.reset(seed=4)
+        assert places[0] != places[1] and places[1] == places[3] and np.array_equal(first, again)
+        monkeypatch.setattr(Simulation, "reset", lambda *args, **kwargs: (_ for _ in ()).throw(EgoCouldNotEnter("")))
+        with pytest.raises(EgoCouldNotEnter, match="no room at 20 places of its start window"):
+            env.reset(seed=5)
+    finally:
+        env.close()
+
+
+def test_straight_roads_route_frame_is_sumos_own_numbering(small_config):
+    sim = Simulation(small_config.scenario, 120.0)
+    try:
+        assert sim.route_map.single_edge and sim.route_map.length_m == small_config.scenario.length_m
+        assert sim.route_map.place("highway_3", 123.25) == (123.25, 3)
+        assert dataclasses.astuple(sim.route_map.view("highway_2", 100.0))[2] == (np.inf,) * 5
+    finally:
+        sim.close()
+
+
+def test_the_cli_takes_a_road_by_its_bare_name_and_records_it_in_the_outputs_provenance(tmp_path):
+    from click.testing import CliRunner
+    from sumo_rail_cli.main import cli
+
+    from sumo_rail.datasets import read_metadata
+
+    small = ["--set", "scenario.length_m=1500", "--set", "scenario.warmup_s=60", "--set", "scenario.snapshots=2",
+             "--set", "env.ego_start_min_m=300", "--set", "env.ego_start_max_m=500",
+             *[part for key, value in FEATURE.items() for part in ("--set", f"scenario.{key}={value}")]]
+    out = tmp_path / "metrics.parquet"
+    result = CliRunner().invoke(cli, ["evaluate", "--set", "scenario.kind=lane_drop", *small, "--policy", "expert",
+                                      "--episodes", "1", "--out", str(out)])
+    assert result.exit_code == 0, result.output
+    assert read_metadata(out)["config"]["scenario"]["kind"] == "lane_drop"
+    assert "lane_end_stops" in pd.read_parquet(out).columns
+    result = CliRunner().invoke(cli, ["evaluate", "--set", "scenario.kind=network", "--set",
+                                      f"scenario.network={tmp_path / 'none.net.xml'}", "--set", "scenario.route=a",
+                                      "--policy", "expert", "--episodes", "1", "--out", str(tmp_path / "x.parquet")])
+    assert result.exit_code == 2 and "cannot read scenario.network" in result.output
+    assert not (tmp_path / "x.parquet").exists()
+
+
+def test_set_reads_bare_words_and_edge_lists_as_strings_and_numbers_as_numbers():
+    from sumo_rail_cli.settings import resolve_config
+
+    config = resolve_config("paper", None, ("scenario.route=e1 e2", "scenario.flow_veh_per_h=2000",
+                                            'scenario.traffic_file="my file.rou.xml"'))
+    assert (config.scenario.route, config.scenario.flow_veh_per_h) == ("e1 e2", 2000.0)
+    assert config.scenario.traffic_file == "my file.rou.xml"
+    with pytest.raises(Exception, match="unreadable value"):
+        resolve_config("paper", None, ('scenario.route="e1',))
+    with pytest.raises(Exception, match="must be a number"):
+        resolve_config("paper", None, ("scenario.flow_veh_per_h=lots",))
+
+
+def test_several_egos_share_a_ramp_and_respawn_on_it(small_config):
+    """The multi-ego env on merge_from_ramp: egos start on the route's first edge (the one-lane ramp), drive across
+    the joints, and an ended ego respawns there while the others drive on."""
+    from sumo_rail.sim.parallel_env import ParallelHighwayEnv
+
+    env = ParallelHighwayEnv(2, road(small_config, "merge_from_ramp"))
+    expert = make_expert("normal", env.config.env.speed_step_mps, env.config.expert.view_range_m)
+    try:
+        observations, _ = env.reset(seed=2)
+        assert {env.traffic(agent).ego.lane_id for agent in env.agents} == {"ramp_0"}
+        ended: set[str] = set()
+        for _ in range(400):
+            actions = {agent: expert(observations[agent], env.traffic(agent)) for agent in env.agents}
+            observations, _, terminations, truncations, infos = env.step(actions)
+            for agent in actions:
+                if terminations[agent] or truncations[agent]:
+                    assert infos[agent]["termination"] == "end_of_road" and infos[agent]["merges"] == 1
+                    ended.add(agent)
+                    observations[agent], _ = env.respawn(agent)
+                    assert env.traffic(agent).ego.lane_id == "ramp_0"
+            if len(ended) == 2:
+                break
+        assert ended == {"ego_0", "ego_1"}
+    finally:
+        env.close()
+
+
+def test_a_flow_no_road_can_hold_is_refused_before_anything_runs(small_config):
+    with pytest.raises(ConfigError, match=r"more than 5 lanes can carry"):
+        small_config.with_overrides({"scenario": {"flow_veh_per_h": 20000.0}})
+    with pytest.raises(ConfigError, match=r"ramp_flow_veh_per_h must be between 0 and what one lane can carry"):
+        small_config.with_overrides({"scenario": {"kind": "merge", **FEATURE, "ramp_flow_veh_per_h": 5000.0}})

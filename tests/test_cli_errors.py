@@ -1,0 +1,43 @@
+"""Errors a user causes are one sentence before any work: run folders that cannot be made, the step-signal report's
+folder, an unreadable input (without a "0/N" progress line first), a road too dense for every ego."""
+
+import subprocess
+import sys
+
+import pytest
+from test_cli import SMALL, invoke
+
+RUN_COMMANDS = [["train", "--demos", "d.parquet"], ["dagger", "--demos", "d.parquet"], ["gail", "--demos", "d.parquet"],
+                ["ppo"]]
+
+
+@pytest.mark.parametrize("command", RUN_COMMANDS, ids=lambda command: command[0])
+def test_a_run_folder_inside_a_file_is_one_sentence_before_any_work(tmp_path, command):
+    (tmp_path / "file").write_text("")
+    result = invoke(*command, *SMALL, "--out", str(tmp_path / "file" / "run"))
+    assert result.exit_code == 2 and "Traceback" not in result.output, result.output
+    assert f"run folder {tmp_path / 'file' / 'run'} cannot be made: {tmp_path / 'file'} is a file" in result.output
+
+
+def test_step_signal_checks_its_report_file_before_reading_anything(tmp_path):
+    result = invoke("step-signal", *SMALL, "--demos", str(tmp_path / "missing.parquet"), "--policy",
+                    str(tmp_path / "missing.npz"), "--out", str(tmp_path / "no_folder" / "report.json"))
+    assert result.exit_code == 2 and "the folder of output" in result.output and "does not exist" in result.output
+
+
+def test_an_unreadable_input_is_said_without_a_progress_line_before(tmp_path):
+    (tmp_path / "demos.csv").write_text("observation,action\n1,2\n")
+    for command in (["train", "--iterations", "2"], ["dagger", "--rounds", "2"]):
+        result = invoke(*command, *SMALL, "--demos", str(tmp_path / "demos.csv"), "--out", str(tmp_path / "run"))
+        assert result.exit_code == 1 and "demos.csv" in result.output, result.output
+        assert result.output.startswith("Error: ") and result.output.count("\n") == 1, result.output
+
+
+def test_a_road_too_dense_for_every_ego_is_one_sentence_without_warnings_before(tmp_path):
+    result = subprocess.run([sys.executable, "-m", "sumo_rail_cli", "record-expert", *SMALL, "--egos", "8", "--set",
+                             "scenario.flow_veh_per_h=12000", "--episodes", "8", "--out", str(tmp_path / "d.parquet")],
+                            capture_output=True, text=True, timeout=300)
+    assert result.returncode == 1, result.stderr
+    assert result.stderr.splitlines() == [result.stderr.strip()], result.stderr  # one line, nothing before it
+    assert result.stderr.startswith("Error: no ego could enter the road: ego ego_0 could not enter lane ")
+    assert "traffic is too dense there" in result.stderr and not (tmp_path / "d.parquet").exists()

@@ -1,0 +1,106 @@
+"""gail and ppo from the outside: Ctrl-C (twice) ends a running run after its update with the files whole and the
+run continues with --resume, which repeats bit for bit; --egos is counted in the environment's decisions."""
+
+import json
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+from click.testing import CliRunner
+from sumo_rail_cli.main import cli
+from test_cli import SMALL
+
+from sumo_rail.datasets import read_metadata
+from sumo_rail.drivers.policies import load_policy
+
+
+def invoke(*args: str):
+    return CliRunner().invoke(cli, list(args))
+
+
+@pytest.fixture(scope="module")
+def demos(tmp_path_factory) -> Path:
+    path = tmp_path_factory.mktemp("demos") / "demos.parquet"
+    result = invoke("record-expert", *SMALL, "--episodes", "2", "--out", str(path))
+    assert result.exit_code == 0, result.output
+    return path
+
+
+def runs(demos: Path) -> dict[str, list[str]]:
+    common = [*SMALL, "--envs", "1", "--n-steps", "32"]
+    return {"ppo": ["ppo", *common],
+            "gail": ["gail", *common, "--demos", str(demos), "--bc-epochs", "1", "--critic-warmup", "0"]}
+
+
+@pytest.mark.parametrize("command", ["ppo", "gail"])
+def test_ctrl_c_twice_stops_after_the_update_with_its_files_whole_and_resume_goes_on(tmp_path, demos, command):
+    run = tmp_path / "run"
+    args = [*runs(demos)[command], "--out", str(run)]
+    process = subprocess.Popen([sys.executable, "-m", "sumo_rail_cli", *args, "--timesteps", "100000"],
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        deadline = time.monotonic() + 120
+        while not (run / "checkpoint.pt").exists() and time.monotonic() < deadline:
+            time.sleep(0.2)
+        assert (run / "checkpoint.pt").exists(), "no update was saved within 120 s"
+        process.send_signal(signal.SIGINT)
+        process.send_signal(signal.SIGINT)
+        _, stderr = process.communicate(timeout=120)
+    finally:
+        if process.poll() is None:
+            process.kill()
+            process.communicate()
+    assert process.returncode == 1 and "Traceback" not in stderr, stderr
+    error = stderr.rstrip().splitlines()[-1]
+    assert error.startswith("Error: interrupted after ") and error.endswith(
+        f"PPO update{'s' * (not error.startswith('Error: interrupted after 1 '))}; {run} keeps them, continue with "
+        f"--resume"), error
+    updates = int(error.split()[3])
+    log = pd.read_parquet(run / "log.parquet")
+    assert log["iteration"].tolist() == list(range(updates))
+    _, metadata = load_policy(run / "policy_latest.npz")
+    assert metadata["iteration"] == updates - 1  # the policy is the last logged update's
+    assert read_metadata(run / "log.parquet")["kind"] == "training_log"
+    result = invoke(*args, "--timesteps", str(32 * (updates + 1)), "--resume")
+    assert result.exit_code == 0, result.output
+    assert f"trained {updates + 1} PPO updates" in result.output
+    assert pd.read_parquet(run / "log.parquet")["iteration"].tolist() == list(range(updates + 1))
+
+
+@pytest.mark.parametrize("command", ["ppo", "gail"])
+def test_two_egos_a_process_drive_twice_the_decisions_counted_in_the_environment(tmp_path, demos, command):
+    steps = {}
+    for egos in (1, 2):
+        result = invoke(*runs(demos)[command], "--egos", str(egos), "--timesteps", "1", "--out",
+                        str(tmp_path / f"egos{egos}"))
+        assert result.exit_code == 0, result.output
+        steps[egos] = pd.read_parquet(tmp_path / f"egos{egos}" / "log.parquet")["env_steps"].tolist()
+    assert steps == {1: [32], 2: [64]}
+
+
+@pytest.mark.parametrize("command", ["ppo", "gail"])
+def test_one_update_is_said_in_the_singular_and_resumed_runs_repeat_bit_for_bit(tmp_path, demos, command):
+    """A run of one update, continued twice from copies of its folder to three updates: the same files both times,
+    the first update kept, the progress ending at 100%."""
+    args = runs(demos)[command]
+    result = invoke(*args, "--timesteps", "32", "--out", str(tmp_path / "a"))
+    assert result.exit_code == 0 and "trained 1 PPO update (32 timesteps" in result.output, result.output
+    first, _ = load_policy(tmp_path / "a" / "policy_latest.npz")
+    shutil.copytree(tmp_path / "a", tmp_path / "b")
+    for name in ("a", "b"):
+        result = invoke(*args, "--timesteps", "96", "--resume", "--out", str(tmp_path / name))
+        assert result.exit_code == 0 and "trained 3 PPO updates (96 timesteps" in result.output, result.output
+        assert f"{command.upper()}: 96/96 timesteps (100%)" in result.output
+    a, b = (pd.read_parquet(tmp_path / name / "log.parquet").drop(columns="wall_time_s") for name in "ab")
+    pd.testing.assert_frame_equal(a, b)
+    assert a["iteration"].tolist() == [0, 1, 2]
+    assert (tmp_path / "a" / "policy_latest.npz").read_bytes() == (tmp_path / "b" / "policy_latest.npz").read_bytes()
+    resumed, _ = load_policy(tmp_path / "a" / "policy_latest.npz")
+    assert not np.array_equal(first.parameters, resumed.parameters)
+    assert json.loads((tmp_path / "a" / "run.json").read_text())["settings"]["timesteps"] == 96
