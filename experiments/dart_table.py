@@ -50,7 +50,7 @@ def method_table(metrics: pd.DataFrame, measures: tuple[str, ...]) -> None:
             cell = difference_cell(samples, [expert] * len(samples), measure, digits_of(measure))
             print(f"| {DART_METHODS[key][0]} ({seeds}) | {measure} | {cell} |")
     print_comparisons(found, COMPARISONS, measures, DART_METHODS)
-    if {"dart", "bc_mlp", "dagger"} <= found.keys():
+    if "agreement" in measures and {"dart", "bc_mlp", "dagger"} <= found.keys():
         seeds = sorted(set(found["dart"][0]) & set(found["bc_mlp"][0]) & set(found["dagger"][0]))
         pooled = {key: pooled_agreement(found, key, seeds) for key in ("dart", "bc_mlp", "dagger")}
         gap = (pooled["dart"] - pooled["bc_mlp"]) / (pooled["dagger"] - pooled["bc_mlp"])
@@ -81,7 +81,8 @@ def main(bench: Path, dart: Path, safety: Path | None) -> None:
     if safety is not None:
         again = evaluations(safety)
         print("\n## Safety measures (test episodes)\n")
-        method_table(pd.concat([again, darts]).drop_duplicates(["policy", "seed"]), SAFETY)
+        same_episodes = darts[darts["seed"].isin(set(again["seed"]))]  # the re-evaluation may hold fewer episodes
+        method_table(pd.concat([again, same_episodes]).drop_duplicates(["policy", "seed"]), SAFETY)
         print(f"\nThe re-evaluation against the committed evaluation: {reproduces(committed, again)}.")
 
 
