@@ -4,8 +4,8 @@ return to the expert's behaviour. One Parquet file per driver, OUT_DIR/NAME.parq
 "/" as "__"); a driver whose file exists is skipped, so a run cut short resumes.
 
 Usage: python experiments/recovery.py OUT_DIR DRIVER [DRIVER ...]   (DRIVER: expert or a policy file)
-  (environment: EPISODES (default 100), SEED (test seeds from it, default 1000), WORKERS (default 2), PRESET (default
-  recommended: the benchmark's setting))
+  (environment: EPISODES (default 100), SEED (test seeds from it, default 1000), WORKERS (default 2); the setting is
+  the benchmark's: the paper's observation plus the lane block, as its committed policies read it)
 """
 
 from __future__ import annotations
@@ -28,7 +28,7 @@ RECOVERY = "recovery"
 
 
 def main(out: Path, drivers: list[str]) -> None:
-    config = Config.preset(os.environ.get("PRESET", "recommended"))
+    config = Config.from_dict({"observation": {"lane_block": 1}})
     seed = int(os.environ.get("SEED", "1000"))
     seeds = episode_seeds(Purpose.EVALUATE, seed, int(os.environ.get("EPISODES", "100")))
     out.mkdir(parents=True, exist_ok=True)
