@@ -18,7 +18,7 @@ if TYPE_CHECKING:
     from sumo_rail.learning.bc import BcReport
 
 
-USER_ERRORS = ("DatasetError", "PolicyFileError", "SimulationError")
+USER_ERRORS = ("DatasetError", "PolicyFileError", "SimulationError", "EgoCouldNotEnter", "ConfigError")
 """Exceptions a user causes (a file, a setting): raised in a worker's task, their message alone is the sentence."""
 
 

@@ -49,9 +49,10 @@ for kind in $kinds; do
   for seed in $seeds; do
     run="$out/$kind/dagger_s$seed"
     resume=(); [ -f "$run/checkpoint.json" ] && resume=(--resume)
-    [ -f "$run/policy_latest.npz" ] && [ ${#resume[@]} = 0 ] || $sumo_rail dagger "${setting[@]}" \
-      --set "scenario.kind=$kind" --demos "$demos" --rounds "$dagger_rounds" --episodes-per-round "$round_episodes" \
-      --eval-every 0 --workers "$workers" --seed "$seed" --out "$run" "${resume[@]}"
+    [ -f "$run/.done" ] || $sumo_rail dagger "${setting[@]}" --set "scenario.kind=$kind" --demos "$demos" \
+      --rounds "$dagger_rounds" --episodes-per-round "$round_episodes" --eval-every 0 --workers "$workers" \
+      --seed "$seed" --out "$run" "${resume[@]}"
+    touch "$run/.done"  # finished: not resumed again
   done
   # shellcheck disable=SC2046  # the policies are several words on purpose
   evaluate "$out/a_$kind.parquet" "$kind" "$test_episodes" --policy expert $(drivers "$kind")
@@ -79,8 +80,9 @@ done
 mix_policies=()
 for seed in $seeds; do
   run="$out/mix/bc_s$seed"
-  [ -f "$run/policy_bc.npz" ] || $sumo_rail dagger "${setting[@]}" --demos "$out/mix_demos.parquet" --rounds 0 \
+  [ -f "$run/.done" ] || $sumo_rail dagger "${setting[@]}" --demos "$out/mix_demos.parquet" --rounds 0 \
     --eval-every 0 --workers "$workers" --seed "$seed" --out "$run"
+  touch "$run/.done"
   mix_policies+=(--policy "$run/policy_bc.npz")
 done
 for kind in $kinds; do
@@ -97,10 +99,10 @@ if [ "${NO_ROUTE:-1}" = 1 ]; then
     for seed in $seeds; do
       run="$out/$kind/no_route_s$seed"
       resume=(); [ -f "$run/checkpoint.json" ] && resume=(--resume)
-      [ -f "$run/policy_latest.npz" ] && [ ${#resume[@]} = 0 ] || $sumo_rail dagger "${setting[@]}" \
-        --set observation.route_block=0 --set "scenario.kind=$kind" --demos "$demos" \
-        --rounds "$dagger_rounds" --episodes-per-round "$round_episodes" --eval-every 0 --workers "$workers" \
-        --seed "$seed" --out "$run" "${resume[@]}"
+      [ -f "$run/.done" ] || $sumo_rail dagger "${setting[@]}" --set observation.route_block=0 \
+        --set "scenario.kind=$kind" --demos "$demos" --rounds "$dagger_rounds" --episodes-per-round "$round_episodes" \
+        --eval-every 0 --workers "$workers" --seed "$seed" --out "$run" "${resume[@]}"
+      touch "$run/.done"
       policies+=(--policy "$run/policy_bc.npz" --policy "$run/policy_latest.npz")
     done
     evaluate "$out/d_$kind.parquet" "$kind" "$test_episodes" --set observation.route_block=0 --policy expert \

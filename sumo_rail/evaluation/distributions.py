@@ -47,11 +47,13 @@ def distance_table(decisions: pd.DataFrame, reference: str, lanes: int) -> pd.Da
     return pd.DataFrame.from_dict(rows, orient="index", columns=list(DISTANCE_COLUMNS))
 
 
-def frequencies(values: pd.Series, categories: int) -> np.ndarray:
-    """Share of each category 0..categories-1."""
-    counts = np.bincount(values.to_numpy(dtype=np.int64), minlength=categories)[:categories]
+def frequencies(values: pd.Series, categories: int, lowest: int = 0) -> np.ndarray:
+    """Share of each category lowest..categories-1 (route lanes start at -1 where a road has an acceleration lane or
+    a ramp)."""
+    counts = np.bincount(values.to_numpy(dtype=np.int64) - lowest, minlength=categories - lowest)[:categories - lowest]
     return counts / max(counts.sum(), 1)
 
 
 def _total_variation(ours: pd.Series, theirs: pd.Series, categories: int) -> float:
-    return 0.5 * cityblock(frequencies(ours, categories), frequencies(theirs, categories))
+    lowest = int(min(0, ours.to_numpy().min(initial=0), theirs.to_numpy().min(initial=0)))
+    return 0.5 * cityblock(frequencies(ours, categories, lowest), frequencies(theirs, categories, lowest))

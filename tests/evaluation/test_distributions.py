@@ -37,3 +37,13 @@ def test_distance_table_has_a_row_per_other_driver():
     assert table.loc["bc", "speed_w1_kmh"] == 0.0
     with pytest.raises(ValueError, match="reference driver 'expert-calm'"):
         distance_table(decisions, "expert-calm", lanes=5)
+
+
+def test_lane_shares_count_an_acceleration_lane_or_ramp_below_lane_0():
+    import pandas as pd
+
+    from sumo_rail.evaluation.distributions import _total_variation
+
+    on_ramp_then_lane_0 = pd.Series([-1, -1, 0, 0])
+    assert _total_variation(on_ramp_then_lane_0, pd.Series([0, 0, 0, 0]), 5) == 0.5
+    assert _total_variation(on_ramp_then_lane_0, on_ramp_then_lane_0, 5) == 0.0
