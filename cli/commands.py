@@ -46,14 +46,20 @@ if TYPE_CHECKING:
 @backend_options
 @expert_option("Who is recorded.")
 @egos_option("Episodes", "An ego that finds no room is not recorded.")
+@click.option("--dart-noise", type=click.FloatRange(0.0, 1.0, max_open=True), default=0.0, show_default=True,
+              metavar="EPSILON", help="DART: at each decision, with this probability, the car executes a uniformly "
+                                      "random action instead of the expert's; every record keeps the expert's.")
 @output_options(required=True)
-def record_expert(config: Config, episodes: int, seed: int, workers: int,
-                  backend_name: str, address: str | None, expert: str, egos: int, out: Path, overwrite: bool) -> None:
+def record_expert(config: Config, episodes: int, seed: int, workers: int, backend_name: str, address: str | None,
+                  expert: str, egos: int, dart_noise: float, out: Path, overwrite: bool) -> None:
     """Record an expert's demonstrations (the rule-based driver of a style, or any policy file): one Parquet row per
     decision."""
     check_output(out, overwrite)
     check_egos(config, egos)
+    if dart_noise and egos != 1:
+        raise click.UsageError("--dart-noise records one ego per episode: leave out --egos")
     expert, driver = resolve_expert_option(expert, config)
+    from sumo_rail.runners.dart import ActionNoise
     from sumo_rail.runners.record import record_demonstrations
 
     backend = build_backend(backend_name, workers, address)
@@ -61,11 +67,14 @@ def record_expert(config: Config, episodes: int, seed: int, workers: int,
     with interruptible_run(bar, f"interrupted; nothing was written to {out}", backend):
         metrics = record_demonstrations(config, driver, expert, seed, episodes, backend, out,
                                         on_episode=lambda index, result: bar.update(
-                                            len(result) if isinstance(result, list) else 1), egos=egos)
+                                            len(result) if isinstance(result, list) else 1), egos=egos,
+                                        noise=ActionNoise(dart_noise) if dart_noise else None)
         complete(bar)
     decisions = sum(row["steps"] for row in metrics)
     collisions = sum(row["collisions"] for row in metrics)
-    click.echo(f"wrote {out}: {len(metrics)} episodes, {decisions} decisions, expert {expert}, {collisions} collisions")
+    noise = f", DART noise {dart_noise:g}" if dart_noise else ""
+    click.echo(f"wrote {out}: {len(metrics)} episodes, {decisions} decisions, expert {expert}{noise}, "
+               f"{collisions} collisions")
 
 
 @click.command("evaluate")

@@ -79,25 +79,46 @@ def budget(out: Path, stem: str, seeds: list[int]) -> str:
     return f"{steps:,.0f} | {minutes:.1f}"
 
 
-def methods_found(metrics: pd.DataFrame) -> dict[str, tuple[list[int], list[dict[str, Sample]]]]:
-    """method key -> (its training seeds, each seed's measure samples), for the methods in the evaluations."""
+Found = dict[str, tuple[list[int], list[dict[str, Sample]]]]
+"""method key -> (its training seeds, each seed's measure samples)."""
+
+
+def methods_found(metrics: pd.DataFrame, methods: dict[str, tuple[str, str, str]] = METHODS) -> Found:
+    """The `methods` (key: (label, run folder stem, policy)) found in the evaluations."""
     found = {}
-    for key, (_, stem, policy) in METHODS.items():
+    for key, (_, stem, policy) in methods.items():
         seeds = training_seeds(metrics, stem)
         if seeds:
             found[key] = (seeds, seed_samples(metrics, stem, seeds, policy))
     return found
 
 
-def print_headline(expert: dict[str, Sample], found: dict[str, tuple[list[int], list[dict[str, Sample]]]]) -> None:
+def print_headline(expert: dict[str, Sample], found: Found, headline: tuple[str, ...] = HEADLINE,
+                   methods: dict[str, tuple[str, str, str]] = METHODS) -> None:
     """One row a method: each headline measure pooled over its seeds, with its 95% interval."""
-    print("| method | training seeds | " + " | ".join(HEADLINE) + " |")
-    print("|---|---|" + "---|" * len(HEADLINE))
+    print("| method | training seeds | " + " | ".join(headline) + " |")
+    print("|---|---|" + "---|" * len(headline))
     print("| expert | - | " + " | ".join(interval(expert[measure]).format(digits_of(measure))
-                                        for measure in HEADLINE) + " |")
+                                        for measure in headline) + " |")
     for key, (seeds, samples) in found.items():
-        cells = [seeded_interval([run[measure] for run in samples]).format(digits_of(measure)) for measure in HEADLINE]
-        print(f"| {METHODS[key][0]} | {len(seeds)} | " + " | ".join(cells) + " |")
+        cells = [seeded_interval([run[measure] for run in samples]).format(digits_of(measure)) for measure in headline]
+        print(f"| {methods[key][0]} | {len(seeds)} | " + " | ".join(cells) + " |")
+
+
+def print_comparisons(found: Found, comparisons: tuple[tuple[str, str], ...], measures: tuple[str, ...],
+                      methods: dict[str, tuple[str, str, str]] = METHODS) -> None:
+    """Each (candidate, reference) method pair's paired differences, on the training seeds both have."""
+    print("\n| comparison | measure | paired difference |")
+    print("|---|---|---|")
+    for candidate, reference in comparisons:
+        if candidate not in found or reference not in found:
+            continue
+        seeds = sorted(set(found[candidate][0]) & set(found[reference][0]))  # paired on the seeds both have
+        pair = [[samples for seed, samples in zip(*found[key], strict=True) if seed in seeds]
+                for key in (candidate, reference)]
+        for measure in measures:
+            cell = difference_cell(*pair, measure, digits_of(measure))
+            print(f"| {methods[candidate][0]} - {methods[reference][0]} ({seeds}) | {measure} | {cell} |")
 
 
 def main(out: Path) -> None:
@@ -118,17 +139,7 @@ def main(out: Path) -> None:
             digits = digits_of(measure)
             print(f"| {METHODS[key][0]} ({seeds}) | {measure} | {value_cell(samples, measure, digits)} | "
                   f"{difference_cell(samples, [expert] * len(samples), measure, digits)} |")
-    print("\n| comparison | measure | paired difference |")
-    print("|---|---|---|")
-    for candidate, reference in COMPARISONS:
-        if candidate not in found or reference not in found:
-            continue
-        seeds = sorted(set(found[candidate][0]) & set(found[reference][0]))  # paired on the seeds both have
-        pair = [[samples for seed, samples in zip(*found[key], strict=True) if seed in seeds]
-                for key in (candidate, reference)]
-        for measure in MEASURES:
-            cell = difference_cell(*pair, measure, digits_of(measure))
-            print(f"| {METHODS[candidate][0]} - {METHODS[reference][0]} ({seeds}) | {measure} | {cell} |")
+    print_comparisons(found, COMPARISONS, MEASURES)
     print("\n| method | environment decisions in training (mean over seeds) | training wall time [min] (RAIL's "
           "includes its validation every 10 iterations) |")
     print("|---|---:|---:|")

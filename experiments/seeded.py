@@ -65,4 +65,4 @@ def verdict(found: Interval) -> str:
 
 
 def digits_of(measure: str) -> int:
-    return 3 if "agreement" in measure or "lane_change_" in measure else 2
+    return 3 if "agreement" in measure or "lane_change_" in measure or measure.endswith("_share") else 2

@@ -21,6 +21,10 @@ DRIVER_STREAM = 1
 (gymnasium: SeedSequence(seed)), so the driver's draws and the traffic's are independent."""
 
 
+NOISE_STREAM = 2
+"""Spawn key of the generator of the noise injected into what the car executes (DART, `runners.dart`)."""
+
+
 class Purpose(IntEnum):
     RECORD = 0
     EVALUATE = 1
@@ -36,4 +40,14 @@ def episode_seeds(purpose: Purpose, base_seed: int, episodes: int) -> list[int]:
 
 def driver_generator(seed: int) -> np.random.Generator:
     """The random generator of a driver in the episode with reset seed `seed` (the same whatever process runs it)."""
-    return np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(DRIVER_STREAM,)))
+    return _stream(seed, DRIVER_STREAM)
+
+
+def noise_generator(seed: int) -> np.random.Generator:
+    """The generator of the noise injected into the executed actions of the episode with reset seed `seed`."""
+    return _stream(seed, NOISE_STREAM)
+
+
+def _stream(seed: int, stream: int) -> np.random.Generator:
+    """A generator of the episode with reset seed `seed`, on a stream of its own (never the env's)."""
+    return np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(stream,)))

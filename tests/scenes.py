@@ -1,5 +1,6 @@
 """Hand-made traffic views for tests of drivers and of what is measured on them (importable: tests/ is on the path)."""
 
+import libsumo
 import numpy as np
 
 from sumo_rail.sim.simulation import EgoState, Neighbours
@@ -18,3 +19,22 @@ def view(others=(), lane=1, speed=25.0, set_point=25.0, lateral=0.0, lanes=5):
                             heading_rad=np.zeros(count), speed_mps=rows[:, 3], lane_position_m=rows[:, 1],
                             length_m=rows[:, 2], width_m=np.full(count, 1.8), lane=rows[:, 0].astype(int))
     return TrafficView(ego, neighbours, set_point, lanes)
+
+
+def two_vehicle_road(env, other, other_lane, ego_speed, other_speed):
+    """Reset `env` (seed 0), leave only the ego and a car `other` in `other_lane` on the road, both held by SUMO at
+    exactly the given speeds [m/s] (no safety checks; `other` changes no lanes) after one decision; returns the
+    edge both are on, for `libsumo.vehicle.moveTo`."""
+    env.reset(seed=0)
+    for vehicle in libsumo.vehicle.getIDList():
+        if vehicle != "ego":
+            libsumo.vehicle.remove(vehicle)
+    route, edge = libsumo.vehicle.getRouteID("ego"), libsumo.vehicle.getRoadID("ego")
+    libsumo.vehicle.add(other, route, typeID="car", depart="now", departLane=str(other_lane), departPos="300",
+                        departSpeed=repr(other_speed))
+    for vehicle, speed in (("ego", ego_speed), (other, other_speed)):
+        libsumo.vehicle.setSpeedMode(vehicle, 0)
+        libsumo.vehicle.setSpeed(vehicle, speed)
+    libsumo.vehicle.setLaneChangeMode(other, 0)
+    env.step(0)  # both at their speeds
+    return edge

@@ -16,6 +16,7 @@ from sumo_rail.config import Config
 from sumo_rail.datasets import write_parquet
 from sumo_rail.drivers.expert import DEFAULT_STYLE, STYLES
 from sumo_rail.evaluation.fidelity import CONFUSION_COLUMNS, DECISION_FIELDS, RATE_COLUMNS, DecisionProbe
+from sumo_rail.evaluation.safety import SAFETY_DECISION_FIELDS, SAFETY_MEASURES, SafetyProbe
 from sumo_rail.runners.backends import RolloutBackend, WorkerContext
 from sumo_rail.runners.experts import parse_policy, resolve_expert
 from sumo_rail.runners.rollout import DriverSpec, EpisodeTask, ExpertDriver, KeepDriver, RandomDriver
@@ -45,15 +46,16 @@ DEFAULT_REFERENCE = ExpertDriver(DEFAULT_STYLE)
 """The expert drivers are compared with when nothing else is said."""
 FIDELITY_TYPES: dict[str, pa.DataType] = {
     "reference": pa.string(), **{name: pa.int32() for name in CONFUSION_COLUMNS},
-    **{name: pa.float64() for name in RATE_COLUMNS},
+    **{name: pa.float64() for name in RATE_COLUMNS}, **{name: pa.float64() for name in SAFETY_MEASURES},
 }
-"""Metrics columns added by the on-policy comparison with the reference expert."""
+"""Metrics columns added by the on-policy comparison with the reference expert and the safety measures."""
 DECISIONS = "decisions"
 _DECISION_KEYS: dict[str, pa.DataType] = {"policy": pa.string(), "episode": pa.int32(), "seed": pa.int64(),
                                           "step": pa.int32()}
 _NUMPY_TO_ARROW = {np.int8: pa.int8(), np.float64: pa.float64()}
 DECISION_TYPES: dict[str, pa.DataType] = {**_DECISION_KEYS,
-                                          **{name: _NUMPY_TO_ARROW[kind] for name, kind in DECISION_FIELDS.items()}}
+                                          **{name: _NUMPY_TO_ARROW[kind] for name, kind in DECISION_FIELDS.items()},
+                                          **{name: pa.float64() for name in SAFETY_DECISION_FIELDS}}
 
 
 @dataclass(frozen=True)
@@ -77,6 +79,7 @@ class EvaluationTask:
 
     def run(self, context: WorkerContext) -> EvaluatedEpisode:
         probe = DecisionProbe(self.reference.create(self.episode.config, self.episode.seed))
+        safety = SafetyProbe()
         recorder: FrameRecorder | None = None
 
         def record(env: HighwayEnv) -> FrameRecorder:
@@ -84,12 +87,14 @@ class EvaluationTask:
             recorder = FrameRecorder(env)
             return recorder
 
-        result = self.episode.run(context, probe, wrap=record if self.video else None)
+        result = self.episode.run(context, lambda *decision: (probe(*decision), safety(*decision)),
+                                  wrap=record if self.video else None)
         video = None
         if recorder is not None:
             video = encode_mp4(recorder.frames, 1.0 / self.episode.config.env.decision_period_s)
-        return EvaluatedEpisode({**result.metrics, "reference": self.reference.name,
-                                 **probe.episode_columns()}, probe.decision_columns(), video)
+        return EvaluatedEpisode({**result.metrics, "reference": self.reference.name, **probe.episode_columns(),
+                                 **safety.episode_columns()}, probe.decision_columns() | safety.decision_columns(),
+                                video)
 
 
 @dataclass(frozen=True)

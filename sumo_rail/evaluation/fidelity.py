@@ -17,6 +17,7 @@ from typing import Any
 
 import numpy as np
 
+from sumo_rail.evaluation.safety import HEADWAY_CAP_S, time_headway
 from sumo_rail.runners.rollout import Driver
 from sumo_rail.sim.actions import Action
 from sumo_rail.sim.traffic import TrafficView, lane_gaps
@@ -28,8 +29,6 @@ driver-major (row = driver action, column = expert action)."""
 RATE_COLUMNS = ("agreement", "lane_change_recall", "lane_change_precision", "lateral_agreement",
                 "longitudinal_agreement")
 """Per-episode rates derived from the confusion counts (NaN where a rate has no decisions to count)."""
-HEADWAY_CAP_S = 10.0
-"""Time headways above this are recorded as this [s]."""
 _LANE_CHANGES = (Action.LANE_LEFT, Action.LANE_RIGHT)
 _LATERAL = np.array([0, 0, 0, 1, 2])
 """Lateral part of each action: keep lane (keep, accelerate, decelerate), left, right."""
@@ -90,7 +89,7 @@ class DecisionProbe:
         self.confusion[action, expert_action] += 1
         ego = traffic.ego
         leader = lane_gaps(traffic, ego.lane)
-        headway = min(leader.front_gap_m / max(ego.speed_mps, 0.1), HEADWAY_CAP_S) if np.isfinite(
+        headway = min(time_headway(leader.front_gap_m, ego.speed_mps), HEADWAY_CAP_S) if np.isfinite(
             leader.front_gap_m) else np.nan
         front_gap = rear_gap = np.nan
         if action in _LANE_CHANGES and not ego.changing_lane and info.get("lane_change_in_progress", False):

@@ -7,6 +7,7 @@ import pandas as pd
 
 from sumo_rail.evaluation.distributions import distance_table
 from sumo_rail.evaluation.fidelity import CONFUSION_COLUMNS, RATES, agreement_counts
+from sumo_rail.evaluation.safety import SAFETY_MEASURES
 from sumo_rail.evaluation.statistics import (
     Interval,
     Sample,
@@ -24,8 +25,9 @@ ROUTE_MEASURES = ("failures", "merges", "seconds_per_merge", "missed_exits", "la
 ends the episode: the share of episodes that failed), merges per episode and their mean time [s], missed exits and
 lane-end stops per episode; summarised where a road has merges or failures (none on the straight road but
 collisions, which have their own row)."""
-MEASURES = (*RATES, *EPISODE_MEASURES, *ROUTE_MEASURES)
-"""Rows of the summary: the agreement rates (pooled over decisions) first, then the episode means."""
+MEASURES = (*RATES, *EPISODE_MEASURES, *ROUTE_MEASURES, *SAFETY_MEASURES)
+"""Rows of the summary: the agreement rates (pooled over decisions) first, then the episode means (the safety
+measures where a metrics file has them: files written before them do not)."""
 DETECTABLE = "*"
 
 
@@ -35,7 +37,8 @@ def measure_samples(episodes: pd.DataFrame) -> dict[str, Sample]:
     if set(CONFUSION_COLUMNS) <= set(episodes.columns):
         counts = agreement_counts(episodes[list(CONFUSION_COLUMNS)].to_numpy().reshape(-1, 5, 5))
         samples |= {name: (counts[top], counts[bottom]) for name, (top, bottom) in RATES.items()}
-    samples |= {name: mean_sample(episodes[name].to_numpy()) for name in EPISODE_MEASURES if name in episodes}
+    samples |= {name: mean_sample(episodes[name].to_numpy()) for name in (*EPISODE_MEASURES, *SAFETY_MEASURES)
+                if name in episodes}
     return samples | route_samples(episodes)
 
 
@@ -164,5 +167,5 @@ def _grid(rows: pd.DataFrame, drivers: list[str], cell) -> pd.DataFrame:
 
 
 def _format(row, signed: bool) -> str:
-    digits = 3 if row.measure in RATES else 2
+    digits = 3 if row.measure in RATES or row.measure.endswith("_share") else 2
     return Interval(row.estimate, row.low, row.high).format(digits, signed)

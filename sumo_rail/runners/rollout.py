@@ -15,6 +15,7 @@ import numpy as np
 from sumo_rail.config import Config
 from sumo_rail.drivers.expert import DEFAULT_STYLE, make_expert
 from sumo_rail.drivers.policies import Policy
+from sumo_rail.runners.dart import ActionNoise
 from sumo_rail.seeding import driver_generator
 from sumo_rail.sim.actions import Action
 from sumo_rail.sim.env import HighwayEnv
@@ -131,16 +132,18 @@ class SharedEpisodeTask:
 
 
 def run_episode(env: HighwayEnv, driver: Driver, seed: int, record: bool = False,
-                options: dict[str, Any] | None = None, probe: DecisionProbe | None = None) -> EpisodeResult:
+                options: dict[str, Any] | None = None, probe: DecisionProbe | None = None,
+                perturb: Callable[[int], int] | None = None) -> EpisodeResult:
     """Reset with `seed` (and the env's reset `options`) and drive until the episode ends; `record` keeps every
-    (state, action, reward); `probe` watches every decision."""
+    (state, action, reward); `probe` watches every decision. With `perturb` the car executes perturb(action) while
+    the records and the probe keep the driver's action (DART)."""
     observation, info = env.reset(seed=seed, options=options)
     log = _EpisodeLog(record)
     done = terminated = truncated = False
     while not done:
         traffic, seen, before = env.traffic, observation, info
         action = driver(observation, traffic)
-        observation, reward, terminated, truncated, info = env.step(action)
+        observation, reward, terminated, truncated, info = env.step(action if perturb is None else perturb(action))
         if probe is not None:
             probe(seen, traffic, action, info)
         log.add(seen, action, reward, before, info)
@@ -225,6 +228,8 @@ class EpisodeTask:
     """Warm-state pool the episode starts from ("train", "validation" or "test")."""
     warm_state: int | None = None
     """Index of the warm state in the pool; None: drawn from the seed."""
+    noise: ActionNoise | None = None
+    """Noise on the executed actions (DART); the records keep the driver's."""
 
     def run(self, context: WorkerContext, probe: DecisionProbe | None = None,
             wrap: Callable[[HighwayEnv], Any] | None = None) -> EpisodeResult:
@@ -235,4 +240,6 @@ class EpisodeTask:
         options: dict[str, Any] = {"pool": self.pool}
         if self.warm_state is not None:
             options["warm_state"] = self.warm_state
-        return run_episode(env, self.driver.create(self.config, self.seed), self.seed, self.record, options, probe)
+        perturb = None if self.noise is None else self.noise.perturbation(self.seed)
+        return run_episode(env, self.driver.create(self.config, self.seed), self.seed, self.record, options, probe,
+                           perturb)

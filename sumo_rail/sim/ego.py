@@ -19,6 +19,7 @@ from gymnasium import spaces
 from sumo_rail.config import Config
 from sumo_rail.sim import kernels, lidar
 from sumo_rail.sim.actions import Action, command_for
+from sumo_rail.sim.period_safety import NO_READINGS, PeriodSafety
 from sumo_rail.sim.rewards import EpisodeMetrics, OvertakeCounter, lateral_reward, longitudinal_reward, relations
 from sumo_rail.sim.route_progress import RouteProgress, route_block, zip_merge_change
 from sumo_rail.sim.simulation import Simulation
@@ -67,6 +68,10 @@ class Ego:
         self.last_observation = np.zeros(0, dtype=np.float32)
         self.last_action: Action | None = None
         self.route_progress = RouteProgress(config.observation.route_range_m)
+        self.period_safety = PeriodSafety(config.scenario.step_length_s, config.env.decision_period_s)
+        self.safety_readings: dict[str, float] = NO_READINGS
+        """The last period's safety readings (`period_safety.READINGS`, in `info`)."""
+        self.requested_lane: int | None = None
 
     def start(self, sim: Simulation) -> tuple[np.ndarray, dict[str, Any]]:
         """Begin the episode once the ego is on the road: its set-point is its speed, within [v_min, v_max];
@@ -95,6 +100,7 @@ class Ego:
         if command.set_point_mps != self.set_point_mps:
             self.set_point_mps = command.set_point_mps
             sim.set_cruise_speed(self.set_point_mps, self.vehicle)
+        self.requested_lane = command.target_lane
         if command.target_lane is not None:
             zip_merge = route is not None and zip_merge_change(route, self.lane, command.target_lane,
                                                                cfg.env.zip_merge_m)
@@ -110,6 +116,8 @@ class Ego:
         if report.ego_collided or report.ego_left_network:
             return self._gone(sim, report)
         ego, neighbours = sim.observe(self.vehicle)
+        self.safety_readings = self.period_safety.update(report, ego, neighbours, self.requested_lane,
+                                                         self.changing_lane)
         # A change under way at either end of the period, or one that moved the ego to another lane within it.
         changing = self.changing_lane or ego.changing_lane or ego.lane != self.lane
         self.changing_lane = ego.changing_lane
@@ -160,7 +168,7 @@ class Ego:
         info = self._totals() | {"speed_mps": last.speed_mps, "lane": last.lane, "position_m": last.lane_position_m,
                                  "set_point_mps": self.set_point_mps, "lane_change_in_progress": False,
                                  "reward_longitudinal": 0.0, "reward_lateral": 0.0, "reward_collision": reward,
-                                 "termination": reason}
+                                 "termination": reason, **self.period_safety.update(report, None, None, None, True)}
         return self.last_observation, reward, report.ego_collided, not report.ego_collided, info
 
     def _relations(self, ego: EgoState, neighbours: Neighbours) -> list[int]:
@@ -197,5 +205,5 @@ class Ego:
             "speed_mps": ego.speed_mps, "lane": ego.lane, "position_m": ego.lane_position_m,
             "set_point_mps": self.set_point_mps, "lane_change_in_progress": changing,
             "reward_longitudinal": r_long, "reward_lateral": r_lat, "reward_collision": r_collision,
-            "termination": reason,
+            "termination": reason, **self.safety_readings,
         }

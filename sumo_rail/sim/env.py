@@ -118,8 +118,9 @@ class HighwayEnv(gymnasium.Env[np.ndarray, np.int64]):
     def step(self, action: int | np.integer) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         if self._sim is None or self._ego is None:
             raise RuntimeError("call reset() before step()")
-        self._ego.command(self._sim, checked_action(action, self.action_space))
-        return self._ego.finish(self._sim, self._sim.advance(self._steps_per_decision))
+        ego = self._ego
+        ego.command(self._sim, checked_action(action, self.action_space))
+        return ego.finish(self._sim, self._sim.advance(self._steps_per_decision, ego.period_safety.watched()))
 
     def render(self) -> np.ndarray | None:
         """With render_mode "rgb_array", the bird's-eye frame of the last decision (`frame()`); with "human",

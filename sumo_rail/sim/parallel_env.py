@@ -159,7 +159,8 @@ class ParallelHighwayEnv(ParallelEnv[str, np.ndarray, np.int64]):
         sim, egos = self._sim, [self._egos[agent] for agent in self.agents]
         for agent, ego in zip(self.agents, egos, strict=True):
             ego.command(sim, chosen[agent])
-        reports = sim.advance_egos(self._steps_per_decision, [ego.vehicle for ego in egos])
+        reports = sim.advance_egos(self._steps_per_decision, [ego.vehicle for ego in egos],
+                                   [vehicle for ego in egos for vehicle in ego.period_safety.watched()])
         observations, rewards, terminations, truncations, infos = {}, {}, {}, {}, {}
         for agent, ego, report in zip(self.agents, egos, reports, strict=True):
             (observations[agent], rewards[agent], terminations[agent], truncations[agent],

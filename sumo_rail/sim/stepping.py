@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import math
 from collections.abc import Sequence
 from typing import Any
@@ -16,18 +17,19 @@ class Stepping:
     _api: Any
     _client: Any
 
-    def advance(self, steps: int) -> PeriodReport:
+    def advance(self, steps: int, watch: Sequence[str] = ()) -> PeriodReport:
         """`advance_egos` for the single ego."""
-        return self.advance_egos(steps, (EGO_ID,))[0]
+        return self.advance_egos(steps, (EGO_ID,), watch)[0]
 
-    def advance_egos(self, steps: int, vehicles: Sequence[str]) -> list[PeriodReport]:
+    def advance_egos(self, steps: int, vehicles: Sequence[str], watch: Sequence[str] = ()) -> list[PeriodReport]:
         """Run `steps` SUMO steps, watching each ego of `vehicles` until it is gone; the steps go on while any of them
         is on the road. One report per ego, in order; an ego that is gone has the time it went (`left_at_s`) and the
-        teleports until then.
+        teleports until then. The other vehicles of `watch` have their lowest acceleration read while on the road
+        (in every ego's report).
 
-        Per step: the step, the teleport count and each ego's acceleration. An ego is gone (collided, and so removed,
-        or arrived) exactly when asking for its acceleration fails; only then are the step's collision and arrival
-        lists read, collision first.
+        Per step: the step, the teleport count, each ego's acceleration and each watched vehicle's. An ego is gone
+        (collided, and so removed, or arrived) exactly when asking for its acceleration fails; only then are the
+        step's collision and arrival lists read, collision first.
         """
         api = self._api
         step, simulation, acceleration = api.simulationStep, api.simulation, api.vehicle.getAcceleration
@@ -35,6 +37,8 @@ class Stepping:
         error = self._client.TraCIException
         on_road = list(vehicles)
         min_accel = dict.fromkeys(on_road, math.inf)
+        accelerations: dict[str, list[float]] = {vehicle: [] for vehicle in on_road}
+        watched: dict[str, float] = {}
         teleported: set[str] = set()
         teleports = 0
         gone: dict[str, PeriodReport] = {}
@@ -51,17 +55,23 @@ class Stepping:
                 except error:
                     collided, arrived = self._why_gone(vehicle)
                     gone[vehicle] = PeriodReport(collided, arrived, vehicle in teleported,
-                                                 _lowest(min_accel[vehicle]), teleports, simulation.getTime())
+                                                 _lowest(min_accel[vehicle]), teleports, simulation.getTime(),
+                                                 tuple(accelerations[vehicle]), watched)
                     left = True
                     continue
+                accelerations[vehicle].append(accel)
                 if accel < min_accel[vehicle]:
                     min_accel[vehicle] = accel
+            for vehicle in watch:
+                with contextlib.suppress(error):  # a watched vehicle that has left is read no more
+                    watched[vehicle] = min(watched.get(vehicle, math.inf), acceleration(vehicle))
             if left:
                 on_road = [vehicle for vehicle in on_road if vehicle not in gone]
                 if not on_road:
                     break
         return [gone.get(vehicle) or PeriodReport(False, False, vehicle in teleported, _lowest(min_accel[vehicle]),
-                                                  teleports) for vehicle in vehicles]
+                                                  teleports, None, tuple(accelerations[vehicle]), watched)
+                for vehicle in vehicles]
 
     def _why_gone(self, vehicle: str) -> tuple[bool, bool]:
         """(collided, arrived) for an ego SUMO no longer answers about, after a step: collided (and so removed)

@@ -70,3 +70,8 @@ class PeriodReport:
     left_at_s: float | None = None
     """Simulation time [s] at which the ego collided or left, when several egos share the simulation (the others
     drive on, so the clock has moved past it); None: read the simulation's clock."""
+    accelerations_mps2: tuple[float, ...] = ()
+    """The ego's acceleration at each step of the period while it was on the road [m/s^2]."""
+    watched_min_acceleration_mps2: dict[str, float] = field(default_factory=dict)
+    """Lowest acceleration over the period's steps [m/s^2] of each watched vehicle that was on the road
+    (`sumo_rail.sim.period_safety`)."""

@@ -1,0 +1,90 @@
+"""The DART row of the benchmark and the benchmark's safety measures (issue 36), as Markdown: DART (BC on the
+demonstrations of experiments/dart.sh) against the committed BC, RAIL and DAgger runs on the same test episodes,
+paired by training seed and episode as experiments/benchmark_table.py pairs them; then the safety measures of every
+method (from SAFETY_DIR, experiments/safety_table.sh, and DART's own evaluations), and a check that the re-evaluation
+reproduces every committed column.
+
+Usage: python experiments/dart_table.py BENCH_DIR DART_DIR [SAFETY_DIR]   (each holds test_sSEED.parquet files)
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import pandas as pd
+from benchmark_table import HEADLINE, METHODS, Found, expert_driver, methods_found, print_comparisons, print_headline
+from seeded import difference_cell, digits_of
+
+from sumo_rail.evaluation.safety import SAFETY_MEASURES
+from sumo_rail.evaluation.summary import measure_samples
+
+DART_METHODS = {**{key: METHODS[key] for key in ("bc_mlp", "rail_mlp", "dagger")},
+                "dart": ("DART, two-layer", "dart", "policy_bc")}
+COMPARISONS = (("dart", "bc_mlp"), ("dart", "dagger"), ("dart", "rail_mlp"), ("dagger", "bc_mlp"))
+SAFETY = (*SAFETY_MEASURES, "hard_braking", "collisions")
+
+
+def evaluations(folder: Path) -> pd.DataFrame:
+    """Every test_sSEED.parquet metrics file of `folder`, one row per (driver, episode seed)."""
+    paths = [path for path in sorted(folder.glob("test_s*.parquet")) if not path.name.endswith(".decisions.parquet")]
+    if not paths:
+        raise SystemExit(f"no test_sSEED.parquet in {folder}")
+    return pd.concat([pd.read_parquet(path) for path in paths]).drop_duplicates(["policy", "seed"])
+
+
+def method_table(metrics: pd.DataFrame, measures: tuple[str, ...]) -> None:
+    """The methods' pooled values, each method minus the expert and the paired comparisons, for `measures`."""
+    expert_name = expert_driver(metrics)
+    expert = measure_samples(metrics[metrics["policy"] == expert_name].sort_values("seed"))
+    episodes = sorted(metrics.loc[metrics["policy"] == expert_name, "seed"])
+    for driver, frame in metrics.groupby("policy"):
+        if sorted(frame["seed"]) != episodes:
+            raise SystemExit(f"{driver} was not evaluated on the expert's episodes")
+    found = methods_found(metrics, DART_METHODS)
+    print_headline(expert, found, measures, DART_METHODS)
+    print("\n| method (seeds) | measure | minus the expert |")
+    print("|---|---|---|")
+    for key, (seeds, samples) in found.items():
+        for measure in measures:
+            cell = difference_cell(samples, [expert] * len(samples), measure, digits_of(measure))
+            print(f"| {DART_METHODS[key][0]} ({seeds}) | {measure} | {cell} |")
+    print_comparisons(found, COMPARISONS, measures, DART_METHODS)
+    if "agreement" in measures and {"dart", "bc_mlp", "dagger"} <= found.keys():
+        seeds = sorted(set(found["dart"][0]) & set(found["bc_mlp"][0]) & set(found["dagger"][0]))
+        pooled = {key: pooled_agreement(found, key, seeds) for key in ("dart", "bc_mlp", "dagger")}
+        gap = (pooled["dart"] - pooled["bc_mlp"]) / (pooled["dagger"] - pooled["bc_mlp"])
+        print(f"\nShare of the BC-to-DAgger agreement gap DART closes on seeds {seeds} (point estimate): {gap:.2f}")
+
+
+def pooled_agreement(found: Found, key: str, seeds: list[int]) -> float:
+    """A method's agreement pooled over the decisions of its runs with training seeds `seeds`."""
+    runs = [samples["agreement"] for seed, samples in zip(*found[key], strict=True) if seed in seeds]
+    return float(sum(run[0].sum() for run in runs) / sum(run[1].sum() for run in runs))
+
+
+def reproduces(committed: pd.DataFrame, again: pd.DataFrame) -> str:
+    """Whether every column the committed evaluation has is the same in the re-evaluation, for the drivers both
+    hold."""
+    keys = ["policy", "seed"]
+    both = committed.merge(again, on=keys, suffixes=("", "_again"))
+    columns = [name for name in committed.columns if name not in keys and f"{name}_again" in both]
+    differing = [name for name in columns if not both[name].equals(both[f"{name}_again"])]
+    return (f"{len(both)} episodes of {both['policy'].nunique()} drivers, {len(columns)} columns: "
+            + ("every value the same" if not differing else f"differing in {', '.join(differing)}"))
+
+
+def main(bench: Path, dart: Path, safety: Path | None) -> None:
+    committed, darts = evaluations(bench), evaluations(dart)
+    print("## The benchmark with DART (test episodes; cells: value [95% interval] over training runs and episodes)\n")
+    method_table(pd.concat([committed, darts]).drop_duplicates(["policy", "seed"]), HEADLINE)
+    if safety is not None:
+        again = evaluations(safety)
+        print("\n## Safety measures (test episodes)\n")
+        same_episodes = darts[darts["seed"].isin(set(again["seed"]))]  # the re-evaluation may hold fewer episodes
+        method_table(pd.concat([again, same_episodes]).drop_duplicates(["policy", "seed"]), SAFETY)
+        print(f"\nThe re-evaluation against the committed evaluation: {reproduces(committed, again)}.")
+
+
+if __name__ == "__main__":
+    main(Path(sys.argv[1]), Path(sys.argv[2]), Path(sys.argv[3]) if len(sys.argv) > 3 else None)
