@@ -59,8 +59,7 @@ def record_expert(config: Config, episodes: int, seed: int, workers: int,
     bar = progress(episodes, "recording")
     with interruptible_run(bar, f"interrupted; nothing was written to {out}", backend):
         metrics = record_demonstrations(config, driver, expert, seed, episodes, backend, out,
-                                        on_episode=lambda index, result: bar.update(
-                                            len(result) if isinstance(result, list) else 1), egos=egos)
+                                        on_episode=lambda index, group: bar.update(len(group)), egos=egos)
     decisions = sum(row["steps"] for row in metrics)
     collisions = sum(row["collisions"] for row in metrics)
     click.echo(f"wrote {out}: {len(metrics)} episodes, {decisions} decisions, expert {expert}, {collisions} collisions")

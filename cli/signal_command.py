@@ -87,7 +87,7 @@ def step_signal_command(config: Config, demos: Path, policy_path: Path,
     with interruptible_run(bar, "interrupted; nothing was written", backend):
         report = measure(policy, config, rail, nu, asked, discriminators,
                          (demonstrations.observations, demonstrations.actions), calibration, backend, meter,
-                         on_rollout=lambda index, result: bar.update())
+                         on_rollout=lambda index, road: bar.update(len(road)))
     record = {**report, "policy": str(policy_path), "zero_weights": zero_weights, "expert": expert,
               "demos": str(demos), "meter": {"warmup_rounds": warmup_rounds},
               "settings": {"rail": _plain(rail), "discriminator": _plain(discriminator_settings)},
