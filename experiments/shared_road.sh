@@ -65,6 +65,7 @@ if [ "$gail" = 1 ] && [ ! -f "$out/test_k${egos}_gail.parquet" ]; then
   $sumo_rail evaluate $overrides "${gail_policies[@]}" --seed 1000 --episodes "$test_episodes" --workers "$workers" \
     --out "$out/test_k${egos}_gail.parquet" > "$out/test_k${egos}_gail.txt"
 fi
-$python experiments/shared_road_table.py "$egos" "$out/test_k$egos.parquet" "$out"/test_k"$egos"_*[a-z].parquet \
+gail_test=(); [ -f "$out/test_k${egos}_gail.parquet" ] && gail_test=("$out/test_k${egos}_gail.parquet")
+$python experiments/shared_road_table.py "$egos" "$out/test_k$egos.parquet" "${gail_test[@]}" \
   $committed/test_s*[0-9].parquet \
   | tee "$out/table.md"
