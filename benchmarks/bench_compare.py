@@ -138,7 +138,7 @@ class Started:
     config: Config
 
     def run(self, context: WorkerContext) -> int:
-        context.env(self.config).reset(seed=0)
+        context.parallel_env(self.config, 1).reset(seed=0)
         return os.getpid()
 
 
@@ -166,7 +166,7 @@ def rollout_tasks(config: Config, rollouts: int) -> list[RolloutTask]:
     parameters = np.zeros(shape.parameter_count, dtype=np.float32)
     seeds = episode_seeds(Purpose.TRAIN, 0, rollouts // 2)
     nu = NoiseAdaptation().initial
-    return [RolloutTask(config, shape, parameters, np.zeros(size), np.ones(size), 0, 0, k, sign, nu, (seeds[k],))
+    return [RolloutTask(config, shape, parameters, np.zeros(size), np.ones(size), 0, 0, ((k, sign),), nu, (seeds[k],))
             for k in range(rollouts // 2) for sign in (1, -1)]
 
 
@@ -198,7 +198,8 @@ def compare_backends(config: Config, tasks: list[RolloutTask], rounds: int) -> d
             for _ in range(rounds):
                 for name, backend in backends.items():
                     start = time.perf_counter()
-                    trajectories[name] = [episode for rollout in backend.run(tasks) for episode in rollout]
+                    trajectories[name] = [episode for road in backend.run(tasks) for rollout in road
+                                          for episode in rollout]
                     walls[name].append(time.perf_counter() - start)
         finally:
             for backend in backends.values():
@@ -223,7 +224,7 @@ class ReplayBackend(RolloutBackend):
         self.trajectories = trajectories
 
     def run(self, tasks: Sequence[Any], on_result: Callable[[int, Any], None] | None = None) -> list[Any]:
-        return [[self.trajectories[index % len(self.trajectories)]] for index in range(len(tasks))]
+        return [[[self.trajectories[index % len(self.trajectories)]]] for index in range(len(tasks))]
 
     def close(self) -> None:
         pass

@@ -225,6 +225,7 @@ class SearchOptions:
     traffic: str
     episodes_per_rollout: int
     egos: int
+    rollout_decisions: int | None
     freeze_normalizer: bool
     disc_hidden: int
     disc_lr: float
@@ -244,7 +245,7 @@ class SearchOptions:
             rail = RailSettings(directions=self.directions, top=self.top, step_size=self.step_size,
                                 noise=NoiseAdaptation(self.noise, self.noise_increment, self.noise_every), seed=seed,
                                 common_traffic=self.traffic == "common", episodes_per_rollout=self.episodes_per_rollout,
-                                egos=self.egos,
+                                egos=self.egos, rollout_decisions=self.rollout_decisions,
                                 freeze_normalizer=self.freeze_normalizer, fitness=self.fitness,
                                 flip_rate=self.flip_rate, reward=self.reward)
             discriminator = DiscriminatorSettings(hidden=self.disc_hidden, learning_rate=self.disc_lr,
@@ -289,6 +290,10 @@ def search_options(command: Callable[..., Any]) -> Callable[..., Any]:
         click.option("--episodes-per-rollout", type=click.IntRange(min=1), default=1, show_default=True,
                      help="Episodes each perturbed rollout drives (its return is their mean)."),
         egos_option("Rollouts of an iteration", "1: one rollout per simulation, as the paper."),
+        click.option("--rollout-decisions", type=click.IntRange(min=1), default=None, metavar="D",
+                     help="Make each rollout D decisions of its ego, respawning it whenever an episode ends, so the "
+                          "egos of a road never wait for each other (with --egos 8: ~4x the decisions per core); its "
+                          "return is the reward per decision [default: one whole episode, the paper's]."),
         click.option("--freeze-normalizer/--merge-normalizer", default=True, show_default=True,
                      help="Keep BC's observation statistics, or merge every rollout's states into them (the "
                           "paper's)."),

@@ -3,7 +3,8 @@ simulation minus the same method trained with one, paired by training seed and t
 Prints Markdown.
 
 Usage: python experiments/shared_road_table.py K METRICS.parquet [METRICS.parquet ...]   (evaluations on the same
-test episodes: the K runs' and the benchmark's committed test_sSEED.parquet)
+test episodes: the K runs' and the benchmark's committed test_sSEED.parquet; where one drove fewer, the episodes
+every evaluation drove)
 """
 
 from __future__ import annotations
@@ -23,8 +24,10 @@ whose runs are missing from the evaluations is left out."""
 def main(egos: int, *paths: str) -> None:
     paths = tuple(path for path in paths if not path.endswith(".decisions.parquet"))  # a shell glob may catch them
     metrics = pd.concat([pd.read_parquet(path) for path in paths]).drop_duplicates(["policy", "seed"])
-    episodes = metrics.groupby("policy").size()
-    print(f"{episodes.max()} test episodes (one ego each); each driver pooled over its training seeds\n")
+    shared = set.intersection(*(set(group["seed"]) for _, group in metrics.groupby("policy")))
+    metrics = metrics[metrics["seed"].isin(shared)]  # a shorter evaluation pairs with the others' first episodes
+    print(f"{len(shared)} test episodes (one ego each, those every evaluation drove); each driver pooled over its "
+          f"training seeds\n")
     print("| method | egos per simulation in training | seeds | " + " | ".join(MEASURES) + " |")
     print("|---|---|---|" + "---|" * len(MEASURES))
     pairs = {}

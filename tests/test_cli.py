@@ -320,6 +320,9 @@ def test_train_bad_input(tmp_path):
     assert result.exit_code == 1 and "does not exist" in result.output
     result = invoke("train", *SMALL, "--demos", "x.parquet", "--directions", "4", "--top", "5", "--out", "run")
     assert result.exit_code == 2 and "--top" in result.output
+    result = invoke("train", *SMALL, "--demos", "x.parquet", "--rollout-decisions", "100", "--episodes-per-rollout",
+                    "2", "--out", "run")
+    assert result.exit_code == 2 and "--rollout-decisions" in result.output and "Traceback" not in result.output
 
 
 def test_train_interrupted_keeps_a_checkpoint_and_resumes(tmp_path):

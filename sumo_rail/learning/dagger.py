@@ -43,7 +43,7 @@ from sumo_rail.learning.training import (
 )
 from sumo_rail.runners.backends import RolloutBackend, WorkerContext
 from sumo_rail.runners.experts import demonstrations_expert, resolve_expert
-from sumo_rail.runners.rollout import Driver, DriverSpec, run_episode, run_shared_episode, shared_groups
+from sumo_rail.runners.rollout import Driver, DriverSpec, run_shared_episode, shared_groups
 from sumo_rail.runners.tables import Demonstrations, provenance, read_demonstrations
 from sumo_rail.seeding import Purpose, episode_seeds
 from sumo_rail.sim.observation import observation_space
@@ -70,7 +70,7 @@ class DaggerSettings:
     expert: str | None = None
     """Who labels: a style or a policy file (`experts.resolve_expert`); None: the demonstrations' expert."""
     egos: int = 1
-    """Egos per simulation: a round's episodes run K at a time in one SUMO (`SharedDaggerTask`)."""
+    """Egos per simulation: a round's episodes run K at a time in one SUMO (`DaggerTask`)."""
 
     def __post_init__(self) -> None:
         if self.episodes_per_round < 1 or self.egos < 1:
@@ -98,18 +98,23 @@ class LabelledEpisode:
 
 @dataclass(frozen=True)
 class DaggerTask:
-    """One episode driven by the mixture of a policy and the expert, labelled by the expert."""
+    """Episodes of a round on one road, labelled by the expert: ego j is driven by the mixture of the policy and
+    the expert seeded by seeds[j] (its coin and its expert), the simulation by seeds[0]; the other egos are traffic
+    to it (one seed: the single ego's episode)."""
 
     config: Config
     policy: Policy
     expert: DriverSpec
     beta: float
-    seed: int
+    seeds: tuple[int, ...]
 
-    def run(self, context: WorkerContext) -> LabelledEpisode:
-        mixture = _Mixture(self.policy, self.expert.create(self.config, self.seed), self.beta, self.seed)
-        run_episode(context.env(self.config), mixture, self.seed)
-        return mixture.episode()
+    def run(self, context: WorkerContext) -> list[LabelledEpisode]:
+        """Each ego's labelled episode, in ego order (egos that found no room on the road left out)."""
+        mixtures = [_Mixture(self.policy, self.expert.create(self.config, seed), self.beta, seed)
+                    for seed in self.seeds]
+        env = context.parallel_env(self.config, len(self.seeds))
+        run_shared_episode(env, mixtures, self.seeds[0])  # the mixtures keep what DAgger needs
+        return [mixture.episode() for mixture in mixtures if mixture.labels]
 
 
 class _Mixture:
@@ -135,26 +140,6 @@ class _Mixture:
     def episode(self) -> LabelledEpisode:
         return LabelledEpisode(np.stack(self.observations).astype(np.float32), np.array(self.labels, dtype=np.int64),
                                self.policy_decisions)
-
-
-@dataclass(frozen=True)
-class SharedDaggerTask:
-    """Several episodes of a round in one simulation: ego j is driven by the mixture seeded by seeds[j] (its coin
-    and its expert), the simulation by seeds[0]; the other egos are traffic to it."""
-
-    config: Config
-    policy: Policy
-    expert: DriverSpec
-    beta: float
-    seeds: tuple[int, ...]
-
-    def run(self, context: WorkerContext) -> list[LabelledEpisode]:
-        """Each ego's labelled episode, in ego order (egos that found no room on the road left out)."""
-        mixtures = [_Mixture(self.policy, self.expert.create(self.config, seed), self.beta, seed)
-                    for seed in self.seeds]
-        env = context.parallel_env(self.config, len(self.seeds))
-        run_shared_episode(env, mixtures, self.seeds[0])  # the mixtures keep what DAgger needs
-        return [mixture.episode() for mixture in mixtures if mixture.labels]
 
 
 def train_dagger(folder: Path, settings: DaggerSettings, config: Config, rounds: int, backend: RolloutBackend,
@@ -202,11 +187,9 @@ def train_dagger(folder: Path, settings: DaggerSettings, config: Config, rounds:
 def _round_episodes(backend: RolloutBackend, config: Config, policy: Policy, expert: DriverSpec, beta: float,
                     seeds: list[int], egos: int, on_episode: Callable[[int, Any], None] | None,
                     ) -> list[LabelledEpisode]:
-    """A round's labelled episodes: one simulation each (egos = 1) or `egos` seeds to a simulation."""
-    if egos == 1:
-        return backend.run([DaggerTask(config, policy, expert, beta, seed) for seed in seeds], on_result=on_episode)
-    shared = backend.run([SharedDaggerTask(config, policy, expert, beta, group)
-                          for group in shared_groups(seeds, egos)], on_result=on_episode)
+    """A round's labelled episodes, `egos` seeds to a road."""
+    shared = backend.run([DaggerTask(config, policy, expert, beta, group) for group in shared_groups(seeds, egos)],
+                         on_result=on_episode)
     return [episode for episodes in shared for episode in episodes]
 
 

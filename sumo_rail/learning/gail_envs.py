@@ -1,64 +1,17 @@
-"""GAIL's environment processes: how each is built, how one that fails reports why without a traceback, and what
-the parent says and does when one is lost (killed, crashed) instead of Stable-Baselines3's EOFError."""
+"""GAIL's and PPO's environment processes (`shared_road`): how one that fails reports why without a traceback, and
+what the parent says and does when one is lost (killed, crashed) instead of Stable-Baselines3's EOFError."""
 
 from __future__ import annotations
 
 import os
-import signal
 import time
-from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, NoReturn
+from typing import TYPE_CHECKING, NoReturn
 
-import gymnasium as gym
-from gymnasium.utils import seeding
-
-from sumo_rail.config import Config
 from sumo_rail.datasets import describe
-from sumo_rail.sim.env import HighwayEnv
 
 if TYPE_CHECKING:
     from stable_baselines3.common.vec_env import VecEnv
-
-
-@dataclass(frozen=True)
-class EnvFactory:
-    """Builds one env in its worker process; its first episode is that of reset(seed=seed). With `error_file`, an
-    exception in the env ends the process quietly after writing its one-line description there (no traceback on the
-    terminal; the parent reports it)."""
-
-    config: Config
-    seed: int
-    error_file: str | None = None
-
-    def __call__(self) -> gym.Env:
-        signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C reaches the whole group; the parent decides
-        try:
-            env = HighwayEnv(self.config, transport="libsumo")
-        except Exception as error:
-            exit_reporting(self.error_file, error)
-        env.np_random, _ = seeding.np_random(self.seed)
-        return env if self.error_file is None else _ReportingEnv(env, self.error_file)
-
-
-class _ReportingEnv(gym.Wrapper):
-    """Passes everything through; an exception in reset or step ends the process via `exit_reporting`."""
-
-    def __init__(self, env: gym.Env, error_file: str) -> None:
-        super().__init__(env)
-        self._error_file = error_file
-
-    def reset(self, **kwargs: Any) -> Any:
-        try:
-            return self.env.reset(**kwargs)
-        except Exception as error:
-            exit_reporting(self._error_file, error)
-
-    def step(self, action: Any) -> Any:
-        try:
-            return self.env.step(action)
-        except Exception as error:
-            exit_reporting(self._error_file, error)
 
 
 def exit_reporting(error_file: str | None, error: Exception) -> NoReturn:

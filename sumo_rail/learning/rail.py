@@ -5,8 +5,10 @@ One iteration t:
    SUMO episode seeds: a set of `episodes_per_rollout` seeds per direction, both signs sharing it (the default,
    as in the first implementation), or with common traffic one set that every direction and sign drives, so
    directions differ by their parameters only (common random numbers). Workers run the 2N rollouts of
-   theta +- nu * delta_k with the observation statistics frozen for the iteration; a rollout's return is the
-   mean over its episodes;
+   theta +- nu * delta_k with the observation statistics frozen for the iteration, `egos` of them on one road
+   (`RolloutTask`); a rollout is whole episodes (its return the mean over them), or with `rollout_decisions` a
+   budget of decisions of its ego across as many lives as it takes (`rollout.run_lives`: no ego waits for
+   another; its return the mean per decision);
 2. the discriminator takes its LS-GAN steps on the expert's pairs and this iteration's rollout pairs;
 3. each rollout's return is the mean of r = log D - log(1 - D) over its decisions, as the paper's expectation;
    a collision fills the decisions it cut short, up to the episode limit, with the lowest reward the clipped
@@ -34,8 +36,9 @@ from sumo_rail.learning.normalize import RunningStats
 from sumo_rail.runners.rollout import (
     Driver,
     DriverSpec,
+    EpisodeResult,
     ExpertDriver,
-    run_episode,
+    run_lives,
     run_shared_episode,
     shared_groups,
 )
@@ -46,7 +49,6 @@ if TYPE_CHECKING:
     from sumo_rail.learning.discriminator import Discriminator
     from sumo_rail.runners.backends import RolloutBackend, WorkerContext
     from sumo_rail.runners.tables import Demonstrations
-    from sumo_rail.sim.parallel_env import ParallelHighwayEnv
 
 
 REWARDS = ("discriminator", "agreement")
@@ -86,8 +88,12 @@ class RailSettings:
     expert would have made alike, the reward every discriminator stands in for; what the search reaches with it
     bounds what it can reach with any reward at the same budget."""
     egos: int = 1
-    """Rollouts that share one simulation, each on its own ego (`SharedRolloutTask`); 1: one rollout per
-    simulation, as the paper."""
+    """Rollouts that share one road, each on its own ego (`RolloutTask`); 1: one rollout per simulation, as the
+    paper."""
+    rollout_decisions: int | None = None
+    """None: a rollout drives `episodes_per_rollout` whole episodes (the paper's). D: a rollout is D decisions of
+    its ego, respawning whenever an episode ends, so the egos of a road never wait for each other; its return is
+    the mean reward per decision."""
     flip_rate: float | None = None
     """When set, nu is chosen at every iteration so that the iteration's perturbations change this share of the
     policy's decisions on CALIBRATION_STATES of the expert's states (`noise.noise_for_flip_rate`), in place of the
@@ -106,6 +112,9 @@ class RailSettings:
             raise ValueError(f"--fitness must be one of {', '.join(FITNESS_SHAPINGS)}, got {self.fitness!r}")
         if self.egos < 1:
             raise ValueError(f"--egos must be at least 1, got {self.egos}")
+        if self.rollout_decisions is not None and (self.rollout_decisions < 1 or self.episodes_per_rollout > 1):
+            raise ValueError(f"--rollout-decisions must be at least 1 and replaces --episodes-per-rollout, got "
+                             f"{self.rollout_decisions} with {self.episodes_per_rollout} episodes per rollout")
         if self.reward not in REWARDS:
             raise ValueError(f"--reward must be one of {', '.join(REWARDS)}, got {self.reward!r}")
         if self.flip_rate is not None and not 0.0 < self.flip_rate < 1.0:
@@ -153,68 +162,50 @@ class Perturbations:
 
 @dataclass(frozen=True)
 class RolloutTask(Perturbations):
-    """One rollout of theta + sign * nu * delta(iteration, index), on its own simulation."""
-
-    index: int
-    sign: int
-    nu: float
-    episode_seeds: tuple[int, ...]
-    expert: DriverSpec | None = None
-    """Asked at every decision what it would do (it never drives); its answers come back as `expert_actions`."""
-
-    def run(self, context: WorkerContext) -> list[Trajectory]:
-        """One trajectory per episode seed."""
-        policy = self.perturbed(self.index, self.sign, self.nu)
-        trajectories = []
-        for seed in self.episode_seeds:
-            labels: list[int] = []
-            expert = None if self.expert is None else self.expert.create(self.config, seed)
-            result = run_episode(context.env(self.config), _asking(policy, expert, labels), seed, record=True)
-            assert result.steps is not None
-            trajectories.append(Trajectory(result.steps["observation"], result.steps["action"].astype(np.int64),
-                                           bool(result.metrics["collisions"]), int(result.metrics["steps"]),
-                                           np.array(labels, np.int64) if self.expert is not None else None))
-        return trajectories
-
-
-@dataclass(frozen=True)
-class SharedRolloutTask(Perturbations):
-    """Several rollouts of one iteration in one simulation: member j, (index, sign), drives ego_j of a
-    `ParallelHighwayEnv` with theta + sign * nu * delta(iteration, index), on every episode seed; the other members
-    are traffic to it."""
+    """Rollouts of one iteration on one road: member j, (index, sign), drives ego_j of a `ParallelHighwayEnv` with
+    theta + sign * nu * delta(iteration, index); the other members are traffic to it (one member: the paper's
+    rollout on its own simulation, bit for bit the single-ego env's)."""
 
     members: tuple[tuple[int, int], ...]
     nu: float
     episode_seeds: tuple[int, ...]
     expert: DriverSpec | None = None
+    """Asked at every decision what it would do (it never drives); its answers come back as `expert_actions`."""
+    decisions: int | None = None
+    """None: every member drives one whole episode per episode seed (the egos of the road wait for the last one).
+    D: every member drives D decisions on the road seeded by episode_seeds[0], respawning whenever its episode ends
+    (`rollout.run_lives`), so none waits."""
 
     def run(self, context: WorkerContext) -> list[list[Trajectory]]:
-        """Per member, one trajectory per episode seed (with no decision where its ego found no room)."""
+        """Per member, one trajectory per episode (with no decision where its ego found no room) or, with
+        `decisions`, per life."""
         policies = [self.perturbed(index, sign, self.nu) for index, sign in self.members]
         env = context.parallel_env(self.config, len(self.members))
         trajectories: list[list[Trajectory]] = [[] for _ in self.members]
-        for seed in self.episode_seeds:
-            experts = [None if self.expert is None else self.expert.create(self.config, seed) for _ in self.members]
-            for member, trajectory in enumerate(_shared_episode(env, policies, experts, seed)):
-                trajectories[member].append(trajectory)
+        for seed in self.episode_seeds[:1] if self.decisions is not None else self.episode_seeds:
+            labels: list[list[int]] = [[] for _ in policies]
+            drivers = [_asking(policy, None if self.expert is None else self.expert.create(self.config, seed), asked)
+                       for policy, asked in zip(policies, labels, strict=True)]
+            results = ([[result] for result in run_shared_episode(env, drivers, seed, record=True)]
+                       if self.decisions is None else run_lives(env, drivers, seed, self.decisions, record=True))
+            for member, (lives, asked) in enumerate(zip(results, labels, strict=True)):
+                trajectories[member].extend(_trajectories(lives, asked if self.expert is not None else None,
+                                                          env.observation_space(env.possible_agents[0]).shape[0]))
         return trajectories
 
 
-def _shared_episode(env: ParallelHighwayEnv, policies: list[Policy], experts: list[Driver | None],
-                    seed: int) -> list[Trajectory]:
-    """One episode of `env`, ego_j driven by policies[j] (and experts[j], when given, asked at each of its
-    decisions): each ego's trajectory, in ego order (with no decision for an ego that found no room)."""
-    labels: list[list[int]] = [[] for _ in policies]
-    drivers = [_asking(policy, expert, asked) for policy, expert, asked in zip(policies, experts, labels, strict=True)]
-    size = env.observation_space(env.possible_agents[0]).shape[0]
-    trajectories = []
-    for result, expert, asked in zip(run_shared_episode(env, drivers, seed, record=True), experts, labels,
-                                     strict=True):
+def _trajectories(lives: list[EpisodeResult | None], labels: list[int] | None, size: int) -> list[Trajectory]:
+    """One ego's episodes as trajectories (an ego that found no room: none of its decisions), `labels` the expert's
+    answers at all of them in order."""
+    trajectories, done = [], 0
+    for result in lives:
         observations, actions = ((result.steps["observation"], result.steps["action"].astype(np.int64))
                                  if result is not None and result.steps is not None
                                  else (np.zeros((0, size), np.float32), np.zeros(0, np.int64)))
         trajectories.append(Trajectory(observations, actions, bool(result and result.metrics["collisions"]),
-                                       len(actions), None if expert is None else np.array(asked, np.int64)))
+                                       len(actions), None if labels is None
+                                       else np.array(labels[done:done + len(actions)], np.int64)))
+        done += len(actions)
     return trajectories
 
 
@@ -283,43 +274,51 @@ def rollout_return(rewards: np.ndarray, collided: bool, horizon: int, lowest_rew
 
 def run_rollouts(policy: Policy, config: Config, noise_seed: int, iteration: int, nu: float,
                  seeds: list[tuple[int, ...]], expert: DriverSpec | None, egos: int, backend: RolloutBackend,
-                 on_rollout: Callable[[int, Any], None] | None = None) -> list[list[Trajectory]]:
+                 on_rollout: Callable[[int, Any], None] | None = None,
+                 decisions: int | None = None) -> list[list[Trajectory]]:
     """The 2N rollouts of theta +- nu delta_k (k < len(seeds), direction k on its episode `seeds[k]`), in the order
-    (0, +), (0, -), (1, +), ...: one per task with one ego, or `egos` consecutive rollouts per simulation, sharing
-    the episode seeds of the first one's direction (`SharedRolloutTask`)."""
+    (0, +), (0, -), (1, +), ...: `egos` consecutive rollouts per road, sharing the episode seeds of the first one's
+    direction (`RolloutTask`; `decisions`: its budget of decisions per rollout); `on_rollout(index, rollouts)` as
+    each road's rollouts arrive."""
     members = [(k, sign) for k in range(len(seeds)) for sign in (1, -1)]
     fields = (config, policy.shape, policy.parameters, policy.observation_mean, policy.observation_std, noise_seed,
               iteration)
-    if egos == 1:
-        return backend.run([RolloutTask(*fields, k, sign, nu, seeds[k], expert) for k, sign in members],
-                           on_result=on_rollout)
-    groups = shared_groups(members, egos)
-    shared = backend.run([SharedRolloutTask(*fields, group, nu, seeds[group[0][0]], expert) for group in groups],
-                         on_result=on_rollout)
+    shared = backend.run([RolloutTask(*fields, group, nu, seeds[group[0][0]], expert, decisions)
+                          for group in shared_groups(members, egos)], on_result=on_rollout)
     return [rollout for group in shared for rollout in group]
 
 
-def _returns(rollouts: list[list[Trajectory]], score: Callable[[Trajectory], float]) -> np.ndarray:
-    """Each rollout's mean score over its episodes with decisions; a rollout with none (its ego never found room on
-    the road, which only several egos per simulation can cause) gets the mean of the others, no signal either way."""
-    returns = np.array([np.mean([score(t) for t in rollout if t.steps > 0]) if any(t.steps > 0 for t in rollout)
-                        else np.nan for rollout in rollouts])
+def _returns(rollouts: list[list[Trajectory]], score: Callable[[Trajectory], float], horizon: int,
+             per_decision: bool) -> np.ndarray:
+    """Each rollout's score: the mean over its episodes with decisions or, `per_decision` (lives of a budget of
+    decisions), their mean weighted by decisions (a collision's up to `horizon`: `rollout_return`'s mean per
+    decision over all of them); a rollout with none (its ego never found room on the road, which only several egos
+    per simulation can cause) gets the mean of the others, no signal either way."""
+    def value(rollout: list[Trajectory]) -> float:
+        lives = [t for t in rollout if t.steps > 0]
+        if not lives:
+            return np.nan
+        if not per_decision:
+            return float(np.mean([score(t) for t in lives]))
+        weights = [horizon if t.collided and t.steps < horizon else t.steps for t in lives]
+        return float(np.average([score(t) for t in lives], weights=weights))
+    returns = np.array([value(rollout) for rollout in rollouts])
     return np.where(np.isnan(returns), np.nanmean(returns), returns)
 
 
-def discriminator_returns(rollouts: list[list[Trajectory]], discriminator: Discriminator, horizon: int) -> np.ndarray:
-    """Each rollout's return, shape (rollouts,): the mean over its episodes of `rollout_return` of the
-    discriminator's rewards."""
+def discriminator_returns(rollouts: list[list[Trajectory]], discriminator: Discriminator, horizon: int,
+                          per_decision: bool = False) -> np.ndarray:
+    """Each rollout's return, shape (rollouts,): `_returns` of `rollout_return` of the discriminator's rewards."""
     lowest = discriminator.lowest_reward()
     return _returns(rollouts, lambda t: rollout_return(discriminator.reward(t.observations, t.actions), t.collided,
-                                                       horizon, lowest))
+                                                       horizon, lowest), horizon, per_decision)
 
 
-def agreement_returns(rollouts: list[list[Trajectory]], horizon: int) -> np.ndarray:
-    """Each rollout's agreement with the expert, shape (rollouts,): the mean over its episodes of `rollout_return` of
-    1 where the expert would have chosen the action taken, else 0 (a collision's missing decisions count as 0)."""
+def agreement_returns(rollouts: list[list[Trajectory]], horizon: int, per_decision: bool = False) -> np.ndarray:
+    """Each rollout's agreement with the expert, shape (rollouts,): `_returns` of `rollout_return` of 1 where the
+    expert would have chosen the action taken, else 0 (a collision's missing decisions count as 0)."""
     return _returns(rollouts, lambda t: rollout_return((t.actions == t.expert_actions).astype(np.float64),
-                                                       t.collided, horizon, 0.0))
+                                                       t.collided, horizon, 0.0), horizon, per_decision)
 
 
 def run_iteration(state: TrainingState, shape: PolicyShape, config: Config, settings: RailSettings,
@@ -344,14 +343,15 @@ def run_iteration(state: TrainingState, shape: PolicyShape, config: Config, sett
         asked = ExpertDriver(expert.metadata.get("style") or DEFAULT_STYLE)
     policy = Policy(shape, state.parameters, mean, std)
     rollouts = run_rollouts(policy, config, noise_seed, state.iteration, state.nu, seeds, asked, settings.egos,
-                            backend, on_rollout)
+                            backend, on_rollout, settings.rollout_decisions)
     trajectories = [trajectory for rollout in rollouts for trajectory in rollout]
     policy_observations = np.concatenate([t.observations for t in trajectories])
     policy_actions = np.concatenate([t.actions for t in trajectories])
     report = discriminator.train(expert.observations, expert.actions, policy_observations, policy_actions)
     horizon = round(config.env.max_episode_s / config.env.decision_period_s)
-    returns = (agreement_returns(rollouts, horizon) if settings.reward == "agreement"
-               else discriminator_returns(rollouts, discriminator, horizon))
+    per_decision = settings.rollout_decisions is not None
+    returns = (agreement_returns(rollouts, horizon, per_decision) if settings.reward == "agreement"
+               else discriminator_returns(rollouts, discriminator, horizon, per_decision))
     step = ars_update(state.parameters, deltas, returns[0::2], returns[1::2], settings.kept, settings.step_size,
                       settings.fitness)
     if not settings.freeze_normalizer:

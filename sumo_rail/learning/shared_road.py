@@ -1,16 +1,17 @@
-"""Several egos per SUMO for Stable-Baselines3's learners (`gail --egos K`, `ppo --egos K`): `shared_road_vec_env`.
+"""The driving envs of Stable-Baselines3's learners (`gail`, `ppo`, with `--egos K`): `driving_processes`.
 
 SB3 steps every env of a VecEnv at once and restarts one as soon as its episode ends; in a shared simulation an ego
 cannot restart alone by a reset, so the egos of a `RespawningRoad` respawn instead: an ego that ends is replaced at
-once by a new one in the start window (`ParallelHighwayEnv.respawn`) while the others drive on. Each env index
-always has an ego driving, and the step that ends an ego's episode returns what SB3's own auto-resetting
-`SubprocVecEnv` returns: done, the episode's last observation as info["terminal_observation"],
-info["TimeLimit.truncated"] for a truncation (end of road, time limit), and the new episode's first observation.
-The road itself is reset only by the VecEnv's reset (SB3 does it once, before the first rollout); the traffic
-then flows on.
+once by a new one in the start window (`ParallelHighwayEnv.respawn`) while the others drive on, and when no ego is
+left on the road (always, with one ego) the road itself resets, drawing its next start from its `np_random` as a
+single-ego env's reset does. Each env index always has an ego driving, and the step that ends an ego's episode
+returns what SB3's own auto-resetting `SubprocVecEnv` returns: done, the episode's last observation as
+info["terminal_observation"], info["TimeLimit.truncated"] for a truncation (end of road, time limit), and the new
+episode's first observation; rewards are float64 as SubprocVecEnv stacks them. With K = 1 this is bit for bit what
+SubprocVecEnv gives for a `HighwayEnv` whose first reset is seeded.
 
 Env index i is ego i % K of process i // K. Process p's road is first reset with the seed of `env_seeds(seed,
-processes)[p]`, as `gail`'s env p is, and every respawn draws from that road's `np_random`, so the same seed, K and
+processes)[p]`, and every respawn and later reset draws from that road's `np_random`, so the same seed, K and
 process count give the same rollouts bit for bit. A process that fails writes why to error_dir/env_P.txt and ends
 (`gail_envs.exit_reporting`); the parent then reports the lost process in one sentence (`sb3_runs.env_processes`).
 """
@@ -28,7 +29,7 @@ import numpy as np
 from gymnasium import spaces
 
 from sumo_rail.config import Config
-from sumo_rail.learning.gail_envs import LOST_ENV, EnvFactory, exit_reporting
+from sumo_rail.learning.gail_envs import LOST_ENV, exit_reporting
 from sumo_rail.seeding import Purpose, episode_seeds
 from sumo_rail.sim.actions import Action
 from sumo_rail.sim.observation import observation_space
@@ -47,16 +48,8 @@ def env_seeds(seed: int, envs: int) -> list[int]:
 
 
 def driving_processes(config: Config, processes: int, egos: int, seed: int, error_dir: Path) -> VecEnv:
-    """The driving envs of an SB3 learner: `processes` spawned SUMO processes with `egos` egos each. With one ego,
-    SB3's `SubprocVecEnv` of `HighwayEnv`s (`gail_envs.EnvFactory`: env p's first episode is that of
-    reset(seed=env_seeds(seed, processes)[p])); with several, `shared_road_vec_env`. A process that fails writes
-    why to error_dir/env_P.txt and ends."""
-    if egos == 1:
-        from stable_baselines3.common.vec_env import SubprocVecEnv
-
-        factories = [EnvFactory(config, env_seed, str(error_dir / f"env_{index}.txt"))
-                     for index, env_seed in enumerate(env_seeds(seed, processes))]
-        return SubprocVecEnv(factories, start_method="spawn")
+    """The driving envs of an SB3 learner: `processes` spawned SUMO processes with `egos` egos each
+    (`shared_road_vec_env`). A process that fails writes why to error_dir/env_P.txt and ends."""
     return shared_road_vec_env(config, processes, egos, seed, error_dir)
 
 
@@ -69,29 +62,35 @@ class RespawningRoad:
         """Seed of the first reset (later resets go on drawing from the road's generator)."""
 
     def reset(self) -> np.ndarray:
-        """Reset the road; an ego that could not enter respawns. Returns the egos' first observations (K, n)."""
+        """Reset the road (the first time with `seed`); an ego that could not enter respawns. Returns the egos' first
+        observations (K, n)."""
+        observations = self._start()
+        return np.stack([observations[agent] for agent in self.env.possible_agents])
+
+    def _start(self) -> dict[str, np.ndarray]:
         observations, _ = self.env.reset(seed=self.seed)
         self.seed = None
         for agent in self.env.possible_agents:
             if agent not in observations:
                 observations[agent], _ = self.env.respawn(agent)
-        return np.stack([observations[agent] for agent in self.env.possible_agents])
+        return observations
 
     def step(self, actions: Sequence[int]) -> StepBatch:
-        """One decision of every ego (`actions` in agent order); an ego whose episode ended respawns."""
+        """One decision of every ego (`actions` in agent order); an ego whose episode ended respawns, or the road
+        resets when none is left on it."""
         agents = self.env.possible_agents
         observations, rewards, terminations, truncations, infos = self.env.step(dict(zip(agents, actions,
                                                                                       strict=True)))
-        dones = np.zeros(len(agents), dtype=bool)
-        for index, agent in enumerate(agents):
-            if terminations[agent] or truncations[agent]:
-                dones[index] = True
-                infos[agent]["TimeLimit.truncated"] = truncations[agent] and not terminations[agent]
-                infos[agent]["terminal_observation"] = observations[agent]
+        dones = np.array([terminations[agent] or truncations[agent] for agent in agents])
+        for agent in (agent for agent, done in zip(agents, dones, strict=True) if done):
+            infos[agent]["TimeLimit.truncated"] = truncations[agent] and not terminations[agent]
+            infos[agent]["terminal_observation"] = observations[agent]
+            if self.env.agents:
                 observations[agent], _ = self.env.respawn(agent)
-        return (np.stack([observations[agent] for agent in agents]),
-                np.array([rewards[agent] for agent in agents], dtype=np.float32), dones,
-                [infos[agent] for agent in agents])
+        if not self.env.agents:
+            observations = self._start()
+        return (np.stack([observations[agent] for agent in agents]), np.array([rewards[agent] for agent in agents]),
+                dones, [infos[agent] for agent in agents])
 
     def close(self) -> None:
         self.env.close()

@@ -180,19 +180,20 @@ def run_draws(policy: Policy, config: Config, settings: RailSettings, nu: float,
     for draw in draws:
         seeds = draw_seeds(settings, draw)
         rollouts.append(run_rollouts(policy, config, settings.seed, iteration, nu, seeds, expert, settings.egos,
-                                     backend, on_rollout))
+                                     backend, on_rollout, settings.rollout_decisions))
     return rollouts
 
 
-def agreement_differences(rollouts: Rollouts, horizon: int) -> Differences:
+def agreement_differences(rollouts: Rollouts, horizon: int, per_decision: bool = False) -> Differences:
     """Each rollout's agreement with the expert (`rail.agreement_returns`: the share of its decisions the expert would
-    have made alike)."""
-    return _differences([agreement_returns(draw, horizon) for draw in rollouts])
+    have made alike; `per_decision` for rollouts of a budget of decisions)."""
+    return _differences([agreement_returns(draw, horizon, per_decision) for draw in rollouts])
 
 
-def reward_differences(rollouts: Rollouts, discriminator: Discriminator, horizon: int) -> Differences:
+def reward_differences(rollouts: Rollouts, discriminator: Discriminator, horizon: int,
+                       per_decision: bool = False) -> Differences:
     """Each rollout's return as RAIL scores it (`rail.discriminator_returns`)."""
-    return _differences([discriminator_returns(draw, discriminator, horizon) for draw in rollouts])
+    return _differences([discriminator_returns(draw, discriminator, horizon, per_decision) for draw in rollouts])
 
 
 def _differences(returns: list[np.ndarray]) -> Differences:
@@ -258,7 +259,8 @@ def measure(policy: Policy, config: Config, settings: RailSettings, nu: float, e
     warm_up(discriminators, policy, config, settings, nu, expert_pairs, meter, backend, on_rollout)
     rollouts = run_draws(policy, config, settings, nu, expert, backend, on_rollout=on_rollout)
     horizon = round(config.env.max_episode_s / config.env.decision_period_s)
-    agreement = agreement_differences(rollouts, horizon)
+    per_decision = settings.rollout_decisions is not None
+    agreement = agreement_differences(rollouts, horizon, per_decision)
     top, shaping = settings.kept, settings.fitness
     observations, actions = pairs(rollouts)
     report: dict[str, Any] = {
@@ -271,7 +273,7 @@ def measure(policy: Policy, config: Config, settings: RailSettings, nu: float, e
     }
     for name, discriminator in discriminators.items():
         discriminator.train(*expert_pairs, observations, actions)
-        returns = reward_differences(rollouts, discriminator, horizon)
+        returns = reward_differences(rollouts, discriminator, horizon, per_decision)
         report["returns"][name] = returns.to_dict()
         report["rewards"][name] = {
             "signal": {key: value.to_dict() for key, value in signal(deltas, returns, top, shaping).items()},

@@ -113,9 +113,10 @@ def shared_groups(items: Sequence[T], egos: int) -> list[tuple[T, ...]]:
 
 
 @dataclass(frozen=True)
-class SharedEpisodeTask:
-    """Several episodes of one driver in one simulation: ego j drives the driver seeded by seeds[j], the
-    simulation is seeded by seeds[0]; the other egos are traffic to it."""
+class EpisodeGroupTask:
+    """Episodes of one driver in one simulation, one per ego (the unit of work of the runners; one seed: the
+    single ego's episode, bit for bit `run_episode`'s on `HighwayEnv`): ego j drives the driver seeded by seeds[j],
+    the simulation is seeded by seeds[0]; the other egos are traffic to it."""
 
     config: Config
     driver: DriverSpec
@@ -173,6 +174,36 @@ def run_shared_episode(env: ParallelHighwayEnv, drivers: Sequence[Driver], seed:
             for agent in agents]
 
 
+def run_lives(env: ParallelHighwayEnv, drivers: Sequence[Driver], seed: int, decisions: int, record: bool = False,
+              ) -> list[list[EpisodeResult]]:
+    """Reset `env` with `seed` and drive ego_j with drivers[j] (asked in ego order at each decision) for `decisions`
+    decisions each, across as many lives as it takes: an ego whose episode ends, or that found no room at the reset,
+    respawns at once (`ParallelHighwayEnv.respawn`), so every ego decides in every period and none waits for
+    another. Each ego's lives in order, as `run_episode` gives an episode (metrics' seed `seed`); the last one, cut
+    by the budget, neither terminated nor truncated."""
+    observations, infos = env.reset(seed=seed)
+    agents = list(env.possible_agents)
+    for agent in agents:
+        if agent not in observations:
+            observations[agent], infos[agent] = env.respawn(agent)
+    logs = {agent: _EpisodeLog(record) for agent in agents}
+    lives: dict[str, list[EpisodeResult]] = {agent: [] for agent in agents}
+    for _ in range(decisions):
+        actions = {agent: int(driver(observations[agent], env.traffic(agent)))
+                   for agent, driver in zip(agents, drivers, strict=True)}
+        seen, before = observations, infos
+        observations, rewards, terminations, truncations, infos = env.step(actions)
+        for agent, action in actions.items():
+            logs[agent].add(seen[agent], action, rewards[agent], before[agent], infos[agent])
+            if terminations[agent] or truncations[agent]:
+                lives[agent].append(logs[agent].result(env.metrics(agent), seed, infos[agent], terminations[agent],
+                                                       truncations[agent]))
+                logs[agent] = _EpisodeLog(record)
+                observations[agent], infos[agent] = env.respawn(agent)
+    return [[*lives[agent], *([logs[agent].result(env.metrics(agent), seed, infos[agent], False, False)]
+                              if env.metrics(agent).decisions else [])] for agent in agents]
+
+
 class _EpisodeLog:
     """One ego's episode: with `record`, every decision's (observation, state, action, reward) for the step
     columns; the metrics row at its end either way."""
@@ -218,7 +249,8 @@ def _step_columns(observations: list[np.ndarray], rows: list[tuple[Any, ...]]) -
 
 @dataclass(frozen=True)
 class EpisodeTask:
-    """One episode to run on a backend worker."""
+    """One episode of the single-ego `HighwayEnv`, watched decision by decision (`probe`) and, for videos, frame by
+    frame (`wrap`): what evaluation runs; recordings and learners run `EpisodeGroupTask`s."""
 
     config: Config
     driver: DriverSpec

@@ -86,5 +86,5 @@ def lane_block(traffic: TrafficView, range_m: float, v_max_mps: float) -> np.nda
                                                (gaps.rear_gap_m, gaps.rear_speed_mps))):
             seen = gap <= range_m
             block[row, 2 * column] = min(max(gap, 0.0) / range_m, 1.0) if seen else 1.0
-            block[row, 2 * column + 1] = np.clip((speed - ego.speed_mps) / v_max_mps, -1, 1) if seen else 0.0
+            block[row, 2 * column + 1] = min(max((speed - ego.speed_mps) / v_max_mps, -1.0), 1.0) if seen else 0.0
     return block.ravel()

@@ -3,7 +3,7 @@ import pytest
 from sumo_rail.evaluation.evaluate import evaluate
 from sumo_rail.runners.backends import SerialBackend
 from sumo_rail.runners.record import record_demonstrations
-from sumo_rail.runners.rollout import ExpertDriver, KeepDriver
+from sumo_rail.runners.rollout import EpisodeGroupTask, ExpertDriver, KeepDriver
 from sumo_rail.seeding import Purpose, episode_seeds
 from sumo_rail.sim.env import HighwayEnv
 
@@ -30,7 +30,8 @@ def test_evaluation_starts_from_held_out_warm_states_one_per_episode(small_confi
     assert {task.pool for task in evaluated} == {"test"}
     assert [task.warm_state for task in evaluated] == [0, 1, 2, 0]  # distinct until the pool is exhausted
     assert backend.tasks[episodes].episode.pool == "validation"
-    assert backend.tasks[-1].pool == "train" and backend.tasks[-1].warm_state is None  # recording
+    recording = backend.tasks[-1]  # a group of egos on a road reset without options: the train pool, drawn
+    assert isinstance(recording, EpisodeGroupTask) and not {"pool", "warm_state"} & set(vars(recording))
 
 
 def test_reset_options_choose_the_pool_and_state_and_reject_nonsense(small_config):

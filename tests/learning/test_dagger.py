@@ -46,7 +46,7 @@ def settings(demos, **changes) -> DaggerSettings:
 
 def test_labels_are_the_experts_whoever_drives(tmp_path, demos, monkeypatch):
     with SerialBackend() as backend:
-        expert_only, = backend.run([DaggerTask(CONFIG, going_left_policy(), ExpertDriver("normal"), 1.0, 5)])
+        (expert_only,), = backend.run([DaggerTask(CONFIG, going_left_policy(), ExpertDriver("normal"), 1.0, (5,))])
         recorded, = backend.run([EpisodeTask(CONFIG, ExpertDriver("normal"), 5, record=True)])
     assert expert_only.policy_decisions == 0
     assert np.array_equal(expert_only.labels, recorded.steps["action"])  # the expert drove: labels = its actions
@@ -62,7 +62,7 @@ def test_labels_are_the_experts_whoever_drives(tmp_path, demos, monkeypatch):
                      resume=False, validation=Validation(0))
         task, = backend.tasks
         assert task.policy is learner and task.beta == 0.0
-        driven, = backend.run([LearnerAskingTheExpert(CONFIG, learner, "normal", task.seed)])
+        driven, = backend.run([LearnerAskingTheExpert(CONFIG, learner, "normal", task.seeds[0])])
     dataset = pq.read_table(tmp_path / "run" / "dataset.parquet")
     new = np.array(dataset.column("episode").to_pylist()) > max(pq.read_table(demos).column("episode").to_pylist())
     observations = np.stack(dataset.column("observation").to_pylist())[new]
@@ -137,7 +137,7 @@ def test_same_policy_with_one_or_two_workers_and_after_resuming(tmp_path, demos,
 @pytest.mark.parametrize(("beta", "expert_drives"), [(1.0, True), (0.0, False)])
 def test_in_a_shared_simulation_each_ego_follows_its_own_mixture(demos, beta, expert_drives):
     policy = Policy(PolicyShape("linear", 56), np.zeros(5 * 56 + 5, np.float32))
-    task = dagger.SharedDaggerTask(CONFIG, policy, ExpertDriver("normal"), beta, (5, 6, 7))
+    task = DaggerTask(CONFIG, policy, ExpertDriver("normal"), beta, (5, 6, 7))
     context = WorkerContext()
     try:
         episodes = task.run(context)

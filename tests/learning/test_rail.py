@@ -8,7 +8,14 @@ from sumo_rail.drivers.policies import Policy, PolicyShape
 from sumo_rail.learning.discriminator import Discriminator, DiscriminatorSettings
 from sumo_rail.learning.noise import directions
 from sumo_rail.learning.normalize import RunningStats
-from sumo_rail.learning.rail import RailSettings, TrainingState, Trajectory, run_iteration, run_rollouts
+from sumo_rail.learning.rail import (
+    RailSettings,
+    TrainingState,
+    Trajectory,
+    agreement_returns,
+    run_iteration,
+    run_rollouts,
+)
 from sumo_rail.runners.backends import RolloutBackend, SerialBackend
 from sumo_rail.runners.tables import Demonstrations
 from sumo_rail.sim.observation import observation_space
@@ -25,8 +32,8 @@ class FakeBackend(RolloutBackend):
 
     def run(self, tasks, on_result=None):
         self.tasks += list(tasks)
-        return [[self.trajectory(seed, task.sign * task.index, task.expert is not None and task.sign > 0)
-                 for seed in task.episode_seeds] for task in tasks]
+        return [[[self.trajectory(seed, sign * index, task.expert is not None and sign > 0)
+                  for seed in task.episode_seeds] for index, sign in task.members] for task in tasks]
 
     @staticmethod
     def trajectory(seed: int, offset: int, agreeing: bool) -> Trajectory:
@@ -66,7 +73,7 @@ def test_independent_traffic_gives_each_direction_its_own_episodes_for_both_sign
     backend, _, _ = iterate(RailSettings(directions=4))  # the default
     by_direction = {}
     for task in backend.tasks:
-        by_direction.setdefault(task.index, set()).add(task.episode_seeds)
+        by_direction.setdefault(task.members[0][0], set()).add(task.episode_seeds)
     assert all(len(seeds) == 1 for seeds in by_direction.values())   # both signs share a direction's seeds
     assert len(set().union(*by_direction.values())) == 4             # directions do not share them
 
@@ -117,3 +124,38 @@ def test_shared_rollouts_drive_each_ego_by_its_own_perturbation_in_task_order(sm
         assert np.array_equal(np.argmax(perturbed.logits(trajectory.observations), axis=1), trajectory.actions)
     assert all(np.array_equal(a[0].observations, b[0].observations) for a, b in zip(shared, again, strict=True))
     assert not np.array_equal(shared[0][0].observations[:5], shared[1][0].observations[:5])  # two egos, two places
+
+
+def test_a_rollout_of_decisions_drives_its_ego_for_its_budget_across_lives(small_config):
+    """Four egos on one road, each respawning until it has made 400 decisions (an episode of the small road lasts
+    at most ~220 at 10 m/s): every rollout is its budget, in lives its own perturbed policy drove, and the same seeds
+    give the same lives."""
+    size = observation_space(small_config).shape[0]
+    shape = PolicyShape("linear", size)
+    policy = Policy(shape, np.random.default_rng(0).normal(0, 0.3, shape.parameter_count).astype(np.float32))
+    with SerialBackend() as backend:
+        rollouts = run_rollouts(policy, small_config, 7, 0, 0.5, [(2,), (5,)], None, 4, backend, decisions=400)
+        again = run_rollouts(policy, small_config, 7, 0, 0.5, [(2,), (5,)], None, 4, backend, decisions=400)
+    assert len(rollouts) == 4
+    for (index, sign), lives in zip([(0, 1), (0, -1), (1, 1), (1, -1)], rollouts, strict=True):
+        assert sum(life.steps for life in lives) == 400 and len(lives) >= 2  # it respawned
+        delta = directions(7, 0, 2, shape.parameter_count)[index]
+        perturbed = Policy(shape, policy.parameters + np.float32(sign * 0.5) * delta)
+        for life in lives:
+            assert np.array_equal(np.argmax(perturbed.logits(life.observations), axis=1), life.actions)
+    assert [[life.observations.tobytes() for life in lives] for lives in rollouts] == [
+        [life.observations.tobytes() for life in lives] for lives in again]
+
+
+def test_a_rollout_of_decisions_scores_its_reward_per_decision_not_per_life():
+    def life(steps: int, agreeing: bool) -> Trajectory:
+        actions = np.zeros(steps, np.int64)
+        return Trajectory(np.zeros((steps, SIZE), np.float32), actions, False, steps, actions + (0 if agreeing else 1))
+    rollouts = [[life(10, True), life(30, False)]]
+    assert agreement_returns(rollouts, 600)[0] == 0.5  # episodes: each counts alike
+    assert agreement_returns(rollouts, 600, per_decision=True)[0] == 0.25  # decisions: 10 of 40 agree
+    crashed = [[life(10, True), Trajectory(np.zeros((30, SIZE), np.float32), np.zeros(30, np.int64), True, 30,
+                                           np.ones(30, np.int64))]]
+    assert agreement_returns(crashed, 100, per_decision=True)[0] == 10 / 110  # the crash fills its life to 100
+    with pytest.raises(ValueError, match="--rollout-decisions"):
+        RailSettings(rollout_decisions=200, episodes_per_rollout=2)

@@ -7,10 +7,12 @@ import json
 import numpy as np
 import pandas as pd
 import pytest
+from gymnasium.utils import seeding
 from test_cli import SMALL, SMALL_CONFIG, invoke
 
 from sumo_rail.drivers.policies import load_policy
 from sumo_rail.learning.shared_road import RespawningRoad, env_seeds, shared_road_vec_env
+from sumo_rail.sim.env import HighwayEnv
 
 
 def drive(road: RespawningRoad, steps: int, seed: int):
@@ -56,6 +58,38 @@ def test_the_same_seed_gives_the_same_rollouts_bit_for_bit(roads):
         for left, right in zip(a[:3], b[:3], strict=True):
             assert np.array_equal(left, right)
         assert [info["position_m"] for info in a[3]] == [info["position_m"] for info in b[3]]
+
+
+def test_one_ego_is_bit_for_bit_what_sb3_gave_for_the_single_ego_env():
+    """One ego a road (what `gail`/`ppo` run by default) against what they ran before issue 34: SB3's SubprocVecEnv
+    of a `HighwayEnv` whose generator was seeded, which steps, and on an episode's end keeps the last observation
+    and resets the env (its worker's loop, written out)."""
+    actions = np.random.default_rng(4).integers(0, 5, size=250).tolist()
+    env = HighwayEnv(SMALL_CONFIG, transport="libsumo")
+    try:
+        env.np_random, _ = seeding.np_random(11)
+        expected = [np.stack([env.reset()[0]])]
+        for action in actions:
+            observation, reward, terminated, truncated, info = env.step(action)
+            if terminated or truncated:
+                info = {**info, "TimeLimit.truncated": truncated and not terminated,
+                        "terminal_observation": observation}
+                observation, _ = env.reset()
+            expected.append((np.stack([observation]), np.array([reward]), np.array([terminated or truncated]), [info]))
+    finally:
+        env.close()
+    road = RespawningRoad(SMALL_CONFIG, egos=1, seed=11)
+    try:
+        actual = [road.reset()] + [road.step([action]) for action in actions]
+    finally:
+        road.close()
+    assert sum(bool(batch[2][0]) for batch in expected[1:]) >= 2  # two episodes ended: the road reset twice
+    assert np.array_equal(actual[0], expected[0])
+    for (*got, got_infos), (*want, want_infos) in zip(actual[1:], expected[1:], strict=True):
+        assert all(np.array_equal(a, b) and a.dtype == b.dtype for a, b in zip(got, want, strict=True))
+        terminal = want_infos[0].pop("terminal_observation", None)
+        assert terminal is None or np.array_equal(got_infos[0].pop("terminal_observation"), terminal)
+        assert got_infos == want_infos
 
 
 def test_the_vec_env_is_its_processes_roads_side_by_side(tmp_path):

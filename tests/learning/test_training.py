@@ -59,9 +59,14 @@ def small_config_module():
                              "env": {"ego_start_min_m": 300.0, "ego_start_max_m": 500.0}})
 
 
-def run_settings(demos_path, kind="mlp", remedies=False):
-    """Small settings; `remedies`: every option that issue 25 added away from its default."""
-    rail = RailSettings(directions=3, top=2, step_size=0.01, seed=1)
+RESPAWNING = {"egos": 3, "rollout_decisions": 150}
+"""Rollouts of 150 decisions (two to three lives on the small road), three egos a road."""
+
+
+def run_settings(demos_path, kind="mlp", remedies=False, respawning=False):
+    """Small settings; `remedies`: every option that issue 25 added away from its default; `respawning`: rollouts
+    of a budget of decisions on respawning egos (`RESPAWNING`)."""
+    rail = RailSettings(directions=3, top=2, step_size=0.01, seed=1, **(RESPAWNING if respawning else {}))
     discriminator = DiscriminatorSettings(seed=1, steps_per_iteration=2)
     if remedies:
         rail = dataclasses.replace(rail, fitness="rank", flip_rate=0.1, episodes_per_rollout=2, egos=2)
@@ -70,9 +75,12 @@ def run_settings(demos_path, kind="mlp", remedies=False):
     return RunSettings(str(demos_path), kind, 4, 3, rail, discriminator)
 
 
-@pytest.mark.parametrize("remedies", [False, True], ids=["paper", "remedies"])
-def test_same_weights_with_one_or_two_workers_and_after_resuming(tmp_path, demos_path, small_config_module, remedies):
-    settings, validation = run_settings(demos_path, remedies=remedies), Validation(every=2, episodes=1)
+@pytest.mark.parametrize(("remedies", "respawning"), [(False, False), (True, False), (False, True)],
+                         ids=["paper", "remedies", "respawning"])
+def test_same_weights_with_one_or_two_workers_and_after_resuming(tmp_path, demos_path, small_config_module, remedies,
+                                                                 respawning):
+    settings = run_settings(demos_path, remedies=remedies, respawning=respawning)
+    validation = Validation(every=2, episodes=1)
     with ProcessPoolBackend(1) as one:
         train(tmp_path / "one", settings, small_config_module, 3, one, resume=False, validation=validation)
     with ProcessPoolBackend(2) as two:
@@ -92,6 +100,8 @@ def test_same_weights_with_one_or_two_workers_and_after_resuming(tmp_path, demos
                                   pd.read_parquet(tmp_path / "split" / "log.parquet").drop(columns="wall_time_s"))
     stored = json.loads((tmp_path / "one" / "run.json").read_text())["settings"]
     assert stored == json.loads(json.dumps(settings.to_dict()))
+    if respawning:  # every rollout is its budget of decisions, whatever its episodes
+        assert (log["env_steps"] == 2 * 3 * 150).all()
     if remedies:  # nu is set by the flip rate at every iteration, not by the paper's schedule
         assert log["nu"].nunique() == 3 and not np.isclose(log["nu"], settings.rail.noise.initial).any()
 

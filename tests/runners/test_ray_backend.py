@@ -202,9 +202,10 @@ def test_address_without_the_ray_backend_is_a_usage_error(command, tmp_path, mon
     assert list(tmp_path.iterdir()) == []
 
 
+@pytest.mark.parametrize("respawning", [False, True], ids=["paper", "respawning"])
 def test_rail_training_gives_the_same_weights_as_the_process_pool(cluster, tmp_path, demos_path,
-                                                                  small_config_module):
-    settings = run_settings(demos_path)
+                                                                  small_config_module, respawning):
+    settings = run_settings(demos_path, respawning=respawning)
     with ProcessPoolBackend(2) as pool:
         train(tmp_path / "process", settings, small_config_module, 2, pool, resume=False)
     with RayBackend(2, address=cluster.address) as backend:
