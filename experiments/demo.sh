@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # `make demo`: the whole pipeline in the recommended setting (--preset recommended: the paper's observation plus
-# the lane-wise block, the benchmark's setting), small enough for two cores in a few minutes: record the expert,
+# the lane-wise and route blocks) on the straight road, small enough for two cores in a few minutes: record the expert,
 # train BC then RAIL, train DAgger, evaluate the expert, BC, RAIL and DAgger on the same held-out episodes, and
 # report. EPISODES sets the evaluation episodes (60 here to stay quick; `evaluate`'s own default is 250);
 # PRESET=paper runs the paper's setting instead.
