@@ -77,14 +77,16 @@ CHANGES = {
 
 
 class RecordingBackend(SerialBackend):
-    """Runs tasks as SerialBackend does and keeps the names of their types."""
+    """Runs tasks as SerialBackend does and keeps the names of their types, with the egos of a road's rollouts
+    (RolloutTask x K)."""
 
     def __init__(self) -> None:
         super().__init__()
         self.task_types: set[str] = set()
 
     def run(self, tasks, on_result=None):
-        self.task_types |= {type(task).__name__ for task in tasks}
+        self.task_types |= {type(task).__name__ + (f" x {len(task.members)}" if hasattr(task, "members") else "")
+                            for task in tasks}
         return super().run(tasks, on_result)
 
 
@@ -105,4 +107,5 @@ def test_each_remedy_changes_the_iteration(tmp_path, demos, config, base_iterati
     parameters, tasks = one_iteration(tmp_path / "run", CHANGES[change](dataclasses.replace(BASE, demos=str(demos))),
                                       config)
     assert not np.array_equal(parameters, base_parameters)
-    assert ("SharedRolloutTask" in tasks) == (change == "--egos 2") and "SharedRolloutTask" not in base_tasks
+    assert ("RolloutTask x 2" in tasks) == (change == "--egos 2") and "RolloutTask x 2" not in base_tasks
+    assert "RolloutTask x 1" in base_tasks
