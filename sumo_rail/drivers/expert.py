@@ -5,8 +5,8 @@ route as a navigation system tells it), not the LIDAR. Each decision, in this or
 1. while a lane change is under way it only manages its speed;
 2. what the route demands: within `route_demand_m` of the end of a lane that does not lead along its route (a lane
    drop, an acceleration lane, lanes past its exit), move toward the nearest lane that does when safe (in the last
-   `URGENT_M`, into any gap of its minimum gap and the room to shed a speed difference; in the last
-   `LAST_RESORT_M`, of its minimum gap alone), else set its speed to open a gap there (`Expert._seek_gap`: pass a
+   `URGENT_M`, into any gap of its minimum gap and the room to shed a speed difference at 3 m/s^2; in the last
+   `LAST_RESORT_M`, at 4 m/s^2), else set its speed to open a gap there (`Expert._seek_gap`: pass a
    vehicle it can outpace, let pass one it cannot);
 3. overtake on the left when a slower leader is in the way, the left lane lets it drive at least
    `min_speed_gain_mps` faster, and the change is safe;
@@ -42,8 +42,12 @@ URGENT_GAP_SHARE = 0.0
 difference (a share of 0.3 in the last 150 m left 17 of 500 test episodes of merge_from_ramp and lane_drop stopped at
 a lane's end)."""
 LAST_RESORT_M = 50.0
-"""Within this distance [m] of its lane's end a change needs only its minimum gaps, front and rear, without room to
-shed closing speeds: the followers brake for it, as SUMO's drivers do for each other at a lane's end."""
+"""Within this distance [m] of its lane's end a change needs only the room to shed closing speeds at
+`LAST_RESORT_DECEL_MPS2` beyond its minimum gap: the followers brake harder for it, as SUMO's drivers do for each
+other at a lane's end."""
+LAST_RESORT_DECEL_MPS2 = 4.0
+"""Braking [m/s^2] it counts on from the vehicles around it in the last `LAST_RESORT_M` (SUMO's cars brake at 4.5,
+its trucks at 4); elsewhere 3."""
 MERGE_SPEED_SHARE = 0.6
 """Lowest set-point, as a share of its desired speed, it slows to while looking for a gap to merge into."""
 PASS_MARGIN_MPS = 3.0
@@ -142,7 +146,8 @@ class Expert:
             return None  # the lane to move to begins farther on (an on-ramp before its acceleration lane)
         gaps = lane_gaps(traffic, target)
         share = URGENT_GAP_SHARE if lane_end_m <= URGENT_M else 1.0
-        if self._safe(gaps, ego.speed_mps, share, closing_room=lane_end_m > LAST_RESORT_M):
+        braking = LAST_RESORT_DECEL_MPS2 if lane_end_m <= LAST_RESORT_M else _COMFORT_DECEL_MPS2
+        if self._safe(gaps, ego.speed_mps, share, braking):
             return Action.LANE_LEFT if offset > 0 else Action.LANE_RIGHT
         own_front_gap_m = lane_gaps(traffic, ego.lane).front_gap_m
         return self._seek_gap(gaps, ego.speed_mps, traffic.set_point_mps, share, own_front_gap_m)
@@ -193,27 +198,27 @@ class Expert:
             return min(gaps.front_speed_mps, desired)
         return desired
 
-    def _safe(self, gaps: LaneGaps, ego_speed_mps: float, gap_share: float = 1.0, closing_room: bool = True) -> bool:
-        """Nobody alongside and the gaps of the module's docstring, their time gaps scaled by `gap_share` (without
-        the room to shed closing speeds unless `closing_room`)."""
+    def _safe(self, gaps: LaneGaps, ego_speed_mps: float, gap_share: float = 1.0,
+              braking_mps2: float = _COMFORT_DECEL_MPS2) -> bool:
+        """Nobody alongside and the gaps of the module's docstring, their time gaps scaled by `gap_share`, speed
+        differences shed at `braking_mps2`."""
         if gaps.alongside:
             return False
-        needed_front, needed_rear = self._needed(gaps, ego_speed_mps, gap_share, closing_room)
+        needed_front, needed_rear = self._needed(gaps, ego_speed_mps, gap_share, braking_mps2)
         return gaps.front_gap_m >= needed_front and gaps.rear_gap_m >= needed_rear
 
     def _needed(self, gaps: LaneGaps, ego_speed_mps: float, gap_share: float,
-                closing_room: bool = True) -> tuple[float, float]:
-        """The front and rear gaps [m] a change into the lane of `gaps` needs."""
+                braking_mps2: float = _COMFORT_DECEL_MPS2) -> tuple[float, float]:
+        """The front and rear gaps [m] a change into the lane of `gaps` needs, speed differences shed at
+        `braking_mps2`."""
         style = self.style
-        if not closing_room:
-            return style.min_gap_m, style.min_gap_m
         excess = max(ego_speed_mps - gaps.front_speed_mps, 0.0) if np.isfinite(gaps.front_speed_mps) else 0.0
         needed_front = (style.min_gap_m + gap_share * style.front_time_gap_s * ego_speed_mps
-                        + excess**2 / (2 * _COMFORT_DECEL_MPS2))
+                        + excess**2 / (2 * braking_mps2))
         closing = max(gaps.rear_speed_mps - ego_speed_mps, 0.0) if np.isfinite(gaps.rear_speed_mps) else 0.0
         rear_speed = gaps.rear_speed_mps if np.isfinite(gaps.rear_speed_mps) else 0.0
         needed_rear = (style.min_gap_m + gap_share * style.rear_time_gap_s * rear_speed
-                       + closing**2 / (2 * _COMFORT_DECEL_MPS2))
+                       + closing**2 / (2 * braking_mps2))
         return needed_front, needed_rear
 
 

@@ -128,10 +128,14 @@ def test_passes_a_slower_car_alongside_at_its_speed_plus_a_margin():
     assert expert.decide(done) is Action.KEEP, "20 + the 3 m/s margin reached"
 
 
-def test_merges_in_front_of_a_fast_follower_only_in_the_last_metres_of_its_lane():
+def test_in_the_last_metres_of_its_lane_it_counts_on_harder_braking_behind_but_never_on_a_crash():
     expert = make_expert("normal", speed_step_mps=2.0)
-    slow_before_a_platoon = [(1, 1040.0, 4.5, 25.0), (1, 987.0, 4.5, 25.0)]  # 35.5 m ahead, 8.5 m behind
-    late = on_a_closing_lane(view(slow_before_a_platoon, lane=0, speed=10.0, set_point=17.33), lane_end_m=40.0)
-    assert expert.decide(late) is Action.LANE_LEFT
-    earlier = on_a_closing_lane(view(slow_before_a_platoon, lane=0, speed=10.0, set_point=17.33), lane_end_m=100.0)
-    assert expert.decide(earlier) is not Action.LANE_LEFT
+    ego_rear = EGO_FRONT - 4.5
+    closing_10 = [(1, EGO_FRONT + 40.0, 4.5, 25.0), (1, ego_rear - 20.0, 4.5, 20.0)]  # 20 m behind, 10 m/s faster
+    last_metres = on_a_closing_lane(view(closing_10, lane=0, speed=10.0, set_point=17.33), lane_end_m=40.0)
+    assert expert.decide(last_metres) is Action.LANE_LEFT, "6 m + 10^2 / (2 * 4) = 18.5 m needed"
+    earlier = on_a_closing_lane(view(closing_10, lane=0, speed=10.0, set_point=17.33), lane_end_m=100.0)
+    assert expert.decide(earlier) is not Action.LANE_LEFT, "6 m + 10^2 / (2 * 3) = 22.7 m needed"
+    closing_13 = [(1, EGO_FRONT + 40.0, 4.5, 25.0), (1, ego_rear - 16.0, 4.5, 23.6)]
+    too_fast = on_a_closing_lane(view(closing_13, lane=0, speed=10.8, set_point=17.33), lane_end_m=20.0)
+    assert expert.decide(too_fast) is not Action.LANE_LEFT, "a follower 12.8 m/s faster 16 m behind cannot stop"
