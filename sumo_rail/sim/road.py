@@ -152,8 +152,8 @@ class RouteMap:
         ends = self._lane_ends
         lane_end = tuple([ends.get(lane, position_m) - position_m for lane in ids])
         # the nearest point ahead: the first of the sorted points past the ego (subtracting keeps their order)
-        merge, diverge = (_next_after(points, position_m) for points in (self._merges_sorted, self._diverges_sorted))
-        return RouteView(lowest, highest, lane_end, merge, diverge, self.length_m - position_m)
+        return RouteView(lowest, highest, lane_end, _next_after(self._merges_sorted, position_m),
+                         _next_after(self._diverges_sorted, position_m), self.length_m - position_m)
 
     def _lanes_beside(self, lane_id: str) -> tuple[int, int, tuple[str, ...]]:
         """The route lanes of the edge of `lane_id`, lowest and highest, and the ids of its lanes (an internal lane:
