@@ -33,10 +33,19 @@ def jerks(accelerations_mps2: Sequence[float], previous_mps2: float | None, step
 
 
 def jerk_readings(period_jerks: list[float]) -> tuple[float, float]:
-    """(largest, mean) of a period's jerks, 0 for none; the mean is numpy's (its pairwise sum), bit for bit."""
-    if not period_jerks:
+    """(largest, mean) of a period's jerks, 0 for none; the mean is numpy's, bit for bit: numpy's pairwise
+    summation adds fewer than 8 values one after the other, as Python does here (a period of 5 steps has 5), and
+    longer periods are summed by numpy itself."""
+    count = len(period_jerks)
+    if not count:
         return 0.0, 0.0
-    return max(period_jerks), float(np.add.reduce(np.array(period_jerks))) / len(period_jerks)
+    if count < 8:
+        total = 0.0
+        for jerk in period_jerks:
+            total += jerk
+    else:
+        total = float(np.add.reduce(np.array(period_jerks)))
+    return max(period_jerks), total / count
 
 
 def nearest_follower(ego: EgoState, neighbours: Neighbours, lane: int) -> str | None:

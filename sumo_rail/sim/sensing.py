@@ -50,12 +50,11 @@ class Sensing:
                              api.getLateralLanePosition(vehicle), length, width, lane_id=lane_id,
                              route=self.route_map.view(lane_id, position_m))
         flat: list[float] = []
-        extend, lane_places = flat.extend, self.route_map.lane_places.get
+        extend, radians, lane_places = flat.extend, math.radians, self.route_map.lane_places.get
         for (x, y), angle, speed, lane_position, length, width, lane_id in map(fields, results.values()):
             start_m, lane = lane_places(lane_id, UNPLACED)  # `place`, inlined: it runs for every neighbour
-            extend((x, y, angle, speed, start_m + lane_position, length, width, lane))
+            extend((x, y, radians(90.0 - angle), speed, start_m + lane_position, length, width, lane))
         rows = np.array(flat, dtype=np.float64).reshape(len(results), 8)
-        rows[:, 2] = np.radians(90.0 - rows[:, 2])  # math.radians' arithmetic, for all at once
         neighbours = Neighbours(ids=tuple(results), front_xy=rows[:, :2], heading_rad=rows[:, 2],
                                 speed_mps=rows[:, 3], lane_position_m=rows[:, 4], length_m=rows[:, 5],
                                 width_m=rows[:, 6], lane=rows[:, 7].astype(np.int64))

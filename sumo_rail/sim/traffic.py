@@ -104,13 +104,14 @@ def lane_block(traffic: TrafficView, range_m: float, v_max_mps: float) -> np.nda
                 nearest_rear[row], front_speed[row] = rear, speed
         elif front < ego_rear and front > nearest_front[row]:
             nearest_front[row], rear_speed[row] = front, speed
-    block = np.zeros((3, 4), dtype=np.float32)
+    block: list[float] = []
     for row in range(3):
         if not 0 <= lowest + row < traffic.lanes:
+            block += [0.0, 0.0, 0.0, 0.0]
             continue
-        for column, (gap, speed) in enumerate(((nearest_rear[row] - ego_front, front_speed[row]),
-                                               (ego_rear - nearest_front[row], rear_speed[row]))):
+        for gap, speed in ((nearest_rear[row] - ego_front, front_speed[row]),
+                           (ego_rear - nearest_front[row], rear_speed[row])):
             seen = gap <= range_m
-            block[row, 2 * column] = min(max(gap, 0.0) / range_m, 1.0) if seen else 1.0
-            block[row, 2 * column + 1] = min(max((speed - ego.speed_mps) / v_max_mps, -1.0), 1.0) if seen else 0.0
-    return block.ravel()
+            block.append(min(max(gap, 0.0) / range_m, 1.0) if seen else 1.0)
+            block.append(min(max((speed - ego.speed_mps) / v_max_mps, -1.0), 1.0) if seen else 0.0)
+    return np.array(block, dtype=np.float32)
