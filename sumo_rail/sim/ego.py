@@ -131,9 +131,10 @@ class Ego:
         metrics.overtakes += self.overtakes.update(neighbours.ids, self._relations(ego, neighbours))
         metrics.overtaken = self.overtakes.overtaken
         metrics.speed_sum_mps += ego.speed_mps
-        metrics.simulated_s = sim.time_s - self.start_time_s
+        now_s = sim.time_s
+        metrics.simulated_s = now_s - self.start_time_s
         metrics.distance_m = ego.lane_position_m - self.start_position_m
-        self.route_progress.update(ego, sim.time_s, metrics)
+        self.route_progress.update(ego, now_s, metrics)
         failure = self.route_progress.failure(ego)
         reason = failure
         if failure:

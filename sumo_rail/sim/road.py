@@ -18,6 +18,7 @@ road branches off it).
 
 from __future__ import annotations
 
+import bisect
 import itertools
 import math
 from collections import deque
@@ -80,6 +81,8 @@ class RouteMap:
         self.diverges_m = diverges_m
         self.length_m = length_m
         """Length of the route [m]."""
+        self._merges_sorted, self._diverges_sorted = sorted(merges_m), sorted(diverges_m)
+        self._view_lanes: dict[str, tuple[int, int, tuple[str, ...]]] = {}
 
     @classmethod
     def from_sumo(cls, api: Any, route: tuple[str, ...], main_lanes: int) -> RouteMap:
@@ -142,16 +145,29 @@ class RouteMap:
 
     def view(self, lane_id: str, position_m: float) -> RouteView:
         """The route from an ego in `lane_id` whose front is at `position_m` along the route."""
+        lanes = self._view_lanes.get(lane_id)
+        if lanes is None:
+            lanes = self._view_lanes[lane_id] = self._lanes_beside(lane_id)
+        lowest, highest, ids = lanes
+        ends = self._lane_ends
+        lane_end = tuple([ends.get(lane, position_m) - position_m for lane in ids])
+        # the nearest point ahead: the first of the sorted points past the ego (subtracting keeps their order)
+        return RouteView(lowest, highest, lane_end, _next_after(self._merges_sorted, position_m),
+                         _next_after(self._diverges_sorted, position_m), self.length_m - position_m)
+
+    def _lanes_beside(self, lane_id: str) -> tuple[int, int, tuple[str, ...]]:
+        """The route lanes of the edge of `lane_id`, lowest and highest, and the ids of its lanes (an internal lane:
+        itself), which `view` reads for every lane id once."""
         lowest, highest = self.edge_lanes(lane_id)
         edge = lane_id.rpartition("_")[0]
-        if edge in self._edges:
-            ids = [f"{edge}_{index}" for index in range(highest - lowest + 1)]
-        else:
-            ids = [lane_id]
-        lane_end = tuple(self._lane_ends.get(lane, position_m) - position_m for lane in ids)
-        merge = min((at - position_m for at in self.merges_m if at > position_m), default=math.inf)
-        diverge = min((at - position_m for at in self.diverges_m if at > position_m), default=math.inf)
-        return RouteView(lowest, highest, lane_end, merge, diverge, self.length_m - position_m)
+        ids = tuple(f"{edge}_{index}" for index in range(highest - lowest + 1)) if edge in self._edges else (lane_id,)
+        return lowest, highest, ids
+
+
+def _next_after(points_m: list[float], position_m: float) -> float:
+    """Distance [m] from `position_m` to the first of the sorted `points_m` beyond it; inf when none is."""
+    index = bisect.bisect_right(points_m, position_m)
+    return points_m[index] - position_m if index < len(points_m) else math.inf
 
 
 class _Joint(NamedTuple):

@@ -36,7 +36,6 @@ class Stepping:
         starting_teleports = simulation.getStartingTeleportNumber
         error = self._client.TraCIException
         on_road = list(vehicles)
-        min_accel = dict.fromkeys(on_road, math.inf)
         accelerations: dict[str, list[float]] = {vehicle: [] for vehicle in on_road}
         watched: dict[str, float] = {}
         teleported: set[str] = set()
@@ -55,13 +54,11 @@ class Stepping:
                 except error:
                     collided, arrived = self._why_gone(vehicle)
                     gone[vehicle] = PeriodReport(collided, arrived, vehicle in teleported,
-                                                 _lowest(min_accel[vehicle]), teleports, simulation.getTime(),
+                                                 _lowest(accelerations[vehicle]), teleports, simulation.getTime(),
                                                  tuple(accelerations[vehicle]), watched)
                     left = True
                     continue
                 accelerations[vehicle].append(accel)
-                if accel < min_accel[vehicle]:
-                    min_accel[vehicle] = accel
             for vehicle in watch:
                 with contextlib.suppress(error):  # a watched vehicle that has left is read no more
                     watched[vehicle] = min(watched.get(vehicle, math.inf), acceleration(vehicle))
@@ -69,7 +66,7 @@ class Stepping:
                 on_road = [vehicle for vehicle in on_road if vehicle not in gone]
                 if not on_road:
                     break
-        return [gone.get(vehicle) or PeriodReport(False, False, vehicle in teleported, _lowest(min_accel[vehicle]),
+        return [gone.get(vehicle) or PeriodReport(False, False, vehicle in teleported, _lowest(accelerations[vehicle]),
                                                   teleports, None, tuple(accelerations[vehicle]), watched)
                 for vehicle in vehicles]
 
@@ -83,6 +80,6 @@ class Stepping:
         return collided, not collided
 
 
-def _lowest(acceleration_mps2: float) -> float:
-    """A period's lowest acceleration [m/s^2], 0 when none was read."""
-    return acceleration_mps2 if acceleration_mps2 < math.inf else 0.0
+def _lowest(accelerations_mps2: list[float]) -> float:
+    """A period's lowest acceleration [m/s^2] (the first of equals), 0 when none was read."""
+    return min(accelerations_mps2, default=0.0)

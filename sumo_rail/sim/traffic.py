@@ -82,16 +82,36 @@ def lane_block(traffic: TrafficView, range_m: float, v_max_mps: float) -> np.nda
     relative to the ego's / v_max, then the same behind, float32 (12 values, LANE_BLOCK_LANES x LANE_BLOCK_FIELDS).
 
     Gaps are capped at 1 (r_max, also where nobody is within range, with relative speed 0); a lane that does not
-    exist reads as blocked (gaps 0, relative speeds 0)."""
-    block = np.zeros((3, 4), dtype=np.float32)
-    ego = traffic.ego
-    for row, lane in enumerate((ego.lane - 1, ego.lane, ego.lane + 1)):
-        if not 0 <= lane < traffic.lanes:
+    exist reads as blocked (gaps 0, relative speeds 0). The nearest vehicles are `lane_gaps`' (the first of equals in
+    the neighbours' order), found for the three lanes in one pass over the neighbours: a Python loop, which for the
+    few vehicles around the ego is several times cheaper than numpy's calls (tests/sim/test_traffic.py compares it
+    with `lane_gaps`, bit for bit)."""
+    ego, others = traffic.ego, traffic.neighbours
+    ego_front, ego_rear = ego.lane_position_m, ego.lane_position_m - ego.length_m
+    lowest = ego.lane - 1
+    nearest_rear = [NO_VEHICLE] * 3  # per lane (right, own, left): the rear of the nearest vehicle ahead [m] ...
+    front_speed = [NO_VEHICLE] * 3
+    nearest_front = [-NO_VEHICLE] * 3  # ... and the front of the nearest one behind [m]
+    rear_speed = [NO_VEHICLE] * 3
+    for front, length, lane, speed in zip(others.lane_position_m.tolist(), others.length_m.tolist(),
+                                          others.lane.tolist(), others.speed_mps.tolist(), strict=True):
+        row = lane - lowest
+        if not 0 <= row < 3:
             continue
-        gaps = lane_gaps(traffic, lane)
-        for column, (gap, speed) in enumerate(((gaps.front_gap_m, gaps.front_speed_mps),
-                                               (gaps.rear_gap_m, gaps.rear_speed_mps))):
+        rear = front - length
+        if rear > ego_front:
+            if rear < nearest_rear[row]:
+                nearest_rear[row], front_speed[row] = rear, speed
+        elif front < ego_rear and front > nearest_front[row]:
+            nearest_front[row], rear_speed[row] = front, speed
+    block: list[float] = []
+    for row in range(3):
+        if not 0 <= lowest + row < traffic.lanes:
+            block += [0.0, 0.0, 0.0, 0.0]
+            continue
+        for gap, speed in ((nearest_rear[row] - ego_front, front_speed[row]),
+                           (ego_rear - nearest_front[row], rear_speed[row])):
             seen = gap <= range_m
-            block[row, 2 * column] = min(max(gap, 0.0) / range_m, 1.0) if seen else 1.0
-            block[row, 2 * column + 1] = min(max((speed - ego.speed_mps) / v_max_mps, -1.0), 1.0) if seen else 0.0
-    return block.ravel()
+            block.append(min(max(gap, 0.0) / range_m, 1.0) if seen else 1.0)
+            block.append(min(max((speed - ego.speed_mps) / v_max_mps, -1.0), 1.0) if seen else 0.0)
+    return np.array(block, dtype=np.float32)

@@ -7,7 +7,7 @@ from scenes import two_vehicle_road, view
 
 from sumo_rail.sim.actions import Action
 from sumo_rail.sim.env import HighwayEnv
-from sumo_rail.sim.period_safety import CUT_IN_WINDOW_S, PeriodSafety, jerks, nearest_follower
+from sumo_rail.sim.period_safety import CUT_IN_WINDOW_S, PeriodSafety, jerk_readings, jerks, nearest_follower
 from sumo_rail.sim.simulation import EGO_ID
 from sumo_rail.sim.vehicles import PeriodReport
 
@@ -21,6 +21,22 @@ def test_jerk_is_the_change_of_acceleration_per_step_across_periods():
     assert jerks([1.0, 1.5, 0.5], None, 0.1) == pytest.approx([5.0, 10.0])
     assert jerks([1.0], 0.0, 0.1) == pytest.approx([10.0])  # against the last step of the period before
     assert len(jerks([], 0.0, 0.1)) == 0
+
+
+def test_the_jerk_readings_are_numpys_bit_for_bit():
+    """The readings as they were computed with numpy: |diff| / step, then max(initial=0) and mean."""
+    rng = np.random.default_rng(36)
+    for _ in range(3000):
+        accelerations = rng.normal(0.0, 2.0, int(rng.integers(0, 21))) * rng.choice([1e-3, 1.0, 10.0])
+        previous = None if rng.random() < 0.2 else float(rng.normal(0.0, 2.0))
+        step = float(rng.choice([0.1, 0.05, 0.2]))
+        series = np.asarray(([] if previous is None else [previous]) + accelerations.tolist(), dtype=float)
+        expected = np.abs(np.diff(series)) / step
+        period_jerks = jerks(accelerations.tolist(), previous, step)
+        assert np.array_equal(period_jerks, expected)
+        jerk_max, jerk_mean = jerk_readings(period_jerks)
+        assert jerk_max == float(expected.max(initial=0.0))
+        assert jerk_mean == (float(expected.mean()) if len(expected) else 0.0)
 
 
 def test_the_follower_is_the_nearest_vehicle_behind_the_ego_in_that_lane():

@@ -15,6 +15,7 @@ from sumo_rail.config import Config, ConfigError
 from sumo_rail.drivers.expert import make_expert
 from sumo_rail.sim import network
 from sumo_rail.sim.env import HighwayEnv
+from sumo_rail.sim.road import RouteMap, RouteView
 from sumo_rail.sim.simulation import EgoCouldNotEnter, Simulation
 
 FEATURE = {"feature_at_m": 750.0, "feature_length_m": 250.0}
@@ -42,6 +43,17 @@ def drive(env: HighwayEnv, seed: int) -> tuple[dict, list[float], list[str]]:
     return info, positions, lane_ids
 
 
+def view_as_computed_before(route_map: RouteMap, lane_id: str, position_m: float) -> RouteView:
+    """`RouteMap.view` as it was before it kept each lane's neighbours and bisected the merge and diverge points."""
+    lowest, highest = route_map.edge_lanes(lane_id)
+    edge = lane_id.rpartition("_")[0]
+    ids = [f"{edge}_{index}" for index in range(highest - lowest + 1)] if edge in route_map._edges else [lane_id]
+    lane_end = tuple(route_map._lane_ends.get(lane, position_m) - position_m for lane in ids)
+    merge = min((at - position_m for at in route_map.merges_m if at > position_m), default=np.inf)
+    diverge = min((at - position_m for at in route_map.diverges_m if at > position_m), default=np.inf)
+    return RouteView(lowest, highest, lane_end, merge, diverge, route_map.length_m - position_m)
+
+
 @pytest.mark.parametrize("kind", ["merge", "merge_from_ramp", "lane_drop", "exit"])
 def test_each_roads_route_frame_numbers_lanes_from_the_main_roads_right_and_knows_where_lanes_end(small_config, kind):
     config = road(small_config, kind)
@@ -53,6 +65,10 @@ def test_each_roads_route_frame_numbers_lanes_from_the_main_roads_right_and_know
         sim.close()
     first_edge = route_map.route[0]
     views = {lane: route_map.view(f"{first_edge}_{lane}", 400.0) for lane in range(start_lanes)}
+    positions = [*route_map.merges_m, *route_map.diverges_m, *np.random.default_rng(35).uniform(-50.0, 1600.0, 40)]
+    for lane_id in route_map.lane_places:  # the view (cached per lane, points found by bisection) as it was computed
+        for position_m in positions:
+            assert route_map.view(lane_id, position_m) == view_as_computed_before(route_map, lane_id, position_m)
     if kind == "merge_from_ramp":  # the ramp (-1) leads into the acceleration lane, which ends after the feature
         assert start_lanes == 1 and views[0].lowest_lane == views[0].highest_lane == -1
         assert 750.0 + 250.0 - 20.0 < views[0].lane_end(-1) + 400.0 < 750.0 + 250.0 + 20.0

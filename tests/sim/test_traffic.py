@@ -5,7 +5,7 @@ from scenes import EGO_FRONT, view
 from sumo_rail.config import Config
 from sumo_rail.sim.env import HighwayEnv
 from sumo_rail.sim.observation import observation_names, observation_space
-from sumo_rail.sim.traffic import lane_block, within
+from sumo_rail.sim.traffic import lane_block, lane_gaps, within
 
 
 def test_lane_block_reads_gaps_and_relative_speeds_per_lane():
@@ -20,6 +20,41 @@ def test_lane_block_reads_gaps_and_relative_speeds_per_lane():
     assert left[2] == pytest.approx((EGO_FRONT - 4.5 - 980) / 100, abs=1e-6)
     leftmost = lane_block(view([], lane=4), 100.0, 33.33).reshape(3, 4)
     assert leftmost[2].tolist() == [0.0, 0.0, 0.0, 0.0]               # no lane there: blocked
+
+
+def lane_block_per_lane(traffic, range_m, v_max_mps):
+    """The lane block as it was computed before it was vectorised: `lane_gaps` lane by lane, in Python floats."""
+    block = np.zeros((3, 4), dtype=np.float32)
+    ego = traffic.ego
+    for row, lane in enumerate((ego.lane - 1, ego.lane, ego.lane + 1)):
+        if not 0 <= lane < traffic.lanes:
+            continue
+        gaps = lane_gaps(traffic, lane)
+        for column, (gap, speed) in enumerate(((gaps.front_gap_m, gaps.front_speed_mps),
+                                               (gaps.rear_gap_m, gaps.rear_speed_mps))):
+            seen = gap <= range_m
+            block[row, 2 * column] = min(max(gap, 0.0) / range_m, 1.0) if seen else 1.0
+            block[row, 2 * column + 1] = min(max((speed - ego.speed_mps) / v_max_mps, -1.0), 1.0) if seen else 0.0
+    return block.ravel()
+
+
+def test_lane_block_is_the_per_lane_computation_bit_for_bit_on_random_scenes():
+    rng = np.random.default_rng(35)
+    for _ in range(3000):
+        count = int(rng.integers(0, 25))
+        lanes = int(rng.integers(1, 6))
+        positions = EGO_FRONT + rng.uniform(-140.0, 140.0, count)
+        if count and rng.random() < 0.3:  # equal positions: the first of equals is the nearest, as in lane_gaps
+            positions[rng.integers(0, count, count // 2)] = positions[0]
+        others = [(int(rng.integers(-1, lanes + 1)), float(position), float(rng.choice([4.5, 7.5, 12.0, 16.5])),
+                   float(rng.uniform(0.0, 40.0))) for position in positions]
+        traffic = view(others, lane=int(rng.integers(-1, lanes)), speed=float(rng.uniform(0.0, 40.0)), lanes=lanes)
+        if count and rng.random() < 0.2:  # a vehicle on a road not linked to the route: placed at -inf, lane -1000
+            traffic.neighbours.lane_position_m[0], traffic.neighbours.lane[0] = -np.inf, -1000
+        range_m, v_max_mps = float(rng.choice([50.0, 100.0, 120.0])), float(rng.choice([33.33, 36.0]))
+        expected = lane_block_per_lane(traffic, range_m, v_max_mps)
+        actual = lane_block(traffic, range_m, v_max_mps)
+        assert actual.dtype == np.float32 and actual.tobytes() == expected.tobytes()
 
 
 def test_within_drops_vehicles_beyond_the_range_only():
