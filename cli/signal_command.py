@@ -61,11 +61,11 @@ def step_signal_command(config: Config, demos: Path, policy_path: Path,
         raise click.UsageError("--directions must be at least 3: the meter correlates the draws across directions")
     import numpy as np
 
+    from sumo_rail.datasets import write_bytes_atomically
     from sumo_rail.drivers.policies import Policy, load_policy
     from sumo_rail.learning.noise import directions, noise_for_flip_rate
     from sumo_rail.learning.rail import calibration_states
     from sumo_rail.learning.step_signal import Meter, measure, variants
-    from sumo_rail.learning.training import write_atomically
     from sumo_rail.runners.experts import demonstrations_expert, resolve_expert
     from sumo_rail.runners.tables import provenance, read_demonstrations
     from sumo_rail.sim.observation import observation_space
@@ -104,7 +104,7 @@ def step_signal_command(config: Config, demos: Path, policy_path: Path,
     click.echo(signal_table(record))
     if out is not None:
         try:
-            write_atomically(out, json.dumps(record, indent=2, sort_keys=True).encode())
+            write_bytes_atomically(out, json.dumps(record, indent=2, sort_keys=True).encode())
         except OSError as error:
             raise click.ClickException(f"cannot write {out}: {error.strerror or error}") from error
         click.echo(f"wrote {out}")

@@ -27,7 +27,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from sumo_rail.config import Config
-from sumo_rail.datasets import read_metadata, write_parquet
+from sumo_rail.datasets import read_metadata, write_bytes_atomically, write_parquet
 from sumo_rail.drivers.policies import Policy, PolicyShape, save_policy
 from sumo_rail.learning.bc import BcReport, BcSettings, behaviour_cloning
 from sumo_rail.learning.training import (
@@ -39,7 +39,6 @@ from sumo_rail.learning.training import (
     validation_columns,
     with_defaults,
     with_validation_columns,
-    write_atomically,
 )
 from sumo_rail.runners.backends import RolloutBackend, WorkerContext
 from sumo_rail.runners.experts import demonstrations_expert, resolve_expert
@@ -226,7 +225,8 @@ def _save(folder: Path, round_: int, dataset: Demonstrations, policy: Policy, lo
     log = pa.table({name: pa.array([row[name] for row in logs],
                                    pa.float64() if name.startswith(("eval_", "bc_")) else None) for name in columns})
     write_parquet(log, folder / "log.parquet", {**run_record, "kind": "dagger_log"})
-    write_atomically(folder / "checkpoint.json", json.dumps({"format": CHECKPOINT_FORMAT, "round": round_}).encode())
+    write_bytes_atomically(folder / "checkpoint.json",
+                           json.dumps({"format": CHECKPOINT_FORMAT, "round": round_}).encode())
 
 
 def _resume(folder: Path, run_record: dict[str, Any]) -> tuple[int, Demonstrations, list[dict[str, Any]]]:

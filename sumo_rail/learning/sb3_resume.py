@@ -18,9 +18,9 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import torch
 
-from sumo_rail.datasets import describe
+from sumo_rail.datasets import describe, write_bytes_atomically
 from sumo_rail.learning.gail_actor import FixedNormalisation
-from sumo_rail.learning.training import RunError, load_checkpoint, read_run_record, write_atomically
+from sumo_rail.learning.training import RunError, load_checkpoint, read_run_record
 
 if TYPE_CHECKING:
     from stable_baselines3 import PPO
@@ -106,7 +106,7 @@ def resume_run(folder: Path, run_record: dict[str, Any]) -> dict[str, Any]:
         raise RunError(f"checkpoint {path} is inconsistent ({describe(error)})") from error
     if len(rows) != updates or updates < 1:
         raise RunError(f"checkpoint {path} is inconsistent: {len(rows)} log rows for {updates} updates")
-    write_atomically(folder / "run.json", json.dumps(run_record, indent=2, sort_keys=True).encode())
+    write_bytes_atomically(folder / "run.json", json.dumps(run_record, indent=2, sort_keys=True).encode())
     return {**checkpoint, "log": [dict(row) for row in rows], "normalisation": normalisation}
 
 

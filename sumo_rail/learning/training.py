@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import os
 import pickle
 import signal
 import threading
@@ -34,6 +33,7 @@ from sumo_rail.datasets import (
     DatasetError,
     describe,
     read_json_record,
+    write_bytes_atomically,
     write_failure,
     write_parquet,
     written_together,
@@ -176,7 +176,7 @@ def start_run_folder(folder: Path, run_record: dict[str, Any]) -> None:
         raise RunError(f"run folder {folder} is not empty; pass --resume to continue it or choose another --out")
     try:
         folder.mkdir(parents=True, exist_ok=True)
-        write_atomically(folder / "run.json", json.dumps(run_record, indent=2, sort_keys=True).encode())
+        write_bytes_atomically(folder / "run.json", json.dumps(run_record, indent=2, sort_keys=True).encode())
     except OSError as error:
         raise RunError(f"cannot make the run folder {folder} ({write_failure(error)})") from error
 
@@ -340,12 +340,4 @@ def signals_deferred() -> Iterator[None]:
     if received:
         raise KeyboardInterrupt
 
-
-def write_atomically(path: Path, content: bytes) -> None:
-    temporary = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    try:
-        temporary.write_bytes(content)
-        os.replace(temporary, path)
-    finally:
-        temporary.unlink(missing_ok=True)
 
