@@ -243,7 +243,9 @@ def train_command(config: Config, demos: Path, kind: str, hidden: int,
                   backend_name: str, address: str | None, seed: int, eval_every: int, eval_episodes: int, out: Path,
                   resume: bool, tensorboard_dir: Path | None) -> None:
     """Learn a driving policy from demonstrations with RAIL (BC initialisation, then ARS with an LS-GAN reward)."""
-    from sumo_rail.learning.training import RunError, RunSettings, Validation, train
+    from sumo_rail.learning.rail.trainer import RunSettings, train
+    from sumo_rail.learning.run_folder import RunError
+    from sumo_rail.learning.validation import Validation
 
     check_egos(config, search.egos)
     check_run_folder(out)

@@ -53,7 +53,8 @@ def dagger_command(config: Config, demos: Path, kind: str, hidden: int,
     --resume continues it with the same result."""
     from sumo_rail.learning.bc import BcSettings
     from sumo_rail.learning.dagger import DaggerSettings, train_dagger
-    from sumo_rail.learning.training import RunError, Validation
+    from sumo_rail.learning.run_folder import RunError
+    from sumo_rail.learning.validation import Validation
 
     if expert is not None:
         expert, _ = resolve_expert_option(expert, config)

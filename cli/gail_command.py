@@ -54,10 +54,10 @@ def gail_command(config: Config, demos: Path, timesteps: int, kind: str,
     checkpoint.pt. Ctrl-C or SIGTERM stops after the current update with its files complete; --resume continues from
     there. Needs pip install 'sumo-rail[baselines]'.
     """
-    from sumo_rail.learning.discriminator import DiscriminatorSettings
-    from sumo_rail.learning.gail import GailSettings, train_gail
-    from sumo_rail.learning.sb3_runs import BaselineError
-    from sumo_rail.learning.training import RunError
+    from sumo_rail.learning.rail.discriminator import DiscriminatorSettings
+    from sumo_rail.learning.run_folder import RunError
+    from sumo_rail.learning.sb3.gail import GailSettings, train_gail
+    from sumo_rail.learning.sb3.runs import BaselineError
 
     try:
         settings = GailSettings(str(demos), timesteps=timesteps, kind=kind, hidden=hidden, bc_epochs=bc_epochs,

@@ -16,8 +16,8 @@ from sumo_rail_cli.running import library_errors
 from sumo_rail.config import Config
 
 if TYPE_CHECKING:
-    from sumo_rail.learning.discriminator import DiscriminatorSettings
-    from sumo_rail.learning.rail import RailSettings
+    from sumo_rail.learning.rail.discriminator import DiscriminatorSettings
+    from sumo_rail.learning.rail.iteration import RailSettings
     from sumo_rail.runners.backends import RolloutBackend
 
 
@@ -237,9 +237,9 @@ class SearchOptions:
 
     def settings(self, seed: int) -> tuple[RailSettings, DiscriminatorSettings]:
         """The RAIL and discriminator settings; an inconsistent combination is a usage error (exit 2)."""
-        from sumo_rail.learning.ars import NoiseAdaptation
-        from sumo_rail.learning.discriminator import DiscriminatorSettings
-        from sumo_rail.learning.rail import RailSettings
+        from sumo_rail.learning.rail.ars import NoiseAdaptation
+        from sumo_rail.learning.rail.discriminator import DiscriminatorSettings
+        from sumo_rail.learning.rail.iteration import RailSettings
 
         try:
             rail = RailSettings(directions=self.directions, top=self.top, step_size=self.step_size,

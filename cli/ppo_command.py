@@ -65,9 +65,9 @@ def ppo_command(config: Config, kind: str, hidden: int, timesteps: int, envs: in
     'sumo-rail[baselines]'.
     """
     from sumo_rail.drivers.policies import PolicyFileError
-    from sumo_rail.learning.ppo_driver import PpoSettings, initial_policy, train_ppo_driver
-    from sumo_rail.learning.sb3_runs import BaselineError
-    from sumo_rail.learning.training import RunError
+    from sumo_rail.learning.run_folder import RunError
+    from sumo_rail.learning.sb3.ppo import PpoSettings, initial_policy, train_ppo_driver
+    from sumo_rail.learning.sb3.runs import BaselineError
 
     if critic_warmup is None:
         critic_warmup = CRITIC_WARMUP_WITH_INIT if init is not None else 0

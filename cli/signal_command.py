@@ -22,7 +22,7 @@ from sumo_rail_cli.progress import complete, progress
 from sumo_rail_cli.running import interruptible_run, library_errors
 from sumo_rail_cli.settings import config_options
 
-from sumo_rail.learning.step_signal import REWARD_VARIANTS
+from sumo_rail.learning.rail.step_signal import REWARD_VARIANTS
 
 if TYPE_CHECKING:
     from sumo_rail.config import Config
@@ -63,9 +63,9 @@ def step_signal_command(config: Config, demos: Path, policy_path: Path,
 
     from sumo_rail.datasets import write_bytes_atomically
     from sumo_rail.drivers.policies import Policy, load_policy
-    from sumo_rail.learning.noise import directions, noise_for_flip_rate
-    from sumo_rail.learning.rail import calibration_states
-    from sumo_rail.learning.step_signal import Meter, measure, variants
+    from sumo_rail.learning.rail.iteration import calibration_states
+    from sumo_rail.learning.rail.noise import directions, noise_for_flip_rate
+    from sumo_rail.learning.rail.step_signal import Meter, measure, variants
     from sumo_rail.runners.experts import demonstrations_expert, resolve_expert
     from sumo_rail.runners.tables import provenance, read_demonstrations
     from sumo_rail.sim.observation import observation_space

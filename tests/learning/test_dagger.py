@@ -15,7 +15,8 @@ from sumo_rail.drivers.policies import Policy, PolicyShape, load_policy
 from sumo_rail.learning import dagger
 from sumo_rail.learning.bc import BcReport, BcSettings
 from sumo_rail.learning.dagger import DaggerSettings, DaggerTask, train_dagger
-from sumo_rail.learning.training import RunError, Validation
+from sumo_rail.learning.run_folder import RunError
+from sumo_rail.learning.validation import Validation
 from sumo_rail.runners.backends import ProcessPoolBackend, SerialBackend, WorkerContext
 from sumo_rail.runners.rollout import EpisodeTask, ExpertDriver, PolicyDriver, run_episode
 from sumo_rail.runners.tables import DEMONSTRATIONS, demonstrations_table, provenance

@@ -11,7 +11,7 @@ from gymnasium.utils import seeding
 from test_cli import SMALL, SMALL_CONFIG, invoke
 
 from sumo_rail.drivers.policies import load_policy
-from sumo_rail.learning.shared_road import RespawningRoad, env_seeds, shared_road_vec_env
+from sumo_rail.learning.sb3.shared_road import RespawningRoad, env_seeds, shared_road_vec_env
 from sumo_rail.sim.env import HighwayEnv
 
 

@@ -13,7 +13,7 @@ SubprocVecEnv gives for a `HighwayEnv` whose first reset is seeded.
 Env index i is ego i % K of process i // K. Process p's road is first reset with the seed of `env_seeds(seed,
 processes)[p]`, and every respawn and later reset draws from that road's `np_random`, so the same seed, K and
 process count give the same rollouts bit for bit. A process that fails writes why to error_dir/env_P.txt and ends
-(`gail_envs.exit_reporting`); the parent then reports the lost process in one sentence (`sb3_runs.env_processes`).
+(`envs.exit_reporting`); the parent then reports the lost process in one sentence (`runs.env_processes`).
 """
 
 from __future__ import annotations
@@ -29,7 +29,7 @@ import numpy as np
 from gymnasium import spaces
 
 from sumo_rail.config import Config
-from sumo_rail.learning.gail_envs import LOST_ENV, exit_reporting
+from sumo_rail.learning.sb3.envs import LOST_ENV, exit_reporting
 from sumo_rail.seeding import Purpose, episode_seeds
 from sumo_rail.sim.actions import Action
 from sumo_rail.sim.observation import observation_space

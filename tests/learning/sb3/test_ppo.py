@@ -8,7 +8,7 @@ from test_cli import SMALL, SMALL_CONFIG, invoke
 
 from sumo_rail.datasets import read_metadata
 from sumo_rail.drivers.policies import Policy, PolicyShape, load_policy, save_policy
-from sumo_rail.learning.ppo_driver import INSTALL_HINT, EpisodeTally, PpoSettings
+from sumo_rail.learning.sb3.ppo import INSTALL_HINT, EpisodeTally, PpoSettings
 from sumo_rail.sim.observation import observation_names
 
 

@@ -1,5 +1,5 @@
 """The rewards PPO sees in GAIL: the environments run in spawned processes (libsumo: one simulation per process,
-`gail_envs`); `labelled_vec_env` puts `LabelledVecEnv` in front of them, which keeps the raw (observation, action)
+`envs`); `labelled_vec_env` puts `LabelledVecEnv` in front of them, which keeps the raw (observation, action)
 pairs, replaces the env's reward with log D - log(1 - D) of the current discriminator (`RewardLabeller`; pairs are
 scored as they come, by the discriminator of the previous updates) and normalises the observations PPO sees by
 fixed statistics. A collision adds (horizon - decisions so far) x the lowest reward to its final step, so ending
@@ -23,9 +23,9 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from gymnasium import spaces
 
-from sumo_rail.learning.discriminator import Discriminator
-from sumo_rail.learning.gail_actor import FixedNormalisation
-from sumo_rail.learning.rail import rollout_return
+from sumo_rail.learning.rail.discriminator import Discriminator
+from sumo_rail.learning.rail.iteration import rollout_return
+from sumo_rail.learning.sb3.actor import FixedNormalisation
 
 if TYPE_CHECKING:
     from stable_baselines3 import PPO
@@ -46,7 +46,7 @@ class Rollout:
     rewards: np.ndarray
     """Discriminator reward of each pair, before any collision padding, shape (T x envs,) [nats]."""
     returns: np.ndarray
-    """Per-decision return (`rail.rollout_return`) of each episode that ended in the rollout."""
+    """Per-decision return (`iteration.rollout_return`) of each episode that ended in the rollout."""
     collisions: int
 
 

@@ -1,15 +1,13 @@
-"""What the two Stable-Baselines3 trainers (`gail`, `ppo_driver`) share: the install check, PPO built with a
+"""What the two Stable-Baselines3 trainers (`gail`, `ppo`) share: the install check, PPO built with a
 `PolicyShape` actor, stopping after the current update on SIGINT / SIGTERM, and saving an update's policy and log
-together with the checkpoint `--resume` continues from (`sb3_resume`). Stable-Baselines3 is imported only by the
+together with the checkpoint `--resume` continues from (`sb3.resume`). Stable-Baselines3 is imported only by the
 functions that need it."""
 
 from __future__ import annotations
 
 import dataclasses
 import math
-import signal
 import tempfile
-import threading
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
@@ -20,8 +18,8 @@ import pyarrow as pa
 
 from sumo_rail.datasets import DatasetError, write_failure, write_parquet, written_together
 from sumo_rail.drivers.policies import Policy, PolicyShape, save_policy
-from sumo_rail.learning.gail_actor import policy_kwargs
-from sumo_rail.learning.gail_envs import LOST_ENV, close_envs, lost_env_message
+from sumo_rail.learning.sb3.actor import policy_kwargs
+from sumo_rail.learning.sb3.envs import LOST_ENV, close_envs, lost_env_message
 
 if TYPE_CHECKING:
     from stable_baselines3 import PPO
@@ -95,7 +93,7 @@ def require_stable_baselines3(hint: str) -> None:
 
 
 def build_ppo(venv: VecEnv, shape: PolicyShape, settings: PpoHyperparameters, ent_coef: float = 0.0) -> PPO:
-    """PPO with the actor of `shape` (`gail_actor.policy_kwargs`), seeded with `settings.seed`, on the CPU. Its
+    """PPO with the actor of `shape` (`actor.policy_kwargs`), seeded with `settings.seed`, on the CPU. Its
     logger keeps each update's values (`model.logger.name_to_value`) and writes nowhere: SB3's default one makes an
     empty /tmp/SB3-DATE directory at every `learn`, and the training commands call it once an update."""
     from stable_baselines3 import PPO
@@ -134,41 +132,10 @@ def env_processes(folder: Path, run: str, updates_done: Callable[[], int]) -> It
                 close_envs(processes.venv, lost)
 
 
-class StopRequest:
-    """Whether a stop was asked for: a plain flag, which a signal handler can set while another signal interrupts it
-    (a `threading.Event` takes a lock in `set`, so a second Ctrl-C arriving inside the first one's handler would
-    deadlock the main thread)."""
-
-    def __init__(self) -> None:
-        self.requested = False
-
-    def set(self) -> None:
-        self.requested = True
-
-    def is_set(self) -> bool:
-        return self.requested
-
-
-@contextmanager
-def stop_requests() -> Iterator[StopRequest]:
-    """A flag that SIGINT and SIGTERM set instead of interrupting (main thread only; handlers restored after)."""
-    stop = StopRequest()
-    if threading.current_thread() is not threading.main_thread():
-        yield stop
-        return
-    previous = {number: signal.signal(number, lambda caught, frame: stop.set())
-                for number in (signal.SIGINT, signal.SIGTERM)}
-    try:
-        yield stop
-    finally:
-        for number, handler in previous.items():
-            signal.signal(number, handler)
-
-
 def save_update(folder: Path, policy: Policy, rows: list[dict[str, Any]], run_record: dict[str, Any],
                 checkpoint: dict[str, Any]) -> None:
     """Replace policy_latest.npz, log.parquet (`rows`, the last being this update's) and checkpoint.pt
-    (`sb3_resume.learner_checkpoint`) together: all or, on a full disk, none; a BaselineError saying what the folder
+    (`resume.learner_checkpoint`) together: all or, on a full disk, none; a BaselineError saying what the folder
     keeps otherwise."""
     import torch
 

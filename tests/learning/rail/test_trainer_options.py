@@ -7,11 +7,10 @@ import json
 import numpy as np
 import pytest
 from test_cli import SMALL, invoke
-from test_training import demos_path, small_config_module  # noqa: F401 (fixtures)
 
-from sumo_rail.learning.discriminator import DiscriminatorSettings
-from sumo_rail.learning.rail import RailSettings
-from sumo_rail.learning.training import RunSettings, train
+from sumo_rail.learning.rail.discriminator import DiscriminatorSettings
+from sumo_rail.learning.rail.iteration import RailSettings
+from sumo_rail.learning.rail.trainer import RunSettings, train
 from sumo_rail.runners.backends import SerialBackend
 
 OPTIONS = {  # option: (value, where run.json's settings hold it, the value stored there); values all distinct
