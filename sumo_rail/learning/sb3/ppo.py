@@ -160,32 +160,11 @@ class EpisodeTally:
 
 def driving_vec_env(venv: VecEnv, tally: EpisodeTally, normalisation: FixedNormalisation) -> VecEnv:
     """The driving envs `venv` (`shared_road.driving_processes`) with rewards through `tally` and observations
-    through `normalisation`."""
-    from gymnasium import spaces
-    from stable_baselines3.common.vec_env import VecEnvWrapper
+    through `normalisation` (`vec_envs.NormalisedVecEnv`)."""
+    from sumo_rail.learning.sb3.vec_envs import NormalisedVecEnv
 
-    class TalliedVecEnv(VecEnvWrapper):
-        """Rewards through `tally`, normalised observations (terminal ones too); `seed` is a no-op: the env
-        factories seed the envs."""
-
-        def __init__(self, venv: VecEnv) -> None:
-            shape = venv.observation_space.shape
-            super().__init__(venv, observation_space=spaces.Box(-np.inf, np.inf, shape, np.float32))
-
-        def seed(self, seed: int | None = None) -> list[int | None]:
-            return [None] * self.num_envs
-
-        def reset(self) -> np.ndarray:
-            return normalisation(self.venv.reset())
-
-        def step_wait(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[dict[str, Any]]]:
-            observations, rewards, dones, infos = self.venv.step_wait()
-            for info in infos:
-                if "terminal_observation" in info:
-                    info["terminal_observation"] = normalisation(info["terminal_observation"])
-            return normalisation(observations), tally.shaped(rewards, dones, infos), dones, infos
-
-    return TalliedVecEnv(venv)
+    return NormalisedVecEnv(venv, normalisation, lambda raw, actions, rewards, dones, infos:
+                            tally.shaped(rewards, dones, infos))
 
 
 def train_ppo_driver(folder: Path, settings: PpoSettings, config: Config,
