@@ -23,7 +23,7 @@ from sumo_rail_cli.options import (
     search_options,
     tensorboard_option,
 )
-from sumo_rail_cli.progress import advance_to, complete, progress
+from sumo_rail_cli.progress import advance_to, complete, progress, start_at
 from sumo_rail_cli.running import (
     bc_summary,
     interruptible_run,
@@ -262,14 +262,14 @@ def train_command(config: Config, demos: Path, kind: str, hidden: int,
             board.log(row)
         steps_per_s = row["env_steps"] / row["wall_time_s"]
         bar.set_postfix(D_return=f"{row['return_mean']:+.3f}", steps_per_s=f"{steps_per_s:.0f}")
-        advance_to(bar, row["iteration"] + 1)  # a resumed run starts from the iterations done
+        advance_to(bar, row["iteration"] + 1)
         if row["eval_average_speed_kmh"] is not None:
             bar.write(f"iteration {row['iteration'] + 1}: {validation_summary(row, eval_episodes)}")
 
-    with interruptible_run(bar, kept_until_resume(out, "iteration"), backend,
+    with interruptible_run(bar, lambda: kept_until_resume(out, "iteration"), backend,
                            tensorboard_logger(tensorboard_dir, "rail", out), errors=(RunError,)) as board:
         state = train(out, settings, config, iterations, backend, resume, Validation(eval_every, eval_episodes),
-                      on_bc=show_bc, on_iteration=show)
+                      on_bc=show_bc, on_iteration=show, on_start=lambda done: start_at(bar, done))
         complete(bar)
     click.echo(f"trained {state.iteration} iterations; policies in {out}")
 

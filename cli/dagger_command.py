@@ -80,7 +80,7 @@ def dagger_command(config: Config, demos: Path, kind: str, hidden: int,
             text += f", {validation_summary(row, eval_episodes)}"
         bar.write(text)
 
-    with interruptible_run(bar, kept_until_resume(out, "round"), backend,
+    with interruptible_run(bar, lambda: kept_until_resume(out, "round", "checkpoint.json"), backend,
                            tensorboard_logger(tensorboard_dir, "dagger", out), errors=(RunError,)) as board:
         train_dagger(out, settings, config, rounds, backend, resume, Validation(eval_every, eval_episodes),
                      on_round=show)

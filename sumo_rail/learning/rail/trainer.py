@@ -66,11 +66,13 @@ def train(folder: Path, settings: RunSettings, config: Config, iterations: int, 
           resume: bool, validation: Validation | None = None,
           on_bc: Callable[[BcReport], None] | None = None,
           on_iteration: Callable[[dict[str, Any]], None] | None = None,
-          on_rollout: Callable[[int, Any], None] | None = None) -> TrainingState:
+          on_rollout: Callable[[int, Any], None] | None = None,
+          on_start: Callable[[int], None] | None = None) -> TrainingState:
     """Train until `iterations` iterations are done; returns the final state. Safe to interrupt at any time.
 
     `on_bc` receives the behaviour-cloning report (new runs with bc_epochs > 0); `on_iteration` each iteration's
-    log row (IterationLog fields, wall_time_s and eval_* metrics); `on_rollout` each rollout as it arrives."""
+    log row (IterationLog fields, wall_time_s and eval_* metrics); `on_rollout` each rollout as it arrives;
+    `on_start` the iterations already done (those of the resumed run, else 0) before the first new one."""
     folder, validation = Path(folder), validation or Validation()
     observation_size = observation_space(config).shape[0]
     demos = read_demonstrations(Path(settings.demos), observation_size)
@@ -87,6 +89,8 @@ def train(folder: Path, settings: RunSettings, config: Config, iterations: int, 
     else:
         start_run_folder(folder, run_record)
         state, logs = _initial_state(folder, settings, shape, demos, run_record, on_bc), []
+    if on_start is not None:
+        on_start(state.iteration)
     while state.iteration < iterations:
         started = time.perf_counter()
         log = run_iteration(state, shape, config, settings.rail, discriminator, demos, backend, on_rollout, asked)
