@@ -7,6 +7,8 @@ from typing import TYPE_CHECKING, Any
 
 import click
 from sumo_rail_cli.options import (
+    RESEARCH_OPTIONS,
+    ResearchOptionsCommand,
     SearchOptions,
     backend_options,
     build_backend,
@@ -230,7 +232,7 @@ def _write_videos(videos: dict[str, bytes], video_dir: Path | None) -> list[str]
     return sorted(videos)
 
 
-@click.command("train")
+@click.command("train", cls=ResearchOptionsCommand, research=RESEARCH_OPTIONS)
 @config_options
 @imitation_options
 @search_options

@@ -209,6 +209,45 @@ def tensorboard_option(command: Callable[..., Any]) -> Callable[..., Any]:
                                            "'sumo-rail[tensorboard]'.")(command)
 
 
+RESEARCH_OPTIONS = frozenset({"flip_rate", "fitness", "reward", "traffic", "episodes_per_rollout", "freeze_normalizer",
+                              "disc_reward", "disc_balance", "disc_penalty", "disc_replay"})
+"""train's options that only research uses (ablations, remedies that did not become defaults; the committed
+experiments pass them): `train --help` leaves them out, `train --help-all` lists them."""
+
+
+class ResearchOptionsCommand(click.Command):
+    """A command whose `research` options (parameter names) work as any other but are listed only by --help-all, so
+    that --help shows what a user sets."""
+
+    def __init__(self, *args: Any, research: frozenset[str] = frozenset(), **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        self.research = research
+        self.params.append(click.Option(["--help-all"], is_flag=True, expose_value=False, is_eager=True,
+                                        callback=self._help_all, help="Show the research options too, and exit."))
+
+    def _help_all(self, ctx: click.Context, param: click.Parameter, value: bool) -> None:
+        if value and not ctx.resilient_parsing:
+            ctx.meta["help_all"] = True
+            click.echo(ctx.get_help(), color=ctx.color)
+            ctx.exit()
+
+    def format_options(self, ctx: click.Context, formatter: click.HelpFormatter) -> None:
+        records: dict[bool, list[tuple[str, str]]] = {False: [], True: []}
+        for param in self.get_params(ctx):
+            record = param.get_help_record(ctx)
+            if record is not None:
+                records[param.name in self.research].append(record)
+        with formatter.section("Options"):
+            formatter.write_dl(records[False])
+        if ctx.meta.get("help_all"):
+            with formatter.section("Research options (ablations and remedies no default uses)"):
+                formatter.write_dl(records[True])
+        elif records[True]:
+            formatter.write_paragraph()
+            formatter.write_text(f"{len(records[True])} research options (ablations and remedies no default uses) "
+                                 f"are listed by --help-all.")
+
+
 @dataclass(frozen=True)
 class SearchOptions:
     """The ARS and discriminator options of `search_options`, as given."""
