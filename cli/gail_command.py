@@ -31,21 +31,17 @@ if TYPE_CHECKING:
     from sumo_rail.learning.bc import BcReport
 
 
-CRITIC_WARMUP = 5
-"""--critic-warmup's default [updates]."""
-
-
 @click.command("gail")
 @config_options
 @imitation_options
-@ppo_options(default_timesteps=100_000, critic_help=f"  [default: {CRITIC_WARMUP}]")
+@ppo_options("sumo_rail.learning.sb3.gail:GailSettings")
 @seed_option("Seed of everything the run draws; the same seed, --envs and --egos give the same policy.")
 @click.option("--out", type=click.Path(path_type=Path, file_okay=False), required=True,
               help="Run folder (new or empty, or the run to continue with --resume).")
 @tensorboard_option
 def gail_command(config: Config, demos: Path, timesteps: int, kind: str,
                  hidden: int, bc_epochs: int, bc_class_balance: float, envs: int, egos: int, n_steps: int,
-                 learning_rate: float, normalize_reward: bool, critic_warmup: int | None, resume: bool, seed: int,
+                 learning_rate: float, normalize_reward: bool, critic_warmup: int, resume: bool, seed: int,
                  out: Path, tensorboard_dir: Path | None) -> None:
     """Train the GAIL baseline: PPO (Stable-Baselines3) on RAIL's discriminator reward, with RAIL's actor.
 
@@ -64,7 +60,7 @@ def gail_command(config: Config, demos: Path, timesteps: int, kind: str,
                                 bc_class_balance=bc_class_balance, envs=envs, egos=egos, n_steps=n_steps,
                                 batch_size=minibatch_size(None, n_steps, envs, egos), learning_rate=learning_rate,
                                 normalize_reward=normalize_reward,
-                                critic_warmup=CRITIC_WARMUP if critic_warmup is None else critic_warmup, seed=seed,
+                                critic_warmup=critic_warmup, seed=seed,
                                 discriminator=DiscriminatorSettings(seed=seed))
     except ValueError as error:
         raise click.UsageError(str(error)) from error

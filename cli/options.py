@@ -4,6 +4,7 @@ TOML, `--set`) is `settings`; how the long commands run (Ctrl-C, errors, progres
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 from collections.abc import Callable
 from dataclasses import dataclass, fields
@@ -19,6 +20,38 @@ if TYPE_CHECKING:
     from sumo_rail.learning.rail.discriminator import DiscriminatorSettings
     from sumo_rail.learning.rail.iteration import RailSettings
     from sumo_rail.runners.backends import RolloutBackend
+
+
+class SettingOption(click.Option):
+    """An option whose default is a settings dataclass's (`setting_default`): read when --help or the parsing needs
+    it, so the value is written once, in the dataclass, whose module stays unimported until then; --help shows it."""
+
+    def get_default(self, ctx: click.Context, call: bool = True) -> Any:
+        return super().get_default(ctx, call=True)
+
+
+def setting_default(module: str, path: str, convert: Callable[[Any], Any] = lambda value: value) -> Callable[[], Any]:
+    """A function giving the default of the settings field `path` ("RailSettings.noise.initial": a dataclass of
+    `module`, then fields) through `convert`, for a `SettingOption`."""
+    def read() -> Any:
+        import importlib
+
+        owner, *names = path.split(".")
+        value: Any = getattr(importlib.import_module(module), owner)
+        for name in names:
+            value = _field_default(value, name) if dataclasses.is_dataclass(value) and isinstance(value, type) \
+                else getattr(value, name)
+        return convert(value)
+    return read
+
+
+def _field_default(cls: type, name: str) -> Any:
+    field = next(field for field in dataclasses.fields(cls) if field.name == name)
+    return field.default_factory() if field.default is dataclasses.MISSING else field.default  # type: ignore[misc]
+
+
+RAIL = "sumo_rail.learning.rail.iteration"
+DISCRIMINATOR = "sumo_rail.learning.rail.discriminator"
 
 
 def imitation_options(command: Callable[..., Any]) -> Callable[..., Any]:
@@ -46,27 +79,39 @@ def policy_shape_options(command: Callable[..., Any]) -> Callable[..., Any]:
                         help="linear: obs -> 5 logits; mlp: obs -> --hidden tanh units -> 5 logits.")(command)
 
 
-def ppo_options(default_timesteps: int, critic_help: str) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
-    """What gail and ppo share: --timesteps, --envs, --egos, --n-steps, --learning-rate, --normalize-reward,
-    --critic-warmup (`critic_help` ends its help, which says its default) and --resume."""
+def ppo_options(settings: str, critic_help: str = "") -> Callable[[Callable[..., Any]], Callable[..., Any]]:
+    """What gail and ppo share: --timesteps, --envs, --egos, --n-steps, --learning-rate, --normalize-reward (their
+    defaults those of `settings`, "module:Class", GailSettings or PpoSettings), --critic-warmup and --resume.
+    --critic-warmup's default is the settings' unless `critic_help` (which ends its help) says another."""
+    module, owner = settings.split(":")
+
+    def default(name: str) -> Callable[[], Any]:
+        return setting_default(module, f"{owner}.{name}")
+
+    critic_default: dict[str, Any] = ({"cls": SettingOption, "default": default("critic_warmup"), "show_default": True}
+                                      if not critic_help else {"default": None})
     options = [
-        click.option("--timesteps", type=click.IntRange(min=1), default=default_timesteps, show_default=True,
+        click.option("--timesteps", cls=SettingOption, type=click.IntRange(min=1), default=default("timesteps"),
+                     show_default=True,
                      help="Environment decisions in total (rounded up to whole updates of --n-steps x --envs x "
                           "--egos)."),
-        click.option("--envs", type=click.IntRange(min=1), default=2, show_default=True,
-                     help="Environment processes; unlike train's --workers, the result depends on it."),
-        click.option("--egos", type=click.IntRange(min=1), default=1, show_default=True,
+        click.option("--envs", cls=SettingOption, type=click.IntRange(min=1), default=default("envs"),
+                     show_default=True, help="Environment processes; unlike train's --workers, the result depends on "
+                                             "it."),
+        click.option("--egos", cls=SettingOption, type=click.IntRange(min=1), default=default("egos"),
+                     show_default=True,
                      help="Egos per environment process, sharing its simulation (PPO's envs are --envs x --egos): an "
                           "ego whose episode ends is replaced at once by a new one in the start window while the "
                           "others drive on. The result depends on it."),
-        click.option("--n-steps", type=click.IntRange(min=1), default=512, show_default=True,
-                     help="PPO decisions per env (ego) and update."),
-        click.option("--learning-rate", type=click.FloatRange(min=0, min_open=True), default=3e-4,
-                     show_default=True, help="PPO's Adam step size."),
-        click.option("--normalize-reward/--no-normalize-reward", default=True, show_default=True,
+        click.option("--n-steps", cls=SettingOption, type=click.IntRange(min=1), default=default("n_steps"),
+                     show_default=True, help="PPO decisions per env (ego) and update."),
+        click.option("--learning-rate", cls=SettingOption, type=click.FloatRange(min=0, min_open=True),
+                     default=default("learning_rate"), show_default=True, help="PPO's Adam step size."),
+        click.option("--normalize-reward/--no-normalize-reward", cls=SettingOption, default=default("normalize_reward"),
+                     show_default=True,
                      help="Divide PPO's rewards by the running std of the discounted return and clip them to +-10 "
                           "(Stable-Baselines3's VecNormalize), so that one collision cannot swamp the critic."),
-        click.option("--critic-warmup", type=click.IntRange(min=0), default=None, metavar="K",
+        click.option("--critic-warmup", type=click.IntRange(min=0), metavar="K", **critic_default,
                      help=f"First K updates with the actor frozen, only the critic learning (they count in "
                           f"--timesteps){critic_help}."),
         click.option("--resume", is_flag=True,
@@ -300,57 +345,77 @@ def search_options(command: Callable[..., Any]) -> Callable[..., Any]:
     """RAIL's ARS and discriminator options, what train and step-signal share; the command receives them as one
     `search: SearchOptions` argument."""
     options = [
-        click.option("--directions", type=click.IntRange(min=1), default=32, show_default=True, help="N, directions."),
+        click.option("--directions", cls=SettingOption, type=click.IntRange(min=1),
+                     default=setting_default(RAIL, "RailSettings.directions"), show_default=True,
+                     help="N, directions."),
         click.option("--top", type=click.IntRange(min=1), default=None,
                      help="b, best directions kept [default: N / 2]."),
-        click.option("--step-size", type=click.FloatRange(min=0, min_open=True), default=0.02, show_default=True,
+        click.option("--step-size", cls=SettingOption, type=click.FloatRange(min=0, min_open=True),
+                     default=setting_default(RAIL, "RailSettings.step_size"), show_default=True,
                      help="alpha, the ARS step size (the paper's 0.001 changes 0.1% of decisions in 3 iterations; "
                           "see docs/results.md)."),
-        click.option("--noise", type=click.FloatRange(min=0, min_open=True), default=0.03, show_default=True,
+        click.option("--noise", cls=SettingOption, type=click.FloatRange(min=0, min_open=True),
+                     default=setting_default(RAIL, "RailSettings.noise.initial"), show_default=True,
                      help="nu_init, the perturbation scale."),
-        click.option("--noise-increment", type=click.FloatRange(min=0), default=0.001, show_default=True,
+        click.option("--noise-increment", cls=SettingOption, type=click.FloatRange(min=0),
+                     default=setting_default(RAIL, "RailSettings.noise.increment"), show_default=True,
                      help="tau, added to nu at each check without improvement."),
-        click.option("--noise-every", type=click.IntRange(min=1), default=10, show_default=True,
+        click.option("--noise-every", cls=SettingOption, type=click.IntRange(min=1),
+                     default=setting_default(RAIL, "RailSettings.noise.every"), show_default=True,
                      help="eta, iterations between noise checks."),
         click.option("--flip-rate", type=click.FloatRange(min=0, max=1, min_open=True, max_open=True), default=None,
                      help="Set nu at every iteration so that the perturbations change this share of the policy's "
                           "decisions on the expert's states (replaces --noise, --noise-increment, --noise-every)."),
-        click.option("--fitness", type=click.Choice(["std", "rank"]), default="std", show_default=True,
+        click.option("--fitness", cls=SettingOption, type=click.Choice(["std", "rank"]),
+                     default=setting_default(RAIL, "RailSettings.fitness"), show_default=True,
                      help="std: returns divided by their std (ARS); rank: centred ranks (Salimans et al. 2017)."),
-        click.option("--reward", type=click.Choice(["discriminator", "agreement"]), default="discriminator",
-                     show_default=True,
+        click.option("--reward", cls=SettingOption, type=click.Choice(["discriminator", "agreement"]),
+                     default=setting_default(RAIL, "RailSettings.reward"), show_default=True,
                      help="discriminator: RAIL's. agreement: a control, not imitation: the expert is asked at every "
                           "decision of every rollout and the return is the share of decisions it would have made alike "
                           "(what the search reaches with it bounds what any reward can)."),
-        click.option("--traffic", type=click.Choice(["common", "independent"]), default="independent",
+        click.option("--traffic", cls=SettingOption, type=click.Choice(["common", "independent"]),
+                     default=setting_default(RAIL, "RailSettings.common_traffic",
+                                             lambda common: "common" if common else "independent"),
                      show_default=True,
                      help="common: every direction of an iteration drives the same episodes (common random numbers); "
                           "independent: each direction its own."),
-        click.option("--episodes-per-rollout", type=click.IntRange(min=1), default=1, show_default=True,
+        click.option("--episodes-per-rollout", cls=SettingOption, type=click.IntRange(min=1),
+                     default=setting_default(RAIL, "RailSettings.episodes_per_rollout"), show_default=True,
                      help="Episodes each perturbed rollout drives (its return is their mean)."),
         egos_option("Rollouts of an iteration", "1: one rollout per simulation, as the paper."),
         click.option("--rollout-decisions", type=click.IntRange(min=1), default=None, metavar="D",
                      help="Make each rollout D decisions of its ego, respawning it whenever an episode ends, so the "
                           "egos of a road never wait for each other (with --egos 8: ~4x the decisions per core); its "
                           "return is the reward per decision [default: one whole episode, the paper's]."),
-        click.option("--freeze-normalizer/--merge-normalizer", default=True, show_default=True,
+        click.option("--freeze-normalizer/--merge-normalizer", cls=SettingOption,
+                     default=setting_default(RAIL, "RailSettings.freeze_normalizer"), show_default=True,
                      help="Keep BC's observation statistics, or merge every rollout's states into them (the "
                           "paper's)."),
-        click.option("--disc-hidden", type=click.IntRange(min=1), default=64, show_default=True,
+        click.option("--disc-hidden", cls=SettingOption, type=click.IntRange(min=1),
+                     default=setting_default(DISCRIMINATOR, "DiscriminatorSettings.hidden"), show_default=True,
                      help="Discriminator units per hidden layer."),
-        click.option("--disc-lr", type=click.FloatRange(min=0, min_open=True), default=3e-4, show_default=True,
+        click.option("--disc-lr", cls=SettingOption, type=click.FloatRange(min=0, min_open=True),
+                     default=setting_default(DISCRIMINATOR, "DiscriminatorSettings.learning_rate"), show_default=True,
                      help="Discriminator Adam step size."),
-        click.option("--disc-steps", type=click.IntRange(min=1), default=10, show_default=True,
+        click.option("--disc-steps", cls=SettingOption, type=click.IntRange(min=1),
+                     default=setting_default(DISCRIMINATOR, "DiscriminatorSettings.steps_per_iteration"),
+                     show_default=True,
                      help="Discriminator gradient steps per iteration."),
-        click.option("--disc-reward", type=click.Choice(["logit", "contrast"]), default="logit", show_default=True,
+        click.option("--disc-reward", cls=SettingOption, type=click.Choice(["logit", "contrast"]),
+                     default=setting_default(DISCRIMINATOR, "DiscriminatorSettings.reward_form"), show_default=True,
                      help="logit: log D - log(1 - D), the paper's; contrast: minus its mean over the actions at the "
                           "same state (rewards the choice of action, not the state)."),
-        click.option("--disc-balance", type=click.FloatRange(min=0), default=0.0, show_default=True,
+        click.option("--disc-balance", cls=SettingOption, type=click.FloatRange(min=0),
+                     default=setting_default(DISCRIMINATOR, "DiscriminatorSettings.balance"), show_default=True,
                      help="Discriminator minibatches weigh pairs by (1 / their action's frequency)^p: 0 uniform, 1 "
                           "every action alike."),
-        click.option("--disc-penalty", type=click.FloatRange(min=0), default=0.0, show_default=True,
+        click.option("--disc-penalty", cls=SettingOption, type=click.FloatRange(min=0),
+                     default=setting_default(DISCRIMINATOR, "DiscriminatorSettings.gradient_penalty"),
+                     show_default=True,
                      help="Weight of the gradient penalty on expert pairs (R1)."),
-        click.option("--disc-replay", type=click.IntRange(min=1), default=1, show_default=True,
+        click.option("--disc-replay", cls=SettingOption, type=click.IntRange(min=1),
+                     default=setting_default(DISCRIMINATOR, "DiscriminatorSettings.replay"), show_default=True,
                      help="Iterations of policy pairs the discriminator trains on (1: the current one)."),
     ]
     names = [field.name for field in fields(SearchOptions)]

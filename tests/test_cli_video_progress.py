@@ -149,8 +149,9 @@ def fake_train(done: int, interrupt: bool = False):
 
 
 def test_a_resumed_train_counts_from_its_resumed_iteration(tmp_path, monkeypatch):
-    from sumo_rail.learning.rail import trainer
     from sumo_rail_cli import commands
+
+    from sumo_rail.learning.rail import trainer
 
     started: list[tuple[int, int]] = []
     monkeypatch.setattr(trainer, "train", fake_train(3))
