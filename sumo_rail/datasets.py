@@ -15,7 +15,7 @@ import json
 import os
 import platform
 from collections.abc import Iterator
-from contextlib import contextmanager
+from contextlib import AbstractContextManager, contextmanager
 from importlib import metadata as package_metadata
 from pathlib import Path
 from typing import Any
@@ -211,24 +211,32 @@ def written_together(folder: Path) -> Iterator[StagedFiles]:
 
 
 class StagedFiles:
-    """Temporary files waiting to replace their final paths; see `written_together`."""
+    """Temporary files waiting to replace their final paths, each one `written_atomically`; see `written_together`."""
 
     def __init__(self, folder: Path) -> None:
         self.folder = folder
-        self._staged: list[tuple[Path, Path]] = []
+        self._staged: list[AbstractContextManager[Path]] = []
 
     def path(self, final: Path) -> Path:
         """Where to write `final` for now (a hidden name in the same folder, so the rename is atomic)."""
-        temporary = final.with_name(f".{final.name}.{os.getpid()}.staged")
-        self._staged.append((temporary, final))
+        staged = written_atomically(final)
+        temporary = staged.__enter__()
+        self._staged.append(staged)
         return temporary
 
     def commit(self) -> None:
-        for temporary, final in self._staged:
-            os.replace(temporary, final)
+        """Rename every staged file into place, in the order staged."""
+        for staged in self._staged:
+            staged.__exit__(None, None, None)
         self._staged.clear()
 
     def discard(self) -> None:
-        for temporary, _ in self._staged:
-            temporary.unlink(missing_ok=True)
+        """Remove every staged file; the final paths stay as they were."""
+        for staged in self._staged:
+            staged.__exit__(_Discarded, _Discarded(), None)
         self._staged.clear()
+
+
+class _Discarded(Exception):
+    """What a discarded staged write is left with (`StagedFiles.discard`): its temporary file is removed, nothing
+    renamed."""
