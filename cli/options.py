@@ -188,7 +188,9 @@ def run_folder_options(step: str, eval_every: int) -> Callable[[Callable[..., An
             click.option("--eval-every", type=click.IntRange(min=0), default=eval_every, show_default=True,
                          help=f"Evaluate the policy on validation episodes every this many {step}s and after the "
                               f"last (0: never)."),
-            click.option("--eval-episodes", type=click.IntRange(min=1), default=8, show_default=True,
+            click.option("--eval-episodes", cls=SettingOption, type=click.IntRange(min=1),
+                         default=setting_default("sumo_rail.learning.validation", "Validation.episodes"),
+                         show_default=True,
                          help="Validation episodes per evaluation."),
             click.option("--out", type=click.Path(path_type=Path, file_okay=False), required=True,
                          help="Run folder."),
