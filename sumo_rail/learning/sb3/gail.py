@@ -87,34 +87,11 @@ class GailSettings(PpoSchedule):
     """What defines a GAIL run (stored in run.json)."""
 
     demos: str
-    timesteps: int = 100_000
-    """Environment decisions in total, rounded up to whole updates of n_steps x envs."""
-    kind: str = "mlp"
-    hidden: int = 10
     bc_epochs: int = 20
     """Behaviour-cloning epochs that initialise the actor (0: PPO's own initialisation)."""
     bc_class_balance: float = 0.75
     """`BcSettings.class_balance`."""
-    envs: int = 2
-    """Environment processes; the result depends on it."""
-    egos: int = 1
-    """Egos per environment process (`shared_road`): PPO's envs are envs x egos; the result depends on it."""
-    n_steps: int = 512
-    """Decisions per env (ego) and update."""
-    learning_rate: float = 3e-4
-    """PPO's Adam step size."""
-    batch_size: int = 64
-    """PPO minibatch size [decisions]."""
-    ppo_epochs: int = 10
-    """PPO passes over each rollout."""
-    gamma: float = 0.99
-    """Discount per decision."""
-    normalize_reward: bool = True
-    """Divide PPO's rewards by the running std of the discounted return and clip them (`normalised_rewards`)."""
-    critic_warmup: int = 5
-    """First updates with the actor frozen: only the critic learns (`set_actor_trainable`); they count in
-    `timesteps`."""
-    seed: int = 0
+    critic_warmup: int = field(default=5, kw_only=True)
     discriminator: DiscriminatorSettings = field(default_factory=DiscriminatorSettings)
 
     def __post_init__(self) -> None:

@@ -33,7 +33,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -69,33 +69,17 @@ KMH_PER_MPS = 3.6
 class PpoSettings(PpoSchedule):
     """What defines a PPO driver run (stored in run.json)."""
 
-    timesteps: int = 400_000
-    """Environment decisions in total, rounded up to whole updates of n_steps x envs."""
-    kind: str = "mlp"
-    hidden: int = 10
-    envs: int = 2
-    """Environment processes; the result depends on it."""
-    egos: int = 1
-    """Egos per environment process (`shared_road`): PPO's envs are envs x egos; the result depends on it."""
-    n_steps: int = 512
-    """Decisions per env (ego) and update."""
-    learning_rate: float = 3e-4
-    batch_size: int = 64
-    ppo_epochs: int = 10
-    gamma: float = 0.99
-    """Discount per decision (0.5 s): a horizon of about 100 decisions."""
+    timesteps: int = field(default=400_000, kw_only=True)
     ent_coef: float = 0.01
     """PPO's entropy bonus: keeps lane changes tried until their worth is learnt."""
-    normalize_reward: bool = True
     overtake_reward: float = 0.0
     """Shaping: reward per vehicle overtaken (0: the env's reward alone)."""
     keep_right_reward: float = 0.0
     """Shaping: reward per decision in the rightmost lane, falling linearly to 0 in the leftmost."""
     init: str | None = None
     """Policy file the actor starts from (None: PPO's own random initialisation)."""
-    critic_warmup: int = 0
+    critic_warmup: int = field(default=0, kw_only=True)
     """With `init` only: first updates with the actor frozen while the critic learns; they count in `timesteps`."""
-    seed: int = 0
 
     def __post_init__(self) -> None:
         self.check_schedule("PPO")
