@@ -7,9 +7,6 @@ from typing import TYPE_CHECKING, Any
 
 import click
 from sumo_rail_cli.options import (
-    RESEARCH_OPTIONS,
-    ResearchOptionsCommand,
-    SearchOptions,
     backend_options,
     build_backend,
     check_egos,
@@ -22,7 +19,6 @@ from sumo_rail_cli.options import (
     output_options,
     resolve_expert_option,
     run_folder_options,
-    search_options,
     tensorboard_option,
 )
 from sumo_rail_cli.progress import advance_to, complete, progress, start_at
@@ -33,6 +29,7 @@ from sumo_rail_cli.running import (
     tensorboard_logger,
     validation_summary,
 )
+from sumo_rail_cli.search_options import RESEARCH_OPTIONS, ResearchOptionsCommand, SearchOptions, search_options
 from sumo_rail_cli.settings import config_options
 
 from sumo_rail.seeding import EVALUATION_EPISODES

@@ -8,18 +8,17 @@ from typing import TYPE_CHECKING, Any
 
 import click
 from sumo_rail_cli.options import (
-    SearchOptions,
     backend_options,
     build_backend,
     check_egos,
     check_output,
     expert_option,
     resolve_expert_option,
-    search_options,
     seed_option,
 )
 from sumo_rail_cli.progress import complete, progress
 from sumo_rail_cli.running import interruptible_run, library_errors
+from sumo_rail_cli.search_options import SearchOptions, search_options
 from sumo_rail_cli.settings import config_options
 
 from sumo_rail.learning.rail.step_signal import REWARD_VARIANTS

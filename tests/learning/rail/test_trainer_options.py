@@ -113,7 +113,7 @@ def test_each_remedy_changes_the_iteration(tmp_path, demos, config, base_iterati
 def test_the_options_defaults_are_the_settings_dataclasses():
     """Each default is written once, in RailSettings and DiscriminatorSettings: the options read them."""
     from sumo_rail_cli.commands import train_command
-    from sumo_rail_cli.options import SearchOptions
+    from sumo_rail_cli.search_options import SearchOptions
 
     context = train_command.make_context("train", ["--demos", "d.parquet", "--out", "run"])
     search = SearchOptions(**{field.name: context.params[field.name] for field in dataclasses.fields(SearchOptions)})
