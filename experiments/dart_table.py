@@ -1,10 +1,11 @@
-"""The DART row of the benchmark and the benchmark's safety measures (issue 36), as Markdown: DART (BC on the
-demonstrations of experiments/dart.sh) against the committed BC, RAIL and DAgger runs on the same test episodes,
-paired by training seed and episode as experiments/benchmark_table.py pairs them; then the safety measures of every
-method (from SAFETY_DIR, experiments/safety_table.sh, and DART's own evaluations), and a check that the re-evaluation
-reproduces every committed column.
+"""The DART rows of the benchmark and the benchmark's safety measures (issue 36), as Markdown: DART (BC on the
+demonstrations of experiments/dart.sh) and RAIL started from it (experiments/dart_rail.sh, DART_DIR/rail) against the
+committed BC, RAIL, DAgger and GAIL runs on the same test episodes, paired by training seed and episode as
+experiments/benchmark_table.py pairs them; then the safety measures of every method (from the SAFETY_DIRs,
+experiments/safety_table.sh, and DART's own evaluations), and a check that the re-evaluation reproduces every
+committed column. DART_DIR "-": no DART (the realizable benchmark's safety table).
 
-Usage: python experiments/dart_table.py BENCH_DIR DART_DIR [SAFETY_DIR]   (each holds test_sSEED.parquet files)
+Usage: python experiments/dart_table.py BENCH_DIR DART_DIR|- [SAFETY_DIR ...]   (each holds test_sSEED.parquet files)
 """
 
 from __future__ import annotations
@@ -19,17 +20,20 @@ from seeded import difference_cell, digits_of
 from sumo_rail.evaluation.safety import SAFETY_MEASURES
 from sumo_rail.evaluation.summary import measure_samples
 
-DART_METHODS = {**{key: METHODS[key] for key in ("bc_mlp", "rail_mlp", "dagger")},
-                "dart": ("DART, two-layer", "dart", "policy_bc")}
-COMPARISONS = (("dart", "bc_mlp"), ("dart", "dagger"), ("dart", "rail_mlp"), ("dagger", "bc_mlp"))
+DART_METHODS = {**{key: METHODS[key] for key in ("bc_mlp", "rail_mlp", "dagger", "gail", "gail_sampled")},
+                "dart": ("DART, two-layer", "dart", "policy_bc"),
+                "rail_dart": ("RAIL from DART, two-layer", "rail_dart", "policy_latest")}
+COMPARISONS = (("dart", "bc_mlp"), ("dart", "dagger"), ("dart", "rail_mlp"), ("dagger", "bc_mlp"),
+               ("rail_dart", "dart"), ("rail_dart", "rail_mlp"), ("rail_mlp", "gail"))
 SAFETY = (*SAFETY_MEASURES, "hard_braking", "collisions")
 
 
-def evaluations(folder: Path) -> pd.DataFrame:
-    """Every test_sSEED.parquet metrics file of `folder`, one row per (driver, episode seed)."""
-    paths = [path for path in sorted(folder.glob("test_s*.parquet")) if not path.name.endswith(".decisions.parquet")]
+def evaluations(*folders: Path) -> pd.DataFrame:
+    """Every test_sSEED*.parquet metrics file of `folders`, one row per (driver, episode seed)."""
+    paths = [path for folder in folders for path in sorted(folder.glob("test_s*.parquet"))
+             if not path.name.endswith(".decisions.parquet")]
     if not paths:
-        raise SystemExit(f"no test_sSEED.parquet in {folder}")
+        raise SystemExit(f"no test_sSEED.parquet in {', '.join(map(str, folders))}")
     return pd.concat([pd.read_parquet(path) for path in paths]).drop_duplicates(["policy", "seed"])
 
 
@@ -74,12 +78,13 @@ def reproduces(committed: pd.DataFrame, again: pd.DataFrame) -> str:
             + ("every value the same" if not differing else f"differing in {', '.join(differing)}"))
 
 
-def main(bench: Path, dart: Path, safety: Path | None) -> None:
-    committed, darts = evaluations(bench), evaluations(dart)
+def main(bench: Path, dart: Path | None, safety: list[Path]) -> None:
+    committed = evaluations(bench)
+    darts = evaluations(*[folder for folder in (dart, dart / "rail") if folder.is_dir()]) if dart else committed[:0]
     print("## The benchmark with DART (test episodes; cells: value [95% interval] over training runs and episodes)\n")
     method_table(pd.concat([committed, darts]).drop_duplicates(["policy", "seed"]), HEADLINE)
-    if safety is not None:
-        again = evaluations(safety)
+    if safety:
+        again = evaluations(*safety)
         print("\n## Safety measures (test episodes)\n")
         same_episodes = darts[darts["seed"].isin(set(again["seed"]))]  # the re-evaluation may hold fewer episodes
         method_table(pd.concat([again, same_episodes]).drop_duplicates(["policy", "seed"]), SAFETY)
@@ -87,4 +92,4 @@ def main(bench: Path, dart: Path, safety: Path | None) -> None:
 
 
 if __name__ == "__main__":
-    main(Path(sys.argv[1]), Path(sys.argv[2]), Path(sys.argv[3]) if len(sys.argv) > 3 else None)
+    main(Path(sys.argv[1]), None if sys.argv[2] == "-" else Path(sys.argv[2]), [Path(arg) for arg in sys.argv[3:]])

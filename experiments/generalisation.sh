@@ -4,11 +4,14 @@
 # in the recommended setting with the route block; every driver evaluated on the same held-out test episodes of
 # (a) the road it was trained on, (b) for the straight road's drivers, every other road and two traffic densities it
 # never saw, (c) BC trained on a mix of every road's demonstrations, on each road, and (d) without the route
-# block on each road with a feature (what lacking it costs; NO_ROUTE=0 skips it).
+# block on each road with a feature (what lacking it costs; NO_ROUTE=0 skips it), and (e) RAIL (the benchmark's
+# settings, N = 32 for 40 iterations, on 8 respawning egos a road) trained on RAIL_KINDS and tested as (a) and, for
+# the straight road's runs, as (b): rail_a_KIND.parquet and rail_b_*.parquet, on the same episodes as the others.
 # experiments/generalisation_table.py makes the tables and the figure.
 # Usage: experiments/generalisation.sh [OUT_DIR]   (resumable: what is written is skipped, DAgger runs resume)
 #   (environment: KINDS, SEEDS, DEMOS_EPISODES, MIX_EPISODES (per road), DAGGER_ROUNDS, ROUND_EPISODES,
-#   TEST_EPISODES, EXPERT_EPISODES (the expert alone on each road), DENSITIES (veh/h), WORKERS)
+#   TEST_EPISODES, EXPERT_EPISODES (the expert alone on each road), DENSITIES (veh/h), RAIL_KINDS (default
+#   "straight"; "" skips RAIL), RAIL_ITERATIONS, WORKERS)
 set -euo pipefail
 out=${1:-results/generalisation}
 kinds=${KINDS:-straight merge merge_from_ramp lane_drop exit}
@@ -20,6 +23,8 @@ round_episodes=${ROUND_EPISODES:-20}
 test_episodes=${TEST_EPISODES:-100}
 expert_episodes=${EXPERT_EPISODES:-250}
 densities=${DENSITIES:-2000 6000}
+rail_kinds=${RAIL_KINDS-straight}
+rail_iterations=${RAIL_ITERATIONS:-40}
 workers=${WORKERS:-2}
 sumo_rail=${SUMO_RAIL:-.venv/bin/sumo-rail}
 python=${PYTHON:-.venv/bin/python}
@@ -35,6 +40,10 @@ drivers() {  # the BC and DAgger policies trained on KIND
   for seed in $seeds; do
     printf -- '--policy %s --policy %s ' "$out/$kind/dagger_s$seed/policy_bc.npz" "$out/$kind/dagger_s$seed/policy_latest.npz"
   done
+}
+rail_drivers() {  # the RAIL policies trained on KIND
+  local kind=$1 seed
+  for seed in $seeds; do printf -- '--policy %s ' "$out/$kind/rail_s$seed/policy_latest.npz"; done
 }
 # the expert alone on every road, the full test set (EXPERT_EPISODES=0: skipped)
 for kind in $kinds; do
@@ -109,3 +118,27 @@ if [ "${NO_ROUTE:-1}" = 1 ]; then
       "${policies[@]}"
   done
 fi
+# (e) RAIL trained on each of RAIL_KINDS, tested as (a); the straight road's also as (b)
+for kind in $rail_kinds; do
+  for seed in $seeds; do
+    run="$out/$kind/rail_s$seed"
+    resume=(); [ -f "$run/checkpoint.pt" ] && resume=(--resume)
+    [ -f "$run/.done" ] || $sumo_rail train "${setting[@]}" --set "scenario.kind=$kind" --demos "$out/$kind/demos.parquet" \
+      --policy mlp --directions 32 --iterations "$rail_iterations" --eval-every 0 --egos 8 --rollout-decisions 171 \
+      --workers "$workers" --seed "$seed" --out "$run" "${resume[@]}"
+    touch "$run/.done"
+  done
+  # shellcheck disable=SC2046
+  evaluate "$out/rail_a_$kind.parquet" "$kind" "$test_episodes" --policy expert $(rail_drivers "$kind")
+  [ "$kind" = straight ] || continue
+  for other in $kinds; do
+    # shellcheck disable=SC2046
+    [ "$other" = straight ] || evaluate "$out/rail_b_$other.parquet" "$other" "$test_episodes" --policy expert \
+      $(rail_drivers straight)
+  done
+  for flow in $densities; do
+    # shellcheck disable=SC2046
+    evaluate "$out/rail_b_straight_$flow.parquet" straight "$test_episodes" --set "scenario.flow_veh_per_h=$flow" \
+      --policy expert $(rail_drivers straight)
+  done
+done

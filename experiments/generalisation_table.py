@@ -1,8 +1,9 @@
-"""The generalisation table (experiments/generalisation.sh): the expert on every road; BC and DAgger trained and tested
-on each road (a), trained on the straight road and tested on the others and at densities it never saw (b), BC
-trained on a mix of roads (c), and trained without the route block (d); each method pooled over its training seeds
-(experiments/seeded.py), with paired differences (b) - (a), (c) - (a) and (d) - (a) on the same test episodes.
-Prints Markdown; writes the figure.
+"""The generalisation table (experiments/generalisation.sh): the expert on every road; BC and DAgger (and RAIL where
+it was trained: rail_*.parquet) trained and tested on each road (a), trained on the straight road and tested on the
+others and at densities it never saw (b), BC trained on a mix of roads (c), and trained without the route block (d);
+each method pooled over its training seeds (experiments/seeded.py), with paired differences (b) - (a), (c) - (a) and
+(d) - (a) on the same test episodes, and RAIL against BC and DAgger on the same episodes. Prints Markdown; writes the
+figure.
 
 Usage: python experiments/generalisation_table.py OUT_DIR [FIGURE.png]
 """
@@ -24,7 +25,7 @@ from sumo_rail.evaluation.statistics import Sample, interval, mean_sample, seede
 from sumo_rail.evaluation.summary import measure_samples
 
 KINDS = ("straight", "merge", "merge_from_ramp", "lane_drop", "exit")
-METHODS = {"BC": ("dagger", "policy_bc"), "DAgger": ("dagger", "policy_latest")}
+METHODS = {"BC": ("dagger", "policy_bc"), "DAgger": ("dagger", "policy_latest"), "RAIL": ("rail", "policy_latest")}
 MIX = {"BC, mixed roads": ("bc", "policy_bc")}
 NO_ROUTE = {"BC": ("no_route", "policy_bc"), "DAgger": ("no_route", "policy_latest")}
 SHOWN = ("agreement", "average_speed_kmh", "lane_changes", "failures", "merges")
@@ -57,8 +58,30 @@ def per_seed(metrics: pd.DataFrame, method: str, policy: str) -> list[dict[str, 
 
 
 def read(out: Path, name: str) -> pd.DataFrame | None:
-    path = out / f"{name}.parquet"
-    return pd.read_parquet(path) if path.exists() else None
+    """The evaluation `name`, with RAIL's evaluation of the same episodes (rail_NAME) where there is one."""
+    frames = [pd.read_parquet(path) for path in (out / f"{name}.parquet", out / f"rail_{name}.parquet")
+              if path.exists()]
+    return pd.concat(frames).drop_duplicates(["policy", "seed"]) if frames else None
+
+
+def rail_comparisons(out: Path) -> list[str]:
+    """RAIL minus BC and minus DAgger, paired by training seed and episode, wherever RAIL was evaluated."""
+    lines = ["| tested on | trained on | RAIL - BC: agreement / failed episodes | RAIL - DAgger: agreement / failed "
+             "episodes |", "|---|---|---|---|"]
+    for path in sorted(out.glob("rail_*.parquet")):
+        if path.name.endswith(".decisions.parquet"):
+            continue
+        name = path.stem.removeprefix("rail_")
+        metrics = read(out, name)
+        rail = per_seed(metrics, "rail", "policy_latest")
+        cells = []
+        for method, policy in (METHODS["BC"], METHODS["DAgger"]):
+            theirs = per_seed(metrics, method, policy)
+            cells.append(" / ".join(difference_cell(rail, theirs, measure, 3 if measure == "agreement" else 2)
+                                    for measure in ("agreement", "failures")) if len(theirs) == len(rail) else "-")
+        condition, _, road = name.partition("_")
+        lines.append(f"| {road} | {'(a) ' + road if condition == 'a' else '(b) straight'} | " + " | ".join(cells) + " |")
+    return lines
 
 
 def expert_table(out: Path) -> list[str]:
@@ -116,7 +139,7 @@ def generalisation_table(out: Path, figure: dict[tuple[str, str, str], tuple[flo
         if blind is not None:
             lines += method_rows(blind, own, kind, f"(d) {kind}, no route block", NO_ROUTE, METHODS, figure)
     for name in sorted(path.stem for path in out.glob("b_straight_*.parquet") if "decisions" not in path.name):
-        metrics = pd.read_parquet(out / f"{name}.parquet")
+        metrics = read(out, name)
         flow = name.rsplit("_", 1)[1]
         lines += method_rows(metrics, None, f"straight at {flow} veh/h", "(b) straight at 4000", METHODS, METHODS,
                              figure)
@@ -158,6 +181,9 @@ def main(out: Path, figure_path: Path | None) -> None:
     figure: dict[tuple[str, str, str], tuple[float, float, float]] = {}
     print("\n### Learned drivers on roads they saw and never saw\n")
     print("\n".join(generalisation_table(out, figure)))
+    if any(out.glob("rail_*.parquet")):
+        print("\n### RAIL against BC and DAgger on the same episodes\n")
+        print("\n".join(rail_comparisons(out)))
     if figure_path is not None and figure:
         plot(figure, figure_path)
         print(f"\n(figure: {figure_path})")

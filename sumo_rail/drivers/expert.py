@@ -5,8 +5,9 @@ route as a navigation system tells it), not the LIDAR. Each decision, in this or
 1. while a lane change is under way it only manages its speed;
 2. what the route demands: within `route_demand_m` of the end of a lane that does not lead along its route (a lane
    drop, an acceleration lane, lanes past its exit), move toward the nearest lane that does when safe (in the last
-   `URGENT_M`, into any gap of its minimum gap and the room to shed a speed difference), else set its speed to open
-   a gap there (`Expert._seek_gap`);
+   `URGENT_M`, into any gap of its minimum gap and the room to shed a speed difference at 3 m/s^2; in the last
+   `LAST_RESORT_M`, at 4 m/s^2), else set its speed to open a gap there (`Expert._seek_gap`: pass a
+   vehicle it can outpace, let pass one it cannot);
 3. overtake on the left when a slower leader is in the way, the left lane lets it drive at least
    `min_speed_gain_mps` faster, and the change is safe;
 4. otherwise return right when the right lane is free for `keep_right_s` at its desired speed and safe;
@@ -40,6 +41,13 @@ URGENT_GAP_SHARE = 0.0
 """Share of its time gaps it keeps when zip merging: none, only its minimum gap and the room to shed a speed
 difference (a share of 0.3 in the last 150 m left 17 of 500 test episodes of merge_from_ramp and lane_drop stopped at
 a lane's end)."""
+LAST_RESORT_M = 50.0
+"""Within this distance [m] of its lane's end a change needs only the room to shed closing speeds at
+`LAST_RESORT_DECEL_MPS2` beyond its minimum gap: the followers brake harder for it, as SUMO's drivers do for each
+other at a lane's end."""
+LAST_RESORT_DECEL_MPS2 = 4.0
+"""Braking [m/s^2] it counts on from the vehicles around it in the last `LAST_RESORT_M` (SUMO's cars brake at 4.5,
+its trucks at 4); elsewhere 3."""
 MERGE_SPEED_SHARE = 0.6
 """Lowest set-point, as a share of its desired speed, it slows to while looking for a gap to merge into."""
 PASS_MARGIN_MPS = 3.0
@@ -138,7 +146,8 @@ class Expert:
             return None  # the lane to move to begins farther on (an on-ramp before its acceleration lane)
         gaps = lane_gaps(traffic, target)
         share = URGENT_GAP_SHARE if lane_end_m <= URGENT_M else 1.0
-        if self._safe(gaps, ego.speed_mps, share):
+        braking = LAST_RESORT_DECEL_MPS2 if lane_end_m <= LAST_RESORT_M else _COMFORT_DECEL_MPS2
+        if self._safe(gaps, ego.speed_mps, share, braking):
             return Action.LANE_LEFT if offset > 0 else Action.LANE_RIGHT
         own_front_gap_m = lane_gaps(traffic, ego.lane).front_gap_m
         return self._seek_gap(gaps, ego.speed_mps, traffic.set_point_mps, share, own_front_gap_m)
@@ -146,25 +155,30 @@ class Expert:
     def _seek_gap(self, gaps: LaneGaps, ego_speed_mps: float, set_point_mps: float, gap_share: float,
                   own_front_gap_m: float) -> Action:
         """The set-point change that opens a gap in the lane the route demands, at that lane's speed: pass a vehicle
-        alongside or let it pass, whichever side of it has more room (ahead, as far as its own leader `own_front_gap_m`
-        [m] lets it); drop behind a leader too close; with a vehicle
-        too close behind, keep up with the lane while a much
-        faster one passes by, else pull ahead where the gap in front has room for it or drop behind it; with room on
-        both sides (a change held back only by closing speeds), match the lane's speed."""
+        alongside when it can drive `PASS_MARGIN_MPS` faster than it and has more room ahead (as far as its own leader
+        `own_front_gap_m` [m] lets it) than behind, else let it pass; drop behind a leader too close; with a vehicle
+        too close behind, keep up with the lane while a much faster one passes by, pull ahead when it can outpace it
+        and the gap in front has room for it, else drop behind it; with room on both sides (a change held back only
+        by closing speeds), match the lane's speed. It never plans to outpace a vehicle faster than its desired speed:
+        a merge behind it comes sooner."""
         style = self.style
         needed_front, needed_rear = self._needed(gaps, ego_speed_mps, gap_share)
         lane_speed = next((speed for speed in (gaps.front_speed_mps, gaps.rear_speed_mps) if np.isfinite(speed)),
                           style.desired_speed_mps)
         lowest, highest = MERGE_SPEED_SHARE * style.desired_speed_mps, style.desired_speed_mps + PASS_MARGIN_MPS
         room_ahead_m = min(gaps.front_gap_m, own_front_gap_m)  # its own leader bounds how far ahead it can pull
-        if gaps.alongside:  # pass it or let it pass, whichever side of it has more room
-            target_mps = ego_speed_mps + (PASS_MARGIN_MPS if room_ahead_m > gaps.rear_gap_m else -PASS_MARGIN_MPS)
+        if gaps.alongside:
+            if gaps.alongside_speed_mps + PASS_MARGIN_MPS <= highest and room_ahead_m >= gaps.rear_gap_m:
+                target_mps = gaps.alongside_speed_mps + PASS_MARGIN_MPS
+            else:
+                target_mps = gaps.alongside_speed_mps - PASS_MARGIN_MPS
         elif gaps.front_gap_m < needed_front:  # drop behind the leader there
             target_mps = gaps.front_speed_mps - PASS_MARGIN_MPS
         elif gaps.rear_gap_m < needed_rear:
             if gaps.rear_speed_mps > ego_speed_mps + PASS_MARGIN_MPS:  # it passes by on its own
                 target_mps = ego_speed_mps
-            elif room_ahead_m - needed_front > needed_rear - gaps.rear_gap_m + MERGE_ROOM_M:  # pull ahead of it
+            elif (gaps.rear_speed_mps + PASS_MARGIN_MPS <= highest
+                  and room_ahead_m - needed_front > needed_rear - gaps.rear_gap_m + MERGE_ROOM_M):  # pull ahead of it
                 target_mps = max(gaps.rear_speed_mps + PASS_MARGIN_MPS, ego_speed_mps)
             else:  # let it pass
                 target_mps = gaps.rear_speed_mps - PASS_MARGIN_MPS
@@ -184,23 +198,27 @@ class Expert:
             return min(gaps.front_speed_mps, desired)
         return desired
 
-    def _safe(self, gaps: LaneGaps, ego_speed_mps: float, gap_share: float = 1.0) -> bool:
-        """Nobody alongside and the gaps of the module's docstring, their time gaps scaled by `gap_share`."""
+    def _safe(self, gaps: LaneGaps, ego_speed_mps: float, gap_share: float = 1.0,
+              braking_mps2: float = _COMFORT_DECEL_MPS2) -> bool:
+        """Nobody alongside and the gaps of the module's docstring, their time gaps scaled by `gap_share`, speed
+        differences shed at `braking_mps2`."""
         if gaps.alongside:
             return False
-        needed_front, needed_rear = self._needed(gaps, ego_speed_mps, gap_share)
+        needed_front, needed_rear = self._needed(gaps, ego_speed_mps, gap_share, braking_mps2)
         return gaps.front_gap_m >= needed_front and gaps.rear_gap_m >= needed_rear
 
-    def _needed(self, gaps: LaneGaps, ego_speed_mps: float, gap_share: float) -> tuple[float, float]:
-        """The front and rear gaps [m] a change into the lane of `gaps` needs."""
+    def _needed(self, gaps: LaneGaps, ego_speed_mps: float, gap_share: float,
+                braking_mps2: float = _COMFORT_DECEL_MPS2) -> tuple[float, float]:
+        """The front and rear gaps [m] a change into the lane of `gaps` needs, speed differences shed at
+        `braking_mps2`."""
         style = self.style
         excess = max(ego_speed_mps - gaps.front_speed_mps, 0.0) if np.isfinite(gaps.front_speed_mps) else 0.0
         needed_front = (style.min_gap_m + gap_share * style.front_time_gap_s * ego_speed_mps
-                        + excess**2 / (2 * _COMFORT_DECEL_MPS2))
+                        + excess**2 / (2 * braking_mps2))
         closing = max(gaps.rear_speed_mps - ego_speed_mps, 0.0) if np.isfinite(gaps.rear_speed_mps) else 0.0
         rear_speed = gaps.rear_speed_mps if np.isfinite(gaps.rear_speed_mps) else 0.0
         needed_rear = (style.min_gap_m + gap_share * style.rear_time_gap_s * rear_speed
-                       + closing**2 / (2 * _COMFORT_DECEL_MPS2))
+                       + closing**2 / (2 * braking_mps2))
         return needed_front, needed_rear
 
 

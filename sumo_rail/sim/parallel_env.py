@@ -56,6 +56,11 @@ RESPAWN_DRAWS = 100
 """Most places `ParallelHighwayEnv.respawn` tries in the start window, then as many again from the road's start to
 the window's end, before it gives up."""
 Observations = dict[str, np.ndarray]
+
+
+class NoRoomToRespawn(SimulationError):
+    """No safe place for a respawning ego: the egos (or traffic) fill the road's start, e.g. a one-lane ramp."""
+
 Infos = dict[str, dict[str, Any]]
 
 
@@ -175,7 +180,8 @@ class ParallelHighwayEnv(ParallelEnv[str, np.ndarray, np.int64]):
         (uniform lane, uniform in the start window), redrawn up to `RESPAWN_DRAWS` times until the place is safe;
         when the egos have jammed the start window (slow learners do), up to `RESPAWN_DRAWS` more draws from the
         road's start (one ego length in) to the window's end. `agent` rejoins `agents`; returns its first
-        observation and info. SimulationError when no draw is safe."""
+        observation and info. NoRoomToRespawn when no draw is safe (the ego stays off the road; it may try again after
+        a step or a reset)."""
         if self._sim is None or not self._egos:
             raise RuntimeError("call reset() before respawn()")
         self._ego(agent)
@@ -191,7 +197,7 @@ class ParallelHighwayEnv(ParallelEnv[str, np.ndarray, np.int64]):
             if sim.place_ego(vehicle, lane, position_m, cfg.env.v_max_mps):
                 break
         else:
-            raise SimulationError(f"no safe place for {agent} to respawn in {2 * RESPAWN_DRAWS} draws up to "
+            raise NoRoomToRespawn(f"no safe place for {agent} to respawn in {2 * RESPAWN_DRAWS} draws up to "
                                   f"{cfg.env.ego_start_max_m:g} m: traffic is too dense there (scenario."
                                   f"flow_veh_per_h is {cfg.scenario.flow_veh_per_h:g} veh/h)")
         ego = self._egos[agent] = Ego(cfg, vehicle, self._edges)

@@ -36,6 +36,8 @@ class LaneGaps:
     rear_gap_m: float
     rear_speed_mps: float
     alongside: bool
+    alongside_speed_mps: float = NO_VEHICLE
+    """Speed of the vehicle alongside whose middle is nearest the ego's [m/s]; inf when nobody is alongside."""
 
 
 def lane_gaps(traffic: TrafficView, lane: int) -> LaneGaps:
@@ -54,8 +56,13 @@ def lane_gaps(traffic: TrafficView, lane: int) -> LaneGaps:
     if behind.any():
         nearest = np.argmax(np.where(behind, fronts, -np.inf))
         rear_gap, rear_speed = ego_rear - fronts[nearest], speeds[nearest]
-    return LaneGaps(float(front_gap), float(front_speed), float(rear_gap), float(rear_speed),
-                    bool((~ahead & ~behind).any()))
+    alongside = ~ahead & ~behind
+    alongside_speed = NO_VEHICLE
+    if alongside.any():
+        offsets = np.abs((fronts + rears) - (ego_front + ego_rear))  # twice the distance between the middles
+        alongside_speed = speeds[np.argmin(np.where(alongside, offsets, np.inf))]
+    return LaneGaps(float(front_gap), float(front_speed), float(rear_gap), float(rear_speed), bool(alongside.any()),
+                    float(alongside_speed))
 
 
 def within(traffic: TrafficView, range_m: float) -> TrafficView:

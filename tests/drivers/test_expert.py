@@ -1,3 +1,5 @@
+import dataclasses
+
 import numpy as np
 import pytest
 from scenes import EGO_FRONT, view
@@ -6,6 +8,7 @@ from sumo_rail.drivers.expert import STYLES, Expert, make_expert
 from sumo_rail.runners.rollout import ExpertDriver, run_episode
 from sumo_rail.sim.actions import Action
 from sumo_rail.sim.env import HighwayEnv
+from sumo_rail.sim.road import RouteView
 from sumo_rail.sim.traffic import lane_gaps
 
 
@@ -93,3 +96,46 @@ def test_expert_limited_to_its_view_range_ignores_a_far_slow_leader():
     assert make_expert("sporty", 2.0).decide(slow_leader_far) is Action.LANE_LEFT
     assert make_expert("sporty", 2.0, view_range_m=115.0).decide(slow_leader_far) is Action.LANE_LEFT
     assert make_expert("sporty", 2.0, view_range_m=100.0).decide(slow_leader_far) is not Action.LANE_LEFT
+
+
+def on_a_closing_lane(traffic, lane_end_m):
+    """`traffic` with the ego's lane (0 of three) ending `lane_end_m` ahead, its route going on in lanes 1 and 2."""
+    route = RouteView(lowest_lane=0, highest_lane=2, lane_end_m=(lane_end_m, np.inf, np.inf), merge_ahead_m=np.inf,
+                      diverge_ahead_m=np.inf, route_left_m=np.inf)
+    return dataclasses.replace(traffic, ego=dataclasses.replace(traffic.ego, route=route), lanes=3)
+
+
+def test_lane_gaps_give_the_speed_of_the_vehicle_alongside_nearest_the_ego():
+    traffic = view([(2, 1002.0, 4.5, 30.0), (2, 1006.0, 12.0, 22.0)])
+    assert lane_gaps(traffic, 2).alongside_speed_mps == 30.0
+    assert np.isinf(lane_gaps(traffic, 1).alongside_speed_mps)
+
+
+@pytest.mark.parametrize("fast_car", [(1, 1001.0, 4.5, 32.0),   # alongside
+                                      (1, 990.0, 4.5, 32.0)])   # close behind
+def test_lets_a_car_faster_than_it_would_drive_pass_before_merging(fast_car):
+    """Outrunning a car above its desired speed (30.5 m/s) would never open a gap: it drops behind instead."""
+    expert = make_expert("normal", speed_step_mps=2.0)
+    traffic = on_a_closing_lane(view([fast_car], lane=0, speed=30.0, set_point=31.33), lane_end_m=400.0)
+    assert expert.decide(traffic) is Action.DECELERATE
+
+
+def test_passes_a_slower_car_alongside_at_its_speed_plus_a_margin():
+    expert = make_expert("normal", speed_step_mps=2.0)
+    traffic = on_a_closing_lane(view([(1, 1001.0, 4.5, 20.0)], lane=0, speed=20.0, set_point=21.33), 400.0)
+    assert expert.decide(traffic) is Action.ACCELERATE
+    done = on_a_closing_lane(view([(1, 1001.0, 4.5, 20.0)], lane=0, speed=23.0, set_point=23.33), 400.0)
+    assert expert.decide(done) is Action.KEEP, "20 + the 3 m/s margin reached"
+
+
+def test_in_the_last_metres_of_its_lane_it_counts_on_harder_braking_behind_but_never_on_a_crash():
+    expert = make_expert("normal", speed_step_mps=2.0)
+    ego_rear = EGO_FRONT - 4.5
+    closing_10 = [(1, EGO_FRONT + 40.0, 4.5, 25.0), (1, ego_rear - 20.0, 4.5, 20.0)]  # 20 m behind, 10 m/s faster
+    last_metres = on_a_closing_lane(view(closing_10, lane=0, speed=10.0, set_point=17.33), lane_end_m=40.0)
+    assert expert.decide(last_metres) is Action.LANE_LEFT, "6 m + 10^2 / (2 * 4) = 18.5 m needed"
+    earlier = on_a_closing_lane(view(closing_10, lane=0, speed=10.0, set_point=17.33), lane_end_m=100.0)
+    assert expert.decide(earlier) is not Action.LANE_LEFT, "6 m + 10^2 / (2 * 3) = 22.7 m needed"
+    closing_13 = [(1, EGO_FRONT + 40.0, 4.5, 25.0), (1, ego_rear - 16.0, 4.5, 23.6)]
+    too_fast = on_a_closing_lane(view(closing_13, lane=0, speed=10.8, set_point=17.33), lane_end_m=20.0)
+    assert expert.decide(too_fast) is not Action.LANE_LEFT, "a follower 12.8 m/s faster 16 m behind cannot stop"

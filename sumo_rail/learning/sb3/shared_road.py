@@ -4,11 +4,13 @@ SB3 steps every env of a VecEnv at once and restarts one as soon as its episode 
 cannot restart alone by a reset, so the egos of a `RespawningRoad` respawn instead: an ego that ends is replaced at
 once by a new one in the start window (`ParallelHighwayEnv.respawn`) while the others drive on, and when no ego is
 left on the road (always, with one ego) the road itself resets, drawing its next start from its `np_random` as a
-single-ego env's reset does. Each env index always has an ego driving, and the step that ends an ego's episode
-returns what SB3's own auto-resetting `SubprocVecEnv` returns: done, the episode's last observation as
-info["terminal_observation"], info["TimeLimit.truncated"] for a truncation (end of road, time limit), and the new
-episode's first observation; rewards are float64 as SubprocVecEnv stacks them. With K = 1 this is bit for bit what
-SubprocVecEnv gives for a `HighwayEnv` whose first reset is seeded.
+single-ego env's reset does. When the egos jam the road's start so that one finds no place to respawn (learners
+stopped on a one-lane ramp), every ego's episode is cut there (a truncation) and the road resets. Each env index
+always has an ego driving, and the step that ends an ego's episode returns what SB3's own auto-resetting
+`SubprocVecEnv` returns: done, the episode's last observation as info["terminal_observation"],
+info["TimeLimit.truncated"] for a truncation (end of road, time limit), and the new episode's first observation;
+rewards are float64 as SubprocVecEnv stacks them. With K = 1 this is bit for bit what SubprocVecEnv gives for a
+`HighwayEnv` whose first reset is seeded.
 
 Env index i is ego i % K of process i // K. Process p's road is first reset with the seed of `env_seeds(seed,
 processes)[p]`, and every respawn and later reset draws from that road's `np_random`, so the same seed, K and
@@ -29,7 +31,7 @@ import numpy as np
 from sumo_rail.config import Config
 from sumo_rail.learning.sb3.envs import LOST_ENV, exit_reporting
 from sumo_rail.seeding import Purpose, episode_seeds
-from sumo_rail.sim.parallel_env import ParallelHighwayEnv
+from sumo_rail.sim.parallel_env import NoRoomToRespawn, ParallelHighwayEnv
 
 if TYPE_CHECKING:
     from stable_baselines3.common.vec_env import VecEnv
@@ -81,8 +83,16 @@ class RespawningRoad:
         for agent in (agent for agent, done in zip(agents, dones, strict=True) if done):
             infos[agent]["TimeLimit.truncated"] = truncations[agent] and not terminations[agent]
             infos[agent]["terminal_observation"] = observations[agent]
-            if self.env.agents:
+        try:
+            for agent in (agent for agent, done in zip(agents, dones, strict=True) if done and self.env.agents):
                 observations[agent], _ = self.env.respawn(agent)
+        except NoRoomToRespawn:  # the egos jam the road's start (a ramp): every episode is cut, the road starts again
+            for index, agent in enumerate(agents):
+                if not dones[index]:
+                    dones[index] = True
+                    infos[agent]["TimeLimit.truncated"] = True
+                    infos[agent]["terminal_observation"] = observations[agent]
+            observations = self._start()
         if not self.env.agents:
             observations = self._start()
         return (np.stack([observations[agent] for agent in agents]), np.array([rewards[agent] for agent in agents]),

@@ -12,7 +12,11 @@ from test_cli import SMALL, SMALL_CONFIG, invoke
 
 from sumo_rail.drivers.policies import load_policy
 from sumo_rail.learning.sb3.shared_road import RespawningRoad, env_seeds, shared_road_vec_env
+from sumo_rail.runners.rollout import run_lives
+from sumo_rail.sim import parallel_env
+from sumo_rail.sim.actions import Action
 from sumo_rail.sim.env import HighwayEnv
+from sumo_rail.sim.parallel_env import ParallelHighwayEnv
 
 
 def drive(road: RespawningRoad, steps: int, seed: int):
@@ -134,3 +138,50 @@ def test_too_many_egos_for_the_road_is_a_usage_error(tmp_path):
     result = invoke("ppo", *SMALL, "--egos", "40", "--out", str(tmp_path / "run"))
     assert result.exit_code == 2 and "40 egos need start slots" in result.output
     assert not (tmp_path / "run").exists()
+
+
+def jam_next_respawn(monkeypatch, env) -> None:
+    """Make the next respawn of `env` find no place (every draw of it refused), then let places be found again."""
+    place, refusals = env._sim.place_ego, [2 * parallel_env.RESPAWN_DRAWS]
+
+    def jammed(*args):
+        refusals[0] -= 1
+        return refusals[0] < 0 and place(*args)
+
+    monkeypatch.setattr(env._sim, "place_ego", jammed)
+
+
+def test_a_jammed_start_cuts_every_egos_episode_and_the_road_starts_again(monkeypatch):
+    road = RespawningRoad(SMALL_CONFIG, egos=3, seed=5)
+    try:
+        road.reset()
+        jam_next_respawn(monkeypatch, road.env)
+        rng = np.random.default_rng(0)
+        for _ in range(400):
+            observations, _, dones, infos = road.step(rng.integers(0, 5, size=3).tolist())
+            if dones.any():
+                break
+        assert dones.all(), "one ego found no place to respawn: every ego's episode is cut"
+        assert sum(info["TimeLimit.truncated"] and info["termination"] not in ("end_of_road", "time_limit")
+                   for info in infos) >= 2, "the egos still driving are truncated by the jam"
+        assert all(info["terminal_observation"].shape == (56,) for info in infos)
+        assert sorted(road.env.agents) == sorted(road.env.possible_agents), "the road started again with every ego"
+        assert observations.shape == (3, 56)
+    finally:
+        road.close()
+
+
+def test_rail_lives_go_on_after_a_jam_within_each_egos_budget(monkeypatch, small_config):
+    env = ParallelHighwayEnv(3, small_config, transport="libsumo")
+    try:
+        env.reset(seed=5)
+        jam_next_respawn(monkeypatch, env)
+        lives = run_lives(env, [lambda observation, traffic: int(Action.ACCELERATE)] * 3, 5, 300)
+    finally:
+        env.close()
+    for ego_lives in lives:
+        assert sum(life.metrics["steps"] for life in ego_lives) == 300
+        assert len(ego_lives) >= 2
+    cut = [life.metrics for ego_lives in lives for life in ego_lives
+           if life.metrics["truncated"] and life.metrics["termination"] not in ("end_of_road", "time_limit")]
+    assert len(cut) >= 2, "the jam cut the lives of the egos still driving"
