@@ -30,10 +30,10 @@ from doc_section import write_section
 from sumo_rail.config import Config
 from sumo_rail.datasets import sumo_version
 from sumo_rail.drivers.policies import PolicyShape
-from sumo_rail.learning.ars import NoiseAdaptation
-from sumo_rail.learning.discriminator import Discriminator, DiscriminatorSettings
-from sumo_rail.learning.normalize import RunningStats
-from sumo_rail.learning.rail import RailSettings, RolloutTask, TrainingState, Trajectory, run_iteration
+from sumo_rail.learning.rail.ars import NoiseAdaptation
+from sumo_rail.learning.rail.discriminator import Discriminator, DiscriminatorSettings
+from sumo_rail.learning.rail.iteration import RailSettings, RolloutTask, TrainingState, Trajectory, run_iteration
+from sumo_rail.learning.rail.normalize import RunningStats
 from sumo_rail.runners.backends import ProcessPoolBackend, RolloutBackend, WorkerContext
 from sumo_rail.runners.rollout import KeepDriver, run_episode
 from sumo_rail.runners.tables import Demonstrations

@@ -24,7 +24,7 @@ from doc_section import bench_parser, write_section
 import sumo_rail
 from sumo_rail.config import Config
 from sumo_rail.datasets import sumo_version
-from sumo_rail.learning.shared_road import RespawningRoad
+from sumo_rail.learning.sb3.shared_road import RespawningRoad
 from sumo_rail.sim.env import HighwayEnv
 from sumo_rail.sim.parallel_env import ParallelHighwayEnv
 from sumo_rail.sim.simulation import Simulation
@@ -179,7 +179,7 @@ one process, one core. Default scenario: {scenario.lanes} lanes, {scenario.lengt
   the mean number of egos deciding in each period. A 'keep' ego keeps the set-point it started with,
   its speed when it entered the road, which is the lowest set-point (36 km/h) when it entered behind a slow
   vehicle; one such ego in K drags an episode out.
-- Respawning egos (`sumo_rail/learning/shared_road.py`, what `gail --egos K` and `ppo --egos K` run in each
+- Respawning egos (`sumo_rail/learning/sb3/shared_road.py`, what `gail --egos K` and `ppo --egos K` run in each
   environment process): an ego that finishes is replaced at once in the start window, so all K egos decide in
   every period. Each drives as many periods as the single-ego env's episodes have decisions (the same simulated
   time), from one (untimed) reset.

@@ -1,7 +1,7 @@
 """Benchmark: a RAIL iteration's decisions per core-second with K egos a road (issue 34), whole episodes and
 rollouts of a budget of decisions on respawning egos, against the single-ego path, in one run.
 
-Every side runs `rail.run_iteration` (rollouts, discriminator steps, ARS update) from the same start on a serial
+Every side runs `iteration.run_iteration` (rollouts, discriminator steps, ARS update) from the same start on a serial
 backend, in this process: one core, SUMO included (libsumo). The policy is the benchmark's committed BC (two-layer,
 seed 0) in the benchmark's observation setting; the discriminator's expert pairs are a few recorded expert
 episodes. The single-ego path runs each rollout as one episode of `HighwayEnv` (`run_episode`), as RAIL did before
@@ -28,9 +28,9 @@ from doc_section import bench_parser, write_section
 from sumo_rail.config import Config
 from sumo_rail.datasets import sumo_version
 from sumo_rail.drivers.policies import load_policy
-from sumo_rail.learning.discriminator import Discriminator, DiscriminatorSettings
-from sumo_rail.learning.normalize import RunningStats
-from sumo_rail.learning.rail import RailSettings, RolloutTask, TrainingState, Trajectory, run_iteration
+from sumo_rail.learning.rail.discriminator import Discriminator, DiscriminatorSettings
+from sumo_rail.learning.rail.iteration import RailSettings, RolloutTask, TrainingState, Trajectory, run_iteration
+from sumo_rail.learning.rail.normalize import RunningStats
 from sumo_rail.runners.backends import SerialBackend, Task, WorkerContext
 from sumo_rail.runners.record import record_demonstrations
 from sumo_rail.runners.rollout import ExpertDriver, run_episode

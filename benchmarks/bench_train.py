@@ -1,6 +1,6 @@
 """Benchmark: RAIL training throughput serially, on 1 and 2 workers, and the learner's share of an iteration.
 
-Runs what `sumo-rail train` runs (BC, then RAIL iterations on the default scenario) through `training.train`,
+Runs what `sumo-rail train` runs (BC, then RAIL iterations on the default scenario) through `rail.trainer.train`,
 with the backend wrapped to time its `run` calls: everything else in an iteration (discriminator steps, rewards,
 ARS update, statistics merge) is the learner's overhead. Checkpoint writing is timed on its own. Alternates
 serial, 1 and 2 workers over rounds and checks that all give bit-identical parameters. Writes its section of
@@ -26,9 +26,9 @@ from doc_section import write_section
 from sumo_rail.config import Config
 from sumo_rail.datasets import sumo_version
 from sumo_rail.drivers.policies import load_policy
-from sumo_rail.learning.discriminator import DiscriminatorSettings
-from sumo_rail.learning.rail import RailSettings
-from sumo_rail.learning.training import RunSettings, train
+from sumo_rail.learning.rail.discriminator import DiscriminatorSettings
+from sumo_rail.learning.rail.iteration import RailSettings
+from sumo_rail.learning.rail.trainer import RunSettings, train
 from sumo_rail.runners.backends import ProcessPoolBackend, SerialBackend, Task
 from sumo_rail.runners.record import record_demonstrations
 from sumo_rail.runners.rollout import ExpertDriver

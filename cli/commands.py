@@ -7,7 +7,6 @@ from typing import TYPE_CHECKING, Any
 
 import click
 from sumo_rail_cli.options import (
-    SearchOptions,
     backend_options,
     build_backend,
     check_egos,
@@ -20,10 +19,9 @@ from sumo_rail_cli.options import (
     output_options,
     resolve_expert_option,
     run_folder_options,
-    search_options,
     tensorboard_option,
 )
-from sumo_rail_cli.progress import advance_to, complete, progress
+from sumo_rail_cli.progress import advance_to, complete, progress, start_at
 from sumo_rail_cli.running import (
     bc_summary,
     interruptible_run,
@@ -31,6 +29,7 @@ from sumo_rail_cli.running import (
     tensorboard_logger,
     validation_summary,
 )
+from sumo_rail_cli.search_options import RESEARCH_OPTIONS, ResearchOptionsCommand, SearchOptions, search_options
 from sumo_rail_cli.settings import config_options
 
 from sumo_rail.seeding import EVALUATION_EPISODES
@@ -230,7 +229,7 @@ def _write_videos(videos: dict[str, bytes], video_dir: Path | None) -> list[str]
     return sorted(videos)
 
 
-@click.command("train")
+@click.command("train", cls=ResearchOptionsCommand, research=RESEARCH_OPTIONS)
 @config_options
 @imitation_options
 @search_options
@@ -243,7 +242,9 @@ def train_command(config: Config, demos: Path, kind: str, hidden: int,
                   backend_name: str, address: str | None, seed: int, eval_every: int, eval_episodes: int, out: Path,
                   resume: bool, tensorboard_dir: Path | None) -> None:
     """Learn a driving policy from demonstrations with RAIL (BC initialisation, then ARS with an LS-GAN reward)."""
-    from sumo_rail.learning.training import RunError, RunSettings, Validation, train
+    from sumo_rail.learning.rail.trainer import RunSettings, train
+    from sumo_rail.learning.run_folder import RunError
+    from sumo_rail.learning.validation import Validation
 
     check_egos(config, search.egos)
     check_run_folder(out)
@@ -260,14 +261,14 @@ def train_command(config: Config, demos: Path, kind: str, hidden: int,
             board.log(row)
         steps_per_s = row["env_steps"] / row["wall_time_s"]
         bar.set_postfix(D_return=f"{row['return_mean']:+.3f}", steps_per_s=f"{steps_per_s:.0f}")
-        advance_to(bar, row["iteration"] + 1)  # a resumed run starts from the iterations done
+        advance_to(bar, row["iteration"] + 1)
         if row["eval_average_speed_kmh"] is not None:
             bar.write(f"iteration {row['iteration'] + 1}: {validation_summary(row, eval_episodes)}")
 
-    with interruptible_run(bar, kept_until_resume(out, "iteration"), backend,
+    with interruptible_run(bar, lambda: kept_until_resume(out, "iteration"), backend,
                            tensorboard_logger(tensorboard_dir, "rail", out), errors=(RunError,)) as board:
         state = train(out, settings, config, iterations, backend, resume, Validation(eval_every, eval_episodes),
-                      on_bc=show_bc, on_iteration=show)
+                      on_bc=show_bc, on_iteration=show, on_start=lambda done: start_at(bar, done))
         complete(bar)
     click.echo(f"trained {state.iteration} iterations; policies in {out}")
 

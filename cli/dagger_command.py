@@ -7,6 +7,7 @@ from typing import TYPE_CHECKING, Any
 
 import click
 from sumo_rail_cli.options import (
+    SettingOption,
     build_backend,
     check_egos,
     check_run_folder,
@@ -15,6 +16,7 @@ from sumo_rail_cli.options import (
     imitation_options,
     resolve_expert_option,
     run_folder_options,
+    setting_default,
     tensorboard_option,
 )
 from sumo_rail_cli.progress import advance_to, complete, progress
@@ -24,17 +26,22 @@ from sumo_rail_cli.settings import config_options
 if TYPE_CHECKING:
     from sumo_rail.config import Config
 
+DAGGER = "sumo_rail.learning.dagger"
+
 
 @click.command("dagger")
 @config_options
 @imitation_options
 @click.option("--rounds", type=click.IntRange(min=0), default=5, show_default=True,
               help="Rounds after the first BC (with --resume: including those already done).")
-@click.option("--episodes-per-round", type=click.IntRange(min=1), default=20, show_default=True,
+@click.option("--episodes-per-round", cls=SettingOption, type=click.IntRange(min=1),
+              default=setting_default(DAGGER, "DaggerSettings.episodes_per_round"), show_default=True,
               help="Episodes the mixture of policy and expert drives each round.")
-@click.option("--beta", type=click.FloatRange(0, 1), default=0.5, show_default=True,
+@click.option("--beta", cls=SettingOption, type=click.FloatRange(0, 1),
+              default=setting_default(DAGGER, "DaggerSettings.beta"), show_default=True,
               help="Probability that the expert drives a decision in round 1.")
-@click.option("--beta-decay", type=click.FloatRange(0, 1), default=0.5, show_default=True,
+@click.option("--beta-decay", cls=SettingOption, type=click.FloatRange(0, 1),
+              default=setting_default(DAGGER, "DaggerSettings.beta_decay"), show_default=True,
               help="beta of round r: beta x beta-decay^(r - 1).")
 @egos_option("Episodes of a round")
 @expert_option("Who labels the learner's states [default: the demonstrations' expert].", default=None)
@@ -53,7 +60,8 @@ def dagger_command(config: Config, demos: Path, kind: str, hidden: int,
     --resume continues it with the same result."""
     from sumo_rail.learning.bc import BcSettings
     from sumo_rail.learning.dagger import DaggerSettings, train_dagger
-    from sumo_rail.learning.training import RunError, Validation
+    from sumo_rail.learning.run_folder import RunError
+    from sumo_rail.learning.validation import Validation
 
     if expert is not None:
         expert, _ = resolve_expert_option(expert, config)
@@ -79,7 +87,7 @@ def dagger_command(config: Config, demos: Path, kind: str, hidden: int,
             text += f", {validation_summary(row, eval_episodes)}"
         bar.write(text)
 
-    with interruptible_run(bar, kept_until_resume(out, "round"), backend,
+    with interruptible_run(bar, lambda: kept_until_resume(out, "round", "checkpoint.json"), backend,
                            tensorboard_logger(tensorboard_dir, "dagger", out), errors=(RunError,)) as board:
         train_dagger(out, settings, config, rounds, backend, resume, Validation(eval_every, eval_episodes),
                      on_round=show)

@@ -31,21 +31,17 @@ if TYPE_CHECKING:
     from sumo_rail.learning.bc import BcReport
 
 
-CRITIC_WARMUP = 5
-"""--critic-warmup's default [updates]."""
-
-
 @click.command("gail")
 @config_options
 @imitation_options
-@ppo_options(default_timesteps=100_000, critic_help=f"  [default: {CRITIC_WARMUP}]")
+@ppo_options("sumo_rail.learning.sb3.gail:GailSettings")
 @seed_option("Seed of everything the run draws; the same seed, --envs and --egos give the same policy.")
 @click.option("--out", type=click.Path(path_type=Path, file_okay=False), required=True,
               help="Run folder (new or empty, or the run to continue with --resume).")
 @tensorboard_option
 def gail_command(config: Config, demos: Path, timesteps: int, kind: str,
                  hidden: int, bc_epochs: int, bc_class_balance: float, envs: int, egos: int, n_steps: int,
-                 learning_rate: float, normalize_reward: bool, critic_warmup: int | None, resume: bool, seed: int,
+                 learning_rate: float, normalize_reward: bool, critic_warmup: int, resume: bool, seed: int,
                  out: Path, tensorboard_dir: Path | None) -> None:
     """Train the GAIL baseline: PPO (Stable-Baselines3) on RAIL's discriminator reward, with RAIL's actor.
 
@@ -54,17 +50,17 @@ def gail_command(config: Config, demos: Path, timesteps: int, kind: str,
     checkpoint.pt. Ctrl-C or SIGTERM stops after the current update with its files complete; --resume continues from
     there. Needs pip install 'sumo-rail[baselines]'.
     """
-    from sumo_rail.learning.discriminator import DiscriminatorSettings
-    from sumo_rail.learning.gail import GailSettings, train_gail
-    from sumo_rail.learning.sb3_runs import BaselineError
-    from sumo_rail.learning.training import RunError
+    from sumo_rail.learning.rail.discriminator import DiscriminatorSettings
+    from sumo_rail.learning.run_folder import RunError
+    from sumo_rail.learning.sb3.gail import GailSettings, train_gail
+    from sumo_rail.learning.sb3.runs import BaselineError
 
     try:
         settings = GailSettings(str(demos), timesteps=timesteps, kind=kind, hidden=hidden, bc_epochs=bc_epochs,
                                 bc_class_balance=bc_class_balance, envs=envs, egos=egos, n_steps=n_steps,
                                 batch_size=minibatch_size(None, n_steps, envs, egos), learning_rate=learning_rate,
                                 normalize_reward=normalize_reward,
-                                critic_warmup=CRITIC_WARMUP if critic_warmup is None else critic_warmup, seed=seed,
+                                critic_warmup=critic_warmup, seed=seed,
                                 discriminator=DiscriminatorSettings(seed=seed))
     except ValueError as error:
         raise click.UsageError(str(error)) from error

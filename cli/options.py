@@ -1,12 +1,12 @@
 """Options shared by the commands, and how each becomes what the library takes: episodes, seeds, workers and
-backends, outputs, the expert, the imitation and run-folder options, and RAIL's search. The configuration (preset,
-TOML, `--set`) is `settings`; how the long commands run (Ctrl-C, errors, progress) is `running`."""
+backends, outputs, the expert, the imitation, PPO and run-folder options, and defaults read from the settings
+dataclasses (`SettingOption`). RAIL's search options are `search_options`; the configuration (preset, TOML, `--set`)
+is `settings`; how the long commands run (Ctrl-C, errors, progress) is `running`."""
 
 from __future__ import annotations
 
-import functools
+import dataclasses
 from collections.abc import Callable
-from dataclasses import dataclass, fields
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -16,9 +16,35 @@ from sumo_rail_cli.running import library_errors
 from sumo_rail.config import Config
 
 if TYPE_CHECKING:
-    from sumo_rail.learning.discriminator import DiscriminatorSettings
-    from sumo_rail.learning.rail import RailSettings
     from sumo_rail.runners.backends import RolloutBackend
+
+
+class SettingOption(click.Option):
+    """An option whose default is a settings dataclass's (`setting_default`): read when --help or the parsing needs
+    it, so the value is written once, in the dataclass, whose module stays unimported until then; --help shows it."""
+
+    def get_default(self, ctx: click.Context, call: bool = True) -> Any:
+        return super().get_default(ctx, call=True)
+
+
+def setting_default(module: str, path: str, convert: Callable[[Any], Any] = lambda value: value) -> Callable[[], Any]:
+    """A function giving the default of the settings field `path` ("RailSettings.noise.initial": a dataclass of
+    `module`, then fields) through `convert`, for a `SettingOption`."""
+    def read() -> Any:
+        import importlib
+
+        owner, *names = path.split(".")
+        value: Any = getattr(importlib.import_module(module), owner)
+        for name in names:
+            value = _field_default(value, name) if dataclasses.is_dataclass(value) and isinstance(value, type) \
+                else getattr(value, name)
+        return convert(value)
+    return read
+
+
+def _field_default(cls: type, name: str) -> Any:
+    field = next(field for field in dataclasses.fields(cls) if field.name == name)
+    return field.default_factory() if field.default is dataclasses.MISSING else field.default  # type: ignore[misc]
 
 
 def imitation_options(command: Callable[..., Any]) -> Callable[..., Any]:
@@ -46,27 +72,39 @@ def policy_shape_options(command: Callable[..., Any]) -> Callable[..., Any]:
                         help="linear: obs -> 5 logits; mlp: obs -> --hidden tanh units -> 5 logits.")(command)
 
 
-def ppo_options(default_timesteps: int, critic_help: str) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
-    """What gail and ppo share: --timesteps, --envs, --egos, --n-steps, --learning-rate, --normalize-reward,
-    --critic-warmup (`critic_help` ends its help, which says its default) and --resume."""
+def ppo_options(settings: str, critic_help: str = "") -> Callable[[Callable[..., Any]], Callable[..., Any]]:
+    """What gail and ppo share: --timesteps, --envs, --egos, --n-steps, --learning-rate, --normalize-reward (their
+    defaults those of `settings`, "module:Class", GailSettings or PpoSettings), --critic-warmup and --resume.
+    --critic-warmup's default is the settings' unless `critic_help` (which ends its help) says another."""
+    module, owner = settings.split(":")
+
+    def default(name: str) -> Callable[[], Any]:
+        return setting_default(module, f"{owner}.{name}")
+
+    critic_default: dict[str, Any] = ({"cls": SettingOption, "default": default("critic_warmup"), "show_default": True}
+                                      if not critic_help else {"default": None})
     options = [
-        click.option("--timesteps", type=click.IntRange(min=1), default=default_timesteps, show_default=True,
+        click.option("--timesteps", cls=SettingOption, type=click.IntRange(min=1), default=default("timesteps"),
+                     show_default=True,
                      help="Environment decisions in total (rounded up to whole updates of --n-steps x --envs x "
                           "--egos)."),
-        click.option("--envs", type=click.IntRange(min=1), default=2, show_default=True,
-                     help="Environment processes; unlike train's --workers, the result depends on it."),
-        click.option("--egos", type=click.IntRange(min=1), default=1, show_default=True,
+        click.option("--envs", cls=SettingOption, type=click.IntRange(min=1), default=default("envs"),
+                     show_default=True, help="Environment processes; unlike train's --workers, the result depends on "
+                                             "it."),
+        click.option("--egos", cls=SettingOption, type=click.IntRange(min=1), default=default("egos"),
+                     show_default=True,
                      help="Egos per environment process, sharing its simulation (PPO's envs are --envs x --egos): an "
                           "ego whose episode ends is replaced at once by a new one in the start window while the "
                           "others drive on. The result depends on it."),
-        click.option("--n-steps", type=click.IntRange(min=1), default=512, show_default=True,
-                     help="PPO decisions per env (ego) and update."),
-        click.option("--learning-rate", type=click.FloatRange(min=0, min_open=True), default=3e-4,
-                     show_default=True, help="PPO's Adam step size."),
-        click.option("--normalize-reward/--no-normalize-reward", default=True, show_default=True,
+        click.option("--n-steps", cls=SettingOption, type=click.IntRange(min=1), default=default("n_steps"),
+                     show_default=True, help="PPO decisions per env (ego) and update."),
+        click.option("--learning-rate", cls=SettingOption, type=click.FloatRange(min=0, min_open=True),
+                     default=default("learning_rate"), show_default=True, help="PPO's Adam step size."),
+        click.option("--normalize-reward/--no-normalize-reward", cls=SettingOption, default=default("normalize_reward"),
+                     show_default=True,
                      help="Divide PPO's rewards by the running std of the discounted return and clip them to +-10 "
                           "(Stable-Baselines3's VecNormalize), so that one collision cannot swamp the critic."),
-        click.option("--critic-warmup", type=click.IntRange(min=0), default=None, metavar="K",
+        click.option("--critic-warmup", type=click.IntRange(min=0), metavar="K", **critic_default,
                      help=f"First K updates with the actor frozen, only the critic learning (they count in "
                           f"--timesteps){critic_help}."),
         click.option("--resume", is_flag=True,
@@ -143,7 +181,9 @@ def run_folder_options(step: str, eval_every: int) -> Callable[[Callable[..., An
             click.option("--eval-every", type=click.IntRange(min=0), default=eval_every, show_default=True,
                          help=f"Evaluate the policy on validation episodes every this many {step}s and after the "
                               f"last (0: never)."),
-            click.option("--eval-episodes", type=click.IntRange(min=1), default=8, show_default=True,
+            click.option("--eval-episodes", cls=SettingOption, type=click.IntRange(min=1),
+                         default=setting_default("sumo_rail.learning.validation", "Validation.episodes"),
+                         show_default=True,
                          help="Validation episodes per evaluation."),
             click.option("--out", type=click.Path(path_type=Path, file_okay=False), required=True,
                          help="Run folder."),
@@ -207,123 +247,6 @@ def tensorboard_option(command: Callable[..., Any]) -> Callable[..., Any]:
                         default=None, help="Also write TensorBoard logs into this folder (tensorboard --logdir DIR); "
                                            "log.parquet stays the record. Needs pip install "
                                            "'sumo-rail[tensorboard]'.")(command)
-
-
-@dataclass(frozen=True)
-class SearchOptions:
-    """The ARS and discriminator options of `search_options`, as given."""
-
-    directions: int
-    top: int | None
-    step_size: float
-    noise: float
-    noise_increment: float
-    noise_every: int
-    flip_rate: float | None
-    fitness: str
-    reward: str
-    traffic: str
-    episodes_per_rollout: int
-    egos: int
-    rollout_decisions: int | None
-    freeze_normalizer: bool
-    disc_hidden: int
-    disc_lr: float
-    disc_steps: int
-    disc_reward: str
-    disc_balance: float
-    disc_penalty: float
-    disc_replay: int
-
-    def settings(self, seed: int) -> tuple[RailSettings, DiscriminatorSettings]:
-        """The RAIL and discriminator settings; an inconsistent combination is a usage error (exit 2)."""
-        from sumo_rail.learning.ars import NoiseAdaptation
-        from sumo_rail.learning.discriminator import DiscriminatorSettings
-        from sumo_rail.learning.rail import RailSettings
-
-        try:
-            rail = RailSettings(directions=self.directions, top=self.top, step_size=self.step_size,
-                                noise=NoiseAdaptation(self.noise, self.noise_increment, self.noise_every), seed=seed,
-                                common_traffic=self.traffic == "common", episodes_per_rollout=self.episodes_per_rollout,
-                                egos=self.egos, rollout_decisions=self.rollout_decisions,
-                                freeze_normalizer=self.freeze_normalizer, fitness=self.fitness,
-                                flip_rate=self.flip_rate, reward=self.reward)
-            discriminator = DiscriminatorSettings(hidden=self.disc_hidden, learning_rate=self.disc_lr,
-                                                  steps_per_iteration=self.disc_steps, seed=seed,
-                                                  reward_form=self.disc_reward, balance=self.disc_balance,
-                                                  gradient_penalty=self.disc_penalty, replay=self.disc_replay)
-        except ValueError as error:
-            raise click.UsageError(str(error)) from error
-        return rail, discriminator
-
-
-def search_options(command: Callable[..., Any]) -> Callable[..., Any]:
-    """RAIL's ARS and discriminator options, what train and step-signal share; the command receives them as one
-    `search: SearchOptions` argument."""
-    options = [
-        click.option("--directions", type=click.IntRange(min=1), default=32, show_default=True, help="N, directions."),
-        click.option("--top", type=click.IntRange(min=1), default=None,
-                     help="b, best directions kept [default: N / 2]."),
-        click.option("--step-size", type=click.FloatRange(min=0, min_open=True), default=0.02, show_default=True,
-                     help="alpha, the ARS step size (the paper's 0.001 changes 0.1% of decisions in 3 iterations; "
-                          "see docs/results.md)."),
-        click.option("--noise", type=click.FloatRange(min=0, min_open=True), default=0.03, show_default=True,
-                     help="nu_init, the perturbation scale."),
-        click.option("--noise-increment", type=click.FloatRange(min=0), default=0.001, show_default=True,
-                     help="tau, added to nu at each check without improvement."),
-        click.option("--noise-every", type=click.IntRange(min=1), default=10, show_default=True,
-                     help="eta, iterations between noise checks."),
-        click.option("--flip-rate", type=click.FloatRange(min=0, max=1, min_open=True, max_open=True), default=None,
-                     help="Set nu at every iteration so that the perturbations change this share of the policy's "
-                          "decisions on the expert's states (replaces --noise, --noise-increment, --noise-every)."),
-        click.option("--fitness", type=click.Choice(["std", "rank"]), default="std", show_default=True,
-                     help="std: returns divided by their std (ARS); rank: centred ranks (Salimans et al. 2017)."),
-        click.option("--reward", type=click.Choice(["discriminator", "agreement"]), default="discriminator",
-                     show_default=True,
-                     help="discriminator: RAIL's. agreement: a control, not imitation: the expert is asked at every "
-                          "decision of every rollout and the return is the share of decisions it would have made alike "
-                          "(what the search reaches with it bounds what any reward can)."),
-        click.option("--traffic", type=click.Choice(["common", "independent"]), default="independent",
-                     show_default=True,
-                     help="common: every direction of an iteration drives the same episodes (common random numbers); "
-                          "independent: each direction its own."),
-        click.option("--episodes-per-rollout", type=click.IntRange(min=1), default=1, show_default=True,
-                     help="Episodes each perturbed rollout drives (its return is their mean)."),
-        egos_option("Rollouts of an iteration", "1: one rollout per simulation, as the paper."),
-        click.option("--rollout-decisions", type=click.IntRange(min=1), default=None, metavar="D",
-                     help="Make each rollout D decisions of its ego, respawning it whenever an episode ends, so the "
-                          "egos of a road never wait for each other (with --egos 8: ~4x the decisions per core); its "
-                          "return is the reward per decision [default: one whole episode, the paper's]."),
-        click.option("--freeze-normalizer/--merge-normalizer", default=True, show_default=True,
-                     help="Keep BC's observation statistics, or merge every rollout's states into them (the "
-                          "paper's)."),
-        click.option("--disc-hidden", type=click.IntRange(min=1), default=64, show_default=True,
-                     help="Discriminator units per hidden layer."),
-        click.option("--disc-lr", type=click.FloatRange(min=0, min_open=True), default=3e-4, show_default=True,
-                     help="Discriminator Adam step size."),
-        click.option("--disc-steps", type=click.IntRange(min=1), default=10, show_default=True,
-                     help="Discriminator gradient steps per iteration."),
-        click.option("--disc-reward", type=click.Choice(["logit", "contrast"]), default="logit", show_default=True,
-                     help="logit: log D - log(1 - D), the paper's; contrast: minus its mean over the actions at the "
-                          "same state (rewards the choice of action, not the state)."),
-        click.option("--disc-balance", type=click.FloatRange(min=0), default=0.0, show_default=True,
-                     help="Discriminator minibatches weigh pairs by (1 / their action's frequency)^p: 0 uniform, 1 "
-                          "every action alike."),
-        click.option("--disc-penalty", type=click.FloatRange(min=0), default=0.0, show_default=True,
-                     help="Weight of the gradient penalty on expert pairs (R1)."),
-        click.option("--disc-replay", type=click.IntRange(min=1), default=1, show_default=True,
-                     help="Iterations of policy pairs the discriminator trains on (1: the current one)."),
-    ]
-    names = [field.name for field in fields(SearchOptions)]
-
-    @functools.wraps(command)
-    def with_search(*args: Any, **kwargs: Any) -> Any:
-        search = SearchOptions(**{name: kwargs.pop(name) for name in names})
-        return command(*args, search=search, **kwargs)
-
-    for option in reversed(options):
-        with_search = option(with_search)
-    return with_search
 
 
 def expert_option(help_text: str, *aliases: str, default: str | None = "normal"

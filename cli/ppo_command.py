@@ -8,12 +8,14 @@ from typing import TYPE_CHECKING, Any
 import click
 from sumo_rail_cli.options import (
     DEFAULT_BATCH,
+    SettingOption,
     check_egos,
     check_run_folder,
     minibatch_size,
     policy_shape_options,
     ppo_options,
     seed_option,
+    setting_default,
     tensorboard_option,
 )
 from sumo_rail_cli.progress import complete, progress
@@ -23,6 +25,7 @@ from sumo_rail_cli.settings import config_options
 if TYPE_CHECKING:
     from sumo_rail.config import Config
 
+PPO = "sumo_rail.learning.sb3.ppo"
 CRITIC_WARMUP_WITH_INIT = 5
 """--critic-warmup's default with --init [updates]."""
 
@@ -30,18 +33,22 @@ CRITIC_WARMUP_WITH_INIT = 5
 @click.command("ppo")
 @config_options
 @policy_shape_options
-@ppo_options(default_timesteps=400_000,
+@ppo_options("sumo_rail.learning.sb3.ppo:PpoSettings",
              critic_help=f"; with --init only  [default: {CRITIC_WARMUP_WITH_INIT} with --init, else 0]")
 @click.option("--batch-size", type=click.IntRange(min=2), default=None,
               help=f"PPO minibatch size, at most an update's decisions  [default: {DEFAULT_BATCH}, or an update's "
                    f"decisions if fewer].")
-@click.option("--ent-coef", type=click.FloatRange(min=0), default=0.01, show_default=True,
+@click.option("--ent-coef", cls=SettingOption, type=click.FloatRange(min=0),
+              default=setting_default(PPO, "PpoSettings.ent_coef"), show_default=True,
               help="PPO's entropy bonus.")
-@click.option("--gamma", type=click.FloatRange(min=0, max=1, min_open=True), default=0.99, show_default=True,
+@click.option("--gamma", cls=SettingOption, type=click.FloatRange(min=0, max=1, min_open=True),
+              default=setting_default(PPO, "PpoSettings.gamma"), show_default=True,
               help="Discount per decision.")
-@click.option("--overtake-reward", type=click.FloatRange(min=0), default=0.0, show_default=True,
+@click.option("--overtake-reward", cls=SettingOption, type=click.FloatRange(min=0),
+              default=setting_default(PPO, "PpoSettings.overtake_reward"), show_default=True,
               help="Reward shaping: added for every vehicle the ego overtakes (0: the env's reward alone).")
-@click.option("--keep-right-reward", type=click.FloatRange(min=0), default=0.0, show_default=True,
+@click.option("--keep-right-reward", cls=SettingOption, type=click.FloatRange(min=0),
+              default=setting_default(PPO, "PpoSettings.keep_right_reward"), show_default=True,
               help="Reward shaping: added per decision in the rightmost lane, falling linearly to 0 in the leftmost "
                    "(the rule-based expert's keep-right rule; 0: the env's reward alone).")
 @click.option("--init", "init", type=click.Path(path_type=Path, dir_okay=False, exists=True), default=None,
@@ -65,9 +72,9 @@ def ppo_command(config: Config, kind: str, hidden: int, timesteps: int, envs: in
     'sumo-rail[baselines]'.
     """
     from sumo_rail.drivers.policies import PolicyFileError
-    from sumo_rail.learning.ppo_driver import PpoSettings, initial_policy, train_ppo_driver
-    from sumo_rail.learning.sb3_runs import BaselineError
-    from sumo_rail.learning.training import RunError
+    from sumo_rail.learning.run_folder import RunError
+    from sumo_rail.learning.sb3.ppo import PpoSettings, initial_policy, train_ppo_driver
+    from sumo_rail.learning.sb3.runs import BaselineError
 
     if critic_warmup is None:
         critic_warmup = CRITIC_WARMUP_WITH_INIT if init is not None else 0

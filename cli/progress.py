@@ -28,7 +28,7 @@ class PlainProgress:
         self.total = total
         self.description = description
         self.unit = unit
-        self.n = 0
+        self.n = self._initial = 0
         self._stream = stream if stream is not None else sys.stderr
         self._interval_s = interval_s
         self._clock = clock
@@ -43,6 +43,12 @@ class PlainProgress:
         if self._clock() - self._last >= self._interval_s:
             self._print()
 
+    def start_at(self, done: int) -> None:
+        """Start counting from `done` units (a resumed run's steps done before): the count, and the rate and elapsed
+        time from now on, are those of this run."""
+        self.n = self._initial = done
+        self._start = self._last = self._clock()
+
     def set_postfix(self, **values: Any) -> None:
         """Values shown at the end of the next line."""
         self._postfix = values
@@ -56,13 +62,13 @@ class PlainProgress:
         says why, without a "0/N" line before)."""
         if not self._closed:
             self._closed = True
-            if self._printed_n != self.n and (self.n or self._printed_n is not None):
+            if self._printed_n != self.n and (self.n > self._initial or self._printed_n is not None):
                 self._print()
 
     def _print(self) -> None:
         now = self._clock()
         elapsed = now - self._start
-        rate = f"{self.n / elapsed:.2f} {self.unit}/s" if elapsed > 0 else f"? {self.unit}/s"
+        rate = f"{(self.n - self._initial) / elapsed:.2f} {self.unit}/s" if elapsed > 0 else f"? {self.unit}/s"
         share = f" ({100.0 * self.n / self.total:.0f}%)" if self.total else ""
         extra = "".join(f", {key}={value}" for key, value in self._postfix.items())
         print(f"{self.description}: {self.n}/{self.total} {self.unit}s{share}, {rate}, elapsed {elapsed:.0f} s{extra}",
@@ -83,6 +89,17 @@ def progress(total: int, description: str, unit: str = "episode", stream: IO[str
     if _is_terminal(stream):
         return tqdm(total=total, desc=description, unit=unit, dynamic_ncols=True, file=stream)
     return PlainProgress(total, description, unit, stream)
+
+
+def start_at(bar: Any, done: int) -> None:
+    """Make `bar` (a tqdm bar or a `PlainProgress`) count from `done` units: a resumed run's bar starts where its
+    run stopped, and its rate counts this run's units alone."""
+    if isinstance(bar, PlainProgress):
+        bar.start_at(done)
+        return
+    bar.n = bar.last_print_n = bar.initial = done
+    bar.start_t = bar.last_print_t = bar._time()
+    bar.refresh()
 
 
 def advance_to(bar: Any, done: int) -> None:

@@ -6,7 +6,7 @@ from __future__ import annotations
 import contextlib
 import math
 import signal
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import AbstractContextManager
 from pathlib import Path
 from types import FrameType
@@ -40,11 +40,12 @@ def library_errors() -> Iterator[None]:
 
 
 @contextlib.contextmanager
-def interruptible_run(bar: AbstractContextManager[Any], interrupted: str,
+def interruptible_run(bar: AbstractContextManager[Any], interrupted: str | Callable[[], str],
                       backend: AbstractContextManager[Any] | None = None,
                       board: AbstractContextManager[Any] | None = None,
                       errors: tuple[type[Exception], ...] = ()) -> Iterator[Any]:
-    """A long command's work: Ctrl-C or SIGTERM end it with the one sentence `interrupted` (exit 1), even when it was
+    """A long command's work: Ctrl-C or SIGTERM end it with the one sentence `interrupted` (or what it returns when it
+    is called then) (exit 1), even when it was
     started with SIGINT ignored; errors a user can cause (`library_errors`, and `errors`) are one sentence too. The
     TensorBoard logger `board` (`tensorboard_logger`), the `backend` and the progress `bar` are entered in that
     order and closed on the way out; yields what `board` yields (None without it)."""
@@ -56,12 +57,18 @@ def interruptible_run(bar: AbstractContextManager[Any], interrupted: str,
             raise click.ClickException(str(error)) from error
         except KeyboardInterrupt:
             ignore_stop_signals()  # more Ctrl-Cs must not break the closing of the backend and the bar
-            raise click.ClickException(interrupted) from None
+            raise click.ClickException(interrupted if isinstance(interrupted, str) else interrupted()) from None
 
 
-def kept_until_resume(out: Path, step: str) -> str:
-    """What an interrupted resumable run says: its folder keeps its last complete `step` (iteration, round)."""
-    return f"interrupted; {out} keeps its last complete {step}, continue with --resume"
+def kept_until_resume(out: Path, step: str, checkpoint: str = "checkpoint.pt") -> str:
+    """What an interrupted resumable run says: its folder keeps its last complete `step` (iteration, round), or, when
+    it was stopped before its first was saved (no `checkpoint` in `out`), that there is nothing to resume."""
+    if (out / checkpoint).is_file():
+        return f"interrupted; {out} keeps its last complete {step}, continue with --resume"
+    unsaved = f"interrupted before the first {step} was saved, so there is nothing to resume"
+    if out.is_dir() and any(out.iterdir()):  # a run folder begun: a new run needs it empty
+        return f"{unsaved}: remove {out} and run the command again"
+    return f"{unsaved}: run the command again"
 
 
 def sb3_progress(bar: Any, row: dict[str, Any], steps_per_update: int) -> None:

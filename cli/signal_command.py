@@ -8,21 +8,20 @@ from typing import TYPE_CHECKING, Any
 
 import click
 from sumo_rail_cli.options import (
-    SearchOptions,
     backend_options,
     build_backend,
     check_egos,
     check_output,
     expert_option,
     resolve_expert_option,
-    search_options,
     seed_option,
 )
 from sumo_rail_cli.progress import complete, progress
 from sumo_rail_cli.running import interruptible_run, library_errors
+from sumo_rail_cli.search_options import SearchOptions, search_options
 from sumo_rail_cli.settings import config_options
 
-from sumo_rail.learning.step_signal import REWARD_VARIANTS
+from sumo_rail.learning.rail.step_signal import REWARD_VARIANTS
 
 if TYPE_CHECKING:
     from sumo_rail.config import Config
@@ -61,11 +60,11 @@ def step_signal_command(config: Config, demos: Path, policy_path: Path,
         raise click.UsageError("--directions must be at least 3: the meter correlates the draws across directions")
     import numpy as np
 
+    from sumo_rail.datasets import write_bytes_atomically
     from sumo_rail.drivers.policies import Policy, load_policy
-    from sumo_rail.learning.noise import directions, noise_for_flip_rate
-    from sumo_rail.learning.rail import calibration_states
-    from sumo_rail.learning.step_signal import Meter, measure, variants
-    from sumo_rail.learning.training import write_atomically
+    from sumo_rail.learning.rail.iteration import calibration_states
+    from sumo_rail.learning.rail.noise import directions, noise_for_flip_rate
+    from sumo_rail.learning.rail.step_signal import Meter, measure, variants
     from sumo_rail.runners.experts import demonstrations_expert, resolve_expert
     from sumo_rail.runners.tables import provenance, read_demonstrations
     from sumo_rail.sim.observation import observation_space
@@ -104,7 +103,7 @@ def step_signal_command(config: Config, demos: Path, policy_path: Path,
     click.echo(signal_table(record))
     if out is not None:
         try:
-            write_atomically(out, json.dumps(record, indent=2, sort_keys=True).encode())
+            write_bytes_atomically(out, json.dumps(record, indent=2, sort_keys=True).encode())
         except OSError as error:
             raise click.ClickException(f"cannot write {out}: {error.strerror or error}") from error
         click.echo(f"wrote {out}")

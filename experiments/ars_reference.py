@@ -41,9 +41,9 @@ from matplotlib.figure import Figure
 from matplotlib.ticker import EngFormatter
 
 from sumo_rail.drivers.policies import Policy, PolicyShape
-from sumo_rail.learning.ars import ars_update
-from sumo_rail.learning.noise import directions
-from sumo_rail.learning.normalize import RunningStats
+from sumo_rail.learning.rail.ars import ars_update
+from sumo_rail.learning.rail.noise import directions
+from sumo_rail.learning.rail.normalize import RunningStats
 from sumo_rail.report.markdown import save_png, write_atomically
 
 PROJECT, SB3 = "sumo-rail", "sb3-contrib"

@@ -16,8 +16,8 @@ from typing import Any
 
 import numpy as np
 
-from sumo_rail.learning.noise import directions
-from sumo_rail.learning.step_signal import Differences, signal
+from sumo_rail.learning.rail.noise import directions
+from sumo_rail.learning.rail.step_signal import Differences, signal
 
 STEP_SETTINGS = (("b = N / 2, std", 0.5, "std"), ("b = N, std", 1.0, "std"), ("b = N / 2, ranks", 0.5, "rank"),
                  ("b = N, ranks", 1.0, "rank"))

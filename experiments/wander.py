@@ -14,8 +14,8 @@ import numpy as np
 
 from sumo_rail.datasets import read_json_record
 from sumo_rail.drivers.policies import load_policy
-from sumo_rail.learning.ars import NoiseAdaptation, ars_update
-from sumo_rail.learning.rail import RailSettings
+from sumo_rail.learning.rail.ars import NoiseAdaptation, ars_update
+from sumo_rail.learning.rail.iteration import RailSettings
 
 REPLICATES = 20
 """Simulated searches without signal that a run's distance is compared with."""

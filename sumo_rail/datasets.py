@@ -15,7 +15,7 @@ import json
 import os
 import platform
 from collections.abc import Iterator
-from contextlib import contextmanager
+from contextlib import AbstractContextManager, contextmanager
 from importlib import metadata as package_metadata
 from pathlib import Path
 from typing import Any
@@ -80,18 +80,36 @@ def check_output_folder(folder: Path) -> None:
         raise DatasetError(f"run folder {folder} cannot be written: {existing} is not writable")
 
 
-def write_parquet(table: pa.Table, path: Path, metadata: dict[str, Any]) -> None:
-    """Write `table` with `metadata` to `path` atomically: a temporary file in the same folder, then rename."""
+@contextmanager
+def written_atomically(path: Path, suffix: str = "") -> Iterator[Path]:
+    """The one way sumo-rail replaces a file: write to the temporary path this yields (a hidden name of this process
+    in the same folder, ending in `suffix` for writers that go by the extension); when the block succeeds it is
+    renamed onto `path` in one step, so a reader sees the old file or the new one, never half of one. The temporary
+    file is removed in any case."""
     path = Path(path)
-    schema_metadata = {**(table.schema.metadata or {}), METADATA_KEY: json.dumps(metadata, sort_keys=True).encode()}
-    temporary = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    temporary = path.with_name(f".{path.name}.{os.getpid()}.tmp{suffix}")
     try:
-        pq.write_table(table.replace_schema_metadata(schema_metadata), temporary, write_page_checksum=True)
+        yield temporary
         os.replace(temporary, path)
-    except OSError as error:
-        raise DatasetError(f"cannot write {path}: {error.strerror or error}") from error
     finally:
         temporary.unlink(missing_ok=True)
+
+
+def write_bytes_atomically(path: Path, content: bytes) -> None:
+    """Write `content` to `path` with `written_atomically`."""
+    with written_atomically(path) as temporary:
+        temporary.write_bytes(content)
+
+
+def write_parquet(table: pa.Table, path: Path, metadata: dict[str, Any]) -> None:
+    """Write `table` with `metadata` to `path` atomically (`written_atomically`)."""
+    path = Path(path)
+    schema_metadata = {**(table.schema.metadata or {}), METADATA_KEY: json.dumps(metadata, sort_keys=True).encode()}
+    try:
+        with written_atomically(path) as temporary:
+            pq.write_table(table.replace_schema_metadata(schema_metadata), temporary, write_page_checksum=True)
+    except OSError as error:
+        raise DatasetError(f"cannot write {path}: {error.strerror or error}") from error
 
 
 def describe(error: BaseException) -> str:
@@ -193,24 +211,32 @@ def written_together(folder: Path) -> Iterator[StagedFiles]:
 
 
 class StagedFiles:
-    """Temporary files waiting to replace their final paths; see `written_together`."""
+    """Temporary files waiting to replace their final paths, each one `written_atomically`; see `written_together`."""
 
     def __init__(self, folder: Path) -> None:
         self.folder = folder
-        self._staged: list[tuple[Path, Path]] = []
+        self._staged: list[AbstractContextManager[Path]] = []
 
     def path(self, final: Path) -> Path:
         """Where to write `final` for now (a hidden name in the same folder, so the rename is atomic)."""
-        temporary = final.with_name(f".{final.name}.{os.getpid()}.staged")
-        self._staged.append((temporary, final))
+        staged = written_atomically(final)
+        temporary = staged.__enter__()
+        self._staged.append(staged)
         return temporary
 
     def commit(self) -> None:
-        for temporary, final in self._staged:
-            os.replace(temporary, final)
+        """Rename every staged file into place, in the order staged."""
+        for staged in self._staged:
+            staged.__exit__(None, None, None)
         self._staged.clear()
 
     def discard(self) -> None:
-        for temporary, _ in self._staged:
-            temporary.unlink(missing_ok=True)
+        """Remove every staged file; the final paths stay as they were."""
+        for staged in self._staged:
+            staged.__exit__(_Discarded, _Discarded(), None)
         self._staged.clear()
+
+
+class _Discarded(Exception):
+    """What a discarded staged write is left with (`StagedFiles.discard`): its temporary file is removed, nothing
+    renamed."""

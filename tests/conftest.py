@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+from pathlib import Path
 
 import pytest
 
@@ -22,3 +23,28 @@ def small_config() -> Config:
         "scenario": {"length_m": 1500.0, "warmup_s": 120.0, "snapshots": 3, "snapshot_interval_s": 10.0},
         "env": {"ego_start_min_m": 300.0, "ego_start_max_m": 500.0},
     })
+
+
+@pytest.fixture(scope="module")
+def small_config_module() -> Config:
+    """`small_config` for a module's fixtures."""
+    return Config.from_dict({"scenario": {"length_m": 1500.0, "warmup_s": 120.0, "snapshots": 3,
+                                          "snapshot_interval_s": 10.0},
+                             "env": {"ego_start_min_m": 300.0, "ego_start_max_m": 500.0}})
+
+
+@pytest.fixture(scope="module")
+def demos_path(tmp_path_factory: pytest.TempPathFactory, small_config_module: Config) -> Path:
+    """The normal expert's demonstrations of two episodes on the small road."""
+    from sumo_rail.datasets import write_parquet
+    from sumo_rail.runners.backends import SerialBackend
+    from sumo_rail.runners.rollout import EpisodeTask, ExpertDriver
+    from sumo_rail.runners.tables import DEMONSTRATIONS, demonstrations_table, provenance
+
+    path = tmp_path_factory.mktemp("demos") / "demos.parquet"
+    seeds = [0, 3]
+    with SerialBackend() as backend:
+        results = backend.run([EpisodeTask(small_config_module, ExpertDriver("normal"), s, record=True)
+                               for s in seeds])
+    write_parquet(demonstrations_table(results, seeds, 56), path, provenance(DEMONSTRATIONS, small_config_module, 0))
+    return path

@@ -8,7 +8,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from sumo_rail.learning.ars import ArsStep, ars_update
+from sumo_rail.learning.rail.ars import ArsStep, ars_update
 
 sys.path.insert(0, str(Path(__file__).parent.parent / "experiments"))
 import ars_reference

@@ -52,6 +52,17 @@ def test_version_and_help():
     assert result.exit_code == 0 and "record-expert" in result.output and "evaluate" in result.output
 
 
+def test_train_help_leaves_its_research_options_to_help_all():
+    short, full = invoke("train", "--help"), invoke("train", "--help-all")
+    assert short.exit_code == 0 and full.exit_code == 0, short.output + full.output
+    for research in ("--flip-rate", "--fitness", "--reward", "--traffic", "--episodes-per-rollout",
+                     "--merge-normalizer", "--disc-reward", "--disc-balance", "--disc-penalty", "--disc-replay"):
+        assert research not in short.output and research in full.output.split("Research options")[1], research
+    for option in ("--demos", "--directions", "--step-size", "--egos", "--rollout-decisions", "--out", "--help-all"):
+        assert option in short.output and option in full.output, option
+    assert "10 research options" in short.output
+
+
 def test_record_expert_is_identical_for_any_worker_count_and_run(tmp_path):
     paths = []
     for name, workers in (("a", "1"), ("b", "2"), ("c", "2")):

@@ -8,7 +8,7 @@ import pyarrow.parquet as pq
 import pytest
 from click.testing import CliRunner
 from sumo_rail_cli.main import cli
-from sumo_rail_cli.progress import PlainProgress, progress
+from sumo_rail_cli.progress import PlainProgress, progress, start_at
 
 from sumo_rail.runners.video import read_frames
 from sumo_rail.sim.render import EGO
@@ -105,3 +105,72 @@ def test_the_last_progress_line_is_at_100_percent_for_resumed_runs_and_egos(tmp_
     assert invoke(*train, "--iterations", "1").exit_code == 0
     result = invoke(*train, "--iterations", "2", "--resume")
     assert result.exit_code == 0 and "training: 2/2 iterations (100%)" in result.output, result.output
+
+
+def test_a_resumed_runs_progress_counts_from_where_it_stopped():
+    now = [0.0]
+    stream = io.StringIO()
+    bar = PlainProgress(10, "training", "iteration", stream, interval_s=5.0, clock=lambda: now[0])
+    with bar:
+        now[0] += 100.0  # reading the checkpoint
+        start_at(bar, 6)
+        for _ in range(4):
+            now[0] += 2.0
+            bar.update()
+    lines = stream.getvalue().splitlines()
+    assert lines[0].startswith("training: 9/10 iterations (90%), 0.50 iteration/s, elapsed 6 s")  # this run's three
+    assert lines[1].startswith("training: 10/10 iterations (100%), 0.50 iteration/s, elapsed 8 s")
+    live = progress(10, "training", unit="iteration", stream=Terminal())
+    with live:
+        start_at(live, 6)
+        assert (live.n, live.initial) == (6, 6)  # tqdm's rate counts from `initial`
+        live.update()
+    assert "7/10" in live.fp.getvalue()
+
+
+def fake_train(done: int, interrupt: bool = False):
+    """In place of `trainer.train`: a run in a new folder (run.json only) that is resumed from `done` iterations and
+    then interrupted or runs one more iteration."""
+    from types import SimpleNamespace
+
+    from sumo_rail.learning.run_folder import start_run_folder
+
+    def train(folder, settings, config, iterations, backend, resume, validation, on_bc, on_iteration, on_start):
+        if not folder.exists():
+            start_run_folder(folder, {"settings": {}, "config": {}})
+        on_start(done)
+        if interrupt:
+            raise KeyboardInterrupt
+        on_iteration({"iteration": done, "env_steps": 10, "wall_time_s": 1.0, "return_mean": 0.0,
+                      "eval_average_speed_kmh": None})
+        return SimpleNamespace(iteration=done + 1)
+
+    return train
+
+
+def test_a_resumed_train_counts_from_its_resumed_iteration(tmp_path, monkeypatch):
+    from sumo_rail_cli import commands
+
+    from sumo_rail.learning.rail import trainer
+
+    started: list[tuple[int, int]] = []
+    monkeypatch.setattr(trainer, "train", fake_train(3))
+    monkeypatch.setattr(commands, "start_at", lambda bar, done: (started.append((bar.n, done)), start_at(bar, done)))
+    result = invoke("train", "--demos", str(tmp_path / "demos.parquet"), "--iterations", "4", "--out",
+                    str(tmp_path / "run"))
+    assert result.exit_code == 0, result.output
+    assert started == [(0, 3)] and "training: 4/4 iterations (100%)" in result.output
+
+
+def test_ctrl_c_before_trains_first_iteration_does_not_offer_resume(tmp_path, monkeypatch):
+    from sumo_rail.learning.rail import trainer
+
+    run = tmp_path / "run"
+    monkeypatch.setattr(trainer, "train", fake_train(0, interrupt=True))
+    result = invoke("train", "--demos", str(tmp_path / "demos.parquet"), "--out", str(run))
+    assert result.exit_code == 1 and "Traceback" not in result.output, result.output
+    assert f"nothing to resume: remove {run} and run the command again" in result.output
+    assert "--resume" not in result.output
+    (run / "checkpoint.pt").write_bytes(b"an iteration saved")
+    result = invoke("train", "--demos", str(tmp_path / "demos.parquet"), "--out", str(run), "--resume")
+    assert result.exit_code == 1 and f"{run} keeps its last complete iteration, continue with --resume" in result.output

@@ -10,8 +10,8 @@ import pytest
 from sumo_rail.datasets import FORMAT_VERSION
 from sumo_rail.drivers.policies import Policy, PolicyShape, save_policy
 from sumo_rail.evaluation.statistics import Interval
-from sumo_rail.learning.ars import ars_update
-from sumo_rail.learning.rail import RailSettings
+from sumo_rail.learning.rail.ars import ars_update
+from sumo_rail.learning.rail.iteration import RailSettings
 
 EXPERIMENTS = Path(__file__).parent.parent / "experiments"
 SCRIPTS = sorted(EXPERIMENTS.glob("*.sh"))

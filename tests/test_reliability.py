@@ -11,7 +11,7 @@ Caches: a damaged network or warm-state cache entry is rebuilt (`CACHE_DAMAGES`)
 Workers: a killed or failing GAIL environment process is one sentence. Full disk: a save that fails (ENOSPC from
 each writer in turn) keeps the previous complete iteration, every file of it, and says so.
 (The process pool's and Ray's recovery from killed workers is tested in tests/runners/ and
-tests/learning/test_training.py.)
+tests/learning/rail/test_trainer.py.)
 """
 
 from __future__ import annotations
@@ -400,8 +400,8 @@ def test_a_full_disk_during_a_save_keeps_the_previous_iteration(workspace: Path,
 
 def test_a_full_disk_during_a_gail_update_keeps_the_previous_update(workspace: Path,
                                                                     monkeypatch: pytest.MonkeyPatch):
-    from sumo_rail.learning.gail import GailSettings, train_gail
-    from sumo_rail.learning.sb3_runs import BaselineError
+    from sumo_rail.learning.sb3.gail import GailSettings, train_gail
+    from sumo_rail.learning.sb3.runs import BaselineError
 
     original, saved = pq.write_table, {}
 

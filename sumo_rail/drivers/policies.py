@@ -14,7 +14,6 @@ observation names, config, provenance).
 from __future__ import annotations
 
 import json
-import os
 import zipfile
 from dataclasses import dataclass
 from pathlib import Path
@@ -22,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from sumo_rail.datasets import describe
+from sumo_rail.datasets import describe, written_atomically
 
 FORMAT = "sumo-rail policy"
 FORMAT_VERSION = 1
@@ -125,19 +124,13 @@ def _unflatten(shape: PolicyShape, parameters: np.ndarray) -> tuple[np.ndarray, 
 
 
 def save_policy(policy: Policy, path: Path, metadata: dict[str, Any]) -> None:
-    """Write the policy file atomically (temporary file in the same folder, then rename)."""
-    path = Path(path)
-    temporary = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    try:
-        with open(temporary, "wb") as handle:
-            np.savez(handle, format=np.array(FORMAT), format_version=np.array(FORMAT_VERSION),
-                     kind=np.array(policy.shape.kind), observation_size=np.array(policy.shape.observation_size),
-                     hidden=np.array(policy.shape.hidden), actions=np.array(policy.shape.actions),
-                     parameters=policy.parameters, observation_mean=policy.observation_mean,
-                     observation_std=policy.observation_std, metadata=np.array(json.dumps(metadata, sort_keys=True)))
-        os.replace(temporary, path)
-    finally:
-        temporary.unlink(missing_ok=True)
+    """Write the policy file atomically (`written_atomically`)."""
+    with written_atomically(path) as temporary, open(temporary, "wb") as handle:
+        np.savez(handle, format=np.array(FORMAT), format_version=np.array(FORMAT_VERSION),
+                 kind=np.array(policy.shape.kind), observation_size=np.array(policy.shape.observation_size),
+                 hidden=np.array(policy.shape.hidden), actions=np.array(policy.shape.actions),
+                 parameters=policy.parameters, observation_mean=policy.observation_mean,
+                 observation_std=policy.observation_std, metadata=np.array(json.dumps(metadata, sort_keys=True)))
 
 
 def load_policy(path: Path) -> tuple[Policy, dict[str, Any]]:

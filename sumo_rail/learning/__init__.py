@@ -1,5 +1,10 @@
-"""Improving a policy from demonstrations and rollouts: observation statistics, ARS (noise, update), behaviour
-cloning, the LS-GAN discriminator, RAIL's iteration and run folder, and the GAIL baseline.
+"""Improving a policy from demonstrations and rollouts.
+
+`rail/` holds RAIL (observation statistics, ARS's noise and update, the LS-GAN discriminator, an iteration, its
+trainer, the step signal); `sb3/` the Stable-Baselines3 drivers (GAIL, the PPO driver, their PPO, resume and the
+shared-road environments), imported only by the commands that run them. Here: behaviour cloning (`bc.py`), DAgger
+(`dagger.py`), the run folder every training command writes (`run_folder.py`), validation during training
+(`validation.py`), TensorBoard logging and torch's thread setting.
 
 May import: the top level, `sim`, `drivers`, `runners` and `evaluation`.
 """

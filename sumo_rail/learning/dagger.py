@@ -27,20 +27,11 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from sumo_rail.config import Config
-from sumo_rail.datasets import read_metadata, write_parquet
+from sumo_rail.datasets import read_metadata, write_bytes_atomically, write_parquet
 from sumo_rail.drivers.policies import Policy, PolicyShape, save_policy
 from sumo_rail.learning.bc import BcReport, BcSettings, behaviour_cloning
-from sumo_rail.learning.training import (
-    RunError,
-    Validation,
-    signals_deferred,
-    start_run_folder,
-    validate,
-    validation_columns,
-    with_defaults,
-    with_validation_columns,
-    write_atomically,
-)
+from sumo_rail.learning.run_folder import RunError, check_resumable, signals_deferred, start_run_folder
+from sumo_rail.learning.validation import Validation, validate, validation_columns, with_validation_columns
 from sumo_rail.runners.backends import RolloutBackend, WorkerContext
 from sumo_rail.runners.experts import demonstrations_expert, resolve_expert
 from sumo_rail.runners.rollout import Driver, DriverSpec, run_shared_episode, shared_groups
@@ -226,24 +217,20 @@ def _save(folder: Path, round_: int, dataset: Demonstrations, policy: Policy, lo
     log = pa.table({name: pa.array([row[name] for row in logs],
                                    pa.float64() if name.startswith(("eval_", "bc_")) else None) for name in columns})
     write_parquet(log, folder / "log.parquet", {**run_record, "kind": "dagger_log"})
-    write_atomically(folder / "checkpoint.json", json.dumps({"format": CHECKPOINT_FORMAT, "round": round_}).encode())
+    write_bytes_atomically(folder / "checkpoint.json",
+                           json.dumps({"format": CHECKPOINT_FORMAT, "round": round_}).encode())
 
 
 def _resume(folder: Path, run_record: dict[str, Any]) -> tuple[int, Demonstrations, list[dict[str, Any]]]:
     checkpoint_path = folder / "checkpoint.json"
-    if not checkpoint_path.is_file():
-        raise RunError(f"nothing to resume: {checkpoint_path} does not exist")
+    check_resumable(folder, checkpoint_path.name, run_record, {"expert": None, "egos": 1})
     try:
-        stored = json.loads((folder / "run.json").read_text())
         checkpoint = json.loads(checkpoint_path.read_text())
         done = int(checkpoint["round"])
     except (OSError, ValueError, KeyError, TypeError) as error:
-        raise RunError(f"run {folder} has an unreadable run.json or checkpoint.json ({error})") from error
+        raise RunError(f"run {folder} has an unreadable checkpoint.json ({error})") from error
     if checkpoint.get("format") != CHECKPOINT_FORMAT:
         raise RunError(f"{checkpoint_path} is not a sumo-rail DAgger checkpoint")
-    settings = with_defaults(stored.get("settings", {}), {"expert": None, "egos": 1})
-    if settings != run_record["settings"] or stored.get("config") != run_record["config"]:
-        raise RunError(f"run {folder} was started with other settings; resume it with the same options")
     if read_metadata(folder / "dataset.parquet").get("round") != done:
         raise RunError(f"{folder / 'dataset.parquet'} does not belong to round {done} of the checkpoint")
     try:

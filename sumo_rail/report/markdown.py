@@ -6,7 +6,6 @@ never leaves a half-written file; report.md is written last.
 
 from __future__ import annotations
 
-import os
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -14,6 +13,7 @@ from pathlib import Path
 import pandas as pd
 from matplotlib.figure import Figure
 
+from sumo_rail.datasets import write_bytes_atomically, written_atomically
 from sumo_rail.evaluation.distributions import distance_table
 from sumo_rail.evaluation.fidelity import CONFUSION_COLUMNS
 from sumo_rail.evaluation.summary import intervals, paired_differences, summary_table
@@ -183,27 +183,16 @@ def _last_validation(run: Run) -> list[str]:
 
 def save_png(figure: Figure, path: Path) -> None:
     """Render `figure` to a PNG at `path` atomically."""
-    temporary = _temporary(path)
     try:
-        figure.savefig(temporary, format="png", dpi=DPI)
-        os.replace(temporary, path)
+        with written_atomically(path) as temporary:
+            figure.savefig(temporary, format="png", dpi=DPI)
     except OSError as error:
         raise ReportError(f"cannot write {path}: {error.strerror or error}") from error
-    finally:
-        temporary.unlink(missing_ok=True)
 
 
 def write_atomically(path: Path, content: bytes) -> None:
-    temporary = _temporary(path)
     try:
-        temporary.write_bytes(content)
-        os.replace(temporary, path)
+        write_bytes_atomically(path, content)
     except OSError as error:
         raise ReportError(f"cannot write {path}: {error.strerror or error}") from error
-    finally:
-        temporary.unlink(missing_ok=True)
-
-
-def _temporary(path: Path) -> Path:
-    return path.with_name(f".{path.name}.{os.getpid()}.tmp")
 

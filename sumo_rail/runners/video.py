@@ -8,7 +8,6 @@ the video writes it (atomically), whichever backend ran the episode.
 
 from __future__ import annotations
 
-import os
 import re
 import tempfile
 from collections.abc import Sequence
@@ -17,6 +16,7 @@ from typing import Any
 
 import numpy as np
 
+from sumo_rail.datasets import write_bytes_atomically, written_atomically
 from sumo_rail.sim.env import HighwayEnv
 
 INSTALL_HINT = "pip install 'sumo-rail[video]'"
@@ -108,28 +108,19 @@ def write_gif(frames: Sequence[np.ndarray], path: Path, fps: float) -> None:
     require_encoder()
     import imageio.v2 as imageio
 
-    path = Path(path)
-    temporary = path.with_name(f".{path.name}.{os.getpid()}.tmp.gif")
     try:
-        imageio.mimsave(temporary, list(frames), format="GIF", duration=1000.0 / fps, loop=0)
-        os.replace(temporary, path)
+        with written_atomically(path, suffix=".gif") as temporary:
+            imageio.mimsave(temporary, list(frames), format="GIF", duration=1000.0 / fps, loop=0)
     except OSError as error:
         raise VideoError(f"cannot write {path}: {error.strerror or error}") from error
-    finally:
-        temporary.unlink(missing_ok=True)
 
 
 def write_bytes(content: bytes, path: Path) -> None:
-    """Write `content` to `path` atomically (a temporary file in the same folder, then rename)."""
-    path = Path(path)
-    temporary = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    """Write `content` to `path` atomically (`written_atomically`)."""
     try:
-        temporary.write_bytes(content)
-        os.replace(temporary, path)
+        write_bytes_atomically(path, content)
     except OSError as error:
         raise VideoError(f"cannot write {path}: {error.strerror or error}") from error
-    finally:
-        temporary.unlink(missing_ok=True)
 
 
 def video_name(driver: str, episode: int, seed: int) -> str:

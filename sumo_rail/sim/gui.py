@@ -4,13 +4,13 @@ the functions work on the traci API object the simulation passes in."""
 from __future__ import annotations
 
 import contextlib
-import os
 import time
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from types import ModuleType
 from typing import Any
 
+from sumo_rail.datasets import write_bytes_atomically
 from sumo_rail.sim import network
 
 VIEW = "View #0"
@@ -73,7 +73,5 @@ def settings_file() -> Path:
     path = network.cache_dir() / "gui-settings-v2.xml"
     if not path.exists():
         path.parent.mkdir(parents=True, exist_ok=True)
-        temporary = path.with_suffix(f".{os.getpid()}.tmp")
-        temporary.write_text('<viewsettings>\n    <scheme name="real world"/>\n</viewsettings>\n')
-        os.replace(temporary, path)
+        write_bytes_atomically(path, b'<viewsettings>\n    <scheme name="real world"/>\n</viewsettings>\n')
     return path

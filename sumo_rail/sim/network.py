@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from sumo_rail.config import ConfigError, ScenarioConfig
-from sumo_rail.datasets import sumo_version
+from sumo_rail.datasets import sumo_version, written_atomically
 from sumo_rail.sim import scenarios, user_network
 
 log = logging.getLogger(__name__)
@@ -93,15 +93,14 @@ def build(scenario: ScenarioConfig, source_dir: Path | None = None) -> BuiltNetw
     if built.net_file.exists() or built.routes_file.exists():
         log.warning("the cached network in %s is damaged (%s); building it again", directory, problem)
     directory.mkdir(parents=True, exist_ok=True)
-    with tempfile.TemporaryDirectory(dir=directory) as scratch:
+    # the routes are renamed into place first, the network last (the inner block ends first)
+    with (tempfile.TemporaryDirectory(dir=directory) as scratch, written_atomically(built.net_file) as net_tmp,
+          written_atomically(built.routes_file) as routes_tmp):
         scratch_dir = Path(scratch)
         inputs = {kind: _write(scratch_dir / f"{stem}.{kind[:3]}.xml", data) for kind, data in road.files.items()
                   if kind != "routes"}
-        net_tmp = scratch_dir / built.net_file.name
         _netconvert(inputs, net_tmp)
-        routes_tmp = _write(scratch_dir / "traffic.rou.xml", road.routes)
-        os.replace(routes_tmp, built.routes_file)
-        os.replace(net_tmp, built.net_file)
+        _write(routes_tmp, road.routes)
     log.info("built network %s", directory)
     return built
 

@@ -24,7 +24,7 @@ start together, so the time limit truncates every ego still driving at the same 
 `agents` is empty.
 
 Respawns: `respawn(agent)` starts a new episode of an ego that has left while the others drive on (a new vehicle
-placed at once in the start window), for learners that keep every ego busy (`sumo_rail.learning.shared_road`).
+placed at once in the start window), for learners that keep every ego busy (`sumo_rail.learning.sb3.shared_road`).
 
 For a rollout runner: before each `step`, `traffic(agent)` is that ego's `TrafficView` (what `HighwayEnv.traffic`
 gives for the single ego, so an expert can be asked at every decision), and `metrics(agent)` its episode totals

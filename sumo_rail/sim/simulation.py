@@ -21,7 +21,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from sumo_rail.config import ScenarioConfig
-from sumo_rail.datasets import describe
+from sumo_rail.datasets import describe, written_atomically
 from sumo_rail.sim import gui as sumo_gui
 from sumo_rail.sim import network
 from sumo_rail.sim.placement import EgoPlacement
@@ -179,9 +179,8 @@ class Simulation(EgoPlacement, Stepping, Sensing):
             for k, path in enumerate(paths):
                 if k:
                     api.simulationStep(api.simulation.getTime() + self.scenario.snapshot_interval_s)
-                temporary = path.with_suffix(f".{os.getpid()}.tmp")
-                api.simulation.saveState(str(temporary))
-                os.replace(temporary, path)
+                with written_atomically(path) as temporary:
+                    api.simulation.saveState(str(temporary))
         log.info("saved %d warm states in %s", len(paths), paths[0].parent)
 
     def reset(self, snapshot: int, sumo_seed: int, ego_lane: int, ego_position_m: float, pool: str = "train") -> None:

@@ -11,13 +11,12 @@ from __future__ import annotations
 import hashlib
 import itertools
 import json
-import os
 import xml.etree.ElementTree as ElementTree
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 from sumo_rail.config import ConfigError, ScenarioConfig
-from sumo_rail.datasets import sumo_version
+from sumo_rail.datasets import sumo_version, write_bytes_atomically
 from sumo_rail.sim import scenarios
 
 if TYPE_CHECKING:
@@ -45,9 +44,7 @@ def build(scenario: ScenarioConfig, cache_root: Path, vehicle_types_file: Path) 
     routes_file = directory / "traffic.rou.xml"
     if not (routes_file.exists() and routes_file.read_bytes() == routes):
         directory.mkdir(parents=True, exist_ok=True)
-        temporary = routes_file.with_suffix(f".{os.getpid()}.tmp")
-        temporary.write_bytes(routes)
-        os.replace(temporary, routes_file)
+        write_bytes_atomically(routes_file, routes)
     return BuiltNetwork(net_file, routes_file, directory, ego_route, traffic_file)
 
 

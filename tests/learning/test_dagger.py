@@ -15,7 +15,8 @@ from sumo_rail.drivers.policies import Policy, PolicyShape, load_policy
 from sumo_rail.learning import dagger
 from sumo_rail.learning.bc import BcReport, BcSettings
 from sumo_rail.learning.dagger import DaggerSettings, DaggerTask, train_dagger
-from sumo_rail.learning.training import RunError, Validation
+from sumo_rail.learning.run_folder import RunError
+from sumo_rail.learning.validation import Validation
 from sumo_rail.runners.backends import ProcessPoolBackend, SerialBackend, WorkerContext
 from sumo_rail.runners.rollout import EpisodeTask, ExpertDriver, PolicyDriver, run_episode
 from sumo_rail.runners.tables import DEMONSTRATIONS, demonstrations_table, provenance
@@ -162,3 +163,13 @@ def test_dagger_command_end_to_end(tmp_path, demos):
     assert again.exit_code == 1 and "not empty" in again.output and "Traceback" not in again.output
     bad = invoke("dagger", *SMALL, "--demos", str(demos), "--beta", "1.5", "--out", str(tmp_path / "x"))
     assert bad.exit_code == 2
+
+
+def test_the_dagger_options_default_to_its_settings():
+    """Each default is written once, in DaggerSettings and Validation: the options read them."""
+    from sumo_rail_cli.dagger_command import dagger_command
+
+    params = dagger_command.make_context("dagger", ["--demos", "d.parquet", "--out", "run"]).params
+    for name in ("episodes_per_round", "beta", "beta_decay"):
+        assert params[name] == getattr(DaggerSettings("d.parquet"), name), name
+    assert params["eval_episodes"] == Validation().episodes

@@ -4,7 +4,7 @@ timeouts, a missing Ray, the CLI's --backend/--address and bit-identical RAIL tr
 One two-node Ray cluster (one CPU each) is shared by the module; each backend connects to it and disconnects on
 close. Tasks are sumo_rail's own classes: Ray workers import them from the installed package.
 """
-# ruff: noqa: F811 (fixtures imported from test_training are redefined as parameters)
+
 
 from __future__ import annotations
 
@@ -20,11 +20,11 @@ import numpy as np
 import pytest
 from test_backends import process_exited
 from test_cli import SMALL, invoke
-from test_training import demos_path, run_settings, small_config_module  # noqa: F401 (fixtures)
+from test_trainer import run_settings
 
 from sumo_rail.config import Config
 from sumo_rail.drivers.policies import load_policy
-from sumo_rail.learning.training import train
+from sumo_rail.learning.rail.trainer import train
 from sumo_rail.runners.backends import BackendError, ProcessPoolBackend, SerialBackend, TaskError
 from sumo_rail.runners.factory import make_backend
 from sumo_rail.runners.rollout import EpisodeResult, EpisodeTask, ExpertDriver, KeepDriver, RandomDriver

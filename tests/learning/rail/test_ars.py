@@ -3,8 +3,8 @@ import math
 import numpy as np
 import pytest
 
-from sumo_rail.learning.ars import NoiseAdaptation, adapt_noise, ars_update, centred_ranks
-from sumo_rail.learning.noise import directions
+from sumo_rail.learning.rail.ars import NoiseAdaptation, adapt_noise, ars_update, centred_ranks
+from sumo_rail.learning.rail.noise import directions
 
 
 def test_hand_computed_update():

@@ -1,17 +1,17 @@
 """The GAIL baseline: PPO (Stable-Baselines3) on the RAIL discriminator's reward, for the paper's comparison.
 
 Fair against RAIL: PPO's actor is RAIL's policy layout on fixed observation statistics, initialised by the same BC
-(`gail_actor`), and the discriminator, its settings and its expert normalisation are RAIL's. The environments run
-in `envs` spawned processes (`gail_envs`); the rewards are computed in this process, from the discriminator, with a
-collision padded so that ending early never pays (`gail_rewards`). After every PPO update (n_steps x envs
+(`actor`), and the discriminator, its settings and its expert normalisation are RAIL's. The environments run
+in `envs` spawned processes (`envs`); the rewards are computed in this process, from the discriminator, with a
+collision padded so that ending early never pays (`rewards`). After every PPO update (n_steps x envs
 decisions) the discriminator takes its LS-GAN steps on the expert's pairs and that rollout's pairs, as RAIL does
 once per iteration. Stable-Baselines3 is imported only by the functions that need it (`require_stable_baselines3`).
 
 Two choices make PPO as strong as it fairly can be; each can be switched off (`GailSettings`) to measure it:
-- Reward normalisation (`normalize_reward`, on by default; `gail_rewards.normalised_rewards`): PPO's rewards are
+- Reward normalisation (`normalize_reward`, on by default; `rewards.normalised_rewards`): PPO's rewards are
   divided by the running std of the discounted return and clipped, the analogue of ARS dividing its step by the
   std of its returns, so that a collision's padding cannot swamp the critic.
-- Critic warm-up (`critic_warmup`, 5 updates by default; `gail_actor.set_actor_trainable`): the first updates
+- Critic warm-up (`critic_warmup`, 5 updates by default; `actor.set_actor_trainable`): the first updates
   freeze the actor and train only the value network, whose first advantages are noise. Warm-up decisions count in
   `timesteps` (and the discriminator trains after them as after every update); the log says which updates had the
   actor frozen.
@@ -22,14 +22,14 @@ settings give the same policy bit for bit (for the same number of envs).
 
 runs/NAME/ holds `run.json` (settings, config, provenance), `policy_bc.npz` (with --bc-epochs > 0),
 `policy_latest.npz` and `log.parquet`, replaced together after every update (both or, on a full disk, neither). An
-environment process that dies or fails ends the run with one sentence (`gail_envs`), not Stable-Baselines3's
+environment process that dies or fails ends the run with one sentence (`envs`), not Stable-Baselines3's
 EOFError; the folder keeps the last complete update. The log has one row per
 update with RAIL's column names: iteration, env_steps (of this update), return_mean / _max / _std (per-decision
-discriminator return, `rail.rollout_return`, of the episodes that ended in the rollout, or of its decisions when
+discriminator return, `iteration.rollout_return`, of the episodes that ended in the rollout, or of its decisions when
 none did), discriminator_loss, discriminator_accuracy, collisions, wall_time_s; and episodes (ended in the
 rollout), entropy (PPO's mean policy entropy [nats]), actor_frozen (a critic warm-up update) and reward_std (what
 PPO's rewards were divided by at the update's end; 1 without normalisation). SIGINT / SIGTERM stop the run after
-the current update, and `resume` continues from the last complete one (`sb3_resume` says what it restores
+the current update, and `resume` continues from the last complete one (`sb3.resume` says what it restores
 exactly and what not). `sumo-rail evaluate` takes the policy's argmax (`--policy`, as RAIL's)
 or samples from its softmax, the policy PPO trains (`--sample-policy`).
 """
@@ -46,33 +46,32 @@ from typing import TYPE_CHECKING, Any
 from sumo_rail.config import Config
 from sumo_rail.drivers.policies import Policy, PolicyShape, save_policy
 from sumo_rail.learning.bc import BcReport, BcSettings, behaviour_cloning
-from sumo_rail.learning.discriminator import Discriminator, DiscriminatorSettings
-from sumo_rail.learning.gail_actor import (
+from sumo_rail.learning.rail.discriminator import Discriminator, DiscriminatorSettings
+from sumo_rail.learning.rail.normalize import RunningStats
+from sumo_rail.learning.run_folder import start_run_folder, stop_requests
+from sumo_rail.learning.sb3.actor import (
     FixedNormalisation,
     load_into_ppo,
     ppo_to_policy,
     set_actor_trainable,
 )
-from sumo_rail.learning.gail_rewards import REWARD_CLIP as REWARD_CLIP  # importable from here, as before
-from sumo_rail.learning.gail_rewards import (
+from sumo_rail.learning.sb3.resume import learner_checkpoint, restore_learner, resume_run, resumed_env_seed
+from sumo_rail.learning.sb3.rewards import REWARD_CLIP as REWARD_CLIP  # importable from here, as before
+from sumo_rail.learning.sb3.rewards import (
     RewardLabeller,
     labelled_vec_env,
     normalised_rewards,
     reward_std,
 )
-from sumo_rail.learning.normalize import RunningStats
-from sumo_rail.learning.sb3_resume import learner_checkpoint, restore_learner, resume_run, resumed_env_seed
-from sumo_rail.learning.sb3_runs import (
+from sumo_rail.learning.sb3.runs import (
     PpoSchedule,
     build_ppo,
     env_processes,
     require_stable_baselines3,
     save_update,
-    stop_requests,
 )
-from sumo_rail.learning.shared_road import driving_processes
+from sumo_rail.learning.sb3.shared_road import driving_processes
 from sumo_rail.learning.torch_threads import single_thread
-from sumo_rail.learning.training import start_run_folder
 from sumo_rail.runners.experts import demonstrations_expert
 from sumo_rail.runners.tables import Demonstrations, provenance, read_demonstrations
 from sumo_rail.sim.observation import observation_space
@@ -88,34 +87,11 @@ class GailSettings(PpoSchedule):
     """What defines a GAIL run (stored in run.json)."""
 
     demos: str
-    timesteps: int = 100_000
-    """Environment decisions in total, rounded up to whole updates of n_steps x envs."""
-    kind: str = "mlp"
-    hidden: int = 10
     bc_epochs: int = 20
     """Behaviour-cloning epochs that initialise the actor (0: PPO's own initialisation)."""
     bc_class_balance: float = 0.75
     """`BcSettings.class_balance`."""
-    envs: int = 2
-    """Environment processes; the result depends on it."""
-    egos: int = 1
-    """Egos per environment process (`shared_road`): PPO's envs are envs x egos; the result depends on it."""
-    n_steps: int = 512
-    """Decisions per env (ego) and update."""
-    learning_rate: float = 3e-4
-    """PPO's Adam step size."""
-    batch_size: int = 64
-    """PPO minibatch size [decisions]."""
-    ppo_epochs: int = 10
-    """PPO passes over each rollout."""
-    gamma: float = 0.99
-    """Discount per decision."""
-    normalize_reward: bool = True
-    """Divide PPO's rewards by the running std of the discounted return and clip them (`normalised_rewards`)."""
-    critic_warmup: int = 5
-    """First updates with the actor frozen: only the critic learns (`set_actor_trainable`); they count in
-    `timesteps`."""
-    seed: int = 0
+    critic_warmup: int = field(default=5, kw_only=True)
     discriminator: DiscriminatorSettings = field(default_factory=DiscriminatorSettings)
 
     def __post_init__(self) -> None:
@@ -139,7 +115,7 @@ def train_gail(folder: Path, settings: GailSettings, config: Config,
                on_bc: Callable[[BcReport], None] | None = None,
                on_update: Callable[[dict[str, Any]], None] | None = None, resume: bool = False) -> GailResult:
     """Run GAIL into the empty or new `folder`, or with `resume` continue the run in it from its last complete update
-    (`sb3_resume`); `on_bc` gets the BC report (new runs), `on_update` each new log row."""
+    (`sb3.resume`); `on_bc` gets the BC report (new runs), `on_update` each new log row."""
     require_stable_baselines3(INSTALL_HINT)
     folder = Path(folder)
     observation_size = observation_space(config).shape[0]

@@ -6,10 +6,10 @@ import pytest
 
 from sumo_rail.config import Config
 from sumo_rail.drivers.policies import Policy, PolicyShape
-from sumo_rail.learning import step_signal
-from sumo_rail.learning.discriminator import DiscriminatorSettings
-from sumo_rail.learning.rail import RailSettings
-from sumo_rail.learning.step_signal import (
+from sumo_rail.learning.rail import step_signal
+from sumo_rail.learning.rail.discriminator import DiscriminatorSettings
+from sumo_rail.learning.rail.iteration import RailSettings
+from sumo_rail.learning.rail.step_signal import (
     REWARD_VARIANTS,
     Differences,
     agreement_differences,

@@ -1,15 +1,20 @@
-"""What gail and ppo share: stopping on SIGINT / SIGTERM after the current update."""
+"""The run folder every training command shares: stopping on SIGINT / SIGTERM after the current step (gail, ppo)
+or after the save under way (train, dagger)."""
 
+import os
 import signal
 import subprocess
 import sys
 import textwrap
+import time
 
-from sumo_rail.learning.sb3_runs import stop_requests
+import pytest
+
+from sumo_rail.learning.run_folder import signals_deferred, stop_requests
 
 SECOND_SIGNAL_INSIDE_THE_FIRST = textwrap.dedent("""
     import signal, sys
-    from sumo_rail.learning.sb3_runs import stop_requests
+    from sumo_rail.learning.run_folder import stop_requests
 
     with stop_requests() as stop:
         handler = signal.getsignal(signal.SIGINT)
@@ -44,3 +49,13 @@ def test_signals_set_the_flag_inside_and_the_handlers_come_back_after():
         signal.raise_signal(signal.SIGINT)
         assert stop.is_set()
     assert signal.getsignal(signal.SIGTERM) is before
+
+
+def test_ctrl_c_during_a_save_takes_effect_after_it():
+    finished = []
+    with pytest.raises(KeyboardInterrupt):
+        with signals_deferred():
+            os.kill(os.getpid(), signal.SIGINT)
+            time.sleep(0.1)
+            finished.append("save")
+    assert finished == ["save"]

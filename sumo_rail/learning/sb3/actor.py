@@ -20,7 +20,7 @@ from torch import nn
 
 from sumo_rail.drivers.policies import Policy, PolicyShape
 from sumo_rail.learning.bc import policy_to_torch
-from sumo_rail.learning.normalize import MIN_STD
+from sumo_rail.learning.rail.normalize import MIN_STD
 
 if TYPE_CHECKING:
     from stable_baselines3.common.policies import ActorCriticPolicy

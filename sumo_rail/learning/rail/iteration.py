@@ -30,9 +30,9 @@ import numpy as np
 from sumo_rail.config import Config
 from sumo_rail.drivers.expert import DEFAULT_STYLE
 from sumo_rail.drivers.policies import Policy, PolicyShape
-from sumo_rail.learning.ars import FITNESS_SHAPINGS, NoiseAdaptation, adapt_noise, ars_update
-from sumo_rail.learning.noise import direction, directions, noise_for_flip_rate
-from sumo_rail.learning.normalize import RunningStats
+from sumo_rail.learning.rail.ars import FITNESS_SHAPINGS, NoiseAdaptation, adapt_noise, ars_update
+from sumo_rail.learning.rail.noise import direction, directions, noise_for_flip_rate
+from sumo_rail.learning.rail.normalize import RunningStats
 from sumo_rail.runners.rollout import (
     Driver,
     DriverSpec,
@@ -46,7 +46,7 @@ from sumo_rail.seeding import Purpose, episode_seeds
 from sumo_rail.sim.traffic import TrafficView
 
 if TYPE_CHECKING:
-    from sumo_rail.learning.discriminator import Discriminator
+    from sumo_rail.learning.rail.discriminator import Discriminator
     from sumo_rail.runners.backends import RolloutBackend, WorkerContext
     from sumo_rail.runners.tables import Demonstrations
 

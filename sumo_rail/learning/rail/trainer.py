@@ -12,15 +12,8 @@ file is replaced atomically after each iteration, so an interrupted run keeps it
 from __future__ import annotations
 
 import dataclasses
-import json
-import os
-import pickle
-import signal
-import threading
 import time
-import zipfile
-from collections.abc import Callable, Iterator
-from contextlib import contextmanager
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -30,27 +23,23 @@ import pyarrow as pa
 import torch
 
 from sumo_rail.config import Config
-from sumo_rail.datasets import (
-    DatasetError,
-    describe,
-    read_json_record,
-    write_failure,
-    write_parquet,
-    written_together,
-)
+from sumo_rail.datasets import DatasetError, describe, write_failure, write_parquet, written_together
 from sumo_rail.drivers.policies import Policy, PolicyShape, save_policy
-from sumo_rail.evaluation.evaluate import evaluate
-from sumo_rail.evaluation.statistics import interval, ratio
-from sumo_rail.evaluation.summary import measure_samples
 from sumo_rail.learning.bc import BcReport, BcSettings, behaviour_cloning
-from sumo_rail.learning.discriminator import Discriminator, DiscriminatorSettings
-from sumo_rail.learning.normalize import RunningStats
-from sumo_rail.learning.rail import RailSettings, TrainingState, run_iteration
+from sumo_rail.learning.rail.discriminator import Discriminator, DiscriminatorSettings
+from sumo_rail.learning.rail.iteration import RailSettings, TrainingState, run_iteration
+from sumo_rail.learning.rail.normalize import RunningStats
+from sumo_rail.learning.run_folder import (
+    RunError,
+    check_resumable,
+    load_checkpoint,
+    signals_deferred,
+    start_run_folder,
+)
+from sumo_rail.learning.validation import Validation, validate, validation_columns, with_validation_columns
 from sumo_rail.runners.backends import RolloutBackend
 from sumo_rail.runners.experts import demonstrations_expert, resolve_expert
-from sumo_rail.runners.rollout import DriverSpec, PolicyDriver
 from sumo_rail.runners.tables import provenance, read_demonstrations
-from sumo_rail.seeding import Purpose, episode_seeds
 from sumo_rail.sim.observation import observation_space
 
 CHECKPOINT_FORMAT = "sumo-rail checkpoint 1"
@@ -73,48 +62,18 @@ class RunSettings:
         return dataclasses.asdict(self)
 
 
-VALIDATION_BASE_SEED = 1_000_000
-"""Validation episodes use evaluation-class seeds from this base, far from `evaluate`'s default test seeds."""
-VALIDATION_METRICS = ("agreement", "lane_change_recall", "lane_change_precision", "average_speed_kmh", "overtakes",
-                      "lane_changes", "longitudinal_reward", "lateral_reward", "collisions")
-"""Measures the log holds as eval_<measure>: the agreement rates with the expert (pooled over the validation
-decisions) and the episode metrics' means."""
-VALIDATION_INTERVAL = ("eval_agreement_low", "eval_agreement_high")
-"""The log's bounds of the 95% interval of eval_agreement (bootstrap over the validation episodes, as `evaluate`
-gives it; NaN with one episode). Logs written before them lack them (`with_validation_columns`)."""
-
-
-@dataclass(frozen=True)
-class Validation:
-    """Evaluate the policy every `every` iterations (and after the last) on `episodes` validation seeds."""
-
-    every: int = 0
-    """0: never."""
-    episodes: int = 8
-
-    def __post_init__(self) -> None:
-        if self.every < 0 or self.episodes < 1:
-            raise ValueError(f"validation needs every >= 0 and episodes >= 1, got {self}")
-
-    def due(self, iteration: int, last: int) -> bool:
-        """Whether the policy after `iteration` (0-based) is evaluated in a run of `last` + 1 iterations."""
-        return self.every > 0 and ((iteration + 1) % self.every == 0 or iteration == last)
-
-
-class RunError(ValueError):
-    """A run folder cannot be used as asked (message is one sentence)."""
-
-
 def train(folder: Path, settings: RunSettings, config: Config, iterations: int, backend: RolloutBackend,
-          resume: bool, validation: Validation = Validation(),
+          resume: bool, validation: Validation | None = None,
           on_bc: Callable[[BcReport], None] | None = None,
           on_iteration: Callable[[dict[str, Any]], None] | None = None,
-          on_rollout: Callable[[int, Any], None] | None = None) -> TrainingState:
+          on_rollout: Callable[[int, Any], None] | None = None,
+          on_start: Callable[[int], None] | None = None) -> TrainingState:
     """Train until `iterations` iterations are done; returns the final state. Safe to interrupt at any time.
 
     `on_bc` receives the behaviour-cloning report (new runs with bc_epochs > 0); `on_iteration` each iteration's
-    log row (IterationLog fields, wall_time_s and eval_* metrics); `on_rollout` each rollout as it arrives."""
-    folder = Path(folder)
+    log row (IterationLog fields, wall_time_s and eval_* metrics); `on_rollout` each rollout as it arrives;
+    `on_start` the iterations already done (those of the resumed run, else 0) before the first new one."""
+    folder, validation = Path(folder), validation or Validation()
     observation_size = observation_space(config).shape[0]
     demos = read_demonstrations(Path(settings.demos), observation_size)
     shape = PolicyShape(settings.kind, observation_size, settings.hidden)
@@ -130,6 +89,8 @@ def train(folder: Path, settings: RunSettings, config: Config, iterations: int, 
     else:
         start_run_folder(folder, run_record)
         state, logs = _initial_state(folder, settings, shape, demos, run_record, on_bc), []
+    if on_start is not None:
+        on_start(state.iteration)
     while state.iteration < iterations:
         started = time.perf_counter()
         log = run_iteration(state, shape, config, settings.rail, discriminator, demos, backend, on_rollout, asked)
@@ -145,40 +106,6 @@ def train(folder: Path, settings: RunSettings, config: Config, iterations: int, 
         if on_iteration is not None:
             on_iteration(row)
     return state
-
-
-def validation_columns() -> tuple[str, ...]:
-    """The log's eval_<measure> columns and the agreement's interval."""
-    return (*(f"eval_{metric}" for metric in VALIDATION_METRICS), *VALIDATION_INTERVAL)
-
-
-def with_validation_columns(row: dict[str, Any]) -> dict[str, Any]:
-    """A log row of a run started before some validation column existed, with that column added (null)."""
-    return row | {name: None for name in validation_columns() if name not in row}
-
-
-def validate(policy: Policy, config: Config, backend: RolloutBackend, validation: Validation,
-             expert: DriverSpec) -> dict[str, float]:
-    """VALIDATION_METRICS of `policy` on the validation seeds and warm states, as eval_<measure>, agreement with
-    `expert` (`resolve_expert`), and the agreement's 95% interval (VALIDATION_INTERVAL)."""
-    seeds = episode_seeds(Purpose.EVALUATE, VALIDATION_BASE_SEED, validation.episodes)
-    evaluation = evaluate([PolicyDriver(policy, "policy")], config, seeds, backend, expert, pool="validation")
-    samples = measure_samples(evaluation.metrics)
-    agreement = interval(samples["agreement"])
-    return {**{f"eval_{measure}": float(ratio(samples[measure])) for measure in VALIDATION_METRICS},
-            "eval_agreement_low": agreement.low, "eval_agreement_high": agreement.high}
-
-
-def start_run_folder(folder: Path, run_record: dict[str, Any]) -> None:
-    """Make the new or empty run `folder` (and its parents) with its run.json; a RunError, one sentence, when it is
-    not empty or cannot be made."""
-    if folder.is_dir() and any(folder.iterdir()):
-        raise RunError(f"run folder {folder} is not empty; pass --resume to continue it or choose another --out")
-    try:
-        folder.mkdir(parents=True, exist_ok=True)
-        write_atomically(folder / "run.json", json.dumps(run_record, indent=2, sort_keys=True).encode())
-    except OSError as error:
-        raise RunError(f"cannot make the run folder {folder} ({write_failure(error)})") from error
 
 
 def _initial_state(folder: Path, settings: RunSettings, shape: PolicyShape, demos: Any, run_record: dict[str, Any],
@@ -239,16 +166,9 @@ def _resume(folder: Path, run_record: dict[str, Any], shape: PolicyShape,
     """The state and log of the last complete iteration; reads run.json and checkpoint.pt and writes nothing. A
     damaged, foreign or mismatched file is a RunError naming it."""
     path = folder / "checkpoint.pt"
-    if not path.is_file():
-        raise RunError(f"nothing to resume: {path} does not exist")
-    stored = read_run_record(folder)
-    defaults = {"rail": dataclasses.asdict(RailSettings()),
-                "discriminator": dataclasses.asdict(DiscriminatorSettings())}
-    settings = with_defaults(stored["settings"], defaults)
-    if settings != run_record["settings"] or stored["config"] != run_record["config"]:
-        raise RunError(f"run {folder} was started with other settings (see its run.json); resume it with the same "
-                       f"options")
-    checkpoint = load_checkpoint(path)
+    check_resumable(folder, path.name, run_record, {"rail": dataclasses.asdict(RailSettings()),
+                                                   "discriminator": dataclasses.asdict(DiscriminatorSettings())})
+    checkpoint = load_checkpoint(path, CHECKPOINT_FORMAT)
     try:
         rng = np.random.default_rng()
         rng.bit_generator.state = checkpoint["rng"]
@@ -266,86 +186,3 @@ def _resume(folder: Path, run_record: dict[str, Any], shape: PolicyShape,
     if len(logs) != state.iteration:
         raise RunError(f"checkpoint {path} is inconsistent: {len(logs)} log rows for {state.iteration} iterations")
     return state, logs
-
-
-def with_defaults(stored: dict[str, Any], defaults: dict[str, Any]) -> dict[str, Any]:
-    """`stored` settings with the settings added since it was written filled in from `defaults` (nested dicts
-    merged), so a run started before an option existed resumes as what it was: a run at that option's default."""
-    merged = dict(stored)
-    for key, default in defaults.items():
-        if key not in merged:
-            merged[key] = default
-        elif isinstance(default, dict) and isinstance(merged[key], dict):
-            merged[key] = with_defaults(merged[key], default)
-    return merged
-
-
-def read_run_record(folder: Path) -> dict[str, Any]:
-    """The run folder's run.json, checked: a JSON object of this format version with `settings` and `config`
-    objects; a RunError naming the file otherwise."""
-    path = Path(folder) / "run.json"
-    try:
-        record = read_json_record(path, "run record")
-    except DatasetError as error:
-        raise RunError(str(error)) from error
-    for key in ("settings", "config"):
-        if not isinstance(record.get(key), dict):
-            raise RunError(f"run record {path} has no {key!r} object, so it is not a sumo-rail run record")
-    return record
-
-
-def load_checkpoint(path: Path, expected: str = CHECKPOINT_FORMAT) -> dict[str, Any]:
-    """checkpoint.pt as written by `_save_iteration` (or a checkpoint of another `expected` format): its zip checksums
-    verified (torch does not check them), loaded with weights_only (no code runs), of that format."""
-    if path.stat().st_size == 0:
-        raise RunError(f"checkpoint {path} is empty (0 bytes)")
-    try:
-        with zipfile.ZipFile(path) as archive:
-            damaged = archive.testzip()
-    except Exception as error:  # BadZipFile, UnicodeDecodeError, OSError: truncated, overwritten or foreign
-        raise RunError(f"checkpoint {path} is unreadable: truncated or not a torch checkpoint "
-                       f"({describe(error)})") from error
-    if damaged is not None:
-        raise RunError(f"checkpoint {path} is damaged: its part {damaged} fails its checksum")
-    try:
-        checkpoint = torch.load(path, weights_only=True)
-    except pickle.UnpicklingError as error:
-        raise RunError(f"checkpoint {path} holds objects other than tensors and plain values, which sumo-rail does "
-                       f"not load") from error
-    except Exception as error:  # torch raises several types for damaged files
-        raise RunError(f"checkpoint {path} is unreadable ({describe(error)})") from error
-    if not isinstance(checkpoint, dict) or "format" not in checkpoint:
-        raise RunError(f"{path} is not a sumo-rail checkpoint")
-    if checkpoint["format"] != expected:
-        raise RunError(f"checkpoint {path} has format {checkpoint['format']!r}; this sumo-rail reads {expected!r} "
-                       f"here")
-    return checkpoint
-
-
-@contextmanager
-def signals_deferred() -> Iterator[None]:
-    """Hold SIGINT and SIGTERM until the block ends, then stop (KeyboardInterrupt), so one iteration's files stay
-    consistent. (Python-level handlers: a signal mask would not do, the kernel hands it to another thread.)"""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    received: list[int] = []
-    previous = {number: signal.signal(number, lambda caught, frame: received.append(caught))
-                for number in (signal.SIGINT, signal.SIGTERM)}
-    try:
-        yield
-    finally:
-        for number, handler in previous.items():
-            signal.signal(number, handler)
-    if received:
-        raise KeyboardInterrupt
-
-
-def write_atomically(path: Path, content: bytes) -> None:
-    temporary = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    try:
-        temporary.write_bytes(content)
-        os.replace(temporary, path)
-    finally:
-        temporary.unlink(missing_ok=True)
-

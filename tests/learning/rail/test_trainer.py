@@ -7,23 +7,15 @@ import pytest
 import torch
 from test_cli import SMALL, hand_made_policy, invoke
 
-from sumo_rail.datasets import write_parquet
 from sumo_rail.drivers.policies import MIN_STD, load_policy
 from sumo_rail.evaluation.summary import intervals
-from sumo_rail.learning.discriminator import DiscriminatorSettings
-from sumo_rail.learning.rail import RailSettings, rollout_return
-from sumo_rail.learning.training import (
-    VALIDATION_BASE_SEED,
-    VALIDATION_INTERVAL,
-    RunError,
-    RunSettings,
-    Validation,
-    train,
-    validate,
-)
+from sumo_rail.learning.rail.discriminator import DiscriminatorSettings
+from sumo_rail.learning.rail.iteration import RailSettings, rollout_return
+from sumo_rail.learning.rail.trainer import RunSettings, train
+from sumo_rail.learning.run_folder import RunError
+from sumo_rail.learning.validation import VALIDATION_BASE_SEED, VALIDATION_INTERVAL, Validation, validate
 from sumo_rail.runners.backends import ProcessPoolBackend, SerialBackend
-from sumo_rail.runners.rollout import EpisodeTask, ExpertDriver
-from sumo_rail.runners.tables import DEMONSTRATIONS, demonstrations_table, provenance
+from sumo_rail.runners.rollout import ExpertDriver
 
 
 def test_a_collision_never_pays_by_ending_early():
@@ -38,25 +30,6 @@ def test_a_collision_never_pays_by_ending_early():
 def test_settings_reject_top_above_directions():
     with pytest.raises(ValueError, match="--top"):
         RailSettings(directions=4, top=5)
-
-
-@pytest.fixture(scope="module")
-def demos_path(tmp_path_factory, request):
-    small_config = request.getfixturevalue("small_config_module")
-    path = tmp_path_factory.mktemp("demos") / "demos.parquet"
-    seeds = [0, 3]
-    with SerialBackend() as backend:
-        results = backend.run([EpisodeTask(small_config, ExpertDriver("normal"), s, record=True) for s in seeds])
-    write_parquet(demonstrations_table(results, seeds, 56), path, provenance(DEMONSTRATIONS, small_config, 0))
-    return path
-
-
-@pytest.fixture(scope="module")
-def small_config_module():
-    from sumo_rail.config import Config
-    return Config.from_dict({"scenario": {"length_m": 1500.0, "warmup_s": 120.0, "snapshots": 3,
-                                          "snapshot_interval_s": 10.0},
-                             "env": {"ego_start_min_m": 300.0, "ego_start_max_m": 500.0}})
 
 
 RESPAWNING = {"egos": 3, "rollout_decisions": 150}
@@ -205,19 +178,3 @@ def test_run_folder_rules(tmp_path, demos_path, small_config_module):
         (tmp_path / "run" / "checkpoint.pt").write_bytes(b"garbage")
         with pytest.raises(RunError, match="unreadable"):
             train(tmp_path / "run", settings, small_config_module, 2, backend, resume=True)
-
-
-def test_ctrl_c_during_a_save_takes_effect_after_it():
-    import os
-    import signal
-    import time
-
-    from sumo_rail.learning import training
-
-    finished = []
-    with pytest.raises(KeyboardInterrupt):
-        with training.signals_deferred():
-            os.kill(os.getpid(), signal.SIGINT)
-            time.sleep(0.1)
-            finished.append("save")
-    assert finished == ["save"]

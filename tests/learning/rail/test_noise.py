@@ -5,14 +5,14 @@ import numpy as np
 import pytest
 
 from sumo_rail.drivers.policies import Policy, PolicyShape
-from sumo_rail.learning.noise import NOISE_RANGE, direction, directions, flip_rate, noise_for_flip_rate
+from sumo_rail.learning.rail.noise import NOISE_RANGE, direction, directions, flip_rate, noise_for_flip_rate
 
 
 def test_same_integers_give_identical_bits_in_another_process():
     vector = direction(7, 3, 2, 1000)
     assert vector.dtype == np.float32 and vector.shape == (1000,)
     assert direction(7, 3, 2, 1000).tobytes() == vector.tobytes()
-    code = "from sumo_rail.learning.noise import direction; print(direction(7, 3, 2, 1000).tobytes().hex())"
+    code = "from sumo_rail.learning.rail.noise import direction; print(direction(7, 3, 2, 1000).tobytes().hex())"
     other = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.strip()
     assert other == vector.tobytes().hex()
 

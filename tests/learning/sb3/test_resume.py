@@ -7,12 +7,12 @@ import torch
 from stable_baselines3.common.vec_env import DummyVecEnv
 
 from sumo_rail.drivers.policies import PolicyShape
-from sumo_rail.learning.gail_actor import FixedNormalisation
-from sumo_rail.learning.gail_rewards import normalised_rewards
-from sumo_rail.learning.ppo_driver import PpoSettings
-from sumo_rail.learning.sb3_resume import CHECKPOINT_FORMAT, learner_checkpoint, restore_learner
-from sumo_rail.learning.sb3_runs import build_ppo
-from sumo_rail.learning.training import load_checkpoint
+from sumo_rail.learning.run_folder import load_checkpoint
+from sumo_rail.learning.sb3.actor import FixedNormalisation
+from sumo_rail.learning.sb3.ppo import PpoSettings
+from sumo_rail.learning.sb3.resume import CHECKPOINT_FORMAT, learner_checkpoint, restore_learner
+from sumo_rail.learning.sb3.rewards import normalised_rewards
+from sumo_rail.learning.sb3.runs import build_ppo
 
 SETTINGS = PpoSettings(n_steps=32, envs=1, batch_size=16, ppo_epochs=2, seed=4)
 SHAPE = PolicyShape("mlp", 4, 10)

@@ -25,21 +25,21 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from sumo_rail.drivers.policies import Policy
-from sumo_rail.learning.ars import ars_update
-from sumo_rail.learning.noise import directions, flip_rate
-from sumo_rail.learning.normalize import RunningStats
-from sumo_rail.learning.rail import (
+from sumo_rail.learning.rail.ars import ars_update
+from sumo_rail.learning.rail.iteration import (
     RailSettings,
     Trajectory,
     agreement_returns,
     discriminator_returns,
     run_rollouts,
 )
+from sumo_rail.learning.rail.noise import directions, flip_rate
+from sumo_rail.learning.rail.normalize import RunningStats
 from sumo_rail.seeding import Purpose, episode_seeds
 
 if TYPE_CHECKING:
     from sumo_rail.config import Config
-    from sumo_rail.learning.discriminator import Discriminator, DiscriminatorSettings
+    from sumo_rail.learning.rail.discriminator import Discriminator, DiscriminatorSettings
     from sumo_rail.runners.backends import RolloutBackend
     from sumo_rail.runners.rollout import DriverSpec
 
@@ -185,14 +185,14 @@ def run_draws(policy: Policy, config: Config, settings: RailSettings, nu: float,
 
 
 def agreement_differences(rollouts: Rollouts, horizon: int, per_decision: bool = False) -> Differences:
-    """Each rollout's agreement with the expert (`rail.agreement_returns`: the share of its decisions the expert would
-    have made alike; `per_decision` for rollouts of a budget of decisions)."""
+    """Each rollout's agreement with the expert (`iteration.agreement_returns`: the share of its decisions the expert
+    would have made alike; `per_decision` for rollouts of a budget of decisions)."""
     return _differences([agreement_returns(draw, horizon, per_decision) for draw in rollouts])
 
 
 def reward_differences(rollouts: Rollouts, discriminator: Discriminator, horizon: int,
                        per_decision: bool = False) -> Differences:
-    """Each rollout's return as RAIL scores it (`rail.discriminator_returns`)."""
+    """Each rollout's return as RAIL scores it (`iteration.discriminator_returns`)."""
     return _differences([discriminator_returns(draw, discriminator, horizon, per_decision) for draw in rollouts])
 
 
@@ -227,7 +227,7 @@ class Meter:
 def variants(settings: DiscriminatorSettings, names: Sequence[str], expert_observations: np.ndarray
              ) -> dict[str, Discriminator]:
     """A fresh discriminator per REWARD_VARIANTS name, normalised by the expert's statistics as in training."""
-    from sumo_rail.learning.discriminator import Discriminator
+    from sumo_rail.learning.rail.discriminator import Discriminator
 
     expert = RunningStats.of(expert_observations)
     return {name: Discriminator(expert_observations.shape[1], expert.mean.copy(), expert.std.copy(),

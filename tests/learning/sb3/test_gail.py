@@ -1,4 +1,4 @@
-# ruff: noqa: F811 (fixtures imported from test_training are redefined as parameters)
+
 import json
 import sys
 import tempfile
@@ -12,13 +12,15 @@ from gymnasium import spaces
 from stable_baselines3.common.policies import ActorCriticPolicy
 from stable_baselines3.common.vec_env import DummyVecEnv
 from test_cli import SMALL, invoke
-from test_training import demos_path, small_config_module  # noqa: F401 (fixtures)
 
 from sumo_rail.datasets import read_metadata
 from sumo_rail.drivers.policies import PolicyShape, load_policy
 from sumo_rail.learning.bc import BcSettings, behaviour_cloning
-from sumo_rail.learning.discriminator import Discriminator, DiscriminatorSettings
-from sumo_rail.learning.gail import (
+from sumo_rail.learning.rail.discriminator import Discriminator, DiscriminatorSettings
+from sumo_rail.learning.rail.iteration import rollout_return
+from sumo_rail.learning.rail.normalize import RunningStats
+from sumo_rail.learning.sb3.actor import policy_kwargs
+from sumo_rail.learning.sb3.gail import (
     INSTALL_HINT,
     REWARD_CLIP,
     FixedNormalisation,
@@ -30,10 +32,7 @@ from sumo_rail.learning.gail import (
     set_actor_trainable,
     train_gail,
 )
-from sumo_rail.learning.gail_actor import policy_kwargs
-from sumo_rail.learning.normalize import RunningStats
-from sumo_rail.learning.rail import rollout_return
-from sumo_rail.learning.sb3_runs import build_ppo
+from sumo_rail.learning.sb3.runs import build_ppo
 from sumo_rail.report.inputs import LOG_COLUMNS, read_run
 from sumo_rail.runners.tables import read_demonstrations
 

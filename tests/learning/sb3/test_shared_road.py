@@ -11,7 +11,7 @@ from gymnasium.utils import seeding
 from test_cli import SMALL, SMALL_CONFIG, invoke
 
 from sumo_rail.drivers.policies import load_policy
-from sumo_rail.learning.shared_road import RespawningRoad, env_seeds, shared_road_vec_env
+from sumo_rail.learning.sb3.shared_road import RespawningRoad, env_seeds, shared_road_vec_env
 from sumo_rail.runners.rollout import run_lives
 from sumo_rail.sim import parallel_env
 from sumo_rail.sim.actions import Action
@@ -158,7 +158,7 @@ def test_a_jammed_start_cuts_every_egos_episode_and_the_road_starts_again(monkey
         jam_next_respawn(monkeypatch, road.env)
         rng = np.random.default_rng(0)
         for _ in range(400):
-            observations, rewards, dones, infos = road.step(rng.integers(0, 5, size=3).tolist())
+            observations, _, dones, infos = road.step(rng.integers(0, 5, size=3).tolist())
             if dones.any():
                 break
         assert dones.all(), "one ego found no place to respawn: every ego's episode is cut"

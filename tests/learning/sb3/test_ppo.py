@@ -8,7 +8,7 @@ from test_cli import SMALL, SMALL_CONFIG, invoke
 
 from sumo_rail.datasets import read_metadata
 from sumo_rail.drivers.policies import Policy, PolicyShape, load_policy, save_policy
-from sumo_rail.learning.ppo_driver import INSTALL_HINT, EpisodeTally, PpoSettings
+from sumo_rail.learning.sb3.ppo import INSTALL_HINT, EpisodeTally, PpoSettings
 from sumo_rail.sim.observation import observation_names
 
 
@@ -163,3 +163,19 @@ def test_resume_refuses_other_settings_a_damaged_checkpoint_and_nothing_to_resum
     (run / "checkpoint.pt").write_bytes((run / "checkpoint.pt").read_bytes()[:500])
     result = invoke(*common, "--timesteps", "64", "--out", str(run))
     assert result.exit_code == 1 and "checkpoint" in result.output and "Traceback" not in result.output
+
+
+def test_the_ppo_and_gail_options_default_to_their_settings():
+    """Each default is written once, in PpoSettings and GailSettings: the options read them."""
+    from sumo_rail_cli.gail_command import gail_command
+    from sumo_rail_cli.ppo_command import ppo_command
+
+    from sumo_rail.learning.sb3.gail import GailSettings
+
+    shared = ("timesteps", "envs", "egos", "n_steps", "learning_rate", "normalize_reward")
+    ppo = ppo_command.make_context("ppo", ["--out", "run"]).params
+    for name in (*shared, "ent_coef", "gamma", "overtake_reward", "keep_right_reward"):
+        assert ppo[name] == getattr(PpoSettings(), name), name
+    gail = gail_command.make_context("gail", ["--demos", "d.parquet", "--out", "run"]).params
+    for name in (*shared, "critic_warmup"):
+        assert gail[name] == getattr(GailSettings("d.parquet"), name), name

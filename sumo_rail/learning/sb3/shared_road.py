@@ -5,21 +5,21 @@ cannot restart alone by a reset, so the egos of a `RespawningRoad` respawn inste
 once by a new one in the start window (`ParallelHighwayEnv.respawn`) while the others drive on, and when no ego is
 left on the road (always, with one ego) the road itself resets, drawing its next start from its `np_random` as a
 single-ego env's reset does. When the egos jam the road's start so that one finds no place to respawn (learners
-stopped on a one-lane ramp), every ego's episode is cut there (a truncation) and the road resets. Each env index always has an ego driving, and the step that ends an ego's episode
-returns what SB3's own auto-resetting `SubprocVecEnv` returns: done, the episode's last observation as
-info["terminal_observation"], info["TimeLimit.truncated"] for a truncation (end of road, time limit), and the new
-episode's first observation; rewards are float64 as SubprocVecEnv stacks them. With K = 1 this is bit for bit what
-SubprocVecEnv gives for a `HighwayEnv` whose first reset is seeded.
+stopped on a one-lane ramp), every ego's episode is cut there (a truncation) and the road resets. Each env index
+always has an ego driving, and the step that ends an ego's episode returns what SB3's own auto-resetting
+`SubprocVecEnv` returns: done, the episode's last observation as info["terminal_observation"],
+info["TimeLimit.truncated"] for a truncation (end of road, time limit), and the new episode's first observation;
+rewards are float64 as SubprocVecEnv stacks them. With K = 1 this is bit for bit what SubprocVecEnv gives for a
+`HighwayEnv` whose first reset is seeded.
 
 Env index i is ego i % K of process i // K. Process p's road is first reset with the seed of `env_seeds(seed,
 processes)[p]`, and every respawn and later reset draws from that road's `np_random`, so the same seed, K and
 process count give the same rollouts bit for bit. A process that fails writes why to error_dir/env_P.txt and ends
-(`gail_envs.exit_reporting`); the parent then reports the lost process in one sentence (`sb3_runs.env_processes`).
+(`envs.exit_reporting`); the parent then reports the lost process in one sentence (`runs.env_processes`).
 """
 
 from __future__ import annotations
 
-import multiprocessing
 import signal
 from collections.abc import Sequence
 from multiprocessing.connection import Connection
@@ -27,13 +27,10 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from gymnasium import spaces
 
 from sumo_rail.config import Config
-from sumo_rail.learning.gail_envs import LOST_ENV, exit_reporting
+from sumo_rail.learning.sb3.envs import LOST_ENV, exit_reporting
 from sumo_rail.seeding import Purpose, episode_seeds
-from sumo_rail.sim.actions import Action
-from sumo_rail.sim.observation import observation_space
 from sumo_rail.sim.parallel_env import NoRoomToRespawn, ParallelHighwayEnv
 
 if TYPE_CHECKING:
@@ -131,74 +128,7 @@ def _road_process(remote: Connection, parent_remote: Connection, config: Config,
 def shared_road_vec_env(config: Config, processes: int, egos: int, seed: int, error_dir: Path) -> VecEnv:
     """An SB3 VecEnv of `processes` x `egos` envs: `processes` spawned SUMO processes with `egos` respawning egos
     each."""
-    from stable_baselines3.common.vec_env import VecEnv
+    from sumo_rail.learning.sb3.vec_envs import SharedRoadVecEnv
 
-    class SharedRoadVecEnv(VecEnv):
-        """Env i is ego i % egos of process i // egos; `processes` are the worker processes (for lost-env
-        reports)."""
-
-        def __init__(self) -> None:
-            super().__init__(processes * egos, observation_space(config), spaces.Discrete(len(Action)))
-            context = multiprocessing.get_context("spawn")
-            self.remotes, self.processes = [], []
-            for index, process_seed in enumerate(env_seeds(seed, processes)):
-                remote, worker_remote = context.Pipe()
-                process = context.Process(target=_road_process, daemon=True,
-                                          args=(worker_remote, remote, config, egos, process_seed,
-                                                str(error_dir / f"env_{index}.txt")))
-                process.start()
-                worker_remote.close()
-                self.remotes.append(remote)
-                self.processes.append(process)
-            self._actions = np.zeros(self.num_envs, dtype=np.int64)
-            self.closed = False
-
-        def reset(self) -> np.ndarray:
-            for remote in self.remotes:
-                remote.send(("reset", None))
-            return np.concatenate([remote.recv() for remote in self.remotes])
-
-        def step_async(self, actions: np.ndarray) -> None:
-            for index, remote in enumerate(self.remotes):
-                remote.send(("step", [int(action) for action in actions[index * egos:(index + 1) * egos]]))
-
-        def step_wait(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[dict[str, Any]]]:
-            batches = [remote.recv() for remote in self.remotes]
-            return (np.concatenate([batch[0] for batch in batches]), np.concatenate([batch[1] for batch in batches]),
-                    np.concatenate([batch[2] for batch in batches]), [info for batch in batches for info in batch[3]])
-
-        def close(self) -> None:
-            """Ask each process to close its road and wait for it; one that is gone, or does not end within 10 s,
-            is terminated."""
-            if self.closed:
-                return
-            for remote in self.remotes:
-                try:
-                    remote.send(("close", None))
-                except LOST_ENV:
-                    pass
-            for process, remote in zip(self.processes, self.remotes, strict=True):
-                process.join(10)
-                if process.is_alive():
-                    process.terminate()
-                    process.join()
-                remote.close()
-            self.closed = True
-
-        def get_attr(self, attr_name: str, indices: Any = None) -> list[Any]:
-            if attr_name == "render_mode":  # SB3 asks; the egos do not render
-                return [None] * len(self._get_indices(indices))
-            raise AttributeError(f"a shared-road VecEnv does not expose its envs' {attr_name!r}")
-
-        def set_attr(self, attr_name: str, value: Any, indices: Any = None) -> None:
-            raise AttributeError(f"a shared-road VecEnv does not expose its envs' {attr_name!r}")
-
-        def env_method(self, method_name: str, *method_args: Any, indices: Any = None, **method_kwargs: Any
-                       ) -> list[Any]:
-            raise AttributeError(f"a shared-road VecEnv does not expose its envs' {method_name!r}")
-
-        def env_is_wrapped(self, wrapper_class: type, indices: Any = None) -> list[bool]:
-            return [False] * self.num_envs
-
-    return SharedRoadVecEnv()
+    return SharedRoadVecEnv(config, processes, egos, seed, error_dir)
 

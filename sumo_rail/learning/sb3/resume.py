@@ -11,7 +11,6 @@ resumed run repeats bit for bit, but the updates after the resume differ from an
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -19,13 +18,13 @@ import numpy as np
 import torch
 
 from sumo_rail.datasets import describe
-from sumo_rail.learning.gail_actor import FixedNormalisation
-from sumo_rail.learning.training import RunError, load_checkpoint, read_run_record, write_atomically
+from sumo_rail.learning.run_folder import RunError, check_resumable, load_checkpoint, write_run_record
+from sumo_rail.learning.sb3.actor import FixedNormalisation
 
 if TYPE_CHECKING:
     from stable_baselines3 import PPO
 
-    from sumo_rail.learning.discriminator import Discriminator
+    from sumo_rail.learning.rail.discriminator import Discriminator
 
 CHECKPOINT_FORMAT = "sumo-rail sb3 checkpoint 1"
 RESUME_SEED_STRIDE = 1_000_003
@@ -88,13 +87,7 @@ def resume_run(folder: Path, run_record: dict[str, Any]) -> dict[str, Any]:
     timesteps, the same configuration) and whole; rewrites run.json with the new timesteps. A missing, damaged,
     foreign or mismatched file is a RunError naming it."""
     path = folder / "checkpoint.pt"
-    if not path.is_file():
-        raise RunError(f"nothing to resume: {path} does not exist")
-    stored = read_run_record(folder)
-    if (_but_timesteps(stored["settings"]) != _but_timesteps(run_record["settings"])
-            or stored["config"] != run_record["config"] or stored.get("kind") != run_record["kind"]):
-        raise RunError(f"run {folder} was started with other settings (see its run.json); resume it with the same "
-                       f"options")
+    check_resumable(folder, path.name, run_record, free=("timesteps",))
     checkpoint = load_checkpoint(path, CHECKPOINT_FORMAT)
     try:
         updates, rows = int(checkpoint["updates"]), list(checkpoint["log"])
@@ -106,9 +99,5 @@ def resume_run(folder: Path, run_record: dict[str, Any]) -> dict[str, Any]:
         raise RunError(f"checkpoint {path} is inconsistent ({describe(error)})") from error
     if len(rows) != updates or updates < 1:
         raise RunError(f"checkpoint {path} is inconsistent: {len(rows)} log rows for {updates} updates")
-    write_atomically(folder / "run.json", json.dumps(run_record, indent=2, sort_keys=True).encode())
+    write_run_record(folder, run_record)
     return {**checkpoint, "log": [dict(row) for row in rows], "normalisation": normalisation}
-
-
-def _but_timesteps(settings: dict[str, Any]) -> dict[str, Any]:
-    return {key: value for key, value in settings.items() if key != "timesteps"}

@@ -7,11 +7,10 @@ import json
 import numpy as np
 import pytest
 from test_cli import SMALL, invoke
-from test_training import demos_path, small_config_module  # noqa: F401 (fixtures)
 
-from sumo_rail.learning.discriminator import DiscriminatorSettings
-from sumo_rail.learning.rail import RailSettings
-from sumo_rail.learning.training import RunSettings, train
+from sumo_rail.learning.rail.discriminator import DiscriminatorSettings
+from sumo_rail.learning.rail.iteration import RailSettings
+from sumo_rail.learning.rail.trainer import RunSettings, train
 from sumo_rail.runners.backends import SerialBackend
 
 OPTIONS = {  # option: (value, where run.json's settings hold it, the value stored there); values all distinct
@@ -109,3 +108,13 @@ def test_each_remedy_changes_the_iteration(tmp_path, demos, config, base_iterati
     assert not np.array_equal(parameters, base_parameters)
     assert ("RolloutTask x 2" in tasks) == (change == "--egos 2") and "RolloutTask x 2" not in base_tasks
     assert "RolloutTask x 1" in base_tasks
+
+
+def test_the_options_defaults_are_the_settings_dataclasses():
+    """Each default is written once, in RailSettings and DiscriminatorSettings: the options read them."""
+    from sumo_rail_cli.commands import train_command
+    from sumo_rail_cli.search_options import SearchOptions
+
+    context = train_command.make_context("train", ["--demos", "d.parquet", "--out", "run"])
+    search = SearchOptions(**{field.name: context.params[field.name] for field in dataclasses.fields(SearchOptions)})
+    assert search.settings(seed=5) == (RailSettings(seed=5), DiscriminatorSettings(seed=5))

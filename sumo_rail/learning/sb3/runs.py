@@ -1,27 +1,25 @@
-"""What the two Stable-Baselines3 trainers (`gail`, `ppo_driver`) share: the install check, PPO built with a
+"""What the two Stable-Baselines3 trainers (`gail`, `ppo`) share: the install check, PPO built with a
 `PolicyShape` actor, stopping after the current update on SIGINT / SIGTERM, and saving an update's policy and log
-together with the checkpoint `--resume` continues from (`sb3_resume`). Stable-Baselines3 is imported only by the
+together with the checkpoint `--resume` continues from (`sb3.resume`). Stable-Baselines3 is imported only by the
 functions that need it."""
 
 from __future__ import annotations
 
 import dataclasses
 import math
-import signal
 import tempfile
-import threading
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Protocol
+from typing import TYPE_CHECKING, Any
 
 import pyarrow as pa
 
 from sumo_rail.datasets import DatasetError, write_failure, write_parquet, written_together
 from sumo_rail.drivers.policies import Policy, PolicyShape, save_policy
-from sumo_rail.learning.gail_actor import policy_kwargs
-from sumo_rail.learning.gail_envs import LOST_ENV, close_envs, lost_env_message
+from sumo_rail.learning.sb3.actor import policy_kwargs
+from sumo_rail.learning.sb3.envs import LOST_ENV, close_envs, lost_env_message
 
 if TYPE_CHECKING:
     from stable_baselines3 import PPO
@@ -31,29 +29,35 @@ class BaselineError(RuntimeError):
     """A Stable-Baselines3 run cannot go on (message is one sentence)."""
 
 
-class PpoHyperparameters(Protocol):
-    """The PPO settings `build_ppo` reads."""
-
-    learning_rate: float
-    n_steps: int
-    batch_size: int
-    ppo_epochs: int
-    gamma: float
-    seed: int
-
-
+@dataclass(frozen=True, kw_only=True)
 class PpoSchedule:
-    """Mixin of the frozen settings dataclasses of a PPO run (fields timesteps, envs, egos, n_steps, batch_size,
-    ppo_epochs, learning_rate, gamma): their checks, update size and count, and run.json form."""
+    """The settings every PPO run has (GAIL's and the PPO driver's, which add their own and may give `timesteps` and
+    `critic_warmup` other defaults), their checks, update size and count, and run.json form (stored in run.json)."""
 
-    timesteps: int
-    envs: int
-    egos: int
-    n_steps: int
-    batch_size: int
-    ppo_epochs: int
-    learning_rate: float
-    gamma: float
+    timesteps: int = 100_000
+    """Environment decisions in total, rounded up to whole updates of n_steps x envs."""
+    kind: str = "mlp"
+    hidden: int = 10
+    envs: int = 2
+    """Environment processes; the result depends on it."""
+    egos: int = 1
+    """Egos per environment process (`shared_road`): PPO's envs are envs x egos; the result depends on it."""
+    n_steps: int = 512
+    """Decisions per env (ego) and update."""
+    learning_rate: float = 3e-4
+    """PPO's Adam step size."""
+    batch_size: int = 64
+    """PPO minibatch size [decisions]."""
+    ppo_epochs: int = 10
+    """PPO passes over each rollout."""
+    gamma: float = 0.99
+    """Discount per decision (0.5 s): a horizon of about 100 decisions."""
+    normalize_reward: bool = True
+    """Divide PPO's rewards by the running std of the discounted return and clip them (`normalised_rewards`)."""
+    critic_warmup: int = 0
+    """First updates with the actor frozen: only the critic learns (`set_actor_trainable`); they count in
+    `timesteps`."""
+    seed: int = 0
 
     def check_schedule(self, name: str) -> None:
         """ValueError naming the first PPO setting out of range (`name`: "GAIL", "PPO")."""
@@ -94,8 +98,8 @@ def require_stable_baselines3(hint: str) -> None:
         raise BaselineError(hint) from error
 
 
-def build_ppo(venv: VecEnv, shape: PolicyShape, settings: PpoHyperparameters, ent_coef: float = 0.0) -> PPO:
-    """PPO with the actor of `shape` (`gail_actor.policy_kwargs`), seeded with `settings.seed`, on the CPU. Its
+def build_ppo(venv: VecEnv, shape: PolicyShape, settings: PpoSchedule, ent_coef: float = 0.0) -> PPO:
+    """PPO with the actor of `shape` (`actor.policy_kwargs`), seeded with `settings.seed`, on the CPU. Its
     logger keeps each update's values (`model.logger.name_to_value`) and writes nowhere: SB3's default one makes an
     empty /tmp/SB3-DATE directory at every `learn`, and the training commands call it once an update."""
     from stable_baselines3 import PPO
@@ -134,41 +138,10 @@ def env_processes(folder: Path, run: str, updates_done: Callable[[], int]) -> It
                 close_envs(processes.venv, lost)
 
 
-class StopRequest:
-    """Whether a stop was asked for: a plain flag, which a signal handler can set while another signal interrupts it
-    (a `threading.Event` takes a lock in `set`, so a second Ctrl-C arriving inside the first one's handler would
-    deadlock the main thread)."""
-
-    def __init__(self) -> None:
-        self.requested = False
-
-    def set(self) -> None:
-        self.requested = True
-
-    def is_set(self) -> bool:
-        return self.requested
-
-
-@contextmanager
-def stop_requests() -> Iterator[StopRequest]:
-    """A flag that SIGINT and SIGTERM set instead of interrupting (main thread only; handlers restored after)."""
-    stop = StopRequest()
-    if threading.current_thread() is not threading.main_thread():
-        yield stop
-        return
-    previous = {number: signal.signal(number, lambda caught, frame: stop.set())
-                for number in (signal.SIGINT, signal.SIGTERM)}
-    try:
-        yield stop
-    finally:
-        for number, handler in previous.items():
-            signal.signal(number, handler)
-
-
 def save_update(folder: Path, policy: Policy, rows: list[dict[str, Any]], run_record: dict[str, Any],
                 checkpoint: dict[str, Any]) -> None:
     """Replace policy_latest.npz, log.parquet (`rows`, the last being this update's) and checkpoint.pt
-    (`sb3_resume.learner_checkpoint`) together: all or, on a full disk, none; a BaselineError saying what the folder
+    (`resume.learner_checkpoint`) together: all or, on a full disk, none; a BaselineError saying what the folder
     keeps otherwise."""
     import torch
 

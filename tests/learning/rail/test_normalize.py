@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from sumo_rail.learning.normalize import RunningStats
+from sumo_rail.learning.rail.normalize import RunningStats
 
 
 def batches(seed: int = 0) -> list[np.ndarray]:

@@ -7,13 +7,13 @@ options, 0 by default: `overtake_reward` for every vehicle the ego overtakes in 
 the leftmost), the keep-right rule the rule-based expert follows. As in `gail`, PPO's rewards are divided by the
 running std of the discounted return and clipped (`normalize_reward`).
 
-The actor is a `PolicyShape` (`gail_actor.policy_kwargs`): by default the learners' own two-layer policy (10 tanh
+The actor is a `PolicyShape` (`actor.policy_kwargs`): by default the learners' own two-layer policy (10 tanh
 units), so a learner of the default size can imitate it exactly; it acts on the raw observation, whose entries
 the env already scales to [-1, 2] (`sumo_rail.sim.observation`), so the exported policy's statistics are mean 0,
 std 1. With `init` (a policy file of the same shape and observation layout: a BC, DAgger or earlier PPO policy)
 PPO starts from that policy, on its observation statistics, and its first `critic_warmup` updates train the
-critic alone (`gail_actor.set_actor_trainable`, as in GAIL): BC pre-training then RL fine-tuning. The critic is
-`gail_actor.CRITIC_LAYERS`.
+critic alone (`actor.set_actor_trainable`, as in GAIL): BC pre-training then RL fine-tuning. The critic is
+`actor.CRITIC_LAYERS`.
 
 Reproducible as `gail`: env k's first episode has the Purpose.TRAIN seed of episode k from base seed x envs; PPO
 is seeded and torch runs on one thread, so the same settings give the same policy bit for bit (for the same
@@ -25,7 +25,7 @@ envs returned in the update, counted as they come), episodes (ended in the
 update), return_mean / _max / _std (the undiscounted episode return PPO trains on, the env's reward plus any
 shaping, of those episodes; NaN when none ended), speed_kmh, overtakes, lane_changes, collisions (per ended
 episode), entropy (nats), actor_frozen, reward_std and wall_time_s. SIGINT / SIGTERM stop after the current
-update, and `resume` continues from the last complete one (`sb3_resume` says what it restores exactly and what not).
+update, and `resume` continues from the last complete one (`sb3.resume` says what it restores exactly and what not).
 """
 
 from __future__ import annotations
@@ -33,7 +33,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -41,20 +41,19 @@ import numpy as np
 
 from sumo_rail.config import Config
 from sumo_rail.drivers.policies import Policy, PolicyShape
-from sumo_rail.learning.gail_actor import FixedNormalisation, load_into_ppo, ppo_to_policy, set_actor_trainable
-from sumo_rail.learning.gail_rewards import normalised_rewards, reward_std
-from sumo_rail.learning.sb3_resume import learner_checkpoint, restore_learner, resume_run, resumed_env_seed
-from sumo_rail.learning.sb3_runs import (
+from sumo_rail.learning.run_folder import start_run_folder, stop_requests
+from sumo_rail.learning.sb3.actor import FixedNormalisation, load_into_ppo, ppo_to_policy, set_actor_trainable
+from sumo_rail.learning.sb3.resume import learner_checkpoint, restore_learner, resume_run, resumed_env_seed
+from sumo_rail.learning.sb3.rewards import normalised_rewards, reward_std
+from sumo_rail.learning.sb3.runs import (
     PpoSchedule,
     build_ppo,
     env_processes,
     require_stable_baselines3,
     save_update,
-    stop_requests,
 )
-from sumo_rail.learning.shared_road import driving_processes
+from sumo_rail.learning.sb3.shared_road import driving_processes
 from sumo_rail.learning.torch_threads import single_thread
-from sumo_rail.learning.training import start_run_folder
 from sumo_rail.runners.experts import parse_policy
 from sumo_rail.runners.tables import provenance
 from sumo_rail.sim.observation import observation_space
@@ -70,33 +69,17 @@ KMH_PER_MPS = 3.6
 class PpoSettings(PpoSchedule):
     """What defines a PPO driver run (stored in run.json)."""
 
-    timesteps: int = 400_000
-    """Environment decisions in total, rounded up to whole updates of n_steps x envs."""
-    kind: str = "mlp"
-    hidden: int = 10
-    envs: int = 2
-    """Environment processes; the result depends on it."""
-    egos: int = 1
-    """Egos per environment process (`shared_road`): PPO's envs are envs x egos; the result depends on it."""
-    n_steps: int = 512
-    """Decisions per env (ego) and update."""
-    learning_rate: float = 3e-4
-    batch_size: int = 64
-    ppo_epochs: int = 10
-    gamma: float = 0.99
-    """Discount per decision (0.5 s): a horizon of about 100 decisions."""
+    timesteps: int = field(default=400_000, kw_only=True)
     ent_coef: float = 0.01
     """PPO's entropy bonus: keeps lane changes tried until their worth is learnt."""
-    normalize_reward: bool = True
     overtake_reward: float = 0.0
     """Shaping: reward per vehicle overtaken (0: the env's reward alone)."""
     keep_right_reward: float = 0.0
     """Shaping: reward per decision in the rightmost lane, falling linearly to 0 in the leftmost."""
     init: str | None = None
     """Policy file the actor starts from (None: PPO's own random initialisation)."""
-    critic_warmup: int = 0
+    critic_warmup: int = field(default=0, kw_only=True)
     """With `init` only: first updates with the actor frozen while the critic learns; they count in `timesteps`."""
-    seed: int = 0
 
     def __post_init__(self) -> None:
         self.check_schedule("PPO")
@@ -161,38 +144,17 @@ class EpisodeTally:
 
 def driving_vec_env(venv: VecEnv, tally: EpisodeTally, normalisation: FixedNormalisation) -> VecEnv:
     """The driving envs `venv` (`shared_road.driving_processes`) with rewards through `tally` and observations
-    through `normalisation`."""
-    from gymnasium import spaces
-    from stable_baselines3.common.vec_env import VecEnvWrapper
+    through `normalisation` (`vec_envs.NormalisedVecEnv`)."""
+    from sumo_rail.learning.sb3.vec_envs import NormalisedVecEnv
 
-    class TalliedVecEnv(VecEnvWrapper):
-        """Rewards through `tally`, normalised observations (terminal ones too); `seed` is a no-op: the env
-        factories seed the envs."""
-
-        def __init__(self, venv: VecEnv) -> None:
-            shape = venv.observation_space.shape
-            super().__init__(venv, observation_space=spaces.Box(-np.inf, np.inf, shape, np.float32))
-
-        def seed(self, seed: int | None = None) -> list[int | None]:
-            return [None] * self.num_envs
-
-        def reset(self) -> np.ndarray:
-            return normalisation(self.venv.reset())
-
-        def step_wait(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[dict[str, Any]]]:
-            observations, rewards, dones, infos = self.venv.step_wait()
-            for info in infos:
-                if "terminal_observation" in info:
-                    info["terminal_observation"] = normalisation(info["terminal_observation"])
-            return normalisation(observations), tally.shaped(rewards, dones, infos), dones, infos
-
-    return TalliedVecEnv(venv)
+    return NormalisedVecEnv(venv, normalisation, lambda raw, actions, rewards, dones, infos:
+                            tally.shaped(rewards, dones, infos))
 
 
 def train_ppo_driver(folder: Path, settings: PpoSettings, config: Config,
                      on_update: Callable[[dict[str, Any]], None] | None = None, resume: bool = False) -> PpoResult:
     """Train into the empty or new `folder`, or with `resume` continue the run in it from its last complete update
-    (`sb3_resume`); `on_update` gets each new log row once its update is saved."""
+    (`sb3.resume`); `on_update` gets each new log row once its update is saved."""
     require_stable_baselines3(INSTALL_HINT)
     folder = Path(folder)
     shape = settings.shape(config)

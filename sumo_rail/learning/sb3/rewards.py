@@ -1,7 +1,7 @@
 """The rewards PPO sees in GAIL: the environments run in spawned processes (libsumo: one simulation per process,
-`gail_envs`); `labelled_vec_env` puts `LabelledVecEnv` in front of them, which keeps the raw (observation, action)
-pairs, replaces the env's reward with log D - log(1 - D) of the current discriminator (`RewardLabeller`; pairs are
-scored as they come, by the discriminator of the previous updates) and normalises the observations PPO sees by
+`envs`); `labelled_vec_env` puts a `vec_envs.NormalisedVecEnv` in front of them, which keeps the raw (observation,
+action) pairs, replaces the env's reward with log D - log(1 - D) of the current discriminator (`RewardLabeller`; pairs
+are scored as they come, by the discriminator of the previous updates) and normalises the observations PPO sees by
 fixed statistics. A collision adds (horizon - decisions so far) x the lowest reward to its final step, so ending
 early never pays.
 
@@ -21,11 +21,10 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from gymnasium import spaces
 
-from sumo_rail.learning.discriminator import Discriminator
-from sumo_rail.learning.gail_actor import FixedNormalisation
-from sumo_rail.learning.rail import rollout_return
+from sumo_rail.learning.rail.discriminator import Discriminator
+from sumo_rail.learning.rail.iteration import rollout_return
+from sumo_rail.learning.sb3.actor import FixedNormalisation
 
 if TYPE_CHECKING:
     from stable_baselines3 import PPO
@@ -46,7 +45,7 @@ class Rollout:
     rewards: np.ndarray
     """Discriminator reward of each pair, before any collision padding, shape (T x envs,) [nats]."""
     returns: np.ndarray
-    """Per-decision return (`rail.rollout_return`) of each episode that ended in the rollout."""
+    """Per-decision return (`iteration.rollout_return`) of each episode that ended in the rollout."""
     collisions: int
 
 
@@ -93,40 +92,12 @@ class RewardLabeller:
 
 
 def labelled_vec_env(venv: VecEnv, labeller: RewardLabeller, normalisation: FixedNormalisation) -> VecEnv:
-    """The driving envs `venv` (`shared_road.driving_processes`) behind a `LabelledVecEnv`."""
-    from stable_baselines3.common.vec_env import VecEnvWrapper
+    """The driving envs `venv` (`shared_road.driving_processes`) with the discriminator's rewards (`labeller`; the
+    env's reward is dropped) and observations through `normalisation` (`vec_envs.NormalisedVecEnv`)."""
+    from sumo_rail.learning.sb3.vec_envs import NormalisedVecEnv
 
-    class LabelledVecEnv(VecEnvWrapper):
-        """Discriminator rewards and normalised observations (terminal ones too); the env's reward is dropped.
-        `seed` is a no-op: the env factories seed the envs."""
-
-        def __init__(self, venv: VecEnv) -> None:
-            shape = venv.observation_space.shape
-            super().__init__(venv, observation_space=spaces.Box(-np.inf, np.inf, shape, np.float32))
-            self._raw = np.zeros((venv.num_envs, *shape), dtype=np.float32)
-            self._actions = np.zeros(venv.num_envs, dtype=np.int64)
-
-        def seed(self, seed: int | None = None) -> list[int | None]:
-            return [None] * self.num_envs
-
-        def reset(self) -> np.ndarray:
-            self._raw = self.venv.reset()
-            return normalisation(self._raw)
-
-        def step_async(self, actions: np.ndarray) -> None:
-            self._actions = np.asarray(actions)
-            self.venv.step_async(actions)
-
-        def step_wait(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[dict[str, Any]]]:
-            raw, _, dones, infos = self.venv.step_wait()
-            rewards = labeller.label(self._raw, self._actions, dones, infos)
-            for info in infos:
-                if "terminal_observation" in info:
-                    info["terminal_observation"] = normalisation(info["terminal_observation"])
-            self._raw = raw
-            return normalisation(raw), rewards, dones, infos
-
-    return LabelledVecEnv(venv)
+    return NormalisedVecEnv(venv, normalisation, lambda raw, actions, rewards, dones, infos:
+                            labeller.label(raw, actions, dones, infos))
 
 
 def normalised_rewards(venv: VecEnv, gamma: float) -> VecEnv:

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 import torch
 
-from sumo_rail.learning.discriminator import Discriminator, DiscriminatorSettings, lsgan_loss
+from sumo_rail.learning.rail.discriminator import Discriminator, DiscriminatorSettings, lsgan_loss
 
 N = 8
 

@@ -5,10 +5,8 @@ import pytest
 
 from sumo_rail.config import Config
 from sumo_rail.drivers.policies import Policy, PolicyShape
-from sumo_rail.learning.discriminator import Discriminator, DiscriminatorSettings
-from sumo_rail.learning.noise import directions
-from sumo_rail.learning.normalize import RunningStats
-from sumo_rail.learning.rail import (
+from sumo_rail.learning.rail.discriminator import Discriminator, DiscriminatorSettings
+from sumo_rail.learning.rail.iteration import (
     RailSettings,
     TrainingState,
     Trajectory,
@@ -16,6 +14,8 @@ from sumo_rail.learning.rail import (
     run_iteration,
     run_rollouts,
 )
+from sumo_rail.learning.rail.noise import directions
+from sumo_rail.learning.rail.normalize import RunningStats
 from sumo_rail.runners.backends import RolloutBackend, SerialBackend
 from sumo_rail.runners.tables import Demonstrations
 from sumo_rail.sim.observation import observation_space

@@ -1,0 +1,170 @@
+"""The run folder every training command (`train`, `dagger`, `gail`, `ppo`) writes: starting it (a new or empty
+folder and its run.json), resuming it (the same settings, a whole checkpoint), and stopping on Ctrl-C or SIGTERM
+without leaving an iteration's files half written.
+
+run.json holds the run's settings, config and provenance; each command adds its own files and a checkpoint, which it
+writes last, so the checkpoint marks the last complete step (`written_together`).
+"""
+
+from __future__ import annotations
+
+import json
+import pickle
+import signal
+import threading
+import zipfile
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Any
+
+import torch
+
+from sumo_rail.datasets import DatasetError, describe, read_json_record, write_bytes_atomically, write_failure
+
+
+class RunError(ValueError):
+    """A run folder cannot be used as asked (message is one sentence)."""
+
+
+def start_run_folder(folder: Path, run_record: dict[str, Any]) -> None:
+    """Make the new or empty run `folder` (and its parents) with its run.json; a RunError, one sentence, when it is
+    not empty or cannot be made."""
+    if folder.is_dir() and any(folder.iterdir()):
+        raise RunError(f"run folder {folder} is not empty; pass --resume to continue it or choose another --out")
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        write_run_record(folder, run_record)
+    except OSError as error:
+        raise RunError(f"cannot make the run folder {folder} ({write_failure(error)})") from error
+
+
+def write_run_record(folder: Path, run_record: dict[str, Any]) -> None:
+    """Replace the run folder's run.json (atomically)."""
+    write_bytes_atomically(Path(folder) / "run.json", json.dumps(run_record, indent=2, sort_keys=True).encode())
+
+
+def read_run_record(folder: Path) -> dict[str, Any]:
+    """The run folder's run.json, checked: a JSON object of this format version with `settings` and `config`
+    objects; a RunError naming the file otherwise."""
+    path = Path(folder) / "run.json"
+    try:
+        record = read_json_record(path, "run record")
+    except DatasetError as error:
+        raise RunError(str(error)) from error
+    for key in ("settings", "config"):
+        if not isinstance(record.get(key), dict):
+            raise RunError(f"run record {path} has no {key!r} object, so it is not a sumo-rail run record")
+    return record
+
+
+def check_resumable(folder: Path, checkpoint: str, run_record: dict[str, Any], defaults: dict[str, Any] | None = None,
+                    free: tuple[str, ...] = ()) -> dict[str, Any]:
+    """The stored run.json of the run in `folder` that `run_record` continues: its `checkpoint` file exists, and it was
+    started with the same settings (those added since it was written filled in from `defaults`, `with_defaults`; the
+    settings named in `free`, such as the run's length, may differ), config and kind. A RunError otherwise."""
+    path = Path(folder) / checkpoint
+    if not path.is_file():
+        raise RunError(f"nothing to resume: {path} does not exist")
+    stored = read_run_record(folder)
+
+    def fixed(settings: dict[str, Any]) -> dict[str, Any]:
+        return {key: value for key, value in settings.items() if key not in free}
+
+    settings = with_defaults(stored["settings"], defaults or {})
+    if (fixed(settings) != fixed(run_record["settings"]) or stored["config"] != run_record["config"]
+            or stored.get("kind") != run_record.get("kind")):
+        raise RunError(f"run {folder} was started with other settings (see its run.json); resume it with the same "
+                       f"options")
+    return stored
+
+
+def with_defaults(stored: dict[str, Any], defaults: dict[str, Any]) -> dict[str, Any]:
+    """`stored` settings with the settings added since it was written filled in from `defaults` (nested dicts
+    merged), so a run started before an option existed resumes as what it was: a run at that option's default."""
+    merged = dict(stored)
+    for key, default in defaults.items():
+        if key not in merged:
+            merged[key] = default
+        elif isinstance(default, dict) and isinstance(merged[key], dict):
+            merged[key] = with_defaults(merged[key], default)
+    return merged
+
+
+def load_checkpoint(path: Path, expected: str) -> dict[str, Any]:
+    """A checkpoint.pt of format `expected`: its zip checksums verified (torch does not check them), loaded with
+    weights_only (no code runs)."""
+    if path.stat().st_size == 0:
+        raise RunError(f"checkpoint {path} is empty (0 bytes)")
+    try:
+        with zipfile.ZipFile(path) as archive:
+            damaged = archive.testzip()
+    except Exception as error:  # BadZipFile, UnicodeDecodeError, OSError: truncated, overwritten or foreign
+        raise RunError(f"checkpoint {path} is unreadable: truncated or not a torch checkpoint "
+                       f"({describe(error)})") from error
+    if damaged is not None:
+        raise RunError(f"checkpoint {path} is damaged: its part {damaged} fails its checksum")
+    try:
+        checkpoint = torch.load(path, weights_only=True)
+    except pickle.UnpicklingError as error:
+        raise RunError(f"checkpoint {path} holds objects other than tensors and plain values, which sumo-rail does "
+                       f"not load") from error
+    except Exception as error:  # torch raises several types for damaged files
+        raise RunError(f"checkpoint {path} is unreadable ({describe(error)})") from error
+    if not isinstance(checkpoint, dict) or "format" not in checkpoint:
+        raise RunError(f"{path} is not a sumo-rail checkpoint")
+    if checkpoint["format"] != expected:
+        raise RunError(f"checkpoint {path} has format {checkpoint['format']!r}; this sumo-rail reads {expected!r} "
+                       f"here")
+    return checkpoint
+
+
+@contextmanager
+def signals_deferred() -> Iterator[None]:
+    """Hold SIGINT and SIGTERM until the block ends, then stop (KeyboardInterrupt), so one iteration's files stay
+    consistent. (Python-level handlers: a signal mask would not do, the kernel hands it to another thread.)"""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    received: list[int] = []
+    previous = {number: signal.signal(number, lambda caught, frame: received.append(caught))
+                for number in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield
+    finally:
+        for number, handler in previous.items():
+            signal.signal(number, handler)
+    if received:
+        raise KeyboardInterrupt
+
+
+class StopRequest:
+    """Whether a stop was asked for: a plain flag, which a signal handler can set while another signal interrupts it
+    (a `threading.Event` takes a lock in `set`, so a second Ctrl-C arriving inside the first one's handler would
+    deadlock the main thread)."""
+
+    def __init__(self) -> None:
+        self.requested = False
+
+    def set(self) -> None:
+        self.requested = True
+
+    def is_set(self) -> bool:
+        return self.requested
+
+
+@contextmanager
+def stop_requests() -> Iterator[StopRequest]:
+    """A flag that SIGINT and SIGTERM set instead of interrupting (main thread only; handlers restored after): the
+    run stops at the end of its current step."""
+    stop = StopRequest()
+    if threading.current_thread() is not threading.main_thread():
+        yield stop
+        return
+    previous = {number: signal.signal(number, lambda caught, frame: stop.set())
+                for number in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield stop
+    finally:
+        for number, handler in previous.items():
+            signal.signal(number, handler)
