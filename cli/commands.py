@@ -55,8 +55,6 @@ def record_expert(config: Config, episodes: int, seed: int, workers: int, backen
     decision."""
     check_output(out, overwrite)
     check_egos(config, egos)
-    if dart_noise and egos != 1:
-        raise click.UsageError("--dart-noise records one ego per episode: leave out --egos")
     expert, driver = resolve_expert_option(expert, config)
     from sumo_rail.runners.dart import ActionNoise
     from sumo_rail.runners.record import record_demonstrations

@@ -12,7 +12,7 @@ from sumo_rail.datasets import write_parquet
 from sumo_rail.drivers.expert import STYLES
 from sumo_rail.runners.backends import RolloutBackend
 from sumo_rail.runners.dart import ActionNoise
-from sumo_rail.runners.rollout import DriverSpec, EpisodeGroupTask, EpisodeTask, ExpertDriver, shared_groups
+from sumo_rail.runners.rollout import DriverSpec, EpisodeGroupTask, ExpertDriver, shared_groups
 from sumo_rail.runners.tables import DEMONSTRATIONS, demonstrations_table, provenance
 from sumo_rail.seeding import Purpose, episode_seeds
 from sumo_rail.sim.observation import observation_space
@@ -25,18 +25,12 @@ def record_demonstrations(config: Config, expert: DriverSpec, name: str, seed: i
     (`EpisodeGroupTask`, seeded by its group's first seed: the metadata's `egos`, `requested_episodes` and
     `simulation_seeds`), and write them to `out`, its metadata naming the expert as `name` (a style or a policy
     file, as `experts.resolve_expert` reads it); returns metrics. An ego that found no room on the road is left out
-    (its seed is missing from the metadata's episode_seeds). With `noise` (DART, one ego only) the car executes noisy
+    (its seed is missing from the metadata's episode_seeds). With `noise` (DART) each ego's car executes noisy
     actions, the records keep the expert's, and the metadata's `dart` says how."""
-    if noise is not None and egos != 1:
-        raise ValueError("DART noise is for one ego per episode")
     groups = shared_groups(episode_seeds(Purpose.RECORD, seed, episodes), egos)
-    if noise is None:
-        shared = backend.run([EpisodeGroupTask(config, expert, group, record=True) for group in groups],
-                             on_result=on_episode)
-        results = [result for group in shared for result in group if result is not None]
-    else:  # the executed actions of the one ego perturbed (`EpisodeTask`'s noise)
-        results = backend.run([EpisodeTask(config, expert, group[0], record=True, noise=noise) for group in groups],
-                              on_result=on_episode)
+    shared = backend.run([EpisodeGroupTask(config, expert, group, record=True, noise=noise) for group in groups],
+                         on_result=on_episode)
+    results = [result for group in shared for result in group if result is not None]
     seeds = [result.metrics["seed"] for result in results]
     table = demonstrations_table(results, seeds, observation_space(config).shape[0])
     style = ({"style": expert.style, "style_parameters": dataclasses.asdict(STYLES[expert.style])}

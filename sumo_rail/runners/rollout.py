@@ -122,29 +122,30 @@ class EpisodeGroupTask:
     driver: DriverSpec
     seeds: tuple[int, ...]
     record: bool = False
+    noise: ActionNoise | None = None
+    """Noise on each ego's executed actions (DART, drawn from its own seed's stream); the records keep the driver's."""
 
     def run(self, context: WorkerContext) -> list[EpisodeResult | None]:
         """Each ego's episode (its metrics' seed: its own seed), in ego order; None for an ego that found no room."""
         drivers = [self.driver.create(self.config, seed) for seed in self.seeds]
+        perturbs = None if self.noise is None else [self.noise.perturbation(seed) for seed in self.seeds]
         results = run_shared_episode(context.parallel_env(self.config, len(self.seeds)), drivers, self.seeds[0],
-                                     self.record)
+                                     self.record, perturbs)
         return [None if result is None else EpisodeResult({**result.metrics, "seed": seed}, result.steps)
                 for result, seed in zip(results, self.seeds, strict=True)]
 
 
 def run_episode(env: HighwayEnv, driver: Driver, seed: int, record: bool = False,
-                options: dict[str, Any] | None = None, probe: DecisionProbe | None = None,
-                perturb: Callable[[int], int] | None = None) -> EpisodeResult:
+                options: dict[str, Any] | None = None, probe: DecisionProbe | None = None) -> EpisodeResult:
     """Reset with `seed` (and the env's reset `options`) and drive until the episode ends; `record` keeps every
-    (state, action, reward); `probe` watches every decision. With `perturb` the car executes perturb(action) while
-    the records and the probe keep the driver's action (DART)."""
+    (state, action, reward); `probe` watches every decision."""
     observation, info = env.reset(seed=seed, options=options)
     log = _EpisodeLog(record)
     done = terminated = truncated = False
     while not done:
         traffic, seen, before = env.traffic, observation, info
         action = driver(observation, traffic)
-        observation, reward, terminated, truncated, info = env.step(action if perturb is None else perturb(action))
+        observation, reward, terminated, truncated, info = env.step(action)
         if probe is not None:
             probe(seen, traffic, action, info)
         log.add(seen, action, reward, before, info)
@@ -153,10 +154,11 @@ def run_episode(env: HighwayEnv, driver: Driver, seed: int, record: bool = False
 
 
 def run_shared_episode(env: ParallelHighwayEnv, drivers: Sequence[Driver], seed: int, record: bool = False,
-                       ) -> list[EpisodeResult | None]:
+                       perturbs: Sequence[Callable[[int], int]] | None = None) -> list[EpisodeResult | None]:
     """Reset `env` with `seed` and drive ego_j with drivers[j] (asked in ego order at each decision) until every
     ego has left: each ego's episode as `run_episode` gives it (its metrics' seed is `seed`), in ego order, None for
-    an ego that found no room on the road."""
+    an ego that found no room on the road. With `perturbs` ego_j's car executes perturbs[j](action) while its
+    records keep the driver's action (DART)."""
     observations, infos = env.reset(seed=seed)
     agents = list(env.possible_agents)
     logs = {agent: _EpisodeLog(record) for agent in env.agents}
@@ -164,8 +166,10 @@ def run_shared_episode(env: ParallelHighwayEnv, drivers: Sequence[Driver], seed:
     while env.agents:
         actions = {agent: int(drivers[agents.index(agent)](observations[agent], env.traffic(agent)))
                    for agent in env.agents}
+        executed = actions if perturbs is None else \
+            {agent: perturbs[agents.index(agent)](action) for agent, action in actions.items()}
         seen, before = observations, infos
-        observations, rewards, terminations, truncations, infos = env.step(actions)
+        observations, rewards, terminations, truncations, infos = env.step(executed)
         for agent, action in actions.items():
             logs[agent].add(seen[agent], action, rewards[agent], before[agent], infos[agent])
             if terminations[agent] or truncations[agent]:
@@ -278,8 +282,6 @@ class EpisodeTask:
     """Warm-state pool the episode starts from ("train", "validation" or "test")."""
     warm_state: int | None = None
     """Index of the warm state in the pool; None: drawn from the seed."""
-    noise: ActionNoise | None = None
-    """Noise on the executed actions (DART); the records keep the driver's."""
 
     def run(self, context: WorkerContext, probe: DecisionProbe | None = None,
             wrap: Callable[[HighwayEnv], Any] | None = None) -> EpisodeResult:
@@ -290,6 +292,4 @@ class EpisodeTask:
         options: dict[str, Any] = {"pool": self.pool}
         if self.warm_state is not None:
             options["warm_state"] = self.warm_state
-        perturb = None if self.noise is None else self.noise.perturbation(self.seed)
-        return run_episode(env, self.driver.create(self.config, self.seed), self.seed, self.record, options, probe,
-                           perturb)
+        return run_episode(env, self.driver.create(self.config, self.seed), self.seed, self.record, options, probe)

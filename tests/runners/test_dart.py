@@ -9,8 +9,8 @@ from sumo_rail.drivers.expert import make_expert
 from sumo_rail.runners.backends import ProcessPoolBackend, SerialBackend
 from sumo_rail.runners.dart import ActionNoise
 from sumo_rail.runners.record import record_demonstrations
-from sumo_rail.runners.rollout import ExpertDriver, run_episode
-from sumo_rail.sim.env import HighwayEnv
+from sumo_rail.runners.rollout import ExpertDriver, KeepDriver, run_shared_episode
+from sumo_rail.sim.parallel_env import ParallelHighwayEnv
 
 
 def test_the_noise_replaces_about_epsilon_of_the_actions_and_repeats_with_the_seed():
@@ -29,16 +29,20 @@ def test_the_noise_replaces_about_epsilon_of_the_actions_and_repeats_with_the_se
 
 def test_labels_are_the_experts_decision_in_the_state_the_perturbed_car_is_in(small_config):
     expert = make_expert("normal", small_config.env.speed_step_mps, small_config.expert.view_range_m)
-    executed, asked = [], []
+    asked, executed = [], []
+    noise = ActionNoise(0.5).perturbation(3)
+
+    def watched_expert(observation, traffic):
+        asked.append(expert(observation, traffic))
+        return asked[-1]
 
     def perturb(action: int) -> int:
-        executed.append(ActionNoise(0.5).perturbation(len(executed))(action))  # a fresh draw each decision
+        executed.append(noise(action))
         return executed[-1]
 
-    env = HighwayEnv(small_config)
+    env = ParallelHighwayEnv(1, small_config)
     try:
-        result = run_episode(env, expert, seed=3, record=True, perturb=perturb,
-                             probe=lambda observation, traffic, *_: asked.append(expert(observation, traffic)))
+        result, = run_shared_episode(env, [watched_expert], seed=3, record=True, perturbs=[perturb])
     finally:
         env.close()
     labels = result.steps["action"].tolist()
@@ -55,9 +59,6 @@ def test_a_noisy_recording_stores_its_noise_and_is_the_same_on_two_workers(small
         record_demonstrations(small_config, ExpertDriver("normal"), "normal", 0, 2, backend, tmp_path / "a.parquet",
                               noise=noise)
         record_demonstrations(small_config, ExpertDriver("normal"), "normal", 0, 2, backend, tmp_path / "b.parquet")
-        with pytest.raises(ValueError, match="one ego"):
-            record_demonstrations(small_config, ExpertDriver("normal"), "normal", 0, 2, backend,
-                                  tmp_path / "c.parquet", egos=2, noise=noise)
     with ProcessPoolBackend(2) as pool:
         record_demonstrations(small_config, ExpertDriver("normal"), "normal", 0, 2, pool, tmp_path / "d.parquet",
                               noise=noise)
@@ -69,8 +70,23 @@ def test_a_noisy_recording_stores_its_noise_and_is_the_same_on_two_workers(small
     assert noisy.column("set_point_mps").to_pylist() != plain.column("set_point_mps").to_pylist()
 
 
-def test_dart_noise_with_several_egos_is_a_usage_error(tmp_path):
+def test_several_egos_each_execute_their_own_noise_and_record_the_drivers_actions(small_config, tmp_path):
+    out = tmp_path / "demos.parquet"
+    with SerialBackend() as backend:
+        record_demonstrations(small_config, KeepDriver(), "keep", 0, 2, backend, out, egos=2,
+                              noise=ActionNoise(0.3))
+    table = pq.read_table(out).to_pandas()
+    metadata = read_metadata(out)
+    assert metadata["egos"] == 2 and metadata["dart"]["epsilon"] == 0.3
+    assert table["episode"].nunique() == 2
+    assert (table["action"] == 0).all()  # every record is the driver's "keep"
+    for _, episode in table.groupby("episode"):  # while each car's set-point moved with its own noise
+        assert episode["set_point_mps"].nunique() > 1
+
+
+def test_dart_noise_with_several_egos_is_accepted_by_the_command(tmp_path):
+    out = tmp_path / "demos.parquet"
     result = CliRunner().invoke(cli, ["record-expert", "--dart-noise", "0.1", "--egos", "2", "--episodes", "2",
-                                      "--out", str(tmp_path / "demos.parquet")])
-    assert result.exit_code == 2 and "--dart-noise records one ego per episode" in result.output
-    assert not (tmp_path / "demos.parquet").exists()
+                                      "--set", "scenario.length_m=1500", "--out", str(out)])
+    assert result.exit_code == 0, result.output
+    assert read_metadata(out)["egos"] == 2 and read_metadata(out)["dart"]["epsilon"] == 0.1
