@@ -31,12 +31,15 @@ def estimate(value: dict[str, float]) -> str:
 
 
 def describe(report: dict[str, Any]) -> str:
-    """The setting in words: start, nu (or flip rate), episodes per rollout, traffic."""
+    """The setting in words: start, nu (or flip rate), episodes per rollout (or decisions on K respawning egos),
+    traffic."""
     rail = report["settings"]["rail"]
     start = "zero" if report["zero_weights"] else "BC"
     noise = f"flip rate {rail['flip_rate']:g}" if rail["flip_rate"] is not None else f"nu {rail['noise']['initial']:g}"
     traffic = ", common traffic" if rail["common_traffic"] else ""
-    return f"{start}, N {rail['directions']}, {noise}, {rail['episodes_per_rollout']} ep.{traffic}"
+    rollout = (f"{rail['rollout_decisions']} dec. on {rail['egos']} respawning egos" if rail.get("rollout_decisions")
+               else f"{rail['episodes_per_rollout']} ep.")
+    return f"{start}, N {rail['directions']}, {noise}, {rollout}{traffic}"
 
 
 def order(report: dict[str, Any]) -> tuple[Any, ...]:
