@@ -51,10 +51,12 @@ def imitation_options(command: Callable[..., Any]) -> Callable[..., Any]:
     """--demos, the actor (--policy, --hidden) and its behaviour-cloning initialisation (--bc-epochs,
     --bc-class-balance): what train and gail share."""
     bc_options = [
-        click.option("--bc-epochs", type=click.IntRange(min=0), default=20, show_default=True,
+        click.option("--bc-epochs", cls=SettingOption, type=click.IntRange(min=0),
+                     default=setting_default("sumo_rail.learning.bc", "IMITATION_BC.epochs"), show_default=True,
                      help="Behaviour-cloning epochs that initialise the policy (0: no BC); few demonstrations need "
                           "more (about 4000 / episodes, e.g. 100 for 40)."),
-        click.option("--bc-class-balance", type=click.FloatRange(min=0), default=0.75, show_default=True,
+        click.option("--bc-class-balance", cls=SettingOption, type=click.FloatRange(min=0),
+                     default=setting_default("sumo_rail.learning.bc", "IMITATION_BC.class_balance"), show_default=True,
                      help="Exponent p of BC's class weights (1/frequency)^p: 0 plain cross-entropy, 1 all actions "
                           "equal."),
     ]
@@ -66,9 +68,11 @@ def imitation_options(command: Callable[..., Any]) -> Callable[..., Any]:
 
 def policy_shape_options(command: Callable[..., Any]) -> Callable[..., Any]:
     """The trained policy's layout: --policy (kind) and --hidden."""
-    command = click.option("--hidden", type=click.IntRange(min=1), default=10, show_default=True,
-                           help="Hidden units of mlp.")(command)
-    return click.option("--policy", "kind", type=click.Choice(["linear", "mlp"]), default="mlp", show_default=True,
+    command = click.option("--hidden", cls=SettingOption, type=click.IntRange(min=1),
+                           default=setting_default("sumo_rail.learning.dagger", "DaggerSettings.hidden"),
+                           show_default=True, help="Hidden units of mlp.")(command)
+    return click.option("--policy", "kind", cls=SettingOption, type=click.Choice(["linear", "mlp"]),
+                        default=setting_default("sumo_rail.learning.dagger", "DaggerSettings.kind"), show_default=True,
                         help="linear: obs -> 5 logits; mlp: obs -> --hidden tanh units -> 5 logits.")(command)
 
 

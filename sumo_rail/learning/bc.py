@@ -39,6 +39,10 @@ class BcSettings:
     seed: int = 0
 
 
+IMITATION_BC = BcSettings(class_balance=0.75)
+"""The behaviour cloning that initialises the imitation commands' policies (train, dagger, gail): their defaults."""
+
+
 @dataclass(frozen=True)
 class BcReport:
     train_accuracy: float

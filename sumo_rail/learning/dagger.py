@@ -29,7 +29,7 @@ import pyarrow.parquet as pq
 from sumo_rail.config import Config
 from sumo_rail.datasets import read_metadata, write_bytes_atomically, write_parquet
 from sumo_rail.drivers.policies import Policy, PolicyShape, save_policy
-from sumo_rail.learning.bc import BcReport, BcSettings, behaviour_cloning
+from sumo_rail.learning.bc import IMITATION_BC, BcReport, BcSettings, behaviour_cloning
 from sumo_rail.learning.run_folder import RunError, check_resumable, signals_deferred, start_run_folder
 from sumo_rail.learning.validation import Validation, validate, validation_columns, with_validation_columns
 from sumo_rail.runners.backends import RolloutBackend, WorkerContext
@@ -56,7 +56,7 @@ class DaggerSettings:
     """Probability that the expert drives a decision in round 1."""
     beta_decay: float = 0.5
     """beta_r = beta * beta_decay^(r - 1)."""
-    bc: BcSettings = dataclasses.field(default_factory=lambda: BcSettings(class_balance=0.75))
+    bc: BcSettings = IMITATION_BC
     seed: int = 0
     expert: str | None = None
     """Who labels: a style or a policy file (`experts.resolve_expert`); None: the demonstrations' expert."""
