@@ -149,6 +149,11 @@ def generalisation_table(out: Path, figure: dict[tuple[str, str, str], tuple[flo
     return lines
 
 
+CONDITIONS = (("(a)", "trained there (a)"), ("(b)", "on the straight road only (b)"), ("(c)", "on every road (c)"),
+              ("(d)", "without the route block (d)"))
+"""The training conditions a figure's title names, each when the figure has it."""
+
+
 def plot(figure: dict[tuple[str, str, str], tuple[float, float, float]], path: Path) -> None:
     """Agreement and failed episodes per road, one bar per method and training condition, with 95% intervals."""
     roads = list(dict.fromkeys(road for road, _, _ in figure))
@@ -169,8 +174,8 @@ def plot(figure: dict[tuple[str, str, str], tuple[float, float, float]], path: P
         axis.set_ylim(0, 1)
     axes[0].legend(fontsize=8, ncol=4, loc="upper right")
     axes[1].set_xticks(range(len(roads)), roads, rotation=10)
-    axes[0].set_title("Each road: trained there (a), on the straight road only (b), on every road (c), without the "
-                      "route block (d); 95% intervals over 3 training seeds")
+    conditions = [words for tag, words in CONDITIONS if any(name.endswith(f", {tag}") for name in series)]
+    axes[0].set_title(f"Each road: {', '.join(conditions)}; 95% intervals over 3 training seeds")
     fig.tight_layout()
     fig.savefig(path, dpi=110)
 
