@@ -9,10 +9,12 @@ TREND_POINTS of them) with its 95% interval: "rising" while the interval lies ab
 slow to matter), "undecided" when it is too wide to say. Runs with no validation yet are left out. Beside it,
 how far the search moved the weights against how far a search without signal would wander (experiments/wander.py;
 about 1 when the steps are noise). N = 512 is projected from a straight-line fit of the cost in N (a projection,
-not a run). Writes OUT_DIR/directions.png.
+not a run) until a run of N = 512 is there. Runs whose rollouts are decision budgets on K respawning egos
+(experiments/directions_sweep.sh with EGOS, folders nN_kKr_sSEED) are a series of their own.
+Writes OUT_DIR/directions.png.
 
-Usage: python experiments/directions_plot.py OUT_DIR [N ...]   (reads OUT_DIR/nN_sSEED/log.parquet; without N,
-every N found there)
+Usage: python experiments/directions_plot.py OUT_DIR [SERIES ...]   (reads OUT_DIR/SERIES_sSEED/log.parquet, a
+series being nN or nN_kKr; without SERIES, every series found there)
 """
 
 from __future__ import annotations
@@ -31,8 +33,8 @@ from wander import wander
 from sumo_rail.evaluation.statistics import Interval, slope
 
 PROJECTED = 512
-RUN_FOLDER = re.compile(r"n(\d+)_s\d+")
-"""A run's folder: nN_sSEED."""
+RUN_FOLDER = re.compile(r"(n(\d+)(?:_k(\d+)r?)?)_s\d+")
+"""A run's folder: SERIES_sSEED, the series nN (one ego, whole episodes) or nN_kKr (K respawning egos)."""
 LAST = 3
 """Validations averaged for a run's final agreement (one validation of 20 episodes is noisy)."""
 TREND_POINTS = 4
@@ -43,17 +45,30 @@ FLAT = 0.01
 """A run has flattened when its trend's upper bound is below this [agreement per TREND_PER iterations]."""
 
 
-def sizes_found(out: Path) -> list[int]:
-    """The numbers of directions of the runs in `out`, ascending."""
-    return sorted({int(found.group(1)) for folder in out.iterdir() if (found := RUN_FOLDER.fullmatch(folder.name))})
+def series_found(out: Path) -> list[str]:
+    """The series of the runs in `out`, by N ascending, one-ego runs first."""
+    found = {match.group(1): (int(match.group(2)), int(match.group(3) or 1))
+             for folder in out.iterdir() if (match := RUN_FOLDER.fullmatch(folder.name))}
+    return sorted(found, key=found.__getitem__)
 
 
-def logs(out: Path, size: int) -> list[pd.DataFrame]:
-    """The logs of every training seed of N = size that has a validation, with cumulative decisions."""
+def size_of(series: str) -> int:
+    """N of a series."""
+    return int(RUN_FOLDER.fullmatch(f"{series}_s0").group(2))  # type: ignore[union-attr]
+
+
+def label(series: str) -> str:
+    """'128', or '512, 8 respawning egos'."""
+    egos = RUN_FOLDER.fullmatch(f"{series}_s0").group(3)  # type: ignore[union-attr]
+    return f"{size_of(series)}" + (f", {egos} respawning egos" if egos else "")
+
+
+def logs(out: Path, series: str) -> list[pd.DataFrame]:
+    """The logs of every training seed of a series that has a validation, with cumulative decisions."""
     runs = []
-    for folder in sorted(out.glob(f"n{size}_s*")):
+    for folder in sorted(out.glob(f"{series}_s*")):
         name = RUN_FOLDER.fullmatch(folder.name)
-        if name and int(name.group(1)) == size and (folder / "log.parquet").is_file():
+        if name and name.group(1) == series and (folder / "log.parquet").is_file():
             log = pd.read_parquet(folder / "log.parquet").assign(decisions=lambda log: log["env_steps"].cumsum())
             log.attrs["folder"] = folder
             if log["eval_agreement"].notna().any():
@@ -88,20 +103,20 @@ def trend_word(found: Interval) -> str:
     return "flattened" if found.high < FLAT else "undecided"
 
 
-def plot(curves: dict[int, list[pd.DataFrame]]) -> Figure:
+def plot(curves: dict[str, list[pd.DataFrame]]) -> Figure:
     figure = Figure(figsize=(15, 4.2), layout="constrained")
     FigureCanvasAgg(figure)
     panels = figure.subplots(1, 3)
     agreement = "validation agreement with the expert"
-    for axes, column, x, label in zip(panels, ("eval_agreement", "eval_agreement", "return_mean"),
+    for axes, column, x, ylabel in zip(panels, ("eval_agreement", "eval_agreement", "return_mean"),
                                       ("iteration", "decisions", "iteration"),
                                       (agreement, agreement, "discriminator return (mean)"), strict=True):
-        for size, runs in curves.items():
+        for name, runs in curves.items():
             series = across_seeds(runs, column)
             line, = axes.plot(series[x], series["mean"], marker="o", markersize=3,
-                              label=f"N = {size} ({len(runs)} seed{'s' * (len(runs) > 1)})")
+                              label=f"N = {label(name)} ({len(runs)} seed{'s' * (len(runs) > 1)})")
             axes.fill_between(series[x], series["low"], series["high"], color=line.get_color(), alpha=0.15)
-        axes.set(xlabel="training iteration" if x == "iteration" else "environment decisions", ylabel=label)
+        axes.set(xlabel="training iteration" if x == "iteration" else "environment decisions", ylabel=ylabel)
         axes.grid(alpha=0.3)
     panels[1].set_xscale("log")
     panels[1].xaxis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))  # 10k, 20k, 50k, 100k, ...
@@ -114,27 +129,28 @@ def plot(curves: dict[int, list[pd.DataFrame]]) -> Figure:
     return figure
 
 
-def main(out: Path, sizes: list[int]) -> None:
-    curves = {size: runs for size in sizes if (runs := logs(out, size))}
+def main(out: Path, names: list[str]) -> None:
+    curves = {name: runs for name in names if (runs := logs(out, name))}
     print("| N | seeds | iterations | decisions per iteration | wall time per iteration [s] | first validation "
           f"agreement (mean over seeds) | mean of the last {LAST} validations (mean, range over seeds) | trend of "
           f"agreement over the last half of validations, per {TREND_PER} iterations (each seed) | weights moved / "
           "noise's wander (each seed) |")
     print("|---:|---:|---:|---:|---:|---:|---|---|---|")
     costs = []
-    for size, runs in curves.items():
+    for name, runs in curves.items():
         steps = np.mean([run["env_steps"].mean() for run in runs])
         seconds = min(run["wall_time_s"].mean() for run in runs)  # the least disturbed run
-        costs.append((size, steps, seconds))
+        if name == f"n{size_of(name)}":  # the cost's straight line: one-ego runs
+            costs.append((size_of(name), steps, seconds))
         validations = [run["eval_agreement"].dropna() for run in runs]
         first = np.mean([values.iloc[0] for values in validations])
         last = [values.iloc[-LAST:].mean() for values in validations]
         trends = "; ".join(f"{found.format(3, signed=True)} {trend_word(found)}"
                            for found in map(trend, runs))
         wanders = ", ".join(f"{wander(run.attrs['folder']).ratio:.2f}" for run in runs)
-        print(f"| {size} | {len(runs)} | {min(len(run) for run in runs)} | {steps:,.0f} | {seconds:.1f} | "
+        print(f"| {label(name)} | {len(runs)} | {min(len(run) for run in runs)} | {steps:,.0f} | {seconds:.1f} | "
               f"{first:.3f} | {np.mean(last):.3f} ({min(last):.3f}-{max(last):.3f}) | {trends} | {wanders} |")
-    if len(costs) >= 2:
+    if len(costs) >= 2 and not any(size_of(name) == PROJECTED for name in curves):
         sizes_run, steps, seconds = (np.array(column, dtype=float) for column in zip(*costs, strict=True))
         projected = [np.polyval(np.polyfit(sizes_run, values, 1), PROJECTED) for values in (steps, seconds)]
         print(f"| {PROJECTED} (projected) | - | - | {projected[0]:,.0f} | {projected[1]:.1f} | not run | not run | - "
@@ -144,4 +160,4 @@ def main(out: Path, sizes: list[int]) -> None:
 
 if __name__ == "__main__":
     folder = Path(sys.argv[1])
-    main(folder, [int(size) for size in sys.argv[2:]] or sizes_found(folder))
+    main(folder, sys.argv[2:] or series_found(folder))
