@@ -110,7 +110,12 @@ class Figures:
     ratio_cpu: float
     """The same on the process CPU clock."""
     ratio_with_resets: float
-    """Raw stepping plus the raw side's own resets (the same reloads) over the env's time (wall clock)."""
+    """Raw stepping plus the raw side's own resets (the same reloads) over the env's time (wall clock): like with
+    like, both sides' resets counted."""
+    ratio_cpu_with_resets: float
+    """The same on the process CPU clock."""
+    raw_rate_with_resets: float
+    """Raw decisions per second [1/s], the raw side's resets counted (as the env's rate counts the env's)."""
     reset_ms: float
     peak_rss_mb: float
 
@@ -137,6 +142,8 @@ def measure(config: Config, seeds: list[int], rounds: int) -> Figures:
                      "raw": sum(decisions) / stepping[0], "ratio": stepping[0] / env_elapsed[0],
                      "ratio_cpu": stepping[1] / env_elapsed[1],
                      "ratio_with_resets": (stepping[0] + resetting[0]) / env_elapsed[0],
+                     "ratio_cpu_with_resets": (stepping[1] + resetting[1]) / env_elapsed[1],
+                     "raw_with_resets": sum(decisions) / (stepping[0] + resetting[0]),
                      "reset": resetting[0] / len(seeds)})
         vehicles.extend(counts)
 
@@ -144,7 +151,8 @@ def measure(config: Config, seeds: list[int], rounds: int) -> Figures:
         return statistics.median(row[key] for row in rows)
 
     return Figures(vehicles, sum(decisions), median("raw"), median("env"), median("random"), median("ratio"),
-                   median("ratio_cpu"), median("ratio_with_resets"), 1000 * median("reset"), peak_rss_mb)
+                   median("ratio_cpu"), median("ratio_with_resets"), median("ratio_cpu_with_resets"),
+                   median("raw_with_resets"), 1000 * median("reset"), peak_rss_mb)
 
 
 _FIRST_RESET = """
