@@ -4,6 +4,7 @@ respawning ego). Egos start on the first edge of their route; lanes here are SUM
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from typing import Any
 
 from sumo_rail.sim import network
@@ -16,10 +17,11 @@ PLACE_MARGIN_M = 5.0
 
 
 class EgoPlacement:
-    """The placing part of `Simulation` (a mixin: `_api` and `_built` are the simulation's)."""
+    """The placing part of `Simulation` (a mixin: `_api`, `_built` and `forget_sizes` are the simulation's)."""
 
     _api: Any
     _built: network.BuiltNetwork
+    forget_sizes: Callable[[str | None], None]
 
     @property
     def start_edge(self) -> str:
@@ -80,6 +82,7 @@ class EgoPlacement:
             gap_m = position_m - ego_length_m - front_m - api.getMinGap(follower)
             if gap_m < secure_m + follower_speed * REACTION_S + PLACE_MARGIN_M:
                 return False
+        self.forget_sizes(vehicle)
         api.add(vehicle, self._built.route_id, typeID=network.EGO_TYPE, depart="now", departLane=str(lane),
                 departPos=repr(position_m), departSpeed=repr(speed_mps))
         api.moveTo(vehicle, f"{self.start_edge}_{lane}", position_m)
@@ -109,6 +112,7 @@ class EgoPlacement:
     def _insert(self, vehicle: str, lane: int, position_m: float) -> None:
         """Queue an ego for insertion now in `lane` of its start edge with its front at `position_m` [m], at the highest
         safe speed."""
+        self.forget_sizes(vehicle)
         self._api.vehicle.add(vehicle, self._built.route_id, typeID=network.EGO_TYPE, depart="now",
                               departLane=str(lane), departPos=repr(position_m), departSpeed="max")
         self._api.vehicle.setLaneChangeMode(vehicle, LANE_CHANGE_MODE_TRACI_ONLY_SAFE)

@@ -25,9 +25,23 @@ class Sensing:
 
     def _context_setup(self) -> None:
         tc = self._constants
-        self._context_variables = (tc.VAR_POSITION, tc.VAR_ANGLE, tc.VAR_SPEED, tc.VAR_LANEPOSITION, tc.VAR_LENGTH,
-                                   tc.VAR_WIDTH, tc.VAR_LANE_ID)
+        self._context_variables = (tc.VAR_POSITION, tc.VAR_ANGLE, tc.VAR_SPEED, tc.VAR_LANEPOSITION, tc.VAR_LANE_ID)
         self._context_fields = operator.itemgetter(*self._context_variables)
+        self._sizes: dict[str, tuple[float, float]] = {}
+        """Vehicle id -> (length, width) [m], read once per vehicle (`forget_sizes` when ids may be reused)."""
+
+    def forget_sizes(self, vehicle: str | None = None) -> None:
+        """Drop the cached size of `vehicle` (a vehicle added under an id used before), or of every vehicle (None:
+        after a load, where ids start again)."""
+        if vehicle is None:
+            self._sizes.clear()
+        else:
+            self._sizes.pop(vehicle, None)
+
+    def _size(self, vehicle: str) -> tuple[float, float]:
+        """(length, width) [m] of `vehicle`, from SUMO the first time it is asked."""
+        size = self._sizes[vehicle] = (self._api.vehicle.getLength(vehicle), self._api.vehicle.getWidth(vehicle))
+        return size
 
     def observe(self, vehicle: str = EGO_ID) -> tuple[EgoState, Neighbours]:
         """An ego and its neighbours (other egos included) within the context radius, from one context
@@ -37,21 +51,25 @@ class Sensing:
         Headings are SUMO's angles (degrees, 0 = north, clockwise) as math headings (radians, 0 = +x,
         counter-clockwise): radians(90 - angle). The subscription is made and dropped at each decision: SUMO
         answers a new subscription at once, and a standing one would be recomputed at every step of the decision
-        period for nothing.
+        period for nothing. Lengths and widths, fixed per vehicle, are read once per vehicle (`_sizes`), not in the
+        subscription: SUMO evaluates every subscribed variable of every vehicle in range at each decision.
         """
-        tc, fields, place = self._constants, self._context_fields, self.route_map.place
+        tc, fields, place, sizes = self._constants, self._context_fields, self.route_map.place, self._sizes
         api = self._api.vehicle
         api.subscribeContext(vehicle, tc.CMD_GET_VEHICLE_VARIABLE, self.context_radius_m, self._context_variables)
         results = api.getContextSubscriptionResults(vehicle)
         api.unsubscribeContext(vehicle, tc.CMD_GET_VEHICLE_VARIABLE, self.context_radius_m)
-        (ego_x, ego_y), angle, speed, lane_position, length, width, lane_id = fields(results.pop(vehicle))
+        (ego_x, ego_y), angle, speed, lane_position, lane_id = fields(results.pop(vehicle))
+        length, width = sizes.get(vehicle) or self._size(vehicle)
         position_m, lane = place(lane_id, lane_position)
         ego_state = EgoState(ego_x, ego_y, math.radians(90.0 - angle), speed, lane, position_m,
                              api.getLateralLanePosition(vehicle), length, width, lane_id=lane_id,
                              route=self.route_map.view(lane_id, position_m))
         flat: list[float] = []
         extend, radians, lane_places = flat.extend, math.radians, self.route_map.lane_places.get
-        for (x, y), angle, speed, lane_position, length, width, lane_id in map(fields, results.values()):
+        for other, variables in results.items():
+            (x, y), angle, speed, lane_position, lane_id = fields(variables)
+            length, width = sizes.get(other) or self._size(other)
             start_m, lane = lane_places(lane_id, UNPLACED)  # `place`, inlined: it runs for every neighbour
             extend((x, y, radians(90.0 - angle), speed, start_m + lane_position, length, width, lane))
         rows = np.array(flat, dtype=np.float64).reshape(len(results), 8)

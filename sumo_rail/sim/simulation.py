@@ -159,6 +159,7 @@ class Simulation(EgoPlacement, Stepping, Sensing):
         self._api = sumo_gui.PacedApi(api, self.gui_delay_ms / 1000.0) if self.gui else api
 
     def _load(self, extra: list[str]) -> None:
+        self.forget_sizes()  # a loaded state may give known ids to other vehicles
         try:
             self._api.load([*self._options(), *self._gui_options(), *extra])
         except self._client.TraCIException as error:  # type: ignore[attr-defined]
