@@ -18,32 +18,8 @@ class Stepping:
     _client: Any
 
     def advance(self, steps: int, watch: Sequence[str] = ()) -> PeriodReport:
-        """`advance_egos` for the single ego; without watched vehicles (most periods), the same steps and reads in a
-        loop of its own, without the bookkeeping of several egos."""
-        if watch:
-            return self.advance_egos(steps, (EGO_ID,), watch)[0]
-        api = self._api
-        step, simulation, acceleration = api.simulationStep, api.simulation, api.vehicle.getAcceleration
-        starting_teleports = simulation.getStartingTeleportNumber
-        error = self._client.TraCIException
-        accelerations: list[float] = []
-        append = accelerations.append
-        teleported: set[str] = set()
-        teleports = 0
-        for _ in range(steps):
-            step()
-            if starting_teleports():
-                starting = simulation.getStartingTeleportIDList()
-                teleports += len(starting)
-                teleported.update(starting)
-            try:
-                append(acceleration(EGO_ID))
-            except error:
-                collided, arrived = self._why_gone(EGO_ID)
-                return PeriodReport(collided, arrived, EGO_ID in teleported, _lowest(accelerations), teleports,
-                                    simulation.getTime(), tuple(accelerations), {})
-        return PeriodReport(False, False, EGO_ID in teleported, _lowest(accelerations), teleports, None,
-                            tuple(accelerations), {})
+        """`advance_egos` for the single ego."""
+        return self.advance_egos(steps, (EGO_ID,), watch)[0]
 
     def advance_egos(self, steps: int, vehicles: Sequence[str], watch: Sequence[str] = ()) -> list[PeriodReport]:
         """Run `steps` SUMO steps, watching each ego of `vehicles` until it is gone; the steps go on while any of them
