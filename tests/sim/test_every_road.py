@@ -137,14 +137,12 @@ def drive_respawning(road_: RespawningRoad | object, actions: np.ndarray) -> lis
     return batches
 
 
-@pytest.mark.parametrize("kind", KINDS)
-def test_respawning_egos_always_drive_and_report_their_episodes_as_stable_baselines3_does(small_config, kind):
-    config = road(small_config, kind)
+def test_respawning_egos_always_drive_and_report_their_episodes_as_stable_baselines3_does(any_road):
+    config = any_road
     space = observation_space(config)
     road_ = RespawningRoad(config, egos=2, seed=6)
     try:
         batches = drive_respawning(road_, np.random.default_rng(3).integers(0, 5, size=(150, 2)))
-        first_edge = road_.env.traffic("ego_0").ego.lane_id.rpartition("_")[0]
     finally:
         road_.close()
     assert all(space.contains(observation) for observation in batches[0])
@@ -157,7 +155,7 @@ def test_respawning_egos_always_drive_and_report_their_episodes_as_stable_baseli
             assert space.contains(infos[ego]["terminal_observation"])
             # a truncation: the road's end, the time limit, or cut where the egos jam the start (no reason of its own)
             assert infos[ego]["TimeLimit.truncated"] == (infos[ego]["termination"] in ("end_of_road", "time_limit", ""))
-    assert ended >= 2 and first_edge
+    assert ended >= 2
 
 
 @pytest.mark.parametrize("kind", ["merge_from_ramp"])
