@@ -188,7 +188,10 @@ FEATURE_LANES = {  # SUMO's lanes of each road's feature: (lanes that must be dr
     "merge_from_ramp": (["ramp_0", "merge_0"], []),
     "lane_drop": (["main_in_0", "main_in_1"], ["main_in_0", "main_in_1"]),  # the closing lanes end at the zone
     "exit": (["off_ramp_0"], []),
+    "network": (["second_0", "second_1"], ["first_0"]),  # the user's road past its bend; its right lane ends
 }
+FEATURE_AT_M = {"network": 900.0}
+"""Where each road's feature is along x [m]: test_scenarios's FEATURE, or the user's network's bend."""
 
 
 def distance_to_polyline(points: np.ndarray, line: np.ndarray) -> np.ndarray:
@@ -200,15 +203,16 @@ def distance_to_polyline(points: np.ndarray, line: np.ndarray) -> np.ndarray:
     return np.linalg.norm(points[:, None] - nearest, axis=2).min(axis=1)
 
 
-@pytest.mark.parametrize("kind", KINDS)
-def test_a_frame_draws_ramps_and_ending_lanes_where_sumo_has_them_and_no_road_elsewhere(small_config, kind):
+def test_a_frame_draws_ramps_bends_and_ending_lanes_where_sumo_has_them_and_no_road_elsewhere(any_road):
     """Near the feature the frame shows road (its colour) along the lanes SUMO shapes, on the ramp, the acceleration
-    lane and the lanes that end, and none where SUMO has no lane: beside the work zone, off the ramps."""
-    env = HighwayEnv(road(small_config, kind))
+    lane, the lanes that end and the user's road past its bend, and none where SUMO has no lane: beside the work zone,
+    off the ramps, beside the bend."""
+    kind = any_road.scenario.kind
+    env = HighwayEnv(any_road)
     expert = make_expert("normal", env.config.env.speed_step_mps, env.config.expert.view_range_m)
     try:
         observation, _ = env.reset(seed=1)
-        while env.traffic.ego.front_x < FEATURE["feature_at_m"] + 10.0:
+        while env.traffic.ego.front_x < FEATURE_AT_M.get(kind, FEATURE["feature_at_m"]) + 10.0:
             observation, _, terminated, truncated, _ = env.step(expert(observation, env.traffic))
             assert not (terminated or truncated)
         frame = env.frame()
@@ -244,11 +248,12 @@ def test_a_frame_draws_ramps_and_ending_lanes_where_sumo_has_them_and_no_road_el
         seen = colours(along(lane))
         assert len(seen) > 20, lane  # the lane is in view
         assert (seen == ROAD).all(axis=1).mean() > 0.7, lane  # road, but where a vehicle, a beam or a line is
-    for lane in ended:  # where the lane would go on past its end, beside the work zone: grass
-        beyond = along(lane) + np.array([shapes[lane][-1, 0] - shapes[lane][0, 0] + 20.0, 0.0])
-        beyond = beyond[beyond[:, 0] < FEATURE["feature_at_m"] + FEATURE["feature_length_m"] - 20.0]
-        seen = colours(beyond)
-        assert len(seen) > 20 and not (seen == ROAD).all(axis=1).any(), lane
+    for lane in ended:  # where the lane would go on, 20 m to 100 m past its end (beside the work zone): grass
+        end, before = shapes[lane][-1], shapes[lane][-2]
+        heading = (end - before) / np.linalg.norm(end - before)
+        beyond = end + np.arange(20.0, 100.0)[:, None] * heading
+        seen = colours(np.concatenate([beyond + [0.0, 1.0], beyond - [0.0, 1.0]]))
+        assert len(seen) > 100 and not (seen == ROAD).all(axis=1).any(), lane
     xs, ys = np.meshgrid(np.arange(-115.0, 115.0, 1.5), np.arange(-40.0, 40.0, 1.5))
     grid = ego_centre + np.stack([xs.ravel(), ys.ravel()], axis=1)
     off_road = np.all([distance_to_polyline(grid, line) > widths[lane] / 2 + 1.0
