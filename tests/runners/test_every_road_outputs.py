@@ -110,16 +110,14 @@ def rail_settings(demos: Path) -> RunSettings:
 
 
 def policy_arrays(path: Path) -> dict[str, np.ndarray]:
-    """Every array of a policy file (its bytes but the zip's time stamps)."""
     with np.load(path) as stored:
         return {name: stored[name] for name in stored.files}
 
 
 def assert_same_policy(left: Path, right: Path) -> None:
     first, second = policy_arrays(left), policy_arrays(right)
-    assert first.keys() == second.keys()
-    for name in first:
-        assert np.array_equal(first[name], second[name]), name
+    assert first.keys() == second.keys() and all(np.array_equal(first[name], second[name]) for name in first)
+    assert left.read_bytes() == right.read_bytes()
 
 
 @pytest.fixture(scope="module")

@@ -252,7 +252,8 @@ def test_a_frame_draws_ramps_bends_and_ending_lanes_where_sumo_has_them_and_no_r
         end, before = shapes[lane][-1], shapes[lane][-2]
         heading = (end - before) / np.linalg.norm(end - before)
         beyond = end + np.arange(20.0, 100.0)[:, None] * heading
-        seen = colours(np.concatenate([beyond + [0.0, 1.0], beyond - [0.0, 1.0]]))
+        across = np.array([-heading[1], heading[0]])
+        seen = colours(np.concatenate([beyond + across, beyond - across]))
         assert len(seen) > 100 and not (seen == ROAD).all(axis=1).any(), lane
     xs, ys = np.meshgrid(np.arange(-115.0, 115.0, 1.5), np.arange(-40.0, 40.0, 1.5))
     grid = ego_centre + np.stack([xs.ravel(), ys.ravel()], axis=1)
