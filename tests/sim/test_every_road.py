@@ -137,14 +137,27 @@ def drive_respawning(road_: RespawningRoad | object, actions: np.ndarray) -> lis
     return batches
 
 
+FIRST_EDGE = {"merge": "main_in", "merge_from_ramp": "ramp", "lane_drop": "main_in", "exit": "main_in",
+              "network": "first"}
+"""The first edge of the ego's route on each road: where egos start and respawn."""
+
+
 def test_respawning_egos_always_drive_and_report_their_episodes_as_stable_baselines3_does(any_road):
+    """Egos of a RespawningRoad (the shared-road VecEnv's process) respawn at the start of the route's first edge
+    at once and their episodes end as SB3 reports them."""
     config = any_road
     space = observation_space(config)
     road_ = RespawningRoad(config, egos=2, seed=6)
+    starts = []
     try:
-        batches = drive_respawning(road_, np.random.default_rng(3).integers(0, 5, size=(150, 2)))
+        batches = [road_.reset()]
+        for actions in np.random.default_rng(3).integers(0, 5, size=(150, 2)):
+            batches.append(road_.step(actions.tolist()))
+            starts += [road_.env.traffic(f"ego_{ego}").ego for ego in np.flatnonzero(batches[-1][2])]
     finally:
         road_.close()
+    assert starts and all(start.lane_id.rpartition("_")[0] == FIRST_EDGE[config.scenario.kind]
+                          and start.lane_position_m <= config.env.ego_start_max_m for start in starts)
     assert all(space.contains(observation) for observation in batches[0])
     ended = 0
     for observations, rewards, dones, infos in batches[1:]:
