@@ -171,9 +171,10 @@ def _import_minari() -> Any:
 
 @contextlib.contextmanager
 def _datasets_root(root: Path | None) -> Iterator[Path]:
-    """Minari's datasets folder: `root`, else $MINARI_DATASETS_PATH, else ~/.minari/datasets (created)."""
-    path = Path(root) if root is not None else Path(os.environ.get("MINARI_DATASETS_PATH")
-                                                    or Path.home() / ".minari" / "datasets")
+    """Minari's datasets folder: `root`, else $MINARI_DATASETS_PATH, else ~/.minari/datasets (created); absolute,
+    as Minari joins a relative datasets folder to the paths it has already joined to it."""
+    path = (Path(root) if root is not None else Path(os.environ.get("MINARI_DATASETS_PATH")
+                                                     or Path.home() / ".minari" / "datasets")).absolute()
     try:
         path.mkdir(parents=True, exist_ok=True)
     except OSError as error:

@@ -40,8 +40,8 @@ class EgoPlacement:
 
     def place_ego(self, vehicle: str, lane: int, position_m: float, max_speed_mps: float) -> bool:
         """Put a new ego on the road at once, between two steps, in `lane` of its start edge with its front at
-        `position_m` [m], at the highest speed up to `max_speed_mps` that is safe there; False (and nothing placed)
-        when none is.
+        `position_m` [m], at the highest speed up to `max_speed_mps` (and up to what the lane allows the ego: a
+        user's network may have a lower limit) that is safe there; False (and nothing placed) when none is.
 
         SUMO inserts a vehicle added now only at the next step; `vehicle.moveTo` forces it in at once, skipping
         SUMO's insertion checks, so they are made here. No vehicle may overlap the place (vehicles changing into or
@@ -63,7 +63,10 @@ class EgoPlacement:
                 behind.append((front_m, other))
             else:
                 return False
-        speed_mps = max_speed_mps
+        # SUMO refuses a departure speed above the ego's own limit on the lane (its type's speed factor, without spread)
+        lane_limit_mps = self._api.lane.getMaxSpeed(f"{self.start_edge}_{lane}") * ego_type.getSpeedFactor(
+            network.EGO_TYPE)
+        speed_mps = min(max_speed_mps, lane_limit_mps, ego_type.getMaxSpeed(network.EGO_TYPE))
         if ahead:
             rear_m, leader = min(ahead)
             leader_speed = api.getSpeed(leader)

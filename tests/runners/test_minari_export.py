@@ -49,6 +49,20 @@ def test_export_loads_with_minari_with_the_same_observations_actions_and_episode
     assert [path.name for path in root.iterdir() if path.name.startswith(".")] == []  # no scratch folder left
 
 
+def test_a_relative_datasets_folder_is_where_the_dataset_goes(demos, tmp_path, monkeypatch):
+    """--root or MINARI_DATASETS_PATH relative to the working folder (Minari itself failed with a traceback)."""
+    minari = pytest.importorskip("minari", reason="the Minari export is the package's optional extra [minari]")
+    monkeypatch.chdir(tmp_path)
+    result = CliRunner().invoke(cli, ["export-minari", str(demos), "--name", "sumo-rail/given-v0", "--root", "given"])
+    assert result.exit_code == 0, result.output
+    monkeypatch.setenv("MINARI_DATASETS_PATH", "from_environment")
+    result = CliRunner().invoke(cli, ["export-minari", str(demos), "--name", "sumo-rail/expert-v0"])
+    assert result.exit_code == 0, result.output
+    assert minari.load_dataset("sumo-rail/expert-v0").total_episodes == 3
+    monkeypatch.setenv("MINARI_DATASETS_PATH", "given")
+    assert minari.load_dataset("sumo-rail/given-v0").total_episodes == 3
+
+
 def test_bad_inputs_are_one_sentence_errors(demos, tmp_path):
     result = CliRunner().invoke(cli, ["export-minari", str(demos), "--name", "not a valid id!", "--root",
                                       str(tmp_path)])
