@@ -79,10 +79,10 @@ def sb3_progress(bar: Any, row: dict[str, Any], steps_per_update: int) -> None:
     advance_to(bar, (row["iteration"] + 1) * steps_per_update)
 
 
-def sb3_interrupted(out: Path, resume: bool) -> str:
-    """What a gail or ppo run stopped outside its updates says (within them, the run stops at the update's end)."""
-    return kept_until_resume(out, "update") if resume else f"interrupted before the first update; {out} holds no " \
-        f"trained policy"
+def sb3_interrupted(out: Path) -> Callable[[], str]:
+    """What a gail or ppo run stopped outside its updates says (within them, the run stops at the update's end),
+    read when it stops: whether its folder keeps an update by then."""
+    return lambda: kept_until_resume(out, "update")
 
 
 def sb3_outcome(result: Any, out: Path, critic_warmup: int) -> str:
