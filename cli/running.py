@@ -92,7 +92,8 @@ def sb3_outcome(result: Any, out: Path, critic_warmup: int) -> str:
     if result.interrupted:
         raise click.ClickException(f"interrupted after {updates}; {out} keeps them, continue with --resume")
     frozen = min(critic_warmup, result.updates)
-    note = ("" if not frozen else f"; the actor frozen in the first {frozen} for the critic's warm-up"
+    first = "the first update" if frozen == 1 else f"the first {frozen} updates"
+    note = ("" if not frozen else f"; the actor frozen in {first} for the critic's warm-up"
             if frozen < result.updates else f"; the actor frozen in {f'all {frozen}' if frozen > 1 else 'it'} for the "
             f"critic's warm-up, so the policy is the initial one")
     return f"trained {updates} ({result.timesteps} timesteps{note}); policy in {out / 'policy_latest.npz'}"
