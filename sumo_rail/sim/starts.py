@@ -95,8 +95,8 @@ def _places(rng: np.random.Generator, config: Config, slots: list[tuple[float, f
 def no_room_anywhere(config: Config, egos: int) -> str:
     """What a reset says when no ego found room at `START_DRAWS` places each: the road is too dense."""
     slots = start_slots(config, egos)
-    who = "the ego" if egos == 1 else f"none of the {egos} egos"
-    return (f"{who} found no room at {START_DRAWS} places of {'its' if egos == 1 else 'their'} start window "
+    who = "the ego found no room" if egos == 1 else f"none of the {egos} egos found room"
+    return (f"{who} at {START_DRAWS} places of {'its' if egos == 1 else 'their'} start window "
             f"({slots[0][0]:g} m to {slots[-1][1]:g} m): traffic is too dense there (scenario.flow_veh_per_h is "
             f"{config.scenario.flow_veh_per_h:g} veh/h)")
 
