@@ -268,5 +268,5 @@ def train_command(config: Config, demos: Path, kind: str, hidden: int,
         state = train(out, settings, config, iterations, backend, resume, Validation(eval_every, eval_episodes),
                       on_bc=show_bc, on_iteration=show, on_start=lambda done: start_at(bar, done))
         complete(bar)
-    click.echo(f"trained {state.iteration} iterations; policies in {out}")
+    click.echo(f"trained {state.iteration} iteration{'s' * (state.iteration != 1)}; policies in {out}")
 

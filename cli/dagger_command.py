@@ -92,4 +92,4 @@ def dagger_command(config: Config, demos: Path, kind: str, hidden: int,
         train_dagger(out, settings, config, rounds, backend, resume, Validation(eval_every, eval_episodes),
                      on_round=show)
         complete(bar)
-    click.echo(f"DAgger: {rounds} rounds; policy in {out / 'policy_latest.npz'}")
+    click.echo(f"DAgger: {rounds} round{'s' * (rounds != 1)}; policy in {out / 'policy_latest.npz'}")

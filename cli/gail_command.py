@@ -78,7 +78,7 @@ def gail_command(config: Config, demos: Path, timesteps: int, kind: str,
         sb3_progress(bar, row, settings.steps_per_update)
 
     # Ctrl-C before the updates start; during them gail defers it to the update's end (result.interrupted)
-    with interruptible_run(bar, sb3_interrupted(out, resume), board=tensorboard_logger(tensorboard_dir, "gail", out),
+    with interruptible_run(bar, sb3_interrupted(out), board=tensorboard_logger(tensorboard_dir, "gail", out),
                            errors=(BaselineError, RunError)) as board:
         result = train_gail(out, settings, config, on_bc=show_bc, on_update=show, resume=resume)
         if not result.interrupted:

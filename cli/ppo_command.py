@@ -105,7 +105,7 @@ def ppo_command(config: Config, kind: str, hidden: int, timesteps: int, envs: in
                         lane_changes=f"{row['lane_changes']:.2f}", collisions=f"{row['collisions']:.2f}")
         sb3_progress(bar, row, settings.steps_per_update)
 
-    with interruptible_run(bar, sb3_interrupted(out, resume), board=tensorboard_logger(tensorboard_dir, "ppo", out),
+    with interruptible_run(bar, sb3_interrupted(out), board=tensorboard_logger(tensorboard_dir, "ppo", out),
                            errors=(BaselineError, RunError)) as board:
         result = train_ppo_driver(out, settings, config, on_update=show, resume=resume)
         if not result.interrupted:

@@ -79,10 +79,10 @@ def sb3_progress(bar: Any, row: dict[str, Any], steps_per_update: int) -> None:
     advance_to(bar, (row["iteration"] + 1) * steps_per_update)
 
 
-def sb3_interrupted(out: Path, resume: bool) -> str:
-    """What a gail or ppo run stopped outside its updates says (within them, the run stops at the update's end)."""
-    return kept_until_resume(out, "update") if resume else f"interrupted before the first update; {out} holds no " \
-        f"trained policy"
+def sb3_interrupted(out: Path) -> Callable[[], str]:
+    """What a gail or ppo run stopped outside its updates says (within them, the run stops at the update's end),
+    read when it stops: whether its folder keeps an update by then."""
+    return lambda: kept_until_resume(out, "update")
 
 
 def sb3_outcome(result: Any, out: Path, critic_warmup: int) -> str:
@@ -92,7 +92,8 @@ def sb3_outcome(result: Any, out: Path, critic_warmup: int) -> str:
     if result.interrupted:
         raise click.ClickException(f"interrupted after {updates}; {out} keeps them, continue with --resume")
     frozen = min(critic_warmup, result.updates)
-    note = ("" if not frozen else f"; the actor frozen in the first {frozen} for the critic's warm-up"
+    first = "the first update" if frozen == 1 else f"the first {frozen} updates"
+    note = ("" if not frozen else f"; the actor frozen in {first} for the critic's warm-up"
             if frozen < result.updates else f"; the actor frozen in {f'all {frozen}' if frozen > 1 else 'it'} for the "
             f"critic's warm-up, so the policy is the initial one")
     return f"trained {updates} ({result.timesteps} timesteps{note}); policy in {out / 'policy_latest.npz'}"

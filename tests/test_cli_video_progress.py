@@ -91,18 +91,20 @@ def test_progress_is_a_live_bar_only_on_a_terminal(stream, live):
     assert ("\r" in stream.getvalue()) is live
 
 
-def test_the_last_progress_line_is_at_100_percent_for_resumed_runs_and_egos(tmp_path):
+def test_the_last_progress_line_is_at_100_percent_for_resumed_runs_and_egos_and_one_is_singular(tmp_path):
     demos = tmp_path / "demos.parquet"
     result = invoke("record-expert", *SMALL, "--episodes", "3", "--egos", "2", "--out", str(demos))
     assert result.exit_code == 0 and "recording: 3/3 episodes (100%)" in result.output, result.output
     dagger = ("dagger", *SMALL, "--demos", str(demos), "--rounds", "1", "--episodes-per-round", "1", "--bc-epochs",
               "1", "--eval-every", "0", "--out", str(tmp_path / "dagger"))
-    assert invoke(*dagger).exit_code == 0
+    result = invoke(*dagger)
+    assert result.exit_code == 0 and "DAgger: 1 round; policy in" in result.output, result.output
     result = invoke(*dagger, "--resume")  # nothing left to do
     assert result.exit_code == 0 and "DAgger: 2/2 rounds (100%)" in result.output, result.output
     train = ("train", *SMALL, "--demos", str(demos), "--directions", "2", "--bc-epochs", "1", "--eval-every", "0",
              "--out", str(tmp_path / "train"))
-    assert invoke(*train, "--iterations", "1").exit_code == 0
+    result = invoke(*train, "--iterations", "1")
+    assert result.exit_code == 0 and "trained 1 iteration; policies in" in result.output, result.output
     result = invoke(*train, "--iterations", "2", "--resume")
     assert result.exit_code == 0 and "training: 2/2 iterations (100%)" in result.output, result.output
 

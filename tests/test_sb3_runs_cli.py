@@ -2,6 +2,7 @@
 run continues with --resume, which repeats bit for bit; --egos is counted in the environment's decisions."""
 
 import json
+import os
 import shutil
 import signal
 import subprocess
@@ -71,6 +72,59 @@ def test_ctrl_c_twice_stops_after_the_update_with_its_files_whole_and_resume_goe
     assert result.exit_code == 0, result.output
     assert f"trained {updates + 1} PPO updates" in result.output
     assert pd.read_parquet(run / "log.parquet")["iteration"].tolist() == list(range(updates + 1))
+
+
+@pytest.mark.parametrize("command", ["ppo", "gail"])
+def test_a_ctrl_c_while_a_stopped_run_closes_is_ignored_and_the_run_says_what_it_keeps(tmp_path, demos, command,
+                                                                                      monkeypatch):
+    """Ctrl-C during the first update stops the run after it; another while its environment processes close (the
+    first one already acted on) neither cuts the closing short nor changes the sentence: the folder keeps 1 update."""
+    import importlib
+
+    from sumo_rail.learning.sb3 import runs as sb3_runs
+
+    learner, closed = importlib.import_module(f"sumo_rail.learning.sb3.{command}"), []
+    save, close = learner.save_update, sb3_runs.close_envs
+
+    def save_then_ctrl_c(*args, **kwargs):
+        save(*args, **kwargs)
+        os.kill(os.getpid(), signal.SIGINT)
+
+    def ctrl_c_then_close(venv, lost):
+        os.kill(os.getpid(), signal.SIGINT)
+        close(venv, lost)
+        closed.append(lost)
+
+    monkeypatch.setattr(learner, "save_update", save_then_ctrl_c)
+    monkeypatch.setattr(sb3_runs, "close_envs", ctrl_c_then_close)
+    run = tmp_path / "run"
+    result = invoke(*runs(demos)[command], "--timesteps", "96", "--out", str(run))
+    assert result.exit_code == 1 and closed == [False], result.output
+    assert result.output.rstrip().splitlines()[-1] == (f"Error: interrupted after 1 PPO update; {run} keeps them, "
+                                                       f"continue with --resume")
+    assert pd.read_parquet(run / "log.parquet")["iteration"].tolist() == [0]
+
+
+@pytest.mark.parametrize("command", ["ppo", "gail"])
+def test_a_ctrl_c_before_the_first_update_says_how_to_start_again(tmp_path, demos, command, monkeypatch):
+    """Stopped before any update was saved, the folder holds only run.json: neither a new run into it nor --resume
+    would take it, so the sentence says to remove it."""
+    import importlib
+
+    learner = importlib.import_module(f"sumo_rail.learning.sb3.{command}")
+    build = learner.build_ppo
+
+    def ctrl_c_then_build(*args, **kwargs):
+        os.kill(os.getpid(), signal.SIGINT)
+        return build(*args, **kwargs)
+
+    monkeypatch.setattr(learner, "build_ppo", ctrl_c_then_build)
+    run = tmp_path / "run"
+    result = invoke(*runs(demos)[command], "--timesteps", "32", "--out", str(run))
+    assert result.exit_code == 1 and not (run / "checkpoint.pt").exists(), result.output
+    assert result.output.rstrip().splitlines()[-1] == (f"Error: interrupted before the first update was saved, so "
+                                                       f"there is nothing to resume: remove {run} and run the "
+                                                       f"command again")
 
 
 @pytest.mark.parametrize("command", ["ppo", "gail"])

@@ -154,6 +154,21 @@ class StopRequest:
 
 
 @contextmanager
+def signals_ignored() -> Iterator[None]:
+    """Ignore SIGINT and SIGTERM within the block (main thread only; handlers restored after): for closing what must
+    close whole, such as a run's environment processes after a Ctrl-C already stopped the run."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = {number: signal.signal(number, signal.SIG_IGN) for number in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield
+    finally:
+        for number, handler in previous.items():
+            signal.signal(number, handler)
+
+
+@contextmanager
 def stop_requests() -> Iterator[StopRequest]:
     """A flag that SIGINT and SIGTERM set instead of interrupting (main thread only; handlers restored after): the
     run stops at the end of its current step."""

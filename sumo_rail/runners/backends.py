@@ -26,6 +26,7 @@ from types import TracebackType
 from typing import Any, Protocol, Self
 
 from sumo_rail.config import Config
+from sumo_rail.runners.spawning import start_shielded
 from sumo_rail.sim.env import HighwayEnv
 from sumo_rail.sim.parallel_env import ParallelHighwayEnv
 
@@ -251,7 +252,7 @@ class ProcessPoolBackend(RolloutBackend):
     def _start_worker(self) -> None:
         parent_conn, child_conn = self._context.Pipe(duplex=True)
         process = self._context.Process(target=_worker_main, args=(child_conn,), name="sumo-rail-worker", daemon=True)
-        process.start()
+        start_shielded(process)  # a Ctrl-C while it imports must not kill it: the parent decides
         child_conn.close()
         self._pool.append(_Worker(process, parent_conn))
 

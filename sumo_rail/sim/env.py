@@ -31,7 +31,7 @@ from sumo_rail.sim.ego import CONTEXT_MARGIN_M, Ego, checked_action, edge_rows
 from sumo_rail.sim.observation import observation_space
 from sumo_rail.sim.rewards import EpisodeMetrics
 from sumo_rail.sim.simulation import EGO_ID, TRANSPORTS, EgoCouldNotEnter, Simulation
-from sumo_rail.sim.starts import START_DRAWS, EpisodeStart, warm_state_options
+from sumo_rail.sim.starts import START_DRAWS, EpisodeStart, no_room_anywhere, warm_state_options
 from sumo_rail.sim.traffic import TrafficView
 
 if TYPE_CHECKING:
@@ -105,10 +105,7 @@ class HighwayEnv(gymnasium.Env[np.ndarray, np.int64]):
                 break
             except EgoCouldNotEnter as error:
                 if attempt + 1 == START_DRAWS:
-                    raise EgoCouldNotEnter(
-                        f"the ego found no room at {START_DRAWS} places of its start window "
-                        f"({cfg.env.ego_start_min_m:g} m to {cfg.env.ego_start_max_m:g} m): traffic is too dense "
-                        f"there (scenario.flow_veh_per_h is {cfg.scenario.flow_veh_per_h:g} veh/h)") from error
+                    raise EgoCouldNotEnter(no_room_anywhere(cfg, 1)) from error
                 start = start.redraw(self.np_random, cfg, sim.start_lanes)
         if self._edges is None:
             self._edges = edge_rows(sim)

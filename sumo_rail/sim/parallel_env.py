@@ -13,9 +13,11 @@ ego_0 nearest the start of the road, widened past it when K slots of 40 m do not
 the episode are `HighwayEnv`'s for the same seed. The episode starts once every ego is on the road (those that
 entered first drive on meanwhile); an ego that finds no room at its place within 30 s of simulated time (a dense
 left lane; 2 of 2400 egos in 150 resets at K = 16 on the default scenario) sits the episode out: `agents` after `reset`
-lacks it and it makes no decision (`Simulation.reset_egos`). The single ego would make `HighwayEnv.reset` fail
-there instead, as it does here when no ego enters. `reset(options=...)` takes `HighwayEnv`'s options ("pool",
-"warm_state"); others are ignored with a warning (PettingZoo's API test passes one).
+lacks it and it makes no decision (`Simulation.reset_egos`). When no ego enters (always so for a single ego that
+finds no room), every ego's place is drawn again as `HighwayEnv.reset` draws the single ego's
+(`EpisodeStarts.redraw`), so with K = 1 a crowded start is the same episode in both envs. `reset(options=...)`
+takes `HighwayEnv`'s options ("pool", "warm_state"); others are ignored with a warning (PettingZoo's API test
+passes one).
 
 Ends: an ego that collides (terminated; SUMO removes the vehicles of a collision, two egos that collide both end)
 or reaches the end of the road (truncated) leaves `agents` while the others drive on; an ego truncated within the
@@ -48,8 +50,15 @@ from sumo_rail.sim.actions import Action
 from sumo_rail.sim.ego import CONTEXT_MARGIN_M, Ego, checked_action, edge_rows
 from sumo_rail.sim.observation import observation_space
 from sumo_rail.sim.rewards import EpisodeMetrics
-from sumo_rail.sim.simulation import TRANSPORTS, Simulation, SimulationError
-from sumo_rail.sim.starts import RESET_OPTIONS, EpisodeStarts, start_slots, warm_state_options
+from sumo_rail.sim.simulation import TRANSPORTS, EgoCouldNotEnter, Simulation, SimulationError
+from sumo_rail.sim.starts import (
+    RESET_OPTIONS,
+    START_DRAWS,
+    EpisodeStarts,
+    no_room_anywhere,
+    start_slots,
+    warm_state_options,
+)
 from sumo_rail.sim.traffic import TrafficView
 
 RESPAWN_DRAWS = 100
@@ -137,8 +146,15 @@ class ParallelHighwayEnv(ParallelEnv[str, np.ndarray, np.int64]):
         pool, warm_state = warm_state_options({key: options[key] for key in RESET_OPTIONS if key in options},
                                               sim.snapshot_count)
         snapshot = starts.snapshot if warm_state is None else warm_state
-        absent = sim.reset_egos(snapshot, starts.sumo_seed,
-                                list(zip(self.possible_agents, starts.lanes, starts.positions_m, strict=True)), pool)
+        for attempt in range(START_DRAWS):  # as HighwayEnv.reset: a start where no ego found room is drawn again
+            try:
+                absent = sim.reset_egos(snapshot, starts.sumo_seed, list(zip(
+                    self.possible_agents, starts.lanes, starts.positions_m, strict=True)), pool)
+                break
+            except EgoCouldNotEnter as error:
+                if attempt + 1 == START_DRAWS:
+                    raise EgoCouldNotEnter(no_room_anywhere(cfg, len(self.possible_agents))) from error
+                starts = starts.redraw(self.np_random, cfg, sim.start_lanes)
         if self._edges is None:
             self._edges = edge_rows(sim)
         self._egos = {agent: Ego(cfg, agent, self._edges) for agent in self.possible_agents}

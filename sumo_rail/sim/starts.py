@@ -11,8 +11,9 @@ With one ego the slot is the window itself: the draws are exactly `HighwayEnv`'s
 cover the same window as the single ego's do over episodes (up to the gaps), whenever it is wide enough.
 
 The draws come in this order: the warm state, SUMO's seed, then lane and position of ego_0, ego_1, ... Lanes are
-those of the route's first edge. Where the single ego finds no room at its drawn place (a crowded start), its lane
-and position are drawn again (`EpisodeStart.redraw`, the next draws), up to `START_DRAWS` places.
+those of the route's first edge. Where no ego finds room at its drawn place (a crowded start), every ego's lane and
+position are drawn again in its slot (`EpisodeStarts.redraw`, the next draws), up to `START_DRAWS` places: the
+single ego of `HighwayEnv` and of `ParallelHighwayEnv` alike.
 """
 
 from __future__ import annotations
@@ -72,11 +73,32 @@ class EpisodeStarts:
         scenario.lanes)."""
         slots = start_slots(config, egos)
         snapshot, sumo_seed = int(rng.integers(snapshots)), int(rng.integers(_SUMO_SEED_BOUND))
-        lanes, positions = [], []
-        for low, high in slots:
-            lanes.append(int(rng.integers(start_lanes or config.scenario.lanes)))
-            positions.append(float(rng.uniform(low, high)))
-        return cls(snapshot, sumo_seed, tuple(lanes), tuple(positions))
+        return cls(snapshot, sumo_seed, *_places(rng, config, slots, start_lanes))
+
+    def redraw(self, rng: np.random.Generator, config: Config, start_lanes: int | None = None) -> EpisodeStarts:
+        """The same warm state and SUMO seed, each ego's lane and position drawn again in its slot (no ego found
+        room at its place): the next draws of `rng`, so every driver of the episode's seed gets the same starts."""
+        lanes, positions = _places(rng, config, start_slots(config, len(self.lanes)), start_lanes)
+        return EpisodeStarts(self.snapshot, self.sumo_seed, lanes, positions)
+
+
+def _places(rng: np.random.Generator, config: Config, slots: list[tuple[float, float]],
+            start_lanes: int | None) -> tuple[tuple[int, ...], tuple[float, ...]]:
+    """Each slot's ego's lane and position, drawn in this order (lane, position) slot after slot."""
+    lanes, positions = [], []
+    for low, high in slots:
+        lanes.append(int(rng.integers(start_lanes or config.scenario.lanes)))
+        positions.append(float(rng.uniform(low, high)))
+    return tuple(lanes), tuple(positions)
+
+
+def no_room_anywhere(config: Config, egos: int) -> str:
+    """What a reset says when no ego found room at `START_DRAWS` places each: the road is too dense."""
+    slots = start_slots(config, egos)
+    who = "the ego found no room" if egos == 1 else f"none of the {egos} egos found room"
+    return (f"{who} at {START_DRAWS} places of {'its' if egos == 1 else 'their'} start window "
+            f"({slots[0][0]:g} m to {slots[-1][1]:g} m): traffic is too dense there (scenario.flow_veh_per_h is "
+            f"{config.scenario.flow_veh_per_h:g} veh/h)")
 
 
 @dataclass(frozen=True)
@@ -97,9 +119,9 @@ class EpisodeStart:
     def redraw(self, rng: np.random.Generator, config: Config, start_lanes: int | None = None) -> EpisodeStart:
         """The same warm state and SUMO seed, with the ego's lane and position drawn again (its first place had no
         room): the next draws of `rng`, so every driver of the episode's seed gets the same start."""
-        lane = int(rng.integers(start_lanes or config.scenario.lanes))
-        position_m = float(rng.uniform(config.env.ego_start_min_m, config.env.ego_start_max_m))
-        return EpisodeStart(self.snapshot, self.sumo_seed, lane, position_m)
+        starts = EpisodeStarts(self.snapshot, self.sumo_seed, (self.ego_lane,), (self.ego_position_m,))
+        starts = starts.redraw(rng, config, start_lanes)
+        return EpisodeStart(self.snapshot, self.sumo_seed, starts.lanes[0], starts.positions_m[0])
 
 
 RESET_OPTIONS = ("pool", "warm_state")

@@ -291,6 +291,16 @@ def test_interrupt_during_a_run_propagates_and_the_pool_stays_usable(pool, tmp_p
     assert_no_process([abandoned])
 
 
+def test_a_ctrl_c_while_a_worker_starts_does_not_kill_it():
+    """Ctrl-C reaches the whole process group: a worker still importing must not die of it (a traceback on the
+    terminal, a lost worker); the parent alone decides how a command stops."""
+    with ProcessPoolBackend(1) as pool:
+        pool._start_worker()
+        os.kill(pool.pids[0], signal.SIGINT)  # it takes far longer to start than this
+        worker = pool.pids
+        assert pool.run(squares(2)) == expected(squares(2)) and pool.pids == worker
+
+
 def test_close_is_idempotent_and_leaves_no_worker_process():
     pool = ProcessPoolBackend(2)
     pool.run(squares(2))

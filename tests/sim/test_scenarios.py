@@ -15,6 +15,7 @@ from sumo_rail.config import Config, ConfigError
 from sumo_rail.drivers.expert import make_expert
 from sumo_rail.sim import network
 from sumo_rail.sim.env import HighwayEnv
+from sumo_rail.sim.parallel_env import ParallelHighwayEnv
 from sumo_rail.sim.road import RouteMap, RouteView
 from sumo_rail.sim.simulation import EgoCouldNotEnter, Simulation
 
@@ -199,6 +200,42 @@ def test_a_crowded_start_is_drawn_again_the_same_way_for_every_driver(small_conf
             env.reset(seed=5)
     finally:
         env.close()
+
+
+def test_a_crowded_start_on_the_shared_road_is_drawn_again_as_the_single_egos(small_config, monkeypatch):
+    """record-expert, dagger and RAIL drive their episodes on the shared road (one ego or K): a first place with no
+    room is drawn again there too, one ego's exactly as `HighwayEnv` draws it (the same episode), K egos' when none
+    of them entered; with no room anywhere the reset says so in one sentence."""
+    reset_egos = Simulation.reset_egos
+    places: list[list[tuple[int, float]]] = []
+
+    def first_place_full(sim, snapshot, sumo_seed, egos, pool="train"):
+        places.append([(lane, position_m) for _, lane, position_m in egos])
+        if len(places) % 2 == 1:
+            raise EgoCouldNotEnter("no ego could enter")
+        return reset_egos(sim, snapshot, sumo_seed, egos, pool)
+
+    monkeypatch.setattr(Simulation, "reset_egos", first_place_full)
+    single = HighwayEnv(small_config)
+    try:
+        want, _ = single.reset(seed=4)
+    finally:
+        single.close()
+    for egos in (1, 2):
+        shared = ParallelHighwayEnv(egos, small_config)
+        try:
+            observations, _ = shared.reset(seed=4)
+            assert set(observations) == set(shared.possible_agents) and places[-2] != places[-1]
+            if egos == 1:
+                assert places[2:] == places[:2] and np.array_equal(observations["ego_0"], want)
+            monkeypatch.setattr(Simulation, "reset_egos",
+                                lambda *args, **kwargs: (_ for _ in ()).throw(EgoCouldNotEnter("")))
+            with pytest.raises(EgoCouldNotEnter, match=("the ego found no room" if egos == 1 else
+                                                        "none of the 2 egos found room") + " at 20 places of"):
+                shared.reset(seed=5)
+            monkeypatch.setattr(Simulation, "reset_egos", first_place_full)
+        finally:
+            shared.close()
 
 
 def test_straight_roads_route_frame_is_sumos_own_numbering(small_config):

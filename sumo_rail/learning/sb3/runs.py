@@ -18,6 +18,7 @@ import pyarrow as pa
 
 from sumo_rail.datasets import DatasetError, write_failure, write_parquet, written_together
 from sumo_rail.drivers.policies import Policy, PolicyShape, save_policy
+from sumo_rail.learning.run_folder import signals_ignored
 from sumo_rail.learning.sb3.actor import policy_kwargs
 from sumo_rail.learning.sb3.envs import LOST_ENV, close_envs, lost_env_message
 
@@ -124,7 +125,8 @@ class EnvProcesses:
 def env_processes(folder: Path, run: str, updates_done: Callable[[], int]) -> Iterator[EnvProcesses]:
     """The environment processes' lifetime: a temporary folder they report failures into; on leaving, the vec env
     (`EnvProcesses.venv`, set by the caller) is closed, and a lost process (killed, crashed) becomes one
-    BaselineError sentence naming it and what the run `folder` keeps after `updates_done()` updates."""
+    BaselineError sentence naming it and what the run `folder` keeps after `updates_done()` updates. The closing
+    ignores SIGINT and SIGTERM (a second Ctrl-C would leave it half done)."""
     with tempfile.TemporaryDirectory(prefix=f"sumo-rail-{run.lower()}-") as errors:
         processes, lost = EnvProcesses(Path(errors)), False
         try:
@@ -135,7 +137,8 @@ def env_processes(folder: Path, run: str, updates_done: Callable[[], int]) -> It
                                                  run=run)) from error
         finally:
             if processes.venv is not None:
-                close_envs(processes.venv, lost)
+                with signals_ignored():  # a Ctrl-C after the one that stopped the run must not cut the closing
+                    close_envs(processes.venv, lost)
 
 
 def save_update(folder: Path, policy: Policy, rows: list[dict[str, Any]], run_record: dict[str, Any],

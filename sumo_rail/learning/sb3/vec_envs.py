@@ -17,6 +17,7 @@ from sumo_rail.config import Config
 from sumo_rail.learning.sb3.actor import FixedNormalisation
 from sumo_rail.learning.sb3.envs import LOST_ENV
 from sumo_rail.learning.sb3.shared_road import _road_process, env_seeds
+from sumo_rail.runners.spawning import start_shielded
 from sumo_rail.sim.actions import Action
 from sumo_rail.sim.observation import observation_space
 
@@ -38,7 +39,7 @@ class SharedRoadVecEnv(VecEnv):
             process = context.Process(target=_road_process, daemon=True,
                                       args=(worker_remote, remote, config, egos, process_seed,
                                             str(error_dir / f"env_{index}.txt")))
-            process.start()
+            start_shielded(process)  # a Ctrl-C while it imports must not kill it: the parent decides
             worker_remote.close()
             self.remotes.append(remote)
             self.processes.append(process)

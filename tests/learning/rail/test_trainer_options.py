@@ -72,6 +72,16 @@ CHANGES = {
         s, discriminator=dataclasses.replace(s.discriminator, steps_per_iteration=5)),
     "--traffic common": lambda s: dataclasses.replace(s, rail=dataclasses.replace(s.rail, common_traffic=True)),
     "--egos 2": lambda s: dataclasses.replace(s, rail=dataclasses.replace(s.rail, egos=2)),
+    "--episodes-per-rollout 2": lambda s: dataclasses.replace(
+        s, rail=dataclasses.replace(s.rail, episodes_per_rollout=2)),
+    "--reward agreement": lambda s: dataclasses.replace(s, rail=dataclasses.replace(s.rail, reward="agreement")),
+    "--disc-balance 1": lambda s: dataclasses.replace(
+        s, discriminator=dataclasses.replace(s.discriminator, balance=1.0)),
+    "--disc-penalty 1": lambda s: dataclasses.replace(
+        s, discriminator=dataclasses.replace(s.discriminator, gradient_penalty=1.0)),
+    "--disc-hidden 8": lambda s: dataclasses.replace(s, discriminator=dataclasses.replace(s.discriminator, hidden=8)),
+    "--disc-lr 0.01": lambda s: dataclasses.replace(
+        s, discriminator=dataclasses.replace(s.discriminator, learning_rate=0.01)),
 }
 
 

@@ -179,3 +179,18 @@ def test_the_ppo_and_gail_options_default_to_their_settings():
     gail = gail_command.make_context("gail", ["--demos", "d.parquet", "--out", "run"]).params
     for name in (*shared, "critic_warmup"):
         assert gail[name] == getattr(GailSettings("d.parquet"), name), name
+
+
+def test_the_finished_lines_say_the_critics_warm_up_in_words():
+    from pathlib import Path
+    from types import SimpleNamespace
+
+    from sumo_rail_cli.running import sb3_outcome
+
+    def said(updates: int, warmup: int) -> str:
+        result = SimpleNamespace(updates=updates, timesteps=64 * updates, interrupted=False)
+        return sb3_outcome(result, Path("run"), warmup).split(" (", 1)[1].split(")")[0]
+
+    assert said(2, 1) == "128 timesteps; the actor frozen in the first update for the critic's warm-up"
+    assert said(3, 2) == "192 timesteps; the actor frozen in the first 2 updates for the critic's warm-up"
+    assert said(1, 0) == "64 timesteps"

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import json
+import os
+import signal
 
 import numpy as np
 import pandas as pd
@@ -96,11 +98,13 @@ def test_one_ego_is_bit_for_bit_what_sb3_gave_for_the_single_ego_env():
         assert got_infos == want_infos
 
 
-def test_the_vec_env_is_its_processes_roads_side_by_side(tmp_path):
+def test_the_vec_env_is_its_processes_roads_side_by_side_and_a_ctrl_c_while_they_start_spares_them(tmp_path):
     rng = np.random.default_rng(1)
     actions = rng.integers(0, 5, size=(60, 4))
     venv = shared_road_vec_env(SMALL_CONFIG, processes=2, egos=2, seed=3, error_dir=tmp_path)
     try:
+        for process in venv.processes:  # Ctrl-C reaches the process group while they import: the parent decides
+            os.kill(process.pid, signal.SIGINT)
         vectorised = [venv.reset()] + [venv.step(step)[0] for step in actions]
     finally:
         venv.close()
