@@ -28,7 +28,7 @@ import numpy as np
 
 from sumo_rail.sim.actions import Action
 from sumo_rail.sim.road import RouteView
-from sumo_rail.sim.traffic import NO_VEHICLE, LaneGaps, TrafficView, lane_gaps, within
+from sumo_rail.sim.traffic import NO_VEHICLE, LaneGap, LaneGaps, TrafficView, lane_gap_list, lane_gaps, within
 
 _COMFORT_DECEL_MPS2 = 3.0
 ROUTE_MARGIN_M = 150.0
@@ -53,8 +53,9 @@ MERGE_SPEED_SHARE = 0.6
 PASS_MARGIN_MPS = 3.0
 """How much faster or slower than the lane it merges into it drives to pull ahead of a vehicle or drop behind it
 [m/s], and how much faster a vehicle behind must be to pass by on its own."""
-MERGE_ROOM_M = 10.0
-"""Spare room [m] the gap in front must have before it pulls ahead of a vehicle close behind."""
+APPROACH_DECEL_MPS2 = 1.0
+"""It closes in on the gap it merges into at up to the speed difference it can shed at this rate [m/s^2] over the
+distance left, never slower than `PASS_MARGIN_MPS`."""
 
 
 @dataclass(frozen=True)
@@ -150,41 +151,56 @@ class Expert:
         if self._safe(gaps, ego.speed_mps, share, braking):
             return Action.LANE_LEFT if offset > 0 else Action.LANE_RIGHT
         own_front_gap_m = lane_gaps(traffic, ego.lane).front_gap_m
-        return self._seek_gap(gaps, ego.speed_mps, traffic.set_point_mps, share, own_front_gap_m)
+        target_mps = self._gap_speed(lane_gap_list(traffic, target), ego.speed_mps, ego.length_m, share,
+                                     own_front_gap_m)
+        return self._toward(target_mps, traffic.set_point_mps)
 
-    def _seek_gap(self, gaps: LaneGaps, ego_speed_mps: float, set_point_mps: float, gap_share: float,
-                  own_front_gap_m: float) -> Action:
-        """The set-point change that opens a gap in the lane the route demands, at that lane's speed: pass a vehicle
-        alongside when it can drive `PASS_MARGIN_MPS` faster than it and has more room ahead (as far as its own leader
-        `own_front_gap_m` [m] lets it) than behind, else let it pass; drop behind a leader too close; with a vehicle
-        too close behind, keep up with the lane while a much faster one passes by, pull ahead when it can outpace it
-        and the gap in front has room for it, else drop behind it; with room on both sides (a change held back only
-        by closing speeds), match the lane's speed. It never plans to outpace a vehicle faster than its desired speed:
-        a merge behind it comes sooner."""
+    def _gap_speed(self, gaps: list[LaneGap], ego_speed_mps: float, ego_length_m: float, gap_share: float,
+                   own_front_gap_m: float) -> float:
+        """The set-point [m/s] that takes it to the gap of the lane the route demands that it reaches soonest (its
+        time gaps scaled by `gap_share`): forward at up to `PASS_MARGIN_MPS` above its desired speed, but not past its
+        own leader `own_front_gap_m` [m] ahead, or back down to `MERGE_SPEED_SHARE` of it. With no gap in reach
+        there, it drops back at any speed."""
         style = self.style
-        needed_front, needed_rear = self._needed(gaps, ego_speed_mps, gap_share)
-        lane_speed = next((speed for speed in (gaps.front_speed_mps, gaps.rear_speed_mps) if np.isfinite(speed)),
-                          style.desired_speed_mps)
         lowest, highest = MERGE_SPEED_SHARE * style.desired_speed_mps, style.desired_speed_mps + PASS_MARGIN_MPS
-        room_ahead_m = min(gaps.front_gap_m, own_front_gap_m)  # its own leader bounds how far ahead it can pull
-        if gaps.alongside:
-            if gaps.alongside_speed_mps + PASS_MARGIN_MPS <= highest and room_ahead_m >= gaps.rear_gap_m:
-                target_mps = gaps.alongside_speed_mps + PASS_MARGIN_MPS
-            else:
-                target_mps = gaps.alongside_speed_mps - PASS_MARGIN_MPS
-        elif gaps.front_gap_m < needed_front:  # drop behind the leader there
-            target_mps = gaps.front_speed_mps - PASS_MARGIN_MPS
-        elif gaps.rear_gap_m < needed_rear:
-            if gaps.rear_speed_mps > ego_speed_mps + PASS_MARGIN_MPS:  # it passes by on its own
-                target_mps = ego_speed_mps
-            elif (gaps.rear_speed_mps + PASS_MARGIN_MPS <= highest
-                  and room_ahead_m - needed_front > needed_rear - gaps.rear_gap_m + MERGE_ROOM_M):  # pull ahead of it
-                target_mps = max(gaps.rear_speed_mps + PASS_MARGIN_MPS, ego_speed_mps)
-            else:  # let it pass
-                target_mps = gaps.rear_speed_mps - PASS_MARGIN_MPS
-        else:
-            target_mps = lane_speed
-        target_mps = min(max(target_mps, lowest), highest)
+        for floor_mps in (lowest, 0.0):
+            reaches = [self._reach(gap, ego_speed_mps, ego_length_m, gap_share, own_front_gap_m, floor_mps, highest)
+                       for gap in gaps]
+            found = [reach for reach in reaches if reach is not None]
+            if found:
+                return min(max(min(found)[1], floor_mps), highest)
+        return lowest
+
+    def _reach(self, gap: LaneGap, ego_speed_mps: float, ego_length_m: float, gap_share: float,
+               own_front_gap_m: float, lowest_mps: float, highest_mps: float) -> tuple[float, float] | None:
+        """The time [s] it takes to bring its front into the stretch of `gap` where a change keeps its gaps at the
+        gap's speeds, and the set-point [m/s] that does it; None when the stretch is empty or out of reach. It closes
+        in at `PASS_MARGIN_MPS`, or at its own speed while it can still shed that at `APPROACH_DECEL_MPS2`."""
+        style = self.style
+        first_m, last_m = gap.behind_m + ego_length_m, gap.ahead_m
+        if np.isfinite(gap.behind_speed_mps):
+            first_m += style.min_gap_m + gap_share * style.rear_time_gap_s * gap.behind_speed_mps
+        if np.isfinite(gap.ahead_speed_mps):
+            last_m -= style.min_gap_m + gap_share * style.front_time_gap_s * gap.ahead_speed_mps
+        if last_m < first_m:
+            return None
+        if first_m > 0.0:  # move up past the vehicle behind the gap
+            closing_mps = highest_mps - gap.behind_speed_mps
+            if closing_mps <= 0.0 or first_m > own_front_gap_m - style.min_gap_m:
+                return None
+            approach_mps = gap.behind_speed_mps + np.sqrt(2 * APPROACH_DECEL_MPS2 * first_m)
+            return first_m / closing_mps, max(gap.behind_speed_mps + PASS_MARGIN_MPS, min(ego_speed_mps, approach_mps))
+        if last_m < 0.0:  # drop back behind the vehicle ahead of the gap
+            closing_mps = gap.ahead_speed_mps - lowest_mps
+            if closing_mps <= 0.0:
+                return None
+            approach_mps = gap.ahead_speed_mps - np.sqrt(2 * APPROACH_DECEL_MPS2 * -last_m)
+            return -last_m / closing_mps, min(gap.ahead_speed_mps - PASS_MARGIN_MPS, max(ego_speed_mps, approach_mps))
+        speeds = [speed for speed in (gap.ahead_speed_mps, gap.behind_speed_mps) if np.isfinite(speed)]
+        return 0.0, (speeds[0] if speeds else style.desired_speed_mps)  # in it: keep pace with the lane
+
+    def _toward(self, target_mps: float, set_point_mps: float) -> Action:
+        """The speed action that moves the set-point `set_point_mps` toward `target_mps` [m/s]."""
         if set_point_mps < target_mps - self._half_step:
             return Action.ACCELERATE
         if set_point_mps > target_mps + self._half_step:
