@@ -6,8 +6,9 @@ route as a navigation system tells it), not the LIDAR. Each decision, in this or
 2. what the route demands: within `route_demand_m` of the end of a lane that does not lead along its route (a lane
    drop, an acceleration lane, lanes past its exit), move toward the nearest lane that does when safe (in the last
    `URGENT_M`, into any gap of its minimum gap and the room to shed a speed difference at 3 m/s^2; in the last
-   `LAST_RESORT_M`, at 4 m/s^2), else set its speed to open a gap there (`Expert._seek_gap`: pass a
-   vehicle it can outpace, let pass one it cannot);
+   `LAST_RESORT_M`, at 4 m/s^2), else set its speed to reach a gap there (`Expert._gap_speed`: of all the gaps
+   between the vehicles of that lane, long enough for its gaps, the one it reaches soonest, passing vehicles it
+   can outpace and dropping behind ones it can let pass, never slowing down to pass);
 3. overtake on the left when a slower leader is in the way, the left lane lets it drive at least
    `min_speed_gain_mps` faster, and the change is safe;
 4. otherwise return right when the right lane is free for `keep_right_s` at its desired speed and safe;
@@ -54,8 +55,10 @@ PASS_MARGIN_MPS = 3.0
 """How much faster or slower than the lane it merges into it drives to pull ahead of a vehicle or drop behind it
 [m/s], and how much faster a vehicle behind must be to pass by on its own."""
 APPROACH_DECEL_MPS2 = 1.0
-"""It closes in on the gap it merges into at up to the speed difference it can shed at this rate [m/s^2] over the
-distance left, never slower than `PASS_MARGIN_MPS`."""
+"""It closes in on the gap it merges into at up to the speed difference it can shed at this rate [m/s^2] by the
+middle of the gap, never slower than `PASS_MARGIN_MPS`."""
+SPEED_CHANGE_MPS2 = 1.5
+"""How fast it reckons it changes its speed when it weighs which gap it reaches soonest [m/s^2]."""
 
 
 @dataclass(frozen=True)
@@ -175,7 +178,8 @@ class Expert:
                own_front_gap_m: float, lowest_mps: float, highest_mps: float) -> tuple[float, float] | None:
         """The time [s] it takes to bring its front into the stretch of `gap` where a change keeps its gaps at the
         gap's speeds, and the set-point [m/s] that does it; None when the stretch is empty or out of reach. It closes
-        in at `PASS_MARGIN_MPS`, or at its own speed while it can still shed that at `APPROACH_DECEL_MPS2`."""
+        in at `PASS_MARGIN_MPS`, or at its own speed while it can shed that at `APPROACH_DECEL_MPS2` by the middle of
+        the stretch."""
         style = self.style
         first_m, last_m = gap.behind_m + ego_length_m, gap.ahead_m
         if np.isfinite(gap.behind_speed_mps):
@@ -184,18 +188,19 @@ class Expert:
             last_m -= style.min_gap_m + gap_share * style.front_time_gap_s * gap.ahead_speed_mps
         if last_m < first_m:
             return None
+        middle_m = 0.5 * (first_m + last_m)  # it sheds its approach speed by the middle of the stretch
         if first_m > 0.0:  # move up past the vehicle behind the gap
             closing_mps = highest_mps - gap.behind_speed_mps
             if closing_mps <= 0.0 or first_m > own_front_gap_m - style.min_gap_m:
                 return None
-            approach_mps = gap.behind_speed_mps + np.sqrt(2 * APPROACH_DECEL_MPS2 * first_m)
-            return first_m / closing_mps, max(gap.behind_speed_mps + PASS_MARGIN_MPS, min(ego_speed_mps, approach_mps))
+            approach_mps = gap.behind_speed_mps + np.sqrt(2 * APPROACH_DECEL_MPS2 * middle_m)
+            return _time_to_cover(first_m, ego_speed_mps - gap.behind_speed_mps, closing_mps), max(gap.behind_speed_mps + PASS_MARGIN_MPS, min(ego_speed_mps, approach_mps))
         if last_m < 0.0:  # drop back behind the vehicle ahead of the gap
             closing_mps = gap.ahead_speed_mps - lowest_mps
             if closing_mps <= 0.0:
                 return None
-            approach_mps = gap.ahead_speed_mps - np.sqrt(2 * APPROACH_DECEL_MPS2 * -last_m)
-            return -last_m / closing_mps, min(gap.ahead_speed_mps - PASS_MARGIN_MPS, max(ego_speed_mps, approach_mps))
+            approach_mps = gap.ahead_speed_mps - np.sqrt(2 * APPROACH_DECEL_MPS2 * -middle_m)
+            return _time_to_cover(-last_m, gap.ahead_speed_mps - ego_speed_mps, closing_mps), min(gap.ahead_speed_mps - PASS_MARGIN_MPS, max(ego_speed_mps, approach_mps))
         speeds = [speed for speed in (gap.ahead_speed_mps, gap.behind_speed_mps) if np.isfinite(speed)]
         return 0.0, (speeds[0] if speeds else style.desired_speed_mps)  # in it: keep pace with the lane
 
@@ -236,6 +241,18 @@ class Expert:
         needed_rear = (style.min_gap_m + gap_share * style.rear_time_gap_s * rear_speed
                        + closing**2 / (2 * braking_mps2))
         return needed_front, needed_rear
+
+
+def _time_to_cover(distance_m: float, closing_mps: float, top_closing_mps: float) -> float:
+    """Time [s] to gain `distance_m` [m] on a vehicle, from closing in on it at `closing_mps` (negative: falling
+    back) toward `top_closing_mps` [m/s] at `SPEED_CHANGE_MPS2`."""
+    if closing_mps >= top_closing_mps:
+        return distance_m / closing_mps
+    change_s = (top_closing_mps - closing_mps) / SPEED_CHANGE_MPS2
+    change_m = 0.5 * (closing_mps + top_closing_mps) * change_s
+    if change_m >= distance_m:
+        return (np.sqrt(closing_mps**2 + 2 * SPEED_CHANGE_MPS2 * distance_m) - closing_mps) / SPEED_CHANGE_MPS2
+    return change_s + (distance_m - change_m) / top_closing_mps
 
 
 def route_demand_m(offset: int) -> float:
