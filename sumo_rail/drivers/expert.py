@@ -178,8 +178,8 @@ class Expert:
                own_front_gap_m: float, lowest_mps: float, highest_mps: float) -> tuple[float, float] | None:
         """The time [s] it takes to bring its front into the stretch of `gap` where a change keeps its gaps at the
         gap's speeds, and the set-point [m/s] that does it; None when the stretch is empty or out of reach. It closes
-        in at `PASS_MARGIN_MPS`, or at its own speed while it can shed that at `APPROACH_DECEL_MPS2` by the middle of
-        the stretch."""
+        in at the speed difference it can shed at `APPROACH_DECEL_MPS2` by the middle of the stretch, at least
+        `PASS_MARGIN_MPS`, within `lowest_mps` and `highest_mps`."""
         style = self.style
         first_m, last_m = gap.behind_m + ego_length_m, gap.ahead_m
         if np.isfinite(gap.behind_speed_mps):
@@ -188,19 +188,19 @@ class Expert:
             last_m -= style.min_gap_m + gap_share * style.front_time_gap_s * gap.ahead_speed_mps
         if last_m < first_m:
             return None
-        middle_m = 0.5 * (first_m + last_m)  # it sheds its approach speed by the middle of the stretch
+        shed_mps = np.sqrt(2 * APPROACH_DECEL_MPS2 * abs(0.5 * (first_m + last_m)))  # by the stretch's middle
         if first_m > 0.0:  # move up past the vehicle behind the gap
-            closing_mps = highest_mps - gap.behind_speed_mps
-            if closing_mps <= 0.0 or first_m > own_front_gap_m - style.min_gap_m:
+            behind_mps = gap.behind_speed_mps
+            target_mps = min(behind_mps + max(shed_mps, PASS_MARGIN_MPS), highest_mps)
+            if target_mps <= behind_mps or first_m > own_front_gap_m - style.min_gap_m:
                 return None
-            approach_mps = gap.behind_speed_mps + np.sqrt(2 * APPROACH_DECEL_MPS2 * middle_m)
-            return _time_to_cover(first_m, ego_speed_mps - gap.behind_speed_mps, closing_mps), max(gap.behind_speed_mps + PASS_MARGIN_MPS, min(ego_speed_mps, approach_mps))
+            return _time_to_cover(first_m, ego_speed_mps - behind_mps, target_mps - behind_mps), target_mps
         if last_m < 0.0:  # drop back behind the vehicle ahead of the gap
-            closing_mps = gap.ahead_speed_mps - lowest_mps
-            if closing_mps <= 0.0:
+            ahead_mps = gap.ahead_speed_mps
+            target_mps = max(ahead_mps - max(shed_mps, PASS_MARGIN_MPS), lowest_mps)
+            if target_mps >= ahead_mps:
                 return None
-            approach_mps = gap.ahead_speed_mps - np.sqrt(2 * APPROACH_DECEL_MPS2 * -middle_m)
-            return _time_to_cover(-last_m, gap.ahead_speed_mps - ego_speed_mps, closing_mps), min(gap.ahead_speed_mps - PASS_MARGIN_MPS, max(ego_speed_mps, approach_mps))
+            return _time_to_cover(-last_m, ahead_mps - ego_speed_mps, ahead_mps - target_mps), target_mps
         speeds = [speed for speed in (gap.ahead_speed_mps, gap.behind_speed_mps) if np.isfinite(speed)]
         return 0.0, (speeds[0] if speeds else style.desired_speed_mps)  # in it: keep pace with the lane
 
