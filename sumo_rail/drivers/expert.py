@@ -52,8 +52,8 @@ its trucks at 4); elsewhere 3."""
 MERGE_SPEED_SHARE = 0.6
 """Lowest set-point, as a share of its desired speed, it slows to while looking for a gap to merge into."""
 PASS_MARGIN_MPS = 3.0
-"""How much faster or slower than the lane it merges into it drives to pull ahead of a vehicle or drop behind it
-[m/s], and how much faster a vehicle behind must be to pass by on its own."""
+"""The least speed difference [m/s] it closes in on the gap it merges into with, and how far above its desired speed
+it drives to reach a gap ahead."""
 APPROACH_DECEL_MPS2 = 1.0
 """It closes in on the gap it merges into at up to the speed difference it can shed at this rate [m/s^2] by the
 middle of the gap, never slower than `PASS_MARGIN_MPS`."""
@@ -139,7 +139,8 @@ class Expert:
     def _route_change(self, traffic: TrafficView, route: RouteView) -> Action | None:
         """The route's demand, before any wish of its own: within `route_demand_m` of the end of a lane that does not
         lead along the route, move toward the nearest lane that does when safe (nearer the end, with the time gaps
-        shrunk to `URGENT_GAP_SHARE`), else seek a gap there. None: nothing demanded now."""
+        shrunk to `URGENT_GAP_SHARE`), else set its speed to reach the gap it chooses there (`_gap_speed`). None:
+        nothing demanded now."""
         ego = traffic.ego
         offset = route.best_lane_offset(ego.lane)
         lane_end_m = route.lane_end(ego.lane)

@@ -88,8 +88,8 @@ def lane_gap_list(traffic: TrafficView, lane: int) -> list[LaneGap]:
     fronts = (others.lane_position_m[in_lane][order] - ego_front).tolist()
     rears = (np.asarray(fronts) - others.length_m[in_lane][order]).tolist()
     speeds = others.speed_mps[in_lane][order].tolist()
-    behind = [(-NO_VEHICLE, NO_VEHICLE)] + list(zip(fronts, speeds, strict=True))
-    ahead = list(zip(rears, speeds, strict=True)) + [(NO_VEHICLE, NO_VEHICLE)]
+    behind = [(-NO_VEHICLE, NO_VEHICLE), *zip(fronts, speeds, strict=True)]
+    ahead = [*zip(rears, speeds, strict=True), (NO_VEHICLE, NO_VEHICLE)]
     return [LaneGap(float(b), float(b_speed), float(a), float(a_speed))
             for (b, b_speed), (a, a_speed) in zip(behind, ahead, strict=True)]
 
