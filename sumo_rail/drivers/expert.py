@@ -6,8 +6,9 @@ route as a navigation system tells it), not the LIDAR. Each decision, in this or
 2. what the route demands: within `route_demand_m` of the end of a lane that does not lead along its route (a lane
    drop, an acceleration lane, lanes past its exit), move toward the nearest lane that does when safe (in the last
    `URGENT_M`, into any gap of its minimum gap and the room to shed a speed difference at 3 m/s^2; in the last
-   `LAST_RESORT_M`, at 4 m/s^2), else set its speed to open a gap there (`Expert._seek_gap`: pass a
-   vehicle it can outpace, let pass one it cannot);
+   `LAST_RESORT_M`, at 4 m/s^2), else set its speed to reach a gap there (`Expert._gap_speed`: of all the gaps
+   between the vehicles of that lane, long enough for its gaps, the one it reaches soonest, passing vehicles it
+   can outpace and dropping behind ones it can let pass, never slowing down to pass);
 3. overtake on the left when a slower leader is in the way, the left lane lets it drive at least
    `min_speed_gain_mps` faster, and the change is safe;
 4. otherwise return right when the right lane is free for `keep_right_s` at its desired speed and safe;
@@ -28,7 +29,7 @@ import numpy as np
 
 from sumo_rail.sim.actions import Action
 from sumo_rail.sim.road import RouteView
-from sumo_rail.sim.traffic import NO_VEHICLE, LaneGaps, TrafficView, lane_gaps, within
+from sumo_rail.sim.traffic import NO_VEHICLE, LaneGap, LaneGaps, TrafficView, lane_gap_list, lane_gaps, within
 
 _COMFORT_DECEL_MPS2 = 3.0
 ROUTE_MARGIN_M = 150.0
@@ -51,10 +52,13 @@ its trucks at 4); elsewhere 3."""
 MERGE_SPEED_SHARE = 0.6
 """Lowest set-point, as a share of its desired speed, it slows to while looking for a gap to merge into."""
 PASS_MARGIN_MPS = 3.0
-"""How much faster or slower than the lane it merges into it drives to pull ahead of a vehicle or drop behind it
-[m/s], and how much faster a vehicle behind must be to pass by on its own."""
-MERGE_ROOM_M = 10.0
-"""Spare room [m] the gap in front must have before it pulls ahead of a vehicle close behind."""
+"""The least speed difference [m/s] it closes in on the gap it merges into with, and how far above its desired speed
+it drives to reach a gap ahead."""
+APPROACH_DECEL_MPS2 = 1.0
+"""It closes in on the gap it merges into at up to the speed difference it can shed at this rate [m/s^2] by the
+middle of the gap, never slower than `PASS_MARGIN_MPS`."""
+SPEED_CHANGE_MPS2 = 1.5
+"""How fast it reckons it changes its speed when it weighs which gap it reaches soonest [m/s^2]."""
 
 
 @dataclass(frozen=True)
@@ -135,7 +139,8 @@ class Expert:
     def _route_change(self, traffic: TrafficView, route: RouteView) -> Action | None:
         """The route's demand, before any wish of its own: within `route_demand_m` of the end of a lane that does not
         lead along the route, move toward the nearest lane that does when safe (nearer the end, with the time gaps
-        shrunk to `URGENT_GAP_SHARE`), else seek a gap there. None: nothing demanded now."""
+        shrunk to `URGENT_GAP_SHARE`), else set its speed to reach the gap it chooses there (`_gap_speed`). None:
+        nothing demanded now."""
         ego = traffic.ego
         offset = route.best_lane_offset(ego.lane)
         lane_end_m = route.lane_end(ego.lane)
@@ -150,41 +155,58 @@ class Expert:
         if self._safe(gaps, ego.speed_mps, share, braking):
             return Action.LANE_LEFT if offset > 0 else Action.LANE_RIGHT
         own_front_gap_m = lane_gaps(traffic, ego.lane).front_gap_m
-        return self._seek_gap(gaps, ego.speed_mps, traffic.set_point_mps, share, own_front_gap_m)
+        target_mps = self._gap_speed(lane_gap_list(traffic, target), ego.speed_mps, ego.length_m, share,
+                                     own_front_gap_m)
+        return self._toward(target_mps, traffic.set_point_mps)
 
-    def _seek_gap(self, gaps: LaneGaps, ego_speed_mps: float, set_point_mps: float, gap_share: float,
-                  own_front_gap_m: float) -> Action:
-        """The set-point change that opens a gap in the lane the route demands, at that lane's speed: pass a vehicle
-        alongside when it can drive `PASS_MARGIN_MPS` faster than it and has more room ahead (as far as its own leader
-        `own_front_gap_m` [m] lets it) than behind, else let it pass; drop behind a leader too close; with a vehicle
-        too close behind, keep up with the lane while a much faster one passes by, pull ahead when it can outpace it
-        and the gap in front has room for it, else drop behind it; with room on both sides (a change held back only
-        by closing speeds), match the lane's speed. It never plans to outpace a vehicle faster than its desired speed:
-        a merge behind it comes sooner."""
+    def _gap_speed(self, gaps: list[LaneGap], ego_speed_mps: float, ego_length_m: float, gap_share: float,
+                   own_front_gap_m: float) -> float:
+        """The set-point [m/s] that takes it to the gap of the lane the route demands that it reaches soonest (its
+        time gaps scaled by `gap_share`): forward at up to `PASS_MARGIN_MPS` above its desired speed, but not past its
+        own leader `own_front_gap_m` [m] ahead, or back down to `MERGE_SPEED_SHARE` of it. With no gap in reach
+        there, it drops back at any speed."""
         style = self.style
-        needed_front, needed_rear = self._needed(gaps, ego_speed_mps, gap_share)
-        lane_speed = next((speed for speed in (gaps.front_speed_mps, gaps.rear_speed_mps) if np.isfinite(speed)),
-                          style.desired_speed_mps)
         lowest, highest = MERGE_SPEED_SHARE * style.desired_speed_mps, style.desired_speed_mps + PASS_MARGIN_MPS
-        room_ahead_m = min(gaps.front_gap_m, own_front_gap_m)  # its own leader bounds how far ahead it can pull
-        if gaps.alongside:
-            if gaps.alongside_speed_mps + PASS_MARGIN_MPS <= highest and room_ahead_m >= gaps.rear_gap_m:
-                target_mps = gaps.alongside_speed_mps + PASS_MARGIN_MPS
-            else:
-                target_mps = gaps.alongside_speed_mps - PASS_MARGIN_MPS
-        elif gaps.front_gap_m < needed_front:  # drop behind the leader there
-            target_mps = gaps.front_speed_mps - PASS_MARGIN_MPS
-        elif gaps.rear_gap_m < needed_rear:
-            if gaps.rear_speed_mps > ego_speed_mps + PASS_MARGIN_MPS:  # it passes by on its own
-                target_mps = ego_speed_mps
-            elif (gaps.rear_speed_mps + PASS_MARGIN_MPS <= highest
-                  and room_ahead_m - needed_front > needed_rear - gaps.rear_gap_m + MERGE_ROOM_M):  # pull ahead of it
-                target_mps = max(gaps.rear_speed_mps + PASS_MARGIN_MPS, ego_speed_mps)
-            else:  # let it pass
-                target_mps = gaps.rear_speed_mps - PASS_MARGIN_MPS
-        else:
-            target_mps = lane_speed
-        target_mps = min(max(target_mps, lowest), highest)
+        for floor_mps in (lowest, 0.0):
+            reaches = [self._reach(gap, ego_speed_mps, ego_length_m, gap_share, own_front_gap_m, floor_mps, highest)
+                       for gap in gaps]
+            found = [reach for reach in reaches if reach is not None]
+            if found:
+                return min(max(min(found)[1], floor_mps), highest)
+        return lowest
+
+    def _reach(self, gap: LaneGap, ego_speed_mps: float, ego_length_m: float, gap_share: float,
+               own_front_gap_m: float, lowest_mps: float, highest_mps: float) -> tuple[float, float] | None:
+        """The time [s] it takes to bring its front into the stretch of `gap` where a change keeps its gaps at the
+        gap's speeds, and the set-point [m/s] that does it; None when the stretch is empty or out of reach. It closes
+        in at the speed difference it can shed at `APPROACH_DECEL_MPS2` by the middle of the stretch, at least
+        `PASS_MARGIN_MPS`, within `lowest_mps` and `highest_mps`."""
+        style = self.style
+        first_m, last_m = gap.behind_m + ego_length_m, gap.ahead_m
+        if np.isfinite(gap.behind_speed_mps):
+            first_m += style.min_gap_m + gap_share * style.rear_time_gap_s * gap.behind_speed_mps
+        if np.isfinite(gap.ahead_speed_mps):
+            last_m -= style.min_gap_m + gap_share * style.front_time_gap_s * gap.ahead_speed_mps
+        if last_m < first_m:
+            return None
+        shed_mps = np.sqrt(2 * APPROACH_DECEL_MPS2 * abs(0.5 * (first_m + last_m)))  # by the stretch's middle
+        if first_m > 0.0:  # move up past the vehicle behind the gap
+            behind_mps = gap.behind_speed_mps
+            target_mps = min(behind_mps + max(shed_mps, PASS_MARGIN_MPS), highest_mps)
+            if target_mps <= behind_mps or first_m > own_front_gap_m - style.min_gap_m:
+                return None
+            return _time_to_cover(first_m, ego_speed_mps - behind_mps, target_mps - behind_mps), target_mps
+        if last_m < 0.0:  # drop back behind the vehicle ahead of the gap
+            ahead_mps = gap.ahead_speed_mps
+            target_mps = max(ahead_mps - max(shed_mps, PASS_MARGIN_MPS), lowest_mps)
+            if target_mps >= ahead_mps:
+                return None
+            return _time_to_cover(-last_m, ahead_mps - ego_speed_mps, ahead_mps - target_mps), target_mps
+        speeds = [speed for speed in (gap.ahead_speed_mps, gap.behind_speed_mps) if np.isfinite(speed)]
+        return 0.0, (speeds[0] if speeds else style.desired_speed_mps)  # in it: keep pace with the lane
+
+    def _toward(self, target_mps: float, set_point_mps: float) -> Action:
+        """The speed action that moves the set-point `set_point_mps` toward `target_mps` [m/s]."""
         if set_point_mps < target_mps - self._half_step:
             return Action.ACCELERATE
         if set_point_mps > target_mps + self._half_step:
@@ -220,6 +242,18 @@ class Expert:
         needed_rear = (style.min_gap_m + gap_share * style.rear_time_gap_s * rear_speed
                        + closing**2 / (2 * braking_mps2))
         return needed_front, needed_rear
+
+
+def _time_to_cover(distance_m: float, closing_mps: float, top_closing_mps: float) -> float:
+    """Time [s] to gain `distance_m` [m] on a vehicle, from closing in on it at `closing_mps` (negative: falling
+    back) toward `top_closing_mps` [m/s] at `SPEED_CHANGE_MPS2`."""
+    if closing_mps >= top_closing_mps:
+        return distance_m / closing_mps
+    change_s = (top_closing_mps - closing_mps) / SPEED_CHANGE_MPS2
+    change_m = 0.5 * (closing_mps + top_closing_mps) * change_s
+    if change_m >= distance_m:
+        return (np.sqrt(closing_mps**2 + 2 * SPEED_CHANGE_MPS2 * distance_m) - closing_mps) / SPEED_CHANGE_MPS2
+    return change_s + (distance_m - change_m) / top_closing_mps
 
 
 def route_demand_m(offset: int) -> float:

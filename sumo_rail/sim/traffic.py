@@ -65,6 +65,35 @@ def lane_gaps(traffic: TrafficView, lane: int) -> LaneGaps:
                     float(alongside_speed))
 
 
+@dataclass(frozen=True)
+class LaneGap:
+    """The room between two consecutive vehicles of a lane, positions along the road from the ego's front [m]."""
+
+    behind_m: float
+    """Front of the vehicle behind the gap (-inf: nobody seen behind)."""
+    behind_speed_mps: float
+    """Its speed [m/s] (inf: nobody)."""
+    ahead_m: float
+    """Rear of the vehicle ahead of the gap (inf: nobody seen ahead)."""
+    ahead_speed_mps: float
+    """Its speed [m/s] (inf: nobody)."""
+
+
+def lane_gap_list(traffic: TrafficView, lane: int) -> list[LaneGap]:
+    """Every gap of `lane` between the vehicles seen there, from the rearmost (open behind) to the foremost (open
+    ahead); one open gap when nobody is seen."""
+    others, ego_front = traffic.neighbours, traffic.ego.lane_position_m
+    in_lane = others.lane == lane
+    order = np.argsort(others.lane_position_m[in_lane], kind="stable")
+    fronts = (others.lane_position_m[in_lane][order] - ego_front).tolist()
+    rears = (np.asarray(fronts) - others.length_m[in_lane][order]).tolist()
+    speeds = others.speed_mps[in_lane][order].tolist()
+    behind = [(-NO_VEHICLE, NO_VEHICLE), *zip(fronts, speeds, strict=True)]
+    ahead = [*zip(rears, speeds, strict=True), (NO_VEHICLE, NO_VEHICLE)]
+    return [LaneGap(float(b), float(b_speed), float(a), float(a_speed))
+            for (b, b_speed), (a, a_speed) in zip(behind, ahead, strict=True)]
+
+
 def within(traffic: TrafficView, range_m: float) -> TrafficView:
     """The view without the neighbours whose front is farther than `range_m` along the road from the ego's."""
     near = np.abs(traffic.neighbours.lane_position_m - traffic.ego.lane_position_m) <= range_m

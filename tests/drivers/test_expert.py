@@ -9,7 +9,7 @@ from sumo_rail.runners.rollout import ExpertDriver, run_episode
 from sumo_rail.sim.actions import Action
 from sumo_rail.sim.env import HighwayEnv
 from sumo_rail.sim.road import RouteView
-from sumo_rail.sim.traffic import lane_gaps
+from sumo_rail.sim.traffic import lane_gap_list, lane_gaps
 
 
 def sporty() -> Expert:
@@ -120,12 +120,12 @@ def test_lets_a_car_faster_than_it_would_drive_pass_before_merging(fast_car):
     assert expert.decide(traffic) is Action.DECELERATE
 
 
-def test_passes_a_slower_car_alongside_at_its_speed_plus_a_margin():
+def test_passes_a_slower_car_alongside_into_an_open_lane_up_to_its_desired_speed_plus_the_margin():
     expert = make_expert("normal", speed_step_mps=2.0)
     traffic = on_a_closing_lane(view([(1, 1001.0, 4.5, 20.0)], lane=0, speed=20.0, set_point=21.33), 400.0)
     assert expert.decide(traffic) is Action.ACCELERATE
-    done = on_a_closing_lane(view([(1, 1001.0, 4.5, 20.0)], lane=0, speed=23.0, set_point=23.33), 400.0)
-    assert expert.decide(done) is Action.KEEP, "20 + the 3 m/s margin reached"
+    done = on_a_closing_lane(view([(1, 1001.0, 4.5, 20.0)], lane=0, speed=30.0, set_point=33.33), 400.0)
+    assert expert.decide(done) is Action.KEEP, "30.5 + the 3 m/s margin reached"
 
 
 def test_in_the_last_metres_of_its_lane_it_counts_on_harder_braking_behind_but_never_on_a_crash():
@@ -139,3 +139,43 @@ def test_in_the_last_metres_of_its_lane_it_counts_on_harder_braking_behind_but_n
     closing_13 = [(1, EGO_FRONT + 40.0, 4.5, 25.0), (1, ego_rear - 16.0, 4.5, 23.6)]
     too_fast = on_a_closing_lane(view(closing_13, lane=0, speed=10.8, set_point=17.33), lane_end_m=20.0)
     assert expert.decide(too_fast) is not Action.LANE_LEFT, "a follower 12.8 m/s faster 16 m behind cannot stop"
+
+
+def test_lane_gap_list_gives_every_gap_of_a_lane_from_the_rearmost():
+    traffic = view([(0, 1050.0, 4.5, 20.0), (0, 970.0, 12.0, 22.0), (1, 1100.0, 4.5, 30.0)], lane=1)
+    gaps = lane_gap_list(traffic, 0)
+    assert [(g.behind_m, g.ahead_m) for g in gaps] == [(-np.inf, 970.0 - 12.0 - EGO_FRONT),
+                                                      (970.0 - EGO_FRONT, 1050.0 - 4.5 - EGO_FRONT),
+                                                      (1050.0 - EGO_FRONT, np.inf)]
+    assert [g.ahead_speed_mps for g in gaps] == [22.0, 20.0, np.inf]
+    assert len(lane_gap_list(traffic, 3)) == 1
+
+
+def test_passes_a_slower_vehicle_alongside_as_fast_as_the_gap_ahead_of_it_allows():
+    """Slowing to 24.8 + 3 m/s to pass a truck alongside left it alongside until SUMO braked the ego for its lane's
+    end (a missed exit): it passes at the speed difference it can shed at 1 m/s^2 by the middle of the gap ahead
+    (16.5 + 89.5 m) / 2 = 53 m away: 10.3 m/s), here up to its desired speed plus the margin."""
+    expert = make_expert("normal", speed_step_mps=2.0)
+    truck_alongside = [(1, EGO_FRONT + 6.0, 12.0, 24.8), (1, EGO_FRONT + 100.0, 4.5, 24.7)]
+    traffic = on_a_closing_lane(view(truck_alongside, lane=0, speed=31.3, set_point=31.33), lane_end_m=200.0)
+    assert expert.decide(traffic) is Action.ACCELERATE
+
+
+def test_passes_a_vehicle_it_cannot_drop_behind_into_the_gap_ahead_of_it():
+    """A car alongside at 17 m/s, below the 18.3 m/s it slows to when merging: dropping behind it never happens
+    (on the ramp it stayed alongside for 150 m), passing it into the gap in front does."""
+    expert = make_expert("normal", speed_step_mps=2.0)
+    slow_car = [(1, EGO_FRONT + 2.0, 4.5, 17.0), (1, EGO_FRONT + 35.5, 4.5, 20.0), (1, EGO_FRONT - 40.0, 4.5, 17.0)]
+    traffic = on_a_closing_lane(view(slow_car, lane=0, speed=18.0, set_point=18.0), lane_end_m=200.0)
+    assert expert.decide(traffic) is Action.ACCELERATE
+
+
+def test_drops_back_to_the_gap_behind_when_the_gaps_ahead_are_too_short_for_it():
+    """Passing the car alongside would only reach gaps ahead too short for its time gaps (51 m at 25 m/s behind,
+    36 m in front): the long gap behind the car 40 m back comes sooner."""
+    expert = make_expert("normal", speed_step_mps=2.0)
+    ego_rear = EGO_FRONT - 4.5
+    cars = [(1, EGO_FRONT + 2.0, 4.5, 25.0), (1, EGO_FRONT + 60.0, 4.5, 25.0), (1, EGO_FRONT + 120.0, 4.5, 25.0),
+            (1, EGO_FRONT + 210.0, 4.5, 25.0), (1, ego_rear - 40.0, 4.5, 25.0)]
+    traffic = on_a_closing_lane(view(cars, lane=0, speed=25.0, set_point=25.33), lane_end_m=400.0)
+    assert expert.decide(traffic) is Action.DECELERATE
