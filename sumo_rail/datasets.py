@@ -11,6 +11,7 @@ with a one-sentence `DatasetError` naming it (`describe` keeps library messages 
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 import platform
@@ -110,6 +111,15 @@ def write_parquet(table: pa.Table, path: Path, metadata: dict[str, Any]) -> None
             pq.write_table(table.replace_schema_metadata(schema_metadata), temporary, write_page_checksum=True)
     except OSError as error:
         raise DatasetError(f"cannot write {path}: {error.strerror or error}") from error
+
+
+def file_sha256(path: Path) -> str:
+    """SHA-256 of a file's bytes, in hex: how outputs pin the inputs they record by path."""
+    digest = hashlib.sha256()
+    with open(path, "rb") as file:
+        for block in iter(lambda: file.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
 
 
 def describe(error: BaseException) -> str:
