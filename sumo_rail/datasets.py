@@ -63,9 +63,18 @@ def check_output_path(path: Path, overwrite: bool) -> None:
         raise DatasetError(f"output {path} already exists; pass --overwrite to replace it")
     folder = path.parent if str(path.parent) else Path(".")
     if not folder.is_dir():
+        blocking = file_in_the_way(folder)
+        if blocking is not None:
+            raise DatasetError(f"the folder of output {path} cannot be: {blocking} is a file, not a folder")
         raise DatasetError(f"the folder of output {path} does not exist")
     if not os.access(folder, os.W_OK | os.X_OK):
         raise DatasetError(f"the folder of output {path} is not writable")
+
+
+def file_in_the_way(folder: Path) -> Path | None:
+    """The file (not a folder) that `folder` is, or is inside, so that it cannot exist; None when there is none."""
+    existing = next((parent for parent in (folder, *folder.parents) if parent.exists()), None)
+    return existing if existing is not None and not existing.is_dir() else None
 
 
 def check_output_folder(folder: Path) -> None:

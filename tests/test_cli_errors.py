@@ -26,6 +26,21 @@ def test_step_signal_checks_its_report_file_before_reading_anything(tmp_path):
     assert result.exit_code == 2 and "the folder of output" in result.output and "does not exist" in result.output
 
 
+@pytest.mark.parametrize("command", [
+    ["step-signal", "--demos", "missing.parquet", "--policy", "missing.npz", "--out", "{file}/sub/report.json"],
+    ["record-expert", "--episodes", "1", "--out", "{file}/demos.parquet"],
+    ["evaluate", "--policy", "expert", "--episodes", "1", "--out", "{file}/metrics"],
+    ["evaluate", "--policy", "expert", "--episodes", "1", "--out", "metrics", "--video", "{file}/videos"],
+], ids=["step-signal", "record-expert", "evaluate", "evaluate-video"])
+def test_an_output_inside_a_file_says_the_file_is_a_file(tmp_path, command, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "file").write_text("")
+    result = invoke(command[0], *SMALL, *[part.format(file=tmp_path / "file") for part in command[1:]])
+    assert result.exit_code == 2 and "Traceback" not in result.output, result.output
+    assert f"cannot be: {tmp_path / 'file'} is a file, not a folder" in result.output, result.output
+    assert "does not exist" not in result.output
+
+
 def test_an_unreadable_input_is_said_without_a_progress_line_before(tmp_path):
     (tmp_path / "demos.csv").write_text("observation,action\n1,2\n")
     for command in (["train", "--iterations", "2"], ["dagger", "--rounds", "2"]):
