@@ -161,8 +161,9 @@ def markdown(inputs: Inputs, plots: list[Plot]) -> str:
 def run_table(runs: list[Run]) -> list[str]:
     """One Markdown table row per run."""
     name = runs[0].return_name if runs else "D return"
-    header = (f"| run | policy | iterations | env steps | wall time (min) | final {name} | best {name} (iteration) "
-              "| validated at iteration | speed (km/h) | overtakes | lane changes | collisions |")
+    step = runs[0].step_name if runs else "iteration"  # runs of one table share their method's kind of return
+    header = (f"| run | policy | {step}s | env steps | wall time (min) | final {name} | best {name} ({step}) "
+              f"| validated at {step} | speed (km/h) | overtakes | lane changes | collisions |")
     rows = [header, "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for run in runs:
         log, returns = run.log, run.log["return_mean"].dropna()  # a ppo update in which no episode ended has none
