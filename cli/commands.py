@@ -194,6 +194,7 @@ def _check_video_dir(video_dir: Path | None, names: list[str], overwrite: bool) 
     made, and no video of these drivers would be replaced without --overwrite (exit 2)."""
     if video_dir is None:
         return
+    from sumo_rail.datasets import file_in_the_way
     from sumo_rail.runners.video import VideoError, require_encoder, video_name
 
     try:
@@ -203,7 +204,10 @@ def _check_video_dir(video_dir: Path | None, names: list[str], overwrite: bool) 
     if video_dir.exists() and not video_dir.is_dir():
         raise click.BadParameter(f"{video_dir} exists and is not a folder", param_hint="'--video'")
     if not video_dir.exists() and not video_dir.parent.is_dir():
-        raise click.BadParameter(f"the folder holding {video_dir} does not exist", param_hint="'--video'")
+        blocking = file_in_the_way(video_dir.parent)
+        raise click.BadParameter(f"the folder holding {video_dir} does not exist" if blocking is None else
+                                 f"the folder holding {video_dir} cannot be: {blocking} is a file, not a folder",
+                                 param_hint="'--video'")
     if video_dir.is_dir() and not overwrite:
         prefixes = {video_name(name, 0, 0).split("_episode")[0] for name in names}
         clash = sorted(path.name for path in video_dir.glob("*.mp4") if path.name.split("_episode")[0] in prefixes)

@@ -43,11 +43,12 @@ class PlainProgress:
         if self._clock() - self._last >= self._interval_s:
             self._print()
 
-    def start_at(self, done: int) -> None:
+    def start_at(self, done: int, restart_clock: bool = True) -> None:
         """Start counting from `done` units (a resumed run's steps done before): the count, and the rate and elapsed
-        time from now on, are those of this run."""
+        time from now on (from the start without `restart_clock`), are those of this run."""
         self.n = self._initial = done
-        self._start = self._last = self._clock()
+        if restart_clock:
+            self._start = self._last = self._clock()
 
     def set_postfix(self, **values: Any) -> None:
         """Values shown at the end of the next line."""
@@ -91,14 +92,16 @@ def progress(total: int, description: str, unit: str = "episode", stream: IO[str
     return PlainProgress(total, description, unit, stream)
 
 
-def start_at(bar: Any, done: int) -> None:
+def start_at(bar: Any, done: int, restart_clock: bool = True) -> None:
     """Make `bar` (a tqdm bar or a `PlainProgress`) count from `done` units: a resumed run's bar starts where its
-    run stopped, and its rate counts this run's units alone."""
+    run stopped, and its rate counts this run's units alone, over the time from now (from the bar's start without
+    `restart_clock`: a run that learns how much was done only once its first new step is done)."""
     if isinstance(bar, PlainProgress):
-        bar.start_at(done)
+        bar.start_at(done, restart_clock)
         return
     bar.n = bar.last_print_n = bar.initial = done
-    bar.start_t = bar.last_print_t = bar._time()
+    if restart_clock:
+        bar.start_t = bar.last_print_t = bar._time()
     bar.refresh()
 
 

@@ -72,10 +72,13 @@ def kept_until_resume(out: Path, step: str, checkpoint: str = "checkpoint.pt") -
 
 
 def sb3_progress(bar: Any, row: dict[str, Any], steps_per_update: int) -> None:
-    """Move a gail or ppo progress bar (in timesteps) to the end of the update of log `row` (a resumed run starts
-    from the updates done)."""
-    from sumo_rail_cli.progress import advance_to
+    """Move a gail or ppo progress bar (in timesteps) to the end of the update of log `row`; a resumed run's bar
+    starts from the updates done before at its first new row, and its rate counts this run's timesteps alone (as
+    `train`'s counts its own iterations)."""
+    from sumo_rail_cli.progress import advance_to, start_at
 
+    if bar.n == 0 and row["iteration"] > 0:
+        start_at(bar, row["iteration"] * steps_per_update, restart_clock=False)
     advance_to(bar, (row["iteration"] + 1) * steps_per_update)
 
 

@@ -11,6 +11,7 @@ with a one-sentence `DatasetError` naming it (`describe` keeps library messages 
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 import platform
@@ -62,9 +63,18 @@ def check_output_path(path: Path, overwrite: bool) -> None:
         raise DatasetError(f"output {path} already exists; pass --overwrite to replace it")
     folder = path.parent if str(path.parent) else Path(".")
     if not folder.is_dir():
+        blocking = file_in_the_way(folder)
+        if blocking is not None:
+            raise DatasetError(f"the folder of output {path} cannot be: {blocking} is a file, not a folder")
         raise DatasetError(f"the folder of output {path} does not exist")
     if not os.access(folder, os.W_OK | os.X_OK):
         raise DatasetError(f"the folder of output {path} is not writable")
+
+
+def file_in_the_way(folder: Path) -> Path | None:
+    """The file (not a folder) that `folder` is, or is inside, so that it cannot exist; None when there is none."""
+    existing = next((parent for parent in (folder, *folder.parents) if parent.exists()), None)
+    return existing if existing is not None and not existing.is_dir() else None
 
 
 def check_output_folder(folder: Path) -> None:
@@ -110,6 +120,15 @@ def write_parquet(table: pa.Table, path: Path, metadata: dict[str, Any]) -> None
             pq.write_table(table.replace_schema_metadata(schema_metadata), temporary, write_page_checksum=True)
     except OSError as error:
         raise DatasetError(f"cannot write {path}: {error.strerror or error}") from error
+
+
+def file_sha256(path: Path) -> str:
+    """SHA-256 of a file's bytes, in hex: how outputs pin the inputs they record by path."""
+    digest = hashlib.sha256()
+    with open(path, "rb") as file:
+        for block in iter(lambda: file.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
 
 
 def describe(error: BaseException) -> str:

@@ -130,6 +130,26 @@ def test_a_resumed_runs_progress_counts_from_where_it_stopped():
     assert "7/10" in live.fp.getvalue()
 
 
+def test_a_resumed_gail_or_ppo_rate_counts_its_own_timesteps_as_train_does():
+    from sumo_rail_cli.running import sb3_progress
+
+    now = [0.0]
+    stream = io.StringIO()
+    bar = PlainProgress(1000, "PPO", "timestep", stream, interval_s=5.0, clock=lambda: now[0])
+    with bar:
+        now[0] += 10.0  # the first new update: 100 timesteps after 5 updates done before the resume
+        sb3_progress(bar, {"iteration": 5}, 100)
+        now[0] += 10.0
+        sb3_progress(bar, {"iteration": 6}, 100)
+    lines = stream.getvalue().splitlines()
+    assert lines[0].startswith("PPO: 600/1000 timesteps (60%), 10.00 timestep/s, elapsed 10 s"), lines
+    assert lines[1].startswith("PPO: 700/1000 timesteps (70%), 10.00 timestep/s, elapsed 20 s"), lines
+    live = progress(1000, "GAIL", unit="timestep", stream=Terminal())
+    with live:
+        sb3_progress(live, {"iteration": 5}, 100)
+        assert (live.n, live.initial) == (600, 500)  # tqdm's rate counts from `initial`
+
+
 def fake_train(done: int, interrupt: bool = False):
     """In place of `trainer.train`: a run in a new folder (run.json only) that is resumed from `done` iterations and
     then interrupted or runs one more iteration."""

@@ -1,5 +1,6 @@
-"""gail and ppo from the outside: Ctrl-C (twice) ends a running run after its update with the files whole and the
-run continues with --resume, which repeats bit for bit; --egos is counted in the environment's decisions."""
+"""gail and ppo from the outside: Ctrl-C (twice), or SIGTERM to the process group, ends a running run after its
+update with the files whole and the run continues with --resume, which repeats bit for bit; --egos is counted in the
+environment's decisions."""
 
 import json
 import os
@@ -72,6 +73,31 @@ def test_ctrl_c_twice_stops_after_the_update_with_its_files_whole_and_resume_goe
     assert result.exit_code == 0, result.output
     assert f"trained {updates + 1} PPO updates" in result.output
     assert pd.read_parquet(run / "log.parquet")["iteration"].tolist() == list(range(updates + 1))
+
+
+def test_a_sigterm_to_the_whole_process_group_stops_as_ctrl_c_does(tmp_path, demos):
+    """GNU timeout and schedulers send SIGTERM to the command's whole process group: its environment processes
+    ignore it as they ignore a Ctrl-C, so the run stops after its update with Ctrl-C's sentence (not 'environment
+    process 0 was killed by signal 15')."""
+    run = tmp_path / "run"
+    process = subprocess.Popen([sys.executable, "-m", "sumo_rail_cli", *runs(demos)["ppo"], "--envs", "2",
+                                "--out", str(run), "--timesteps", "100000"],
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
+    try:
+        deadline = time.monotonic() + 120
+        while not (run / "checkpoint.pt").exists() and time.monotonic() < deadline:
+            time.sleep(0.2)
+        assert (run / "checkpoint.pt").exists(), "no update was saved within 120 s"
+        os.killpg(process.pid, signal.SIGTERM)
+        _, stderr = process.communicate(timeout=120)
+    finally:
+        if process.poll() is None:
+            os.killpg(process.pid, signal.SIGKILL)
+            process.communicate()
+    assert process.returncode == 1 and "Traceback" not in stderr, stderr
+    error = stderr.rstrip().splitlines()[-1]
+    assert error.startswith("Error: interrupted after ") and error.endswith("continue with --resume"), error
+    assert int(error.split()[3]) == len(pd.read_parquet(run / "log.parquet"))
 
 
 @pytest.mark.parametrize("command", ["ppo", "gail"])

@@ -30,7 +30,13 @@ from sumo_rail.config import Config
 from sumo_rail.datasets import read_metadata, write_bytes_atomically, write_parquet
 from sumo_rail.drivers.policies import Policy, PolicyShape, save_policy
 from sumo_rail.learning.bc import IMITATION_BC, BcReport, BcSettings, behaviour_cloning
-from sumo_rail.learning.run_folder import RunError, check_resumable, signals_deferred, start_run_folder
+from sumo_rail.learning.run_folder import (
+    RunError,
+    check_resumable,
+    demos_record,
+    signals_deferred,
+    start_run_folder,
+)
 from sumo_rail.learning.validation import Validation, validate, validation_columns, with_validation_columns
 from sumo_rail.runners.backends import RolloutBackend, WorkerContext
 from sumo_rail.runners.experts import demonstrations_expert, resolve_expert
@@ -141,10 +147,13 @@ def train_dagger(folder: Path, settings: DaggerSettings, config: Config, rounds:
     folder, validation = Path(folder), validation or Validation()
     observation_size = observation_space(config).shape[0]
     demos = read_demonstrations(Path(settings.demos), observation_size)
+    demos_path, demos_hash = demos_record(settings.demos)
+    settings = dataclasses.replace(settings, demos=demos_path)
     style = settings.expert or demonstrations_expert(demos.metadata)
     expert = resolve_expert(style, config, recorded_by=None if settings.expert else settings.demos)
     shape = PolicyShape(settings.kind, observation_size, settings.hidden)
-    run_record = {"settings": settings.to_dict(), "expert": style, **provenance("dagger_run", config, settings.seed)}
+    run_record = {"settings": settings.to_dict(), "expert": style, **demos_hash,
+                  **provenance("dagger_run", config, settings.seed)}
     if resume:
         done, dataset, logs = _resume(folder, run_record)
         policy, _ = behaviour_cloning(dataset, shape, settings.bc)

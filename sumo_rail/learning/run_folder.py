@@ -20,7 +20,14 @@ from typing import Any
 
 import torch
 
-from sumo_rail.datasets import DatasetError, describe, read_json_record, write_bytes_atomically, write_failure
+from sumo_rail.datasets import (
+    DatasetError,
+    describe,
+    file_sha256,
+    read_json_record,
+    write_bytes_atomically,
+    write_failure,
+)
 
 
 class RunError(ValueError):
@@ -72,11 +79,48 @@ def check_resumable(folder: Path, checkpoint: str, run_record: dict[str, Any], d
         return {key: value for key, value in settings.items() if key not in free}
 
     settings = with_defaults(stored["settings"], defaults or {})
+    if isinstance(run_record["settings"].get("demos"), str) and isinstance(settings.get("demos"), str):
+        check_same_demos(folder, settings["demos"], stored.get(DEMOS_HASH), run_record)
+        settings = {**settings, "demos": run_record["settings"]["demos"]}
     if (fixed(settings) != fixed(run_record["settings"]) or stored["config"] != run_record["config"]
             or stored.get("kind") != run_record.get("kind")):
         raise RunError(f"run {folder} was started with other settings (see its run.json); resume it with the same "
                        f"options")
     return stored
+
+
+DEMOS_HASH = "demos_sha256"
+"""The run.json entry holding the content hash of the demonstrations a run learns from (`demos_record`)."""
+
+
+def demos_record(demos: str | Path) -> tuple[str, dict[str, str]]:
+    """The demonstrations' absolute path, as a run's settings record it (so that the run resumes from any folder),
+    and the run.json entry pinning their content (`DEMOS_HASH`)."""
+    path = Path(demos).resolve()
+    return str(path), {DEMOS_HASH: file_sha256(path)}
+
+
+def check_same_demos(folder: Path, recorded: str, digest: str | None, run_record: dict[str, Any]) -> None:
+    """That the run in `folder`, started with the demonstrations `recorded` (whose content hash was `digest`;
+    None in a run.json written before it was kept), continues with the same ones (`run_record`'s, absolute). A
+    relative `recorded` path (an older run.json) means the file from where the command runs, as where the run was
+    started. The same file moved elsewhere is the same demonstrations; a RunError naming the file otherwise."""
+    given, started = Path(run_record["settings"]["demos"]), Path(recorded)
+    if started.resolve() == given.resolve():
+        if digest is not None and digest != run_record.get(DEMOS_HASH):
+            raise RunError(f"the demonstrations {given} have changed since run {folder} was started with them (their "
+                           f"content hash differs); resume it with the file it was started with")
+        return
+    if digest is not None and digest == run_record.get(DEMOS_HASH):
+        return  # the same content: the file was moved or copied
+    if not started.is_absolute():
+        raise RunError(f"run {folder} was started with the demonstrations {recorded} (a path relative to the folder "
+                       f"it was started from), not {given}; resume it from that folder")
+    if started.is_file():
+        raise RunError(f"run {folder} was started with the demonstrations {started}, not {given}; resume it with "
+                       f"--demos {started}")
+    raise RunError(f"run {folder} was started with the demonstrations {started}, which are gone from there (moved or "
+                   f"deleted), and {given} holds other ones; resume it with --demos naming the file it started with")
 
 
 def with_defaults(stored: dict[str, Any], defaults: dict[str, Any]) -> dict[str, Any]:

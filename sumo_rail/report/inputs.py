@@ -55,6 +55,11 @@ class Run:
         return "env return" if self.method == "PPO" else "D return"
 
     @property
+    def step_name(self) -> str:
+        """What one row of the log is: a PPO "update" (a `ppo` run) or an "iteration"."""
+        return "update" if self.method == "PPO" else "iteration"
+
+    @property
     def kind(self) -> str:
         """'linear', 'mlp (10 hidden)' or '?'."""
         policy = next(iter(self.policies.values()), None)

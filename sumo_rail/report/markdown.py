@@ -13,7 +13,7 @@ from pathlib import Path
 import pandas as pd
 from matplotlib.figure import Figure
 
-from sumo_rail.datasets import write_bytes_atomically, written_atomically
+from sumo_rail.datasets import file_in_the_way, write_bytes_atomically, written_atomically
 from sumo_rail.evaluation.distributions import distance_table
 from sumo_rail.evaluation.fidelity import CONFUSION_COLUMNS
 from sumo_rail.evaluation.summary import intervals, paired_differences, summary_table
@@ -36,6 +36,9 @@ class Plot:
 def write_report(inputs: Inputs, out: Path, videos: Path | None = None) -> Path:
     """Write every plot the inputs allow and report.md into `out` (created); returns the path of report.md. With
     `videos` (a folder written by evaluate --video), also GIFs of each driver above the expert on the same seed."""
+    blocking = file_in_the_way(out)
+    if blocking is not None:
+        raise ReportError(f"cannot create the output folder {out}: {blocking} is a file, not a folder")
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as error:
@@ -158,8 +161,9 @@ def markdown(inputs: Inputs, plots: list[Plot]) -> str:
 def run_table(runs: list[Run]) -> list[str]:
     """One Markdown table row per run."""
     name = runs[0].return_name if runs else "D return"
-    header = (f"| run | policy | iterations | env steps | wall time (min) | final {name} | best {name} (iteration) "
-              "| validated at iteration | speed (km/h) | overtakes | lane changes | collisions |")
+    step = runs[0].step_name if runs else "iteration"  # runs of one table share their method's kind of return
+    header = (f"| run | policy | {step}s | env steps | wall time (min) | final {name} | best {name} ({step}) "
+              f"| validated at {step} | speed (km/h) | overtakes | lane changes | collisions |")
     rows = [header, "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for run in runs:
         log, returns = run.log, run.log["return_mean"].dropna()  # a ppo update in which no episode ended has none

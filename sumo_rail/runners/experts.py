@@ -11,12 +11,12 @@ folder, asks the same expert again or says in one sentence that the file is gone
 from __future__ import annotations
 
 import dataclasses
-import hashlib
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
 from sumo_rail.config import Config
+from sumo_rail.datasets import file_sha256
 from sumo_rail.drivers.expert import DEFAULT_STYLE, STYLES
 from sumo_rail.drivers.policies import PolicyFileError, load_policy
 from sumo_rail.runners.rollout import DriverSpec, ExpertDriver, PolicyDriver
@@ -128,7 +128,7 @@ def _expert_path(expert: str) -> Path:
 
 def _content_hash(path: Path) -> str:
     """SHA-256 of the file's bytes, in hex."""
-    return hashlib.sha256(path.read_bytes()).hexdigest()
+    return file_sha256(path)
 
 
 def recorded_expert(metadata: Mapping[str, Any]) -> str | None:

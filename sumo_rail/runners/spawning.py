@@ -1,10 +1,13 @@
-"""Starting a worker process that a Ctrl-C meant for its parent cannot kill while it starts.
+"""Starting a worker process that a Ctrl-C or a SIGTERM meant for its parent cannot kill while it starts.
 
-Ctrl-C reaches the whole foreground process group. A spawned worker ignores SIGINT as soon as its code runs (its
-parent decides how a command stops), but before that it is a Python still importing, which dies of it with a
-KeyboardInterrupt traceback on the terminal; the run then finds a worker lost. `start_shielded` starts the process
-with SIGINT blocked, which the spawned child inherits (the signal mask survives fork and exec), as CPython's own
-resource tracker is started: the worker never sees a Ctrl-C, while its parent gets it as before."""
+Ctrl-C reaches the whole foreground process group, and so does the SIGTERM of a plain `timeout` (GNU timeout signals
+its command's whole process group) or of a scheduler that stops a job's group. A spawned worker ignores both as soon
+as its code runs (`ignore_stop_signals`: its parent decides how a command stops, and closes it), but before that it
+is a Python still importing, which dies of a SIGINT with a KeyboardInterrupt traceback on the terminal, or silently of
+a SIGTERM; the run then finds a worker lost ("environment process 0 was killed by signal 15"). `start_shielded`
+starts the process with SIGINT and SIGTERM blocked, which the spawned child inherits (the signal mask survives fork
+and exec), as CPython's own resource tracker is started: the worker never sees them, while its parent gets them as
+before. A worker whose parent is gone exits by itself (its pipe closes), so ignoring them never orphans it."""
 
 from __future__ import annotations
 
@@ -12,13 +15,24 @@ import signal
 from multiprocessing import resource_tracker
 from multiprocessing.process import BaseProcess
 
+STOP_SIGNALS = {signal.SIGINT, signal.SIGTERM}
+"""What stops a command: Ctrl-C and SIGTERM (the parent handles them; its workers ignore them)."""
+
 
 def start_shielded(process: BaseProcess) -> None:
-    """`process.start()` with SIGINT blocked in this thread meanwhile (restored at once: a Ctrl-C that arrives
-    meanwhile is delivered to this process then), so that the child starts with SIGINT blocked."""
+    """`process.start()` with SIGINT and SIGTERM blocked in this thread meanwhile (restored at once: one that arrives
+    meanwhile is delivered to this process then), so that the child starts with them blocked."""
     resource_tracker.ensure_running()  # started by the first spawn otherwise, it would unblock SIGINT after itself
-    previous = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    previous = signal.pthread_sigmask(signal.SIG_BLOCK, STOP_SIGNALS)
     try:
         process.start()
     finally:
         signal.pthread_sigmask(signal.SIG_SETMASK, previous)
+
+
+def ignore_stop_signals() -> None:
+    """In a worker process (first thing): ignore SIGINT and SIGTERM, then unblock them (those that came while it
+    started, blocked by `start_shielded`, are dropped): the parent stops the command and closes its workers."""
+    for number in STOP_SIGNALS:
+        signal.signal(number, signal.SIG_IGN)
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, STOP_SIGNALS)

@@ -193,7 +193,9 @@ class Simulation(EgoPlacement, Stepping, Sensing):
                    pool: str = "train") -> list[str]:
         """`reset` with several egos: queue each (vehicle id, lane, front position [m]) in this order, then step
         until all are in (an ego drives on as soon as it is in). SUMO tries no other vehicle in a lane once one
-        fails there in a step, so egos still waiting take turns at being tried first. An ego not on the road after
+        fails there in a step, so egos still waiting take turns at being tried first; and while traffic queues to
+        enter the road (a flow above what its start lets in) SUMO never gets to the egos behind that queue, so they
+        are placed at once where that is safe (`EgoPlacement._place_past_queue`). An ego not on the road after
         `ENTRY_WAIT_S` (no room at its place all along, or gone already) sits the episode out: returns those ids,
         in order (EgoCouldNotEnter when none of the egos is on the road)."""
         self._require_running()
@@ -212,6 +214,8 @@ class Simulation(EgoPlacement, Stepping, Sensing):
             self._api.simulationStep()
             departed = set(self._api.simulation.getDepartedIDList())
             pending = [ego for ego in pending if ego[0] not in departed]
+            if pending:
+                pending = self._place_past_queue(pending)
             if not pending:
                 break
             if len(pending) > 1:

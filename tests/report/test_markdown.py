@@ -186,7 +186,9 @@ def test_a_ppo_run_is_labelled_by_the_environments_return_and_not_mixed_with_dis
     result = invoke("report", str(ppo), "--out", str(tmp_path / "report"))
     assert result.exit_code == 0, result.output
     text = (tmp_path / "report" / "report.md").read_text()
-    assert "| final env return | best env return (iteration) |" in text and "D return" not in text
+    assert "| updates | env steps | wall time (min) | final env return | best env return (update) | validated at " \
+        "update |" in text and "D return" not in text and "iteration" not in text.split("## Plots")[0]
+    assert "train, gail or ppo" in invoke("report", "--help").output
     assert "Mean environment return" in text and "discriminator return" not in text
     log = pd.read_parquet(ppo / "log.parquet").assign(return_mean=float("nan"))  # no episode ended in any update
     write_parquet(pa.Table.from_pandas(log, preserve_index=False), ppo / "log.parquet",

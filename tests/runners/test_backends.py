@@ -301,6 +301,18 @@ def test_a_ctrl_c_while_a_worker_starts_does_not_kill_it():
         assert pool.run(squares(2)) == expected(squares(2)) and pool.pids == worker
 
 
+def test_a_sigterm_to_a_starting_or_running_worker_does_not_kill_it():
+    """GNU timeout and schedulers send SIGTERM to the whole process group: a worker ignores it as it ignores a
+    Ctrl-C, from its start (still importing) on; the parent alone decides how a command stops."""
+    with ProcessPoolBackend(1) as pool:
+        pool._start_worker()
+        os.kill(pool.pids[0], signal.SIGTERM)  # it takes far longer to start than this
+        worker = pool.pids
+        assert pool.run(squares(2)) == expected(squares(2)) and pool.pids == worker
+        os.kill(worker[0], signal.SIGTERM)
+        assert pool.run(squares(3)) == expected(squares(3)) and pool.pids == worker
+
+
 def test_close_is_idempotent_and_leaves_no_worker_process():
     pool = ProcessPoolBackend(2)
     pool.run(squares(2))

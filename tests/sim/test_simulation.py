@@ -98,8 +98,10 @@ def test_warm_state_pools_never_share_a_state(sim):
         sim.reset(snapshot=0, sumo_seed=1, ego_lane=2, ego_position_m=400.0, pool="holdout")
 
 
-def test_an_ego_with_no_room_to_enter_is_an_error_naming_the_traffic_flow(small_config):
+def test_an_ego_with_no_room_to_enter_is_an_error_naming_the_traffic_flow(small_config, monkeypatch):
     jammed = dataclasses.replace(small_config.scenario, flow_veh_per_h=14000.0)
+    # traffic queues to enter the road, and no place is safe: SUMO never inserts the ego, nor may it be placed
+    monkeypatch.setattr(Simulation, "_safe_speed", lambda self, lane, position_m, max_speed_mps: None)
     simulation = Simulation(jammed, context_radius_m=120.0)
     try:
         with pytest.raises(SimulationError, match=r"could not enter lane 2 .*scenario\.flow_veh_per_h is 14000 veh/h"):

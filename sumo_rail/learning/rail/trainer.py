@@ -32,6 +32,7 @@ from sumo_rail.learning.rail.normalize import RunningStats
 from sumo_rail.learning.run_folder import (
     RunError,
     check_resumable,
+    demos_record,
     load_checkpoint,
     signals_deferred,
     start_run_folder,
@@ -76,9 +77,11 @@ def train(folder: Path, settings: RunSettings, config: Config, iterations: int, 
     folder, validation = Path(folder), validation or Validation()
     observation_size = observation_space(config).shape[0]
     demos = read_demonstrations(Path(settings.demos), observation_size)
+    demos_path, demos_hash = demos_record(settings.demos)
+    settings = dataclasses.replace(settings, demos=demos_path)
     shape = PolicyShape(settings.kind, observation_size, settings.hidden)
     expert = demonstrations_expert(demos.metadata)
-    run_record = {"settings": settings.to_dict(), "expert": expert,
+    run_record = {"settings": settings.to_dict(), "expert": expert, **demos_hash,
                   **provenance("training_run", config, settings.rail.seed)}
     expert_stats = RunningStats.of(demos.observations)
     discriminator = Discriminator(observation_size, expert_stats.mean.copy(), expert_stats.std.copy(),

@@ -57,11 +57,8 @@ def close_envs(venv: VecEnv, lost: bool) -> None:
     inner = venv.unwrapped
     for process in getattr(inner, "processes", []):
         if process.is_alive():
-            process.terminate()
-        process.join(5)
-        if process.is_alive():
-            process.kill()
-            process.join()
+            process.kill()  # not terminate(): env processes ignore SIGTERM (`spawning.ignore_stop_signals`)
+        process.join()
     for remote in getattr(inner, "remotes", []):
         remote.close()
     inner.closed = True

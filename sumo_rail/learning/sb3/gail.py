@@ -48,7 +48,7 @@ from sumo_rail.drivers.policies import Policy, PolicyShape, save_policy
 from sumo_rail.learning.bc import BcReport, BcSettings, behaviour_cloning
 from sumo_rail.learning.rail.discriminator import Discriminator, DiscriminatorSettings
 from sumo_rail.learning.rail.normalize import RunningStats
-from sumo_rail.learning.run_folder import start_run_folder, stop_requests
+from sumo_rail.learning.run_folder import demos_record, start_run_folder, stop_requests
 from sumo_rail.learning.sb3.actor import (
     FixedNormalisation,
     load_into_ppo,
@@ -120,8 +120,10 @@ def train_gail(folder: Path, settings: GailSettings, config: Config,
     folder = Path(folder)
     observation_size = observation_space(config).shape[0]
     demos = read_demonstrations(Path(settings.demos), observation_size)
+    demos_path, demos_hash = demos_record(settings.demos)
+    settings = dataclasses.replace(settings, demos=demos_path)
     shape = PolicyShape(settings.kind, observation_size, settings.hidden)
-    run_record = {"settings": settings.to_dict(), "expert": demonstrations_expert(demos.metadata),
+    run_record = {"settings": settings.to_dict(), "expert": demonstrations_expert(demos.metadata), **demos_hash,
                   **provenance("gail_run", config, settings.seed)}
     checkpoint = resume_run(folder, run_record) if resume else None
     if checkpoint is None:

@@ -20,7 +20,6 @@ process count give the same rollouts bit for bit. A process that fails writes wh
 
 from __future__ import annotations
 
-import signal
 from collections.abc import Sequence
 from multiprocessing.connection import Connection
 from pathlib import Path
@@ -30,6 +29,7 @@ import numpy as np
 
 from sumo_rail.config import Config
 from sumo_rail.learning.sb3.envs import LOST_ENV, exit_reporting
+from sumo_rail.runners.spawning import ignore_stop_signals
 from sumo_rail.seeding import Purpose, episode_seeds
 from sumo_rail.sim.parallel_env import NoRoomToRespawn, ParallelHighwayEnv
 
@@ -105,7 +105,7 @@ class RespawningRoad:
 def _road_process(remote: Connection, parent_remote: Connection, config: Config, egos: int, seed: int,
                   error_file: str) -> None:
     """A worker process: one `RespawningRoad` answering "reset", "step" and "close" over `remote`."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C reaches the whole group; the parent decides
+    ignore_stop_signals()  # Ctrl-C and a SIGTERM reach the whole process group: the parent decides
     parent_remote.close()
     try:
         road = RespawningRoad(config, egos, seed)

@@ -73,7 +73,7 @@ class SharedRoadVecEnv(VecEnv):
         for process, remote in zip(self.processes, self.remotes, strict=True):
             process.join(10)
             if process.is_alive():
-                process.terminate()
+                process.kill()  # not terminate(): env processes ignore SIGTERM (`spawning.ignore_stop_signals`)
                 process.join()
             remote.close()
         self.closed = True

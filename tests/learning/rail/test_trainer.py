@@ -178,3 +178,54 @@ def test_run_folder_rules(tmp_path, demos_path, small_config_module):
         (tmp_path / "run" / "checkpoint.pt").write_bytes(b"garbage")
         with pytest.raises(RunError, match="unreadable"):
             train(tmp_path / "run", settings, small_config_module, 2, backend, resume=True)
+
+
+def test_the_demonstrations_are_kept_by_absolute_path_and_content_so_a_run_resumes_from_any_folder(
+        tmp_path, demos_path, small_config_module, monkeypatch):
+    import shutil
+
+    import pyarrow.parquet as pq
+
+    (tmp_path / "a").mkdir()
+    (tmp_path / "b").mkdir()
+    typed = tmp_path / "a" / "demos.parquet"
+    shutil.copy(demos_path, typed)
+    run, validation = tmp_path / "run", Validation(every=0, episodes=1)
+    monkeypatch.chdir(tmp_path / "b")
+    with SerialBackend() as backend:
+        def resume(demos):
+            train(run, run_settings(demos), small_config_module, 1, backend, resume=True, validation=validation)
+
+        train(run, run_settings("../a/demos.parquet"), small_config_module, 1, backend, resume=False,
+              validation=validation)
+        record = json.loads((run / "run.json").read_text())
+        assert record["settings"]["demos"] == str(typed.resolve()) and len(record["demos_sha256"]) == 64
+        monkeypatch.chdir(tmp_path)
+        resume("a/demos.parquet")  # the same file, typed from another folder
+        # a run.json written before: the path as typed, no hash; it resumes from the folder it was started in
+        older = {**record, "settings": {**record["settings"], "demos": "../a/demos.parquet"}}
+        del older["demos_sha256"]
+        (run / "run.json").write_text(json.dumps(older))
+        with pytest.raises(RunError, match=r"demonstrations \.\./a/demos\.parquet \(a path relative to the folder"):
+            resume("a/demos.parquet")
+        monkeypatch.chdir(tmp_path / "b")
+        resume("../a/demos.parquet")
+        (run / "run.json").write_text(json.dumps(record))
+        shutil.move(typed, tmp_path / "moved.parquet")
+        resume(tmp_path / "moved.parquet")  # moved: the same content
+        pq.write_table(pq.read_table(tmp_path / "moved.parquet"), typed, compression="gzip")  # other bytes
+        with pytest.raises(RunError, match=rf"the demonstrations {typed.resolve()} have changed since run "):
+            resume(typed)
+        typed.unlink()
+        with pytest.raises(RunError, match=rf"started with the demonstrations {typed.resolve()}, which are gone from "
+                                           r"there \(moved or deleted\)"):
+            resume(_changed_copy(tmp_path))
+
+
+def _changed_copy(tmp_path):
+    """A demonstrations file at another path whose bytes differ from the run's."""
+    import pyarrow.parquet as pq
+
+    path = tmp_path / "other.parquet"
+    pq.write_table(pq.read_table(tmp_path / "moved.parquet"), path, compression="zstd")
+    return path
