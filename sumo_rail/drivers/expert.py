@@ -155,24 +155,32 @@ class Expert:
         if self._safe(gaps, ego.speed_mps, share, braking):
             return Action.LANE_LEFT if offset > 0 else Action.LANE_RIGHT
         own_front_gap_m = lane_gaps(traffic, ego.lane).front_gap_m
+        zip_in_s = max(lane_end_m - URGENT_M, 0.0) / max(ego.speed_mps, 1.0)
         target_mps = self._gap_speed(lane_gap_list(traffic, target), ego.speed_mps, ego.length_m, share,
-                                     own_front_gap_m)
+                                     own_front_gap_m, zip_in_s)
         return self._toward(target_mps, traffic.set_point_mps)
 
     def _gap_speed(self, gaps: list[LaneGap], ego_speed_mps: float, ego_length_m: float, gap_share: float,
-                   own_front_gap_m: float) -> float:
+                   own_front_gap_m: float, zip_in_s: float = 0.0) -> float:
         """The set-point [m/s] that takes it to the gap of the lane the route demands that it reaches soonest (its
         time gaps scaled by `gap_share`): forward at up to `PASS_MARGIN_MPS` above its desired speed, but not past its
         own leader `own_front_gap_m` [m] ahead, or back down to `MERGE_SPEED_SHARE` of it. With no gap in reach
-        there, it drops back at any speed."""
+        there, it drops back at any speed. When it reaches no such gap within `zip_in_s` [s], the time until it zip
+        merges, it lines up with the gap it would zip merge into (its time gaps scaled by `URGENT_GAP_SHARE`, at
+        most at its desired speed: there is no hurry) instead: chasing the road beyond the last vehicle it sees in a dense lane brought it to the zip merge far
+        faster than the lane, overshooting every gap there."""
         style = self.style
         lowest, highest = MERGE_SPEED_SHARE * style.desired_speed_mps, style.desired_speed_mps + PASS_MARGIN_MPS
+        plans = [(gap_share, highest)]  # (share of its time gaps, highest set-point)
+        if gap_share > URGENT_GAP_SHARE:
+            plans.append((URGENT_GAP_SHARE, style.desired_speed_mps))
         for floor_mps in (lowest, 0.0):
-            reaches = [self._reach(gap, ego_speed_mps, ego_length_m, gap_share, own_front_gap_m, floor_mps, highest)
-                       for gap in gaps]
-            found = [reach for reach in reaches if reach is not None]
-            if found:
-                return min(max(min(found)[1], floor_mps), highest)
+            for share, top_mps in plans:
+                reaches = [self._reach(gap, ego_speed_mps, ego_length_m, share, own_front_gap_m, floor_mps, top_mps)
+                           for gap in gaps]
+                found = [reach for reach in reaches if reach is not None]
+                if found and (share <= URGENT_GAP_SHARE or min(found)[0] <= zip_in_s):
+                    return min(max(min(found)[1], floor_mps), top_mps)
         return lowest
 
     def _reach(self, gap: LaneGap, ego_speed_mps: float, ego_length_m: float, gap_share: float,
