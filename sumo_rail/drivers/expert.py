@@ -167,8 +167,8 @@ class Expert:
         own leader `own_front_gap_m` [m] ahead, or back down to `MERGE_SPEED_SHARE` of it. With no gap in reach
         there, it drops back at any speed. When it reaches no such gap within `zip_in_s` [s], the time until it zip
         merges, it lines up with the gap it would zip merge into (its time gaps scaled by `URGENT_GAP_SHARE`, at
-        most at its desired speed: there is no hurry) instead: chasing the road beyond the last vehicle it sees in a dense lane brought it to the zip merge far
-        faster than the lane, overshooting every gap there."""
+        most at its desired speed: there is no hurry) instead: chasing the road beyond the last vehicle it sees in a
+        dense lane brought it to the zip merge far faster than the lane, overshooting every gap there."""
         style = self.style
         lowest, highest = MERGE_SPEED_SHARE * style.desired_speed_mps, style.desired_speed_mps + PASS_MARGIN_MPS
         plans = [(gap_share, highest)]  # (share of its time gaps, highest set-point)
