@@ -8,7 +8,8 @@ route as a navigation system tells it), not the LIDAR. Each decision, in this or
    `URGENT_M`, into any gap of its minimum gap and the room to shed a speed difference at 3 m/s^2; in the last
    `LAST_RESORT_M`, at 4 m/s^2), else set its speed to reach a gap there (`Expert._gap_speed`: of all the gaps
    between the vehicles of that lane, long enough for its gaps, the one it reaches soonest, passing vehicles it
-   can outpace and dropping behind ones it can let pass, never slowing down to pass);
+   can outpace and dropping behind ones it can let pass, never slowing down to pass; when none is reached before
+   `URGENT_M`, the gap it would zip merge into, lined up with at no more than its desired speed);
 3. overtake on the left when a slower leader is in the way, the left lane lets it drive at least
    `min_speed_gain_mps` faster, and the change is safe;
 4. otherwise return right when the right lane is free for `keep_right_s` at its desired speed and safe;
