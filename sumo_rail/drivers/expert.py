@@ -9,7 +9,7 @@ route as a navigation system tells it), not the LIDAR. Each decision, in this or
    `LAST_RESORT_M`, at 4 m/s^2), else set its speed to reach a gap there (`Expert._gap_speed`: of all the gaps
    between the vehicles of that lane, long enough for its gaps, the one it reaches soonest, passing vehicles it
    can outpace and dropping behind ones it can let pass, never slowing down to pass; when none is reached before
-   `URGENT_M`, the gap it would zip merge into, lined up with at no more than its desired speed);
+   `URGENT_M` for the last change demanded, the gap it would zip merge into, at no more than its desired speed);
 3. overtake on the left when a slower leader is in the way, the left lane lets it drive at least
    `min_speed_gain_mps` faster, and the change is safe;
 4. otherwise return right when the right lane is free for `keep_right_s` at its desired speed and safe;
@@ -156,7 +156,9 @@ class Expert:
         if self._safe(gaps, ego.speed_mps, share, braking):
             return Action.LANE_LEFT if offset > 0 else Action.LANE_RIGHT
         own_front_gap_m = lane_gaps(traffic, ego.lane).front_gap_m
-        zip_in_s = max(lane_end_m - URGENT_M, 0.0) / max(ego.speed_mps, 1.0)
+        # lining up for the zip merge is for the last change only: earlier ones need their gaps before it (exit 6000:
+        # from the leftmost lane, 18148/49 and 18340/113 missed the exit)
+        zip_in_s = max(lane_end_m - URGENT_M, 0.0) / max(ego.speed_mps, 1.0) if abs(offset) == 1 else np.inf
         target_mps = self._gap_speed(lane_gap_list(traffic, target), ego.speed_mps, ego.length_m, share,
                                      own_front_gap_m, zip_in_s)
         return self._toward(target_mps, traffic.set_point_mps)
