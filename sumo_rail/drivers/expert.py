@@ -8,7 +8,8 @@ route as a navigation system tells it), not the LIDAR. Each decision, in this or
    `URGENT_M`, into any gap of its minimum gap and the room to shed a speed difference at 3 m/s^2; in the last
    `LAST_RESORT_M`, at 4 m/s^2), else set its speed to reach a gap there (`Expert._gap_speed`: of all the gaps
    between the vehicles of that lane, long enough for its gaps, the one it reaches soonest, passing vehicles it
-   can outpace and dropping behind ones it can let pass, never slowing down to pass);
+   can outpace and dropping behind ones it can let pass, never slowing down to pass; when none is reached before
+   `URGENT_M` for the last change demanded, the gap it would zip merge into, at no more than its desired speed);
 3. overtake on the left when a slower leader is in the way, the left lane lets it drive at least
    `min_speed_gain_mps` faster, and the change is safe;
 4. otherwise return right when the right lane is free for `keep_right_s` at its desired speed and safe;
@@ -155,25 +156,48 @@ class Expert:
         if self._safe(gaps, ego.speed_mps, share, braking):
             return Action.LANE_LEFT if offset > 0 else Action.LANE_RIGHT
         own_front_gap_m = lane_gaps(traffic, ego.lane).front_gap_m
+        # lining up for the zip merge is for the last change only: earlier ones need their gaps before it (exit 6000:
+        # from the leftmost lane, 18148/49 and 18340/113 missed the exit)
+        zip_in_s = np.inf  # inf: no lining up
+        if abs(offset) == 1 and share > URGENT_GAP_SHARE:
+            zip_in_s = max(lane_end_m - URGENT_M, 0.0) / max(ego.speed_mps, 1.0)
         target_mps = self._gap_speed(lane_gap_list(traffic, target), ego.speed_mps, ego.length_m, share,
-                                     own_front_gap_m)
+                                     own_front_gap_m, zip_in_s)
         return self._toward(target_mps, traffic.set_point_mps)
 
     def _gap_speed(self, gaps: list[LaneGap], ego_speed_mps: float, ego_length_m: float, gap_share: float,
-                   own_front_gap_m: float) -> float:
+                   own_front_gap_m: float, zip_in_s: float = np.inf) -> float:
         """The set-point [m/s] that takes it to the gap of the lane the route demands that it reaches soonest (its
         time gaps scaled by `gap_share`): forward at up to `PASS_MARGIN_MPS` above its desired speed, but not past its
         own leader `own_front_gap_m` [m] ahead, or back down to `MERGE_SPEED_SHARE` of it. With no gap in reach
-        there, it drops back at any speed."""
+        there, it drops back at any speed. When it reaches no such gap within `zip_in_s` [s], the time until it zip
+        merges, it lines up with the gap it would zip merge into (its time gaps scaled by `URGENT_GAP_SHARE`, at
+        most at its desired speed: there is no hurry) instead: chasing the road beyond the last vehicle it sees in a
+        dense lane brought it to the zip merge far faster than the lane, overshooting every gap there."""
         style = self.style
         lowest, highest = MERGE_SPEED_SHARE * style.desired_speed_mps, style.desired_speed_mps + PASS_MARGIN_MPS
-        for floor_mps in (lowest, 0.0):
-            reaches = [self._reach(gap, ego_speed_mps, ego_length_m, gap_share, own_front_gap_m, floor_mps, highest)
-                       for gap in gaps]
+        full = self._soonest(gaps, ego_speed_mps, ego_length_m, gap_share, own_front_gap_m, highest)
+        if full is not None and full[0] <= zip_in_s:
+            return full[1]
+        if zip_in_s < np.inf:  # no gap for its time gaps before the zip merge: line up for it
+            lined_up = self._soonest(gaps, ego_speed_mps, ego_length_m, URGENT_GAP_SHARE, own_front_gap_m,
+                                     style.desired_speed_mps)
+            if lined_up is not None:
+                return lined_up[1]
+        return lowest if full is None else full[1]
+
+    def _soonest(self, gaps: list[LaneGap], ego_speed_mps: float, ego_length_m: float, gap_share: float,
+                 own_front_gap_m: float, highest_mps: float) -> tuple[float, float] | None:
+        """The time [s] to the gap it reaches soonest and the set-point [m/s] that takes it there (`_reach`), down
+        to `MERGE_SPEED_SHARE` of its desired speed, else at any speed; None: no gap in reach."""
+        for floor_mps in (MERGE_SPEED_SHARE * self.style.desired_speed_mps, 0.0):
+            reaches = [self._reach(gap, ego_speed_mps, ego_length_m, gap_share, own_front_gap_m, floor_mps,
+                                   highest_mps) for gap in gaps]
             found = [reach for reach in reaches if reach is not None]
             if found:
-                return min(max(min(found)[1], floor_mps), highest)
-        return lowest
+                time_s, speed_mps = min(found)
+                return time_s, min(max(speed_mps, floor_mps), highest_mps)
+        return None
 
     def _reach(self, gap: LaneGap, ego_speed_mps: float, ego_length_m: float, gap_share: float,
                own_front_gap_m: float, lowest_mps: float, highest_mps: float) -> tuple[float, float] | None:

@@ -179,3 +179,29 @@ def test_drops_back_to_the_gap_behind_when_the_gaps_ahead_are_too_short_for_it()
             (1, EGO_FRONT + 210.0, 4.5, 25.0), (1, ego_rear - 40.0, 4.5, 25.0)]
     traffic = on_a_closing_lane(view(cars, lane=0, speed=25.0, set_point=25.33), lane_end_m=400.0)
     assert expert.decide(traffic) is Action.DECELERATE
+
+
+def test_lines_up_with_a_zip_gap_when_no_gap_for_its_time_gaps_comes_before_the_zip_merge():
+    """A dense lane at 25 m/s, a car every 30 m as far as it sees: no gap is long enough for its time gaps (85 m), and
+    the road beyond the last car seen (105 m ahead) is 20 s away at +3 m/s while the zip merge begins in 8 s. Chasing
+    it brought the ego to the zip merge 8 m/s faster than the lane, overshooting every gap (stopped at the lane's
+    end): it keeps pace with the lane in the zip gap it is in instead."""
+    expert = make_expert("normal", speed_step_mps=2.0)
+    cars = [(1, EGO_FRONT + offset, 4.5, 25.0) for offset in (-75.0, -45.0, -15.0, 15.0, 45.0, 75.0, 105.0)]
+    traffic = on_a_closing_lane(view(cars, lane=0, speed=25.0, set_point=25.33), lane_end_m=450.0)
+    assert expert.decide(traffic) is Action.KEEP
+    sooner = on_a_closing_lane(view(cars[3:5], lane=0, speed=25.0, set_point=25.33), lane_end_m=450.0)
+    assert expert.decide(sooner) is Action.DECELERATE, "the road behind the two cars ahead is reached in 6 s"
+
+
+def test_lines_up_with_a_zip_gap_only_for_the_last_change_the_route_demands():
+    """Two lanes to cross before both end: settling into a zip gap of the first would leave both changes to the last
+    250 m (missed exits from the leftmost lane): it seeks a gap for its time gaps there as before."""
+    expert = make_expert("normal", speed_step_mps=2.0)
+    cars = [(1, EGO_FRONT + offset, 4.5, 25.0) for offset in (-75.0, -45.0, -15.0, 15.0, 45.0, 75.0, 105.0)]
+    traffic = view(cars, lane=0, speed=25.0, set_point=25.33)
+    route = RouteView(lowest_lane=0, highest_lane=2, lane_end_m=(450.0, 450.0, np.inf), merge_ahead_m=np.inf,
+                      diverge_ahead_m=np.inf, route_left_m=np.inf)
+    two_to_cross = dataclasses.replace(traffic, ego=dataclasses.replace(traffic.ego, route=route), lanes=3)
+    assert expert.decide(on_a_closing_lane(traffic, lane_end_m=450.0)) is Action.KEEP, "one to cross: lines up"
+    assert expert.decide(two_to_cross) is not Action.KEEP
