@@ -6,7 +6,6 @@ tests/runners/test_every_road_outputs.py."""
 
 from __future__ import annotations
 
-import subprocess
 import warnings
 
 import gymnasium
@@ -17,12 +16,11 @@ from gymnasium.utils.env_checker import check_env as gymnasium_check_env
 from gymnasium.utils.passive_env_checker import env_render_passive_checker
 from pettingzoo.test import parallel_api_test
 from stable_baselines3.common.env_checker import check_env as sb3_check_env
-from test_scenarios import FEATURE, road
+from test_scenarios import FEATURE, bend_network, road
 
 from sumo_rail.config import Config
 from sumo_rail.drivers.expert import make_expert
 from sumo_rail.learning.sb3.shared_road import RespawningRoad, env_seeds, shared_road_vec_env
-from sumo_rail.sim import network
 from sumo_rail.sim.env import HighwayEnv
 from sumo_rail.sim.observation import observation_space
 from sumo_rail.sim.parallel_env import ParallelHighwayEnv
@@ -36,20 +34,7 @@ KINDS = ["merge", "merge_from_ramp", "lane_drop", "exit"]
 def user_network(tmp_path_factory, small_config_module) -> Config:
     """A user's network built with netconvert: a bend where the road narrows from 3 lanes to 2 (as in
     test_scenarios.test_a_user_network_built_with_netconvert_is_driven_along_its_route)."""
-    folder = tmp_path_factory.mktemp("user_network")
-    (folder / "road.nod.xml").write_text(
-        '<nodes><node id="a" x="0" y="0"/><node id="b" x="900" y="0"/><node id="c" x="1500" y="400"/></nodes>')
-    (folder / "road.edg.xml").write_text(
-        '<edges><edge id="first" from="a" to="b" numLanes="3" speed="30"/>'
-        '<edge id="second" from="b" to="c" numLanes="2" speed="30"/></edges>')
-    net = folder / "road.net.xml"
-    subprocess.run([network.sumo_binary("netconvert"), "--node-files", str(folder / "road.nod.xml"),
-                    "--edge-files", str(folder / "road.edg.xml"), "-o", str(net), "--no-turnarounds", "true"],
-                   check=True, capture_output=True)
-    return small_config_module.with_overrides({
-        "scenario": {"kind": "network", "network": str(net), "route": "first second", "lanes": 3,
-                     "flow_veh_per_h": 1500.0},
-        "observation": {"route_block": 1}})
+    return bend_network(tmp_path_factory.mktemp("user_network"), small_config_module)
 
 
 @pytest.fixture(params=[*KINDS, "network"])

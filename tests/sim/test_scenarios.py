@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import dataclasses
 import subprocess
+from pathlib import Path
 
 import libsumo
 import numpy as np
@@ -125,20 +126,26 @@ def test_a_driver_that_ignores_the_route_stops_at_the_lane_end_and_fails(small_c
     assert reward <= env.config.env.collision_reward + 1.0
 
 
-def test_a_user_network_built_with_netconvert_is_driven_along_its_route(small_config, tmp_path):
-    """A bend where the road narrows from 3 lanes to 2, in a network of the user's own."""
-    (tmp_path / "road.nod.xml").write_text(
+def bend_network(folder: Path, config: Config) -> Config:
+    """`config` on a user's network built with netconvert in `folder`: a bend where the road narrows from 3 lanes
+    to 2, 1500 veh/h, with the route block."""
+    (folder / "road.nod.xml").write_text(
         '<nodes><node id="a" x="0" y="0"/><node id="b" x="900" y="0"/><node id="c" x="1500" y="400"/></nodes>')
-    (tmp_path / "road.edg.xml").write_text(
+    (folder / "road.edg.xml").write_text(
         '<edges><edge id="first" from="a" to="b" numLanes="3" speed="30"/>'
         '<edge id="second" from="b" to="c" numLanes="2" speed="30"/></edges>')
-    net = tmp_path / "road.net.xml"
-    subprocess.run([network.sumo_binary("netconvert"), "--node-files", str(tmp_path / "road.nod.xml"),
-                    "--edge-files", str(tmp_path / "road.edg.xml"), "-o", str(net), "--no-turnarounds", "true"],
+    net = folder / "road.net.xml"
+    subprocess.run([network.sumo_binary("netconvert"), "--node-files", str(folder / "road.nod.xml"),
+                    "--edge-files", str(folder / "road.edg.xml"), "-o", str(net), "--no-turnarounds", "true"],
                    check=True, capture_output=True)
-    config = small_config.with_overrides({"scenario": {"kind": "network", "network": str(net), "route": "first second",
-                                                       "lanes": 3, "flow_veh_per_h": 1500.0},
-                                          "observation": {"route_block": 1}})
+    return config.with_overrides({"scenario": {"kind": "network", "network": str(net), "route": "first second",
+                                               "lanes": 3, "flow_veh_per_h": 1500.0},
+                                  "observation": {"route_block": 1}})
+
+
+def test_a_user_network_built_with_netconvert_is_driven_along_its_route(small_config, tmp_path):
+    """A bend where the road narrows from 3 lanes to 2, in a network of the user's own."""
+    config = bend_network(tmp_path, small_config)
     env = HighwayEnv(config)
     try:
         info, positions, lane_ids = drive(env, 1)
