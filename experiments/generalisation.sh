@@ -10,8 +10,9 @@
 # experiments/generalisation_table.py makes the tables and the figure.
 # Usage: experiments/generalisation.sh [OUT_DIR]   (resumable: what is written is skipped, DAgger runs resume)
 #   (environment: KINDS, SEEDS, DEMOS_EPISODES, MIX_EPISODES (per road), DAGGER_ROUNDS, ROUND_EPISODES,
-#   TEST_EPISODES, EXPERT_EPISODES (the expert alone on each road), DENSITIES (veh/h), RAIL_KINDS (default
-#   "straight"; "" skips RAIL), RAIL_ITERATIONS, WORKERS)
+#   TEST_EPISODES, DENSITIES (veh/h), RAIL_KINDS (default every road; "" skips RAIL), RAIL_ITERATIONS, WORKERS)
+# The expert drives the test episodes once, in each road's (a) evaluation (and in each density's): the other files
+# hold the learners only, on the same episodes (the table pairs them by episode seed).
 set -euo pipefail
 out=${1:-results/generalisation}
 kinds=${KINDS:-straight merge merge_from_ramp lane_drop exit}
@@ -21,9 +22,8 @@ mix_episodes=${MIX_EPISODES:-20}
 dagger_rounds=${DAGGER_ROUNDS:-5}
 round_episodes=${ROUND_EPISODES:-20}
 test_episodes=${TEST_EPISODES:-100}
-expert_episodes=${EXPERT_EPISODES:-250}
 densities=${DENSITIES:-2000 6000}
-rail_kinds=${RAIL_KINDS-straight}
+rail_kinds=${RAIL_KINDS-$kinds}
 rail_iterations=${RAIL_ITERATIONS:-40}
 workers=${WORKERS:-2}
 sumo_rail=${SUMO_RAIL:-.venv/bin/sumo-rail}
@@ -45,10 +45,6 @@ rail_drivers() {  # the RAIL policies trained on KIND
   local kind=$1 seed
   for seed in $seeds; do printf -- '--policy %s ' "$out/$kind/rail_s$seed/policy_latest.npz"; done
 }
-# the expert alone on every road, the full test set (EXPERT_EPISODES=0: skipped)
-for kind in $kinds; do
-  [ "$expert_episodes" -gt 0 ] && evaluate "$out/expert_$kind.parquet" "$kind" "$expert_episodes" --policy expert
-done
 # (a) trained and tested on each road
 for kind in $kinds; do
   mkdir -p "$out/$kind"
@@ -70,7 +66,7 @@ done
 for kind in $kinds; do
   [ "$kind" = straight ] && continue
   # shellcheck disable=SC2046
-  evaluate "$out/b_$kind.parquet" "$kind" "$test_episodes" --policy expert $(drivers straight)
+  evaluate "$out/b_$kind.parquet" "$kind" "$test_episodes" $(drivers straight)
 done
 for flow in $densities; do
   # shellcheck disable=SC2046
@@ -95,7 +91,7 @@ for seed in $seeds; do
   mix_policies+=(--policy "$run/policy_bc.npz")
 done
 for kind in $kinds; do
-  evaluate "$out/c_$kind.parquet" "$kind" "$test_episodes" --policy expert "${mix_policies[@]}"
+  evaluate "$out/c_$kind.parquet" "$kind" "$test_episodes" "${mix_policies[@]}"
 done
 # (d) what the route block is worth: DAgger (and its BC) without it on every road with a feature, tested as (a)
 if [ "${NO_ROUTE:-1}" = 1 ]; then
@@ -114,8 +110,7 @@ if [ "${NO_ROUTE:-1}" = 1 ]; then
       touch "$run/.done"
       policies+=(--policy "$run/policy_bc.npz" --policy "$run/policy_latest.npz")
     done
-    evaluate "$out/d_$kind.parquet" "$kind" "$test_episodes" --set observation.route_block=0 --policy expert \
-      "${policies[@]}"
+    evaluate "$out/d_$kind.parquet" "$kind" "$test_episodes" --set observation.route_block=0 "${policies[@]}"
   done
 fi
 # (e) RAIL trained on each of RAIL_KINDS, tested as (a); the straight road's also as (b)
@@ -129,16 +124,16 @@ for kind in $rail_kinds; do
     touch "$run/.done"
   done
   # shellcheck disable=SC2046
-  evaluate "$out/rail_a_$kind.parquet" "$kind" "$test_episodes" --policy expert $(rail_drivers "$kind")
+  evaluate "$out/rail_a_$kind.parquet" "$kind" "$test_episodes" $(rail_drivers "$kind")
   [ "$kind" = straight ] || continue
   for other in $kinds; do
     # shellcheck disable=SC2046
-    [ "$other" = straight ] || evaluate "$out/rail_b_$other.parquet" "$other" "$test_episodes" --policy expert \
+    [ "$other" = straight ] || evaluate "$out/rail_b_$other.parquet" "$other" "$test_episodes" \
       $(rail_drivers straight)
   done
   for flow in $densities; do
     # shellcheck disable=SC2046
     evaluate "$out/rail_b_straight_$flow.parquet" straight "$test_episodes" --set "scenario.flow_veh_per_h=$flow" \
-      --policy expert $(rail_drivers straight)
+      $(rail_drivers straight)
   done
 done

@@ -1,4 +1,4 @@
-"""The generalisation table (experiments/generalisation.sh): the expert on every road; BC and DAgger (and RAIL where
+"""The generalisation table (experiments/generalisation.sh): the expert on every road (its rows of each (a) file); BC and DAgger (and RAIL where
 it was trained: rail_*.parquet) trained and tested on each road (a), trained on the straight road and tested on the
 others and at densities it never saw (b), BC trained on a mix of roads (c), and trained without the route block (d);
 each method pooled over its training seeds (experiments/seeded.py), with paired differences (b) - (a), (c) - (a) and
@@ -87,8 +87,9 @@ def rail_comparisons(out: Path) -> list[str]:
 def expert_table(out: Path) -> list[str]:
     lines = ["| road | episodes | " + " | ".join(EXPERT_MEASURES) + " |", "|---|---|" + "---|" * len(EXPERT_MEASURES)]
     for kind in KINDS:
-        metrics = read(out, f"expert_{kind}")
-        if metrics is None:
+        own = read(out, f"a_{kind}")  # the expert drives each road's test episodes in its (a) evaluation
+        metrics = None if own is None else own[own["policy"].str.startswith("expert-")]
+        if metrics is None or metrics.empty:
             continue
         found = samples(metrics)
         cells = [interval(found[name]).format(2) if name in found else "-" for name in EXPERT_MEASURES]
