@@ -43,13 +43,16 @@ DAGGER = "sumo_rail.learning.dagger"
 @click.option("--beta-decay", cls=SettingOption, type=click.FloatRange(0, 1),
               default=setting_default(DAGGER, "DaggerSettings.beta_decay"), show_default=True,
               help="beta of round r: beta x beta-decay^(r - 1).")
+@click.option("--roads", default="", metavar="KIND[,KIND...]",
+              help="Spread each round's episodes over these roads (scenario kinds) in turn: DAgger on a mix of roads, "
+                   "e.g. straight,merge,exit [default: the configured road].")
 @egos_option("Episodes of a round")
 @expert_option("Who labels the learner's states [default: the demonstrations' expert].", default=None)
 @run_folder_options("round", eval_every=1)
 @tensorboard_option
 def dagger_command(config: Config, demos: Path, kind: str, hidden: int,
                    bc_epochs: int, bc_class_balance: float, rounds: int, episodes_per_round: int, beta: float,
-                   beta_decay: float, egos: int, expert: str | None, workers: int, backend_name: str,
+                   beta_decay: float, roads: str, egos: int, expert: str | None, workers: int, backend_name: str,
                    address: str | None, seed: int, eval_every: int, eval_episodes: int, out: Path, resume: bool,
                    tensorboard_dir: Path | None) -> None:
     """Learn a driving policy with DAgger: BC on the demonstrations, then rounds in which the expert labels every
@@ -68,7 +71,8 @@ def dagger_command(config: Config, demos: Path, kind: str, hidden: int,
     try:
         settings = DaggerSettings(str(demos), kind, hidden, episodes_per_round, beta, beta_decay,
                                   BcSettings(epochs=max(bc_epochs, 1), class_balance=bc_class_balance, seed=seed),
-                                  seed, expert, egos)
+                                  seed, expert, egos, tuple(road.strip() for road in roads.split(",") if road.strip()))
+        settings.round_configs(config)  # every road known, with the configured road's observation
     except ValueError as error:
         raise click.UsageError(str(error)) from error
     check_egos(config, egos)

@@ -1,12 +1,13 @@
 #!/usr/bin/env bash
 # The generalisation table (issue 35, docs/results.md "Roads the drivers never saw"): on every road, the expert's
-# demonstrations, then BC and DAgger (one `dagger` run gives both: its policy_bc.npz is the BC row) with several seeds,
+# demonstrations, then BC and DAgger (one `dagger` run gives both: its policy_bc.npz is the BC row) and RAIL (the
+# benchmark's settings, N = 32 for 40 iterations on 8 respawning egos a road, from the road's BC) with several seeds,
 # in the recommended setting with the route block; every driver evaluated on the same held-out test episodes of
-# (a) the road it was trained on, (b) for the straight road's drivers, every other road and two traffic densities it
-# never saw, (c) BC trained on a mix of every road's demonstrations, on each road, and (d) without the route
-# block on each road with a feature (what lacking it costs; NO_ROUTE=0 skips it), and (e) RAIL (the benchmark's
-# settings, N = 32 for 40 iterations, on 8 respawning egos a road) trained on RAIL_KINDS and tested as (a) and, for
-# the straight road's runs, as (b): rail_a_KIND.parquet and rail_b_*.parquet, on the same episodes as the others.
+# (a) the road it was trained on (RAIL's in rail_a_KIND: the straight road's before (b), the other roads' last),
+# (b) for the straight road's drivers (RAIL's included), every other road and two traffic densities it never saw,
+# (c) BC and DAgger trained on a mix of every road (demonstrations of each; DAgger's rounds on each road in turn,
+# `dagger --roads`), on each road, and (d) without the route block on each road with a feature (what lacking it
+# costs; NO_ROUTE=0 skips it).
 # experiments/generalisation_table.py makes the tables and the figure.
 # Usage: experiments/generalisation.sh [OUT_DIR]   (resumable: what is written is skipped, DAgger runs resume)
 #   (environment: KINDS, SEEDS, DEMOS_EPISODES, MIX_EPISODES (per road), DAGGER_ROUNDS, ROUND_EPISODES,
@@ -35,17 +36,31 @@ evaluate() {  # evaluate OUT_FILE KIND EPISODES [--set ...] --policy ...
   [ -f "$file" ] || $sumo_rail evaluate "${setting[@]}" --set "scenario.kind=$kind" --episodes "$episodes" \
     --seed 1000 --workers "$workers" --out "$file" "$@"
 }
-drivers() {  # the BC and DAgger policies trained on KIND
+drivers() {  # the policies trained on KIND: BC and DAgger, and RAIL where it is trained
   local kind=$1 seed
   for seed in $seeds; do
     printf -- '--policy %s --policy %s ' "$out/$kind/dagger_s$seed/policy_bc.npz" "$out/$kind/dagger_s$seed/policy_latest.npz"
+    [ -f "$out/$kind/rail_s$seed/.done" ] && printf -- '--policy %s ' "$out/$kind/rail_s$seed/policy_latest.npz"
+  done
+  return 0
+}
+rail() {  # RAIL trained on KIND (three seeds), from the road's demonstrations
+  local kind=$1 seed run resume
+  for seed in $seeds; do
+    run="$out/$kind/rail_s$seed"
+    resume=(); [ -f "$run/checkpoint.pt" ] && resume=(--resume)
+    [ -f "$run/.done" ] || $sumo_rail train "${setting[@]}" --set "scenario.kind=$kind" --demos "$out/$kind/demos.parquet" \
+      --policy mlp --directions 32 --iterations "$rail_iterations" --eval-every 0 --egos 8 --rollout-decisions 171 \
+      --workers "$workers" --seed "$seed" --out "$run" "${resume[@]}"
+    touch "$run/.done"
   done
 }
 rail_drivers() {  # the RAIL policies trained on KIND
   local kind=$1 seed
   for seed in $seeds; do printf -- '--policy %s ' "$out/$kind/rail_s$seed/policy_latest.npz"; done
 }
-# (a) trained and tested on each road
+in_rail_kinds() { [[ " $rail_kinds " == *" $1 "* ]]; }
+# (a) trained and tested on each road (BC and DAgger; RAIL of the straight road too, before (b) uses it)
 for kind in $kinds; do
   mkdir -p "$out/$kind"
   demos="$out/$kind/demos.parquet"
@@ -62,6 +77,12 @@ for kind in $kinds; do
   # shellcheck disable=SC2046  # the policies are several words on purpose
   evaluate "$out/a_$kind.parquet" "$kind" "$test_episodes" --policy expert $(drivers "$kind")
 done
+# RAIL of the straight road, tested as (a), before (b) takes it to the other roads
+if in_rail_kinds straight; then
+  rail straight
+  # shellcheck disable=SC2046
+  evaluate "$out/rail_a_straight.parquet" straight "$test_episodes" $(rail_drivers straight)
+fi
 # (b) the straight road's drivers on every other road, and on the straight road at other densities
 for kind in $kinds; do
   [ "$kind" = straight ] && continue
@@ -73,7 +94,7 @@ for flow in $densities; do
   evaluate "$out/b_straight_$flow.parquet" straight "$test_episodes" --set "scenario.flow_veh_per_h=$flow" \
     --policy expert $(drivers straight)
 done
-# (c) BC trained on a mix of every road, tested on each
+# (c) BC and DAgger trained on a mix of every road (demonstrations of each, DAgger's rounds on each in turn)
 mixed=()
 for kind in $kinds; do
   part="$out/$kind/demos_mix.parquet"
@@ -82,16 +103,18 @@ for kind in $kinds; do
   mixed+=("$part")
 done
 [ -f "$out/mix_demos.parquet" ] || $python experiments/mix_demos.py "$out/mix_demos.parquet" "${mixed[@]}"
-mix_policies=()
+roads=$(echo $kinds | tr ' ' ,)
 for seed in $seeds; do
-  run="$out/mix/bc_s$seed"
-  [ -f "$run/.done" ] || $sumo_rail dagger "${setting[@]}" --demos "$out/mix_demos.parquet" --rounds 0 \
-    --eval-every 0 --workers "$workers" --seed "$seed" --out "$run"
+  run="$out/mix/dagger_s$seed"
+  resume=(); [ -f "$run/checkpoint.json" ] && resume=(--resume)
+  [ -f "$run/.done" ] || $sumo_rail dagger "${setting[@]}" --demos "$out/mix_demos.parquet" --roads "$roads" \
+    --rounds "$dagger_rounds" --episodes-per-round "$round_episodes" --eval-every 0 --workers "$workers" \
+    --seed "$seed" --out "$run" "${resume[@]}"
   touch "$run/.done"
-  mix_policies+=(--policy "$run/policy_bc.npz")
 done
 for kind in $kinds; do
-  evaluate "$out/c_$kind.parquet" "$kind" "$test_episodes" "${mix_policies[@]}"
+  # shellcheck disable=SC2046
+  evaluate "$out/c_$kind.parquet" "$kind" "$test_episodes" $(drivers mix)
 done
 # (d) what the route block is worth: DAgger (and its BC) without it on every road with a feature, tested as (a)
 if [ "${NO_ROUTE:-1}" = 1 ]; then
@@ -113,27 +136,10 @@ if [ "${NO_ROUTE:-1}" = 1 ]; then
     evaluate "$out/d_$kind.parquet" "$kind" "$test_episodes" --set observation.route_block=0 "${policies[@]}"
   done
 fi
-# (e) RAIL trained on each of RAIL_KINDS, tested as (a); the straight road's also as (b)
+# (e) RAIL trained on each other road of RAIL_KINDS, tested as (a) on the same episodes: rail_a_KIND.parquet
 for kind in $rail_kinds; do
-  for seed in $seeds; do
-    run="$out/$kind/rail_s$seed"
-    resume=(); [ -f "$run/checkpoint.pt" ] && resume=(--resume)
-    [ -f "$run/.done" ] || $sumo_rail train "${setting[@]}" --set "scenario.kind=$kind" --demos "$out/$kind/demos.parquet" \
-      --policy mlp --directions 32 --iterations "$rail_iterations" --eval-every 0 --egos 8 --rollout-decisions 171 \
-      --workers "$workers" --seed "$seed" --out "$run" "${resume[@]}"
-    touch "$run/.done"
-  done
+  [ "$kind" = straight ] && continue
+  rail "$kind"
   # shellcheck disable=SC2046
   evaluate "$out/rail_a_$kind.parquet" "$kind" "$test_episodes" $(rail_drivers "$kind")
-  [ "$kind" = straight ] || continue
-  for other in $kinds; do
-    # shellcheck disable=SC2046
-    [ "$other" = straight ] || evaluate "$out/rail_b_$other.parquet" "$other" "$test_episodes" \
-      $(rail_drivers straight)
-  done
-  for flow in $densities; do
-    # shellcheck disable=SC2046
-    evaluate "$out/rail_b_straight_$flow.parquet" straight "$test_episodes" --set "scenario.flow_veh_per_h=$flow" \
-      $(rail_drivers straight)
-  done
 done

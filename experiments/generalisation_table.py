@@ -1,9 +1,9 @@
-"""The generalisation table (experiments/generalisation.sh): the expert on every road (its rows of each (a) file); BC and DAgger (and RAIL where
-it was trained: rail_*.parquet) trained and tested on each road (a), trained on the straight road and tested on the
-others and at densities it never saw (b), BC trained on a mix of roads (c), and trained without the route block (d);
-each method pooled over its training seeds (experiments/seeded.py), with paired differences (b) - (a), (c) - (a) and
-(d) - (a) on the same test episodes, and RAIL against BC and DAgger on the same episodes. Prints Markdown; writes the
-figure.
+"""The generalisation table (experiments/generalisation.sh): the expert on every road (its rows of each (a) file);
+BC, DAgger and RAIL (its rail_*.parquet evaluations) trained and tested on each road (a), trained on the straight road
+and tested on the others and at densities it never saw (b), BC and DAgger trained on a mix of roads (c), and trained
+without the route block (d); each method pooled over its training seeds (experiments/seeded.py), with paired
+differences (b) - (a), (c) - (a) and (d) - (a) on the same test episodes, and RAIL against BC and DAgger on the same
+episodes. Prints Markdown; writes the figure.
 
 Usage: python experiments/generalisation_table.py OUT_DIR [FIGURE.png]
 """
@@ -26,7 +26,7 @@ from sumo_rail.evaluation.summary import measure_samples
 
 KINDS = ("straight", "merge", "merge_from_ramp", "lane_drop", "exit")
 METHODS = {"BC": ("dagger", "policy_bc"), "DAgger": ("dagger", "policy_latest"), "RAIL": ("rail", "policy_latest")}
-MIX = {"BC, mixed roads": ("bc", "policy_bc")}
+MIX = {"BC, mixed roads": ("dagger", "policy_bc"), "DAgger, mixed roads": ("dagger", "policy_latest")}
 NO_ROUTE = {"BC": ("no_route", "policy_bc"), "DAgger": ("no_route", "policy_latest")}
 SHOWN = ("agreement", "average_speed_kmh", "lane_changes", "failures", "merges")
 PLOTTED = ("agreement", "failures")
@@ -65,22 +65,25 @@ def read(out: Path, name: str) -> pd.DataFrame | None:
 
 
 def rail_comparisons(out: Path) -> list[str]:
-    """RAIL minus BC and minus DAgger, paired by training seed and episode, wherever RAIL was evaluated."""
+    """RAIL minus BC and minus DAgger, paired by training seed and episode, wherever RAIL was evaluated ((a) and
+    (b) evaluations, with their rail_ part)."""
     lines = ["| tested on | trained on | RAIL - BC: agreement / failed episodes | RAIL - DAgger: agreement / failed "
              "episodes |", "|---|---|---|---|"]
-    for path in sorted(out.glob("rail_*.parquet")):
-        if path.name.endswith(".decisions.parquet"):
-            continue
-        name = path.stem.removeprefix("rail_")
+    names = sorted({path.stem.removeprefix("rail_") for path in out.glob("*.parquet")
+                    if path.stem.removeprefix("rail_").startswith(("a_", "b_")) and "decisions" not in path.name})
+    for name in names:
         metrics = read(out, name)
         rail = per_seed(metrics, "rail", "policy_latest")
+        if not rail:
+            continue
         cells = []
         for method, policy in (METHODS["BC"], METHODS["DAgger"]):
             theirs = per_seed(metrics, method, policy)
             cells.append(" / ".join(difference_cell(rail, theirs, measure, 3 if measure == "agreement" else 2)
                                     for measure in ("agreement", "failures")) if len(theirs) == len(rail) else "-")
         condition, _, road = name.partition("_")
-        lines.append(f"| {road} | {'(a) ' + road if condition == 'a' else '(b) straight'} | " + " | ".join(cells) + " |")
+        trained_on = f"(a) {road}" if condition == "a" else "(b) straight"
+        lines.append(f"| {road} | {trained_on} | " + " | ".join(cells) + " |")
     return lines
 
 
@@ -110,7 +113,7 @@ def method_rows(metrics: pd.DataFrame, reference: pd.DataFrame | None, road: str
         cells = [value_cell(mine, name, 3 if name == "agreement" else 2) for name in SHOWN]
         difference = ""
         if reference is not None:
-            ref_method, ref_policy = reference_methods.get(label, reference_methods["BC"])
+            ref_method, ref_policy = reference_methods[label.split(",")[0]]  # "DAgger, mixed roads": DAgger's
             theirs = per_seed(reference, ref_method, ref_policy)
             if len(theirs) == len(mine):
                 difference = " / ".join(difference_cell(mine, theirs, name, 3 if name == "agreement" else 2)
@@ -187,9 +190,10 @@ def main(out: Path, figure_path: Path | None) -> None:
     figure: dict[tuple[str, str, str], tuple[float, float, float]] = {}
     print("\n### Learned drivers on roads they saw and never saw\n")
     print("\n".join(generalisation_table(out, figure)))
-    if any(out.glob("rail_*.parquet")):
+    comparisons = rail_comparisons(out)
+    if len(comparisons) > 2:
         print("\n### RAIL against BC and DAgger on the same episodes\n")
-        print("\n".join(rail_comparisons(out)))
+        print("\n".join(comparisons))
     if figure_path is not None and figure:
         plot(figure, figure_path)
         print(f"\n(figure: {figure_path})")

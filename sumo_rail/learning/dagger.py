@@ -26,7 +26,7 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from sumo_rail.config import Config
+from sumo_rail.config import Config, ConfigError
 from sumo_rail.datasets import read_metadata, write_bytes_atomically, write_parquet
 from sumo_rail.drivers.policies import Policy, PolicyShape, save_policy
 from sumo_rail.learning.bc import IMITATION_BC, BcReport, BcSettings, behaviour_cloning
@@ -68,6 +68,9 @@ class DaggerSettings:
     """Who labels: a style or a policy file (`experts.resolve_expert`); None: the demonstrations' expert."""
     egos: int = 1
     """Egos per simulation: a round's episodes run K at a time in one SUMO (`DaggerTask`)."""
+    roads: tuple[str, ...] = ()
+    """Roads (scenario kinds) a round's simulations are spread over in turn, simulation j on roads[j mod len]: DAgger
+    on a mix of roads. Empty: every simulation on the configured road."""
 
     def __post_init__(self) -> None:
         if self.episodes_per_round < 1 or self.egos < 1:
@@ -80,7 +83,20 @@ class DaggerSettings:
         return self.beta * self.beta_decay ** (round_ - 1)
 
     def to_dict(self) -> dict[str, Any]:
-        return dataclasses.asdict(self)
+        return {**dataclasses.asdict(self), "roads": list(self.roads)}  # as run.json reads it back
+
+    def round_configs(self, config: Config) -> list[Config]:
+        """The config of each road a round's simulations take in turn (`roads`); ConfigError for an unknown road
+        or one whose observation differs from the configured road's."""
+        if not self.roads:
+            return [config]
+        configs = [config.with_overrides({"scenario": {"kind": road}}) for road in self.roads]
+        size = observation_space(config).shape[0]
+        for road, road_config in zip(self.roads, configs, strict=True):
+            if observation_space(road_config).shape[0] != size:
+                raise ConfigError(f"road {road!r} gives {observation_space(road_config).shape[0]} observation "
+                                  f"values, the configured road {size}")
+        return configs
 
 
 @dataclass(frozen=True)
@@ -171,7 +187,8 @@ def train_dagger(folder: Path, settings: DaggerSettings, config: Config, rounds:
         beta = settings.beta_of(round_)
         seeds = episode_seeds(Purpose.TRAIN, 10_000_000 * (settings.seed + 1) + round_ * settings.episodes_per_round,
                               settings.episodes_per_round)
-        labelled = _round_episodes(backend, config, policy, expert, beta, seeds, settings.egos, on_episode)
+        labelled = _round_episodes(backend, settings.round_configs(config), policy, expert, beta, seeds,
+                                   settings.egos, on_episode)
         dataset = _aggregate(dataset, labelled)
         policy, report = behaviour_cloning(dataset, shape, settings.bc)
         logs.append(_row(round_, sum(len(e.labels) for e in labelled), sum(e.policy_decisions for e in labelled),
@@ -184,12 +201,13 @@ def train_dagger(folder: Path, settings: DaggerSettings, config: Config, rounds:
     return policy
 
 
-def _round_episodes(backend: RolloutBackend, config: Config, policy: Policy, expert: DriverSpec, beta: float,
+def _round_episodes(backend: RolloutBackend, configs: list[Config], policy: Policy, expert: DriverSpec, beta: float,
                     seeds: list[int], egos: int, on_episode: Callable[[int, Any], None] | None,
                     ) -> list[LabelledEpisode]:
-    """A round's labelled episodes, `egos` seeds to a road."""
-    shared = backend.run([DaggerTask(config, policy, expert, beta, group) for group in shared_groups(seeds, egos)],
-                         on_result=on_episode)
+    """A round's labelled episodes, `egos` seeds to a simulation, the simulations on `configs`' roads in turn."""
+    groups = shared_groups(seeds, egos)
+    shared = backend.run([DaggerTask(configs[j % len(configs)], policy, expert, beta, group)
+                          for j, group in enumerate(groups)], on_result=on_episode)
     return [episode for episodes in shared for episode in episodes]
 
 
@@ -232,7 +250,7 @@ def _save(folder: Path, round_: int, dataset: Demonstrations, policy: Policy, lo
 
 def _resume(folder: Path, run_record: dict[str, Any]) -> tuple[int, Demonstrations, list[dict[str, Any]]]:
     checkpoint_path = folder / "checkpoint.json"
-    check_resumable(folder, checkpoint_path.name, run_record, {"expert": None, "egos": 1})
+    check_resumable(folder, checkpoint_path.name, run_record, {"expert": None, "egos": 1, "roads": []})
     try:
         checkpoint = json.loads(checkpoint_path.read_text())
         done = int(checkpoint["round"])

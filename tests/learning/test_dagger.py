@@ -173,3 +173,35 @@ def test_the_dagger_options_default_to_its_settings():
     for name in ("episodes_per_round", "beta", "beta_decay"):
         assert params[name] == getattr(DaggerSettings("d.parquet"), name), name
     assert params["eval_episodes"] == Validation().episodes
+
+
+def test_a_round_on_a_mix_of_roads_takes_the_roads_in_turn(tmp_path, demos):
+    """`roads`: a round's simulations take the roads in turn, each labelled episode driven on its own road; a resumed
+    run keeps its roads."""
+    config = CONFIG.with_overrides({"scenario": {"feature_at_m": 700.0}})
+    mixed = settings(demos, roads=("straight", "exit"), beta=1.0)  # the expert drives: each episode is its recording
+    backend = TaskRecordingBackend()
+    with backend:
+        train_dagger(tmp_path / "run", mixed, config, 1, backend, resume=False, validation=Validation(0))
+        assert [task.config.scenario.kind for task in backend.tasks] == ["straight", "exit"]
+        seeds = [task.seeds[0] for task in backend.tasks]
+        recorded = backend.run([EpisodeTask(config.with_overrides({"scenario": {"kind": road}}), ExpertDriver("normal"),
+                                            seed, record=True) for road, seed in zip(mixed.roads, seeds, strict=True)])
+        on_straight, = backend.run([EpisodeTask(config, ExpertDriver("normal"), seeds[1], record=True)])
+    dataset = pq.read_table(tmp_path / "run" / "dataset.parquet").to_pandas()
+    first = int(pq.read_table(demos).column("episode").to_numpy().max()) + 1
+    for offset, episode in enumerate(recorded):
+        labelled = np.stack(dataset[dataset["episode"] == first + offset]["observation"].to_list())
+        assert np.array_equal(labelled, episode.steps["observation"])
+    assert len(on_straight.steps["observation"]) != len(recorded[1].steps["observation"]) or not np.array_equal(
+        on_straight.steps["observation"], recorded[1].steps["observation"])  # the exit's episode is not the straight's
+    train_dagger(tmp_path / "run", mixed, config, 2, SerialBackend(), resume=True, validation=Validation(0))
+    with pytest.raises(RunError, match="other settings"):
+        train_dagger(tmp_path / "run", settings(demos, beta=1.0), config, 3, SerialBackend(), resume=True)
+
+
+def test_an_unknown_road_in_the_mix_is_a_usage_error(tmp_path, demos):
+    result = invoke("dagger", *SMALL, "--demos", str(demos), "--roads", "straight,roundabout", "--out",
+                    str(tmp_path / "run"))
+    assert result.exit_code == 2 and "unknown scenario.kind 'roundabout'" in result.output
+    assert not (tmp_path / "run").exists()
