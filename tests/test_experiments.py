@@ -96,3 +96,22 @@ def test_disagreements_split_by_kind_and_pool_training_seeds():
     assert table.loc["dagger", "expert changes speed, learner keeps"] == pytest.approx(1 / 3)
     assert table.loc["bc_mlp", "expert changes lane, learner does not"] == 0.5
     assert table.loc["bc_mlp", "other"] == pytest.approx(0.5)  # accelerate against decelerate
+
+
+def test_the_generalisation_table_pairs_each_mixed_method_with_its_own_road_run(tmp_path: Path):
+    """(c)'s DAgger is compared with (a)'s DAgger, not its BC, on the same episodes; the expert's row is read from
+    the (a) evaluation it drove in."""
+    import pandas as pd
+    from generalisation_table import expert_table, generalisation_table
+
+    own = pd.read_parquet(Path(__file__).parent.parent / "docs/results/generalisation/data/a_exit.parquet")
+    own.to_parquet(tmp_path / "a_exit.parquet")
+    learners = own[own["policy"].str.startswith("dagger_")]
+    learners.to_parquet(tmp_path / "c_exit.parquet")  # the same drivers: every (c) - (a) difference is 0
+    lines = generalisation_table(tmp_path, {})
+    mixed = {line.split(" | ")[1]: line for line in lines if "(c) every road" in line}
+    assert set(mixed) == {"BC, mixed roads", "DAgger, mixed roads"}
+    for line in mixed.values():
+        assert line.rstrip(" |").split(" | ")[-1].startswith("+0.000 [+0.000, +0.000]")
+    expert_rows = own[own["policy"].str.startswith("expert-")]
+    assert f"| exit | {len(expert_rows)} |" in "\n".join(expert_table(tmp_path))
