@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -12,12 +13,14 @@ from sumo_rail_cli.options import (
     check_egos,
     check_output,
     check_run_folder,
+    checked_roads,
     egos_option,
     episode_options,
     expert_option,
     imitation_options,
     output_options,
     resolve_expert_option,
+    roads_option,
     run_folder_options,
     tensorboard_option,
 )
@@ -237,10 +240,12 @@ def _write_videos(videos: dict[str, bytes], video_dir: Path | None) -> list[str]
 @search_options
 @click.option("--iterations", type=click.IntRange(min=1), default=200, show_default=True,
               help="Iterations in total (with --resume: including those already done).")
+@roads_option("the directions' rollouts")
 @run_folder_options("iteration", eval_every=10)
 @tensorboard_option
 def train_command(config: Config, demos: Path, kind: str, hidden: int,
-                  bc_epochs: int, bc_class_balance: float, search: SearchOptions, iterations: int, workers: int,
+                  bc_epochs: int, bc_class_balance: float, search: SearchOptions, iterations: int, roads: str,
+                  workers: int,
                   backend_name: str, address: str | None, seed: int, eval_every: int, eval_episodes: int, out: Path,
                   resume: bool, tensorboard_dir: Path | None) -> None:
     """Learn a driving policy from demonstrations with RAIL (BC initialisation, then ARS with an LS-GAN reward)."""
@@ -251,6 +256,7 @@ def train_command(config: Config, demos: Path, kind: str, hidden: int,
     check_egos(config, search.egos)
     check_run_folder(out)
     rail, discriminator = search.settings(seed)
+    rail = dataclasses.replace(rail, roads=checked_roads(config, roads))
     settings = RunSettings(str(demos), kind, hidden, bc_epochs, rail, discriminator, bc_class_balance)
     backend = build_backend(backend_name, workers, address)
     bar = progress(iterations, "training", unit="iteration")

@@ -11,10 +11,12 @@ from sumo_rail_cli.options import (
     build_backend,
     check_egos,
     check_run_folder,
+    checked_roads,
     egos_option,
     expert_option,
     imitation_options,
     resolve_expert_option,
+    roads_option,
     run_folder_options,
     setting_default,
     tensorboard_option,
@@ -43,9 +45,7 @@ DAGGER = "sumo_rail.learning.dagger"
 @click.option("--beta-decay", cls=SettingOption, type=click.FloatRange(0, 1),
               default=setting_default(DAGGER, "DaggerSettings.beta_decay"), show_default=True,
               help="beta of round r: beta x beta-decay^(r - 1).")
-@click.option("--roads", default="", metavar="KIND[,KIND...]",
-              help="Spread each round's episodes over these roads (scenario kinds) in turn: DAgger on a mix of roads, "
-                   "e.g. straight,merge,exit [default: the configured road].")
+@roads_option("each round's episodes")
 @egos_option("Episodes of a round")
 @expert_option("Who labels the learner's states [default: the demonstrations' expert].", default=None)
 @run_folder_options("round", eval_every=1)
@@ -71,8 +71,7 @@ def dagger_command(config: Config, demos: Path, kind: str, hidden: int,
     try:
         settings = DaggerSettings(str(demos), kind, hidden, episodes_per_round, beta, beta_decay,
                                   BcSettings(epochs=max(bc_epochs, 1), class_balance=bc_class_balance, seed=seed),
-                                  seed, expert, egos, tuple(road.strip() for road in roads.split(",") if road.strip()))
-        settings.round_configs(config)  # every road known, with the configured road's observation
+                                  seed, expert, egos, checked_roads(config, roads))
     except ValueError as error:
         raise click.UsageError(str(error)) from error
     check_egos(config, egos)

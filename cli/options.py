@@ -142,6 +142,29 @@ def egos_option(shared: str, note: str = "") -> Callable[[Callable[..., Any]], C
                              f"{' ' + note if note else ''}")
 
 
+def roads_option(shared: str) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
+    """--roads KIND[,KIND...]: `shared` (e.g. "a round's episodes") take these roads in turn; the command receives
+    them checked (`checked_roads`) as a tuple of road names."""
+    return click.option("--roads", default="", metavar="KIND[,KIND...]",
+                        help=f"Spread {shared} over these roads (scenario kinds) in turn: learning on a mix of roads, "
+                             f"e.g. straight,merge,exit; each is the configured road with only scenario.kind "
+                             f"replaced [default: the configured road].")
+
+
+def checked_roads(config: Config, roads: str) -> tuple[str, ...]:
+    """The road names of --roads; a usage error (exit 2) for an unknown road or one whose observation is not the
+    configured road's size."""
+    from sumo_rail.config import ConfigError
+    from sumo_rail.runners.road_mix import parse_roads, road_configs
+
+    names = parse_roads(roads)
+    try:
+        road_configs(config, names)
+    except ConfigError as error:
+        raise click.BadParameter(str(error), param_hint="'--roads'") from error
+    return names
+
+
 def check_egos(config: Config, egos: int) -> None:
     """A usage error when `egos` egos do not fit on the configuration's road."""
     from sumo_rail.sim.starts import start_slots

@@ -5,13 +5,14 @@
 # in the recommended setting with the route block; every driver evaluated on the same held-out test episodes of
 # (a) the road it was trained on (RAIL's in rail_a_KIND: the straight road's before (b), the other roads' last),
 # (b) for the straight road's drivers (RAIL's included), every other road and two traffic densities it never saw,
-# (c) BC and DAgger trained on a mix of every road (demonstrations of each; DAgger's rounds on each road in turn,
-# `dagger --roads`), on each road, and (d) without the route block on each road with a feature (what lacking it
-# costs; NO_ROUTE=0 skips it).
+# (c) BC, DAgger and RAIL trained on a mix of every road (demonstrations of each; DAgger's rounds and RAIL's
+# directions on each road in turn, `--roads`; RAIL_MIX=0 skips RAIL's), on each road, and (d) without the route
+# block on each road with a feature (what lacking it costs; NO_ROUTE=0 skips it).
 # experiments/generalisation_table.py makes the tables and the figure.
 # Usage: experiments/generalisation.sh [OUT_DIR]   (resumable: what is written is skipped, DAgger runs resume)
 #   (environment: KINDS, SEEDS, DEMOS_EPISODES, MIX_EPISODES (per road), DAGGER_ROUNDS, ROUND_EPISODES,
-#   TEST_EPISODES, DENSITIES (veh/h), RAIL_KINDS (default every road; "" skips RAIL), RAIL_ITERATIONS, WORKERS)
+#   TEST_EPISODES, DENSITIES (veh/h), RAIL_KINDS (default every road; "" skips RAIL), RAIL_MIX, RAIL_ITERATIONS,
+#   WORKERS)
 # The expert drives the test episodes once, in each road's (a) evaluation (and in each density's): the other files
 # hold the learners only, on the same episodes (the table pairs them by episode seed).
 set -euo pipefail
@@ -44,14 +45,14 @@ drivers() {  # the policies trained on KIND: BC and DAgger, and RAIL where it is
   done
   return 0
 }
-rail() {  # RAIL trained on KIND (three seeds), from the road's demonstrations
-  local kind=$1 seed run resume
+rail() {  # rail KIND DEMOS [OPTION ...]: RAIL (three seeds) into OUT/KIND, from DEMOS' BC
+  local kind=$1 demos=$2 seed run resume; shift 2
   for seed in $seeds; do
     run="$out/$kind/rail_s$seed"
     resume=(); [ -f "$run/checkpoint.pt" ] && resume=(--resume)
-    [ -f "$run/.done" ] || $sumo_rail train "${setting[@]}" --set "scenario.kind=$kind" --demos "$out/$kind/demos.parquet" \
-      --policy mlp --directions 32 --iterations "$rail_iterations" --eval-every 0 --egos 8 --rollout-decisions 171 \
-      --workers "$workers" --seed "$seed" --out "$run" "${resume[@]}"
+    [ -f "$run/.done" ] || $sumo_rail train "${setting[@]}" --demos "$demos" --policy mlp --directions 32 \
+      --iterations "$rail_iterations" --eval-every 0 --egos 8 --rollout-decisions 171 --workers "$workers" \
+      --seed "$seed" --out "$run" "${resume[@]}" "$@"
     touch "$run/.done"
   done
 }
@@ -79,7 +80,7 @@ for kind in $kinds; do
 done
 # RAIL of the straight road, tested as (a), before (b) takes it to the other roads
 if in_rail_kinds straight; then
-  rail straight
+  rail straight "$out/straight/demos.parquet" --set scenario.kind=straight
   # shellcheck disable=SC2046
   evaluate "$out/rail_a_straight.parquet" straight "$test_episodes" $(rail_drivers straight)
 fi
@@ -94,7 +95,8 @@ for flow in $densities; do
   evaluate "$out/b_straight_$flow.parquet" straight "$test_episodes" --set "scenario.flow_veh_per_h=$flow" \
     --policy expert $(drivers straight)
 done
-# (c) BC and DAgger trained on a mix of every road (demonstrations of each, DAgger's rounds on each in turn)
+# (c) BC, DAgger and RAIL trained on a mix of every road (demonstrations of each; DAgger's rounds and RAIL's
+# directions on each road in turn)
 mixed=()
 for kind in $kinds; do
   part="$out/$kind/demos_mix.parquet"
@@ -112,6 +114,7 @@ for seed in $seeds; do
     --seed "$seed" --out "$run" "${resume[@]}"
   touch "$run/.done"
 done
+[ "${RAIL_MIX:-1}" = 1 ] && [ -n "$rail_kinds" ] && rail mix "$out/mix_demos.parquet" --roads "$roads"
 for kind in $kinds; do
   # shellcheck disable=SC2046
   evaluate "$out/c_$kind.parquet" "$kind" "$test_episodes" $(drivers mix)
@@ -139,7 +142,7 @@ fi
 # (e) RAIL trained on each other road of RAIL_KINDS, tested as (a) on the same episodes: rail_a_KIND.parquet
 for kind in $rail_kinds; do
   [ "$kind" = straight ] && continue
-  rail "$kind"
+  rail "$kind" "$out/$kind/demos.parquet" --set "scenario.kind=$kind"
   # shellcheck disable=SC2046
   evaluate "$out/rail_a_$kind.parquet" "$kind" "$test_episodes" $(rail_drivers "$kind")
 done

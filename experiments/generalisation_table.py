@@ -1,9 +1,9 @@
 """The generalisation table (experiments/generalisation.sh): the expert on every road (its rows of each (a) file);
 BC, DAgger and RAIL (its rail_*.parquet evaluations) trained and tested on each road (a), trained on the straight road
-and tested on the others and at densities it never saw (b), BC and DAgger trained on a mix of roads (c), and trained
-without the route block (d); each method pooled over its training seeds (experiments/seeded.py), with paired
-differences (b) - (a), (c) - (a) and (d) - (a) on the same test episodes, and RAIL against BC and DAgger on the same
-episodes. Prints Markdown; writes the figure.
+and tested on the others and at densities it never saw (b), trained on a mix of roads (c), and trained without the
+route block (d); each method pooled over its training seeds (experiments/seeded.py), with paired differences (b) - (a),
+(c) - (a) and (d) - (a) on the same test episodes, and RAIL against BC and DAgger on the same episodes. Prints
+Markdown; writes the figure.
 
 Usage: python experiments/generalisation_table.py OUT_DIR [FIGURE.png]
 """
@@ -26,7 +26,8 @@ from sumo_rail.evaluation.summary import measure_samples
 
 KINDS = ("straight", "merge", "merge_from_ramp", "lane_drop", "exit")
 METHODS = {"BC": ("dagger", "policy_bc"), "DAgger": ("dagger", "policy_latest"), "RAIL": ("rail", "policy_latest")}
-MIX = {"BC, mixed roads": ("dagger", "policy_bc"), "DAgger, mixed roads": ("dagger", "policy_latest")}
+MIX = {"BC, mixed roads": ("dagger", "policy_bc"), "DAgger, mixed roads": ("dagger", "policy_latest"),
+       "RAIL, mixed roads": ("rail", "policy_latest")}
 NO_ROUTE = {"BC": ("no_route", "policy_bc"), "DAgger": ("no_route", "policy_latest")}
 SHOWN = ("agreement", "average_speed_kmh", "lane_changes", "failures", "merges")
 PLOTTED = ("agreement", "failures")

@@ -26,12 +26,13 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from sumo_rail.config import Config, ConfigError
+from sumo_rail.config import Config
 from sumo_rail.datasets import read_metadata, write_bytes_atomically, write_parquet
 from sumo_rail.drivers.policies import Policy, PolicyShape, save_policy
 from sumo_rail.learning.bc import IMITATION_BC, BcReport, BcSettings, behaviour_cloning
 from sumo_rail.learning.run_folder import (
     RunError,
+    as_json,
     check_resumable,
     demos_record,
     signals_deferred,
@@ -40,6 +41,7 @@ from sumo_rail.learning.run_folder import (
 from sumo_rail.learning.validation import Validation, validate, validation_columns, with_validation_columns
 from sumo_rail.runners.backends import RolloutBackend, WorkerContext
 from sumo_rail.runners.experts import demonstrations_expert, resolve_expert
+from sumo_rail.runners.road_mix import road_configs
 from sumo_rail.runners.rollout import Driver, DriverSpec, run_shared_episode, shared_groups
 from sumo_rail.runners.tables import Demonstrations, provenance, read_demonstrations
 from sumo_rail.seeding import Purpose, episode_seeds
@@ -83,20 +85,7 @@ class DaggerSettings:
         return self.beta * self.beta_decay ** (round_ - 1)
 
     def to_dict(self) -> dict[str, Any]:
-        return {**dataclasses.asdict(self), "roads": list(self.roads)}  # as run.json reads it back
-
-    def round_configs(self, config: Config) -> list[Config]:
-        """The config of each road a round's simulations take in turn (`roads`); ConfigError for an unknown road
-        or one whose observation differs from the configured road's."""
-        if not self.roads:
-            return [config]
-        configs = [config.with_overrides({"scenario": {"kind": road}}) for road in self.roads]
-        size = observation_space(config).shape[0]
-        for road, road_config in zip(self.roads, configs, strict=True):
-            if observation_space(road_config).shape[0] != size:
-                raise ConfigError(f"road {road!r} gives {observation_space(road_config).shape[0]} observation "
-                                  f"values, the configured road {size}")
-        return configs
+        return as_json(dataclasses.asdict(self))
 
 
 @dataclass(frozen=True)
@@ -187,7 +176,7 @@ def train_dagger(folder: Path, settings: DaggerSettings, config: Config, rounds:
         beta = settings.beta_of(round_)
         seeds = episode_seeds(Purpose.TRAIN, 10_000_000 * (settings.seed + 1) + round_ * settings.episodes_per_round,
                               settings.episodes_per_round)
-        labelled = _round_episodes(backend, settings.round_configs(config), policy, expert, beta, seeds,
+        labelled = _round_episodes(backend, road_configs(config, settings.roads), policy, expert, beta, seeds,
                                    settings.egos, on_episode)
         dataset = _aggregate(dataset, labelled)
         policy, report = behaviour_cloning(dataset, shape, settings.bc)

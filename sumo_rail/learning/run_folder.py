@@ -123,6 +123,11 @@ def check_same_demos(folder: Path, recorded: str, digest: str | None, run_record
                    f"deleted), and {given} holds other ones; resume it with --demos naming the file it started with")
 
 
+def as_json(settings: dict[str, Any]) -> dict[str, Any]:
+    """`settings` as run.json reads them back (tuples as lists), so a resumed run compares like with like."""
+    return json.loads(json.dumps(settings))
+
+
 def with_defaults(stored: dict[str, Any], defaults: dict[str, Any]) -> dict[str, Any]:
     """`stored` settings with the settings added since it was written filled in from `defaults` (nested dicts
     merged), so a run started before an option existed resumes as what it was: a run at that option's default."""

@@ -21,7 +21,7 @@ One iteration t:
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -33,6 +33,7 @@ from sumo_rail.drivers.policies import Policy, PolicyShape
 from sumo_rail.learning.rail.ars import FITNESS_SHAPINGS, NoiseAdaptation, adapt_noise, ars_update
 from sumo_rail.learning.rail.noise import direction, directions, noise_for_flip_rate
 from sumo_rail.learning.rail.normalize import RunningStats
+from sumo_rail.runners.road_mix import road_configs
 from sumo_rail.runners.rollout import (
     Driver,
     DriverSpec,
@@ -98,6 +99,9 @@ class RailSettings:
     """When set, nu is chosen at every iteration so that the iteration's perturbations change this share of the
     policy's decisions on CALIBRATION_STATES of the expert's states (`noise.noise_for_flip_rate`), in place of the
     paper's nu schedule (`noise`)."""
+    roads: tuple[str, ...] = ()
+    """Roads (scenario kinds) the directions take in turn, direction k's rollouts on roads[k mod len]: RAIL on a mix
+    of roads (`runners.road_mix`). Empty: every rollout on the configured road."""
 
     def __post_init__(self) -> None:
         if self.directions < 1:
@@ -275,15 +279,17 @@ def rollout_return(rewards: np.ndarray, collided: bool, horizon: int, lowest_rew
 def run_rollouts(policy: Policy, config: Config, noise_seed: int, iteration: int, nu: float,
                  seeds: list[tuple[int, ...]], expert: DriverSpec | None, egos: int, backend: RolloutBackend,
                  on_rollout: Callable[[int, Any], None] | None = None,
-                 decisions: int | None = None) -> list[list[Trajectory]]:
+                 decisions: int | None = None, roads: Sequence[Config] = ()) -> list[list[Trajectory]]:
     """The 2N rollouts of theta +- nu delta_k (k < len(seeds), direction k on its episode `seeds[k]`), in the order
-    (0, +), (0, -), (1, +), ...: `egos` consecutive rollouts per road, sharing the episode seeds of the first one's
-    direction (`RolloutTask`; `decisions`: its budget of decisions per rollout); `on_rollout(index, rollouts)` as
-    each road's rollouts arrive."""
+    (0, +), (0, -), (1, +), ...: `egos` consecutive rollouts per simulation, sharing the episode seeds and the road of
+    the first one's direction (`RolloutTask`; `decisions`: its budget of decisions per rollout; `roads`: the configs
+    direction k takes in turn, roads[k mod len], else `config`); `on_rollout(index, rollouts)` as each simulation's
+    rollouts arrive."""
     members = [(k, sign) for k in range(len(seeds)) for sign in (1, -1)]
-    fields = (config, policy.shape, policy.parameters, policy.observation_mean, policy.observation_std, noise_seed,
-              iteration)
-    shared = backend.run([RolloutTask(*fields, group, nu, seeds[group[0][0]], expert, decisions)
+    configs = list(roads) or [config]
+    fields = (policy.shape, policy.parameters, policy.observation_mean, policy.observation_std, noise_seed, iteration)
+    shared = backend.run([RolloutTask(configs[group[0][0] % len(configs)], *fields, group, nu, seeds[group[0][0]],
+                                      expert, decisions)
                           for group in shared_groups(members, egos)], on_result=on_rollout)
     return [rollout for group in shared for rollout in group]
 
@@ -343,7 +349,7 @@ def run_iteration(state: TrainingState, shape: PolicyShape, config: Config, sett
         asked = ExpertDriver(expert.metadata.get("style") or DEFAULT_STYLE)
     policy = Policy(shape, state.parameters, mean, std)
     rollouts = run_rollouts(policy, config, noise_seed, state.iteration, state.nu, seeds, asked, settings.egos,
-                            backend, on_rollout, settings.rollout_decisions)
+                            backend, on_rollout, settings.rollout_decisions, road_configs(config, settings.roads))
     trajectories = [trajectory for rollout in rollouts for trajectory in rollout]
     policy_observations = np.concatenate([t.observations for t in trajectories])
     policy_actions = np.concatenate([t.actions for t in trajectories])

@@ -31,6 +31,7 @@ from sumo_rail.learning.rail.iteration import RailSettings, TrainingState, run_i
 from sumo_rail.learning.rail.normalize import RunningStats
 from sumo_rail.learning.run_folder import (
     RunError,
+    as_json,
     check_resumable,
     demos_record,
     load_checkpoint,
@@ -60,7 +61,7 @@ class RunSettings:
     """`BcSettings.class_balance`."""
 
     def to_dict(self) -> dict[str, Any]:
-        return dataclasses.asdict(self)
+        return as_json(dataclasses.asdict(self))
 
 
 def train(folder: Path, settings: RunSettings, config: Config, iterations: int, backend: RolloutBackend,
@@ -169,8 +170,9 @@ def _resume(folder: Path, run_record: dict[str, Any], shape: PolicyShape,
     """The state and log of the last complete iteration; reads run.json and checkpoint.pt and writes nothing. A
     damaged, foreign or mismatched file is a RunError naming it."""
     path = folder / "checkpoint.pt"
-    check_resumable(folder, path.name, run_record, {"rail": dataclasses.asdict(RailSettings()),
-                                                   "discriminator": dataclasses.asdict(DiscriminatorSettings())})
+    defaults = {"rail": dataclasses.asdict(RailSettings()),
+                "discriminator": dataclasses.asdict(DiscriminatorSettings())}
+    check_resumable(folder, path.name, run_record, as_json(defaults))
     checkpoint = load_checkpoint(path, CHECKPOINT_FORMAT)
     try:
         rng = np.random.default_rng()

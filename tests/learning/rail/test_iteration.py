@@ -159,3 +159,18 @@ def test_a_rollout_of_decisions_scores_its_reward_per_decision_not_per_life():
     assert agreement_returns(crashed, 100, per_decision=True)[0] == 10 / 110  # the crash fills its life to 100
     with pytest.raises(ValueError, match="--rollout-decisions"):
         RailSettings(rollout_decisions=200, episodes_per_rollout=2)
+
+
+@pytest.mark.parametrize("egos", [1, 2, 4])
+def test_a_mix_of_roads_puts_both_signs_of_a_direction_on_one_road(egos):
+    roads = ("straight", "exit", "merge")
+    backend, _, _ = iterate(RailSettings(directions=6, egos=egos, roads=roads))
+    found: dict[int, set[str]] = {}
+    for task in backend.tasks:
+        assert task.config.scenario.kind == roads[task.members[0][0] % len(roads)]  # the first direction's road
+        for index, _ in task.members:
+            found.setdefault(index, set()).add(task.config.scenario.kind)
+    assert sorted(found) == list(range(6)) and all(len(kinds) == 1 for kinds in found.values())
+    assert set().union(*found.values()) == set(roads)
+    alone, _, _ = iterate(RailSettings(directions=6, egos=egos))
+    assert {task.config.scenario.kind for task in alone.tasks} == {"straight"}

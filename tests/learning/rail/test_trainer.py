@@ -84,7 +84,7 @@ def test_a_run_started_before_the_newer_options_resumes_at_their_defaults(tmp_pa
     with SerialBackend() as backend:
         train(tmp_path / "run", settings, small_config_module, 1, backend, resume=False)
         record = json.loads((tmp_path / "run" / "run.json").read_text())
-        for key in ("fitness", "flip_rate"):
+        for key in ("fitness", "flip_rate", "roads"):
             del record["settings"]["rail"][key]
         del record["settings"]["discriminator"]["reward_form"]
         (tmp_path / "run" / "run.json").write_text(json.dumps(record))

@@ -33,6 +33,7 @@ OPTIONS = {  # option: (value, where run.json's settings hold it, the value stor
     "--disc-penalty": ("0.16", ("discriminator", "gradient_penalty"), 0.16),
     "--disc-replay": ("12", ("discriminator", "replay"), 12),
     "--seed": ("13", ("rail", "seed"), 13),
+    "--roads": ("straight, straight", ("rail", "roads"), ["straight", "straight"]),
 }
 
 
