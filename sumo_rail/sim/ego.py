@@ -21,15 +21,17 @@ from sumo_rail.sim import kernels, lidar
 from sumo_rail.sim.actions import Action, command_for
 from sumo_rail.sim.period_safety import NO_READINGS, PeriodSafety
 from sumo_rail.sim.rewards import EpisodeMetrics, OvertakeCounter, lateral_reward, longitudinal_reward, relations
-from sumo_rail.sim.route_progress import RouteProgress, route_block, zip_merge_change
+from sumo_rail.sim.route_progress import RouteProgress, route_values, zip_merge_change
 from sumo_rail.sim.simulation import Simulation
-from sumo_rail.sim.traffic import TrafficView, lane_block
+from sumo_rail.sim.traffic import TrafficView
 from sumo_rail.sim.vehicles import EgoState, Neighbours, PeriodReport
 
 _ACTIONS = tuple(Action)
 _INTEGERS = (int, np.integer)
 CONTEXT_MARGIN_M = 20.0
 """Extra context-subscription radius [m] so that long vehicles whose front is just out of LIDAR range are seen."""
+_NO_ROUTE = (1.0, 0.0, 1.0, 1.0)
+"""Route values passed to the kernel when the observation has no route block (not written)."""
 StepResult = tuple[np.ndarray, float, bool, bool, dict[str, Any]]
 """(observation, reward, terminated, truncated, info) of one decision, as Gymnasium's `step` returns them."""
 
@@ -176,22 +178,17 @@ class Ego:
         return relations(ego.lane_position_m, ego.length_m, neighbours.lane_position_m, neighbours.length_m)
 
     def observation(self, ego: EgoState, neighbours: Neighbours, lane_change_in_progress: bool) -> np.ndarray:
-        """The observation, from the compiled kernel (the numpy `lidar.scan` + `build_observation` is its reference)."""
+        """The observation, from the compiled kernel (the numpy `lidar.scan` + `build_observation`, `lane_block` and
+        `route_block` are its reference)."""
         cfg = self.config
-        ego_row = np.array([ego.front_x, ego.front_y, ego.heading_rad, ego.length_m, ego.speed_mps,
-                            self.set_point_mps])
-        lane_bit = min(max(ego.lane, 0), cfg.scenario.lanes - 1)  # an acceleration lane or ramp (-1) reads as lane 0
-        observation = kernels.observation_vector(
+        route = (route_values(ego, cfg.observation.route_range_m, cfg.scenario.lanes) if cfg.observation.route_block
+                 else _NO_ROUTE)
+        return kernels.observation_vector(
             neighbours.front_xy, neighbours.heading_rad, neighbours.length_m, neighbours.width_m,
-            neighbours.speed_mps, self.edges, ego_row, lane_bit, lane_change_in_progress, cfg.lidar.beams,
-            cfg.lidar.range_m, cfg.env.v_min_mps, cfg.env.v_max_mps, cfg.scenario.lanes)
-        blocks = [observation]
-        if cfg.observation.lane_block:
-            traffic = TrafficView(ego, neighbours, self.set_point_mps, cfg.scenario.lanes)
-            blocks.append(lane_block(traffic, cfg.lidar.range_m, cfg.env.v_max_mps))
-        if cfg.observation.route_block:
-            blocks.append(route_block(ego, cfg.observation.route_range_m, cfg.scenario.lanes))
-        return np.concatenate(blocks) if len(blocks) > 1 else observation
+            neighbours.speed_mps, neighbours.lane_position_m, neighbours.lane, self.edges, ego.front_x, ego.front_y,
+            ego.heading_rad, ego.length_m, ego.speed_mps, self.set_point_mps, ego.lane_position_m, ego.lane,
+            lane_change_in_progress, cfg.lidar.beams, cfg.lidar.range_m, cfg.env.v_min_mps, cfg.env.v_max_mps,
+            cfg.scenario.lanes, cfg.observation.lane_block == 1, cfg.observation.route_block == 1, *route)
 
     def _totals(self) -> dict[str, Any]:
         m = self.metrics

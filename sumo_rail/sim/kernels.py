@@ -63,13 +63,12 @@ def _slab_entry(o_len: float, o_wid: float, d_len: float, d_wid: float, half_len
 
 
 @jit
-def observation_vector(front_xy: np.ndarray, heading_rad: np.ndarray, length_m: np.ndarray, width_m: np.ndarray,
-                       speed_mps: np.ndarray, edges: np.ndarray, ego: np.ndarray, lane: int, changing: bool,
-                       beams: int, range_m: float, v_min_mps: float, v_max_mps: float, lanes: int) -> np.ndarray:
-    """The float32 observation (layout in `observation`) from the neighbours' front bumpers, headings [rad],
-    sizes [m] and speeds [m/s], the road-edge boxes (S, 6) rows of centre x, y, unit axis x, y, half length and 0
-    [m], and `ego` = front x, front y [m], heading [rad], length [m], speed [m/s], cruise set-point [m/s]."""
-    front_x, front_y, heading, ego_length, ego_speed, set_point = ego[0], ego[1], ego[2], ego[3], ego[4], ego[5]
+def _lidar(front_xy: np.ndarray, heading_rad: np.ndarray, length_m: np.ndarray, width_m: np.ndarray,
+           speed_mps: np.ndarray, edges: np.ndarray, front_x: float, front_y: float, heading: float, ego_length: float,
+           ego_speed: float, beams: int, range_m: float, v_max_mps: float, observation: np.ndarray) -> None:
+    """Write the LIDAR part of the observation, [0, 2 * beams): each beam's distance / `range_m` and the relative
+    speed along it / `v_max_mps` [-]; neighbours and road edges as in `observation_vector`, the ego's front [m],
+    heading [rad], length [m] and speed [m/s]."""
     cos_h, sin_h = math.cos(heading), math.sin(heading)
     half = 0.5 * ego_length
     origin_x, origin_y = front_x - half * cos_h, front_y - half * sin_h
@@ -89,7 +88,6 @@ def observation_vector(front_xy: np.ndarray, heading_rad: np.ndarray, length_m: 
         dx, dy = origin_x - edges[k, 0], origin_y - edges[k, 1]
         frame[vehicles + k] = (axis_x * dx + axis_y * dy, -axis_y * dx + axis_x * dy, axis_x, axis_y, edges[k, 4],
                                edges[k, 5], 0.0, 0.0)
-    observation = np.zeros(2 * beams + 3 + lanes, dtype=np.float32)
     step = 2.0 * np.pi / beams
     inverse_range, inverse_v_max = 1.0 / range_m, 1.0 / v_max_mps
     for i in range(beams):
@@ -109,8 +107,79 @@ def observation_vector(front_xy: np.ndarray, heading_rad: np.ndarray, length_m: 
                 relative_speed = (frame[nearest, 6] - ego_vx) * ray_x + (frame[nearest, 7] - ego_vy) * ray_y
         observation[i] = min(distance * inverse_range, 1.0)
         observation[beams + i] = min(max(relative_speed * inverse_v_max, -1.0), 1.0)
+
+
+@jit
+def _lane_block(lane_position_m: np.ndarray, length_m: np.ndarray, lane: np.ndarray, speed_mps: np.ndarray,
+                ego_position: float, ego_length: float, ego_speed: float, ego_lane: int, lanes: int, range_m: float,
+                v_max_mps: float, observation: np.ndarray, start: int) -> None:
+    """Write the lane block (`traffic.lane_block`, its reference, operation for operation) at `start`: for the lanes
+    right of, at and left of the ego (route lanes), the gap to the nearest vehicle ahead / `range_m` and its speed
+    relative to the ego's / `v_max_mps`, then the same behind; the neighbours' fronts along the route [m], lengths
+    [m], route lanes and speeds [m/s]; the ego's front along the route [m], length [m], speed [m/s] and route lane."""
+    ego_rear = ego_position - ego_length
+    lowest = ego_lane - 1
+    nearest_rear = np.full(3, np.inf)  # per lane (right, own, left): the rear of the nearest vehicle ahead [m] ...
+    front_speed = np.full(3, np.inf)
+    nearest_front = np.full(3, -np.inf)  # ... and the front of the nearest one behind [m]
+    rear_speed = np.full(3, np.inf)
+    for j in range(len(lane)):
+        row = lane[j] - lowest
+        if not 0 <= row < 3:
+            continue
+        front = lane_position_m[j]
+        rear = front - length_m[j]
+        if rear > ego_position:
+            if rear < nearest_rear[row]:
+                nearest_rear[row], front_speed[row] = rear, speed_mps[j]
+        elif front < ego_rear and front > nearest_front[row]:
+            nearest_front[row], rear_speed[row] = front, speed_mps[j]
+    for row in range(3):
+        at = start + 4 * row
+        if not 0 <= lowest + row < lanes:
+            observation[at:at + 4] = 0.0
+            continue
+        _seen_gap(nearest_rear[row] - ego_position, front_speed[row] - ego_speed, range_m, v_max_mps, observation, at)
+        _seen_gap(ego_rear - nearest_front[row], rear_speed[row] - ego_speed, range_m, v_max_mps, observation, at + 2)
+
+
+@jit
+def _seen_gap(gap_m: float, relative_speed_mps: float, range_m: float, v_max_mps: float, observation: np.ndarray,
+              at: int) -> None:
+    """Write one gap [m] / `range_m` and its relative speed [m/s] / `v_max_mps` at `at`: (1, 0) beyond `range_m`."""
+    if gap_m <= range_m:
+        observation[at] = min(max(gap_m, 0.0) / range_m, 1.0)
+        observation[at + 1] = min(max(relative_speed_mps / v_max_mps, -1.0), 1.0)
+    else:
+        observation[at], observation[at + 1] = 1.0, 0.0
+
+
+@jit
+def observation_vector(front_xy: np.ndarray, heading_rad: np.ndarray, length_m: np.ndarray, width_m: np.ndarray,
+                       speed_mps: np.ndarray, lane_position_m: np.ndarray, lane: np.ndarray, edges: np.ndarray,
+                       front_x: float, front_y: float, heading: float, ego_length: float, ego_speed: float,
+                       set_point: float, ego_position: float, ego_lane: int, changing: bool, beams: int,
+                       range_m: float, v_min_mps: float, v_max_mps: float, lanes: int, lane_block: bool,
+                       route_block: bool, lane_end: float, lane_offset: float, merge_ahead: float,
+                       diverge_ahead: float) -> np.ndarray:
+    """The float32 observation (layout in `observation`) from the neighbours' front bumpers [m], headings [rad],
+    sizes [m], speeds [m/s], fronts along the route [m] and route lanes, the road-edge boxes (S, 6) rows of centre x,
+    y, unit axis x, y, half length and 0 [m], and the ego's front x, y [m], heading [rad], length [m], speed [m/s],
+    cruise set-point [m/s], front along the route [m] and route lane; with `lane_block` the lane block
+    (`_lane_block`) and with `route_block` the route block's four values (`route_progress.route_values`) follow."""
+    width = 2 * beams + 3 + lanes
+    observation = np.zeros(width + 12 * lane_block + 4 * route_block, dtype=np.float32)
+    _lidar(front_xy, heading_rad, length_m, width_m, speed_mps, edges, front_x, front_y, heading, ego_length,
+           ego_speed, beams, range_m, v_max_mps, observation)
     observation[2 * beams] = min(max(ego_speed / v_max_mps, 0.0), 2.0)
     observation[2 * beams + 1] = (set_point - v_min_mps) / (v_max_mps - v_min_mps)
-    observation[2 * beams + 2 + lane] = 1.0
-    observation[-1] = 1.0 if changing else 0.0
+    observation[2 * beams + 2 + min(max(ego_lane, 0), lanes - 1)] = 1.0  # an acceleration lane or ramp reads as 0
+    observation[width - 1] = 1.0 if changing else 0.0
+    if lane_block:
+        _lane_block(lane_position_m, length_m, lane, speed_mps, ego_position, ego_length, ego_speed, ego_lane, lanes,
+                    range_m, v_max_mps, observation, width)
+    if route_block:
+        at = width + 12 * lane_block
+        observation[at], observation[at + 1] = lane_end, lane_offset
+        observation[at + 2], observation[at + 3] = merge_ahead, diverge_ahead
     return observation

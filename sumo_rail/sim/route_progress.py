@@ -67,17 +67,22 @@ def zip_merge_change(route: RouteView, lane: int, target_lane: int, zip_merge_m:
     return offset != 0 and (target_lane - lane) * offset > 0 and route.lane_end(lane) <= zip_merge_m
 
 
-def route_block(ego: EgoState, range_m: float, lanes: int) -> np.ndarray:
-    """The route block of the observation (float32, `ROUTE_BLOCK_FIELDS`): how far the ego's lane leads along its
-    route / `range_m`, capped at 1; lanes to move to the nearest lane that leads farthest (positive = left) /
-    (lanes - 1), clipped to [-1, 1]; distances to the next merge and the next diverge / `range_m`, capped at 1 (1:
-    none within range)."""
+def route_values(ego: EgoState, range_m: float, lanes: int) -> tuple[float, float, float, float]:
+    """The route block's values (`ROUTE_BLOCK_FIELDS`, in [-1, 1]): how far the ego's lane leads along its route /
+    `range_m`, capped at 1; lanes to move to the nearest lane that leads farthest (positive = left) / (lanes - 1),
+    clipped to [-1, 1]; distances to the next merge and the next diverge / `range_m`, capped at 1 (1: none within
+    range)."""
     route = ego.route
     if route is None:
-        return np.array([1.0, 0.0, 1.0, 1.0], dtype=np.float32)
+        return 1.0, 0.0, 1.0, 1.0
     offset = route.best_lane_offset(ego.lane) / max(lanes - 1, 1)
-    return np.array([_share(route.lane_end(ego.lane), range_m), min(max(offset, -1.0), 1.0),
-                     _share(route.merge_ahead_m, range_m), _share(route.diverge_ahead_m, range_m)], dtype=np.float32)
+    return (_share(route.lane_end(ego.lane), range_m), min(max(offset, -1.0), 1.0),
+            _share(route.merge_ahead_m, range_m), _share(route.diverge_ahead_m, range_m))
+
+
+def route_block(ego: EgoState, range_m: float, lanes: int) -> np.ndarray:
+    """The route block of the observation: `route_values` as float32."""
+    return np.array(route_values(ego, range_m, lanes), dtype=np.float32)
 
 
 def _share(distance_m: float, range_m: float) -> float:

@@ -1,11 +1,16 @@
+import dataclasses
 import math
 
 import numpy as np
 import pytest
+from scenes import EGO_FRONT, view
 
 from sumo_rail.config import Config
 from sumo_rail.sim import kernels, lidar
 from sumo_rail.sim.observation import build_observation
+from sumo_rail.sim.road import RouteView
+from sumo_rail.sim.route_progress import route_block
+from sumo_rail.sim.traffic import lane_block
 
 CONFIG = Config()
 
@@ -24,9 +29,11 @@ def numpy_observation(front_xy, heading, length, width, speed, segments, ego, la
 def compiled_observation(front_xy, heading, length, width, speed, segments, ego, lane, changing):
     edges = lidar.edge_boxes(segments)
     packed = np.hstack([edges.centre_xy, edges.axis_xy, edges.half_size_m])
-    return kernels.observation_vector(front_xy, heading, length, width, speed, packed, np.array(ego), lane, changing,
+    count = len(heading)
+    return kernels.observation_vector(front_xy, heading, length, width, speed, np.zeros(count),
+                                      np.zeros(count, dtype=np.int64), packed, *ego, 0.0, lane, changing,
                                       CONFIG.lidar.beams, CONFIG.lidar.range_m, CONFIG.env.v_min_mps,
-                                      CONFIG.env.v_max_mps, CONFIG.scenario.lanes)
+                                      CONFIG.env.v_max_mps, CONFIG.scenario.lanes, False, False, 1.0, 0.0, 1.0, 1.0)
 
 
 def random_scene(rng: np.random.Generator, vehicles: int):
@@ -71,6 +78,35 @@ def test_kernel_sees_a_car_ahead_and_a_box_around_the_sensor():
     assert observation[beams] == np.float32(-10.0 / v_max) and np.all(observation[beams + 1:2 * beams] == 0.0)
     around = (np.array([[3.0, 0.0]]), np.zeros(1), np.array([6.0]), np.array([2.0]), np.array([30.0]))
     assert np.all(compiled_observation(*around, no_edges, ego, 2, True)[:beams] == 0.0)
+
+
+def test_kernel_lane_and_route_blocks_are_the_python_blocks_bit_for_bit_on_random_scenes():
+    rng = np.random.default_rng(3535)
+    no_edges = np.zeros((0, 6))
+    for _ in range(2000):
+        count, lanes = int(rng.integers(0, 25)), int(rng.integers(1, 6))
+        positions = EGO_FRONT + rng.uniform(-140.0, 140.0, count)
+        if count and rng.random() < 0.3:  # equal positions: the first of equals is the nearest
+            positions[rng.integers(0, count, count // 2)] = positions[0]
+        others = [(int(rng.integers(-1, lanes + 1)), float(position), float(rng.choice([4.5, 7.5, 12.0, 16.5])),
+                   float(rng.uniform(0.0, 40.0))) for position in positions]
+        traffic = view(others, lane=int(rng.integers(-1, lanes)), speed=float(rng.uniform(0.0, 40.0)), lanes=lanes)
+        neighbours = traffic.neighbours
+        if count and rng.random() < 0.2:  # a vehicle on a road not linked to the route
+            neighbours.lane_position_m[0], neighbours.lane[0] = -np.inf, -1000
+        ends = tuple(float(end) for end in rng.choice([np.inf, 50.0, 300.0, 900.0], lanes))
+        route = RouteView(0, lanes - 1, ends, float(rng.choice([np.inf, 80.0, 400.0])),
+                          float(rng.choice([np.inf, 120.0, 700.0])), 2000.0)
+        ego = dataclasses.replace(traffic.ego, route=route)
+        range_m, v_max_mps, route_range_m = float(rng.choice([50.0, 100.0])), float(rng.choice([33.33, 36.0])), 500.0
+        values = route_block(ego, route_range_m, lanes).astype(np.float64)
+        got = kernels.observation_vector(
+            neighbours.front_xy, neighbours.heading_rad, neighbours.length_m, neighbours.width_m, neighbours.speed_mps,
+            neighbours.lane_position_m, neighbours.lane, no_edges, ego.front_x, ego.front_y, ego.heading_rad,
+            ego.length_m, ego.speed_mps, 25.0, ego.lane_position_m, ego.lane, False, 8, range_m, 20.0, v_max_mps,
+            lanes, True, True, *values)
+        expected = np.concatenate([lane_block(traffic, range_m, v_max_mps), route_block(ego, route_range_m, lanes)])
+        assert got.dtype == np.float32 and got[2 * 8 + 3 + lanes:].tobytes() == expected.tobytes()
 
 
 def test_jit_compiles_without_a_cache_where_numba_cannot_write_one():
