@@ -195,9 +195,10 @@ def test_a_round_on_a_mix_of_roads_takes_the_roads_in_turn(tmp_path, demos):
         assert np.array_equal(labelled, episode.steps["observation"])
     assert len(on_straight.steps["observation"]) != len(recorded[1].steps["observation"]) or not np.array_equal(
         on_straight.steps["observation"], recorded[1].steps["observation"])  # the exit's episode is not the straight's
-    train_dagger(tmp_path / "run", mixed, config, 2, SerialBackend(), resume=True, validation=Validation(0))
-    with pytest.raises(RunError, match="other settings"):
-        train_dagger(tmp_path / "run", settings(demos, beta=1.0), config, 3, SerialBackend(), resume=True)
+    with SerialBackend() as serial:  # closed: its simulation runs in this process
+        train_dagger(tmp_path / "run", mixed, config, 2, serial, resume=True, validation=Validation(0))
+        with pytest.raises(RunError, match="other settings"):
+            train_dagger(tmp_path / "run", settings(demos, beta=1.0), config, 3, serial, resume=True)
 
 
 def test_an_unknown_road_in_the_mix_is_a_usage_error(tmp_path, demos):
