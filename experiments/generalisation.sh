@@ -114,11 +114,17 @@ for seed in $seeds; do
     --seed "$seed" --out "$run" "${resume[@]}"
   touch "$run/.done"
 done
-[ "${RAIL_MIX:-1}" = 1 ] && [ -n "$rail_kinds" ] && rail mix "$out/mix_demos.parquet" --roads "$roads"
 for kind in $kinds; do
   # shellcheck disable=SC2046
   evaluate "$out/c_$kind.parquet" "$kind" "$test_episodes" $(drivers mix)
 done
+if [ "${RAIL_MIX:-1}" = 1 ] && [ -n "$rail_kinds" ]; then  # RAIL on the mix, tested as (c): rail_c_KIND.parquet
+  rail mix "$out/mix_demos.parquet" --roads "$roads"
+  for kind in $kinds; do
+    # shellcheck disable=SC2046
+    evaluate "$out/rail_c_$kind.parquet" "$kind" "$test_episodes" $(rail_drivers mix)
+  done
+fi
 # (d) what the route block is worth: DAgger (and its BC) without it on every road with a feature, tested as (a)
 if [ "${NO_ROUTE:-1}" = 1 ]; then
   for kind in $kinds; do
