@@ -66,12 +66,12 @@ def read(out: Path, name: str) -> pd.DataFrame | None:
 
 
 def rail_comparisons(out: Path) -> list[str]:
-    """RAIL minus BC and minus DAgger, paired by training seed and episode, wherever RAIL was evaluated ((a) and
-    (b) evaluations, with their rail_ part)."""
+    """RAIL minus BC and minus DAgger, paired by training seed and episode, wherever RAIL was evaluated ((a), (b)
+    and (c) evaluations, with their rail_ part; in (c) each method trained on the mix)."""
     lines = ["| tested on | trained on | RAIL - BC: agreement / failed episodes | RAIL - DAgger: agreement / failed "
              "episodes |", "|---|---|---|---|"]
     names = sorted({path.stem.removeprefix("rail_") for path in out.glob("*.parquet")
-                    if path.stem.removeprefix("rail_").startswith(("a_", "b_")) and "decisions" not in path.name})
+                    if path.stem.removeprefix("rail_").startswith(("a_", "b_", "c_")) and "decisions" not in path.name})
     for name in names:
         metrics = read(out, name)
         rail = per_seed(metrics, "rail", "policy_latest")
@@ -83,7 +83,7 @@ def rail_comparisons(out: Path) -> list[str]:
             cells.append(" / ".join(difference_cell(rail, theirs, measure, 3 if measure == "agreement" else 2)
                                     for measure in ("agreement", "failures")) if len(theirs) == len(rail) else "-")
         condition, _, road = name.partition("_")
-        trained_on = f"(a) {road}" if condition == "a" else "(b) straight"
+        trained_on = {"a": f"(a) {road}", "b": "(b) straight", "c": "(c) every road"}[condition]
         lines.append(f"| {road} | {trained_on} | " + " | ".join(cells) + " |")
     return lines
 

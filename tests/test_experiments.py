@@ -115,3 +115,18 @@ def test_the_generalisation_table_pairs_each_mixed_method_with_its_own_road_run(
         assert line.rstrip(" |").split(" | ")[-1].startswith("+0.000 [+0.000, +0.000]")
     expert_rows = own[own["policy"].str.startswith("expert-")]
     assert f"| exit | {len(expert_rows)} |" in "\n".join(expert_table(tmp_path))
+
+
+def test_rail_is_compared_with_bc_and_dagger_of_its_own_training_condition(tmp_path: Path):
+    """(c)'s RAIL is paired with (c)'s BC and DAgger: the same drivers under both names give the same cells."""
+    import pandas as pd
+    from generalisation_table import rail_comparisons
+
+    data = Path(__file__).parent.parent / "docs/results/generalisation/data"
+    for condition in ("a", "c"):
+        for prefix in ("", "rail_"):
+            frame = pd.read_parquet(data / f"{prefix}a_merge.parquet")
+            frame.to_parquet(tmp_path / f"{prefix}{condition}_merge.parquet")
+    rows = {line.split(" | ")[1]: line.split(" | ", 2)[2] for line in rail_comparisons(tmp_path)[2:]}
+    assert set(rows) == {"(a) merge", "(c) every road"}
+    assert rows["(a) merge"] == rows["(c) every road"] and "[" in rows["(a) merge"]
