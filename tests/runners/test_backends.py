@@ -19,13 +19,7 @@ from typing import Any
 import pytest
 
 from sumo_rail.config import Config
-from sumo_rail.runners.backends import (
-    BackendError,
-    ProcessPoolBackend,
-    SerialBackend,
-    TaskError,
-    WorkerContext,
-)
+from sumo_rail.runners.backends import BackendError, ProcessPoolBackend, SerialBackend, TaskError, WorkerContext
 from sumo_rail.runners.factory import make_backend
 from sumo_rail.sim.actions import Action
 
