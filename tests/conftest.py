@@ -1,8 +1,9 @@
-"""Shared fixtures: a private cache per test session and a small, fast scenario."""
+"""Shared fixtures: a private cache per test session, a small, fast scenario and a small real workspace."""
 
 from __future__ import annotations
 
 import os
+import shutil
 from pathlib import Path
 
 import pytest
@@ -48,3 +49,22 @@ def demos_path(tmp_path_factory: pytest.TempPathFactory, small_config_module: Co
                                for s in seeds])
     write_parquet(demonstrations_table(results, seeds, 56), path, provenance(DEMONSTRATIONS, small_config_module, 0))
     return path
+
+
+@pytest.fixture(scope="session")
+def workspace_template(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A small real workspace, made once (`reliability.make_workspace`)."""
+    from reliability import make_workspace
+
+    folder = tmp_path_factory.mktemp("workspace")
+    make_workspace(folder)
+    return folder
+
+
+@pytest.fixture
+def workspace(workspace_template: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
+    """A copy of the small workspace, made the working directory (the run's settings hold relative paths)."""
+    folder = tmp_path / "workspace"
+    shutil.copytree(workspace_template, folder)
+    monkeypatch.chdir(folder)
+    return folder
