@@ -67,7 +67,11 @@ def check_route(net_file: Path, ego_route: tuple[str, ...], lanes: int) -> None:
     edge has `lanes` lanes (the observation's lane count)."""
     import sumolib
 
-    net = sumolib.net.readNet(str(net_file))
+    try:
+        net = sumolib.net.readNet(str(net_file))
+    except (KeyError, ValueError, IndexError, AttributeError, TypeError) as error:
+        raise ConfigError(f"scenario.network {net_file.name} is a damaged SUMO network: sumolib cannot read it "
+                          f"({type(error).__name__}: {error})") from error
     for edge in ego_route:
         if not net.hasEdge(edge):
             raise ConfigError(f"scenario.route's edge {edge!r} is not in {net_file.name}")

@@ -182,6 +182,13 @@ def test_bad_user_networks_name_the_problem(small_config, tmp_path):
         built(network=str(straight), route="highway nowhere")
     with pytest.raises(ConfigError, match=r"set --set scenario\.lanes=5"):
         built(network=str(straight), route="highway", lanes=3)
+    text = straight.read_text()
+    (tmp_path / "bad_length.net.xml").write_text(text.replace('length="', 'length="x', 1))
+    with pytest.raises(ConfigError, match="bad_length.net.xml is a damaged SUMO network"):
+        built(network=str(tmp_path / "bad_length.net.xml"), route="highway")
+    (tmp_path / "no_edge.net.xml").write_text(text.replace('</net>', '<connection from="highway" to="gone" fromLane="0" toLane="0"/></net>'))
+    with pytest.raises(ConfigError, match="no_edge.net.xml is a damaged SUMO network"):
+        built(network=str(tmp_path / "no_edge.net.xml"), route="highway")
 
 
 def test_a_crowded_start_is_drawn_again_the_same_way_for_every_driver(small_config, monkeypatch):
