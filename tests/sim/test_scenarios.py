@@ -184,10 +184,11 @@ def test_bad_user_networks_name_the_problem(small_config, tmp_path):
         built(network=str(straight), route="highway", lanes=3)
     text = straight.read_text()
     (tmp_path / "bad_length.net.xml").write_text(text.replace('length="', 'length="x', 1))
-    with pytest.raises(ConfigError, match="bad_length.net.xml is a damaged SUMO network"):
+    with pytest.raises(ConfigError, match=r"bad_length\.net\.xml is a damaged SUMO network"):
         built(network=str(tmp_path / "bad_length.net.xml"), route="highway")
-    (tmp_path / "no_edge.net.xml").write_text(text.replace('</net>', '<connection from="highway" to="gone" fromLane="0" toLane="0"/></net>'))
-    with pytest.raises(ConfigError, match="no_edge.net.xml is a damaged SUMO network"):
+    dangling = '<connection from="highway" to="gone" fromLane="0" toLane="0"/></net>'
+    (tmp_path / "no_edge.net.xml").write_text(text.replace("</net>", dangling))
+    with pytest.raises(ConfigError, match=r"no_edge\.net\.xml is a damaged SUMO network"):
         built(network=str(tmp_path / "no_edge.net.xml"), route="highway")
 
 
@@ -329,3 +330,9 @@ def test_a_flow_no_road_can_hold_is_refused_before_anything_runs(small_config):
         small_config.with_overrides({"scenario": {"flow_veh_per_h": 20000.0}})
     with pytest.raises(ConfigError, match=r"ramp_flow_veh_per_h must be between 0 and what one lane can carry"):
         small_config.with_overrides({"scenario": {"kind": "merge", **FEATURE, "ramp_flow_veh_per_h": 5000.0}})
+    with pytest.raises(ConfigError, match=r"more than the work zone's 1 lane can carry"):
+        small_config.with_overrides({"scenario": {"kind": "lane_drop", **FEATURE, "dropped_lanes": 4,
+                                                  "flow_veh_per_h": 12000.0}})
+    with pytest.raises(ConfigError, match=r"plus scenario\.ramp_flow_veh_per_h \(17000 veh/h\) is more than the 5"):
+        small_config.with_overrides({"scenario": {"kind": "merge", **FEATURE, "flow_veh_per_h": 14000.0,
+                                                  "ramp_flow_veh_per_h": 3000.0}})
