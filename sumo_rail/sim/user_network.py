@@ -15,7 +15,7 @@ import xml.etree.ElementTree as ElementTree
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from sumo_rail.config import ConfigError, ScenarioConfig
+from sumo_rail.config import LANE_CAPACITY_VEH_PER_H, ConfigError, ScenarioConfig
 from sumo_rail.datasets import sumo_version, write_bytes_atomically
 from sumo_rail.sim import scenarios
 
@@ -30,11 +30,15 @@ def build(scenario: ScenarioConfig, cache_root: Path, vehicle_types_file: Path) 
     net_file = Path(scenario.network).expanduser().resolve()
     ego_route = tuple(scenario.route.split())
     net_bytes = _network_bytes(net_file)
-    check_route(net_file, ego_route, scenario.lanes)
+    narrowest = check_route(net_file, ego_route, scenario.lanes)
     traffic_file = None
     if scenario.traffic_file:
         traffic_file = Path(scenario.traffic_file).expanduser().resolve()
         scenarios.read_source(traffic_file)
+    elif scenario.flow_veh_per_h > LANE_CAPACITY_VEH_PER_H * narrowest:
+        raise ConfigError(f"scenario.flow_veh_per_h ({scenario.flow_veh_per_h:g} veh/h) is more than the route's "
+                          f"narrowest edge in {net_file.name} ({narrowest} lane{'s' if narrowest > 1 else ''}) can "
+                          f"carry (about {LANE_CAPACITY_VEH_PER_H:g} veh/h a lane)")
     routes = scenarios.network_routes(scenario, scenarios.read_source(vehicle_types_file), ego_route,
                                       with_flow=traffic_file is None)
     digest = hashlib.sha256(json.dumps({"route": ego_route, "sumo": sumo_version(),
@@ -62,9 +66,9 @@ def _network_bytes(net_file: Path) -> bytes:
     return data
 
 
-def check_route(net_file: Path, ego_route: tuple[str, ...], lanes: int) -> None:
-    """ConfigError unless every edge of `ego_route` is in the network, each leads to the next, and the route's widest
-    edge has `lanes` lanes (the observation's lane count)."""
+def check_route(net_file: Path, ego_route: tuple[str, ...], lanes: int) -> int:
+    """The lane count of the route's narrowest edge; ConfigError unless every edge of `ego_route` is in the network,
+    each leads to the next, and the route's widest edge has `lanes` lanes (the observation's lane count)."""
     import sumolib
 
     try:
@@ -79,7 +83,8 @@ def check_route(net_file: Path, ego_route: tuple[str, ...], lanes: int) -> None:
         if net.getEdge(target) not in net.getEdge(source).getOutgoing():
             raise ConfigError(f"scenario.route is not connected: edge {source!r} does not lead to {target!r} in "
                               f"{net_file.name}")
-    widest = max(net.getEdge(edge).getLaneNumber() for edge in ego_route)
-    if widest != lanes:
-        raise ConfigError(f"scenario.lanes is {lanes} but the route's widest edge in {net_file.name} has {widest} "
-                          f"lanes; set --set scenario.lanes={widest}")
+    counts = [net.getEdge(edge).getLaneNumber() for edge in ego_route]
+    if max(counts) != lanes:
+        raise ConfigError(f"scenario.lanes is {lanes} but the route's widest edge in {net_file.name} has {max(counts)} "
+                          f"lanes; set --set scenario.lanes={max(counts)}")
+    return min(counts)
