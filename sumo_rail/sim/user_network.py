@@ -11,6 +11,7 @@ from __future__ import annotations
 import hashlib
 import itertools
 import json
+import subprocess
 import xml.etree.ElementTree as ElementTree
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -46,9 +47,14 @@ def build(scenario: ScenarioConfig, cache_root: Path, vehicle_types_file: Path) 
     digest.update(net_bytes + b"\0" + routes)
     directory = cache_root / "networks" / digest.hexdigest()[:16]
     routes_file = directory / "traffic.rou.xml"
+    loads = directory / "sumo_loads"  # written once SUMO has loaded these files
+    if not loads.exists():
+        check_sumo_loads(net_file, traffic_file)
     if not (routes_file.exists() and routes_file.read_bytes() == routes):
         directory.mkdir(parents=True, exist_ok=True)
         write_bytes_atomically(routes_file, routes)
+    if not loads.exists():
+        write_bytes_atomically(loads, b"")
     return BuiltNetwork(net_file, routes_file, directory, ego_route, traffic_file)
 
 
@@ -64,6 +70,21 @@ def _network_bytes(net_file: Path) -> bytes:
         raise ConfigError(f"scenario.network {net_file} is not a SUMO network (its root element is <{root.tag}>, "
                           f"not <net>)")
     return data
+
+
+def check_sumo_loads(net_file: Path, traffic_file: Path | None) -> None:
+    """ConfigError with SUMO's first error unless SUMO itself loads the network (and the traffic file): sumolib reads
+    files SUMO refuses, such as a lane without its shape."""
+    from sumo_rail.sim.network import sumo_binary
+
+    command = [sumo_binary("sumo"), "--net-file", str(net_file), "--end", "0", "--no-step-log", "true",
+               "--no-warnings", "true", *(["--route-files", str(traffic_file)] if traffic_file else [])]
+    result = subprocess.run(command, capture_output=True, text=True, check=False)
+    if result.returncode != 0:
+        errors = [line.removeprefix("Error: ").strip() for line in (result.stderr + result.stdout).splitlines()
+                  if line.startswith("Error: ")]
+        loaded = f"{net_file.name}{f' with {traffic_file.name}' if traffic_file else ''}"
+        raise ConfigError(f"SUMO cannot load scenario.network {loaded}: {errors[0] if errors else 'no output'}")
 
 
 def check_route(net_file: Path, ego_route: tuple[str, ...], lanes: int) -> int:

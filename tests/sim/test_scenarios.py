@@ -190,6 +190,9 @@ def test_bad_user_networks_name_the_problem(small_config, tmp_path):
     (tmp_path / "no_edge.net.xml").write_text(text.replace("</net>", dangling))
     with pytest.raises(ConfigError, match=r"no_edge\.net\.xml is a damaged SUMO network"):
         built(network=str(tmp_path / "no_edge.net.xml"), route="highway")
+    (tmp_path / "no_shape.net.xml").write_text(text.replace(' shape="', ' form="'))
+    with pytest.raises(ConfigError, match=r"SUMO cannot load scenario\.network no_shape\.net\.xml: .*shape"):
+        built(network=str(tmp_path / "no_shape.net.xml"), route="highway")
     bend = bend_network(tmp_path, small_config).with_overrides({"scenario": {"flow_veh_per_h": 7000.0}})
     with pytest.raises(ConfigError, match=r"more than the route's narrowest edge in road\.net\.xml \(2 lanes\)"):
         network.build(bend.scenario)
