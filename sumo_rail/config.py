@@ -113,6 +113,7 @@ class ScenarioConfig:
         _require(self.flow_veh_per_h <= LANE_CAPACITY_VEH_PER_H * self.lanes,
                  f"scenario.flow_veh_per_h ({self.flow_veh_per_h:g} veh/h) is more than {self.lanes} lanes can carry "
                  f"(about {LANE_CAPACITY_VEH_PER_H:g} veh/h a lane)")
+        self._validate_bottleneck()
         _require(0 < self.step_length_s <= 1.0, f"scenario.step_length_s must be in (0, 1] s, got {self.step_length_s}")
         _require(self.lane_change_duration_s >= 0,
                  f"scenario.lane_change_duration_s must not be negative, got {self.lane_change_duration_s}")
@@ -125,6 +126,20 @@ class ScenarioConfig:
         _require(self.snapshot_interval_s > 0,
                  f"scenario.snapshot_interval_s must be positive, got {self.snapshot_interval_s}")
         _require(0 <= self.traffic_seed < 2**31, f"scenario.traffic_seed must be in [0, 2^31), got {self.traffic_seed}")
+
+    def _validate_bottleneck(self) -> None:
+        """The traffic fits the road's narrowest part: the work zone's lanes, or the main road past the merge."""
+        if self.kind == "lane_drop":
+            zone_lanes = self.lanes - self.dropped_lanes
+            _require(self.flow_veh_per_h <= LANE_CAPACITY_VEH_PER_H * zone_lanes,
+                     f"scenario.flow_veh_per_h ({self.flow_veh_per_h:g} veh/h) is more than the work zone's "
+                     f"{zone_lanes} lane{'s' if zone_lanes > 1 else ''} can carry "
+                     f"(about {LANE_CAPACITY_VEH_PER_H:g} veh/h a lane)")
+        if self.kind in ("merge", "merge_from_ramp"):
+            total = self.flow_veh_per_h + self.ramp_flow_veh_per_h
+            _require(total <= LANE_CAPACITY_VEH_PER_H * self.lanes,
+                     f"scenario.flow_veh_per_h plus scenario.ramp_flow_veh_per_h ({total:g} veh/h) is more than the "
+                     f"{self.lanes} lanes past the merge can carry (about {LANE_CAPACITY_VEH_PER_H:g} veh/h a lane)")
 
     def _validate_feature(self) -> None:
         """The feature's settings: on the road, before its end, with lanes left over."""

@@ -45,9 +45,9 @@ def checked_action(action: Any, space: spaces.Discrete) -> Action:
 
 
 def edge_rows(sim: Simulation) -> np.ndarray:
-    """The road-edge boxes the LIDAR kernel sees, (S, 6) rows of centre x, y, axis x, y, half length, half width
-    [m]."""
-    edges = lidar.edge_boxes(sim.road_edges())
+    """The road-edge boxes the LIDAR kernel sees, the edges' sides then the junctions', (S, 6) rows of centre x, y,
+    axis x, y, half length, half width [m]."""
+    edges = lidar.edge_boxes(np.concatenate([sim.road_edges(), sim.junction_edges()]))
     return np.hstack([edges.centre_xy, edges.axis_xy, edges.half_size_m])
 
 

@@ -9,6 +9,7 @@ from typing import Any
 import numpy as np
 
 from sumo_rail.sim import network
+from sumo_rail.sim.junction_walls import junction_walls
 from sumo_rail.sim.road import UNPLACED, RouteMap
 from sumo_rail.sim.sumo_api import EGO_ID
 from sumo_rail.sim.vehicles import EgoState, Neighbours
@@ -97,13 +98,28 @@ class Sensing:
     def road_edges(self) -> np.ndarray:
         """The road's outer edges as line segments [m], shape (S, 2, 2): the right edges of the network's edges first,
         then their left edges (each edge's rightmost and leftmost lane's outer side)."""
-        lane, edge = self._api.lane, self._api.edge
-        rights, lefts = [], []
-        for edge_id in [edge_id for edge_id in edge.getIDList() if not edge_id.startswith(":")]:
-            right_id, left_id = f"{edge_id}_0", f"{edge_id}_{edge.getLaneNumber(edge_id) - 1}"
-            right = network.offset_polyline(np.array(lane.getShape(right_id)), -lane.getWidth(right_id) / 2)
-            left = network.offset_polyline(np.array(lane.getShape(left_id)), lane.getWidth(left_id) / 2)
-            rights.append(network.segments(right))
-            lefts.append(network.segments(left))
-        return np.concatenate([*rights, *lefts])
+        sides = [self._edge_sides(edge_id) for edge_id in self._api.edge.getIDList() if not edge_id.startswith(":")]
+        return np.concatenate([network.segments(right) for right, _ in sides]
+                              + [network.segments(left) for _, left in sides])
+
+    def junction_edges(self) -> np.ndarray:
+        """The road's outer edges across its junctions (`sumo_rail.sim.junction_walls`) as line segments [m], shape
+        (S, 2, 2); none on the straight road."""
+        junction = self._api.junction
+        walls = [np.empty((0, 2, 2))]
+        for junction_id in [junction_id for junction_id in junction.getIDList() if not junction_id.startswith(":")]:
+            incoming = [edge for edge in junction.getIncomingEdges(junction_id) if not edge.startswith(":")]
+            outgoing = [edge for edge in junction.getOutgoingEdges(junction_id) if not edge.startswith(":")]
+            if incoming and outgoing:
+                mouths = [np.array([right[end], left[end]]) for edges, end in ((incoming, -1), (outgoing, 0))
+                          for right, left in map(self._edge_sides, edges)]
+                walls.append(junction_walls(np.array(junction.getShape(junction_id)), mouths))
+        return np.concatenate(walls)
+
+    def _edge_sides(self, edge_id: str) -> tuple[np.ndarray, np.ndarray]:
+        """An edge's right and left outer sides (its rightmost and leftmost lane's outer side) as polylines [m]."""
+        lane = self._api.lane
+        right_id, left_id = f"{edge_id}_0", f"{edge_id}_{self._api.edge.getLaneNumber(edge_id) - 1}"
+        return (network.offset_polyline(np.array(lane.getShape(right_id)), -lane.getWidth(right_id) / 2),
+                network.offset_polyline(np.array(lane.getShape(left_id)), lane.getWidth(left_id) / 2))
 

@@ -11,11 +11,12 @@ from __future__ import annotations
 import hashlib
 import itertools
 import json
+import subprocess
 import xml.etree.ElementTree as ElementTree
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from sumo_rail.config import ConfigError, ScenarioConfig
+from sumo_rail.config import LANE_CAPACITY_VEH_PER_H, ConfigError, ScenarioConfig
 from sumo_rail.datasets import sumo_version, write_bytes_atomically
 from sumo_rail.sim import scenarios
 
@@ -30,11 +31,15 @@ def build(scenario: ScenarioConfig, cache_root: Path, vehicle_types_file: Path) 
     net_file = Path(scenario.network).expanduser().resolve()
     ego_route = tuple(scenario.route.split())
     net_bytes = _network_bytes(net_file)
-    check_route(net_file, ego_route, scenario.lanes)
+    narrowest = check_route(net_file, ego_route, scenario.lanes)
     traffic_file = None
     if scenario.traffic_file:
         traffic_file = Path(scenario.traffic_file).expanduser().resolve()
         scenarios.read_source(traffic_file)
+    elif scenario.flow_veh_per_h > LANE_CAPACITY_VEH_PER_H * narrowest:
+        raise ConfigError(f"scenario.flow_veh_per_h ({scenario.flow_veh_per_h:g} veh/h) is more than the route's "
+                          f"narrowest edge in {net_file.name} ({narrowest} lane{'s' if narrowest > 1 else ''}) can "
+                          f"carry (about {LANE_CAPACITY_VEH_PER_H:g} veh/h a lane)")
     routes = scenarios.network_routes(scenario, scenarios.read_source(vehicle_types_file), ego_route,
                                       with_flow=traffic_file is None)
     digest = hashlib.sha256(json.dumps({"route": ego_route, "sumo": sumo_version(),
@@ -42,9 +47,14 @@ def build(scenario: ScenarioConfig, cache_root: Path, vehicle_types_file: Path) 
     digest.update(net_bytes + b"\0" + routes)
     directory = cache_root / "networks" / digest.hexdigest()[:16]
     routes_file = directory / "traffic.rou.xml"
+    loads = directory / "sumo_loads"  # written once SUMO has loaded these files
+    if not loads.exists():
+        check_sumo_loads(net_file, traffic_file)
     if not (routes_file.exists() and routes_file.read_bytes() == routes):
         directory.mkdir(parents=True, exist_ok=True)
         write_bytes_atomically(routes_file, routes)
+    if not loads.exists():
+        write_bytes_atomically(loads, b"")
     return BuiltNetwork(net_file, routes_file, directory, ego_route, traffic_file)
 
 
@@ -62,12 +72,31 @@ def _network_bytes(net_file: Path) -> bytes:
     return data
 
 
-def check_route(net_file: Path, ego_route: tuple[str, ...], lanes: int) -> None:
-    """ConfigError unless every edge of `ego_route` is in the network, each leads to the next, and the route's widest
-    edge has `lanes` lanes (the observation's lane count)."""
+def check_sumo_loads(net_file: Path, traffic_file: Path | None) -> None:
+    """ConfigError with SUMO's first error unless SUMO itself loads the network (and the traffic file): sumolib reads
+    files SUMO refuses, such as a lane without its shape."""
+    from sumo_rail.sim.network import sumo_binary
+
+    command = [sumo_binary("sumo"), "--net-file", str(net_file), "--end", "0", "--no-step-log", "true",
+               "--no-warnings", "true", *(["--route-files", str(traffic_file)] if traffic_file else [])]
+    result = subprocess.run(command, capture_output=True, text=True, check=False)
+    if result.returncode != 0:
+        errors = [line.removeprefix("Error: ").strip() for line in (result.stderr + result.stdout).splitlines()
+                  if line.startswith("Error: ")]
+        loaded = f"{net_file.name}{f' with {traffic_file.name}' if traffic_file else ''}"
+        raise ConfigError(f"SUMO cannot load scenario.network {loaded}: {errors[0] if errors else 'no output'}")
+
+
+def check_route(net_file: Path, ego_route: tuple[str, ...], lanes: int) -> int:
+    """The lane count of the route's narrowest edge; ConfigError unless every edge of `ego_route` is in the network,
+    each leads to the next, and the route's widest edge has `lanes` lanes (the observation's lane count)."""
     import sumolib
 
-    net = sumolib.net.readNet(str(net_file))
+    try:
+        net = sumolib.net.readNet(str(net_file))
+    except (KeyError, ValueError, IndexError, AttributeError, TypeError) as error:
+        raise ConfigError(f"scenario.network {net_file.name} is a damaged SUMO network: sumolib cannot read it "
+                          f"({type(error).__name__}: {error})") from error
     for edge in ego_route:
         if not net.hasEdge(edge):
             raise ConfigError(f"scenario.route's edge {edge!r} is not in {net_file.name}")
@@ -75,7 +104,8 @@ def check_route(net_file: Path, ego_route: tuple[str, ...], lanes: int) -> None:
         if net.getEdge(target) not in net.getEdge(source).getOutgoing():
             raise ConfigError(f"scenario.route is not connected: edge {source!r} does not lead to {target!r} in "
                               f"{net_file.name}")
-    widest = max(net.getEdge(edge).getLaneNumber() for edge in ego_route)
-    if widest != lanes:
-        raise ConfigError(f"scenario.lanes is {lanes} but the route's widest edge in {net_file.name} has {widest} "
-                          f"lanes; set --set scenario.lanes={widest}")
+    counts = [net.getEdge(edge).getLaneNumber() for edge in ego_route]
+    if max(counts) != lanes:
+        raise ConfigError(f"scenario.lanes is {lanes} but the route's widest edge in {net_file.name} has {max(counts)} "
+                          f"lanes; set --set scenario.lanes={max(counts)}")
+    return min(counts)

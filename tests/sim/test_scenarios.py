@@ -14,7 +14,7 @@ import pytest
 
 from sumo_rail.config import Config, ConfigError
 from sumo_rail.drivers.expert import make_expert
-from sumo_rail.sim import network
+from sumo_rail.sim import lidar, network
 from sumo_rail.sim.env import HighwayEnv
 from sumo_rail.sim.parallel_env import ParallelHighwayEnv
 from sumo_rail.sim.road import RouteMap, RouteView
@@ -182,6 +182,20 @@ def test_bad_user_networks_name_the_problem(small_config, tmp_path):
         built(network=str(straight), route="highway nowhere")
     with pytest.raises(ConfigError, match=r"set --set scenario\.lanes=5"):
         built(network=str(straight), route="highway", lanes=3)
+    text = straight.read_text()
+    (tmp_path / "bad_length.net.xml").write_text(text.replace('length="', 'length="x', 1))
+    with pytest.raises(ConfigError, match=r"bad_length\.net\.xml is a damaged SUMO network"):
+        built(network=str(tmp_path / "bad_length.net.xml"), route="highway")
+    dangling = '<connection from="highway" to="gone" fromLane="0" toLane="0"/></net>'
+    (tmp_path / "no_edge.net.xml").write_text(text.replace("</net>", dangling))
+    with pytest.raises(ConfigError, match=r"no_edge\.net\.xml is a damaged SUMO network"):
+        built(network=str(tmp_path / "no_edge.net.xml"), route="highway")
+    (tmp_path / "no_shape.net.xml").write_text(text.replace(' shape="', ' form="'))
+    with pytest.raises(ConfigError, match=r"SUMO cannot load scenario\.network no_shape\.net\.xml: .*shape"):
+        built(network=str(tmp_path / "no_shape.net.xml"), route="highway")
+    bend = bend_network(tmp_path, small_config).with_overrides({"scenario": {"flow_veh_per_h": 7000.0}})
+    with pytest.raises(ConfigError, match=r"more than the route's narrowest edge in road\.net\.xml \(2 lanes\)"):
+        network.build(bend.scenario)
 
 
 def test_a_crowded_start_is_drawn_again_the_same_way_for_every_driver(small_config, monkeypatch):
@@ -322,3 +336,30 @@ def test_a_flow_no_road_can_hold_is_refused_before_anything_runs(small_config):
         small_config.with_overrides({"scenario": {"flow_veh_per_h": 20000.0}})
     with pytest.raises(ConfigError, match=r"ramp_flow_veh_per_h must be between 0 and what one lane can carry"):
         small_config.with_overrides({"scenario": {"kind": "merge", **FEATURE, "ramp_flow_veh_per_h": 5000.0}})
+    with pytest.raises(ConfigError, match=r"more than the work zone's 1 lane can carry"):
+        small_config.with_overrides({"scenario": {"kind": "lane_drop", **FEATURE, "dropped_lanes": 4,
+                                                  "flow_veh_per_h": 12000.0}})
+    with pytest.raises(ConfigError, match=r"plus scenario\.ramp_flow_veh_per_h \(17000 veh/h\) is more than the 5"):
+        small_config.with_overrides({"scenario": {"kind": "merge", **FEATURE, "flow_veh_per_h": 14000.0,
+                                                  "ramp_flow_veh_per_h": 3000.0}})
+
+
+@pytest.mark.parametrize("kind", ["straight", "merge", "lane_drop", "exit"])
+def test_no_lidar_beam_leaves_the_road_through_a_junction(small_config, kind):
+    """Across every joint of a road (a ramp's, a work zone's, an exit's), a beam from the main road crossing its
+    side hits it: the junctions' outer sides are walls as the edges' are (the straight road has none)."""
+    config = road(small_config, kind)
+    env = HighwayEnv(config)
+    try:
+        env.reset(seed=1)
+        walls = np.concatenate([env._sim.road_edges(), env._sim.junction_edges()])
+        assert kind != "straight" or len(env._sim.junction_edges()) == 0
+    finally:
+        env.close()
+    boxes, centre_m = lidar.edge_boxes(walls), -config.scenario.lanes * config.scenario.lane_width_m / 2
+    # beams at least 20 degrees off the road's axis, from the middle of the main road, reach a side within range
+    across = np.abs(np.sin(lidar.beam_angles(72, 0.0))) >= np.sin(np.radians(20.0))
+    for joint_m in (750.0, 1000.0):
+        for x in np.arange(joint_m - 20.0, joint_m + 20.0, 1.0):
+            distances, _ = lidar.scan(np.array([x, centre_m]), 0.0, np.zeros(2), boxes, 72, 100.0)
+            assert distances[across].max() < 100.0, (kind, x)
