@@ -182,7 +182,7 @@ def evaluate_command(config: Config, policies: tuple[str, ...],
                              expert=recorded_expert if expert is not None else None, pool=pool)
         written_videos = _write_videos(evaluation.videos, video_dir)
         complete(bar)
-    click.echo(summary_table(evaluation.metrics, reference))
+    click.echo(summary_table(evaluation.metrics, reference, route=config.scenario.has_route_measures))
     if expert_driver.name in names and len(names) > 1:
         click.echo("\n" + distance_summary(evaluation.decisions, expert_driver.name, config.scenario.lanes))
     if out is not None:

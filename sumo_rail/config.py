@@ -101,6 +101,12 @@ class ScenarioConfig:
     """A SUMO route file with the background traffic on scenario.network (kind network); empty: a flow of
     scenario.flow_veh_per_h along the ego's route, with the types of the built-in roads."""
 
+    @property
+    def has_route_measures(self) -> bool:
+        """Whether episodes on this road report the route's measures (merges, missed exits, lane-end stops) even
+        when none happened: every road but the straight one."""
+        return self.kind != "straight"
+
     def validate(self) -> None:
         _require(self.kind in SCENARIO_KINDS,
                  f"unknown scenario.kind {self.kind!r}; known: {', '.join(SCENARIO_KINDS)}")

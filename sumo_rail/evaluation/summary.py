@@ -23,7 +23,8 @@ EPISODE_MEASURES = ("average_speed_kmh", "overtakes", "lane_changes", "longitudi
 ROUTE_MEASURES = ("failures", "merges", "seconds_per_merge", "missed_exits", "lane_end_stops")
 """The route's measures (`sumo_rail.sim.route_progress`): failures (a collision, a missed exit or a stop at a lane end
 ends the episode: the share of episodes that failed), merges per episode and their mean time [s], missed exits and
-lane-end stops per episode; summarised where a road has merges or failures (none on the straight road but
+lane-end stops per episode; summarised for every road with a feature (`route=True`: a missed exit counts even where
+every episode left the road well), and elsewhere where an episode merged or failed (none on the straight road but
 collisions, which have their own row)."""
 MEASURES = (*RATES, *EPISODE_MEASURES, *ROUTE_MEASURES, *SAFETY_MEASURES)
 """Rows of the summary: the agreement rates (pooled over decisions) first, then the episode means (the safety
@@ -31,24 +32,26 @@ measures where a metrics file has them: files written before them do not)."""
 DETECTABLE = "*"
 
 
-def measure_samples(episodes: pd.DataFrame) -> dict[str, Sample]:
-    """Each measure's (numerators, denominators) per episode; the rates only where the confusion counts exist."""
+def measure_samples(episodes: pd.DataFrame, route: bool = False) -> dict[str, Sample]:
+    """Each measure's (numerators, denominators) per episode; the rates only where the confusion counts exist; the
+    route's measures as `route_samples` gives them."""
     samples: dict[str, Sample] = {}
     if set(CONFUSION_COLUMNS) <= set(episodes.columns):
         counts = agreement_counts(episodes[list(CONFUSION_COLUMNS)].to_numpy().reshape(-1, 5, 5))
         samples |= {name: (counts[top], counts[bottom]) for name, (top, bottom) in RATES.items()}
     samples |= {name: mean_sample(episodes[name].to_numpy()) for name in (*EPISODE_MEASURES, *SAFETY_MEASURES)
                 if name in episodes}
-    return samples | route_samples(episodes)
+    return samples | route_samples(episodes, route)
 
 
-def route_samples(episodes: pd.DataFrame) -> dict[str, Sample]:
-    """The `ROUTE_MEASURES` samples of episodes whose metrics hold them and that merged or failed on the route."""
+def route_samples(episodes: pd.DataFrame, route: bool = False) -> dict[str, Sample]:
+    """The `ROUTE_MEASURES` samples of episodes whose metrics hold them, on a road with a feature (`route`) or where
+    an episode merged or failed on the route."""
     if not {"merges", "missed_exits", "lane_end_stops"} <= set(episodes.columns):
         return {}
     merges = episodes["merges"].to_numpy()
     stops = episodes["missed_exits"].to_numpy() + episodes["lane_end_stops"].to_numpy()
-    if not (merges.any() or stops.any()):
+    if not (route or merges.any() or stops.any()):
         return {}
     failed = ((episodes["collisions"].to_numpy() > 0) | (stops > 0)).astype(float)
     samples = {"failures": mean_sample(failed), "merges": mean_sample(merges.astype(float)),
@@ -63,11 +66,11 @@ def drivers_of(metrics: pd.DataFrame) -> list[str]:
     return list(dict.fromkeys(metrics["policy"]))
 
 
-def intervals(metrics: pd.DataFrame, seed: int = 0) -> pd.DataFrame:
-    """Rows (policy, measure): estimate, low, high."""
+def intervals(metrics: pd.DataFrame, seed: int = 0, route: bool = False) -> pd.DataFrame:
+    """Rows (policy, measure): estimate, low, high (the route's measures as `route_samples` gives them)."""
     rows = []
     for driver in drivers_of(metrics):
-        for measure, sample in measure_samples(metrics[metrics["policy"] == driver]).items():
+        for measure, sample in measure_samples(metrics[metrics["policy"] == driver], route).items():
             rows.append({"policy": driver, "measure": measure, **vars(interval(sample, seed))})
     return pd.DataFrame(rows, columns=["policy", "measure", "estimate", "low", "high"])
 
@@ -80,7 +83,7 @@ def experts_of(metrics: pd.DataFrame) -> dict[str, str]:
     return {str(driver): str(expert) for driver, expert in named.items()}
 
 
-def paired_differences(metrics: pd.DataFrame, reference: str, seed: int = 0) -> pd.DataFrame:
+def paired_differences(metrics: pd.DataFrame, reference: str, seed: int = 0, route: bool = False) -> pd.DataFrame:
     """Rows (policy, measure) for every driver but `reference`: the difference driver - reference on the seeds
     both drove, with its interval and whether the interval excludes 0. Agreement rates only for drivers compared
     with the same expert as `reference` (`experts_of`): agreements with two experts do not subtract."""
@@ -94,8 +97,8 @@ def paired_differences(metrics: pd.DataFrame, reference: str, seed: int = 0) -> 
         if driver == reference:
             continue
         common = by_seed[driver].index.intersection(by_seed[reference].index).sort_values()
-        ours = measure_samples(by_seed[driver].loc[common].reset_index())
-        theirs = measure_samples(by_seed[reference].loc[common].reset_index())
+        ours = measure_samples(by_seed[driver].loc[common].reset_index(), route)
+        theirs = measure_samples(by_seed[reference].loc[common].reset_index(), route)
         other_expert = experts.get(driver) != experts.get(reference)
         for measure in ours.keys() & theirs.keys():
             if other_expert and measure in RATES:
@@ -126,15 +129,16 @@ def closeness(metrics: pd.DataFrame, candidate: str, baseline: str, expert: str,
     return pd.DataFrame(rows, columns=["measure", "estimate", "low", "high", "verdict"])
 
 
-def summary_table(metrics: pd.DataFrame, reference: str | None = None, seed: int = 0) -> str:
+def summary_table(metrics: pd.DataFrame, reference: str | None = None, seed: int = 0, route: bool = False) -> str:
     """Means with 95% intervals (rows: measures; columns: drivers), then each driver's paired difference to
-    `reference` (default: the first driver), a * marking the intervals that exclude 0."""
+    `reference` (default: the first driver), a * marking the intervals that exclude 0; `route`: the metrics are of a
+    road with a feature, whose route measures are shown even when no episode merged or failed."""
     drivers = drivers_of(metrics)
     episodes = metrics.groupby("policy", sort=False).size()
     experts = experts_of(metrics)
     header = "\n".join(f"{driver}: {episodes[driver]} episodes"
                        + (f", agreement with {experts[driver]}" if driver in experts else "") for driver in drivers)
-    means = _grid(intervals(metrics, seed), drivers, lambda row: _format(row, signed=False))
+    means = _grid(intervals(metrics, seed, route), drivers, lambda row: _format(row, signed=False))
     text = f"{header}\nmean [95% interval], bootstrap over episodes:\n{means.to_string()}"
     reference = reference or drivers[0]
     apart = [driver for driver in drivers if experts.get(driver) != experts.get(reference)]
@@ -143,7 +147,7 @@ def summary_table(metrics: pd.DataFrame, reference: str | None = None, seed: int
                  f"{reference}, so {'its agreement has' if len(apart) == 1 else 'their agreements have'} no "
                  f"difference to {reference}'s below (pass --expert to compare every driver with one expert)")
     if len(drivers) > 1:
-        differences = paired_differences(metrics, reference, seed)
+        differences = paired_differences(metrics, reference, seed, route)
         grid = _grid(differences, [driver for driver in drivers if driver != reference],
                      lambda row: _format(row, signed=True) + (f" {DETECTABLE}" if row.detectable else "  "))
         text += (f"\n\ndifference to {reference} on the same seeds [95% interval]; {DETECTABLE}: the interval "

@@ -81,6 +81,8 @@ class Inputs:
     metrics_files: list[Path]
     decisions: pd.DataFrame | None = None
     """The per-decision records beside the metrics files (NAME.decisions.parquet), when every file has them."""
+    route: bool = False
+    """Some metrics file is of a road with a feature, whose route measures are shown even when none happened."""
 
 
 def read_inputs(paths: list[Path]) -> Inputs:
@@ -99,8 +101,10 @@ def read_inputs(paths: list[Path]) -> Inputs:
                           f"returns a discriminator's, which do not share a plot: report them separately")
     decisions = [(path, read_decisions(decisions_path(path))) for path, _ in metrics
                  if decisions_path(path).is_file()]
+    route = any(read_metadata(path).get("config", {}).get("scenario", {}).get("kind", "straight") != "straight"
+                for path, _ in metrics)
     return Inputs(runs, _concatenate(metrics), [path for path, _ in metrics],
-                  _concatenate(decisions) if metrics and len(decisions) == len(metrics) else None)
+                  _concatenate(decisions) if metrics and len(decisions) == len(metrics) else None, route)
 
 
 def read_run(folder: Path, name: str) -> Run:

@@ -86,7 +86,7 @@ def write_report(inputs: Inputs, out: Path, videos: Path | None = None) -> Path:
 
 def _evaluation_plots(inputs: Inputs, add: Callable[[Plot, Callable[[], Figure]], None]) -> None:
     metrics = inputs.metrics
-    estimates = intervals(metrics)
+    estimates = intervals(metrics, route=inputs.route)
     drivers = list(dict.fromkeys(metrics["policy"]))
     add(Plot("metrics.png", "Evaluation metrics",
              "The evaluation table as bar charts: mean over episodes for each driver with its 95% interval "
@@ -141,7 +141,8 @@ def markdown(inputs: Inputs, plots: list[Plot]) -> str:
                   "cloning); validation: means over the validation episodes of the last evaluated iteration.", ""]
     if inputs.metrics is not None:
         files = ", ".join(f"`{path}`" for path in inputs.metrics_files)
-        lines += ["## Evaluation", "", f"From {files}:", "", "```text", summary_table(inputs.metrics), "```", ""]
+        lines += ["## Evaluation", "", f"From {files}:", "", "```text",
+                  summary_table(inputs.metrics, route=inputs.route), "```", ""]
         if not set(CONFUSION_COLUMNS) <= set(inputs.metrics.columns):
             lines += ["These metrics files predate the comparison with the expert (no confusion counts): agreement, "
                       "lane-change precision and recall are absent.", ""]

@@ -17,3 +17,20 @@ def test_closeness_verdicts_between_two_drivers():
     assert table.loc["overtakes", "verdict"] == "closer"
     assert table.loc["lane_changes", "verdict"] == "no detectable difference"
     assert closeness(metrics, "bc", "rail", "expert").set_index("measure").loc["overtakes", "verdict"] == "further"
+
+
+def test_a_road_with_a_feature_reports_its_route_measures_even_when_nothing_failed():
+    """Every exit taken well ahead of the diverge (no merge counted) and no failure: on a road with a feature the
+    summary still says 0 failures and 0 missed exits; on the straight road those rows stay out."""
+    from sumo_rail.evaluation.summary import EPISODE_MEASURES, summary_table
+
+    episodes = pd.DataFrame({"policy": ["expert"] * 4 + ["bc"] * 4, "seed": list(range(4)) * 2,
+                             **{name: np.ones(8) for name in EPISODE_MEASURES}, "collisions": np.zeros(8),
+                             "merges": np.zeros(8), "merge_time_s": np.zeros(8), "missed_exits": np.zeros(8),
+                             "lane_end_stops": np.zeros(8)})
+    straight, exit_road = summary_table(episodes), summary_table(episodes, route=True)
+    for measure in ("failures", "missed_exits", "lane_end_stops"):
+        assert measure not in straight
+        assert exit_road.count(f"\n{measure} ") == 2, exit_road  # the means and the differences
+    episodes.loc[5, "missed_exits"] = 1  # a failure shows on any road
+    assert "missed_exits" in summary_table(episodes)

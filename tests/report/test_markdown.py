@@ -201,3 +201,16 @@ def test_a_ppo_run_is_labelled_by_the_environments_return_and_not_mixed_with_dis
     assert result.exit_code == 1 and "Traceback" not in result.output
     assert f"{ppo} is a ppo run, whose return is the environment's reward, and {rail} returns a discriminator's" \
         in result.output
+
+
+def test_a_report_of_a_road_with_a_feature_shows_its_route_measures():
+    """The metrics files' own scenario says whether the route's rows belong in the summary (none failed on the
+    straight road's file, so its rows stay out there)."""
+    from sumo_rail.report.inputs import read_inputs
+    from sumo_rail.report.markdown import markdown
+
+    data = Path(__file__).parents[2] / "docs/results/generalisation/data"
+    for road, route in (("exit", True), ("straight", False)):
+        inputs = read_inputs([data / f"a_{road}.parquet"])
+        assert inputs.route is route
+        assert ("\nmissed_exits " in markdown(inputs, [])) is route
