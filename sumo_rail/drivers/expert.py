@@ -60,6 +60,19 @@ APPROACH_DECEL_MPS2 = 1.0
 middle of the gap, never slower than `PASS_MARGIN_MPS`."""
 SPEED_CHANGE_MPS2 = 1.5
 """How fast it reckons it changes its speed when it weighs which gap it reaches soonest [m/s^2]."""
+ZIP_REAR_GAP_M = 3.0
+"""Least gap [m] it leaves a follower no faster than itself when it zip merges: SUMO's trucks' standstill gap, the
+largest of its drivers' (its own `min_gap_m`, 6 m for the normal style, left it 1-5 m ahead of a slower follower,
+braked by SUMO for its lane's end until the follower drew alongside again: missed exits, stops at a lane's end)."""
+ACC_FOLLOW_M = 120.0
+"""Within this gap [m] to its own leader SUMO's ACC model (the ego's) may be in its gap-control mode."""
+ACC_CLOSING_PER_S = 0.05
+"""In gap control SUMO's ACC drives faster than its leader by this share of its spacing error per second [1/s]
+(its gap-closing gains 0.04 / 0.8): it hardly outpaces a leader, however high its set-point."""
+ACC_TIME_GAP_S = 1.0
+"""Time gap [s] SUMO's ACC keeps (the ego's type's tau) beyond the ego's standstill gap `ACC_MIN_GAP_M`."""
+ACC_MIN_GAP_M = 2.5
+"""The ego type's standstill gap [m]."""
 
 
 @dataclass(frozen=True)
@@ -155,44 +168,44 @@ class Expert:
         braking = LAST_RESORT_DECEL_MPS2 if lane_end_m <= LAST_RESORT_M else _COMFORT_DECEL_MPS2
         if self._safe(gaps, ego.speed_mps, share, braking):
             return Action.LANE_LEFT if offset > 0 else Action.LANE_RIGHT
-        own_front_gap_m = lane_gaps(traffic, ego.lane).front_gap_m
+        own = lane_gaps(traffic, ego.lane)
         # lining up for the zip merge is for the last change only: earlier ones need their gaps before it (exit 6000:
         # from the leftmost lane, 18148/49 and 18340/113 missed the exit)
         zip_in_s = np.inf  # inf: no lining up
         if abs(offset) == 1 and share > URGENT_GAP_SHARE:
             zip_in_s = max(lane_end_m - URGENT_M, 0.0) / max(ego.speed_mps, 1.0)
-        target_mps = self._gap_speed(lane_gap_list(traffic, target), ego.speed_mps, ego.length_m, share,
-                                     own_front_gap_m, zip_in_s)
+        target_mps = self._gap_speed(lane_gap_list(traffic, target), ego.speed_mps, ego.length_m, share, own,
+                                     zip_in_s)
         return self._toward(target_mps, traffic.set_point_mps)
 
     def _gap_speed(self, gaps: list[LaneGap], ego_speed_mps: float, ego_length_m: float, gap_share: float,
-                   own_front_gap_m: float, zip_in_s: float = np.inf) -> float:
+                   own: LaneGaps, zip_in_s: float = np.inf) -> float:
         """The set-point [m/s] that takes it to the gap of the lane the route demands that it reaches soonest (its
         time gaps scaled by `gap_share`): forward at up to `PASS_MARGIN_MPS` above its desired speed, but not past its
-        own leader `own_front_gap_m` [m] ahead, or back down to `MERGE_SPEED_SHARE` of it. With no gap in reach
+        own leader (`own`: the gaps of its own lane) nor faster than its ACC outpaces that leader, or back down to `MERGE_SPEED_SHARE` of it. With no gap in reach
         there, it drops back at any speed. When it reaches no such gap within `zip_in_s` [s], the time until it zip
         merges, it lines up with the gap it would zip merge into (its time gaps scaled by `URGENT_GAP_SHARE`, at
         most at its desired speed: there is no hurry) instead: chasing the road beyond the last vehicle it sees in a
         dense lane brought it to the zip merge far faster than the lane, overshooting every gap there."""
         style = self.style
         lowest, highest = MERGE_SPEED_SHARE * style.desired_speed_mps, style.desired_speed_mps + PASS_MARGIN_MPS
-        full = self._soonest(gaps, ego_speed_mps, ego_length_m, gap_share, own_front_gap_m, highest)
+        full = self._soonest(gaps, ego_speed_mps, ego_length_m, gap_share, own, highest)
         if full is not None and full[0] <= zip_in_s:
             return full[1]
         if zip_in_s < np.inf:  # no gap for its time gaps before the zip merge: line up for it
-            lined_up = self._soonest(gaps, ego_speed_mps, ego_length_m, URGENT_GAP_SHARE, own_front_gap_m,
+            lined_up = self._soonest(gaps, ego_speed_mps, ego_length_m, URGENT_GAP_SHARE, own,
                                      style.desired_speed_mps)
             if lined_up is not None:
                 return lined_up[1]
         return lowest if full is None else full[1]
 
     def _soonest(self, gaps: list[LaneGap], ego_speed_mps: float, ego_length_m: float, gap_share: float,
-                 own_front_gap_m: float, highest_mps: float) -> tuple[float, float] | None:
+                 own: LaneGaps, highest_mps: float) -> tuple[float, float] | None:
         """The time [s] to the gap it reaches soonest and the set-point [m/s] that takes it there (`_reach`), down
         to `MERGE_SPEED_SHARE` of its desired speed, else at any speed; None: no gap in reach."""
         for floor_mps in (MERGE_SPEED_SHARE * self.style.desired_speed_mps, 0.0):
-            reaches = [self._reach(gap, ego_speed_mps, ego_length_m, gap_share, own_front_gap_m, floor_mps,
-                                   highest_mps) for gap in gaps]
+            reaches = [self._reach(gap, ego_speed_mps, ego_length_m, gap_share, own, floor_mps, highest_mps)
+                       for gap in gaps]
             found = [reach for reach in reaches if reach is not None]
             if found:
                 time_s, speed_mps = min(found)
@@ -200,7 +213,7 @@ class Expert:
         return None
 
     def _reach(self, gap: LaneGap, ego_speed_mps: float, ego_length_m: float, gap_share: float,
-               own_front_gap_m: float, lowest_mps: float, highest_mps: float) -> tuple[float, float] | None:
+               own: LaneGaps, lowest_mps: float, highest_mps: float) -> tuple[float, float] | None:
         """The time [s] it takes to bring its front into the stretch of `gap` where a change keeps its gaps at the
         gap's speeds, and the set-point [m/s] that does it; None when the stretch is empty or out of reach. It closes
         in at the speed difference it can shed at `APPROACH_DECEL_MPS2` by the middle of the stretch, at least
@@ -216,8 +229,9 @@ class Expert:
         shed_mps = np.sqrt(2 * APPROACH_DECEL_MPS2 * abs(0.5 * (first_m + last_m)))  # by the stretch's middle
         if first_m > 0.0:  # move up past the vehicle behind the gap
             behind_mps = gap.behind_speed_mps
-            target_mps = min(behind_mps + max(shed_mps, PASS_MARGIN_MPS), highest_mps)
-            if target_mps <= behind_mps or first_m > own_front_gap_m - style.min_gap_m:
+            top_mps = min(highest_mps, _acc_top_speed(own, ego_speed_mps))
+            target_mps = min(behind_mps + max(shed_mps, PASS_MARGIN_MPS), top_mps)
+            if target_mps <= behind_mps or first_m > own.front_gap_m - style.min_gap_m:
                 return None
             return _time_to_cover(first_m, ego_speed_mps - behind_mps, target_mps - behind_mps), target_mps
         if last_m < 0.0:  # drop back behind the vehicle ahead of the gap
@@ -263,8 +277,11 @@ class Expert:
                         + excess**2 / (2 * braking_mps2))
         closing = max(gaps.rear_speed_mps - ego_speed_mps, 0.0) if np.isfinite(gaps.rear_speed_mps) else 0.0
         rear_speed = gaps.rear_speed_mps if np.isfinite(gaps.rear_speed_mps) else 0.0
-        needed_rear = (style.min_gap_m + gap_share * style.rear_time_gap_s * rear_speed
-                       + closing**2 / (2 * braking_mps2))
+        # zip merging (time gaps scaled by URGENT_GAP_SHARE) in front of a follower no faster than itself
+        rear_min_m = style.min_gap_m
+        if gap_share == URGENT_GAP_SHARE and closing <= 0.0:
+            rear_min_m = min(ZIP_REAR_GAP_M, style.min_gap_m)
+        needed_rear = (rear_min_m + gap_share * style.rear_time_gap_s * rear_speed + closing**2 / (2 * braking_mps2))
         return needed_front, needed_rear
 
 
@@ -278,6 +295,15 @@ def _time_to_cover(distance_m: float, closing_mps: float, top_closing_mps: float
     if change_m >= distance_m:
         return (np.sqrt(closing_mps**2 + 2 * SPEED_CHANGE_MPS2 * distance_m) - closing_mps) / SPEED_CHANGE_MPS2
     return change_s + (distance_m - change_m) / top_closing_mps
+
+
+def _acc_top_speed(own: LaneGaps, ego_speed_mps: float) -> float:
+    """The fastest [m/s] SUMO's ACC drives the ego behind its own leader (`own`: the gaps of its lane): the leader's
+    speed plus `ACC_CLOSING_PER_S` of its spacing error when the leader is within `ACC_FOLLOW_M`, else no bound."""
+    if own.front_gap_m > ACC_FOLLOW_M:
+        return np.inf
+    spacing_error_m = own.front_gap_m - ACC_MIN_GAP_M - ACC_TIME_GAP_S * ego_speed_mps
+    return own.front_speed_mps + ACC_CLOSING_PER_S * max(spacing_error_m, 0.0)
 
 
 def route_demand_m(offset: int) -> float:
