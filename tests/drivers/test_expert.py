@@ -205,3 +205,34 @@ def test_lines_up_with_a_zip_gap_only_for_the_last_change_the_route_demands():
     two_to_cross = dataclasses.replace(traffic, ego=dataclasses.replace(traffic.ego, route=route), lanes=3)
     assert expert.decide(on_a_closing_lane(traffic, lane_end_m=450.0)) is Action.KEEP, "one to cross: lines up"
     assert expert.decide(two_to_cross) is not Action.KEEP
+
+
+def test_zip_merges_a_few_metres_in_front_of_a_follower_no_faster_than_itself():
+    """130 m before its lane's end, 3.1 m ahead of a car at 24 m/s while SUMO brakes it (27.3 m/s) for that end: its
+    minimum gap (6 m) left it there, alongside again once slower, until it missed the exit (exit, validation 9000);
+    in front of a follower no faster than itself it zip merges with SUMO's largest standstill gap, 3 m. A faster
+    follower still gets its minimum gap."""
+    expert = make_expert("normal", speed_step_mps=2.0)
+    ego_rear = EGO_FRONT - 4.5
+    slower = [(1, ego_rear - 3.1, 4.5, 24.0), (1, EGO_FRONT + 48.0, 4.5, 24.7)]
+    traffic = on_a_closing_lane(view(slower, lane=0, speed=27.3, set_point=31.33), lane_end_m=130.0)
+    assert expert.decide(traffic) is Action.LANE_LEFT
+    faster = [(1, ego_rear - 3.1, 4.5, 27.5), (1, EGO_FRONT + 48.0, 4.5, 24.7)]
+    assert expert.decide(on_a_closing_lane(view(faster, lane=0, speed=27.3, set_point=31.33), 130.0)) is not (
+        Action.LANE_LEFT)
+    earlier = on_a_closing_lane(view(slower, lane=0, speed=27.3, set_point=31.33), lane_end_m=300.0)
+    assert expert.decide(earlier) is not Action.LANE_LEFT, "before the zip merge: its time gaps"
+
+
+def test_drops_behind_a_vehicle_alongside_when_its_own_leader_keeps_it_at_that_vehicle_s_speed():
+    """A truck alongside at 24.9 m/s, nearly passed, the gap ahead of it long, but its own leader 38 m ahead at 25 m/s:
+    SUMO's ACC holds it within 0.5 m/s of that leader whatever its set-point, so it stayed alongside until it missed
+    the exit (exit, validation 9000). It drops behind the truck instead; with its own lane clear it passes."""
+    expert = make_expert("normal", speed_step_mps=2.0)
+    ego_rear = EGO_FRONT - 4.5
+    cars = [(1, EGO_FRONT + 2.0, 12.0, 24.9), (1, EGO_FRONT + 80.0, 4.5, 25.0), (1, ego_rear - 45.0, 4.5, 24.6)]
+    leader = [(0, EGO_FRONT + 42.9, 4.5, 25.0)]
+    traffic = on_a_closing_lane(view(cars + leader, lane=0, speed=25.4, set_point=27.33), lane_end_m=200.0)
+    assert expert.decide(traffic) is Action.DECELERATE
+    clear = on_a_closing_lane(view(cars, lane=0, speed=25.4, set_point=27.33), lane_end_m=200.0)
+    assert expert.decide(clear) is Action.ACCELERATE
