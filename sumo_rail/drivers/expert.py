@@ -64,6 +64,12 @@ ZIP_REAR_GAP_M = 3.0
 """Least gap [m] it leaves a follower no faster than itself when it zip merges: SUMO's trucks' standstill gap, the
 largest of its drivers' (its own `min_gap_m`, 6 m for the normal style, left it 1-5 m ahead of a slower follower,
 braked by SUMO for its lane's end until the follower drew alongside again: missed exits, stops at a lane's end)."""
+SLOWER_FOLLOWER_BRAKING_MPS2 = 4.5
+"""For a change its route demands, it counts a slower follower's shorter braking distance against its time gap, both
+braking at this rate [m/s^2] (SUMO's cars'; SUMO's own check of the change counts the same way, with the follower's
+reaction time, shorter than the expert's time gaps): 1.5 s behind it at 31 m/s with its 52 m, a follower from the
+left lane it was leaving kept it there for 250 m while it pulled away at 1-2 m/s, and then too late for the next
+change (exits from the leftmost lanes, missed)."""
 ACC_FOLLOW_M = 120.0
 """Within this gap [m] to its own leader SUMO's ACC model (the ego's) may be in its gap-control mode."""
 ACC_CLOSING_PER_S = 0.05
@@ -166,7 +172,7 @@ class Expert:
         gaps = lane_gaps(traffic, target)
         share = URGENT_GAP_SHARE if lane_end_m <= URGENT_M else 1.0
         braking = LAST_RESORT_DECEL_MPS2 if lane_end_m <= LAST_RESORT_M else _COMFORT_DECEL_MPS2
-        if self._safe(gaps, ego.speed_mps, share, braking):
+        if self._safe(gaps, ego.speed_mps, share, braking, route_demanded=True):
             return Action.LANE_LEFT if offset > 0 else Action.LANE_RIGHT
         own = lane_gaps(traffic, ego.lane)
         # lining up for the zip merge is for the last change only: earlier ones need their gaps before it (exit 6000:
@@ -182,11 +188,12 @@ class Expert:
                    own: LaneGaps, zip_in_s: float = np.inf) -> float:
         """The set-point [m/s] that takes it to the gap of the lane the route demands that it reaches soonest (its
         time gaps scaled by `gap_share`): forward at up to `PASS_MARGIN_MPS` above its desired speed, but not past its
-        own leader (`own`: the gaps of its own lane) nor faster than its ACC outpaces that leader, or back down to `MERGE_SPEED_SHARE` of it. With no gap in reach
-        there, it drops back at any speed. When it reaches no such gap within `zip_in_s` [s], the time until it zip
-        merges, it lines up with the gap it would zip merge into (its time gaps scaled by `URGENT_GAP_SHARE`, at
-        most at its desired speed: there is no hurry) instead: chasing the road beyond the last vehicle it sees in a
-        dense lane brought it to the zip merge far faster than the lane, overshooting every gap there."""
+        own leader (`own`: the gaps of its own lane) nor faster than its ACC outpaces that leader (`_acc_top_speed`),
+        or back down to `MERGE_SPEED_SHARE` of it. With no gap in reach there, it drops back at any speed. When it
+        reaches no such gap within `zip_in_s` [s], the time until it zip merges, it lines up with the gap it would
+        zip merge into (its time gaps scaled by `URGENT_GAP_SHARE`, at most at its desired speed: there is no hurry)
+        instead: chasing the road beyond the last vehicle it sees in a dense lane brought it to the zip merge far
+        faster than the lane, overshooting every gap there."""
         style = self.style
         lowest, highest = MERGE_SPEED_SHARE * style.desired_speed_mps, style.desired_speed_mps + PASS_MARGIN_MPS
         full = self._soonest(gaps, ego_speed_mps, ego_length_m, gap_share, own, highest)
@@ -259,18 +266,20 @@ class Expert:
         return desired
 
     def _safe(self, gaps: LaneGaps, ego_speed_mps: float, gap_share: float = 1.0,
-              braking_mps2: float = _COMFORT_DECEL_MPS2) -> bool:
+              braking_mps2: float = _COMFORT_DECEL_MPS2, route_demanded: bool = False) -> bool:
         """Nobody alongside and the gaps of the module's docstring, their time gaps scaled by `gap_share`, speed
-        differences shed at `braking_mps2`."""
+        differences shed at `braking_mps2`; for a change its route demands (`route_demanded`) a slower follower's
+        shorter braking distance counts against its time gap."""
         if gaps.alongside:
             return False
-        needed_front, needed_rear = self._needed(gaps, ego_speed_mps, gap_share, braking_mps2)
+        needed_front, needed_rear = self._needed(gaps, ego_speed_mps, gap_share, braking_mps2, route_demanded)
         return gaps.front_gap_m >= needed_front and gaps.rear_gap_m >= needed_rear
 
     def _needed(self, gaps: LaneGaps, ego_speed_mps: float, gap_share: float,
-                braking_mps2: float = _COMFORT_DECEL_MPS2) -> tuple[float, float]:
+                braking_mps2: float = _COMFORT_DECEL_MPS2, route_demanded: bool = False) -> tuple[float, float]:
         """The front and rear gaps [m] a change into the lane of `gaps` needs, speed differences shed at
-        `braking_mps2`."""
+        `braking_mps2`; `route_demanded`: a slower follower's shorter braking distance (at
+        `SLOWER_FOLLOWER_BRAKING_MPS2`) counts against its time gap."""
         style = self.style
         excess = max(ego_speed_mps - gaps.front_speed_mps, 0.0) if np.isfinite(gaps.front_speed_mps) else 0.0
         needed_front = (style.min_gap_m + gap_share * style.front_time_gap_s * ego_speed_mps
@@ -281,7 +290,10 @@ class Expert:
         rear_min_m = style.min_gap_m
         if gap_share == URGENT_GAP_SHARE and closing <= 0.0:
             rear_min_m = min(ZIP_REAR_GAP_M, style.min_gap_m)
-        needed_rear = (rear_min_m + gap_share * style.rear_time_gap_s * rear_speed + closing**2 / (2 * braking_mps2))
+        time_gap_m = gap_share * style.rear_time_gap_s * rear_speed
+        if route_demanded and rear_speed < ego_speed_mps:
+            time_gap_m = max(time_gap_m - (ego_speed_mps**2 - rear_speed**2) / (2 * SLOWER_FOLLOWER_BRAKING_MPS2), 0.0)
+        needed_rear = rear_min_m + time_gap_m + closing**2 / (2 * braking_mps2)
         return needed_front, needed_rear
 
 
