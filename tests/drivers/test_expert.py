@@ -236,3 +236,15 @@ def test_drops_behind_a_vehicle_alongside_when_its_own_leader_keeps_it_at_that_v
     assert expert.decide(traffic) is Action.DECELERATE
     clear = on_a_closing_lane(view(cars, lane=0, speed=25.4, set_point=27.33), lane_end_m=200.0)
     assert expert.decide(clear) is Action.ACCELERATE
+
+
+def test_a_change_its_route_demands_counts_a_slower_follower_s_shorter_braking_distance():
+    """40 m ahead of a car at 31 m/s, itself at 33 m/s, 400 m before its lane's end: its 1.5 s time gap asks 52.5 m,
+    which it built up at 2 m/s only after 250 m (exit, validation 9000: then too late for the next change). Both
+    braking at 4.5 m/s^2 that car stops 14.2 m shorter: 38.3 m suffice. A car as fast as itself still needs 55.5 m."""
+    expert = make_expert("normal", speed_step_mps=2.0)
+    ego_rear = EGO_FRONT - 4.5
+    slower = on_a_closing_lane(view([(1, ego_rear - 40.0, 4.5, 31.0)], lane=0, speed=33.0, set_point=33.33), 400.0)
+    assert expert.decide(slower) is Action.LANE_LEFT
+    as_fast = on_a_closing_lane(view([(1, ego_rear - 40.0, 4.5, 33.0)], lane=0, speed=33.0, set_point=33.33), 400.0)
+    assert expert.decide(as_fast) is not Action.LANE_LEFT
