@@ -8,8 +8,9 @@ route as a navigation system tells it), not the LIDAR. Each decision, in this or
    `URGENT_M`, into any gap of its minimum gap and the room to shed a speed difference at 3 m/s^2; in the last
    `LAST_RESORT_M`, at 4 m/s^2), else set its speed to reach a gap there (`Expert._gap_speed`: of all the gaps
    between the vehicles of that lane, long enough for its gaps, the one it reaches soonest, passing vehicles it
-   can outpace and dropping behind ones it can let pass, never slowing down to pass; when none is reached before
-   `URGENT_M` for the last change demanded, the gap it would zip merge into, at no more than its desired speed);
+   can outpace (no faster than SUMO's ACC drives it behind its own leader) and dropping behind ones it can let
+   pass, never slowing down to pass; when none is reached before `URGENT_M` for the last change demanded, the gap
+   it would zip merge into, at no more than its desired speed);
 3. overtake on the left when a slower leader is in the way, the left lane lets it drive at least
    `min_speed_gain_mps` faster, and the change is safe;
 4. otherwise return right when the right lane is free for `keep_right_s` at its desired speed and safe;
@@ -19,7 +20,9 @@ route as a navigation system tells it), not the LIDAR. Each decision, in this or
 A change is safe when nobody is alongside in the target lane, the gap to the new leader is at least
 `min_gap_m + front_time_gap_s * v_ego` plus the distance needed to shed any speed excess at 3 m/s^2, and the
 gap to the new follower is at least `min_gap_m + rear_time_gap_s * v_follower` plus its braking distance to
-the ego's speed. SUMO's own safety check stays on as a second line.
+the ego's speed. For a change the route demands, a slower follower's shorter braking distance counts against that
+time gap, and in the zip merge a follower no faster than the ego needs only `ZIP_REAR_GAP_M`. SUMO's own safety
+check stays on as a second line (outside the zip merge).
 """
 
 from __future__ import annotations
