@@ -73,6 +73,9 @@ braking at this rate [m/s^2] (SUMO's cars'; SUMO's own check of the change count
 reaction time, shorter than the expert's time gaps): 1.5 s behind it at 31 m/s with its 52 m, a follower from the
 left lane it was leaving kept it there for 250 m while it pulled away at 1-2 m/s, and then too late for the next
 change (exits from the leftmost lanes, missed)."""
+LANE_END_BRAKING_MPS2 = 3.0
+"""SUMO brakes the ego for the end of its lane at its type's deceleration [m/s^2]: d metres before the end it drives
+at most sqrt(2 x this x d)."""
 ACC_FOLLOW_M = 120.0
 """Within this gap [m] to its own leader SUMO's ACC model (the ego's) may be in its gap-control mode."""
 ACC_CLOSING_PER_S = 0.05
@@ -102,6 +105,44 @@ class ExpertStyle:
     """Gap kept in every case, front and rear."""
     keep_right_s: float
     """Returns right only when the right lane is free for this time at the desired speed."""
+
+
+@dataclass(frozen=True)
+class Seeker:
+    """The ego as it seeks a gap in the lane its route demands."""
+
+    speed_mps: float
+    length_m: float
+    own: LaneGaps
+    """The gaps of its own lane: it never moves up past its leader there."""
+    lane_end_m: float = NO_VEHICLE
+    """How far its lane leads along its route [m]."""
+
+    def top_speed(self) -> float:
+        """The fastest [m/s] SUMO's ACC drives it behind its own leader: the leader's speed plus `ACC_CLOSING_PER_S`
+        of its spacing error when the leader is within `ACC_FOLLOW_M`, else no bound."""
+        if self.own.front_gap_m > ACC_FOLLOW_M:
+            return np.inf
+        spacing_error_m = self.own.front_gap_m - ACC_MIN_GAP_M - ACC_TIME_GAP_S * self.speed_mps
+        return self.own.front_speed_mps + ACC_CLOSING_PER_S * max(spacing_error_m, 0.0)
+
+    def can_gain(self, gain_m: float, other_mps: float, top_mps: float) -> bool:
+        """Whether it gains `gain_m` [m] on a vehicle at `other_mps` [m/s] before SUMO's braking for its lane's end
+        holds it below that speed: from its speed toward `top_mps` [m/s] at `SPEED_CHANGE_MPS2` until that braking
+        (`LANE_END_BRAKING_MPS2`) reaches it, then along it."""
+        if not np.isfinite(self.lane_end_m):
+            return True
+        accel, braking, start_mps = SPEED_CHANGE_MPS2, LANE_END_BRAKING_MPS2, self.speed_mps
+        # where speeding up at `accel` meets the braking curve v^2 = 2 x braking x (distance to the end)
+        meet_mps = np.sqrt((braking * start_mps**2 + 2 * accel * braking * self.lane_end_m) / (accel + braking))
+        peak_mps = min(top_mps, meet_mps, np.sqrt(2 * braking * self.lane_end_m))
+        if peak_mps <= other_mps:
+            return False
+        change_m, change_s = abs(peak_mps**2 - start_mps**2) / (2 * accel), abs(peak_mps - start_mps) / accel
+        cruise_m = max(self.lane_end_m - peak_mps**2 / (2 * braking) - change_m, 0.0)
+        brake_m, brake_s = (peak_mps**2 - other_mps**2) / (2 * braking), (peak_mps - other_mps) / braking
+        driven_m = change_m + cruise_m + brake_m
+        return driven_m - other_mps * (change_s + cruise_m / peak_mps + brake_s) >= gain_m
 
 
 STYLES: dict[str, ExpertStyle] = {
@@ -183,53 +224,52 @@ class Expert:
         zip_in_s = np.inf  # inf: no lining up
         if abs(offset) == 1 and share > URGENT_GAP_SHARE:
             zip_in_s = max(lane_end_m - URGENT_M, 0.0) / max(ego.speed_mps, 1.0)
-        target_mps = self._gap_speed(lane_gap_list(traffic, target), ego.speed_mps, ego.length_m, share, own,
-                                     zip_in_s)
+        seeker = Seeker(ego.speed_mps, ego.length_m, own, lane_end_m)
+        target_mps = self._gap_speed(lane_gap_list(traffic, target), seeker, share, zip_in_s)
         return self._toward(target_mps, traffic.set_point_mps)
 
-    def _gap_speed(self, gaps: list[LaneGap], ego_speed_mps: float, ego_length_m: float, gap_share: float,
-                   own: LaneGaps, zip_in_s: float = np.inf) -> float:
+    def _gap_speed(self, gaps: list[LaneGap], seeker: Seeker, gap_share: float, zip_in_s: float = np.inf) -> float:
         """The set-point [m/s] that takes it to the gap of the lane the route demands that it reaches soonest (its
         time gaps scaled by `gap_share`): forward at up to `PASS_MARGIN_MPS` above its desired speed, but not past its
-        own leader (`own`: the gaps of its own lane) nor faster than its ACC outpaces that leader (`_acc_top_speed`),
-        or back down to `MERGE_SPEED_SHARE` of it. With no gap in reach there, it drops back at any speed. When it
-        reaches no such gap within `zip_in_s` [s], the time until it zip merges, it lines up with the gap it would
-        zip merge into (its time gaps scaled by `URGENT_GAP_SHARE`, at most at its desired speed: there is no hurry)
-        instead: chasing the road beyond the last vehicle it sees in a dense lane brought it to the zip merge far
-        faster than the lane, overshooting every gap there."""
+        own leader nor faster than its ACC outpaces that leader, and only past a vehicle it can pass before SUMO's
+        braking for its lane's end holds it back (`Seeker`), or back down to `MERGE_SPEED_SHARE` of it. With no gap
+        in reach there, it drops back at any speed. When it reaches no such gap within `zip_in_s` [s], the time until
+        it zip merges, it lines up with the gap it would zip merge into (its time gaps scaled by `URGENT_GAP_SHARE`,
+        at most at its desired speed: there is no hurry) instead: chasing the road beyond the last vehicle it sees in
+        a dense lane brought it to the zip merge far faster than the lane, overshooting every gap there."""
         style = self.style
         lowest, highest = MERGE_SPEED_SHARE * style.desired_speed_mps, style.desired_speed_mps + PASS_MARGIN_MPS
-        full = self._soonest(gaps, ego_speed_mps, ego_length_m, gap_share, own, highest)
+        full = self._soonest(gaps, seeker, gap_share, highest)
         if full is not None and full[0] <= zip_in_s:
             return full[1]
         if zip_in_s < np.inf:  # no gap for its time gaps before the zip merge: line up for it
-            lined_up = self._soonest(gaps, ego_speed_mps, ego_length_m, URGENT_GAP_SHARE, own,
-                                     style.desired_speed_mps)
+            lined_up = self._soonest(gaps, seeker, URGENT_GAP_SHARE, style.desired_speed_mps)
             if lined_up is not None:
                 return lined_up[1]
         return lowest if full is None else full[1]
 
-    def _soonest(self, gaps: list[LaneGap], ego_speed_mps: float, ego_length_m: float, gap_share: float,
-                 own: LaneGaps, highest_mps: float) -> tuple[float, float] | None:
+    def _soonest(self, gaps: list[LaneGap], seeker: Seeker, gap_share: float,
+                 highest_mps: float) -> tuple[float, float] | None:
         """The time [s] to the gap it reaches soonest and the set-point [m/s] that takes it there (`_reach`), down
         to `MERGE_SPEED_SHARE` of its desired speed, else at any speed; None: no gap in reach."""
         for floor_mps in (MERGE_SPEED_SHARE * self.style.desired_speed_mps, 0.0):
-            reaches = [self._reach(gap, ego_speed_mps, ego_length_m, gap_share, own, floor_mps, highest_mps)
-                       for gap in gaps]
+            reaches = [self._reach(gap, seeker, gap_share, floor_mps, highest_mps) for gap in gaps]
             found = [reach for reach in reaches if reach is not None]
             if found:
                 time_s, speed_mps = min(found)
                 return time_s, min(max(speed_mps, floor_mps), highest_mps)
         return None
 
-    def _reach(self, gap: LaneGap, ego_speed_mps: float, ego_length_m: float, gap_share: float,
-               own: LaneGaps, lowest_mps: float, highest_mps: float) -> tuple[float, float] | None:
+    def _reach(self, gap: LaneGap, seeker: Seeker, gap_share: float, lowest_mps: float,
+               highest_mps: float) -> tuple[float, float] | None:
         """The time [s] it takes to bring its front into the stretch of `gap` where a change keeps its gaps at the
         gap's speeds, and the set-point [m/s] that does it; None when the stretch is empty or out of reach. It closes
         in at the speed difference it can shed at `APPROACH_DECEL_MPS2` by the middle of the stretch, at least
-        `PASS_MARGIN_MPS`, within `lowest_mps` and `highest_mps`."""
+        `PASS_MARGIN_MPS`, within `lowest_mps` and `highest_mps`. It starts to pass a vehicle only when it can draw
+        `ZIP_REAR_GAP_M` ahead of it before SUMO's braking for its lane's end holds it back (`Seeker.can_gain`); once
+        its front is past that vehicle's, it finishes the pass."""
         style = self.style
-        first_m, last_m = gap.behind_m + ego_length_m, gap.ahead_m
+        first_m, last_m = gap.behind_m + seeker.length_m, gap.ahead_m
         if np.isfinite(gap.behind_speed_mps):
             first_m += style.min_gap_m + gap_share * style.rear_time_gap_s * gap.behind_speed_mps
         if np.isfinite(gap.ahead_speed_mps):
@@ -239,17 +279,19 @@ class Expert:
         shed_mps = np.sqrt(2 * APPROACH_DECEL_MPS2 * abs(0.5 * (first_m + last_m)))  # by the stretch's middle
         if first_m > 0.0:  # move up past the vehicle behind the gap
             behind_mps = gap.behind_speed_mps
-            top_mps = min(highest_mps, _acc_top_speed(own, ego_speed_mps))
-            target_mps = min(behind_mps + max(shed_mps, PASS_MARGIN_MPS), top_mps)
-            if target_mps <= behind_mps or first_m > own.front_gap_m - style.min_gap_m:
+            target_mps = min(behind_mps + max(shed_mps, PASS_MARGIN_MPS), highest_mps, seeker.top_speed())
+            if target_mps <= behind_mps or first_m > seeker.own.front_gap_m - style.min_gap_m:
                 return None
-            return _time_to_cover(first_m, ego_speed_mps - behind_mps, target_mps - behind_mps), target_mps
+            zip_need_m = gap.behind_m + seeker.length_m + min(ZIP_REAR_GAP_M, style.min_gap_m)
+            if gap.behind_m > 0.0 and not seeker.can_gain(zip_need_m, behind_mps, target_mps):
+                return None
+            return _time_to_cover(first_m, seeker.speed_mps - behind_mps, target_mps - behind_mps), target_mps
         if last_m < 0.0:  # drop back behind the vehicle ahead of the gap
             ahead_mps = gap.ahead_speed_mps
             target_mps = max(ahead_mps - max(shed_mps, PASS_MARGIN_MPS), lowest_mps)
             if target_mps >= ahead_mps:
                 return None
-            return _time_to_cover(-last_m, ahead_mps - ego_speed_mps, ahead_mps - target_mps), target_mps
+            return _time_to_cover(-last_m, ahead_mps - seeker.speed_mps, ahead_mps - target_mps), target_mps
         speeds = [speed for speed in (gap.ahead_speed_mps, gap.behind_speed_mps) if np.isfinite(speed)]
         return 0.0, (speeds[0] if speeds else style.desired_speed_mps)  # in it: keep pace with the lane
 
@@ -310,15 +352,6 @@ def _time_to_cover(distance_m: float, closing_mps: float, top_closing_mps: float
     if change_m >= distance_m:
         return (np.sqrt(closing_mps**2 + 2 * SPEED_CHANGE_MPS2 * distance_m) - closing_mps) / SPEED_CHANGE_MPS2
     return change_s + (distance_m - change_m) / top_closing_mps
-
-
-def _acc_top_speed(own: LaneGaps, ego_speed_mps: float) -> float:
-    """The fastest [m/s] SUMO's ACC drives the ego behind its own leader (`own`: the gaps of its lane): the leader's
-    speed plus `ACC_CLOSING_PER_S` of its spacing error when the leader is within `ACC_FOLLOW_M`, else no bound."""
-    if own.front_gap_m > ACC_FOLLOW_M:
-        return np.inf
-    spacing_error_m = own.front_gap_m - ACC_MIN_GAP_M - ACC_TIME_GAP_S * ego_speed_mps
-    return own.front_speed_mps + ACC_CLOSING_PER_S * max(spacing_error_m, 0.0)
 
 
 def route_demand_m(offset: int) -> float:

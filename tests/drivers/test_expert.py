@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from scenes import EGO_FRONT, view
 
-from sumo_rail.drivers.expert import STYLES, Expert, make_expert
+from sumo_rail.drivers.expert import STYLES, Expert, Seeker, make_expert
 from sumo_rail.runners.rollout import ExpertDriver, run_episode
 from sumo_rail.sim.actions import Action
 from sumo_rail.sim.env import HighwayEnv
@@ -232,9 +232,9 @@ def test_drops_behind_a_vehicle_alongside_when_its_own_leader_keeps_it_at_that_v
     ego_rear = EGO_FRONT - 4.5
     cars = [(1, EGO_FRONT + 2.0, 12.0, 24.9), (1, EGO_FRONT + 80.0, 4.5, 25.0), (1, ego_rear - 45.0, 4.5, 24.6)]
     leader = [(0, EGO_FRONT + 42.9, 4.5, 25.0)]
-    traffic = on_a_closing_lane(view(cars + leader, lane=0, speed=25.4, set_point=27.33), lane_end_m=200.0)
+    traffic = on_a_closing_lane(view(cars + leader, lane=0, speed=25.4, set_point=27.33), lane_end_m=250.0)
     assert expert.decide(traffic) is Action.DECELERATE
-    clear = on_a_closing_lane(view(cars, lane=0, speed=25.4, set_point=27.33), lane_end_m=200.0)
+    clear = on_a_closing_lane(view(cars, lane=0, speed=25.4, set_point=27.33), lane_end_m=250.0)
     assert expert.decide(clear) is Action.ACCELERATE
 
 
@@ -248,3 +248,19 @@ def test_a_change_its_route_demands_counts_a_slower_follower_s_shorter_braking_d
     assert expert.decide(slower) is Action.LANE_LEFT
     as_fast = on_a_closing_lane(view([(1, ego_rear - 40.0, 4.5, 33.0)], lane=0, speed=33.0, set_point=33.33), 400.0)
     assert expert.decide(as_fast) is not Action.LANE_LEFT
+
+
+def test_passes_a_vehicle_only_when_it_draws_ahead_before_sumo_brakes_it_for_its_lane_s_end():
+    """184 m before its lane's end at 27.1 m/s, a car at 22.9 m/s 8.5 m ahead in the lane it needs: SUMO brakes it at
+    3 m/s^2 from about 130 m on (28.1^2 / 6, at the 28.1 m/s its ACC allows behind its own leader), so it gains 14 m
+    on that car before it is slower, not the 16 m to merge 3 m ahead of it (exit, validation 9000: it passed at +5 m/s
+    until it was braked alongside, and missed the exit). It drops behind the car instead; 400 m before the end it
+    has the room to pass (54 m)."""
+    expert = make_expert("normal", speed_step_mps=2.0)
+    cars = [(1, EGO_FRONT + 8.5, 4.5, 22.9), (1, EGO_FRONT - 35.2, 4.5, 24.0), (1, EGO_FRONT + 37.7, 4.5, 23.5),
+            (0, EGO_FRONT + 99.7, 4.5, 24.8)]
+    late = on_a_closing_lane(view(cars, lane=0, speed=27.1, set_point=27.33), lane_end_m=184.0)
+    assert expert.decide(late) is Action.DECELERATE
+    seeker = Seeker(speed_mps=27.1, length_m=4.5, own=lane_gaps(late, 0), lane_end_m=184.0)
+    assert seeker.can_gain(13.5, 22.9, 28.1) and not seeker.can_gain(14.5, 22.9, 28.1)
+    assert Seeker(27.1, 4.5, lane_gaps(late, 0), lane_end_m=400.0).can_gain(16.0, 22.9, 28.1)
