@@ -8,8 +8,9 @@ route as a navigation system tells it), not the LIDAR. Each decision, in this or
    `URGENT_M`, into any gap of its minimum gap and the room to shed a speed difference at 3 m/s^2; in the last
    `LAST_RESORT_M`, at 4 m/s^2), else set its speed to reach a gap there (`Expert._gap_speed`: of all the gaps
    between the vehicles of that lane, long enough for its gaps, the one it reaches soonest, passing vehicles it
-   can outpace and dropping behind ones it can let pass, never slowing down to pass; when none is reached before
-   `URGENT_M` for the last change demanded, the gap it would zip merge into, at no more than its desired speed);
+   can outpace (no faster than SUMO's ACC drives it behind its own leader) and dropping behind ones it can let
+   pass, never slowing down to pass; when none is reached before `URGENT_M` for the last change demanded, the gap
+   it would zip merge into, at no more than its desired speed);
 3. overtake on the left when a slower leader is in the way, the left lane lets it drive at least
    `min_speed_gain_mps` faster, and the change is safe;
 4. otherwise return right when the right lane is free for `keep_right_s` at its desired speed and safe;
@@ -19,7 +20,9 @@ route as a navigation system tells it), not the LIDAR. Each decision, in this or
 A change is safe when nobody is alongside in the target lane, the gap to the new leader is at least
 `min_gap_m + front_time_gap_s * v_ego` plus the distance needed to shed any speed excess at 3 m/s^2, and the
 gap to the new follower is at least `min_gap_m + rear_time_gap_s * v_follower` plus its braking distance to
-the ego's speed. SUMO's own safety check stays on as a second line.
+the ego's speed. For a change the route demands, a slower follower's shorter braking distance counts against that
+time gap, and in the zip merge a follower no faster than the ego needs only `ZIP_REAR_GAP_M`. SUMO's own safety
+check stays on as a second line (outside the zip merge).
 """
 
 from __future__ import annotations
@@ -60,6 +63,28 @@ APPROACH_DECEL_MPS2 = 1.0
 middle of the gap, never slower than `PASS_MARGIN_MPS`."""
 SPEED_CHANGE_MPS2 = 1.5
 """How fast it reckons it changes its speed when it weighs which gap it reaches soonest [m/s^2]."""
+ZIP_REAR_GAP_M = 3.0
+"""Least gap [m] it leaves a follower no faster than itself when it zip merges: SUMO's trucks' standstill gap, the
+largest of its drivers' (its own `min_gap_m`, 6 m for the normal style, left it 1-5 m ahead of a slower follower,
+braked by SUMO for its lane's end until the follower drew alongside again: missed exits, stops at a lane's end)."""
+SLOWER_FOLLOWER_BRAKING_MPS2 = 4.5
+"""For a change its route demands, it counts a slower follower's shorter braking distance against its time gap, both
+braking at this rate [m/s^2] (SUMO's cars'; SUMO's own check of the change counts the same way, with the follower's
+reaction time, shorter than the expert's time gaps): 1.5 s behind it at 31 m/s with its 52 m, a follower from the
+left lane it was leaving kept it there for 250 m while it pulled away at 1-2 m/s, and then too late for the next
+change (exits from the leftmost lanes, missed)."""
+LANE_END_BRAKING_MPS2 = 3.0
+"""SUMO brakes the ego for the end of its lane at its type's deceleration [m/s^2]: d metres before the end it drives
+at most sqrt(2 x this x d)."""
+ACC_FOLLOW_M = 120.0
+"""Within this gap [m] to its own leader SUMO's ACC model (the ego's) may be in its gap-control mode."""
+ACC_CLOSING_PER_S = 0.05
+"""In gap control SUMO's ACC drives faster than its leader by this share of its spacing error per second [1/s]
+(its gap-closing gains 0.04 / 0.8): it hardly outpaces a leader, however high its set-point."""
+ACC_TIME_GAP_S = 1.0
+"""Time gap [s] SUMO's ACC keeps (the ego's type's tau) beyond the ego's standstill gap `ACC_MIN_GAP_M`."""
+ACC_MIN_GAP_M = 2.5
+"""The ego type's standstill gap [m]."""
 
 
 @dataclass(frozen=True)
@@ -80,6 +105,44 @@ class ExpertStyle:
     """Gap kept in every case, front and rear."""
     keep_right_s: float
     """Returns right only when the right lane is free for this time at the desired speed."""
+
+
+@dataclass(frozen=True)
+class Seeker:
+    """The ego as it seeks a gap in the lane its route demands."""
+
+    speed_mps: float
+    length_m: float
+    own: LaneGaps
+    """The gaps of its own lane: it never moves up past its leader there."""
+    lane_end_m: float = NO_VEHICLE
+    """How far its lane leads along its route [m]."""
+
+    def top_speed(self) -> float:
+        """The fastest [m/s] SUMO's ACC drives it behind its own leader: the leader's speed plus `ACC_CLOSING_PER_S`
+        of its spacing error when the leader is within `ACC_FOLLOW_M`, else no bound."""
+        if self.own.front_gap_m > ACC_FOLLOW_M:
+            return np.inf
+        spacing_error_m = self.own.front_gap_m - ACC_MIN_GAP_M - ACC_TIME_GAP_S * self.speed_mps
+        return self.own.front_speed_mps + ACC_CLOSING_PER_S * max(spacing_error_m, 0.0)
+
+    def can_gain(self, gain_m: float, other_mps: float, top_mps: float) -> bool:
+        """Whether it gains `gain_m` [m] on a vehicle at `other_mps` [m/s] before SUMO's braking for its lane's end
+        holds it below that speed: from its speed toward `top_mps` [m/s] at `SPEED_CHANGE_MPS2` until that braking
+        (`LANE_END_BRAKING_MPS2`) reaches it, then along it."""
+        if not np.isfinite(self.lane_end_m):
+            return True
+        accel, braking, start_mps = SPEED_CHANGE_MPS2, LANE_END_BRAKING_MPS2, self.speed_mps
+        # where speeding up at `accel` meets the braking curve v^2 = 2 x braking x (distance to the end)
+        meet_mps = np.sqrt((braking * start_mps**2 + 2 * accel * braking * self.lane_end_m) / (accel + braking))
+        peak_mps = min(top_mps, meet_mps, np.sqrt(2 * braking * self.lane_end_m))
+        if peak_mps <= other_mps:
+            return False
+        change_m, change_s = abs(peak_mps**2 - start_mps**2) / (2 * accel), abs(peak_mps - start_mps) / accel
+        cruise_m = max(self.lane_end_m - peak_mps**2 / (2 * braking) - change_m, 0.0)
+        brake_m, brake_s = (peak_mps**2 - other_mps**2) / (2 * braking), (peak_mps - other_mps) / braking
+        driven_m = change_m + cruise_m + brake_m
+        return driven_m - other_mps * (change_s + cruise_m / peak_mps + brake_s) >= gain_m
 
 
 STYLES: dict[str, ExpertStyle] = {
@@ -153,60 +216,60 @@ class Expert:
         gaps = lane_gaps(traffic, target)
         share = URGENT_GAP_SHARE if lane_end_m <= URGENT_M else 1.0
         braking = LAST_RESORT_DECEL_MPS2 if lane_end_m <= LAST_RESORT_M else _COMFORT_DECEL_MPS2
-        if self._safe(gaps, ego.speed_mps, share, braking):
+        if self._safe(gaps, ego.speed_mps, share, braking, route_demanded=True):
             return Action.LANE_LEFT if offset > 0 else Action.LANE_RIGHT
-        own_front_gap_m = lane_gaps(traffic, ego.lane).front_gap_m
+        own = lane_gaps(traffic, ego.lane)
         # lining up for the zip merge is for the last change only: earlier ones need their gaps before it (exit 6000:
         # from the leftmost lane, 18148/49 and 18340/113 missed the exit)
         zip_in_s = np.inf  # inf: no lining up
         if abs(offset) == 1 and share > URGENT_GAP_SHARE:
             zip_in_s = max(lane_end_m - URGENT_M, 0.0) / max(ego.speed_mps, 1.0)
-        target_mps = self._gap_speed(lane_gap_list(traffic, target), ego.speed_mps, ego.length_m, share,
-                                     own_front_gap_m, zip_in_s)
+        seeker = Seeker(ego.speed_mps, ego.length_m, own, lane_end_m)
+        target_mps = self._gap_speed(lane_gap_list(traffic, target), seeker, share, zip_in_s)
         return self._toward(target_mps, traffic.set_point_mps)
 
-    def _gap_speed(self, gaps: list[LaneGap], ego_speed_mps: float, ego_length_m: float, gap_share: float,
-                   own_front_gap_m: float, zip_in_s: float = np.inf) -> float:
+    def _gap_speed(self, gaps: list[LaneGap], seeker: Seeker, gap_share: float, zip_in_s: float = np.inf) -> float:
         """The set-point [m/s] that takes it to the gap of the lane the route demands that it reaches soonest (its
         time gaps scaled by `gap_share`): forward at up to `PASS_MARGIN_MPS` above its desired speed, but not past its
-        own leader `own_front_gap_m` [m] ahead, or back down to `MERGE_SPEED_SHARE` of it. With no gap in reach
-        there, it drops back at any speed. When it reaches no such gap within `zip_in_s` [s], the time until it zip
-        merges, it lines up with the gap it would zip merge into (its time gaps scaled by `URGENT_GAP_SHARE`, at
-        most at its desired speed: there is no hurry) instead: chasing the road beyond the last vehicle it sees in a
-        dense lane brought it to the zip merge far faster than the lane, overshooting every gap there."""
+        own leader nor faster than its ACC outpaces that leader, and only past a vehicle it can pass before SUMO's
+        braking for its lane's end holds it back (`Seeker`), or back down to `MERGE_SPEED_SHARE` of it. With no gap
+        in reach there, it drops back at any speed. When it reaches no such gap within `zip_in_s` [s], the time until
+        it zip merges, it lines up with the gap it would zip merge into (its time gaps scaled by `URGENT_GAP_SHARE`,
+        at most at its desired speed: there is no hurry) instead: chasing the road beyond the last vehicle it sees in
+        a dense lane brought it to the zip merge far faster than the lane, overshooting every gap there."""
         style = self.style
         lowest, highest = MERGE_SPEED_SHARE * style.desired_speed_mps, style.desired_speed_mps + PASS_MARGIN_MPS
-        full = self._soonest(gaps, ego_speed_mps, ego_length_m, gap_share, own_front_gap_m, highest)
+        full = self._soonest(gaps, seeker, gap_share, highest)
         if full is not None and full[0] <= zip_in_s:
             return full[1]
         if zip_in_s < np.inf:  # no gap for its time gaps before the zip merge: line up for it
-            lined_up = self._soonest(gaps, ego_speed_mps, ego_length_m, URGENT_GAP_SHARE, own_front_gap_m,
-                                     style.desired_speed_mps)
+            lined_up = self._soonest(gaps, seeker, URGENT_GAP_SHARE, style.desired_speed_mps)
             if lined_up is not None:
                 return lined_up[1]
         return lowest if full is None else full[1]
 
-    def _soonest(self, gaps: list[LaneGap], ego_speed_mps: float, ego_length_m: float, gap_share: float,
-                 own_front_gap_m: float, highest_mps: float) -> tuple[float, float] | None:
+    def _soonest(self, gaps: list[LaneGap], seeker: Seeker, gap_share: float,
+                 highest_mps: float) -> tuple[float, float] | None:
         """The time [s] to the gap it reaches soonest and the set-point [m/s] that takes it there (`_reach`), down
         to `MERGE_SPEED_SHARE` of its desired speed, else at any speed; None: no gap in reach."""
         for floor_mps in (MERGE_SPEED_SHARE * self.style.desired_speed_mps, 0.0):
-            reaches = [self._reach(gap, ego_speed_mps, ego_length_m, gap_share, own_front_gap_m, floor_mps,
-                                   highest_mps) for gap in gaps]
+            reaches = [self._reach(gap, seeker, gap_share, floor_mps, highest_mps) for gap in gaps]
             found = [reach for reach in reaches if reach is not None]
             if found:
                 time_s, speed_mps = min(found)
                 return time_s, min(max(speed_mps, floor_mps), highest_mps)
         return None
 
-    def _reach(self, gap: LaneGap, ego_speed_mps: float, ego_length_m: float, gap_share: float,
-               own_front_gap_m: float, lowest_mps: float, highest_mps: float) -> tuple[float, float] | None:
+    def _reach(self, gap: LaneGap, seeker: Seeker, gap_share: float, lowest_mps: float,
+               highest_mps: float) -> tuple[float, float] | None:
         """The time [s] it takes to bring its front into the stretch of `gap` where a change keeps its gaps at the
         gap's speeds, and the set-point [m/s] that does it; None when the stretch is empty or out of reach. It closes
         in at the speed difference it can shed at `APPROACH_DECEL_MPS2` by the middle of the stretch, at least
-        `PASS_MARGIN_MPS`, within `lowest_mps` and `highest_mps`."""
+        `PASS_MARGIN_MPS`, within `lowest_mps` and `highest_mps`. It starts to pass a vehicle only when it can draw
+        `ZIP_REAR_GAP_M` ahead of it before SUMO's braking for its lane's end holds it back (`Seeker.can_gain`); once
+        its front is past that vehicle's, it finishes the pass."""
         style = self.style
-        first_m, last_m = gap.behind_m + ego_length_m, gap.ahead_m
+        first_m, last_m = gap.behind_m + seeker.length_m, gap.ahead_m
         if np.isfinite(gap.behind_speed_mps):
             first_m += style.min_gap_m + gap_share * style.rear_time_gap_s * gap.behind_speed_mps
         if np.isfinite(gap.ahead_speed_mps):
@@ -216,16 +279,19 @@ class Expert:
         shed_mps = np.sqrt(2 * APPROACH_DECEL_MPS2 * abs(0.5 * (first_m + last_m)))  # by the stretch's middle
         if first_m > 0.0:  # move up past the vehicle behind the gap
             behind_mps = gap.behind_speed_mps
-            target_mps = min(behind_mps + max(shed_mps, PASS_MARGIN_MPS), highest_mps)
-            if target_mps <= behind_mps or first_m > own_front_gap_m - style.min_gap_m:
+            target_mps = min(behind_mps + max(shed_mps, PASS_MARGIN_MPS), highest_mps, seeker.top_speed())
+            if target_mps <= behind_mps or first_m > seeker.own.front_gap_m - style.min_gap_m:
                 return None
-            return _time_to_cover(first_m, ego_speed_mps - behind_mps, target_mps - behind_mps), target_mps
+            zip_need_m = gap.behind_m + seeker.length_m + min(ZIP_REAR_GAP_M, style.min_gap_m)
+            if gap.behind_m > 0.0 and not seeker.can_gain(zip_need_m, behind_mps, target_mps):
+                return None
+            return _time_to_cover(first_m, seeker.speed_mps - behind_mps, target_mps - behind_mps), target_mps
         if last_m < 0.0:  # drop back behind the vehicle ahead of the gap
             ahead_mps = gap.ahead_speed_mps
             target_mps = max(ahead_mps - max(shed_mps, PASS_MARGIN_MPS), lowest_mps)
             if target_mps >= ahead_mps:
                 return None
-            return _time_to_cover(-last_m, ahead_mps - ego_speed_mps, ahead_mps - target_mps), target_mps
+            return _time_to_cover(-last_m, ahead_mps - seeker.speed_mps, ahead_mps - target_mps), target_mps
         speeds = [speed for speed in (gap.ahead_speed_mps, gap.behind_speed_mps) if np.isfinite(speed)]
         return 0.0, (speeds[0] if speeds else style.desired_speed_mps)  # in it: keep pace with the lane
 
@@ -245,26 +311,34 @@ class Expert:
         return desired
 
     def _safe(self, gaps: LaneGaps, ego_speed_mps: float, gap_share: float = 1.0,
-              braking_mps2: float = _COMFORT_DECEL_MPS2) -> bool:
+              braking_mps2: float = _COMFORT_DECEL_MPS2, route_demanded: bool = False) -> bool:
         """Nobody alongside and the gaps of the module's docstring, their time gaps scaled by `gap_share`, speed
-        differences shed at `braking_mps2`."""
+        differences shed at `braking_mps2`; for a change its route demands (`route_demanded`) a slower follower's
+        shorter braking distance counts against its time gap."""
         if gaps.alongside:
             return False
-        needed_front, needed_rear = self._needed(gaps, ego_speed_mps, gap_share, braking_mps2)
+        needed_front, needed_rear = self._needed(gaps, ego_speed_mps, gap_share, braking_mps2, route_demanded)
         return gaps.front_gap_m >= needed_front and gaps.rear_gap_m >= needed_rear
 
     def _needed(self, gaps: LaneGaps, ego_speed_mps: float, gap_share: float,
-                braking_mps2: float = _COMFORT_DECEL_MPS2) -> tuple[float, float]:
+                braking_mps2: float = _COMFORT_DECEL_MPS2, route_demanded: bool = False) -> tuple[float, float]:
         """The front and rear gaps [m] a change into the lane of `gaps` needs, speed differences shed at
-        `braking_mps2`."""
+        `braking_mps2`; `route_demanded`: a slower follower's shorter braking distance (at
+        `SLOWER_FOLLOWER_BRAKING_MPS2`) counts against its time gap."""
         style = self.style
         excess = max(ego_speed_mps - gaps.front_speed_mps, 0.0) if np.isfinite(gaps.front_speed_mps) else 0.0
         needed_front = (style.min_gap_m + gap_share * style.front_time_gap_s * ego_speed_mps
                         + excess**2 / (2 * braking_mps2))
         closing = max(gaps.rear_speed_mps - ego_speed_mps, 0.0) if np.isfinite(gaps.rear_speed_mps) else 0.0
         rear_speed = gaps.rear_speed_mps if np.isfinite(gaps.rear_speed_mps) else 0.0
-        needed_rear = (style.min_gap_m + gap_share * style.rear_time_gap_s * rear_speed
-                       + closing**2 / (2 * braking_mps2))
+        # zip merging (time gaps scaled by URGENT_GAP_SHARE) in front of a follower no faster than itself
+        rear_min_m = style.min_gap_m
+        if gap_share == URGENT_GAP_SHARE and closing <= 0.0:
+            rear_min_m = min(ZIP_REAR_GAP_M, style.min_gap_m)
+        time_gap_m = gap_share * style.rear_time_gap_s * rear_speed
+        if route_demanded and rear_speed < ego_speed_mps:
+            time_gap_m = max(time_gap_m - (ego_speed_mps**2 - rear_speed**2) / (2 * SLOWER_FOLLOWER_BRAKING_MPS2), 0.0)
+        needed_rear = rear_min_m + time_gap_m + closing**2 / (2 * braking_mps2)
         return needed_front, needed_rear
 
 

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from scenes import EGO_FRONT, view
 
-from sumo_rail.drivers.expert import STYLES, Expert, make_expert
+from sumo_rail.drivers.expert import STYLES, Expert, Seeker, make_expert
 from sumo_rail.runners.rollout import ExpertDriver, run_episode
 from sumo_rail.sim.actions import Action
 from sumo_rail.sim.env import HighwayEnv
@@ -205,3 +205,62 @@ def test_lines_up_with_a_zip_gap_only_for_the_last_change_the_route_demands():
     two_to_cross = dataclasses.replace(traffic, ego=dataclasses.replace(traffic.ego, route=route), lanes=3)
     assert expert.decide(on_a_closing_lane(traffic, lane_end_m=450.0)) is Action.KEEP, "one to cross: lines up"
     assert expert.decide(two_to_cross) is not Action.KEEP
+
+
+def test_zip_merges_a_few_metres_in_front_of_a_follower_no_faster_than_itself():
+    """130 m before its lane's end, 3.1 m ahead of a car at 24 m/s while SUMO brakes it (27.3 m/s) for that end: its
+    minimum gap (6 m) left it there, alongside again once slower, until it missed the exit (exit, validation 9000);
+    in front of a follower no faster than itself it zip merges with SUMO's largest standstill gap, 3 m. A faster
+    follower still gets its minimum gap."""
+    expert = make_expert("normal", speed_step_mps=2.0)
+    ego_rear = EGO_FRONT - 4.5
+    slower = [(1, ego_rear - 3.1, 4.5, 24.0), (1, EGO_FRONT + 48.0, 4.5, 24.7)]
+    traffic = on_a_closing_lane(view(slower, lane=0, speed=27.3, set_point=31.33), lane_end_m=130.0)
+    assert expert.decide(traffic) is Action.LANE_LEFT
+    faster = [(1, ego_rear - 3.1, 4.5, 27.5), (1, EGO_FRONT + 48.0, 4.5, 24.7)]
+    assert expert.decide(on_a_closing_lane(view(faster, lane=0, speed=27.3, set_point=31.33), 130.0)) is not (
+        Action.LANE_LEFT)
+    earlier = on_a_closing_lane(view(slower, lane=0, speed=27.3, set_point=31.33), lane_end_m=300.0)
+    assert expert.decide(earlier) is not Action.LANE_LEFT, "before the zip merge: its time gaps"
+
+
+def test_drops_behind_a_vehicle_alongside_when_its_own_leader_keeps_it_at_that_vehicle_s_speed():
+    """A truck alongside at 24.9 m/s, nearly passed, the gap ahead of it long, but its own leader 38 m ahead at 25 m/s:
+    SUMO's ACC holds it within 0.5 m/s of that leader whatever its set-point, so it stayed alongside until it missed
+    the exit (exit, validation 9000). It drops behind the truck instead; with its own lane clear it passes."""
+    expert = make_expert("normal", speed_step_mps=2.0)
+    ego_rear = EGO_FRONT - 4.5
+    cars = [(1, EGO_FRONT + 2.0, 12.0, 24.9), (1, EGO_FRONT + 80.0, 4.5, 25.0), (1, ego_rear - 45.0, 4.5, 24.6)]
+    leader = [(0, EGO_FRONT + 42.9, 4.5, 25.0)]
+    traffic = on_a_closing_lane(view(cars + leader, lane=0, speed=25.4, set_point=27.33), lane_end_m=250.0)
+    assert expert.decide(traffic) is Action.DECELERATE
+    clear = on_a_closing_lane(view(cars, lane=0, speed=25.4, set_point=27.33), lane_end_m=250.0)
+    assert expert.decide(clear) is Action.ACCELERATE
+
+
+def test_a_change_its_route_demands_counts_a_slower_follower_s_shorter_braking_distance():
+    """40 m ahead of a car at 31 m/s, itself at 33 m/s, 400 m before its lane's end: its 1.5 s time gap asks 52.5 m,
+    which it built up at 2 m/s only after 250 m (exit, validation 9000: then too late for the next change). Both
+    braking at 4.5 m/s^2 that car stops 14.2 m shorter: 38.3 m suffice. A car as fast as itself still needs 55.5 m."""
+    expert = make_expert("normal", speed_step_mps=2.0)
+    ego_rear = EGO_FRONT - 4.5
+    slower = on_a_closing_lane(view([(1, ego_rear - 40.0, 4.5, 31.0)], lane=0, speed=33.0, set_point=33.33), 400.0)
+    assert expert.decide(slower) is Action.LANE_LEFT
+    as_fast = on_a_closing_lane(view([(1, ego_rear - 40.0, 4.5, 33.0)], lane=0, speed=33.0, set_point=33.33), 400.0)
+    assert expert.decide(as_fast) is not Action.LANE_LEFT
+
+
+def test_passes_a_vehicle_only_when_it_draws_ahead_before_sumo_brakes_it_for_its_lane_s_end():
+    """184 m before its lane's end at 27.1 m/s, a car at 22.9 m/s 8.5 m ahead in the lane it needs: SUMO brakes it at
+    3 m/s^2 from about 130 m on (28.1^2 / 6, at the 28.1 m/s its ACC allows behind its own leader), so it gains 14 m
+    on that car before it is slower, not the 16 m to merge 3 m ahead of it (exit, validation 9000: it passed at +5 m/s
+    until it was braked alongside, and missed the exit). It drops behind the car instead; 400 m before the end it
+    has the room to pass (54 m)."""
+    expert = make_expert("normal", speed_step_mps=2.0)
+    cars = [(1, EGO_FRONT + 8.5, 4.5, 22.9), (1, EGO_FRONT - 35.2, 4.5, 24.0), (1, EGO_FRONT + 37.7, 4.5, 23.5),
+            (0, EGO_FRONT + 99.7, 4.5, 24.8)]
+    late = on_a_closing_lane(view(cars, lane=0, speed=27.1, set_point=27.33), lane_end_m=184.0)
+    assert expert.decide(late) is Action.DECELERATE
+    seeker = Seeker(speed_mps=27.1, length_m=4.5, own=lane_gaps(late, 0), lane_end_m=184.0)
+    assert seeker.can_gain(13.5, 22.9, 28.1) and not seeker.can_gain(14.5, 22.9, 28.1)
+    assert Seeker(27.1, 4.5, lane_gaps(late, 0), lane_end_m=400.0).can_gain(16.0, 22.9, 28.1)
