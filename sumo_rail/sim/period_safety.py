@@ -81,9 +81,10 @@ class PeriodSafety:
         period_jerks = jerks(report.accelerations_mps2, self._last_acceleration_mps2, self.step_length_s)
         if report.accelerations_mps2:
             self._last_acceleration_mps2 = report.accelerations_mps2[-1]
-        lowest = min((report.watched_min_acceleration_mps2.get(vehicle, math.inf) for vehicle in self._watching),
-                     default=math.inf)
-        self._watching = {vehicle: left - 1 for vehicle, left in self._watching.items() if left > 1}
+        lowest = math.inf
+        if self._watching:
+            lowest = min(report.watched_min_acceleration_mps2.get(vehicle, math.inf) for vehicle in self._watching)
+            self._watching = {vehicle: left - 1 for vehicle, left in self._watching.items() if left > 1}
         cut_ins = 0
         if (ego is not None and neighbours is not None and requested_lane is not None and not was_changing
                 and (ego.changing_lane or ego.lane == requested_lane)):

@@ -25,10 +25,13 @@ from collections import deque
 from dataclasses import dataclass
 from typing import Any, NamedTuple
 
+from sumo_rail.sim.records import quick_init
+
 UNPLACED = (-math.inf, -1000)
 """(position, route lane) of a lane not linked to the route (another road of the network)."""
 
 
+@quick_init
 @dataclass(frozen=True)
 class RouteView:
     """The ego's route from where it is. Distances from the ego's front [m], inf where nothing comes."""
@@ -51,12 +54,16 @@ class RouteView:
 
     def best_lane_offset(self, lane: int) -> int:
         """Lanes to move (positive = left) to the nearest lane that leads farthest along the route; 0 in such a lane."""
-        farthest = max(self.lane_end_m)
+        ends = self.lane_end_m
+        farthest = max(ends)
         if self.lane_end(lane) >= farthest:
             return 0
-        candidates = [candidate for candidate in range(self.lowest_lane, self.highest_lane + 1)
-                      if self.lane_end(candidate) >= farthest]
-        return min((candidate - lane for candidate in candidates), key=lambda offset: (abs(offset), offset))
+        best = 0
+        for index, end in enumerate(ends):  # offsets rise: of two as near, the one to the right comes first
+            offset = self.lowest_lane + index - lane
+            if end >= farthest and (not best or abs(offset) < abs(best)):
+                best = offset
+        return best
 
 
 @dataclass

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 import operator
+import struct
 from typing import Any
 
 import numpy as np
@@ -20,14 +21,20 @@ class Sensing:
     simulation's)."""
 
     _api: Any
+    _client: Any
     _constants: Any
     context_radius_m: float
     route_map: RouteMap
 
     def _context_setup(self) -> None:
         tc = self._constants
-        self._context_variables = (tc.VAR_POSITION, tc.VAR_ANGLE, tc.VAR_SPEED, tc.VAR_LANEPOSITION, tc.VAR_LANE_ID)
-        self._context_fields = operator.itemgetter(*self._context_variables)
+        variables = (tc.VAR_POSITION, tc.VAR_ANGLE, tc.VAR_SPEED, tc.VAR_LANEPOSITION, tc.VAR_LANE_ID)
+        self._context_fields = operator.itemgetter(*variables)
+        # libsumo's own vector type: a tuple would be converted to one at every subscription
+        int_vector = getattr(self._client, "IntVector", None)
+        self._context_variables = variables if int_vector is None else int_vector(variables)
+        self._row_packers: dict[int, struct.Struct] = {}
+        """Neighbours -> the packer of their rows (8 float64 each, `observe`)."""
         self._sizes: dict[str, tuple[float, float]] = {}
         """Vehicle id -> (length, width) [m], read once per vehicle (`forget_sizes` when ids may be reused)."""
 
@@ -73,11 +80,19 @@ class Sensing:
             length, width = sizes.get(other) or self._size(other)
             start_m, lane = lane_places(lane_id, UNPLACED)  # `place`, inlined: it runs for every neighbour
             extend((x, y, radians(90.0 - angle), speed, start_m + lane_position, length, width, lane))
-        rows = np.array(flat, dtype=np.float64).reshape(len(results), 8)
+        rows = np.empty((len(results), 8))
+        self._rows_packer(len(results)).pack_into(rows, 0, *flat)  # as np.array(flat) converts them, without its checks
         neighbours = Neighbours(ids=tuple(results), front_xy=rows[:, :2], heading_rad=rows[:, 2],
                                 speed_mps=rows[:, 3], lane_position_m=rows[:, 4], length_m=rows[:, 5],
                                 width_m=rows[:, 6], lane=rows[:, 7].astype(np.int64))
         return ego_state, neighbours
+
+    def _rows_packer(self, count: int) -> struct.Struct:
+        """The packer of `count` neighbours' rows (native float64, as numpy's arrays hold them)."""
+        packer = self._row_packers.get(count)
+        if packer is None:
+            packer = self._row_packers[count] = struct.Struct(f"={8 * count}d")
+        return packer
 
     def vehicle_types(self, ids: tuple[str, ...]) -> list[str]:
         """SUMO vehicle type of each vehicle in `ids` (e.g. "car", "truck"), for drawing."""

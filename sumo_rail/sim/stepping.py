@@ -7,7 +7,7 @@ import math
 from collections.abc import Sequence
 from typing import Any
 
-from sumo_rail.sim.sumo_api import EGO_ID, SimulationError
+from sumo_rail.sim.sumo_api import EGO_ID, SimulationError, period_calls
 from sumo_rail.sim.vehicles import PeriodReport
 
 
@@ -31,9 +31,8 @@ class Stepping:
         (collided, and so removed, or arrived) exactly when asking for its acceleration fails; only then are the
         step's collision and arrival lists read, collision first.
         """
-        api = self._api
-        step, simulation, acceleration = api.simulationStep, api.simulation, api.vehicle.getAcceleration
-        starting_teleports = simulation.getStartingTeleportNumber
+        simulation = self._api.simulation
+        step, starting_teleports, acceleration = period_calls(self._api)
         error = self._client.TraCIException
         on_road = list(vehicles)
         accelerations: dict[str, list[float]] = {vehicle: [] for vehicle in on_road}

@@ -4,7 +4,9 @@ mode, and loading libsumo or traci (imported only here and when a simulation sta
 from __future__ import annotations
 
 import os
+from collections.abc import Callable
 from types import ModuleType
+from typing import Any
 
 EGO_ID = "ego"
 """The single ego's vehicle id."""
@@ -39,3 +41,13 @@ def load_constants() -> ModuleType:
     import traci.constants
 
     return traci.constants
+
+
+def period_calls(api: Any) -> tuple[Callable[[], Any], Callable[[], int], Callable[[str], float]]:
+    """(one step, the number of vehicles that started a teleport in it, a vehicle's acceleration [m/s^2]): the calls of
+    a decision period's every step. With libsumo, its compiled functions themselves: its Python wrappers add a call
+    each, and its step's wrapper runs traci's step listeners, which this project never adds."""
+    compiled = getattr(api, "_libsumo", None)
+    if compiled is None:
+        return api.simulationStep, api.simulation.getStartingTeleportNumber, api.vehicle.getAcceleration
+    return compiled.simulation_step, compiled.simulation_getStartingTeleportNumber, compiled.vehicle_getAcceleration

@@ -8,6 +8,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from sumo_rail.sim.records import quick_init
 from sumo_rail.sim.simulation import EgoState, Neighbours
 
 NO_VEHICLE = np.inf
@@ -16,6 +17,7 @@ LANE_BLOCK_LANES = ("right", "own", "left")
 LANE_BLOCK_FIELDS = ("front_gap", "front_relative_speed", "rear_gap", "rear_relative_speed")
 
 
+@quick_init
 @dataclass(frozen=True)
 class TrafficView:
     """Privileged view of the traffic at the last decision, for rule-based drivers such as the expert."""

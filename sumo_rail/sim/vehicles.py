@@ -7,11 +7,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from sumo_rail.sim.records import quick_init
 from sumo_rail.sim.road import RouteView
 
 _LATERAL_EPSILON_M = 0.01
 
 
+@quick_init
 @dataclass(frozen=True)
 class EgoState:
     """The ego at the end of the last step. Positions [m], speed [m/s], heading [rad, math convention]."""
@@ -38,6 +40,7 @@ class EgoState:
         return abs(self.lateral_offset_m) > _LATERAL_EPSILON_M
 
 
+@quick_init
 @dataclass(frozen=True)
 class Neighbours:
     """Vehicles around the ego (excluding it), from one context subscription; arrays have one row each."""
@@ -56,6 +59,7 @@ class Neighbours:
     """Route lane (0 = the main road's rightmost; `sumo_rail.sim.road`), shape (M,) int."""
 
 
+@quick_init
 @dataclass(frozen=True)
 class PeriodReport:
     """What happened to one ego during the SUMO steps of one decision period."""
