@@ -5,6 +5,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from enum import IntEnum
 
+from sumo_rail.sim.records import quick_init
+
 
 class Action(IntEnum):
     """Discrete actions, in the order of the action space."""
@@ -16,6 +18,7 @@ class Action(IntEnum):
     LANE_RIGHT = 4
 
 
+@quick_init
 @dataclass(frozen=True)
 class Command:
     """What the ego is told for one decision period."""

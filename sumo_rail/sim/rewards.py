@@ -51,6 +51,8 @@ class OvertakeCounter:
             if now == ALONGSIDE:
                 continue
             before = last.get(vehicle_id)
+            if before == now:
+                continue
             if before == AHEAD and now == BEHIND:
                 new += 1
             elif before == BEHIND and now == AHEAD:

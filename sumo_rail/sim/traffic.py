@@ -29,6 +29,7 @@ class TrafficView:
     lanes: int
 
 
+@quick_init
 @dataclass(frozen=True)
 class LaneGaps:
     """The nearest vehicles ahead and behind the ego in one lane. Gaps are bumper to bumper [m]."""
@@ -67,6 +68,7 @@ def lane_gaps(traffic: TrafficView, lane: int) -> LaneGaps:
                     float(alongside_speed))
 
 
+@quick_init
 @dataclass(frozen=True)
 class LaneGap:
     """The room between two consecutive vehicles of a lane, positions along the road from the ego's front [m]."""
