@@ -18,9 +18,9 @@ from typing import Any
 
 import numpy as np
 import pytest
+from rail_runs import run_settings
 from test_backends import process_exited
 from test_cli import SMALL, invoke
-from test_trainer import run_settings
 
 from sumo_rail.config import Config
 from sumo_rail.drivers.policies import load_policy

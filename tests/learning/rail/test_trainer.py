@@ -5,6 +5,7 @@ import numpy as np
 import pandas as pd
 import pytest
 import torch
+from rail_runs import run_settings
 from test_cli import SMALL, hand_made_policy, invoke
 
 from sumo_rail.drivers.policies import MIN_STD, load_policy
@@ -30,22 +31,6 @@ def test_a_collision_never_pays_by_ending_early():
 def test_settings_reject_top_above_directions():
     with pytest.raises(ValueError, match="--top"):
         RailSettings(directions=4, top=5)
-
-
-RESPAWNING = {"egos": 3, "rollout_decisions": 150}
-"""Rollouts of 150 decisions (two to three lives on the small road), three egos a road."""
-
-
-def run_settings(demos_path, kind="mlp", remedies=False, respawning=False):
-    """Small settings; `remedies`: every option that issue 25 added away from its default; `respawning`: rollouts
-    of a budget of decisions on respawning egos (`RESPAWNING`)."""
-    rail = RailSettings(directions=3, top=2, step_size=0.01, seed=1, **(RESPAWNING if respawning else {}))
-    discriminator = DiscriminatorSettings(seed=1, steps_per_iteration=2)
-    if remedies:
-        rail = dataclasses.replace(rail, fitness="rank", flip_rate=0.1, episodes_per_rollout=2, egos=2)
-        discriminator = dataclasses.replace(discriminator, reward_form="contrast", balance=1.0, gradient_penalty=1.0,
-                                            replay=2)
-    return RunSettings(str(demos_path), kind, 4, 3, rail, discriminator)
 
 
 @pytest.mark.parametrize(("remedies", "respawning"), [(False, False), (True, False), (False, True)],
