@@ -6,13 +6,14 @@
 # (a) the road it was trained on (RAIL's in rail_a_KIND: the straight road's before (b), the other roads' last),
 # (b) for the straight road's drivers (RAIL's included), every other road and two traffic densities it never saw,
 # (c) BC, DAgger and RAIL trained on a mix of every road (demonstrations of each; DAgger's rounds and RAIL's
-# directions on each road in turn, `--roads`; RAIL_MIX=0 skips RAIL's), on each road, and (d) without the route
-# block on each road with a feature (what lacking it costs; NO_ROUTE=0 skips it).
+# directions on each road in turn, `--roads`; RAIL_MIX=0 skips RAIL's), on each road, (d) without the route
+# block on each road with a feature (what lacking it costs; NO_ROUTE=0 skips it), and (f) GAIL trained and tested on
+# each road (GAIL=1; with RAIL's decisions of the same seed on 8 respawning egos a process; after RAIL's (a) runs).
 # experiments/generalisation_table.py makes the tables and the figure.
 # Usage: experiments/generalisation.sh [OUT_DIR]   (resumable: what is written is skipped, DAgger runs resume)
 #   (environment: KINDS, SEEDS, DEMOS_EPISODES, MIX_EPISODES (per road), DAGGER_ROUNDS, ROUND_EPISODES,
 #   TEST_EPISODES, DENSITIES (veh/h), RAIL_KINDS (default every road; "" skips RAIL), RAIL_MIX, RAIL_ITERATIONS,
-#   WORKERS)
+#   GAIL (default 0), WORKERS)
 # The expert drives the test episodes once, in each road's (a) evaluation (and in each density's): the other files
 # hold the learners only, on the same episodes (the table pairs them by episode seed).
 set -euo pipefail
@@ -152,3 +153,22 @@ for kind in $rail_kinds; do
   # shellcheck disable=SC2046
   evaluate "$out/rail_a_$kind.parquet" "$kind" "$test_episodes" $(rail_drivers "$kind")
 done
+# (f) GAIL trained on each road with the decisions RAIL used there with the same seed, tested as (a) on the same
+# episodes: gail_a_KIND.parquet
+if [ "${GAIL:-0}" = 1 ]; then
+  for kind in $rail_kinds; do
+    policies=()
+    for seed in $seeds; do
+      run="$out/$kind/gail_s$seed"
+      budget=$($python -c "import pandas as pd, sys; print(int(pd.read_parquet(sys.argv[1])['env_steps'].sum()))" \
+        "$out/$kind/rail_s$seed/log.parquet")
+      resume=(); [ -f "$run/checkpoint.pt" ] && resume=(--resume)
+      [ -f "$run/.done" ] || $sumo_rail gail "${setting[@]}" --set "scenario.kind=$kind" \
+        --demos "$out/$kind/demos.parquet" --policy mlp --timesteps "$budget" --envs "$workers" --egos 8 \
+        --n-steps 64 --seed "$seed" --out "$run" "${resume[@]}"
+      touch "$run/.done"
+      policies+=(--policy "$run/policy_latest.npz")
+    done
+    evaluate "$out/gail_a_$kind.parquet" "$kind" "$test_episodes" "${policies[@]}"
+  done
+fi

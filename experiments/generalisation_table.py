@@ -1,8 +1,9 @@
 """The generalisation table (experiments/generalisation.sh): the expert on every road (its rows of each (a) file);
-BC, DAgger and RAIL (its rail_*.parquet evaluations) trained and tested on each road (a), trained on the straight road
+BC, DAgger, RAIL and GAIL (their rail_*.parquet and gail_*.parquet evaluations) trained and tested on each road (a),
+trained on the straight road
 and tested on the others and at densities it never saw (b), trained on a mix of roads (c), and trained without the
 route block (d); each method pooled over its training seeds (experiments/seeded.py), with paired differences (b) - (a),
-(c) - (a) and (d) - (a) on the same test episodes, and RAIL against BC and DAgger on the same episodes. Prints
+(c) - (a) and (d) - (a) on the same test episodes, and RAIL against BC, DAgger and GAIL on the same episodes. Prints
 Markdown; writes the figure.
 
 Usage: python experiments/generalisation_table.py OUT_DIR [FIGURE.png]
@@ -25,7 +26,8 @@ from sumo_rail.evaluation.statistics import Sample, interval, mean_sample, seede
 from sumo_rail.evaluation.summary import measure_samples
 
 KINDS = ("straight", "merge", "merge_from_ramp", "lane_drop", "exit")
-METHODS = {"BC": ("dagger", "policy_bc"), "DAgger": ("dagger", "policy_latest"), "RAIL": ("rail", "policy_latest")}
+METHODS = {"BC": ("dagger", "policy_bc"), "DAgger": ("dagger", "policy_latest"), "RAIL": ("rail", "policy_latest"),
+           "GAIL": ("gail", "policy_latest")}
 MIX = {"BC, mixed roads": ("dagger", "policy_bc"), "DAgger, mixed roads": ("dagger", "policy_latest"),
        "RAIL, mixed roads": ("rail", "policy_latest")}
 NO_ROUTE = {"BC": ("no_route", "policy_bc"), "DAgger": ("no_route", "policy_latest")}
@@ -59,26 +61,28 @@ def per_seed(metrics: pd.DataFrame, method: str, policy: str) -> list[dict[str, 
 
 
 def read(out: Path, name: str) -> pd.DataFrame | None:
-    """The evaluation `name`, with RAIL's evaluation of the same episodes (rail_NAME) where there is one."""
-    frames = [pd.read_parquet(path) for path in (out / f"{name}.parquet", out / f"rail_{name}.parquet")
+    """The evaluation `name`, with RAIL's and GAIL's evaluations of the same episodes (rail_NAME, gail_NAME) where
+    there are."""
+    frames = [pd.read_parquet(path) for path in (out / f"{prefix}{name}.parquet" for prefix in ("", "rail_", "gail_"))
               if path.exists()]
     return pd.concat(frames).drop_duplicates(["policy", "seed"]) if frames else None
 
 
 def rail_comparisons(out: Path) -> list[str]:
-    """RAIL minus BC and minus DAgger, paired by training seed and episode, wherever RAIL was evaluated ((a), (b)
-    and (c) evaluations, with their rail_ part; in (c) each method trained on the mix)."""
-    lines = ["| tested on | trained on | RAIL - BC: agreement / failed episodes | RAIL - DAgger: agreement / failed "
-             "episodes |", "|---|---|---|---|"]
-    names = sorted({path.stem.removeprefix("rail_") for path in out.glob("*.parquet")
-                    if path.stem.removeprefix("rail_").startswith(("a_", "b_", "c_")) and "decisions" not in path.name})
+    """RAIL minus BC, DAgger and GAIL, paired by training seed and episode, wherever RAIL was evaluated ((a), (b)
+    and (c) evaluations, with their rail_ part; in (c) each method trained on the mix; GAIL in (a) only)."""
+    others = " | ".join(f"RAIL - {other}: agreement / failed episodes" for other in ("BC", "DAgger", "GAIL"))
+    lines = [f"| tested on | trained on | {others} |", "|---|---|---|---|---|"]
+    stems = {path.stem.removeprefix("rail_").removeprefix("gail_") for path in out.glob("*.parquet")
+             if "decisions" not in path.name}
+    names = sorted(stem for stem in stems if stem.startswith(("a_", "b_", "c_")))
     for name in names:
         metrics = read(out, name)
         rail = per_seed(metrics, "rail", "policy_latest")
         if not rail:
             continue
         cells = []
-        for method, policy in (METHODS["BC"], METHODS["DAgger"]):
+        for method, policy in (METHODS["BC"], METHODS["DAgger"], METHODS["GAIL"]):
             theirs = per_seed(metrics, method, policy)
             cells.append(" / ".join(difference_cell(rail, theirs, measure, 3 if measure == "agreement" else 2)
                                     for measure in ("agreement", "failures")) if len(theirs) == len(rail) else "-")
@@ -193,7 +197,7 @@ def main(out: Path, figure_path: Path | None) -> None:
     print("\n".join(generalisation_table(out, figure)))
     comparisons = rail_comparisons(out)
     if len(comparisons) > 2:
-        print("\n### RAIL against BC and DAgger on the same episodes\n")
+        print("\n### RAIL against BC, DAgger and GAIL on the same episodes\n")
         print("\n".join(comparisons))
     if figure_path is not None and figure:
         plot(figure, figure_path)

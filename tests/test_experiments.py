@@ -130,3 +130,22 @@ def test_rail_is_compared_with_bc_and_dagger_of_its_own_training_condition(tmp_p
     rows = {line.split(" | ")[1]: line.split(" | ", 2)[2] for line in rail_comparisons(tmp_path)[2:]}
     assert set(rows) == {"(a) merge", "(c) every road"}
     assert rows["(a) merge"] == rows["(c) every road"] and "[" in rows["(a) merge"]
+
+
+def test_gail_is_read_beside_the_others_and_paired_with_rail(tmp_path: Path):
+    """GAIL's evaluation of a road's (a) episodes (gail_a_KIND) gives GAIL's rows and the RAIL - GAIL cells: the
+    RAIL drivers under GAIL's names differ from themselves by exactly 0."""
+    import pandas as pd
+    from generalisation_table import generalisation_table, rail_comparisons
+
+    data = Path(__file__).parent.parent / "docs/results/generalisation/data"
+    pd.read_parquet(data / "a_merge.parquet").to_parquet(tmp_path / "a_merge.parquet")
+    rail = pd.read_parquet(data / "rail_a_merge.parquet")
+    rail.to_parquet(tmp_path / "rail_a_merge.parquet")
+    rail.assign(policy=rail["policy"].str.replace("rail_", "gail_")).to_parquet(tmp_path / "gail_a_merge.parquet")
+    methods = {line.split(" | ")[1] for line in generalisation_table(tmp_path, {})[2:]}
+    assert methods == {"BC", "DAgger", "RAIL", "GAIL"}
+    (row,) = rail_comparisons(tmp_path)[2:]
+    rail_minus_gail = row.rstrip(" |").split(" | ")[-1]
+    assert rail_minus_gail.startswith("+0.000 [+0.000, +0.000]")
+
