@@ -140,6 +140,15 @@ def with_defaults(stored: dict[str, Any], defaults: dict[str, Any]) -> dict[str,
     return merged
 
 
+def save_tensors(state: dict[str, Any], path: Path) -> None:
+    """torch.save `state` to `path` through an open file: torch names the archive's inner folder after a path it is
+    given, and `path` is a temporary name holding the writer's pid (`written_atomically`), so the same state would
+    give other bytes in another process (a resumed run's discriminator.pt and checkpoint.pt against an uninterrupted
+    run's); through a file the folder is always "archive"."""
+    with path.open("wb") as file:
+        torch.save(state, file)
+
+
 def load_checkpoint(path: Path, expected: str) -> dict[str, Any]:
     """A checkpoint.pt of format `expected`: its zip checksums verified (torch does not check them), loaded with
     weights_only (no code runs)."""

@@ -10,7 +10,8 @@ import time
 
 import pytest
 
-from sumo_rail.learning.run_folder import signals_deferred, stop_requests
+from sumo_rail.datasets import written_atomically
+from sumo_rail.learning.run_folder import load_checkpoint, save_tensors, signals_deferred, stop_requests
 
 SECOND_SIGNAL_INSIDE_THE_FIRST = textwrap.dedent("""
     import signal, sys
@@ -59,3 +60,21 @@ def test_ctrl_c_during_a_save_takes_effect_after_it():
             time.sleep(0.1)
             finished.append("save")
     assert finished == ["save"]
+
+
+def test_a_state_saved_by_two_processes_has_the_same_bytes(tmp_path):
+    """The temporary name a file is written under holds the writer's pid; the file's bytes must not (a resumed run's
+    checkpoint against an uninterrupted run's)."""
+    import torch
+
+    state = {"format": "test", "weights": torch.arange(6.0).reshape(2, 3)}
+    for folder, pid in (("first", 100), ("second", 200)):
+        (tmp_path / folder).mkdir()
+        with pytest.MonkeyPatch.context() as patch:
+            patch.setattr(os, "getpid", lambda pid=pid: pid)
+            with written_atomically(tmp_path / folder / "checkpoint.pt") as temporary:
+                save_tensors(state, temporary)
+    first, second = (tmp_path / folder / "checkpoint.pt" for folder in ("first", "second"))
+    assert first.read_bytes() == second.read_bytes()
+    assert torch.equal(load_checkpoint(second, "test")["weights"], state["weights"])
+

@@ -35,6 +35,7 @@ from sumo_rail.learning.run_folder import (
     check_resumable,
     demos_record,
     load_checkpoint,
+    save_tensors,
     signals_deferred,
     start_run_folder,
 )
@@ -147,9 +148,9 @@ def _save_iteration(folder: Path, state: TrainingState, policy: Policy, discrimi
             save_policy(policy, staged.path(folder / "policy_latest.npz"), metadata)
             if improved:
                 save_policy(policy, staged.path(folder / "policy_best.npz"), metadata)
-            torch.save(discriminator.state(), staged.path(folder / "discriminator.pt"))
+            save_tensors(discriminator.state(), staged.path(folder / "discriminator.pt"))
             write_parquet(_log_table(logs), staged.path(folder / "log.parquet"), {**run_record, "kind": "training_log"})
-            torch.save(checkpoint, staged.path(folder / "checkpoint.pt"))  # last: it marks the iteration complete
+            save_tensors(checkpoint, staged.path(folder / "checkpoint.pt"))  # last: it marks the iteration complete
     except (OSError, DatasetError) as error:
         kept = (f"keeps iteration {state.iteration - 1}, the last complete one" if state.iteration > 1
                 else "holds no complete iteration yet")

@@ -18,7 +18,7 @@ import pyarrow as pa
 
 from sumo_rail.datasets import DatasetError, write_failure, write_parquet, written_together
 from sumo_rail.drivers.policies import Policy, PolicyShape, save_policy
-from sumo_rail.learning.run_folder import signals_ignored
+from sumo_rail.learning.run_folder import save_tensors, signals_ignored
 from sumo_rail.learning.sb3.actor import policy_kwargs
 from sumo_rail.learning.sb3.envs import LOST_ENV, close_envs, lost_env_message
 
@@ -146,7 +146,6 @@ def save_update(folder: Path, policy: Policy, rows: list[dict[str, Any]], run_re
     """Replace policy_latest.npz, log.parquet (`rows`, the last being this update's) and checkpoint.pt
     (`resume.learner_checkpoint`) together: all or, on a full disk, none; a BaselineError saying what the folder
     keeps otherwise."""
-    import torch
 
     update = len(rows) - 1
     try:
@@ -154,7 +153,7 @@ def save_update(folder: Path, policy: Policy, rows: list[dict[str, Any]], run_re
             save_policy(policy, staged.path(folder / "policy_latest.npz"), {**run_record, "iteration": update})
             write_parquet(pa.Table.from_pylist(rows), staged.path(folder / "log.parquet"),
                           {**run_record, "kind": "training_log"})
-            torch.save(checkpoint, staged.path(folder / "checkpoint.pt"))  # last: it marks the update complete
+            save_tensors(checkpoint, staged.path(folder / "checkpoint.pt"))  # last: it marks the update complete
     except (OSError, DatasetError) as error:
         kept = f"it keeps update {update}, the last complete one" if update else "it holds no complete update yet"
         raise BaselineError(f"cannot save update {update + 1} in {folder} ({write_failure(error)}); {kept}: make "
