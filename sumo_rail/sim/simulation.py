@@ -34,6 +34,7 @@ from sumo_rail.sim.sumo_api import (
     LANE_CHANGE_MODE_ZIP_MERGE,
     load_api,
     load_constants,
+    period_calls,
 )
 from sumo_rail.sim.sumo_api import TRANSPORTS as TRANSPORTS
 from sumo_rail.sim.sumo_api import SimulationError as SimulationError
@@ -157,6 +158,7 @@ class Simulation(EgoPlacement, Stepping, Sensing):
         except FatalTraCIError as error:
             raise SimulationError(f"sumo-gui did not start (is a display available?): {describe(error)}") from error
         self._api = sumo_gui.PacedApi(api, self.gui_delay_ms / 1000.0) if self.gui else api
+        self._period_calls = period_calls(self._api)
 
     def _load(self, extra: list[str]) -> None:
         self.forget_sizes()  # a loaded state may give known ids to other vehicles
