@@ -4,27 +4,27 @@ from __future__ import annotations
 
 import contextlib
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from typing import Any
 
-from sumo_rail.sim.sumo_api import EGO_ID, SimulationError
+from sumo_rail.sim.sumo_api import EGO_ID, DecisionCalls, SimulationError
 from sumo_rail.sim.vehicles import PeriodReport
 
 
 class Stepping:
-    """The stepping part of `Simulation` (a mixin: `_api` and `_client` are the simulation's)."""
+    """The stepping part of `Simulation` (a mixin: `_api`, `_calls` and `_client` are the simulation's)."""
 
     _api: Any
     _client: Any
-    _period_calls: tuple[Callable[[], Any], Callable[[], int], Callable[[str], float]]
-    """`sumo_api.period_calls` of `_api`, found once per connection."""
+    _calls: DecisionCalls
+    """`sumo_api.decision_calls` of `_api`, found once per connection."""
 
     def advance(self, steps: int, watch: Sequence[str] = ()) -> PeriodReport:
         """`advance_egos(steps, (EGO_ID,), watch)[0]`, the same report from a loop of its own: the single ego's
         decisions run this at every decision, and without the per-ego lists and dicts of `advance_egos` it costs
         about half (tests/sim/test_simulation.py compares the two)."""
         simulation = self._api.simulation
-        step, starting_teleports, acceleration = self._period_calls
+        step, starting_teleports, acceleration = self._calls[:3]
         error = self._client.TraCIException
         accelerations: list[float] = []
         append = accelerations.append
@@ -60,7 +60,7 @@ class Stepping:
         step's collision and arrival lists read, collision first.
         """
         simulation = self._api.simulation
-        step, starting_teleports, acceleration = self._period_calls
+        step, starting_teleports, acceleration = self._calls[:3]
         error = self._client.TraCIException
         on_road = list(vehicles)
         accelerations: dict[str, list[float]] = {vehicle: [] for vehicle in on_road}
