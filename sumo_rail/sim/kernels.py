@@ -24,6 +24,9 @@ log = logging.getLogger(__name__)
 
 _TINY = 1e-12
 """Stands for a zero direction component, as in `lidar._ray_box_distances`."""
+_CULL_MARGIN_M = 1.0
+"""Boxes farther than the LIDAR range plus this [m] are left out of the scan (`_keep_near`): far more than the
+rounding of the slab arithmetic, so that such a box's entry distance is beyond range however it rounds."""
 
 
 def jit(function: Callable[..., Any]) -> Any:
@@ -63,6 +66,21 @@ def _slab_entry(o_len: float, o_wid: float, d_len: float, d_wid: float, half_len
 
 
 @jit
+def _keep_near(frame: np.ndarray, count: int, o_len: float, o_wid: float, axis_x: float, axis_y: float,
+               half_len: float, half_wid: float, velocity_x: float, velocity_y: float, range_m: float) -> int:
+    """Store a box's row (`_lidar`'s frame) at `count` unless the box is beyond `range_m` + `_CULL_MARGIN_M` along
+    one of its axes from the ray origin (`o_len`, `o_wid` [m], in its frame); returns the rows stored.
+
+    A ray enters such a box only past `range_m`, where `_lidar` reads nothing, so leaving it out changes no beam:
+    the nearest box within range, the first of equals, is the same among the boxes kept, in the same order. Most of
+    the road-edge boxes of a network lie far from the ego, and each one left out saves a slab test per beam."""
+    if max(abs(o_len) - half_len, abs(o_wid) - half_wid) > range_m + _CULL_MARGIN_M:
+        return count
+    frame[count] = (o_len, o_wid, axis_x, axis_y, half_len, half_wid, velocity_x, velocity_y)
+    return count + 1
+
+
+@jit
 def _lidar(front_xy: np.ndarray, heading_rad: np.ndarray, length_m: np.ndarray, width_m: np.ndarray,
            speed_mps: np.ndarray, edges: np.ndarray, front_x: float, front_y: float, heading: float, ego_length: float,
            ego_speed: float, beams: int, range_m: float, v_max_mps: float, observation: np.ndarray) -> None:
@@ -73,21 +91,20 @@ def _lidar(front_xy: np.ndarray, heading_rad: np.ndarray, length_m: np.ndarray, 
     half = 0.5 * ego_length
     origin_x, origin_y = front_x - half * cos_h, front_y - half * sin_h
     ego_vx, ego_vy = ego_speed * cos_h, ego_speed * sin_h
-    vehicles, walls = len(heading_rad), len(edges)
-    boxes = vehicles + walls
-    # per box: origin in the box frame (length, width), axis x, y, half length, half width, velocity x, y
-    frame = np.empty((boxes, 8))
-    for j in range(vehicles):
+    # per box within reach: origin in the box frame (length, width), axis x, y, half length, half width, velocity x, y
+    frame = np.empty((len(heading_rad) + len(edges), 8))
+    boxes = 0
+    for j in range(len(heading_rad)):
         axis_x, axis_y = math.cos(heading_rad[j]), math.sin(heading_rad[j])
         half_len = 0.5 * length_m[j]
         dx, dy = origin_x - (front_xy[j, 0] - half_len * axis_x), origin_y - (front_xy[j, 1] - half_len * axis_y)
-        frame[j] = (axis_x * dx + axis_y * dy, -axis_y * dx + axis_x * dy, axis_x, axis_y, half_len,
-                    0.5 * width_m[j], speed_mps[j] * axis_x, speed_mps[j] * axis_y)
-    for k in range(walls):
+        boxes = _keep_near(frame, boxes, axis_x * dx + axis_y * dy, -axis_y * dx + axis_x * dy, axis_x, axis_y,
+                           half_len, 0.5 * width_m[j], speed_mps[j] * axis_x, speed_mps[j] * axis_y, range_m)
+    for k in range(len(edges)):
         axis_x, axis_y = edges[k, 2], edges[k, 3]
         dx, dy = origin_x - edges[k, 0], origin_y - edges[k, 1]
-        frame[vehicles + k] = (axis_x * dx + axis_y * dy, -axis_y * dx + axis_x * dy, axis_x, axis_y, edges[k, 4],
-                               edges[k, 5], 0.0, 0.0)
+        boxes = _keep_near(frame, boxes, axis_x * dx + axis_y * dy, -axis_y * dx + axis_x * dy, axis_x, axis_y,
+                           edges[k, 4], edges[k, 5], 0.0, 0.0, range_m)
     step = 2.0 * np.pi / beams
     inverse_range, inverse_v_max = 1.0 / range_m, 1.0 / v_max_mps
     for i in range(beams):

@@ -32,6 +32,7 @@ from sumo_rail.sim.sumo_api import EGO_ID as EGO_ID  # importable from here, as 
 from sumo_rail.sim.sumo_api import (
     LANE_CHANGE_MODE_TRACI_ONLY_SAFE,
     LANE_CHANGE_MODE_ZIP_MERGE,
+    decision_calls,
     load_api,
     load_constants,
 )
@@ -96,7 +97,7 @@ class Simulation(EgoPlacement, Stepping, Sensing):
     @property
     def time_s(self) -> float:
         """Current simulation time [s]."""
-        return self._api.simulation.getTime()
+        return self._calls.time_s()
 
     @property
     def snapshot_count(self) -> int:
@@ -157,6 +158,7 @@ class Simulation(EgoPlacement, Stepping, Sensing):
         except FatalTraCIError as error:
             raise SimulationError(f"sumo-gui did not start (is a display available?): {describe(error)}") from error
         self._api = sumo_gui.PacedApi(api, self.gui_delay_ms / 1000.0) if self.gui else api
+        self._calls = decision_calls(self._api)
 
     def _load(self, extra: list[str]) -> None:
         self.forget_sizes()  # a loaded state may give known ids to other vehicles

@@ -6,7 +6,7 @@ from __future__ import annotations
 import os
 from collections.abc import Callable
 from types import ModuleType
-from typing import Any
+from typing import Any, NamedTuple
 
 EGO_ID = "ego"
 """The single ego's vehicle id."""
@@ -43,11 +43,33 @@ def load_constants() -> ModuleType:
     return traci.constants
 
 
-def period_calls(api: Any) -> tuple[Callable[[], Any], Callable[[], int], Callable[[str], float]]:
-    """(one step, the number of vehicles that started a teleport in it, a vehicle's acceleration [m/s^2]): the calls of
-    a decision period's every step. With libsumo, its compiled functions themselves: its Python wrappers add a call
-    each, and its step's wrapper runs traci's step listeners, which this project never adds."""
+class DecisionCalls(NamedTuple):
+    """SUMO's calls made at every decision or every step of its period."""
+
+    step: Callable[[], Any]
+    starting_teleports: Callable[[], int]
+    """The number of vehicles that started a teleport in the last step."""
+    acceleration: Callable[[str], float]
+    """A vehicle's acceleration [m/s^2]."""
+    time_s: Callable[[], float]
+    subscribe_context: Callable[[str, int, float, Any], None]
+    context_results: Callable[[str], dict[str, dict[int, Any]]]
+    unsubscribe_context: Callable[[str, int, float], None]
+    lateral_position: Callable[[str], float]
+    """A vehicle's lateral position in its lane [m]."""
+
+
+def decision_calls(api: Any) -> DecisionCalls:
+    """The calls of every decision. With libsumo, its compiled functions themselves: its Python wrappers add a call
+    each (about 1 k instructions), subscribeContext's checks its arguments for None and its step's runs traci's step
+    listeners, which this project never adds."""
     compiled = getattr(api, "_libsumo", None)
     if compiled is None:
-        return api.simulationStep, api.simulation.getStartingTeleportNumber, api.vehicle.getAcceleration
-    return compiled.simulation_step, compiled.simulation_getStartingTeleportNumber, compiled.vehicle_getAcceleration
+        vehicle, simulation = api.vehicle, api.simulation
+        return DecisionCalls(api.simulationStep, simulation.getStartingTeleportNumber, vehicle.getAcceleration,
+                             simulation.getTime, vehicle.subscribeContext, vehicle.getContextSubscriptionResults,
+                             vehicle.unsubscribeContext, vehicle.getLateralLanePosition)
+    return DecisionCalls(compiled.simulation_step, compiled.simulation_getStartingTeleportNumber,
+                         compiled.vehicle_getAcceleration, compiled.simulation_getTime,
+                         compiled.vehicle_subscribeContext, compiled.vehicle_getContextSubscriptionResults,
+                         compiled.vehicle_unsubscribeContext, compiled.vehicle_getLateralLanePosition)

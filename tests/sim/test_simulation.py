@@ -72,6 +72,26 @@ def test_forced_rear_end_collision_is_reported(sim):
     assert EGO_ID not in libsumo.vehicle.getIDList()
 
 
+def test_advance_reports_as_advance_egos_does_for_the_single_ego(sim):
+    """The single ego's own stepping loop gives `advance_egos`' reports, period after period with two watched
+    vehicles, up to the collision that ends the ego's episode."""
+    reports = {}
+    for way in ("advance", "advance_egos"):
+        sim.reset(snapshot=0, sumo_seed=5, ego_lane=0, ego_position_m=400.0)
+        libsumo.vehicle.add("blocker", "highway_route", typeID="truck", depart="now", departLane="0",
+                            departPos="460", departSpeed="0")
+        libsumo.vehicle.setSpeedMode(EGO_ID, 0)
+        libsumo.vehicle.setSpeed(EGO_ID, 50.0)
+        watch = [next(vehicle for vehicle in libsumo.vehicle.getIDList() if vehicle != EGO_ID), "blocker"]
+        reports[way] = []
+        while not (reports[way] and reports[way][-1].ego_collided) and len(reports[way]) < 20:
+            reports[way].append(sim.advance(5, watch) if way == "advance"
+                                else sim.advance_egos(5, [EGO_ID], watch)[0])
+    assert reports["advance"] == reports["advance_egos"]
+    assert reports["advance"][-1].ego_collided and reports["advance"][-1].left_at_s is not None
+    assert len(reports["advance"][0].watched_min_acceleration_mps2) == 2
+
+
 def test_road_edges_bound_all_lanes(sim):
     edges = sim.road_edges()
     ys = sorted({round(y, 3) for y in edges[:, :, 1].ravel()})
