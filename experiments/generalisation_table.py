@@ -167,8 +167,9 @@ def plot(figure: dict[tuple[str, str, str], tuple[float, float, float]], path: P
     """Agreement and failed episodes per road, one bar per method and training condition, with 95% intervals."""
     roads = list(dict.fromkeys(road for road, _, _ in figure))
     series = list(dict.fromkeys(name for _, name, _ in figure))
-    fig, axes = plt.subplots(2, 1, figsize=(12, 7), sharex=True)
+    fig, axes = plt.subplots(2, 1, figsize=(12, 8), sharex=True)
     width = 0.8 / max(len(series), 1)
+    colours = plt.get_cmap("tab20")  # one colour per series: the default cycle repeats after 10
     for axis, measure in zip(axes, PLOTTED, strict=True):
         for index, name in enumerate(series):
             points = [(position, figure[(road, name, measure)]) for position, road in enumerate(roads)
@@ -178,10 +179,10 @@ def plot(figure: dict[tuple[str, str, str], tuple[float, float, float]], path: P
             x = np.array([position for position, _ in points]) + (index - (len(series) - 1) / 2) * width
             values = np.array([value for _, value in points])
             errors = np.clip(np.stack([values[:, 0] - values[:, 1], values[:, 2] - values[:, 0]]), 0, None)
-            axis.bar(x, values[:, 0], width, yerr=errors, capsize=2, label=name)
+            axis.bar(x, values[:, 0], width, yerr=errors, capsize=2, label=name, color=colours(index % colours.N))
         axis.set_ylabel(LABELS[measure])
         axis.set_ylim(0, 1)
-    axes[0].legend(fontsize=8, ncol=4, loc="upper right")
+    axes[0].legend(fontsize=8, ncol=5, loc="lower center", bbox_to_anchor=(0.5, 1.08))
     axes[1].set_xticks(range(len(roads)), roads, rotation=10)
     conditions = [words for tag, words in CONDITIONS if any(name.endswith(f", {tag}") for name in series)]
     axes[0].set_title(f"Each road: {', '.join(conditions)}; 95% intervals over 3 training seeds")
