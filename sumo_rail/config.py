@@ -27,7 +27,18 @@ FEATURE_KINDS = ("merge", "merge_from_ramp", "lane_drop", "exit")
 FEATURE_CLEARANCE_M = 400.0
 """Least distance from a feature's end to the end of the main road [m]."""
 LANE_CAPACITY_VEH_PER_H = 3000.0
-"""More traffic than this a lane is refused: a motorway lane carries about 2000-2400 veh/h at its best."""
+"""More traffic than this a lane of the road's start is refused. SUMO lets about 1700 veh/h a lane onto a generated
+road (experiments/road_capacity.py: five lanes carry 8000 veh/h; at 9000 traffic queues to enter); the rest waits off
+the road, so a flow up to this bound gives a road at its capacity (docs/environment.md)."""
+BOTTLENECK_LANE_CAPACITY_VEH_PER_H = 2000.0
+"""More traffic than this a lane of a narrower part further along is refused (a work zone's lanes, a user route's
+narrowest edge): there the excess jams the road itself. Measured (experiments/road_capacity.py): the work zone's
+three lanes carry 6000 veh/h at 24 m/s and break down at 6600 (16 m/s, falling to 10 m/s at 7800)."""
+EXIT_CAPACITY_VEH_PER_H = 1400.0
+"""More exiting traffic than this is refused (kind exit): the exiting vehicles must all reach the rightmost lane and
+its one-lane off-ramp. Measured (experiments/road_capacity.py, exit_share 0.2): 1400 veh/h of 7000 exit at 24 m/s;
+at 1600 of 8000 the road slows to 19 m/s and at 1800 of 9000 it jams (14 m/s); with exit_share 0.1 the same flows
+run as on the straight road."""
 START_CLEARANCE_M = 200.0
 """Least distance from the ego's start window to the road's feature [m]: room to see it coming."""
 
@@ -134,13 +145,19 @@ class ScenarioConfig:
         _require(0 <= self.traffic_seed < 2**31, f"scenario.traffic_seed must be in [0, 2^31), got {self.traffic_seed}")
 
     def _validate_bottleneck(self) -> None:
-        """The traffic fits the road's narrowest part: the work zone's lanes, or the main road past the merge."""
+        """The traffic fits the road's narrowest part: the work zone's lanes, the exit's off-ramp, or the main road
+        past the merge."""
         if self.kind == "lane_drop":
             zone_lanes = self.lanes - self.dropped_lanes
-            _require(self.flow_veh_per_h <= LANE_CAPACITY_VEH_PER_H * zone_lanes,
+            _require(self.flow_veh_per_h <= BOTTLENECK_LANE_CAPACITY_VEH_PER_H * zone_lanes,
                      f"scenario.flow_veh_per_h ({self.flow_veh_per_h:g} veh/h) is more than the work zone's "
                      f"{zone_lanes} lane{'s' if zone_lanes > 1 else ''} can carry "
-                     f"(about {LANE_CAPACITY_VEH_PER_H:g} veh/h a lane)")
+                     f"(about {BOTTLENECK_LANE_CAPACITY_VEH_PER_H:g} veh/h a lane)")
+        if self.kind == "exit":
+            exiting = self.flow_veh_per_h * self.exit_share
+            _require(exiting <= EXIT_CAPACITY_VEH_PER_H,
+                     f"scenario.flow_veh_per_h times scenario.exit_share ({exiting:g} veh/h) is more than the exit "
+                     f"takes (about {EXIT_CAPACITY_VEH_PER_H:g} veh/h through its one-lane off-ramp)")
         if self.kind in ("merge", "merge_from_ramp"):
             total = self.flow_veh_per_h + self.ramp_flow_veh_per_h
             _require(total <= LANE_CAPACITY_VEH_PER_H * self.lanes,

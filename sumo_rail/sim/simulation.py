@@ -106,24 +106,7 @@ class Simulation(EgoPlacement, Stepping, Sensing):
 
     def _options(self) -> list[str]:
         """Every SUMO option that shapes the simulation, explicitly."""
-        s = self.scenario
-        return [
-            "--net-file", str(self._built.net_file),
-            "--route-files", self._built.route_files,
-            "--step-length", repr(s.step_length_s),
-            "--lanechange.duration", repr(s.lane_change_duration_s),
-            "--time-to-teleport", repr(s.teleport_time_s),
-            "--collision.action", "remove",
-            "--collision.check-junctions", "true",
-            "--collision.mingap-factor", repr(s.collision_min_gap_factor),
-            "--random", "false",
-            "--save-state.rng", "false",
-            "--save-state.precision", "6",
-            "--xml-validation", "never",
-            "--no-step-log", "true",
-            "--no-warnings", "true",
-            "--duration-log.disable", "true",
-        ]
+        return sumo_options(self.scenario, self._built)
 
     def _gui_options(self) -> list[str]:
         """sumo-gui runs without waiting for its play button and closes at the end, after a start and after each
@@ -290,3 +273,26 @@ class Simulation(EgoPlacement, Stepping, Sensing):
     def _require_running(self) -> None:
         if not self._running:
             raise SimulationError("this simulation is closed; create a new one")
+
+
+def sumo_options(scenario: ScenarioConfig, built: network.BuiltNetwork) -> list[str]:
+    """Every SUMO option that shapes a simulation of `scenario` on `built`, explicitly (the network and route files
+    first)."""
+    s = scenario
+    return [
+        "--net-file", str(built.net_file),
+        "--route-files", built.route_files,
+        "--step-length", repr(s.step_length_s),
+        "--lanechange.duration", repr(s.lane_change_duration_s),
+        "--time-to-teleport", repr(s.teleport_time_s),
+        "--collision.action", "remove",
+        "--collision.check-junctions", "true",
+        "--collision.mingap-factor", repr(s.collision_min_gap_factor),
+        "--random", "false",
+        "--save-state.rng", "false",
+        "--save-state.precision", "6",
+        "--xml-validation", "never",
+        "--no-step-log", "true",
+        "--no-warnings", "true",
+        "--duration-log.disable", "true",
+    ]

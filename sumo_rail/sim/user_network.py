@@ -16,7 +16,7 @@ import xml.etree.ElementTree as ElementTree
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from sumo_rail.config import LANE_CAPACITY_VEH_PER_H, ConfigError, ScenarioConfig
+from sumo_rail.config import BOTTLENECK_LANE_CAPACITY_VEH_PER_H, LANE_CAPACITY_VEH_PER_H, ConfigError, ScenarioConfig
 from sumo_rail.datasets import sumo_version, write_bytes_atomically
 from sumo_rail.sim import scenarios
 
@@ -31,15 +31,16 @@ def build(scenario: ScenarioConfig, cache_root: Path, vehicle_types_file: Path) 
     net_file = Path(scenario.network).expanduser().resolve()
     ego_route = tuple(scenario.route.split())
     net_bytes = _network_bytes(net_file)
-    narrowest = check_route(net_file, ego_route, scenario.lanes)
+    lane_counts = check_route(net_file, ego_route, scenario.lanes)
+    narrowest, capacity = min(lane_counts), lane_capacity(lane_counts)
     traffic_file = None
     if scenario.traffic_file:
         traffic_file = Path(scenario.traffic_file).expanduser().resolve()
         scenarios.read_source(traffic_file)
-    elif scenario.flow_veh_per_h > LANE_CAPACITY_VEH_PER_H * narrowest:
+    elif scenario.flow_veh_per_h > capacity * narrowest:
         raise ConfigError(f"scenario.flow_veh_per_h ({scenario.flow_veh_per_h:g} veh/h) is more than the route's "
                           f"narrowest edge in {net_file.name} ({narrowest} lane{'s' if narrowest > 1 else ''}) can "
-                          f"carry (about {LANE_CAPACITY_VEH_PER_H:g} veh/h a lane)")
+                          f"carry (about {capacity:g} veh/h a lane)")
     routes = scenarios.network_routes(scenario, scenarios.read_source(vehicle_types_file), ego_route,
                                       with_flow=traffic_file is None)
     digest = hashlib.sha256(json.dumps({"route": ego_route, "sumo": sumo_version(),
@@ -87,8 +88,14 @@ def check_sumo_loads(net_file: Path, traffic_file: Path | None) -> None:
         raise ConfigError(f"SUMO cannot load scenario.network {loaded}: {errors[0] if errors else 'no output'}")
 
 
-def check_route(net_file: Path, ego_route: tuple[str, ...], lanes: int) -> int:
-    """The lane count of the route's narrowest edge; ConfigError unless every edge of `ego_route` is in the network,
+def lane_capacity(lane_counts: list[int]) -> float:
+    """The most traffic a lane of the route's narrowest edge may carry [veh/h], from the lane counts of its edges in
+    order: the road's start's (the excess waits off the road) unless a later edge has fewer lanes (there it jams)."""
+    return LANE_CAPACITY_VEH_PER_H if min(lane_counts) == lane_counts[0] else BOTTLENECK_LANE_CAPACITY_VEH_PER_H
+
+
+def check_route(net_file: Path, ego_route: tuple[str, ...], lanes: int) -> list[int]:
+    """The lane counts of the route's edges, in order; ConfigError unless every edge of `ego_route` is in the network,
     each leads to the next, and the route's widest edge has `lanes` lanes (the observation's lane count)."""
     import sumolib
 
@@ -108,4 +115,4 @@ def check_route(net_file: Path, ego_route: tuple[str, ...], lanes: int) -> int:
     if max(counts) != lanes:
         raise ConfigError(f"scenario.lanes is {lanes} but the route's widest edge in {net_file.name} has {max(counts)} "
                           f"lanes; set --set scenario.lanes={max(counts)}")
-    return min(counts)
+    return counts

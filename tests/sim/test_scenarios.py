@@ -193,9 +193,13 @@ def test_bad_user_networks_name_the_problem(small_config, tmp_path):
     (tmp_path / "no_shape.net.xml").write_text(text.replace(' shape="', ' form="'))
     with pytest.raises(ConfigError, match=r"SUMO cannot load scenario\.network no_shape\.net\.xml: .*shape"):
         built(network=str(tmp_path / "no_shape.net.xml"), route="highway")
-    bend = bend_network(tmp_path, small_config).with_overrides({"scenario": {"flow_veh_per_h": 7000.0}})
-    with pytest.raises(ConfigError, match=r"more than the route's narrowest edge in road\.net\.xml \(2 lanes\)"):
+    # the bend's third lane ends after its start: its two lanes jam beyond 2000 veh/h a lane, not 3000
+    bend = bend_network(tmp_path, small_config).with_overrides({"scenario": {"flow_veh_per_h": 5000.0}})
+    with pytest.raises(ConfigError, match=r"more than the route's narrowest edge in road\.net\.xml \(2 lanes\) "
+                                          r"can carry \(about 2000 veh/h a lane\)"):
         network.build(bend.scenario)
+    # a route whose start is its narrowest part queues there, off the road, as the generated roads do: accepted
+    built(network=str(straight), route="highway", flow_veh_per_h=12000.0)
 
 
 def test_a_crowded_start_is_drawn_again_the_same_way_for_every_driver(small_config, monkeypatch):
@@ -339,6 +343,14 @@ def test_a_flow_no_road_can_hold_is_refused_before_anything_runs(small_config):
     with pytest.raises(ConfigError, match=r"more than the work zone's 1 lane can carry"):
         small_config.with_overrides({"scenario": {"kind": "lane_drop", **FEATURE, "dropped_lanes": 4,
                                                   "flow_veh_per_h": 12000.0}})
+    # the work zone jams where the road's start would let the traffic in (experiments/road_capacity.py)
+    with pytest.raises(ConfigError, match=r"\(8000 veh/h\) is more than the work zone's 3 lanes can carry "
+                                          r"\(about 2000 veh/h a lane\)"):
+        small_config.with_overrides({"scenario": {"kind": "lane_drop", **FEATURE, "flow_veh_per_h": 8000.0}})
+    small_config.with_overrides({"scenario": {"kind": "lane_drop", **FEATURE, "flow_veh_per_h": 6000.0}})
+    with pytest.raises(ConfigError, match=r"exit_share \(1600 veh/h\) is more than the exit takes"):
+        small_config.with_overrides({"scenario": {"kind": "exit", **FEATURE, "flow_veh_per_h": 8000.0}})
+    small_config.with_overrides({"scenario": {"kind": "exit", **FEATURE, "flow_veh_per_h": 8000.0, "exit_share": 0.1}})
     with pytest.raises(ConfigError, match=r"plus scenario\.ramp_flow_veh_per_h \(17000 veh/h\) is more than the 5"):
         small_config.with_overrides({"scenario": {"kind": "merge", **FEATURE, "flow_veh_per_h": 14000.0,
                                                   "ramp_flow_veh_per_h": 3000.0}})
