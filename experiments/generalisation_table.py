@@ -3,7 +3,8 @@ BC, DAgger, RAIL and GAIL (their rail_*.parquet and gail_*.parquet evaluations) 
 trained on the straight road
 and tested on the others and at densities it never saw (b), trained on a mix of roads (c), and trained without the
 route block (d); each method pooled over its training seeds (experiments/seeded.py), with paired differences (b) - (a),
-(c) - (a) and (d) - (a) on the same test episodes, and RAIL against BC, DAgger and GAIL on the same episodes. Prints
+(c) - (a) and (d) - (a) on the same test episodes, the safety measures of (a) against the expert's, and RAIL against
+BC, DAgger and GAIL on the same episodes. Prints
 Markdown; writes the figure.
 
 Usage: python experiments/generalisation_table.py OUT_DIR [FIGURE.png]
@@ -35,6 +36,9 @@ SHOWN = ("agreement", "average_speed_kmh", "lane_changes", "failures", "merges")
 PLOTTED = ("agreement", "failures")
 LABELS = {"agreement": "agreement", "average_speed_kmh": "speed [km/h]", "lane_changes": "lane changes",
           "failures": "failed episodes", "merges": "merges"}
+SAFETY_SHOWN = {"min_ttc_s": "least TTC [s]", "ttc_below_1_5s_share": "decisions with TTC < 1.5 s",
+                "cut_ins": "cut-ins", "hard_braking": "hard braking", "collisions": "collisions"}
+"""The safety measures of docs/safety.md shown for each road's (a) drivers, and their columns' labels."""
 EXPERT_MEASURES = ("average_speed_kmh", "overtakes", "lane_changes", "collisions", "teleports", "merges",
                    "seconds_per_merge", "missed_exits", "lane_end_stops", "failures")
 
@@ -102,6 +106,29 @@ def expert_table(out: Path) -> list[str]:
         found = samples(metrics)
         cells = [interval(found[name]).format(2) if name in found else "-" for name in EXPERT_MEASURES]
         lines.append(f"| {kind} | {len(metrics)} | " + " | ".join(cells) + " |")
+    return lines
+
+
+def safety_table(out: Path) -> list[str]:
+    """The expert's and each method's (a) drivers' safety measures on every road, with each method minus the expert
+    on the same test episodes (least TTC and cut-ins)."""
+    lines = ["| road | driver | " + " | ".join(SAFETY_SHOWN.values()) + " | minus the expert: least TTC / cut-ins |",
+             "|---|---|" + "---|" * (len(SAFETY_SHOWN) + 1)]
+    for kind in KINDS:
+        own = read(out, f"a_{kind}")
+        experts = None if own is None else own[own["policy"].str.startswith("expert-")]
+        if experts is None or experts.empty:
+            continue
+        expert = samples(experts)
+        lines.append(f"| {kind} | expert | " + " | ".join(interval(expert[name]).format(3 if "share" in name else 2)
+                                                          for name in SAFETY_SHOWN) + " | - |")
+        for label, (method, policy) in METHODS.items():
+            mine = per_seed(own, method, policy)
+            if mine:
+                cells = [value_cell(mine, name, 3 if "share" in name else 2) for name in SAFETY_SHOWN]
+                difference = " / ".join(difference_cell(mine, [expert] * len(mine), name, 2)
+                                        for name in ("min_ttc_s", "cut_ins"))
+                lines.append(f"| {kind} | {label} | " + " | ".join(cells) + f" | {difference} |")
     return lines
 
 
@@ -196,6 +223,8 @@ def main(out: Path, figure_path: Path | None) -> None:
     figure: dict[tuple[str, str, str], tuple[float, float, float]] = {}
     print("\n### Learned drivers on roads they saw and never saw\n")
     print("\n".join(generalisation_table(out, figure)))
+    print("\n### Safety on every road (a)\n")
+    print("\n".join(safety_table(out)))
     comparisons = rail_comparisons(out)
     if len(comparisons) > 2:
         print("\n### RAIL against BC, DAgger and GAIL on the same episodes\n")

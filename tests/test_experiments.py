@@ -149,3 +149,22 @@ def test_gail_is_read_beside_the_others_and_paired_with_rail(tmp_path: Path):
     rail_minus_gail = row.rstrip(" |").split(" | ")[-1]
     assert rail_minus_gail.startswith("+0.000 [+0.000, +0.000]")
 
+
+
+def test_each_road_s_safety_rows_are_paired_with_the_expert_on_the_same_episodes(tmp_path: Path):
+    """A driver that is the expert under a method's names has the expert's safety measures and differs from it by
+    exactly 0; the real drivers' rows carry their own measures."""
+    import pandas as pd
+    from generalisation_table import safety_table
+
+    data = Path(__file__).parent.parent / "docs/results/generalisation/data"
+    own = pd.read_parquet(data / "a_exit.parquet")
+    expert = own[own["policy"].str.startswith("expert-")]
+    copies = [expert.assign(policy=f"rail_s{seed}/policy_latest") for seed in range(3)]
+    pd.concat([own, *copies]).to_parquet(tmp_path / "a_exit.parquet")
+    rows = {line.split(" | ")[1]: line.rstrip(" |").split(" | ") for line in safety_table(tmp_path)[2:]}
+    assert set(rows) == {"expert", "BC", "DAgger", "RAIL"}
+    assert rows["RAIL"][-1] == ("+0.00 [+0.00, +0.00] no detectable difference (per seed +0.00, +0.00, +0.00) / "
+                                "+0.00 [+0.00, +0.00] no detectable difference (per seed +0.00, +0.00, +0.00)")
+    assert rows["RAIL"][2].split(" ")[0] == rows["expert"][2].split(" ")[0]  # least TTC: the expert's own mean
+    assert rows["BC"][2].split(" ")[0] != rows["expert"][2].split(" ")[0]
