@@ -7,7 +7,7 @@ least 75% of its value at the lowest flow. The flows are given a lane of the roa
 zone's lanes on lane_drop, the five lanes past the merge, the main road's lanes on exit, whose off-ramp takes
 exit_share of the flow), so the limits of `sumo_rail.config` can be read off the table; flows beyond them are built
 here without the checks that refuse them to users.
-Usage: `python experiments/road_capacity.py --out docs/results/road_capacity.md [--seeds 3]`.
+Usage: `python experiments/road_capacity.py --out docs/results/road_capacity/table.md [--seeds 3]`.
 """
 
 from __future__ import annotations
