@@ -27,18 +27,14 @@ FEATURE_KINDS = ("merge", "merge_from_ramp", "lane_drop", "exit")
 FEATURE_CLEARANCE_M = 400.0
 """Least distance from a feature's end to the end of the main road [m]."""
 LANE_CAPACITY_VEH_PER_H = 3000.0
-"""More traffic than this a lane of the road's start is refused. SUMO lets about 1700 veh/h a lane onto a generated
-road (experiments/road_capacity.py: five lanes carry 8000 veh/h; at 9000 traffic queues to enter); the rest waits off
-the road, so a flow up to this bound gives a road at its capacity (docs/environment.md)."""
+"""More traffic than this a lane of the road's start is refused. SUMO lets about 1700 veh/h a lane onto a road; the
+rest waits off it, so a flow up to this bound gives a road at its capacity (docs/scenarios.md, road capacity)."""
 BOTTLENECK_LANE_CAPACITY_VEH_PER_H = 2000.0
-"""More traffic than this a lane of a narrower part further along is refused (a work zone's lanes, a user route's
-narrowest edge): there the excess jams the road itself. Measured (experiments/road_capacity.py): the work zone's
-three lanes carry 6000 veh/h at 24 m/s and break down at 6600 (16 m/s, falling to 10 m/s at 7800)."""
+"""More traffic than this a lane of a narrower part further along is refused (a work zone, a user route's narrowest
+edge): there the excess jams the road itself (the work zone's lanes carry 2000 veh/h and break down at 2200)."""
 EXIT_CAPACITY_VEH_PER_H = 1400.0
-"""More exiting traffic than this is refused (kind exit): the exiting vehicles must all reach the rightmost lane and
-its one-lane off-ramp. Measured (experiments/road_capacity.py, exit_share 0.2): 1400 veh/h of 7000 exit at 24 m/s;
-at 1600 of 8000 the road slows to 19 m/s and at 1800 of 9000 it jams (14 m/s); with exit_share 0.1 the same flows
-run as on the straight road."""
+"""More exiting traffic than this is refused (kind exit): 1400 veh/h of 7000 exit at 24 m/s, at 1800 of 9000 the
+road jams (14 m/s; experiments/road_capacity.py)."""
 START_CLEARANCE_M = 200.0
 """Least distance from the ego's start window to the road's feature [m]: room to see it coming."""
 
