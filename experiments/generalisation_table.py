@@ -111,8 +111,9 @@ def expert_table(out: Path) -> list[str]:
 
 def safety_table(out: Path) -> list[str]:
     """The expert's and each method's (a) drivers' safety measures on every road, with each method minus the expert
-    on the same test episodes (least TTC and cut-ins)."""
-    lines = ["| road | driver | " + " | ".join(SAFETY_SHOWN.values()) + " | minus the expert: least TTC / cut-ins |",
+    on the same test episodes (least TTC, cut-ins and hard braking)."""
+    lines = ["| road | driver | " + " | ".join(SAFETY_SHOWN.values())
+             + " | minus the expert: least TTC / cut-ins / hard braking |",
              "|---|---|" + "---|" * (len(SAFETY_SHOWN) + 1)]
     for kind in KINDS:
         own = read(out, f"a_{kind}")
@@ -127,7 +128,7 @@ def safety_table(out: Path) -> list[str]:
             if mine:
                 cells = [value_cell(mine, name, 3 if "share" in name else 2) for name in SAFETY_SHOWN]
                 difference = " / ".join(difference_cell(mine, [expert] * len(mine), name, 2)
-                                        for name in ("min_ttc_s", "cut_ins"))
+                                        for name in ("min_ttc_s", "cut_ins", "hard_braking"))
                 lines.append(f"| {kind} | {label} | " + " | ".join(cells) + f" | {difference} |")
     return lines
 

@@ -22,6 +22,7 @@ from pathlib import Path
 from xml.etree import ElementTree
 
 from sumo_rail.config import ScenarioConfig
+from sumo_rail.datasets import written_atomically
 from sumo_rail.sim import network
 from sumo_rail.sim.simulation import sumo_options
 
@@ -85,9 +86,10 @@ def main() -> None:
                         f"{'yes' if carried else '**no**'} |")
             print(rows[-1], flush=True)
     args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(f"Command: `python {' '.join(sys.argv)}` ({time.time() - started:.0f} s; SUMO alone, "
-                        f"{args.seeds} traffic seeds a flow, {WARMUP_S} s warm-up then {MEASURED_S} s measured)\n\n"
-                        + "\n".join(rows) + "\n")
+    with written_atomically(args.out) as written:
+        written.write_text(f"Command: `python {' '.join(sys.argv)}` ({time.time() - started:.0f} s; SUMO alone, "
+                           f"{args.seeds} traffic seeds a flow, {WARMUP_S} s warm-up then {MEASURED_S} s "
+                           f"measured)\n\n" + "\n".join(rows) + "\n")
 
 
 if __name__ == "__main__":
