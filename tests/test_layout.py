@@ -8,7 +8,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGE = ROOT / "sumo_rail"
-STAGES = ("", "sim", "drivers", "runners", "evaluation", "learning", "report")
+STAGES = ("", "sim", "drivers", "runners", "recordings", "evaluation", "learning", "report")
 """The data flow, first to last; "" is the top level (config, seeding, datasets)."""
 
 
