@@ -1,0 +1,90 @@
+"""experiments/grid.py: a spec's steps over its axes, finished outputs skipped, run folders resumed."""
+
+from __future__ import annotations
+
+import importlib.util
+import sys
+from pathlib import Path
+
+from click.testing import CliRunner
+
+ROOT = Path(__file__).resolve().parents[1]
+_spec = importlib.util.spec_from_file_location("grid", ROOT / "experiments" / "grid.py")
+grid = importlib.util.module_from_spec(_spec)
+sys.modules["grid"] = grid  # dataclasses look their module up by name
+_spec.loader.exec_module(grid)
+
+WRITER = "import pathlib, sys; pathlib.Path(sys.argv[1]).write_text(' '.join(sys.argv[2:]))"
+FOLDER_RUN = ("import pathlib, sys; folder = pathlib.Path(sys.argv[1]); folder.mkdir(exist_ok=True); "
+              "(folder / 'calls').open('a').write(' '.join(sys.argv[2:]) + chr(10))")
+
+
+def write_spec(folder: Path) -> Path:
+    spec = folder / "spec.toml"
+    spec.write_text(f"""
+root = "{folder / 'out'}"
+[axes]
+seed = [0, 1]
+road = ["straight", "exit"]
+[[step]]
+out = "{{root}}/file_{{road}}_s{{seed}}.txt"
+command = ["python", "-c", "{WRITER}", "{{out}}", "{{road}}", "{{seed}}"]
+[[step]]
+out = "{{root}}/run_s{{seed}}"
+command = ["python", "-c", "{FOLDER_RUN}", "{{out}}", "seed", "{{seed}}"]
+resume = true
+""")
+    return spec
+
+
+def test_each_step_runs_once_per_combination_of_the_axes_it_names(tmp_path):
+    result = CliRunner().invoke(grid.main, [str(write_spec(tmp_path))])
+    assert result.exit_code == 0, result.output
+    out = tmp_path / "out"
+    assert sorted(path.name for path in out.iterdir()) == ["file_exit_s0.txt", "file_exit_s1.txt",
+                                                             "file_straight_s0.txt", "file_straight_s1.txt",
+                                                             "run_s0", "run_s1"]
+    assert (out / "file_exit_s1.txt").read_text() == "exit 1"
+    assert (out / "run_s1" / "calls").read_text() == "seed 1\n"
+
+
+def test_a_second_run_skips_finished_files_and_resumes_run_folders(tmp_path):
+    spec = write_spec(tmp_path)
+    CliRunner().invoke(grid.main, [str(spec)])
+    (tmp_path / "out" / "file_exit_s0.txt").write_text("kept")
+    result = CliRunner().invoke(grid.main, [str(spec)])
+    assert result.exit_code == 0, result.output
+    assert (tmp_path / "out" / "file_exit_s0.txt").read_text() == "kept"
+    assert (tmp_path / "out" / "run_s0" / "calls").read_text() == "seed 0\nseed 0 --resume\n"
+
+
+def test_an_axis_can_be_narrowed_from_the_command_line(tmp_path):
+    result = CliRunner().invoke(grid.main, [str(write_spec(tmp_path)), "--axis", "seed=1", "--only", "exit"])
+    assert result.exit_code == 0, result.output
+    assert sorted(path.name for path in (tmp_path / "out").iterdir()) == ["file_exit_s1.txt"]
+
+
+def test_a_failed_step_stops_the_grid_in_one_sentence(tmp_path):
+    spec = tmp_path / "spec.toml"
+    spec.write_text('[[step]]\nout = "x"\ncommand = ["python", "-c", "raise SystemExit(3)"]\n'
+                    '[[step]]\nout = "y"\ncommand = ["python", "-c", "print(1)"]\n')
+    result = CliRunner().invoke(grid.main, [str(spec)])
+    assert result.exit_code == 1
+    assert "step x failed (exit 3)" in result.output
+    assert "[2/2]" not in result.output
+
+
+def test_an_unknown_placeholder_or_axis_is_a_usage_error(tmp_path):
+    spec = tmp_path / "spec.toml"
+    spec.write_text('[axes]\nseed = [0]\n[[step]]\nout = "{root}/{method}"\ncommand = ["python"]\n')
+    result = CliRunner().invoke(grid.main, [str(spec)])
+    assert result.exit_code == 2 and "{method} is neither an axis" in result.output
+    result = CliRunner().invoke(grid.main, [str(spec), "--axis", "road=exit"])
+    assert result.exit_code == 2 and "no such axis" in result.output
+
+
+def test_every_committed_spec_expands(tmp_path):
+    for spec_path in sorted((ROOT / "experiments" / "specs").glob("*.toml")):
+        steps = grid.expand(grid.read_spec(spec_path), spec_path, {})
+        assert steps, spec_path
+        assert all(step.command[0] in ("sumo-rail", "python") for step in steps), spec_path
