@@ -64,7 +64,7 @@ def test_no_module_imports_a_later_stage():
 
 
 MAX_MODULE_LINES = 400
-"""The project's limit on a module's length (DESIGN.md: modules under ~400 lines, one responsibility each)."""
+"""The project's limit on a module's length (docs/design.md: modules under ~400 lines, one responsibility each)."""
 
 
 def long_modules(root: Path) -> list[str]:
