@@ -122,3 +122,58 @@ def test_the_link_check_finds_a_dangling_link(tmp_path):
     document = tmp_path / "doc.md"
     document.write_text("![a](plot.png) [b](gone/report.md#top) [c](https://example.org/x) [d](plot.png#x)")
     assert missing_link_targets([document]) == ["doc.md -> gone/report.md"]
+
+
+def import_graph(root: Path = ROOT) -> dict[str, set[str]]:
+    """module -> the package's modules it imports anywhere in its file (function-level and typing-only included)."""
+    files = {module_name(path, root): path for path in (root / "sumo_rail").rglob("*.py")}
+    modules = {name.removesuffix(".__init__"): path for name, path in files.items()}
+    return {module: {target for _, target in imported_modules(path, root) if target in modules and target != module}
+            for module, path in modules.items()}
+
+
+def import_cycles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """The strongly connected groups of more than one module (each an import circle), by Tarjan's algorithm."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    cycles = []
+
+    def visit(module: str) -> None:
+        index[module] = low[module] = len(index)
+        stack.append(module)
+        for target in sorted(graph.get(module, ())):
+            if target not in index:
+                visit(target)
+                low[module] = min(low[module], low[target])
+            elif target in stack:
+                low[module] = min(low[module], index[target])
+        if low[module] == index[module]:
+            group = []
+            while True:
+                member = stack.pop()
+                group.append(member)
+                if member == module:
+                    break
+            if len(group) > 1:
+                cycles.append(sorted(group))
+
+    for module in sorted(graph):
+        if module not in index:
+            visit(module)
+    return cycles
+
+
+def test_no_import_circle_anywhere_in_the_package():
+    assert import_cycles(import_graph()) == []
+
+
+def test_the_circle_check_finds_a_circle_through_a_function_level_import(tmp_path):
+    package = tmp_path / "sumo_rail" / "sim"
+    package.mkdir(parents=True)
+    (tmp_path / "sumo_rail" / "__init__.py").write_text("")
+    (package / "__init__.py").write_text("")
+    (package / "a.py").write_text("from sumo_rail.sim.b import thing\n")
+    (package / "b.py").write_text("def thing():\n    from sumo_rail.sim import a\n")
+    (package / "c.py").write_text("from sumo_rail.sim import a\n")
+    assert import_cycles(import_graph(tmp_path)) == [["sumo_rail.sim.a", "sumo_rail.sim.b"]]

@@ -20,7 +20,8 @@ from test_scenarios import FEATURE, bend_network, road
 
 from sumo_rail.config import Config
 from sumo_rail.drivers.expert import make_expert
-from sumo_rail.learning.sb3.shared_road import RespawningRoad, env_seeds, shared_road_vec_env
+from sumo_rail.learning.sb3.driving_envs import driving_processes
+from sumo_rail.learning.sb3.shared_road import RespawningRoad, env_seeds
 from sumo_rail.sim.env import HighwayEnv
 from sumo_rail.sim.observation import observation_space
 from sumo_rail.sim.parallel_env import ParallelHighwayEnv
@@ -164,7 +165,7 @@ def test_the_shared_road_vec_env_is_its_roads_and_stable_baselines3_learns_on_it
 
     config = road(small_config, kind)
     actions = np.random.default_rng(4).integers(0, 5, size=(60, 2))
-    venv = shared_road_vec_env(config, processes=1, egos=2, seed=3, error_dir=tmp_path)
+    venv = driving_processes(config, processes=1, egos=2, seed=3, error_dir=tmp_path)
     try:
         vectorised = drive_respawning(venv, actions)
         PPO("MlpPolicy", venv, n_steps=16, batch_size=16, n_epochs=1, seed=0, device="cpu").learn(32)

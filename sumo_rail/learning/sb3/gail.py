@@ -55,6 +55,7 @@ from sumo_rail.learning.sb3.actor import (
     ppo_to_policy,
     set_actor_trainable,
 )
+from sumo_rail.learning.sb3.driving_envs import driving_processes
 from sumo_rail.learning.sb3.resume import learner_checkpoint, restore_learner, resume_run, resumed_env_seed
 from sumo_rail.learning.sb3.rewards import REWARD_CLIP as REWARD_CLIP  # importable from here, as before
 from sumo_rail.learning.sb3.rewards import (
@@ -70,7 +71,6 @@ from sumo_rail.learning.sb3.runs import (
     require_stable_baselines3,
     save_update,
 )
-from sumo_rail.learning.sb3.shared_road import driving_processes
 from sumo_rail.learning.torch_threads import single_thread
 from sumo_rail.runners.experts import demonstrations_expert
 from sumo_rail.runners.tables import Demonstrations, provenance, read_demonstrations

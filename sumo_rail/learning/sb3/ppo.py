@@ -43,6 +43,7 @@ from sumo_rail.config import Config
 from sumo_rail.drivers.policies import Policy, PolicyShape
 from sumo_rail.learning.run_folder import start_run_folder, stop_requests
 from sumo_rail.learning.sb3.actor import FixedNormalisation, load_into_ppo, ppo_to_policy, set_actor_trainable
+from sumo_rail.learning.sb3.driving_envs import driving_processes
 from sumo_rail.learning.sb3.resume import learner_checkpoint, restore_learner, resume_run, resumed_env_seed
 from sumo_rail.learning.sb3.rewards import normalised_rewards, reward_std
 from sumo_rail.learning.sb3.runs import (
@@ -52,7 +53,6 @@ from sumo_rail.learning.sb3.runs import (
     require_stable_baselines3,
     save_update,
 )
-from sumo_rail.learning.sb3.shared_road import driving_processes
 from sumo_rail.learning.torch_threads import single_thread
 from sumo_rail.runners.experts import parse_policy
 from sumo_rail.runners.tables import provenance
@@ -143,7 +143,7 @@ class EpisodeTally:
 
 
 def driving_vec_env(venv: VecEnv, tally: EpisodeTally, normalisation: FixedNormalisation) -> VecEnv:
-    """The driving envs `venv` (`shared_road.driving_processes`) with rewards through `tally` and observations
+    """The driving envs `venv` (`driving_envs.driving_processes`) with rewards through `tally` and observations
     through `normalisation` (`vec_envs.NormalisedVecEnv`)."""
     from sumo_rail.learning.sb3.vec_envs import NormalisedVecEnv
 

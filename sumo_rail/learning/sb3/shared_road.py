@@ -1,4 +1,5 @@
-"""The driving envs of Stable-Baselines3's learners (`gail`, `ppo`, with `--egos K`): `driving_processes`.
+"""The driving envs of Stable-Baselines3's learners (`gail`, `ppo`, with `--egos K`), the roads behind
+`driving_envs.driving_processes`.
 
 SB3 steps every env of a VecEnv at once and restarts one as soon as its episode ends; in a shared simulation an ego
 cannot restart alone by a reset, so the egos of a `RespawningRoad` respawn instead: an ego that ends is replaced at
@@ -22,8 +23,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from multiprocessing.connection import Connection
-from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
@@ -33,9 +33,6 @@ from sumo_rail.runners.spawning import ignore_stop_signals
 from sumo_rail.seeding import Purpose, episode_seeds
 from sumo_rail.sim.parallel_env import NoRoomToRespawn, ParallelHighwayEnv
 
-if TYPE_CHECKING:
-    from stable_baselines3.common.vec_env import VecEnv
-
 StepBatch = tuple[np.ndarray, np.ndarray, np.ndarray, list[dict[str, Any]]]
 """(observations (K, n), rewards (K,), dones (K,), infos) of one step of the K egos, SB3's VecEnv layout."""
 
@@ -43,12 +40,6 @@ StepBatch = tuple[np.ndarray, np.ndarray, np.ndarray, list[dict[str, Any]]]
 def env_seeds(seed: int, envs: int) -> list[int]:
     """Seeds of the envs' first episodes: disjoint for different seeds with the same number of envs."""
     return episode_seeds(Purpose.TRAIN, seed * envs, envs)
-
-
-def driving_processes(config: Config, processes: int, egos: int, seed: int, error_dir: Path) -> VecEnv:
-    """The driving envs of an SB3 learner: `processes` spawned SUMO processes with `egos` egos each
-    (`shared_road_vec_env`). A process that fails writes why to error_dir/env_P.txt and ends."""
-    return shared_road_vec_env(config, processes, egos, seed, error_dir)
 
 
 class RespawningRoad:
@@ -123,12 +114,4 @@ def _road_process(remote: Connection, parent_remote: Connection, config: Config,
         return
     except Exception as error:
         exit_reporting(error_file, error)
-
-
-def shared_road_vec_env(config: Config, processes: int, egos: int, seed: int, error_dir: Path) -> VecEnv:
-    """An SB3 VecEnv of `processes` x `egos` envs: `processes` spawned SUMO processes with `egos` respawning egos
-    each."""
-    from sumo_rail.learning.sb3.vec_envs import SharedRoadVecEnv
-
-    return SharedRoadVecEnv(config, processes, egos, seed, error_dir)
 

@@ -26,7 +26,7 @@ Rewards = Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray, list[dict[st
 
 
 class SharedRoadVecEnv(VecEnv):
-    """`shared_road.shared_road_vec_env`: env i is ego i % egos of process i // egos; `processes` are the worker
+    """`driving_envs.driving_processes`: env i is ego i % egos of process i // egos; `processes` are the worker
     processes (for lost-env reports)."""
 
     def __init__(self, config: Config, processes: int, egos: int, seed: int, error_dir: Path) -> None:

@@ -13,7 +13,8 @@ from gymnasium.utils import seeding
 from test_cli import SMALL, SMALL_CONFIG, invoke
 
 from sumo_rail.drivers.policies import load_policy
-from sumo_rail.learning.sb3.shared_road import RespawningRoad, env_seeds, shared_road_vec_env
+from sumo_rail.learning.sb3.driving_envs import driving_processes
+from sumo_rail.learning.sb3.shared_road import RespawningRoad, env_seeds
 from sumo_rail.runners.rollout import run_lives
 from sumo_rail.sim import parallel_env
 from sumo_rail.sim.actions import Action
@@ -101,7 +102,7 @@ def test_one_ego_is_bit_for_bit_what_sb3_gave_for_the_single_ego_env():
 def test_the_vec_env_is_its_processes_roads_side_by_side_and_a_ctrl_c_while_they_start_spares_them(tmp_path):
     rng = np.random.default_rng(1)
     actions = rng.integers(0, 5, size=(60, 4))
-    venv = shared_road_vec_env(SMALL_CONFIG, processes=2, egos=2, seed=3, error_dir=tmp_path)
+    venv = driving_processes(SMALL_CONFIG, processes=2, egos=2, seed=3, error_dir=tmp_path)
     try:
         for process in venv.processes:  # Ctrl-C reaches the process group while they import: the parent decides
             os.kill(process.pid, signal.SIGINT)
