@@ -19,7 +19,6 @@ import os
 import subprocess
 import tempfile
 import xml.etree.ElementTree as ElementTree
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -27,32 +26,13 @@ import numpy as np
 from sumo_rail.config import ConfigError, ScenarioConfig
 from sumo_rail.datasets import sumo_version, written_atomically
 from sumo_rail.sim import scenarios, user_network
+from sumo_rail.sim.built_network import BuiltNetwork, sumo_binary
 
 log = logging.getLogger(__name__)
 
 EDGE_ID = "highway"
 """The straight road's one edge."""
 EGO_TYPE = scenarios.EGO_TYPE
-
-
-@dataclass(frozen=True)
-class BuiltNetwork:
-    """Paths of a built scenario and the ego's route on it."""
-
-    net_file: Path
-    routes_file: Path
-    directory: Path
-    ego_route: tuple[str, ...]
-    """The ego's edges, in order (`route_id` in the routes file)."""
-    traffic_file: Path | None = None
-    """A user's own traffic (kind network), loaded after `routes_file`."""
-    route_id: str = "ego_route"
-    """The ego's route in the routes file."""
-
-    @property
-    def route_files(self) -> str:
-        """SUMO's --route-files value."""
-        return ",".join(str(path) for path in (self.routes_file, self.traffic_file) if path is not None)
 
 
 def sources_dir() -> Path:
@@ -65,13 +45,6 @@ def cache_dir() -> Path:
     if os.environ.get("SUMO_RAIL_CACHE"):
         return Path(os.environ["SUMO_RAIL_CACHE"])
     return Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "sumo-rail"
-
-
-def sumo_binary(name: str) -> str:
-    """Path of a SUMO executable (sumo, sumo-gui, netconvert) from the eclipse-sumo package."""
-    import sumo
-
-    return os.path.join(sumo.SUMO_HOME, "bin", name)
 
 
 def build(scenario: ScenarioConfig, source_dir: Path | None = None) -> BuiltNetwork:

@@ -14,20 +14,15 @@ import json
 import subprocess
 import xml.etree.ElementTree as ElementTree
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 from sumo_rail.config import BOTTLENECK_LANE_CAPACITY_VEH_PER_H, LANE_CAPACITY_VEH_PER_H, ConfigError, ScenarioConfig
 from sumo_rail.datasets import sumo_version, write_bytes_atomically
 from sumo_rail.sim import scenarios
-
-if TYPE_CHECKING:
-    from sumo_rail.sim.network import BuiltNetwork
+from sumo_rail.sim.built_network import BuiltNetwork, sumo_binary
 
 
 def build(scenario: ScenarioConfig, cache_root: Path, vehicle_types_file: Path) -> BuiltNetwork:
     """Check the user's network and route, and write the routes file for them into the cache."""
-    from sumo_rail.sim.network import BuiltNetwork
-
     net_file = Path(scenario.network).expanduser().resolve()
     ego_route = tuple(scenario.route.split())
     net_bytes = _network_bytes(net_file)
@@ -76,8 +71,6 @@ def _network_bytes(net_file: Path) -> bytes:
 def check_sumo_loads(net_file: Path, traffic_file: Path | None) -> None:
     """ConfigError with SUMO's first error unless SUMO itself loads the network (and the traffic file): sumolib reads
     files SUMO refuses, such as a lane without its shape."""
-    from sumo_rail.sim.network import sumo_binary
-
     command = [sumo_binary("sumo"), "--net-file", str(net_file), "--end", "0", "--no-step-log", "true",
                "--no-warnings", "true", *(["--route-files", str(traffic_file)] if traffic_file else [])]
     result = subprocess.run(command, capture_output=True, text=True, check=False)
