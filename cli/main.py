@@ -9,6 +9,7 @@ from sumo_rail_cli.commands import evaluate_command, record_expert, train_comman
 from sumo_rail_cli.dagger_command import dagger_command
 from sumo_rail_cli.export_command import export_minari_command
 from sumo_rail_cli.gail_command import gail_command
+from sumo_rail_cli.import_command import import_recording_command
 from sumo_rail_cli.ppo_command import ppo_command
 from sumo_rail_cli.report_command import report_command
 from sumo_rail_cli.signal_command import step_signal_command
@@ -36,4 +37,5 @@ cli.add_command(ppo_command)
 cli.add_command(report_command)
 cli.add_command(export_minari_command)
 cli.add_command(step_signal_command)
+cli.add_command(import_recording_command)
 

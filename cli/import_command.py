@@ -1,0 +1,99 @@
+"""The command `import-recording`: a highD, NGSIM or SUMO FCD recording -> a scene folder."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import click
+from sumo_rail_cli.settings import config_options
+
+if TYPE_CHECKING:
+    from sumo_rail.config import Config
+
+
+def _section(value: str | None) -> tuple[float, float] | None:
+    if value is None:
+        return None
+    try:
+        start, end = (float(part) for part in value.split(":"))
+    except ValueError:
+        raise click.BadParameter(f"expected START:END in metres, e.g. 50:400, got {value!r}",
+                                 param_hint="--section") from None
+    return start, end
+
+
+def _vehicles(value: str | None) -> tuple[str, ...]:
+    """Comma-separated ids; A-B (whole numbers) is every id from A to B."""
+    found: list[str] = []
+    for part in (value or "").split(","):
+        part = part.strip()
+        low, dash, high = part.partition("-")
+        if dash and low.isdigit() and high.isdigit():
+            found += [str(number) for number in range(int(low), int(high) + 1)]
+        elif part:
+            found.append(part)
+    return tuple(found)
+
+
+@click.command("import-recording")
+@config_options
+@click.option("--format", "format_", type=click.Choice(["highd", "ngsim", "fcd"]), required=True,
+              help="highd: XX_tracks.csv (its tracksMeta and recordingMeta beside it); ngsim: US-101 / I-80 trajectory "
+                   "CSV or text files; fcd: SUMO --fcd-output XML (.xml or .xml.gz).")
+@click.argument("files", nargs=-1, required=True, type=click.Path(path_type=Path, dir_okay=False))
+@click.option("--out", type=click.Path(path_type=Path, file_okay=False), required=True,
+              help="The scene folder to write (tracks.parquet, scene.json, road.net.xml, split.parquet).")
+@click.option("--direction", type=click.Choice(["upper", "lower"]), default=None,
+              help="highD: the driving direction to keep (the other is left out)  [default: lower].")
+@click.option("--site", type=click.Choice(["us-101", "i-80"]), default=None,
+              help="NGSIM: the site, which fixes the main lanes (US-101: 1-5, I-80: 1-6)  [default: us-101].")
+@click.option("--network", type=click.Path(path_type=Path, dir_okay=False), default=None,
+              help="FCD: the SUMO .net.xml the recording was driven on.")
+@click.option("--vehicles", default=None, metavar="IDS", help="Keep only these source ids: 3,17,20-40.")
+@click.option("--section", default=None, metavar="START:END", help="Keep only the rows whose front x lies in "
+              "START..END m (scene coordinates: along the road in the driving direction for highD and NGSIM).")
+@click.option("--split-seed", type=click.IntRange(min=0), default=0, show_default=True,
+              help="Seed of the split by vehicle.")
+@click.option("--test-share", type=float, default=0.2, show_default=True, help="Share of vehicles held out to test.")
+@click.option("--validation-share", type=float, default=0.1, show_default=True,
+              help="Share of vehicles kept for validation.")
+@click.option("--hold-out-after", "hold_out_after_s", type=float, default=None, metavar="T",
+              help="Split by time instead: vehicles entering at or after T s are the test set.")
+@click.option("--overwrite", is_flag=True, help="Replace a scene already in --out.")
+def import_recording_command(config: Config, format_: str, files: tuple[Path, ...], out: Path, direction: str | None,
+                             site: str | None, network: Path | None, vehicles: str | None, section: str | None,
+                             split_seed: int, test_share: float, validation_share: float,
+                             hold_out_after_s: float | None, overwrite: bool) -> None:
+    """Import a recording of real (or SUMO) driving as a scene: its tracks in the coordinates of a SUMO road.
+
+    highD and NGSIM get a straight road built with netconvert from their lanes; FCD keeps the user's network. The
+    command prints how many tracks it kept and why any were dropped (too short for one decision of
+    env.decision_period_s, off the modelled lanes, a gap in frames); docs/recordings.md has the details."""
+    from sumo_rail.datasets import DatasetError
+    from sumo_rail.recordings.importing import ImportSettings, check_import, import_recording
+    from sumo_rail.recordings.tracks import RecordingUsageError
+
+    for name, value, needed in (("--direction", direction, "highd"), ("--site", site, "ngsim")):
+        if value is not None and format_ != needed:
+            raise click.UsageError(f"{name} applies to --format {needed} only")
+    settings = ImportSettings(format_, files, out, direction or "lower", site or "us-101", network,
+                              _vehicles(vehicles), _section(section), split_seed, test_share, validation_share,
+                              hold_out_after_s, overwrite)
+    try:
+        lanes = check_import(settings)
+    except RecordingUsageError as error:
+        raise click.UsageError(str(error)) from error
+    try:
+        summary = import_recording(settings, config, lanes)
+    except DatasetError as error:
+        raise click.ClickException(str(error)) from error
+    for note in summary.notes:
+        click.echo(f"note: {note}")
+    reasons: dict[str, int] = {}
+    for reason in summary.dropped.values():
+        reasons[reason] = reasons.get(reason, 0) + 1
+    dropped = "; ".join(f"{count} {reason}" for reason, count in sorted(reasons.items()))
+    click.echo(f"kept {summary.kept} tracks, dropped {len(summary.dropped)}{f' ({dropped})' if dropped else ''}")
+    click.echo("split: " + ", ".join(f"{count} {name}" for name, count in summary.split_counts.items()))
+    click.echo(f"wrote the scene to {out}")

@@ -1,0 +1,183 @@
+"""SUMO floating car data (`sumo --fcd-output`, https://sumo.dlr.de/docs/Simulation/Output/FCDOutput.html): read
+into a scene on the user's network, and write a scene out.
+
+The file (.xml, or .xml.gz) is `<fcd-export>` with one `<timestep time=...>` per output step holding a `<vehicle>`
+per vehicle: id, x, y (the front bumper's centre [m]), angle (navigational [deg]), type, speed [m/s], pos (along the
+lane [m]) and lane (SUMO's lane id, edge_index); acceleration, length and width are read where present (SUMO writes
+acceleration with --fcd-output.acceleration; this module's writer writes all three). Without them the acceleration is
+the change of speed per step and the size is the vehicle type's (the package's own types, else SUMO's default
+5 m x 1.8 m). It is parsed as a stream; persons and containers are skipped. Every lane must be in the network.
+"""
+
+from __future__ import annotations
+
+import gzip
+import xml.etree.ElementTree as ElementTree
+from pathlib import Path
+from typing import IO
+from xml.sax.saxutils import quoteattr
+
+import numpy as np
+import pandas as pd
+
+from sumo_rail.recordings.road import NetworkLanes
+from sumo_rail.recordings.tracks import Recording, RecordingDataError, RecordingUsageError
+from sumo_rail.sim.network import sources_dir
+from sumo_rail.sim.scenarios import VEHICLE_TYPES_FILE
+
+DEFAULT_SIZE_M = (5.0, 1.8)
+"""SUMO's default vehicle type's length and width [m]."""
+TRUCK_CLASSES = ("truck", "trailer", "bus", "coach")
+_REQUIRED = ("x", "y", "angle", "speed", "pos", "lane")
+_TIME_TOLERANCE_S = 1e-6
+
+
+def _open(path: Path) -> IO[bytes]:
+    return gzip.open(path, "rb") if str(path).endswith(".gz") else open(path, "rb")
+
+
+def check_headers(files: list[Path]) -> None:
+    """RecordingUsageError when a file is not SUMO FCD output (its root element is not fcd-export) or not XML."""
+    for path in files:
+        try:
+            with _open(path) as file:
+                _, root = next(iter(ElementTree.iterparse(file, events=("start",))))
+        except (ElementTree.ParseError, OSError, EOFError, StopIteration) as error:
+            raise RecordingUsageError(f"{path} is not SUMO FCD output: it is not readable XML ({error})") from error
+        if root.tag != "fcd-export":
+            raise RecordingUsageError(f"{path} is not SUMO FCD output: its root element is <{root.tag}>, not "
+                                      f"<fcd-export>")
+
+
+def _vehicle_types() -> dict[str, tuple[float, float, str]]:
+    """The package's own vehicle types: id -> (length, width [m], vClass)."""
+    root = ElementTree.fromstring((sources_dir() / VEHICLE_TYPES_FILE).read_bytes())
+    return {vtype.get("id", ""): (float(vtype.get("length", DEFAULT_SIZE_M[0])),
+                                  float(vtype.get("width", DEFAULT_SIZE_M[1])), vtype.get("vClass", "passenger"))
+            for vtype in root.iter("vType")}
+
+
+def read(files: list[Path], network: NetworkLanes, network_path: Path) -> Recording:
+    """The vehicles of FCD `files` (one run, in time order across files) on the user's network `network`."""
+    columns: dict[str, list] = {name: [] for name in ("time", "id", "x", "y", "angle", "type", "speed", "pos", "lane",
+                                                      "acceleration", "length", "width")}
+    for path in files:
+        _parse(path, columns)
+    if not columns["id"]:
+        raise RecordingDataError(f"{files[0]} holds no vehicle; the recording is empty")
+    time = np.asarray(columns["time"])
+    steps = np.unique(time)
+    step_s = round(float(np.min(np.diff(steps))), 6) if len(steps) > 1 else 1.0  # SUMO writes times to 0.01 s
+    frame_float = (time - steps[0]) / step_s
+    frame = np.rint(frame_float).astype(np.int64)
+    uneven = np.abs(frame_float - frame) * step_s > _TIME_TOLERANCE_S + 1e-9 * np.abs(time)
+    if uneven.any():
+        raise RecordingDataError(f"{files[0]}: the timestep at {time[int(np.argmax(uneven))]:g} s is not a whole "
+                                 f"number of {step_s:g} s steps after the first; the output steps are uneven")
+    edge, lane = _lanes(columns, network, network_path)
+    types = _vehicle_types()
+    default = (*DEFAULT_SIZE_M, "passenger")
+    known = [types.get(name, default) for name in columns["type"]]
+    length = np.array([size[0] if value is None else value
+                       for value, size in zip(columns["length"], known, strict=True)])
+    width = np.array([size[1] if value is None else value for value, size in zip(columns["width"], known, strict=True)])
+    vehicle_class = np.array(["truck" if size[2] in TRUCK_CLASSES or any(word in name.lower() for word in TRUCK_CLASSES)
+                              else "passenger" for name, size in zip(columns["type"], known, strict=True)])
+    tracks = pd.DataFrame({
+        "vehicle_id": columns["id"], "source_id": columns["id"], "frame": frame, "time_s": time,
+        "x_m": columns["x"], "y_m": columns["y"], "heading_deg": columns["angle"], "speed_mps": columns["speed"],
+        "acceleration_mps2": np.array([np.nan if value is None else value for value in columns["acceleration"]]),
+        "edge": edge, "lane": lane.astype(np.int16), "lane_position_m": columns["pos"],
+        "length_m": length.astype(np.float32), "width_m": width.astype(np.float32), "vehicle_class": vehicle_class})
+    missing = tracks["acceleration_mps2"].isna().to_numpy()
+    if missing.any():
+        tracks = tracks.sort_values(["vehicle_id", "frame"], kind="stable", ignore_index=True)
+        change = tracks.groupby("vehicle_id", sort=False)["speed_mps"].diff().shift(-1) / step_s
+        tracks["acceleration_mps2"] = tracks["acceleration_mps2"].fillna(change).fillna(0.0)
+    used = sorted(set(edge) - {name for name in set(edge) if name.startswith(":")})
+    lanes = max((network.lanes(name) for name in used), default=1)
+    notes = [f"positions on the network {network_path}; {len(used)} edges used"]
+    return Recording(tracks, 1.0 / step_s, lanes, (), 0.0, notes)
+
+
+def _parse(path: Path, columns: dict[str, list]) -> None:
+    """Append every vehicle row of FCD file `path` to `columns` (stream-parsed)."""
+    time = 0.0
+    try:
+        with _open(path) as file:
+            for event, element in ElementTree.iterparse(file, events=("start", "end")):
+                if event == "start":
+                    if element.tag == "timestep":
+                        time = _number(element, "time", path, "timestep")
+                    continue
+                if element.tag == "vehicle":
+                    _append(element, time, path, columns)
+                    element.clear()
+                elif element.tag == "timestep":
+                    element.clear()
+    except (ElementTree.ParseError, OSError, EOFError) as error:
+        raise RecordingDataError(f"{path} is damaged: {error}") from error
+
+
+def _number(element: ElementTree.Element, name: str, path: Path, what: str) -> float:
+    raw = element.get(name)
+    try:
+        value = float(raw)  # type: ignore[arg-type]
+    except (TypeError, ValueError):
+        value = float("nan")
+    if not np.isfinite(value):
+        raise RecordingDataError(f"{path}: {what} has attribute {name}={raw!r}, not a number")
+    return value
+
+
+def _append(element: ElementTree.Element, time: float, path: Path, columns: dict[str, list]) -> None:
+    vehicle = element.get("id", "")
+    what = f"vehicle {vehicle} at {time:g} s"
+    for name in _REQUIRED:
+        if name not in element.attrib:
+            raise RecordingDataError(f"{path}: {what} lacks the attribute {name!r} (SUMO writes it by default)")
+    columns["time"].append(time)
+    columns["id"].append(vehicle)
+    for name in ("x", "y", "angle", "speed", "pos"):
+        columns[name].append(_number(element, name, path, what))
+    columns["lane"].append(element.get("lane", ""))
+    columns["type"].append(element.get("type", ""))
+    for name in ("acceleration", "length", "width"):
+        columns[name].append(_number(element, name, path, what) if name in element.attrib else None)
+
+
+def _lanes(columns: dict[str, list], network: NetworkLanes, network_path: Path) -> tuple[np.ndarray, np.ndarray]:
+    """Each row's edge and lane index; RecordingDataError naming the vehicle whose lane the network lacks."""
+    lane_ids = np.asarray(columns["lane"])
+    unique, inverse = np.unique(lane_ids, return_inverse=True)
+    edges, indices = [], []
+    for lane_id in unique:
+        edge, _, index = str(lane_id).rpartition("_")
+        if edge not in network.widths_m or not index.isdigit() or int(index) >= network.lanes(edge):
+            row = int(np.argmax(lane_ids == lane_id))
+            raise RecordingDataError(f"vehicle {columns['id'][row]} at {columns['time'][row]:g} s is on lane "
+                                     f"{str(lane_id)!r}, which the network {network_path} does not have")
+        edges.append(edge)
+        indices.append(int(index))
+    return np.asarray(edges, dtype=object)[inverse], np.asarray(indices)[inverse]
+
+
+def write(tracks: pd.DataFrame, path: Path) -> Path:
+    """Write `tracks` as SUMO FCD XML (gzip-compressed when `path` ends in .gz), with acceleration, length and
+    width; the type is the vehicle class."""
+    rows = tracks.sort_values(["time_s", "vehicle_id"], kind="stable")
+    with (gzip.open(path, "wt", encoding="utf-8") if str(path).endswith(".gz")
+          else open(path, "w", encoding="utf-8")) as file:
+        file.write('<?xml version="1.0" encoding="UTF-8"?>\n<fcd-export>\n')
+        for time_s, step in rows.groupby("time_s", sort=True):
+            file.write(f'    <timestep time="{time_s:.2f}">\n')
+            for row in step.itertuples(index=False):
+                file.write(f'        <vehicle id={quoteattr(str(row.vehicle_id))} x="{row.x_m:.2f}" y="{row.y_m:.2f}" '
+                           f'angle="{row.heading_deg:.2f}" type={quoteattr(str(row.vehicle_class))} '
+                           f'speed="{row.speed_mps:.2f}" pos="{row.lane_position_m:.2f}" '
+                           f'lane={quoteattr(f"{row.edge}_{row.lane}")} slope="0.00" '
+                           f'acceleration="{row.acceleration_mps2:.2f}" length="{row.length_m:.2f}" '
+                           f'width="{row.width_m:.2f}"/>\n')
+            file.write("    </timestep>\n")
+        file.write("</fcd-export>\n")
+    return path

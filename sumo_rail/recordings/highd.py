@@ -1,0 +1,249 @@
+"""highD recordings (https://www.highd-dataset.com): read one driving direction into a scene, and write a scene out.
+
+A recording is three CSV files, XX_tracks.csv (one row per vehicle per frame), XX_tracksMeta.csv (one per vehicle)
+and XX_recordingMeta.csv (one row: frameRate, upperLaneMarkings, lowerLaneMarkings ...). Positions are image
+coordinates in metres, x to the right and y down; (x, y) is the top-left corner of the vehicle's bounding box,
+`width` its extent along x (the length) and `height` along y (the width). drivingDirection 1 is the upper carriageway,
+driven leftwards (its rightmost lane at the top), 2 the lower one, driven rightwards (its rightmost lane at the
+bottom). laneId counts the strips between markings from the top, from 1: a recording with n lanes a direction has
+upper lanes 2 .. n + 1 and lower lanes n + 3 .. 2n + 2.
+
+One direction is read at a time; the other is left out (said so in the scene's notes). The scene's road is a straight
+edge along +x in the driving direction whose lanes have the widths between the direction's markings; its x is the
+image x of the front bumper (lower) or the image's right end minus it (upper).
+"""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from sumo_rail.recordings.road import ROAD_EDGE
+from sumo_rail.recordings.tracks import (
+    Recording,
+    RecordingDataError,
+    RecordingUsageError,
+    check_columns,
+    check_limits,
+    check_numbers,
+    heading_deg,
+    plain,
+)
+from sumo_rail.recordings.writing import NO_VEHICLE, headways, neighbours, resampled
+
+TRACKS_COLUMNS = ("frame", "id", "x", "y", "width", "height", "xVelocity", "yVelocity", "xAcceleration",
+                  "yAcceleration", "frontSightDistance", "backSightDistance", "dhw", "thw", "ttc",
+                  "precedingXVelocity", "precedingId", "followingId", "leftPrecedingId", "leftAlongsideId",
+                  "leftFollowingId", "rightPrecedingId", "rightAlongsideId", "rightFollowingId", "laneId")
+TRACKS_META_COLUMNS = ("id", "width", "height", "initialFrame", "finalFrame", "numFrames", "class",
+                       "drivingDirection", "traveledDistance", "minXVelocity", "maxXVelocity", "meanXVelocity",
+                       "minDHW", "minTHW", "minTTC", "numLaneChanges")
+RECORDING_META_COLUMNS = ("id", "frameRate", "locationId", "speedLimit", "month", "weekDay", "startTime", "duration",
+                          "totalDrivenDistance", "totalDrivenTime", "numVehicles", "numCars", "numTrucks",
+                          "upperLaneMarkings", "lowerLaneMarkings")
+DIRECTIONS = {"upper": 1, "lower": 2}
+"""--direction -> highD's drivingDirection."""
+FRAME_RATE_HZ = 25.0
+LANE_TOLERANCE_M = 1.0
+"""A box centre this far [m] outside the markings of its laneId is a lane that does not match the markings."""
+MEDIAN_M = 1.0
+"""The strip between the carriageways a written recording has [m]."""
+_READ = ("frame", "id", "x", "y", "width", "height", "xVelocity", "yVelocity", "xAcceleration", "yAcceleration",
+         "laneId")
+_SUFFIXES = ("_tracks.csv", "_tracksMeta.csv", "_recordingMeta.csv")
+
+
+def recording_files(files: list[Path]) -> tuple[Path, Path, Path]:
+    """The tracks, tracksMeta and recordingMeta files of the one recording `files` name (any of the three, or all);
+    RecordingUsageError when they name several recordings or one of the three is missing."""
+    stems = {str(path)[: -len(suffix)] for path in files for suffix in _SUFFIXES if str(path).endswith(suffix)}
+    strays = [path for path in files if not any(str(path).endswith(suffix) for suffix in _SUFFIXES)]
+    if strays:
+        raise RecordingUsageError(f"{strays[0]} is not a highD file (XX_tracks.csv, XX_tracksMeta.csv or "
+                                  f"XX_recordingMeta.csv)")
+    if len(stems) != 1:
+        raise RecordingUsageError(f"the files name {len(stems)} highD recordings; import one recording at a time")
+    stem = stems.pop()
+    paths = tuple(Path(stem + suffix) for suffix in _SUFFIXES)
+    for path in paths:
+        if not path.is_file():
+            raise RecordingUsageError(f"highD file {path} does not exist (a recording is its tracks, tracksMeta and "
+                                      f"recordingMeta files)")
+    return paths[0], paths[1], paths[2]
+
+
+def check_headers(files: list[Path]) -> None:
+    """RecordingUsageError when a file lacks a column of highD's published set (before any work)."""
+    for path, expected in zip(recording_files(files), (TRACKS_COLUMNS, TRACKS_META_COLUMNS, RECORDING_META_COLUMNS),
+                              strict=True):
+        with open(path, newline="") as file:
+            header = next(csv.reader(file), [])
+        check_columns([name.strip() for name in header], expected, path, "highD " + path.name.split("_", 1)[1])
+
+
+def _markings(meta: pd.Series, column: str, path: Path) -> np.ndarray:
+    try:
+        values = np.array([float(value) for value in str(meta[column]).split(";")])
+    except ValueError as error:
+        raise RecordingDataError(f"{path}: {column} {meta[column]!r} is not a list of y values separated by ';'"
+                                 ) from error
+    if len(values) < 2 or np.any(np.diff(values) <= 0) or not np.all(np.isfinite(values)):
+        raise RecordingDataError(f"{path}: {column} must be at least two increasing y values, got {meta[column]!r}")
+    return values
+
+
+def read(files: list[Path], direction: str) -> Recording:
+    """The vehicles of one driving direction ("upper" or "lower") of a highD recording."""
+    tracks_path, tracks_meta_path, recording_meta_path = recording_files(files)
+    recording = pd.read_csv(recording_meta_path)
+    if recording.empty:
+        raise RecordingDataError(f"{recording_meta_path} has no row")
+    meta_row = recording.iloc[0]
+    upper = _markings(meta_row, "upperLaneMarkings", recording_meta_path)
+    lower = _markings(meta_row, "lowerLaneMarkings", recording_meta_path)
+    check_numbers(recording, ("frameRate",), recording_meta_path, "id", "frameRate")
+    rate = float(meta_row["frameRate"])
+    meta = pd.read_csv(tracks_meta_path, usecols=["id", "class", "drivingDirection"])
+    check_numbers(meta, ("id", "drivingDirection"), tracks_meta_path, "id", "drivingDirection")
+    reused = meta["id"].duplicated()
+    if reused.any():
+        raise RecordingDataError(f"{tracks_meta_path}: vehicle id {meta['id'][reused].iloc[0]} is used twice; "
+                                 f"highD ids are unique")
+    raw = pd.read_csv(tracks_path, usecols=list(_READ), dtype={"laneId": "Int64"}, engine="c")
+    check_numbers(raw, _READ, tracks_path, "id", "frame")
+    known = raw["id"].isin(meta["id"])
+    if not known.all():
+        raise RecordingDataError(f"{tracks_path}: vehicle {raw['id'][~known].iloc[0]} is not in "
+                                 f"{tracks_meta_path.name}")
+    wanted = meta.loc[meta["drivingDirection"] == DIRECTIONS[direction]]
+    raw = raw[raw["id"].isin(wanted["id"])].reset_index(drop=True)
+    classes = wanted.set_index("id")["class"].reindex(raw["id"]).to_numpy()
+    tracks = _scene_rows(raw, direction, upper, lower, rate, tracks_path)
+    tracks["vehicle_class"] = np.where(np.isin(np.char.lower(classes.astype(str)), ["truck", "bus"]), "truck",
+                                       "passenger")
+    check_limits(tracks, tracks_path, "xVelocity", "width")
+    markings = upper if direction == "upper" else lower
+    widths = np.diff(markings) if direction == "upper" else np.diff(markings)[::-1]
+    other = "lower" if direction == "upper" else "upper"
+    notes = [f"the {other} driving direction ({len(meta) - len(wanted)} vehicles) is left out; import it with "
+             f"--direction {other}"]
+    longest_m = float(np.max(tracks["length_m"].to_numpy(), initial=0.0))
+    road_m = float(np.max(tracks["x_m"].to_numpy(), initial=0.0)) + 2 * longest_m
+    return Recording(tracks, rate, len(widths), tuple(float(width) for width in widths), road_m, notes)
+
+
+
+def _scene_rows(raw: pd.DataFrame, direction: str, upper: np.ndarray, lower: np.ndarray, rate: float,
+                path: Path) -> pd.DataFrame:
+    """highD rows in the scene's coordinates: the front bumper's centre on a road along +x whose left edge is y = 0."""
+    x, y = raw["x"].to_numpy(float), raw["y"].to_numpy(float)
+    length, width = raw["width"].to_numpy(float), raw["height"].to_numpy(float)
+    vx, vy = raw["xVelocity"].to_numpy(float), raw["yVelocity"].to_numpy(float)
+    ax, ay = raw["xAcceleration"].to_numpy(float), raw["yAcceleration"].to_numpy(float)
+    centre_y = y + width / 2
+    if direction == "upper":
+        end = float(np.max(x + length, initial=0.0))
+        front, lateral, dx, dy, forward = end - x, centre_y - upper[-1], -vx, vy, -1.0
+        markings, first_lane = upper, 2
+    else:
+        front, lateral, dx, dy, forward = (x + length - min(0.0, float(np.min(x, initial=0.0))), lower[0] - centre_y,
+                                           vx, -vy, 1.0)
+        markings, first_lane = lower, len(upper) + 2
+    lanes = len(markings) - 1
+    strip = raw["laneId"].to_numpy(np.int64) - first_lane  # strip between markings, from the top
+    outside = (strip < 0) | (strip >= lanes)
+    if outside.any():
+        row = {key: plain(value) for key, value in raw.iloc[int(np.argmax(outside))].items()}
+        raise RecordingDataError(f"{path}: lane {row['laneId']} of vehicle {row['id']} at frame {row['frame']} is not "
+                                 f"a lane of the {direction} direction's markings")
+    strip_index = np.clip(strip, 0, lanes - 1)
+    off = (centre_y < markings[strip_index] - LANE_TOLERANCE_M) | (centre_y > markings[strip_index + 1]
+                                                                   + LANE_TOLERANCE_M)
+    if off.any():
+        row = {key: plain(value) for key, value in raw.iloc[int(np.argmax(off))].items()}
+        raise RecordingDataError(f"{path}: vehicle {row['id']} at frame {row['frame']} is in lane {row['laneId']} but "
+                                 f"its centre y {centre_y[int(np.argmax(off))]:.2f} m lies outside that lane's "
+                                 f"markings")
+    speed = np.hypot(vx, vy)
+    along = np.where(speed > 0, (ax * vx + ay * vy) / np.maximum(speed, 1e-9), ax * forward)
+    lane = strip if direction == "upper" else lanes - 1 - strip
+    ids = raw["id"].astype(np.int64).astype(str)
+    return pd.DataFrame({
+        "vehicle_id": ids, "source_id": ids, "frame": raw["frame"].to_numpy(np.int64),
+        "time_s": (raw["frame"].to_numpy(float) - 1.0) / rate, "x_m": front, "y_m": lateral,
+        "heading_deg": heading_deg(np.where(speed > 0, dx, 1.0), np.where(speed > 0, dy, 0.0)),
+        "speed_mps": speed, "acceleration_mps2": along, "edge": ROAD_EDGE,
+        "lane": lane.astype(np.int16), "lane_position_m": front,
+        "length_m": length.astype(np.float32), "width_m": width.astype(np.float32)})
+
+
+def write(tracks: pd.DataFrame, lane_widths_m: tuple[float, ...], road_length_m: float, stem: Path) -> list[Path]:
+    """Write `tracks` (a scene on a straight road along +x whose left edge is y = 0, lanes of `lane_widths_m`,
+    rightmost first) as the lower direction of a highD recording `stem`_tracks.csv, _tracksMeta.csv and
+    _recordingMeta.csv at 25 Hz; the upper carriageway gets the same lanes and no vehicle. Returns the paths."""
+    rows = resampled(tracks, FRAME_RATE_HZ)
+    widths = np.asarray(lane_widths_m, float)
+    upper = MEDIAN_M + np.concatenate([[0.0], np.cumsum(widths)])
+    lower = upper[-1] + MEDIAN_M + np.concatenate([[0.0], np.cumsum(widths[::-1])])
+    heading = np.radians(rows["heading_deg"].to_numpy(float))
+    speed, along = rows["speed_mps"].to_numpy(float), rows["acceleration_mps2"].to_numpy(float)
+    length, width = rows["length_m"].to_numpy(float), rows["width_m"].to_numpy(float)
+    front, lane = rows["x_m"].to_numpy(float), rows["lane"].to_numpy(np.int64)
+    numbers = {vehicle: index + 1 for index, vehicle in enumerate(sorted(rows["vehicle_id"].unique()))}
+    ids = rows["vehicle_id"].map(numbers).to_numpy(np.int64)
+    frames = rows["frame"].to_numpy(np.int64) + 1
+    near = neighbours(frames, lane, front, length)
+    dhw, thw, ttc = headways(front, speed, length, near.preceding)
+
+    def id_of(index: np.ndarray) -> np.ndarray:
+        return np.where(index == NO_VEHICLE, 0, ids[np.maximum(index, 0)])
+
+    vx = speed * np.sin(heading)
+    out = pd.DataFrame({
+        "frame": frames, "id": ids, "x": front - length, "y": lower[0] - rows["y_m"].to_numpy(float) - width / 2,
+        "width": length, "height": width, "xVelocity": vx, "yVelocity": -speed * np.cos(heading),
+        "xAcceleration": along * np.sin(heading), "yAcceleration": -along * np.cos(heading),
+        "frontSightDistance": road_length_m - front, "backSightDistance": front - length, "dhw": dhw, "thw": thw,
+        "ttc": ttc,
+        "precedingXVelocity": np.where(near.preceding == NO_VEHICLE, 0.0, vx[np.maximum(near.preceding, 0)]),
+        "precedingId": id_of(near.preceding), "followingId": id_of(near.following),
+        "leftPrecedingId": id_of(near.left_preceding), "leftAlongsideId": id_of(near.left_alongside),
+        "leftFollowingId": id_of(near.left_following), "rightPrecedingId": id_of(near.right_preceding),
+        "rightAlongsideId": id_of(near.right_alongside), "rightFollowingId": id_of(near.right_following),
+        "laneId": len(upper) + 2 + (len(widths) - 1 - lane)})
+    meta = _tracks_meta(out, rows)
+    recording = pd.DataFrame([{
+        "id": 1, "frameRate": int(FRAME_RATE_HZ), "locationId": 0, "speedLimit": -1, "month": "", "weekDay": "",
+        "startTime": "00:00", "duration": float(frames.max(initial=0)) / FRAME_RATE_HZ,
+        "totalDrivenDistance": float(meta["traveledDistance"].sum()),
+        "totalDrivenTime": float(meta["numFrames"].sum()) / FRAME_RATE_HZ, "numVehicles": len(meta),
+        "numCars": int((meta["class"] == "Car").sum()), "numTrucks": int((meta["class"] == "Truck").sum()),
+        "upperLaneMarkings": ";".join(f"{value:.2f}" for value in upper),
+        "lowerLaneMarkings": ";".join(f"{value:.2f}" for value in lower)}])
+    paths = [Path(f"{stem}{suffix}") for suffix in _SUFFIXES]
+    for table, path in zip((out, meta, recording), paths, strict=True):
+        table.to_csv(path, index=False, float_format="%.3f")
+    return paths
+
+
+def _tracks_meta(out: pd.DataFrame, rows: pd.DataFrame) -> pd.DataFrame:
+    """One tracksMeta row per vehicle of the written tracks `out` (scene rows `rows`)."""
+    table = out.assign(vehicle_class=rows["vehicle_class"].to_numpy(), lane_change=0)
+    table["lane_change"] = (table["laneId"].diff().fillna(0) != 0) & (table["id"].diff().fillna(1) == 0)
+    by = table.groupby("id", sort=True)
+    meta = by.agg(width=("width", "first"), height=("height", "first"), initialFrame=("frame", "min"),
+                  finalFrame=("frame", "max"), numFrames=("frame", "size"), minXVelocity=("xVelocity", "min"),
+                  maxXVelocity=("xVelocity", "max"), meanXVelocity=("xVelocity", "mean"),
+                  numLaneChanges=("lane_change", "sum"), vehicle_class=("vehicle_class", "first"),
+                  first_x=("x", "first"), last_x=("x", "last"))
+    positive = table[table["dhw"] > 0].groupby("id")
+    meta["minDHW"] = positive["dhw"].min().reindex(meta.index).fillna(-1)
+    meta["minTHW"] = table[table["thw"] > 0].groupby("id")["thw"].min().reindex(meta.index).fillna(-1)
+    meta["minTTC"] = table[table["ttc"] > 0].groupby("id")["ttc"].min().reindex(meta.index).fillna(-1)
+    meta["traveledDistance"] = (meta["last_x"] - meta["first_x"]).abs()
+    meta["class"] = np.where(meta["vehicle_class"] == "truck", "Truck", "Car")
+    meta["drivingDirection"] = DIRECTIONS["lower"]
+    return meta.reset_index()[list(TRACKS_META_COLUMNS)]

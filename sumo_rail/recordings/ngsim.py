@@ -1,0 +1,172 @@
+"""NGSIM US-101 and I-80 vehicle trajectories (FHWA, public): read into a scene, and write a scene out.
+
+A file is the trajectory CSV with a header of `COLUMNS` (the extra columns of the data.transportation.gov edition,
+Location among them, are allowed), or the original whitespace-separated text file of those 18 columns without a
+header. Units are feet, ft/s and ft/s^2 at 10 Hz (Frame_ID counts tenths of a second from 1). Local_Y is the front of
+the vehicle along the road from the section's entry, Local_X the lateral position of its front centre from the
+section's left edge. Lane_ID 1 is the leftmost lane: US-101 has main lanes 1 to 5, an auxiliary lane 6, an on-ramp 7
+and an off-ramp 8; I-80 main lanes 1 to 6 and an on-ramp 7. Tracks that use the auxiliary lane or a ramp are left
+out (said so). A Vehicle_ID is reused for another vehicle after the first one left: a track is split where the
+vehicle's Total_Frames, v_Length, v_Width or v_Class change ("17", "17#2"); a gap with none of them changing is a gap
+in frames and the track is dropped.
+
+The scene's road is a straight edge along +x with the site's main lanes, 12 ft (3.6576 m) each; x is Local_Y and y
+minus Local_X, in metres.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from sumo_rail.recordings.road import ROAD_EDGE
+from sumo_rail.recordings.tracks import (
+    OFF_ROAD_LANE,
+    Recording,
+    RecordingDataError,
+    check_columns,
+    check_limits,
+    check_numbers,
+    heading_deg,
+)
+from sumo_rail.recordings.writing import NO_VEHICLE, headways, neighbours, resampled
+
+COLUMNS = ("Vehicle_ID", "Frame_ID", "Total_Frames", "Global_Time", "Local_X", "Local_Y", "Global_X", "Global_Y",
+           "v_Length", "v_Width", "v_Class", "v_Vel", "v_Acc", "Lane_ID", "Preceding", "Following", "Space_Headway",
+           "Time_Headway")
+FEET_M = 0.3048
+LANE_WIDTH_M = 12 * FEET_M
+FRAME_RATE_HZ = 10.0
+MAIN_LANES = {"us-101": 5, "i-80": 6}
+"""Each site's main lanes (Lane_ID 1 .. n); higher lane ids are the auxiliary lane and the ramps."""
+HIGHEST_LANE_ID = 8
+TRUCK_CLASS = 3
+"""v_Class: 1 motorcycle, 2 automobile, 3 truck."""
+_IDENTITY = ("Total_Frames", "v_Length", "v_Width", "v_Class")
+_READ = ("Vehicle_ID", "Frame_ID", *_IDENTITY, "Local_X", "Local_Y", "v_Vel", "v_Acc", "Lane_ID")
+
+
+def _header(path: Path) -> tuple[list[str], bool]:
+    """The file's column names and whether it has a header line (else the 18 columns of the original text file)."""
+    with open(path, errors="replace") as file:
+        first = file.readline()
+    fields = [name.strip() for name in first.replace(",", " ").split()]
+    if "Vehicle_ID" in fields or "Frame_ID" in fields:
+        return [name.strip() for name in first.strip().split(",")], True
+    try:
+        if len(fields) == len(COLUMNS):
+            [float(value) for value in fields]
+            return list(COLUMNS), False
+    except ValueError:
+        pass
+    return [name.strip() for name in first.strip().split(",")], True
+
+
+def check_headers(files: list[Path]) -> None:
+    """RecordingUsageError when a file lacks a column of NGSIM's published set (before any work)."""
+    for path in files:
+        check_columns(_header(path)[0], COLUMNS, path, "NGSIM trajectory")
+
+
+def read(files: list[Path], site: str) -> Recording:
+    """The vehicles on the main lanes of an NGSIM recording of `site` ("us-101" or "i-80"; where a Location column
+    is present, only its rows of `site` are read)."""
+    parts = [_read_file(path, site) for path in files]
+    raw = pd.concat(parts, ignore_index=True) if len(parts) > 1 else parts[0]
+    if len(files) > 1 and raw.duplicated(["Vehicle_ID", "Frame_ID"]).any():
+        row = raw[raw.duplicated(["Vehicle_ID", "Frame_ID"])].iloc[0]
+        raise RecordingDataError(f"vehicle {row['Vehicle_ID']} appears in frame {row['Frame_ID']} of two of the files; "
+                                 f"they overlap in time")
+    raw = raw.sort_values(["Vehicle_ID", "Frame_ID"], kind="stable", ignore_index=True)
+    vehicle_ids = _split_reused_ids(raw)
+    lanes = MAIN_LANES[site]
+    lane_id = raw["Lane_ID"].to_numpy(np.int64)
+    bad = (lane_id < 1) | (lane_id > HIGHEST_LANE_ID)
+    if bad.any():
+        row = raw.iloc[int(np.argmax(bad))]
+        raise RecordingDataError(f"{files[0]}: lane {row['Lane_ID']} of vehicle {row['Vehicle_ID']} at frame "
+                                 f"{row['Frame_ID']} is not an NGSIM lane (1 to {HIGHEST_LANE_ID})")
+    x = raw["Local_Y"].to_numpy(float) * FEET_M
+    y = -raw["Local_X"].to_numpy(float) * FEET_M
+    dx, dy = _slopes(vehicle_ids, x), _slopes(vehicle_ids, y)
+    tracks = pd.DataFrame({
+        "vehicle_id": vehicle_ids, "source_id": vehicle_ids, "frame": raw["Frame_ID"].to_numpy(np.int64),
+        "time_s": (raw["Frame_ID"].to_numpy(float) - 1.0) / FRAME_RATE_HZ, "x_m": x, "y_m": y,
+        "heading_deg": heading_deg(np.where(np.hypot(dx, dy) > 0, dx, 1.0), dy),
+        "speed_mps": raw["v_Vel"].to_numpy(float) * FEET_M, "acceleration_mps2": raw["v_Acc"].to_numpy(float) * FEET_M,
+        "edge": ROAD_EDGE, "lane": np.where(lane_id <= lanes, lanes - lane_id, OFF_ROAD_LANE).astype(np.int16),
+        "lane_position_m": x, "length_m": (raw["v_Length"].to_numpy(float) * FEET_M).astype(np.float32),
+        "width_m": (raw["v_Width"].to_numpy(float) * FEET_M).astype(np.float32),
+        "vehicle_class": np.where(raw["v_Class"].to_numpy(np.int64) == TRUCK_CLASS, "truck", "passenger")})
+    check_limits(tracks, files[0], "v_Vel", "v_Length")
+    notes = [f"NGSIM site {site}: main lanes 1 to {lanes} modelled; tracks on the "
+             f"{'auxiliary lane 6, ' if lanes == 5 else ''}ramps (lanes 7, 8) are left out"]
+    road_m = float(np.max(x, initial=0.0)) + 2 * float(np.max(tracks["length_m"].to_numpy(), initial=0.0))
+    return Recording(tracks, FRAME_RATE_HZ, lanes, (LANE_WIDTH_M,) * lanes, road_m, notes)
+
+
+def _read_file(path: Path, site: str) -> pd.DataFrame:
+    names, has_header = _header(path)
+    wanted = [*_READ, "Location"] if "Location" in names else list(_READ)
+    if has_header:
+        raw = pd.read_csv(path, usecols=wanted, low_memory=False)
+    else:
+        raw = pd.read_csv(path, sep=r"\s+", header=None, names=list(COLUMNS), usecols=list(_READ))
+    check_numbers(raw, _READ, path, "Vehicle_ID", "Frame_ID")
+    if "Location" in raw:
+        here = raw["Location"].astype(str).str.lower().to_numpy() == site
+        if not here.any():
+            locations = ", ".join(sorted(set(raw["Location"].astype(str).str.lower())))
+            raise RecordingDataError(f"{path} has no rows of {site} (its locations: {locations}); pass --site")
+        raw = raw[here].drop(columns="Location").reset_index(drop=True)
+    return raw
+
+
+def _split_reused_ids(raw: pd.DataFrame) -> np.ndarray:
+    """Each row's track id: the Vehicle_ID, with "#k" from the k-th vehicle that reused it (rows sorted by id and
+    frame)."""
+    same = np.concatenate([[False], raw["Vehicle_ID"].to_numpy()[1:] == raw["Vehicle_ID"].to_numpy()[:-1]])
+    changed = np.zeros(len(raw), dtype=bool)
+    for column in _IDENTITY:
+        values = raw[column].to_numpy()
+        changed[1:] |= values[1:] != values[:-1]
+    new_vehicle = same & changed
+    reuse = pd.Series(new_vehicle).groupby(raw["Vehicle_ID"].to_numpy()).cumsum().to_numpy()
+    base = raw["Vehicle_ID"].astype(np.int64).astype(str).to_numpy()
+    return np.where(reuse > 0, np.char.add(np.char.add(base, "#"), (reuse + 1).astype(str)), base)
+
+
+def _slopes(track: np.ndarray, values: np.ndarray) -> np.ndarray:
+    """Per-frame change of `values` within each track (central differences, one-sided at a track's ends)."""
+    ahead = np.concatenate([values[1:], values[-1:]])
+    behind = np.concatenate([values[:1], values[:-1]])
+    next_same = np.concatenate([track[1:] == track[:-1], [False]])
+    previous_same = np.concatenate([[False], track[1:] == track[:-1]])
+    return np.where(next_same, ahead, values) - np.where(previous_same, behind, values)
+
+
+def write(tracks: pd.DataFrame, lanes: int, path: Path) -> Path:
+    """Write `tracks` (a scene on a straight road along +x whose left edge is y = 0, `lanes` lanes) as an NGSIM
+    trajectory CSV at 10 Hz in feet; Global_X / Global_Y repeat Local_X / Local_Y (no survey coordinates)."""
+    rows = resampled(tracks, FRAME_RATE_HZ)
+    numbers = {vehicle: index + 1 for index, vehicle in enumerate(sorted(rows["vehicle_id"].unique()))}
+    ids = rows["vehicle_id"].map(numbers).to_numpy(np.int64)
+    frames = rows["frame"].to_numpy(np.int64) + 1
+    front, lane = rows["x_m"].to_numpy(float), rows["lane"].to_numpy(np.int64)
+    speed, length = rows["speed_mps"].to_numpy(float), rows["length_m"].to_numpy(float)
+    near = neighbours(frames, lane, front, length)
+    distance, time, _ = headways(front, speed, length, near.preceding)
+    local_x, local_y = -rows["y_m"].to_numpy(float) / FEET_M, front / FEET_M
+    out = pd.DataFrame({
+        "Vehicle_ID": ids, "Frame_ID": frames, "Total_Frames": pd.Series(ids).map(pd.Series(ids).value_counts()),
+        "Global_Time": frames * 100, "Local_X": local_x, "Local_Y": local_y, "Global_X": local_x,
+        "Global_Y": local_y, "v_Length": length / FEET_M, "v_Width": rows["width_m"].to_numpy(float) / FEET_M,
+        "v_Class": np.where(rows["vehicle_class"] == "truck", TRUCK_CLASS, 2), "v_Vel": speed / FEET_M,
+        "v_Acc": rows["acceleration_mps2"].to_numpy(float) / FEET_M, "Lane_ID": lanes - lane,
+        "Preceding": np.where(near.preceding == NO_VEHICLE, 0, ids[np.maximum(near.preceding, 0)]),
+        "Following": np.where(near.following == NO_VEHICLE, 0, ids[np.maximum(near.following, 0)]),
+        "Space_Headway": distance / FEET_M, "Time_Headway": np.where(time > 0, time, 9999.99)})
+    out.to_csv(path, index=False, float_format="%.3f")
+    return path

@@ -1,0 +1,96 @@
+"""The road of a scene: a straight SUMO edge built with netconvert from a recording's lanes (highD, NGSIM), and the
+lanes of any SUMO network (the user's, for FCD) read back for checks and writers.
+
+The built road is one edge `ROAD_EDGE` along +x from x = 0 to its length, its lanes spread to the right of y = 0
+(the road's left edge), lane 0 the rightmost, as the package's own straight highway (`sumo_rail.sim.network`).
+"""
+
+from __future__ import annotations
+
+import tempfile
+import xml.etree.ElementTree as ElementTree
+from dataclasses import dataclass
+from pathlib import Path
+
+from sumo_rail.config import ConfigError
+from sumo_rail.datasets import DatasetError
+from sumo_rail.sim.network import _netconvert
+
+ROAD_EDGE = "road"
+"""The built road's one edge."""
+ROAD_SPEED_MPS = 44.44
+"""The built road's speed limit [m/s] (160 km/h): the recordings' own limits vary; SUMO only needs a bound."""
+
+
+@dataclass(frozen=True)
+class NetworkLanes:
+    """What a scene needs of a SUMO network: each edge's lane widths [m], rightmost first, and lane lengths [m]."""
+
+    widths_m: dict[str, tuple[float, ...]]
+    lengths_m: dict[str, float]
+
+    def lanes(self, edge: str) -> int:
+        """Number of lanes of `edge`."""
+        return len(self.widths_m[edge])
+
+
+def build_road(lane_widths_m: list[float], length_m: float, out: Path) -> None:
+    """Write a straight road of `length_m` [m] with lanes of `lane_widths_m` [m] (rightmost first) to `out` with
+    netconvert (plain XML nodes and one edge); the
+    same lanes give the same bytes."""
+    nodes = ElementTree.Element("nodes")
+    ElementTree.SubElement(nodes, "node", id="start", x="0.0", y="0.0", type="priority")
+    ElementTree.SubElement(nodes, "node", id="end", x=repr(float(length_m)), y="0.0", type="priority")
+    edges = ElementTree.Element("edges")
+    edge = ElementTree.SubElement(edges, "edge", id=ROAD_EDGE, attrib={
+        "from": "start", "to": "end", "priority": "10", "numLanes": str(len(lane_widths_m)),
+        "speed": repr(ROAD_SPEED_MPS)})
+    for index, width in enumerate(lane_widths_m):
+        ElementTree.SubElement(edge, "lane", index=str(index), width=f"{width:.3f}")
+    with tempfile.TemporaryDirectory() as scratch:
+        inputs = {"nodes": Path(scratch) / "road.nod.xml", "edges": Path(scratch) / "road.edg.xml"}
+        ElementTree.ElementTree(nodes).write(inputs["nodes"])
+        ElementTree.ElementTree(edges).write(inputs["edges"])
+        built = Path(scratch) / "road.net.xml"
+        try:
+            _netconvert(inputs, built)
+        except ConfigError as error:
+            raise DatasetError(str(error)) from error
+        text = built.read_text()
+    # netconvert's header comment holds the time and the scratch paths: dropped, so that the same recording gives
+    # the same bytes
+    head, _, rest = text.partition("<!--")
+    out.write_text(head + rest.partition("-->")[2].lstrip("\n") if rest else text)
+
+
+def read_lanes(net_file: Path) -> NetworkLanes:
+    """Each edge's lane widths and lengths in a SUMO .net.xml, internal (junction) edges included; DatasetError
+    naming the file when it is not a SUMO network."""
+    widths: dict[str, list[tuple[int, float]]] = {}
+    lengths: dict[str, float] = {}
+    try:
+        for _, element in ElementTree.iterparse(net_file):
+            if element.tag == "edge":
+                edge = element.get("id", "")
+                for lane in element.iter("lane"):
+                    widths.setdefault(edge, []).append((int(lane.get("index", "0")),
+                                                        float(lane.get("width", "3.2"))))
+                    lengths[edge] = max(lengths.get(edge, 0.0), float(lane.get("length", "0")))
+                element.clear()
+    except (ElementTree.ParseError, OSError, ValueError) as error:
+        raise DatasetError(f"network {net_file} is not a readable SUMO network ({error})") from error
+    if not widths:
+        raise DatasetError(f"network {net_file} has no edges with lanes; it is not a SUMO network")
+    return NetworkLanes({edge: tuple(width for _, width in sorted(lanes)) for edge, lanes in widths.items()}, lengths)
+
+
+def straight_road(net_file: Path) -> tuple[float, ...]:
+    """The lane widths [m], rightmost first, of a network that is one straight edge along +x whose left edge is
+    y = 0 (a road `build_road` built, or the package's straight highway); DatasetError otherwise, as highD and NGSIM
+    files can only describe such a road."""
+    lanes = read_lanes(net_file)
+    edges = [edge for edge in lanes.widths_m if not edge.startswith(":")]
+    if len(edges) != 1:
+        raise DatasetError(f"network {net_file} has {len(edges)} edges; highD and NGSIM files describe one straight "
+                           f"road")
+    return lanes.widths_m[edges[0]]

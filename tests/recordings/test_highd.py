@@ -1,0 +1,70 @@
+"""The highD reader on files written to the published format: box corners, both driving directions, the lanes."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from recording_files import LOWER_MARKINGS, UPPER_MARKINGS, highd_vehicle, write_highd
+
+from sumo_rail.recordings import highd
+from sumo_rail.recordings.tracks import RecordingDataError, RecordingUsageError
+
+
+@pytest.fixture
+def recording(tmp_path):
+    rows = (highd_vehicle(1, range(1, 51), 300.0, 2, upper=True)      # upper, rightmost lane (top)
+            + highd_vehicle(2, range(1, 51), 20.0, 6, upper=False)    # lower, rightmost lane (bottom)
+            + highd_vehicle(3, range(11, 61), 40.0, 5, upper=False, length=12.0, width=2.5))  # lower, leftmost
+    return write_highd(tmp_path, rows, classes={3: "Truck"})
+
+
+def test_the_lower_direction_is_read_at_the_front_bumper_in_sumo_lanes(recording):
+    read = highd.read([recording], "lower")
+    tracks = read.tracks.set_index(["vehicle_id", "frame"])
+    assert sorted(read.tracks["vehicle_id"].unique()) == ["2", "3"]
+    car = tracks.loc[("2", 1)]
+    assert car["x_m"] == pytest.approx(20.0 + 4.5)  # top-left corner + box width = front bumper
+    assert car["y_m"] == pytest.approx(LOWER_MARKINGS[0] - (LOWER_MARKINGS[1] + LOWER_MARKINGS[2]) / 2)
+    assert car["lane"] == 0 and tracks.loc[("3", 11), "lane"] == 1  # lane 6 (bottom) rightmost, lane 5 leftmost
+    assert car["heading_deg"] == pytest.approx(90.0) and car["speed_mps"] == pytest.approx(30.0)
+    assert tracks.loc[("3", 11), "time_s"] == pytest.approx(10 / 25)
+    assert tracks.loc[("3", 11), "vehicle_class"] == "truck" and tracks.loc[("3", 11), "length_m"] == 12.0
+    assert read.lane_widths_m == pytest.approx((18.25 - 14.5, 14.5 - 11.0))  # rightmost first
+    assert "upper driving direction" in read.notes[0]
+
+
+def test_the_upper_direction_runs_along_x_from_the_image_right(recording):
+    read = highd.read([recording], "upper")
+    car = read.tracks.sort_values("frame")
+    assert list(car["vehicle_id"].unique()) == ["1"]
+    # driven leftwards: the front is the box's left side, and the scene's x grows as the image x falls
+    assert np.diff(car["x_m"].to_numpy()) == pytest.approx(np.full(49, 30.0 / 25))
+    assert car["lane"].iloc[0] == 0  # lane 2, the top lane of the upper carriageway, is its rightmost
+    assert car["y_m"].iloc[0] == pytest.approx((UPPER_MARKINGS[0] + UPPER_MARKINGS[1]) / 2 - UPPER_MARKINGS[-1])
+    assert car["heading_deg"].iloc[0] == pytest.approx(90.0)
+    assert read.lane_widths_m == pytest.approx((3.5, 3.5))
+
+
+def test_a_lane_off_its_markings_or_of_no_marking_is_refused(tmp_path):
+    for offset_m in (-3.0, 3.0):  # above, below the lane
+        shifted = write_highd(tmp_path, highd_vehicle(4, range(1, 30), 20.0, 6, upper=False, y_offset=offset_m))
+        with pytest.raises(RecordingDataError, match="vehicle 4 at frame 1 is in lane 6 but its centre y"):
+            highd.read([shifted], "lower")
+    unknown = write_highd(tmp_path, highd_vehicle(5, range(1, 30), 20.0, 6, upper=False), stem="02")
+    text = unknown.read_text().replace(",6\n", ",7\n")
+    unknown.write_text(text)
+    with pytest.raises(RecordingDataError, match="lane 7 of vehicle 5 at frame 1 is not a lane of the lower"):
+        highd.read([unknown], "lower")
+
+
+def test_headers_other_than_highds_are_refused_naming_the_column(recording):
+    highd.check_headers([recording])
+    recording.write_text(recording.read_text().replace("xVelocity", "xSpeed", 1))
+    with pytest.raises(RecordingUsageError, match="lacks the column 'xVelocity'"):
+        highd.check_headers([recording])
+
+
+def test_the_three_files_of_one_recording_are_needed(recording):
+    (recording.parent / "01_recordingMeta.csv").unlink()
+    with pytest.raises(RecordingUsageError, match=r"01_recordingMeta\.csv does not exist"):
+        highd.check_headers([recording])

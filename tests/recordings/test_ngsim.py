@@ -1,0 +1,76 @@
+"""The NGSIM reader on files written to the published data dictionary: feet, lanes from the left, reused ids."""
+
+from __future__ import annotations
+
+import pandas as pd
+import pytest
+from recording_files import ngsim_vehicle, write_ngsim
+
+from sumo_rail.recordings import ngsim
+from sumo_rail.recordings.ngsim import FEET_M
+from sumo_rail.recordings.tracks import (
+    GAP,
+    OFF_LANES,
+    TOO_SHORT,
+    RecordingDataError,
+    RecordingUsageError,
+    kept_tracks,
+)
+
+
+def test_feet_and_lanes_from_the_left_become_metres_and_sumo_lanes(tmp_path):
+    path = write_ngsim(tmp_path / "us101.csv", ngsim_vehicle(1, range(5, 25), 100.0, 1, speed_ftps=60.0, v_class=3)
+                       + ngsim_vehicle(2, range(5, 25), 200.0, 5))
+    read = ngsim.read([path], "us-101")
+    first = read.tracks.sort_values(["vehicle_id", "frame"]).groupby("vehicle_id").first()
+    assert first.loc["1", "x_m"] == pytest.approx(100.0 * FEET_M)
+    assert first.loc["1", "y_m"] == pytest.approx(-6.0 * FEET_M)  # Local_X 6 ft from the left edge
+    assert first.loc["1", "speed_mps"] == pytest.approx(60.0 * FEET_M)
+    assert first.loc["1", "lane"] == 4 and first.loc["2", "lane"] == 0  # lane 1 is the leftmost of five
+    assert first.loc["1", "vehicle_class"] == "truck" and first.loc["1", "time_s"] == pytest.approx(0.4)
+    assert first.loc["1", "heading_deg"] == pytest.approx(90.0)
+    assert read.lanes == 5 and read.lane_widths_m == pytest.approx((12 * FEET_M,) * 5)
+
+
+def test_a_reused_id_is_split_and_a_gap_or_a_ramp_drops_the_track(tmp_path):
+    rows = (ngsim_vehicle(7, range(1, 31), 0.0, 2, total_frames=30)
+            + ngsim_vehicle(7, range(200, 241), 0.0, 3, length_ft=40.0, total_frames=41)  # another vehicle, same id
+            + ngsim_vehicle(8, [*range(1, 20), *range(25, 40)], 0.0, 2)                   # same vehicle, 5 frames lost
+            + ngsim_vehicle(9, range(1, 40), 0.0, 7)                                      # the on-ramp
+            + ngsim_vehicle(10, range(1, 5), 0.0, 2))                                     # 0.3 s
+    read = ngsim.read([write_ngsim(tmp_path / "t.csv", rows)], "us-101")
+    kept, dropped = kept_tracks(read.tracks, read.frame_rate_hz, 0.5, "t.csv", gaps_fail=False)
+    assert sorted(kept["vehicle_id"].unique()) == ["7", "7#2"]
+    assert kept.groupby("vehicle_id")["length_m"].first().to_dict() == pytest.approx(
+        {"7": 15.0 * FEET_M, "7#2": 40.0 * FEET_M})
+    assert dropped == {"8": GAP, "9": OFF_LANES, "10": TOO_SHORT}
+
+
+def test_lane_six_is_a_main_lane_on_i80_and_auxiliary_on_us101(tmp_path):
+    path = write_ngsim(tmp_path / "t.csv", ngsim_vehicle(1, range(1, 20), 0.0, 6))
+    assert ngsim.read([path], "i-80").tracks["lane"].iloc[0] == 0
+    assert ngsim.read([path], "us-101").tracks["lane"].iloc[0] == -1
+
+
+def test_the_original_text_file_without_a_header_is_read(tmp_path):
+    rows = ngsim_vehicle(3, range(1, 20), 50.0, 2)
+    text = "\n".join("   ".join(str(value) for value in row.values()) for row in rows) + "\n"
+    (tmp_path / "trajectories-0750am-0805am.txt").write_text(text)
+    read = ngsim.read([tmp_path / "trajectories-0750am-0805am.txt"], "us-101")
+    assert len(read.tracks) == 19 and read.tracks["lane"].iloc[0] == 3
+
+
+def test_a_renamed_column_is_refused_before_any_work(tmp_path):
+    path = write_ngsim(tmp_path / "t.csv", ngsim_vehicle(1, range(1, 20), 0.0, 2))
+    path.write_text(path.read_text().replace("Local_Y", "LocalY", 1))
+    with pytest.raises(RecordingUsageError, match="lacks the column 'Local_Y'"):
+        ngsim.check_headers([path])
+
+
+def test_only_the_sites_rows_of_a_file_with_locations_are_read(tmp_path):
+    rows = [dict(row, Location="us-101") for row in ngsim_vehicle(1, range(1, 20), 0.0, 2)]
+    rows += [dict(row, Location="lankershim") for row in ngsim_vehicle(2, range(1, 20), 0.0, 2)]
+    pd.DataFrame(rows).to_csv(tmp_path / "ngsim.csv", index=False)
+    assert ngsim.read([tmp_path / "ngsim.csv"], "us-101").tracks["vehicle_id"].unique().tolist() == ["1"]
+    with pytest.raises(RecordingDataError, match="has no rows of i-80"):
+        ngsim.read([tmp_path / "ngsim.csv"], "i-80")
