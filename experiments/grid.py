@@ -2,20 +2,30 @@
 
 A spec names its axes (methods, seeds, roads, settings: any name with a list of values) and its steps in order:
 
-    root = "results/human_likeness"            # {root} in templates; relative to the current folder
+    root = "results/benchmark"                 # {root} in templates; relative to the current folder
     [axes]
     seed = [0, 1, 2]
+    setting = [{name = "paper", args = []}, {name = "flip20", args = ["--flip-rate", "0.2"]}]
     [[step]]
-    out = "{root}/bc_s{seed}"                  # the step's output: a file or a run folder
-    command = ["sumo-rail", "train", "--seed", "{seed}", "--out", "{out}"]
+    out = "{root}/bc_{setting}_s{seed}"        # the step's output: a file or a run folder
+    command = ["sumo-rail", "train", "{setting.args}", "--seed", "{seed}", "--out", "{out}"]
     resume = true                              # a run folder the command continues with --resume
+    [[step]]
+    out = "{root}/test.parquet"
+    stdout = "{root}/test.txt"                 # the command's printed table, kept (written when it succeeds)
+    command = ["sumo-rail", "evaluate", {each = "seed", args = ["--policy", "{root}/bc_paper_s{seed}/policy_bc.npz"]},
+               "--out", "{out}"]
 
-Each step runs once for every combination of the axes its templates name. Run state is the outputs themselves,
-as the commands write them: a step whose output exists is finished (every command writes its files atomically),
-except a `resume` step, whose existing, non-empty run folder is handed back to the command with `--resume` (the
-command continues an interrupted run and returns at once from a finished one). So the grid can be stopped (Ctrl-C)
-and started again at any point, with no marker files and no environment variables. "sumo-rail" and "python" at the
-head of a command run in this interpreter's environment.
+Each step runs once for every combination of the axes its templates name ({axis} is a value, or a table value's
+name; "{axis.args}" alone in a command is replaced by that table's args); `{each = AXIS, args = [...]}` in a command
+repeats its args for every value of AXIS. `read = {name = "FILE"}` makes {name} the last line of FILE, written by an
+earlier step; `copy = "FILE"` copies FILE to the output instead of running a command.
+
+Run state is the outputs themselves, as the commands write them: a step whose output exists is finished (every
+command writes its files atomically), except a `resume` step, whose existing, non-empty run folder is handed back to
+the command with `--resume` (the command continues an interrupted run and returns at once from a finished one). So
+the grid can be stopped (Ctrl-C) and started again at any point, with no marker files and no environment variables.
+"sumo-rail" and "python" at the head of a command run in this interpreter's environment.
 
     python experiments/grid.py experiments/specs/SPEC.toml [--dry-run] [--only TEXT] [--axis seed=0,1]
 """
@@ -23,26 +33,33 @@ head of a command run in this interpreter's environment.
 from __future__ import annotations
 
 import itertools
+import os
 import re
 import shlex
+import shutil
 import subprocess
 import sys
 import tomllib
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import click
 
-PLACEHOLDER = re.compile(r"\{(\w+)\}")
+PLACEHOLDER = re.compile(r"\{(\w+)(\.args)?\}")
+RUNNERS = {"sumo-rail": [sys.executable, "-m", "sumo_rail_cli"], "python": [sys.executable]}
 
 
 @dataclass(frozen=True)
 class Step:
-    """One command of the grid, with its placeholders filled in."""
+    """One command of the grid, with its axes' placeholders filled in (`reads` are filled when it runs)."""
 
     out: Path
     command: tuple[str, ...]
-    resume: bool
+    resume: bool = False
+    stdout: Path | None = None
+    copy: Path | None = None
+    reads: dict[str, Path] = field(default_factory=dict)
 
     def state(self) -> str:
         """"finished", "interrupted" (a resumable run folder with something in it) or "new"."""
@@ -50,42 +67,106 @@ class Step:
             return "interrupted" if self.out.is_dir() and any(self.out.iterdir()) else "new"
         return "finished" if self.out.exists() else "new"
 
-    def argv(self) -> list[str]:
+    def argv(self, dry_run: bool = False) -> list[str]:
         """The process to run (with --resume for an interrupted run folder)."""
-        head, *rest = self.command
-        runner = {"sumo-rail": [sys.executable, "-m", "sumo_rail_cli"], "python": [sys.executable]}.get(head, [head])
-        return [*runner, *rest, *(["--resume"] if self.state() == "interrupted" else [])]
+        values = {name: f"<last line of {path}>" if dry_run else last_line(path) for name, path in self.reads.items()}
+        head, *rest = (fill(part, values, "read") for part in self.command)
+        return [*RUNNERS.get(head, [head]), *rest, *(["--resume"] if self.state() == "interrupted" else [])]
+
+    def run(self) -> int:
+        """Run the step; its output appears only when it succeeds (stdout and copies are written aside, renamed)."""
+        self.out.parent.mkdir(parents=True, exist_ok=True)
+        if self.copy is not None:
+            shutil.copyfile(self.copy, aside(self.out))
+            os.replace(aside(self.out), self.out)
+            return 0
+        if self.stdout is None:
+            return subprocess.run(self.argv(), check=False).returncode
+        with aside(self.stdout).open("w") as printed:
+            code = subprocess.run(self.argv(), stdout=printed, check=False).returncode
+        if code == 0:
+            os.replace(aside(self.stdout), self.stdout)
+        return code
 
 
-def fill(template: str, values: dict[str, str], where: str) -> str:
+def aside(path: Path) -> Path:
+    """Where `path` is written before it is renamed into place."""
+    return path.with_name(path.name + ".partial")
+
+
+def last_line(path: Path) -> str:
+    """The last non-empty line of a file an earlier step wrote."""
+    try:
+        return path.read_text().strip().splitlines()[-1].strip()
+    except (OSError, IndexError):
+        raise click.ClickException(f"{path} holds no value: the step that writes it has not run") from None
+
+
+def fill(template: str, values: dict[str, Any], where: str) -> str:
     """`template` with each {name} replaced; an unknown name is a one-sentence error naming `where`."""
-    missing = sorted(set(PLACEHOLDER.findall(template)) - set(values))
-    if missing:
-        raise click.UsageError(f"{where}: {{{missing[0]}}} is neither an axis of the spec nor root or out")
-    return PLACEHOLDER.sub(lambda match: values[match.group(1)], template)
+    def value(match: re.Match) -> str:
+        if match.group(1) not in values:
+            raise click.UsageError(f"{where}: {{{match.group(1)}}} is neither an axis of the spec nor root or out")
+        found = values[match.group(1)]
+        return str(found["name"]) if isinstance(found, dict) else str(found)
+    return PLACEHOLDER.sub(value, template)
+
+
+def command_parts(part: Any, values: dict[str, Any], axes: dict[str, list], where: str) -> list[str]:
+    """One element of a command as the arguments it stands for."""
+    if isinstance(part, dict):
+        axis = part.get("each")
+        if axis not in axes:
+            raise click.UsageError(f"{where}: each = {axis!r} is not an axis of the spec")
+        return [argument for item in axes[axis] for inner in part.get("args", [])
+                for argument in command_parts(inner, values | {axis: item}, axes, where)]
+    whole = PLACEHOLDER.fullmatch(part)
+    if whole and whole.group(2):
+        table = values.get(whole.group(1))
+        if not isinstance(table, dict):
+            raise click.UsageError(f"{where}: {part} needs an axis whose values are tables with args")
+        return [fill(str(argument), values, where) for argument in table.get("args", [])]
+    return [fill(part, values | {name: f"{{{name}}}" for name in values.get("_reads", ())}, where)]
+
+
+def named_axes(templates: list[Any]) -> set[str]:
+    """The placeholders used in a step's templates, outside `each` tables (which range over their axis)."""
+    names = set()
+    for template in templates:
+        if isinstance(template, dict):
+            names |= named_axes(template.get("args", [])) - {template.get("each")}
+        else:
+            names |= {match.group(1) for match in PLACEHOLDER.finditer(str(template))}
+    return names
 
 
 def expand(spec: dict, spec_path: Path, axes_override: dict[str, list[str]]) -> list[Step]:
     """Every step of `spec` for every combination of the axes its templates name, in the spec's order."""
-    axes = {name: [str(value) for value in values] for name, values in spec.get("axes", {}).items()}
+    axes = dict(spec.get("axes", {}))
     unknown = sorted(set(axes_override) - set(axes))
     if unknown:
         raise click.UsageError(f"--axis {unknown[0]}: {spec_path} has no such axis (axes: {', '.join(axes)})")
-    axes |= axes_override
+    for name, wanted in axes_override.items():
+        axes[name] = [value for value in axes[name]
+                      if str(value["name"] if isinstance(value, dict) else value) in wanted]
     root = str(spec.get("root", "results/" + spec_path.stem))
     steps = []
     for number, step in enumerate(spec.get("step", []), start=1):
         where = f"{spec_path} step {number}"
-        if "out" not in step or not step.get("command"):
-            raise click.UsageError(f"{where} needs an out and a command")
-        templates = [step["out"], *step["command"]]
-        names = sorted({name for text in templates for name in PLACEHOLDER.findall(text)} & set(axes))
+        if "out" not in step or not (step.get("command") or step.get("copy")):
+            raise click.UsageError(f"{where} needs an out and a command (or a copy)")
+        reads = step.get("read", {})
+        templates = [step["out"], step.get("stdout", ""), step.get("copy", ""), *reads.values(),
+                     *step.get("command", [])]
+        names = sorted(named_axes(templates) & set(axes))
         for combination in itertools.product(*(axes[name] for name in names)):
-            values = {"root": root, **dict(zip(names, combination, strict=True))}
-            out = fill(step["out"], values, where)
-            values["out"] = out
-            command = tuple(fill(part, values, where) for part in step["command"])
-            steps.append(Step(Path(out), command, bool(step.get("resume", False))))
+            values: dict[str, Any] = {"root": root, **dict(zip(names, combination, strict=True))}
+            values["out"] = fill(step["out"], values, where)
+            command = [argument for part in step.get("command", [])
+                       for argument in command_parts(part, values | {"_reads": reads}, axes, where)]
+            optional = {key: Path(fill(step[key], values, where)) for key in ("stdout", "copy") if key in step}
+            steps.append(Step(Path(values["out"]), tuple(command), bool(step.get("resume", False)), **optional,
+                              reads={name: Path(fill(path, values, where)) for name, path in reads.items()}))
     return steps
 
 
@@ -112,20 +193,21 @@ def parse_axes(pairs: tuple[str, ...]) -> dict[str, list[str]]:
 @click.argument("spec_path", type=click.Path(exists=True, dir_okay=False, path_type=Path))
 @click.option("--dry-run", is_flag=True, help="List each step with its state and command; run nothing.")
 @click.option("--only", "only", default="", help="Run only the steps whose output path contains this text.")
-@click.option("--axis", "axes", multiple=True, help="Replace an axis's values, e.g. --axis seed=0 (repeatable).")
+@click.option("--axis", "axes", multiple=True, help="Keep only these values of an axis, e.g. --axis seed=0 "
+                                                     "(repeatable).")
 def main(spec_path: Path, dry_run: bool, only: str, axes: tuple[str, ...]) -> None:
     steps = [step for step in expand(read_spec(spec_path), spec_path, parse_axes(axes)) if only in str(step.out)]
     for number, step in enumerate(steps, start=1):
         state = step.state()
         click.echo(f"[{number}/{len(steps)}] {state}: {step.out}", err=True)
         if dry_run:
-            click.echo("    " + shlex.join(step.argv()), err=True)
+            shown = f"copy {step.copy}" if step.copy else shlex.join(step.argv(dry_run=True))
+            click.echo("    " + shown + (f" > {step.stdout}" if step.stdout else ""), err=True)
             continue
         if state == "finished":
             continue
-        step.out.parent.mkdir(parents=True, exist_ok=True)
         try:
-            code = subprocess.run(step.argv(), check=False).returncode
+            code = step.run()
         except KeyboardInterrupt:
             raise click.ClickException(f"interrupted at {step.out}; run the same command again to go on") from None
         if code != 0:

@@ -88,3 +88,46 @@ def test_every_committed_spec_expands(tmp_path):
         steps = grid.expand(grid.read_spec(spec_path), spec_path, {})
         assert steps, spec_path
         assert all(step.command[0] in ("sumo-rail", "python") for step in steps), spec_path
+
+
+def test_each_table_axes_stdout_read_and_copy(tmp_path):
+    spec = tmp_path / "spec.toml"
+    echo = "import sys; print(' '.join(sys.argv[1:]))"
+    spec.write_text(f"""
+root = "{tmp_path / 'out'}"
+[axes]
+seed = [0, 1]
+setting = [{{name = "plain", args = []}}, {{name = "flip", args = ["--flip-rate", "0.2"]}}]
+[[step]]
+out = "{{root}}/budget_s{{seed}}.txt"
+stdout = "{{out}}"
+command = ["python", "-c", "{echo}", "{{seed}}00"]
+[[step]]
+out = "{{root}}/copy_s{{seed}}.txt"
+copy = "{{root}}/budget_s{{seed}}.txt"
+[[step]]
+out = "{{root}}/run_{{setting}}_s{{seed}}.txt"
+stdout = "{{out}}"
+read = {{budget = "{{root}}/copy_s{{seed}}.txt"}}
+command = ["python", "-c", "{echo}", "{{setting.args}}", "--timesteps", "{{budget}}"]
+[[step]]
+out = "{{root}}/evaluate.txt"
+stdout = "{{out}}"
+command = ["python", "-c", "{echo}", {{each = "seed", args = ["--policy", "p{{seed}}"]}}]
+""")
+    result = CliRunner().invoke(grid.main, [str(spec)])
+    assert result.exit_code == 0, result.output
+    out = tmp_path / "out"
+    assert (out / "copy_s1.txt").read_text() == "100\n"
+    assert (out / "run_flip_s1.txt").read_text() == "--flip-rate 0.2 --timesteps 100\n"
+    assert (out / "run_plain_s0.txt").read_text() == "--timesteps 000\n"
+    assert (out / "evaluate.txt").read_text() == "--policy p0 --policy p1\n"
+    assert not list(out.glob("*.partial"))
+
+
+def test_a_failed_step_s_printed_output_is_not_kept(tmp_path):
+    spec = tmp_path / "spec.toml"
+    spec.write_text(f'[[step]]\nout = "{tmp_path}/t.txt"\nstdout = "{tmp_path}/t.txt"\n'
+                    'command = ["python", "-c", "print(1); raise SystemExit(2)"]\n')
+    assert CliRunner().invoke(grid.main, [str(spec)]).exit_code == 1
+    assert not (tmp_path / "t.txt").exists()
