@@ -19,7 +19,8 @@ A spec names its axes (methods, seeds, roads, settings: any name with a list of 
 Each step runs once for every combination of the axes its templates name ({axis} is a value, or a table value's
 name; "{axis.args}" alone in a command is replaced by that table's args); `{each = AXIS, args = [...]}` in a command
 repeats its args for every value of AXIS. `read = {name = "FILE"}` makes {name} the last line of FILE, written by an
-earlier step; `copy = "FILE"` copies FILE to the output instead of running a command.
+earlier step; `copy = "FILE"` copies FILE to the output instead of running a command; `always = true` runs a step
+every time (the tables made from the outputs before them).
 
 Run state is the outputs themselves, as the commands write them: a step whose output exists is finished (every
 command writes its files atomically), except a `resume` step, whose existing, non-empty run folder is handed back to
@@ -60,9 +61,13 @@ class Step:
     stdout: Path | None = None
     copy: Path | None = None
     reads: dict[str, Path] = field(default_factory=dict)
+    always: bool = False
+    """Run every time (a table made from the outputs before it)."""
 
     def state(self) -> str:
         """"finished", "interrupted" (a resumable run folder with something in it) or "new"."""
+        if self.always:
+            return "new"
         if self.resume:
             return "interrupted" if self.out.is_dir() and any(self.out.iterdir()) else "new"
         return "finished" if self.out.exists() else "new"
@@ -166,7 +171,8 @@ def expand(spec: dict, spec_path: Path, axes_override: dict[str, list[str]]) -> 
                        for argument in command_parts(part, values | {"_reads": reads}, axes, where)]
             optional = {key: Path(fill(step[key], values, where)) for key in ("stdout", "copy") if key in step}
             steps.append(Step(Path(values["out"]), tuple(command), bool(step.get("resume", False)), **optional,
-                              reads={name: Path(fill(path, values, where)) for name, path in reads.items()}))
+                              reads={name: Path(fill(path, values, where)) for name, path in reads.items()},
+                              always=bool(step.get("always", False))))
     return steps
 
 

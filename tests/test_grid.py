@@ -83,11 +83,14 @@ def test_an_unknown_placeholder_or_axis_is_a_usage_error(tmp_path):
     assert result.exit_code == 2 and "no such axis" in result.output
 
 
-def test_every_committed_spec_expands(tmp_path):
+def test_every_committed_spec_expands_to_commands_of_this_project(tmp_path):
     for spec_path in sorted((ROOT / "experiments" / "specs").glob("*.toml")):
         steps = grid.expand(grid.read_spec(spec_path), spec_path, {})
         assert steps, spec_path
-        assert all(step.command[0] in ("sumo-rail", "python") for step in steps), spec_path
+        for step in steps:
+            assert step.copy is not None or step.command[0] in ("sumo-rail", "python"), (spec_path, step.out)
+            scripts = [part for part in step.command if part.startswith("experiments/")]
+            assert all((ROOT / script).is_file() for script in scripts), (spec_path, scripts)
 
 
 def test_each_table_axes_stdout_read_and_copy(tmp_path):
