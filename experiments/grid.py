@@ -17,10 +17,10 @@ A spec names its axes (methods, seeds, roads, settings: any name with a list of 
                "--out", "{out}"]
 
 Each step runs once for every combination of the axes its templates name ({axis} is a value, or a table value's
-name; "{axis.args}" alone in a command is replaced by that table's args); `{each = AXIS, args = [...]}` in a command
-repeats its args for every value of AXIS. `read = {name = "FILE"}` makes {name} the last line of FILE, written by an
-earlier step; `copy = "FILE"` copies FILE to the output instead of running a command; `always = true` runs a step
-every time (the tables made from the outputs before them).
+name; {axis.key} a table value's key; "{axis.key}" alone in a command, for a list, is replaced by its items);
+`{each = AXIS, args = [...]}` in a command repeats its args for every value of AXIS. `read = {name = "FILE"}`
+makes {name} the last line of FILE, written by an earlier step; `copy = "FILE"` copies FILE to the output instead of
+running a command; `always = true` runs a step every time (the tables made from the outputs before them).
 
 Run state is the outputs themselves, as the commands write them: a step whose output exists is finished (every
 command writes its files atomically), except a `resume` step, whose existing, non-empty run folder is handed back to
@@ -47,7 +47,7 @@ from typing import Any
 
 import click
 
-PLACEHOLDER = re.compile(r"\{(\w+)(\.args)?\}")
+PLACEHOLDER = re.compile(r"\{(\w+)(?:\.(\w+))?\}")
 RUNNERS = {"sumo-rail": [sys.executable, "-m", "sumo_rail_cli"], "python": [sys.executable]}
 
 
@@ -113,7 +113,12 @@ def fill(template: str, values: dict[str, Any], where: str) -> str:
         if match.group(1) not in values:
             raise click.UsageError(f"{where}: {{{match.group(1)}}} is neither an axis of the spec nor root or out")
         found = values[match.group(1)]
-        return str(found["name"]) if isinstance(found, dict) else str(found)
+        if not isinstance(found, dict):
+            return str(found)
+        key = match.group(2) or "name"
+        if key not in found or isinstance(found[key], list):
+            raise click.UsageError(f"{where}: {match.group(0)} is not a single value of that axis's tables")
+        return str(found[key])
     return PLACEHOLDER.sub(value, template)
 
 
@@ -126,11 +131,9 @@ def command_parts(part: Any, values: dict[str, Any], axes: dict[str, list], wher
         return [argument for item in axes[axis] for inner in part.get("args", [])
                 for argument in command_parts(inner, values | {axis: item}, axes, where)]
     whole = PLACEHOLDER.fullmatch(part)
-    if whole and whole.group(2):
-        table = values.get(whole.group(1))
-        if not isinstance(table, dict):
-            raise click.UsageError(f"{where}: {part} needs an axis whose values are tables with args")
-        return [fill(str(argument), values, where) for argument in table.get("args", [])]
+    table = values.get(whole.group(1)) if whole and whole.group(2) else None
+    if isinstance(table, dict) and isinstance(table.get(whole.group(2)), list):
+        return [fill(str(argument), values, where) for argument in table[whole.group(2)]]
     return [fill(part, values | {name: f"{{{name}}}" for name in values.get("_reads", ())}, where)]
 
 
@@ -151,9 +154,12 @@ def expand(spec: dict, spec_path: Path, axes_override: dict[str, list[str]]) -> 
     unknown = sorted(set(axes_override) - set(axes))
     if unknown:
         raise click.UsageError(f"--axis {unknown[0]}: {spec_path} has no such axis (axes: {', '.join(axes)})")
-    for name, wanted in axes_override.items():
-        axes[name] = [value for value in axes[name]
-                      if str(value["name"] if isinstance(value, dict) else value) in wanted]
+    for name, wanted in axes_override.items():  # table values are chosen by name, plain values replaced
+        tables = {str(value["name"]): value for value in axes[name] if isinstance(value, dict)}
+        if tables and set(wanted) - set(tables):
+            raise click.UsageError(f"--axis {name}: {sorted(set(wanted) - set(tables))[0]} is not one of "
+                                   f"{', '.join(tables)}")
+        axes[name] = [tables[value] for value in wanted] if tables else wanted
     root = str(spec.get("root", "results/" + spec_path.stem))
     steps = []
     for number, step in enumerate(spec.get("step", []), start=1):
@@ -199,8 +205,8 @@ def parse_axes(pairs: tuple[str, ...]) -> dict[str, list[str]]:
 @click.argument("spec_path", type=click.Path(exists=True, dir_okay=False, path_type=Path))
 @click.option("--dry-run", is_flag=True, help="List each step with its state and command; run nothing.")
 @click.option("--only", "only", default="", help="Run only the steps whose output path contains this text.")
-@click.option("--axis", "axes", multiple=True, help="Keep only these values of an axis, e.g. --axis seed=0 "
-                                                     "(repeatable).")
+@click.option("--axis", "axes", multiple=True, help="Give an axis these values, e.g. --axis seed=3,4 or --axis "
+                                                     "demos=FILE (a table-valued axis: these of its names).")
 def main(spec_path: Path, dry_run: bool, only: str, axes: tuple[str, ...]) -> None:
     steps = [step for step in expand(read_spec(spec_path), spec_path, parse_axes(axes)) if only in str(step.out)]
     for number, step in enumerate(steps, start=1):
