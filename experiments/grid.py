@@ -171,7 +171,8 @@ def expand(spec: dict, spec_path: Path, axes_override: dict[str, list[str]]) -> 
                      *step.get("command", [])]
         names = sorted(named_axes(templates) & set(axes))
         for combination in itertools.product(*(axes[name] for name in names)):
-            values: dict[str, Any] = {"root": root, **dict(zip(names, combination, strict=True))}
+            constants = {name: found[0] for name, found in axes.items() if len(found) == 1}  # used anywhere
+            values: dict[str, Any] = {"root": root, **constants, **dict(zip(names, combination, strict=True))}
             values["out"] = fill(step["out"], values, where)
             command = [argument for part in step.get("command", [])
                        for argument in command_parts(part, values | {"_reads": reads}, axes, where)]
