@@ -20,7 +20,8 @@ Each step runs once for every combination of the axes its templates name ({axis}
 name; {axis.key} a table value's key; "{axis.key}" alone in a command, for a list, is replaced by its items);
 `{each = AXIS, args = [...]}` in a command repeats its args for every value of AXIS. `read = {name = "FILE"}`
 makes {name} the last line of FILE, written by an earlier step; `copy = "FILE"` copies FILE to the output instead of
-running a command; `always = true` runs a step every time (the tables made from the outputs before them).
+running a command; `always = true` runs a step every time (the tables made from the outputs before them). A table
+value with `default = false` runs only when --axis names it.
 
 Run state is the outputs themselves, as the commands write them: a step whose output exists is finished (every
 command writes its files atomically), except a `resume` step, whose existing, non-empty run folder is handed back to
@@ -28,7 +29,7 @@ the command with `--resume` (the command continues an interrupted run and return
 the grid can be stopped (Ctrl-C) and started again at any point, with no marker files and no environment variables.
 "sumo-rail" and "python" at the head of a command run in this interpreter's environment.
 
-    python experiments/grid.py experiments/specs/SPEC.toml [--dry-run] [--only TEXT] [--axis seed=0,1]
+    python experiments/grid.py experiments/specs/SPEC.toml [--dry-run] [--root DIR] [--only TEXT] [--axis seed=0,1]
 """
 
 from __future__ import annotations
@@ -148,19 +149,20 @@ def named_axes(templates: list[Any]) -> set[str]:
     return names
 
 
-def expand(spec: dict, spec_path: Path, axes_override: dict[str, list[str]]) -> list[Step]:
+def expand(spec: dict, spec_path: Path, axes_override: dict[str, list[str]], root: str = "") -> list[Step]:
     """Every step of `spec` for every combination of the axes its templates name, in the spec's order."""
-    axes = dict(spec.get("axes", {}))
+    axes = {name: [value for value in found if not (isinstance(value, dict) and value.get("default") is False)
+                   or name in axes_override] for name, found in spec.get("axes", {}).items()}
     unknown = sorted(set(axes_override) - set(axes))
     if unknown:
         raise click.UsageError(f"--axis {unknown[0]}: {spec_path} has no such axis (axes: {', '.join(axes)})")
     for name, wanted in axes_override.items():  # table values are chosen by name, plain values replaced
-        tables = {str(value["name"]): value for value in axes[name] if isinstance(value, dict)}
+        tables = {str(value["name"]): value for value in spec["axes"][name] if isinstance(value, dict)}
         if tables and set(wanted) - set(tables):
             raise click.UsageError(f"--axis {name}: {sorted(set(wanted) - set(tables))[0]} is not one of "
                                    f"{', '.join(tables)}")
         axes[name] = [tables[value] for value in wanted] if tables else wanted
-    root = str(spec.get("root", "results/" + spec_path.stem))
+    root = str(root or spec.get("root", "results/" + spec_path.stem))
     steps = []
     for number, step in enumerate(spec.get("step", []), start=1):
         where = f"{spec_path} step {number}"
@@ -205,11 +207,13 @@ def parse_axes(pairs: tuple[str, ...]) -> dict[str, list[str]]:
 @click.command(help=__doc__.split("\n\n")[0])
 @click.argument("spec_path", type=click.Path(exists=True, dir_okay=False, path_type=Path))
 @click.option("--dry-run", is_flag=True, help="List each step with its state and command; run nothing.")
+@click.option("--root", default="", help="Write under this folder instead of the spec's root.")
 @click.option("--only", "only", default="", help="Run only the steps whose output path contains this text.")
 @click.option("--axis", "axes", multiple=True, help="Give an axis these values, e.g. --axis seed=3,4 or --axis "
                                                      "demos=FILE (a table-valued axis: these of its names).")
-def main(spec_path: Path, dry_run: bool, only: str, axes: tuple[str, ...]) -> None:
-    steps = [step for step in expand(read_spec(spec_path), spec_path, parse_axes(axes)) if only in str(step.out)]
+def main(spec_path: Path, dry_run: bool, root: str, only: str, axes: tuple[str, ...]) -> None:
+    steps = [step for step in expand(read_spec(spec_path), spec_path, parse_axes(axes), root)
+             if only in str(step.out)]
     for number, step in enumerate(steps, start=1):
         state = step.state()
         click.echo(f"[{number}/{len(steps)}] {state}: {step.out}", err=True)

@@ -134,3 +134,19 @@ def test_a_failed_step_s_printed_output_is_not_kept(tmp_path):
                     'command = ["python", "-c", "print(1); raise SystemExit(2)"]\n')
     assert CliRunner().invoke(grid.main, [str(spec)]).exit_code == 1
     assert not (tmp_path / "t.txt").exists()
+
+
+def test_a_value_kept_out_by_default_runs_when_named_and_root_can_move(tmp_path):
+    spec = tmp_path / "spec.toml"
+    spec.write_text(f'root = "{tmp_path}/spec_root"\n[axes]\n'
+                    'option = [{name = "plain", args = []}, {name = "extra", args = ["-x"], default = false}]\n'
+                    '[[step]]\nout = "{root}/{option}.txt"\nstdout = "{out}"\n'
+                    'command = ["python", "-c", "print(1)"]\n')
+    assert CliRunner().invoke(grid.main, [str(spec)]).exit_code == 0
+    assert sorted(path.name for path in (tmp_path / "spec_root").iterdir()) == ["plain.txt"]
+    moved = tmp_path / "moved"
+    result = CliRunner().invoke(grid.main, [str(spec), "--axis", "option=extra", "--root", str(moved)])
+    assert result.exit_code == 0, result.output
+    assert sorted(path.name for path in moved.iterdir()) == ["extra.txt"]
+    result = CliRunner().invoke(grid.main, [str(spec), "--axis", "option=other"])
+    assert result.exit_code == 2 and "other is not one of plain, extra" in result.output
