@@ -25,7 +25,7 @@ import torch
 from sumo_rail.config import Config
 from sumo_rail.datasets import DatasetError, describe, write_failure, write_parquet, written_together
 from sumo_rail.drivers.policies import Policy, PolicyShape, save_policy
-from sumo_rail.learning.bc import BcReport, BcSettings, behaviour_cloning
+from sumo_rail.learning.bc import IMITATION_BC, BcReport, BcSettings, behaviour_cloning
 from sumo_rail.learning.rail.discriminator import Discriminator, DiscriminatorSettings
 from sumo_rail.learning.rail.iteration import RailSettings, TrainingState, run_iteration
 from sumo_rail.learning.rail.normalize import RunningStats
@@ -58,7 +58,7 @@ class RunSettings:
     bc_epochs: int
     rail: RailSettings
     discriminator: DiscriminatorSettings
-    bc_class_balance: float = 0.0
+    bc_class_balance: float = IMITATION_BC.class_balance
     """`BcSettings.class_balance`."""
 
     def to_dict(self) -> dict[str, Any]:

@@ -45,7 +45,7 @@ from typing import TYPE_CHECKING, Any
 
 from sumo_rail.config import Config
 from sumo_rail.drivers.policies import Policy, PolicyShape, save_policy
-from sumo_rail.learning.bc import BcReport, BcSettings, behaviour_cloning
+from sumo_rail.learning.bc import IMITATION_BC, BcReport, BcSettings, behaviour_cloning
 from sumo_rail.learning.rail.discriminator import Discriminator, DiscriminatorSettings
 from sumo_rail.learning.rail.normalize import RunningStats
 from sumo_rail.learning.run_folder import demos_record, start_run_folder, stop_requests
@@ -87,9 +87,9 @@ class GailSettings(PpoSchedule):
     """What defines a GAIL run (stored in run.json)."""
 
     demos: str
-    bc_epochs: int = 20
+    bc_epochs: int = IMITATION_BC.epochs
     """Behaviour-cloning epochs that initialise the actor (0: PPO's own initialisation)."""
-    bc_class_balance: float = 0.75
+    bc_class_balance: float = IMITATION_BC.class_balance
     """`BcSettings.class_balance`."""
     critic_warmup: int = field(default=5, kw_only=True)
     discriminator: DiscriminatorSettings = field(default_factory=DiscriminatorSettings)
