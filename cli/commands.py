@@ -24,6 +24,7 @@ from sumo_rail_cli.options import (
     run_folder_options,
     tensorboard_option,
 )
+from sumo_rail_cli.param_types import FiniteFloat
 from sumo_rail_cli.progress import advance_to, complete, progress, start_at
 from sumo_rail_cli.running import (
     bc_summary,
@@ -48,7 +49,7 @@ if TYPE_CHECKING:
 @backend_options
 @expert_option("Who is recorded.")
 @egos_option("Episodes", "An ego that finds no room is not recorded.")
-@click.option("--dart-noise", type=click.FloatRange(0.0, 1.0, max_open=True), default=0.0, show_default=True,
+@click.option("--dart-noise", type=FiniteFloat(0.0, 1.0, max_open=True), default=0.0, show_default=True,
               metavar="EPSILON", help="DART: at each decision, with this probability, the car executes a uniformly "
                                       "random action instead of the expert's; every record keeps the expert's.")
 @output_options(required=True)
@@ -100,7 +101,7 @@ def record_expert(config: Config, episodes: int, seed: int, workers: int, backen
 @click.option("--gui/--gui-off", default=False, show_default=True,
               help="--gui drives the first episode of the first driver in sumo-gui (needs a display), following the "
                    "ego (drawn in red).")
-@click.option("--gui-delay", "gui_delay_ms", type=click.FloatRange(min=0), default=None, metavar="MS",
+@click.option("--gui-delay", "gui_delay_ms", type=FiniteFloat(min=0), default=None, metavar="MS",
               help="With --gui: wall-clock milliseconds per 0.1 s SUMO step  [default: 100, real time; 0: as fast as "
                    "possible].")
 @click.option("--video", "video_dir", type=click.Path(path_type=Path, file_okay=False), default=None,

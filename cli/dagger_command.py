@@ -21,6 +21,7 @@ from sumo_rail_cli.options import (
     setting_default,
     tensorboard_option,
 )
+from sumo_rail_cli.param_types import FiniteFloat
 from sumo_rail_cli.progress import advance_to, complete, progress
 from sumo_rail_cli.running import interruptible_run, kept_until_resume, tensorboard_logger, validation_summary
 from sumo_rail_cli.settings import config_options
@@ -39,10 +40,10 @@ DAGGER = "sumo_rail.learning.dagger"
 @click.option("--episodes-per-round", cls=SettingOption, type=click.IntRange(min=1),
               default=setting_default(DAGGER, "DaggerSettings.episodes_per_round"), show_default=True,
               help="Episodes the mixture of policy and expert drives each round.")
-@click.option("--beta", cls=SettingOption, type=click.FloatRange(0, 1),
+@click.option("--beta", cls=SettingOption, type=FiniteFloat(0, 1),
               default=setting_default(DAGGER, "DaggerSettings.beta"), show_default=True,
               help="Probability that the expert drives a decision in round 1.")
-@click.option("--beta-decay", cls=SettingOption, type=click.FloatRange(0, 1),
+@click.option("--beta-decay", cls=SettingOption, type=FiniteFloat(0, 1),
               default=setting_default(DAGGER, "DaggerSettings.beta_decay"), show_default=True,
               help="beta of round r: beta x beta-decay^(r - 1).")
 @roads_option("each round's episodes")

@@ -6,6 +6,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 import click
+from sumo_rail_cli.param_types import FiniteFloat
 from sumo_rail_cli.settings import config_options
 
 if TYPE_CHECKING:
@@ -55,10 +56,11 @@ def _vehicles(value: str | None) -> tuple[str, ...]:
               "START..END m (scene coordinates: along the road in the driving direction for highD and NGSIM).")
 @click.option("--split-seed", type=click.IntRange(min=0), default=0, show_default=True,
               help="Seed of the split by vehicle.")
-@click.option("--test-share", type=float, default=0.2, show_default=True, help="Share of vehicles held out to test.")
-@click.option("--validation-share", type=float, default=0.1, show_default=True,
+@click.option("--test-share", type=FiniteFloat(0, 1, max_open=True), default=0.2, show_default=True,
+              help="Share of vehicles held out to test.")
+@click.option("--validation-share", type=FiniteFloat(0, 1, max_open=True), default=0.1, show_default=True,
               help="Share of vehicles kept for validation.")
-@click.option("--hold-out-after", "hold_out_after_s", type=float, default=None, metavar="T",
+@click.option("--hold-out-after", "hold_out_after_s", type=FiniteFloat(min=0), default=None, metavar="T",
               help="Split by time instead: vehicles entering at or after T s are the test set.")
 @click.option("--overwrite", is_flag=True, help="Replace a scene already in --out.")
 def import_recording_command(config: Config, format_: str, files: tuple[Path, ...], out: Path, direction: str | None,

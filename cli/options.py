@@ -11,6 +11,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import click
+from sumo_rail_cli.param_types import FiniteFloat
 from sumo_rail_cli.running import library_errors
 
 from sumo_rail.config import Config
@@ -55,7 +56,7 @@ def imitation_options(command: Callable[..., Any]) -> Callable[..., Any]:
                      default=setting_default("sumo_rail.learning.bc", "IMITATION_BC.epochs"), show_default=True,
                      help="Behaviour-cloning epochs that initialise the policy (0: no BC); few demonstrations need "
                           "more (about 4000 / episodes, e.g. 100 for 40)."),
-        click.option("--bc-class-balance", cls=SettingOption, type=click.FloatRange(min=0),
+        click.option("--bc-class-balance", cls=SettingOption, type=FiniteFloat(min=0),
                      default=setting_default("sumo_rail.learning.bc", "IMITATION_BC.class_balance"), show_default=True,
                      help="Exponent p of BC's class weights (1/frequency)^p: 0 plain cross-entropy, 1 all actions "
                           "equal."),
@@ -102,7 +103,7 @@ def ppo_options(settings: str, critic_help: str = "") -> Callable[[Callable[...,
                           "others drive on. The result depends on it."),
         click.option("--n-steps", cls=SettingOption, type=click.IntRange(min=1), default=default("n_steps"),
                      show_default=True, help="PPO decisions per env (ego) and update."),
-        click.option("--learning-rate", cls=SettingOption, type=click.FloatRange(min=0, min_open=True),
+        click.option("--learning-rate", cls=SettingOption, type=FiniteFloat(min=0, min_open=True),
                      default=default("learning_rate"), show_default=True, help="PPO's Adam step size."),
         click.option("--normalize-reward/--no-normalize-reward", cls=SettingOption, default=default("normalize_reward"),
                      show_default=True,

@@ -18,6 +18,7 @@ from sumo_rail_cli.options import (
     setting_default,
     tensorboard_option,
 )
+from sumo_rail_cli.param_types import FiniteFloat
 from sumo_rail_cli.progress import complete, progress
 from sumo_rail_cli.running import interruptible_run, sb3_interrupted, sb3_outcome, sb3_progress, tensorboard_logger
 from sumo_rail_cli.settings import config_options
@@ -38,16 +39,16 @@ CRITIC_WARMUP_WITH_INIT = 5
 @click.option("--batch-size", type=click.IntRange(min=2), default=None,
               help=f"PPO minibatch size, at most an update's decisions  [default: {DEFAULT_BATCH}, or an update's "
                    f"decisions if fewer].")
-@click.option("--ent-coef", cls=SettingOption, type=click.FloatRange(min=0),
+@click.option("--ent-coef", cls=SettingOption, type=FiniteFloat(min=0),
               default=setting_default(PPO, "PpoSettings.ent_coef"), show_default=True,
               help="PPO's entropy bonus.")
-@click.option("--gamma", cls=SettingOption, type=click.FloatRange(min=0, max=1, min_open=True),
+@click.option("--gamma", cls=SettingOption, type=FiniteFloat(min=0, max=1, min_open=True),
               default=setting_default(PPO, "PpoSettings.gamma"), show_default=True,
               help="Discount per decision.")
-@click.option("--overtake-reward", cls=SettingOption, type=click.FloatRange(min=0),
+@click.option("--overtake-reward", cls=SettingOption, type=FiniteFloat(min=0),
               default=setting_default(PPO, "PpoSettings.overtake_reward"), show_default=True,
               help="Reward shaping: added for every vehicle the ego overtakes (0: the env's reward alone).")
-@click.option("--keep-right-reward", cls=SettingOption, type=click.FloatRange(min=0),
+@click.option("--keep-right-reward", cls=SettingOption, type=FiniteFloat(min=0),
               default=setting_default(PPO, "PpoSettings.keep_right_reward"), show_default=True,
               help="Reward shaping: added per decision in the rightmost lane, falling linearly to 0 in the leftmost "
                    "(the rule-based expert's keep-right rule; 0: the env's reward alone).")

@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING, Any
 
 import click
 from sumo_rail_cli.options import SettingOption, egos_option, setting_default
+from sumo_rail_cli.param_types import FiniteFloat
 
 if TYPE_CHECKING:
     from sumo_rail.learning.rail.discriminator import DiscriminatorSettings
@@ -114,20 +115,20 @@ def search_options(command: Callable[..., Any]) -> Callable[..., Any]:
                      help="N, directions."),
         click.option("--top", type=click.IntRange(min=1), default=None,
                      help="b, best directions kept [default: N / 2]."),
-        click.option("--step-size", cls=SettingOption, type=click.FloatRange(min=0, min_open=True),
+        click.option("--step-size", cls=SettingOption, type=FiniteFloat(min=0, min_open=True),
                      default=setting_default(RAIL, "RailSettings.step_size"), show_default=True,
                      help="alpha, the ARS step size (the paper's 0.001 changes 0.1% of decisions in 3 iterations; "
                           "see docs/results.md)."),
-        click.option("--noise", cls=SettingOption, type=click.FloatRange(min=0, min_open=True),
+        click.option("--noise", cls=SettingOption, type=FiniteFloat(min=0, min_open=True),
                      default=setting_default(RAIL, "RailSettings.noise.initial"), show_default=True,
                      help="nu_init, the perturbation scale."),
-        click.option("--noise-increment", cls=SettingOption, type=click.FloatRange(min=0),
+        click.option("--noise-increment", cls=SettingOption, type=FiniteFloat(min=0),
                      default=setting_default(RAIL, "RailSettings.noise.increment"), show_default=True,
                      help="tau, added to nu at each check without improvement."),
         click.option("--noise-every", cls=SettingOption, type=click.IntRange(min=1),
                      default=setting_default(RAIL, "RailSettings.noise.every"), show_default=True,
                      help="eta, iterations between noise checks."),
-        click.option("--flip-rate", type=click.FloatRange(min=0, max=1, min_open=True, max_open=True), default=None,
+        click.option("--flip-rate", type=FiniteFloat(min=0, max=1, min_open=True, max_open=True), default=None,
                      help="Set nu at every iteration so that the perturbations change this share of the policy's "
                           "decisions on the expert's states (replaces --noise, --noise-increment, --noise-every)."),
         click.option("--fitness", cls=SettingOption, type=click.Choice(["std", "rank"]),
@@ -159,7 +160,7 @@ def search_options(command: Callable[..., Any]) -> Callable[..., Any]:
         click.option("--disc-hidden", cls=SettingOption, type=click.IntRange(min=1),
                      default=setting_default(DISCRIMINATOR, "DiscriminatorSettings.hidden"), show_default=True,
                      help="Discriminator units per hidden layer."),
-        click.option("--disc-lr", cls=SettingOption, type=click.FloatRange(min=0, min_open=True),
+        click.option("--disc-lr", cls=SettingOption, type=FiniteFloat(min=0, min_open=True),
                      default=setting_default(DISCRIMINATOR, "DiscriminatorSettings.learning_rate"), show_default=True,
                      help="Discriminator Adam step size."),
         click.option("--disc-steps", cls=SettingOption, type=click.IntRange(min=1),
@@ -170,11 +171,11 @@ def search_options(command: Callable[..., Any]) -> Callable[..., Any]:
                      default=setting_default(DISCRIMINATOR, "DiscriminatorSettings.reward_form"), show_default=True,
                      help="logit: log D - log(1 - D), the paper's; contrast: minus its mean over the actions at the "
                           "same state (rewards the choice of action, not the state)."),
-        click.option("--disc-balance", cls=SettingOption, type=click.FloatRange(min=0),
+        click.option("--disc-balance", cls=SettingOption, type=FiniteFloat(min=0),
                      default=setting_default(DISCRIMINATOR, "DiscriminatorSettings.balance"), show_default=True,
                      help="Discriminator minibatches weigh pairs by (1 / their action's frequency)^p: 0 uniform, 1 "
                           "every action alike."),
-        click.option("--disc-penalty", cls=SettingOption, type=click.FloatRange(min=0),
+        click.option("--disc-penalty", cls=SettingOption, type=FiniteFloat(min=0),
                      default=setting_default(DISCRIMINATOR, "DiscriminatorSettings.gradient_penalty"),
                      show_default=True,
                      help="Weight of the gradient penalty on expert pairs (R1)."),

@@ -27,7 +27,8 @@ def config_options(command: Callable[..., Any]) -> Callable[..., Any]:
                           "preset."),
         click.option("--set", "overrides", multiple=True, metavar="SECTION.KEY=VALUE",
                      help="Change one setting, e.g. --set scenario.lanes=4 --set env.decision_period_s=1.0 "
-                          "(repeatable; after --config)."),
+                          "(repeatable; after --config); every number has a range, stated with its default in "
+                          "sumo_rail/config.py, and a value outside it is refused."),
     ]
 
     @functools.wraps(command)

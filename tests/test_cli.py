@@ -24,6 +24,7 @@ from sumo_rail.config import Config
 from sumo_rail.datasets import read_metadata
 from sumo_rail.drivers.policies import Policy, PolicyShape, save_policy
 from sumo_rail.evaluation.fidelity import ACTION_NAMES
+from sumo_rail.evaluation.statistics import MIN_PAIRS
 from sumo_rail.runners.tables import read_demonstrations
 from sumo_rail.sim.observation import observation_names
 
@@ -167,7 +168,7 @@ def test_evaluate_reference_must_be_a_driver(tmp_path):
 
 def test_evaluate_against_another_reference_marks_detectable_differences(tmp_path):
     result = invoke("evaluate", *SMALL, "--policy", "expert", "--policy", "keep", "--reference", "keep",
-                    "--episodes", "3")
+                    "--episodes", str(MIN_PAIRS))
     assert result.exit_code == 0, result.output
     differences = result.output.split("difference to keep on the same seeds")[1]
     agreement = next(line for line in differences.splitlines() if line.startswith("agreement "))

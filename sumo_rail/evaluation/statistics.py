@@ -20,6 +20,12 @@ from scipy import stats
 
 CONFIDENCE = 0.95
 RESAMPLES = 2000
+MIN_PAIRS = 6
+"""Fewest pairs (seeds) a paired difference gets an interval from; with fewer its interval is "n/a" and it is never
+detectable. Below 6, not even differences all of one sign are significant at the 5% level (a two-sided sign test
+gives 2 x 0.5^5 = 0.0625 for five of five), so no interval from the pairs alone may claim a difference; a percentile
+bootstrap of so few pairs has few distinct resamples (126 for five) and spans the pairs' own range at most, an
+interval of one value when they are alike."""
 
 
 @dataclass(frozen=True)
@@ -36,10 +42,13 @@ class Interval:
         return bool(self.low > 0 or self.high < 0)
 
     def format(self, digits: int = 2, signed: bool = False) -> str:
-        """'1.23 [1.10, 1.35]' ('+' signs with `signed`)."""
+        """'1.23 [1.10, 1.35]' ('+' signs with `signed`); '1.23 [n/a]' without an interval, 'n/a' without an
+        estimate."""
         if np.isnan(self.estimate):
             return "n/a"
         spec = f"{'+' if signed else ''}.{digits}f"
+        if np.isnan(self.low) or np.isnan(self.high):
+            return f"{self.estimate:{spec}} [n/a]"
         return f"{self.estimate:{spec}} [{self.low:{spec}}, {self.high:{spec}}]"
 
 
@@ -66,15 +75,16 @@ def interval(sample: Sample, seed: int = 0) -> Interval:
 
 
 def paired_difference(sample: Sample, reference: Sample, seed: int = 0) -> Interval:
-    """ratio(sample) - ratio(reference), episodes paired by seed (same order in both)."""
-    return _bootstrap([sample, reference], lambda a, r: ratio(a) - ratio(r), seed)
+    """ratio(sample) - ratio(reference), episodes paired by seed (same order in both); no interval (NaN bounds) from
+    fewer than MIN_PAIRS pairs."""
+    return _bootstrap([sample, reference], lambda a, r: ratio(a) - ratio(r), seed, least=MIN_PAIRS)
 
 
 def closeness_difference(sample: Sample, other: Sample, target: Sample, seed: int = 0) -> Interval:
     """|ratio(sample) - ratio(target)| - |ratio(other) - ratio(target)|, paired by seed: below 0 where `sample`
-    is closer to `target` than `other` is."""
+    is closer to `target` than `other` is; no interval (NaN bounds) from fewer than MIN_PAIRS triples."""
     return _bootstrap([sample, other, target],
-                      lambda a, b, t: np.abs(ratio(a) - ratio(t)) - np.abs(ratio(b) - ratio(t)), seed)
+                      lambda a, b, t: np.abs(ratio(a) - ratio(t)) - np.abs(ratio(b) - ratio(t)), seed, least=MIN_PAIRS)
 
 
 def seeded_interval(sample: Sequence[Sample], reference: Sequence[Sample] | None = None,
@@ -122,7 +132,9 @@ def _sum_runs(runs: Sequence[Sample]) -> Sample:
             np.sum([np.asarray(run[1], dtype=float) for run in runs], axis=0))
 
 
-def _bootstrap(samples: Sequence[Sample], statistic: Callable[..., np.ndarray], seed: int) -> Interval:
+def _bootstrap(samples: Sequence[Sample], statistic: Callable[..., np.ndarray], seed: int, least: int = 2) -> Interval:
+    """`statistic` of `samples` with its percentile interval over episodes resampled together; NaN bounds from fewer
+    than `least` episodes."""
     arrays = [np.asarray(part, dtype=float) for sample in samples for part in sample]
     lengths = {len(array) for array in arrays}
     if len(lengths) != 1:
@@ -133,7 +145,7 @@ def _bootstrap(samples: Sequence[Sample], statistic: Callable[..., np.ndarray], 
         return statistic(*pairs)
 
     estimate = float(on_arrays(*arrays))
-    if lengths.pop() < 2 or np.isnan(estimate):
+    if lengths.pop() < least or np.isnan(estimate):
         return Interval(estimate, np.nan, np.nan)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # constant samples: the interval is the estimate itself

@@ -9,6 +9,7 @@ from sumo_rail.evaluation.distributions import distance_table
 from sumo_rail.evaluation.fidelity import CONFUSION_COLUMNS, RATES, agreement_counts
 from sumo_rail.evaluation.safety import SAFETY_MEASURES
 from sumo_rail.evaluation.statistics import (
+    MIN_PAIRS,
     Interval,
     Sample,
     closeness_difference,
@@ -150,8 +151,10 @@ def summary_table(metrics: pd.DataFrame, reference: str | None = None, seed: int
         differences = paired_differences(metrics, reference, seed, route)
         grid = _grid(differences, [driver for driver in drivers if driver != reference],
                      lambda row: _format(row, signed=True) + (f" {DETECTABLE}" if row.detectable else "  "))
+        too_few = (f"; n/a: fewer than {MIN_PAIRS} seeds in common, too few for an interval"
+                   if (differences["estimate"].notna() & differences["low"].isna()).any() else "")
         text += (f"\n\ndifference to {reference} on the same seeds [95% interval]; {DETECTABLE}: the interval "
-                 f"excludes 0 (a detectable difference):\n{grid.to_string()}")
+                 f"excludes 0 (a detectable difference){too_few}:\n{grid.to_string()}")
     return text
 
 

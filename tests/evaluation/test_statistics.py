@@ -2,6 +2,7 @@ import numpy as np
 import pytest
 
 from sumo_rail.evaluation.statistics import (
+    MIN_PAIRS,
     Interval,
     closeness_difference,
     interval,
@@ -116,3 +117,17 @@ def test_formatting():
     assert Interval(float("nan"), float("nan"), float("nan")).format() == "n/a"
     assert Interval(1.0, 0.1, 2.0).excludes_zero and not Interval(1.0, -0.1, 2.0).excludes_zero
 
+
+
+@pytest.mark.parametrize("pairs", range(1, MIN_PAIRS))
+def test_too_few_pairs_give_no_interval_and_no_detectable_difference(pairs):
+    """Pairs that all differ alike by 14: below MIN_PAIRS the difference has no interval ("n/a"), however alike
+    they are; from MIN_PAIRS on it has one, which excludes 0."""
+    ours, theirs = mean_sample(np.full(pairs, 15.0)), mean_sample(np.ones(pairs))
+    few = paired_difference(ours, theirs)
+    assert few.estimate == 14.0 and np.isnan(few.low) and np.isnan(few.high) and not few.excludes_zero
+    assert few.format(signed=True) == "+14.00 [n/a]"
+    closer = closeness_difference(theirs, ours, theirs)
+    assert closer.estimate == -14.0 and np.isnan(closer.high)
+    enough = paired_difference(mean_sample(np.full(MIN_PAIRS, 15.0)), mean_sample(np.ones(MIN_PAIRS)))
+    assert enough.excludes_zero and enough.format(signed=True) == "+14.00 [+14.00, +14.00]"

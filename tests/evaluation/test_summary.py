@@ -34,3 +34,23 @@ def test_a_road_with_a_feature_reports_its_route_measures_even_when_nothing_fail
         assert exit_road.count(f"\n{measure} ") == 2, exit_road  # the means and the differences
     episodes.loc[5, "missed_exits"] = 1  # a failure shows on any road
     assert "missed_exits" in summary_table(episodes)
+
+
+def test_a_difference_over_too_few_seeds_is_n_a_never_detectable():
+    """The issue's "+14.00 [+14.00, +14.00] *" from alike episodes: below MIN_PAIRS seeds in common the difference
+    prints "n/a" as its interval, unstarred, and the table says why; from MIN_PAIRS on it is starred."""
+    from sumo_rail.evaluation.statistics import MIN_PAIRS
+    from sumo_rail.evaluation.summary import DETECTABLE, summary_table
+
+    def differences(seeds: int) -> tuple[str, str]:
+        """The heading of the differences and the cell of steps."""
+        episodes = pd.DataFrame({"policy": ["expert"] * seeds + ["bc"] * seeds, "seed": list(range(seeds)) * 2,
+                                 "steps": [1.0] * seeds + [15.0] * seeds})
+        heading, grid = summary_table(episodes).split("difference to expert")[1].split(":\n")
+        return heading, next(line for line in grid.splitlines() if line.startswith("steps "))[6:].strip()
+
+    for seeds in (1, 2, MIN_PAIRS - 1):
+        heading, cell = differences(seeds)
+        assert cell == "+14.00 [n/a]" and f"n/a: fewer than {MIN_PAIRS} seeds in common" in heading
+    heading, cell = differences(MIN_PAIRS)
+    assert cell == f"+14.00 [+14.00, +14.00] {DETECTABLE}" and "fewer than" not in heading

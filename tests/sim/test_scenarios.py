@@ -338,7 +338,7 @@ def test_several_egos_share_a_ramp_and_respawn_on_it(small_config):
 def test_a_flow_no_road_can_hold_is_refused_before_anything_runs(small_config):
     with pytest.raises(ConfigError, match=r"more than 5 lanes can carry"):
         small_config.with_overrides({"scenario": {"flow_veh_per_h": 20000.0}})
-    with pytest.raises(ConfigError, match=r"ramp_flow_veh_per_h must be between 0 and what one lane can carry"):
+    with pytest.raises(ConfigError, match=r"ramp_flow_veh_per_h must be between 0 and 3000 veh/h"):
         small_config.with_overrides({"scenario": {"kind": "merge", **FEATURE, "ramp_flow_veh_per_h": 5000.0}})
     with pytest.raises(ConfigError, match=r"more than the work zone's 1 lane can carry"):
         small_config.with_overrides({"scenario": {"kind": "lane_drop", **FEATURE, "dropped_lanes": 4,
