@@ -6,20 +6,34 @@ The rule, for the decision at t (the period t .. t + T, T = env.decision_period_
    new lane: from the row where the lane index changes, back while its sideways speed toward the new lane exceeds
    `onset_speed_mps`, at most `onset_lookback_s`. The env's lane-change action starts the manoeuvre in the period
    it is taken, while the lane index changes only when the vehicle's centre crosses the marking, about half of
-   scenario.lane_change_duration_s (1 s, two decisions) later; reading the crossing would put the change one or
-   two decisions late. Without sideways positions (`lateral=False`, a network that is not one straight road along x)
-   the crossing's own period is used.
-2. Otherwise the speed: the mean acceleration over the period, (v(t + T) - v(t)) / T, against the dead band
-   `dead_band_mps2`: above it accelerate, below minus it decelerate, else keep. The dead band is half of what one
-   accelerate or decelerate does in the env within its period. Measured on the expert
-   (experiments/action_rule_validation.py): a set-point step of env.speed_step_mps (2 m/s) is closed by SUMO's ACC
-   at the ego type's full acceleration (2.6 m/s^2) or deceleration (3.0 m/s^2), the median period of an accelerate
-   averages 2.6 m/s^2 and of a decelerate -3.0 m/s^2, while 80% of keeps lie within +-0.2 m/s^2. One action's
-   effect is so min(accel, decel, step / T) = 2.6 m/s^2 and the band 1.3 m/s^2 (`for_env`).
-What the rule cannot see: the set-point. An ego still closing on its set-point a decision after an accelerate (a step
-takes 0.77 s at 2.6 m/s^2, several steps longer) reads as accelerating again, a driver held back by a slower leader
-reads from the speed it drives, not the one it wants, and a human's gentle speed change (below 1.3 m/s^2) reads as
-keep however long it lasts.
+   scenario.lane_change_duration_s (2 s) later; reading the crossing would put the change about two decisions
+   late. In a sweep over two lanes (no pause between the crossings) the look-back stops midway between the two
+   crossings, where the second change began (the vehicle passes the middle lane's centre). Without sideways
+   positions (`lateral=False`, a network that is not one straight road along x) the crossing's own period is used.
+2. Otherwise the speed, against an estimated set-point S [m/s] (the env's accelerate and decelerate move the ACC's
+   set-point by env.speed_step_mps, and the ACC then drives toward it; what a track shows is the speed). Per period the
+   mean acceleration a = (v(t + T) - v(t)) / T. S starts at the first speed and is never below the current speed.
+   - An acceleration phase begins at a period with a > `dead_band_mps2` and lasts while a > `phase_floor_mps2`. The
+     speed it ends at, v_end, above S says how many set-point steps were added: n = round((v_end - S) / step), at
+     least 1 if the phase began at the set-point (v(t) >= S - `set_point_tolerance_mps`), 0 if it began below it and
+     ended within the tolerance of S (the ACC catching up on a set-point already there), at most the phase's length.
+     The phase's first n periods are accelerate, the rest keep; S rises by n steps.
+   - A deceleration phase (a < -`dead_band_mps2`, lasting while a < -`phase_floor_mps2`) that began at the
+     set-point is max(1, round(speed lost / step)) decelerates in its first periods, and S drops by as many steps; one
+     that began below the set-point is the ACC following a slower leader: keep.
+   Thresholds: the dead band is half of what one action does in the env within its period. A set-point step of
+   env.speed_step_mps (2 m/s) is closed by SUMO's ACC at the ego type's full acceleration (2.6 m/s^2) or deceleration
+   (3.0 m/s^2): one action's mean over its period is min(accel, decel, step / T) = 2.6 m/s^2, the band 1.3 m/s^2
+   (`for_env`); a higher band reads the expert better (its steps begin at the ACC's full 2.6 m/s^2) but would read
+   a human's gentler speed changes as keep (docs/results/action_rule/expert.md gives the trade-off). The phase floor
+   (0.5 m/s^2) and the set-point tolerance (0.5 m/s, a quarter step) lie above what the ACC's cruising wanders by
+   (80% of the expert's keeps lie within +-0.2 m/s^2); on the validation episodes, halving or doubling the floor
+   moved the speed actions' recall and precision by at most 0.02, the tolerance by up to 0.1 (doubled: more
+   car-following read as decelerate).
+What the rule cannot see: a set-point step that the speed does not follow. The expert's accelerates come in runs (a
+step every 0.5 s adds 4 m/s^2 of set-point, the ACC follows at 2.6) and behind slower leaders; the ACC catching up
+on a set-point after a leader leaves its lane looks like an accelerate; a human's gentle speed change (below
+1.3 m/s^2) reads as keep however long it lasts. docs/results/action_rule/README.md gives the shares.
 """
 
 from __future__ import annotations
@@ -38,6 +52,10 @@ from sumo_rail.sim.scenarios import EGO_TYPE, VEHICLE_TYPES_FILE
 
 ONSET_SPEED_MPS = 0.2
 """A sideways speed above this [m/s] toward the new lane is a lane change under way (lane keeping wanders at less)."""
+PHASE_FLOOR_MPS2 = 0.5
+"""An acceleration or deceleration phase lasts while the period's mean acceleration beyond this [m/s^2] continues."""
+SET_POINT_TOLERANCE_MPS = 0.5
+"""A speed within this [m/s] below the estimated set-point is at the set-point (a quarter of the env's step)."""
 ONSET_LOOKBACK_S = 3.0
 """The farthest back [s] from the lane index's change a lane change's start is looked for (half a slow human lane
 change)."""
@@ -49,6 +67,9 @@ class ActionRule:
 
     decision_period_s: float
     dead_band_mps2: float
+    speed_step_mps: float
+    phase_floor_mps2: float = PHASE_FLOOR_MPS2
+    set_point_tolerance_mps: float = SET_POINT_TOLERANCE_MPS
     onset_speed_mps: float = ONSET_SPEED_MPS
     onset_lookback_s: float = ONSET_LOOKBACK_S
 
@@ -58,7 +79,7 @@ class ActionRule:
         half of one action's mean acceleration over its period, min(accel, decel, step / T)."""
         accel_mps2, decel_mps2 = ego_limits()
         period = env.decision_period_s
-        return cls(period, 0.5 * min(accel_mps2, decel_mps2, env.speed_step_mps / period))
+        return cls(period, 0.5 * min(accel_mps2, decel_mps2, env.speed_step_mps / period), env.speed_step_mps)
 
 
 def ego_limits() -> tuple[float, float]:
@@ -78,13 +99,13 @@ def read_track(time_s: np.ndarray, speed_mps: np.ndarray, lane: np.ndarray, edge
     instants = time_s[0] + period * np.arange(count)
     if count == 0:
         return instants, np.zeros(0, dtype=np.int64)
-    acceleration = (np.interp(instants + period, time_s, speed_mps) - np.interp(instants, time_s, speed_mps)) / period
-    actions = np.where(acceleration > rule.dead_band_mps2, Action.ACCELERATE,
-                       np.where(acceleration < -rule.dead_band_mps2, Action.DECELERATE, Action.KEEP)).astype(np.int64)
+    actions = speed_actions(np.interp(time_s[0] + period * np.arange(count + 1), time_s, speed_mps), rule)
     crossings = np.flatnonzero((np.diff(lane) != 0) & (edge[1:] == edge[:-1])) + 1
+    previous_s = -math.inf  # the previous crossing [s]
     for row in crossings:
         left = lane[row] > lane[row - 1]
-        start_s = _onset(time_s, lateral_m, row, left, rule) if lateral_m is not None else time_s[row]
+        start_s = _onset(time_s, lateral_m, row, left, previous_s, rule) if lateral_m is not None else time_s[row]
+        previous_s = time_s[row]
         # the row is the first one that shows it: it happened after the row before, so a row on a decision
         # instant belongs to the period before
         decision = min(math.floor((start_s - time_s[0]) / period - 1e-6), count - 1)
@@ -92,12 +113,44 @@ def read_track(time_s: np.ndarray, speed_mps: np.ndarray, lane: np.ndarray, edge
     return instants, actions
 
 
-def _onset(time_s: np.ndarray, lateral_m: np.ndarray, row: int, left: bool, rule: ActionRule) -> float:
+def speed_actions(speeds_mps: np.ndarray, rule: ActionRule) -> np.ndarray:
+    """The speed action (an `Action` value) of each period between consecutive decision instants, from the speeds
+    [m/s] at the instants (one more than the periods), against the estimated set-point (module docstring, 2.)."""
+    acceleration = np.diff(speeds_mps) / rule.decision_period_s
+    actions = np.full(len(acceleration), int(Action.KEEP), dtype=np.int64)
+    set_point, tolerance, step = float(speeds_mps[0]), rule.set_point_tolerance_mps, rule.speed_step_mps
+    period = 0
+    while period < len(acceleration):
+        set_point = max(set_point, float(speeds_mps[period]))
+        sign = int(np.sign(acceleration[period])) if abs(acceleration[period]) > rule.dead_band_mps2 else 0
+        if sign == 0:
+            period += 1
+            continue
+        end = period
+        while end < len(acceleration) and sign * acceleration[end] > rule.phase_floor_mps2:
+            end += 1
+        at_set_point = speeds_mps[period] >= set_point - tolerance
+        if sign > 0:
+            steps = round((speeds_mps[end] - set_point) / step) if speeds_mps[end] > set_point + tolerance else 0
+            steps = min(max(steps, int(at_set_point)), end - period)
+            actions[period:period + steps] = Action.ACCELERATE
+            set_point += steps * step
+        elif at_set_point:
+            steps = min(max(round((speeds_mps[period] - speeds_mps[end]) / step), 1), end - period)
+            actions[period:period + steps] = Action.DECELERATE
+            set_point -= steps * step
+        period = end
+    return actions
+
+
+def _onset(time_s: np.ndarray, lateral_m: np.ndarray, row: int, left: bool, previous_s: float,
+           rule: ActionRule) -> float:
     """The time of the first row that had moved sideways toward the lane entered at `row` [s] (module docstring)."""
     sideways = np.diff(lateral_m) / np.maximum(np.diff(time_s), 1e-9) * (1.0 if left else -1.0)
     start = row
-    while (start - 1 >= 0 and sideways[start - 1] > rule.onset_speed_mps
-           and time_s[row] - time_s[start - 1] <= rule.onset_lookback_s + 1e-9):
+    midway_s = 0.5 * (previous_s + time_s[row])
+    earliest_s = max(time_s[row] - rule.onset_lookback_s, midway_s) - 1e-9
+    while start - 1 >= 0 and sideways[start - 1] > rule.onset_speed_mps and time_s[start - 1] >= earliest_s:
         start -= 1
     return float(time_s[min(start + 1, row)])  # the first row that has moved
 

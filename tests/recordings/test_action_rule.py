@@ -23,17 +23,55 @@ def read(speed: np.ndarray, lane: np.ndarray | None = None, lateral: np.ndarray 
 
 def test_the_dead_band_is_half_of_what_one_set_point_step_does_to_the_acc_ego():
     assert ego_limits() == (2.6, 3.0)  # networks/traffic.rou.xml, vType ego
-    assert RULE.dead_band_mps2 == pytest.approx(0.5 * 2.6)
+    assert RULE.dead_band_mps2 == pytest.approx(0.5 * 2.6) and RULE.speed_step_mps == EnvConfig().speed_step_mps
     slow = ActionRule.for_env(EnvConfig(speed_step_mps=0.5))  # a step of 0.5 m/s adds at most 1 m/s^2 a period
     assert slow.dead_band_mps2 == pytest.approx(0.5 * 0.5 / 0.5)
 
 
-def test_speed_changes_beyond_the_dead_band_are_accelerate_and_decelerate():
-    # 0..1 s cruising with a dawdle of 1 m/s^2; 1..2.5 s +1.6 m/s^2; 2.5..4 s -2.0 m/s^2; then cruising
-    acceleration = np.select([TIME < 1.0, TIME < 2.5, TIME < 4.0], [1.0 * np.sin(8 * TIME), 1.6, -2.0], 0.0)
+def acc_speeds(set_points: list[float], start_mps: float, limits: list[float] | None = None) -> np.ndarray:
+    """The speeds [m/s] at SUMO's steps of an ego whose ACC drives toward the set-point of each period (one per
+    0.5 s period) at the ego type's full acceleration (2.6) and deceleration (3.0 m/s^2), never above the period's
+    speed limit (`limits`: a slower leader; default none)."""
+    speeds = [start_mps]
+    for time_s in TIME[1:]:
+        period = min(int((time_s - 1e-9) / 0.5), len(set_points) - 1)
+        target = min(set_points[period], limits[period] if limits else np.inf)
+        speeds.append(float(np.clip(target, speeds[-1] - 3.0 * STEP_S, speeds[-1] + 2.6 * STEP_S)))
+    return np.array(speeds)
+
+
+def test_a_run_of_accelerates_is_counted_in_set_point_steps_not_in_accelerating_periods():
+    # accelerates at periods 2 and 3 (+2 m/s each): the ACC closes 4 m/s at 2.6 m/s^2 over periods 2 to 5; a
+    # decelerate at period 7 closes 2 m/s at 3.0 m/s^2 over periods 7 and 8
+    set_points = [25.0] * 2 + [27.0] + [29.0] * 4 + [27.0] * 3
+    actions = read(acc_speeds(set_points, 25.0))
+    expected = [Action.KEEP] * 2 + [Action.ACCELERATE] * 2 + [Action.KEEP] * 3 + [Action.DECELERATE] + [Action.KEEP] * 2
+    assert actions.tolist() == [int(action) for action in expected]
+
+
+def test_the_acc_catching_up_on_its_set_point_or_following_a_leader_is_keep():
+    # an accelerate at period 0 (25 -> 27 m/s); a slower leader then holds the ego at 23 m/s over periods 3 to 5
+    # (3 m/s^2 of braking, begun below the set-point after the gentle slowing of period 2, 1.2 m/s^2); the leader leaves
+    # and the ACC climbs back to the set-point it had: one accelerate, all else keep
+    limits = [np.inf] * 2 + [26.4] + [23.0] * 3 + [np.inf] * 4
+    speeds = acc_speeds([27.0] * 10, 25.0, limits)
+    assert (np.diff(speeds[::5]) / 0.5 < -1.3).any() and (np.diff(speeds[::5]) / 0.5 > 1.3).sum() >= 3
+    actions = read(speeds)
+    assert actions[0] == Action.ACCELERATE and (actions[1:] == Action.KEEP).all()
+
+
+def test_the_set_point_follows_a_gentle_speed_change_before_a_step():
+    # 2 m/s gained at 0.8 m/s^2 (within the dead band: keep) over 0 .. 2.5 s, then one set-point step closed by the ACC
+    gentle = np.clip(25.0 + 0.8 * TIME, None, 27.0)
+    speed = np.clip(gentle + 2.6 * np.clip(TIME - 2.5, 0.0, None), None, 29.0)
+    assert read(speed).tolist() == [0, 0, 0, 0, 0, 1, 0, 0, 0, 0]
+
+
+def test_a_speed_phase_above_the_set_point_adds_the_steps_it_gained():
+    # from cruising at the set-point, 4 m/s gained at 1.6 m/s^2 over 2.5 s: two steps, in the phase's first periods
+    acceleration = np.where((TIME >= 1.0) & (TIME < 3.5), 1.6, 0.0)
     speed = 25.0 + np.concatenate([[0.0], np.cumsum(acceleration[:-1] * STEP_S)])
-    expected = [Action.KEEP] * 2 + [Action.ACCELERATE] * 3 + [Action.DECELERATE] * 3 + [Action.KEEP] * 2
-    assert read(speed).tolist() == [int(action) for action in expected]
+    assert read(speed).tolist() == [0, 0, 1, 1, 0, 0, 0, 0, 0, 0]
 
 
 def test_a_lane_change_belongs_to_the_period_in_which_the_sideways_movement_began():
@@ -48,10 +86,9 @@ def test_a_lane_change_belongs_to_the_period_in_which_the_sideways_movement_bega
 
 
 def test_a_lower_lane_index_is_a_change_to_the_right_and_wins_over_the_speed():
-    lane = np.where(TIME < 3.05, 2, 1)
-    speed = 25.0 + 2.0 * TIME  # accelerating throughout
-    actions = read(speed, lane)
-    assert actions[6] == Action.LANE_RIGHT and (np.delete(actions, 6) == Action.ACCELERATE).all()
+    lane = np.where(TIME < 1.05, 2, 1)
+    speed = 25.0 + 2.0 * TIME  # accelerating throughout: 10 m/s, five set-point steps
+    assert read(speed, lane).tolist() == [1, 1, 4, 1, 1, 0, 0, 0, 0, 0]
 
 
 def test_a_lane_index_that_changes_with_the_edge_is_not_a_lane_change():
@@ -81,3 +118,12 @@ def test_at_25_hz_a_change_starting_between_frames_keeps_its_period():
 def test_a_lane_first_seen_on_a_decision_instant_changed_in_the_period_before():
     lane = np.where(TIME < 2.0 - 1e-9, 1, 2)  # the row at 2.0 s is the first in lane 2: it changed after 1.9 s
     assert read(np.full(len(TIME), 25.0), lane).tolist().index(Action.LANE_LEFT) == 3
+
+
+def test_in_a_sweep_over_two_lanes_the_second_change_begins_midway_between_the_crossings():
+    # right from lane 3 to lane 1 (3.2 m lanes) at 1.6 m/s from 1.05 s: crossings at 2.05 and 4.05 s
+    lateral = -np.clip(1.6 * (TIME - 1.05), 0.0, 6.4)
+    lane = np.select([lateral > -1.6, lateral > -4.8], [3, 2], 1)
+    actions = read(np.full(len(TIME), 25.0), lane, lateral)
+    assert actions[2] == Action.LANE_RIGHT and actions[6] == Action.LANE_RIGHT  # 1.0 .. 1.5 s and 3.0 .. 3.5 s
+    assert (np.delete(actions, [2, 6]) == Action.KEEP).all()
