@@ -81,3 +81,30 @@ def test_a_scripted_cut_in_in_sumo_reads_the_followers_known_deceleration(small_
     assert follower[0] == math.inf  # watched from the period after the one the change started in
     assert follower.min() == pytest.approx(-2.5, abs=1e-6)
     assert follower[7] == math.inf  # 3 s later it is no longer watched
+
+
+def test_a_request_made_while_a_change_is_under_way_is_no_new_cut_in():
+    """The same request, ego between lanes with a follower in the requested lane: a cut-in only when no change was
+    under way before it (the first test's later periods pass no request, so they cannot tell)."""
+    changing = view([(2, 980.0, 4.5, 30.0)], lateral=0.3)
+    under_way = PeriodSafety(0.1, 0.5).update(report([0.0]), changing.ego, changing.neighbours, 2, was_changing=True)
+    assert under_way["cut_ins"] == 0
+    fresh = PeriodSafety(0.1, 0.5).update(report([0.0]), changing.ego, changing.neighbours, 2, was_changing=False)
+    assert fresh["cut_ins"] == 1
+
+
+def test_a_scripted_braking_reads_its_known_jerk_in_sumo(small_config):
+    """The ego held at 25 m/s is told to slow down to 20 m/s over 2 s (2.5 m/s^2) at a decision: its acceleration
+    goes 0 -> -2.5 m/s^2 in one 0.1 s step, a jerk of 25 m/s^3, one of the period's five steps (mean 5 m/s^3); the
+    periods before read 0 (both SUMO scenes above run at constant speed, where any jerk passes)."""
+    env = HighwayEnv(small_config)
+    try:
+        two_vehicle_road(env, "other", 4, 25.0, 25.0)
+        steady = [env.step(Action.KEEP)[4] for _ in range(2)]
+        libsumo.vehicle.slowDown(EGO_ID, 20.0, 2.0)
+        braking = env.step(Action.KEEP)[4]
+    finally:
+        env.close()
+    assert [(info["jerk_max_mps3"], info["jerk_mean_mps3"]) for info in steady] == [(0.0, 0.0), (0.0, 0.0)]
+    assert braking["jerk_max_mps3"] == pytest.approx(2.5 / 0.1)
+    assert braking["jerk_mean_mps3"] == pytest.approx(2.5 / 0.1 / 5)
