@@ -375,3 +375,40 @@ def test_no_lidar_beam_leaves_the_road_through_a_junction(small_config, kind):
         for x in np.arange(joint_m - 20.0, joint_m + 20.0, 1.0):
             distances, _ = lidar.scan(np.array([x, centre_m]), 0.0, np.zeros(2), boxes, 72, 100.0)
             assert distances[across].max() < 100.0, (kind, x)
+
+
+ROUTE_VALUES_AT_START = {  # which of (merge ahead, diverge ahead) each road has in range at the start window
+    "straight": (False, False), "merge": (True, False), "merge_from_ramp": (True, False),
+    "lane_drop": (False, False), "exit": (False, True)}
+
+
+@pytest.mark.parametrize("kind", list(ROUTE_VALUES_AT_START))
+def test_the_route_block_holds_each_road_s_own_merge_and_diverge(small_config, kind):
+    """At the first decision: a merge ahead on the merges (the ramp joins at feature_at_m), a diverge on the exit
+    (and the ego's lane leading only as far as it, two lanes left of the exit lane), nothing on the others; each
+    distance the feature's own from the ego's front, / observation.route_range_m. Swapping merge and diverge, or a
+    wrong scale, fails here (the digests of test_road_reference only say that something changed)."""
+    from sumo_rail.sim.observation import observation_names
+
+    config = road(small_config, kind)
+    env = HighwayEnv(config)
+    try:
+        observation, _ = env.reset(seed=0)
+        front_m = libsumo.vehicle.getLanePosition("ego")
+        lane = libsumo.vehicle.getLaneIndex("ego")
+    finally:
+        env.close()
+    names = observation_names(config)
+    lane_end, offset, merge, diverge = (float(observation[names.index(field)]) for field in
+                                        ("route_lane_end", "route_lane_offset", "route_merge_ahead",
+                                         "route_diverge_ahead"))
+    range_m = config.observation.route_range_m
+    feature_share = (FEATURE["feature_at_m"] - front_m) / range_m
+    merge_ahead, diverge_ahead = ROUTE_VALUES_AT_START[kind]
+    assert merge == (pytest.approx(feature_share, abs=0.02) if merge_ahead and kind == "merge" else merge)
+    assert (merge < 1.0) == merge_ahead and (diverge < 1.0) == diverge_ahead
+    if kind == "exit":
+        assert diverge == pytest.approx(feature_share, abs=0.02) and lane_end == pytest.approx(diverge)
+        assert offset == pytest.approx(-lane / (config.scenario.lanes - 1))
+    else:
+        assert (lane_end, offset) == (1.0, 0.0)
