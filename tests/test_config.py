@@ -70,3 +70,14 @@ def test_a_toml_file_changes_the_config_it_is_applied_to(tmp_path: Path):
     path.write_text("[scenario]\nlanes = 4\n")
     config = Config.preset("recommended").with_toml(path)
     assert (config.scenario.lanes, config.observation.lane_block) == (4, 1)
+
+
+@pytest.mark.parametrize("kind", ["merge", "merge_from_ramp"])
+def test_the_main_road_and_the_ramp_together_are_held_to_what_the_lanes_past_the_merge_carry(kind):
+    """Five lanes past the merge carry 5 x 3000 veh/h: 14000 + 1000 is accepted, 14000 + 1500 refused, naming both
+    settings; on both roads where a ramp joins (the merge_from_ramp check was never tested)."""
+    accepted = Config.from_dict({"scenario": {"kind": kind, "flow_veh_per_h": 14000.0, "ramp_flow_veh_per_h": 1000.0}})
+    assert accepted.scenario.ramp_flow_veh_per_h == 1000.0
+    with pytest.raises(ConfigError, match=r"flow_veh_per_h plus scenario.ramp_flow_veh_per_h \(15500 veh/h\) is more "
+                                          r"than the 5 lanes past the merge can carry"):
+        Config.from_dict({"scenario": {"kind": kind, "flow_veh_per_h": 14000.0, "ramp_flow_veh_per_h": 1500.0}})
