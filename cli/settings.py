@@ -19,9 +19,7 @@ def config_options(command: Callable[..., Any]) -> Callable[..., Any]:
     settings they make as one `config: Config` argument (`resolve_config`)."""
     options = [
         click.option("--preset", type=click.Choice(list(PRESETS)), default="paper", show_default=True,
-                     help="Named setting, which --config and --set change. paper: the paper's (the 24-beam LIDAR "
-                          "is the whole observation). recommended: the benchmark's, the paper's plus "
-                          "observation.lane_block=1, with which learners imitate the expert far more closely."),
+                     help=preset_help()),
         click.option("--config", "config_path", type=click.Path(path_type=Path, dir_okay=False),
                      help="TOML file whose [scenario], [lidar], [env], [observation] and [expert] tables change the "
                           "preset."),
@@ -39,6 +37,16 @@ def config_options(command: Callable[..., Any]) -> Callable[..., Any]:
     for option in reversed(options):
         with_config = option(with_config)
     return with_config
+
+
+def preset_help() -> str:
+    """--preset's help, made from `PRESETS` itself: every preset with each setting it changes."""
+    described = [f"{name}: " + (", ".join(f"{section}.{key}={value}" for section, values in changes.items()
+                                          for key, value in values.items()) or "the defaults")
+                 for name, changes in PRESETS.items()]
+    return ("Named setting, which --config and --set change; " + "; ".join(described) + ". The defaults are the "
+            "paper's setting (the 24-beam LIDAR is the whole observation); observation.lane_block=1 adds the cars "
+            "one lane over, observation.route_block=1 where the lane leads (lanes that end, merges, exits).")
 
 
 def resolve_config(preset: str, config_path: Path | None, overrides: tuple[str, ...]) -> Config:

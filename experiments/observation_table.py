@@ -5,7 +5,10 @@ same validation episodes, with 95% intervals, and each design's difference to th
 (pairs are episodes with the same seed and warm state).
 
 Usage: python experiments/observation_table.py OUT_DIR DESIGN [DESIGN ...] (prints Markdown; writes the agreement
-per round of every design to OUT_DIR/agreement_by_round.png)
+per round of every design to OUT_DIR/agreement_by_round.png). Reads each design's DAgger log from
+DESIGN/dagger/log.parquet or its committed copy DESIGN/dagger_log.parquet; the final tables need
+DESIGN/validation.parquet and leave out a design without it (docs/results/observation_study commits only evaluate's
+printout, validation.txt).
 """
 
 from __future__ import annotations
@@ -18,10 +21,23 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from matplotlib.ticker import MaxNLocator
 
+from sumo_rail.config import Config
 from sumo_rail.evaluation.statistics import interval, paired_difference
 from sumo_rail.evaluation.summary import measure_samples
+from sumo_rail.sim.observation import observation_space
 
 MEASURES = ("agreement", "lane_change_recall", "lane_change_precision")
+# Each design's settings, as experiments/observation_study.sh sets them (the observation size follows from them).
+DESIGN_SETTINGS: dict[str, dict[str, dict[str, int]]] = {
+    "lidar24": {}, "lidar72": {"lidar": {"beams": 72}}, "lidar24_lanes": {"observation": {"lane_block": 1}},
+    "lidar24_sensor_expert": {"expert": {"view_range_m": 100}},
+    "lidar24_lanes_sensor_expert": {"observation": {"lane_block": 1}, "expert": {"view_range_m": 100}}}
+
+
+def dagger_log(folder: Path) -> pd.DataFrame:
+    """A design's DAgger log: the run's own (dagger/log.parquet) or the committed copy (dagger_log.parquet)."""
+    path = folder / "dagger" / "log.parquet"
+    return pd.read_parquet(path if path.is_file() else folder / "dagger_log.parquet")
 
 
 def final_samples(path: Path) -> tuple[dict, dict]:
@@ -32,19 +48,20 @@ def final_samples(path: Path) -> tuple[dict, dict]:
 
 
 def main(out: Path, designs: list[str]) -> None:
-    logs = {design: pd.read_parquet(out / design / "dagger" / "log.parquet") for design in designs}
+    logs = {design: dagger_log(out / design) for design in designs}
     rounds = max(len(log) for log in logs.values())
     print("| design | observation size | BC held-out accuracy | BC agreement (lane-change recall) | "
           + " | ".join(f"DAgger round {r} agreement (recall)" for r in range(1, rounds)) + " |")
     print("|---|---:|---:|---|" + "---|" * (rounds - 1))
     for design, log in logs.items():
-        size = pd.read_parquet(out / design / "demos.parquet", columns=["observation"])["observation"].iloc[0].size
+        size = observation_space(Config().with_overrides(DESIGN_SETTINGS[design])).shape[0]
         cells = [f"{row.eval_agreement:.3f} ({row.eval_lane_change_recall:.2f})" for row in log.itertuples()]
         print(f"| {design} | {size} | {log['bc_holdout_accuracy'].iloc[0]:.3f} | " + " | ".join(cells) + " |")
     finals = {design: final_samples(out / design / "validation.parquet") for design in designs
               if (out / design / "validation.parquet").is_file()}
-    print("\n| design | measure | BC | DAgger, last round | DAgger - BC (paired) |")
-    print("|---|---|---|---|---|")
+    if finals:
+        print("\n| design | measure | BC | DAgger, last round | DAgger - BC (paired) |")
+        print("|---|---|---|---|---|")
     for design, (bc, dagger) in finals.items():
         for measure in MEASURES:
             print(f"| {design} | {measure} | {interval(bc[measure]).format(3)} | "

@@ -7,7 +7,8 @@ least 75% of its value at the lowest flow. The flows are given a lane of the roa
 zone's lanes on lane_drop, the five lanes past the merge, the main road's lanes on exit, whose off-ramp takes
 exit_share of the flow), so the limits of `sumo_rail.config` can be read off the table; flows beyond them are built
 here without the checks that refuse them to users.
-Usage: `python experiments/road_capacity.py --out docs/results/road_capacity/table.md [--seeds 3]`.
+Usage: `python experiments/road_capacity.py --out docs/results/road_capacity/table.md [--seeds 3]`; with
+`--ramp-flows R [R ...]`, instead the on-ramp (kind merge, the main road's default flow) at each ramp flow R [veh/h].
 """
 
 from __future__ import annotations
@@ -44,6 +45,16 @@ def scenario_at(kind: str, exit_share: float, per_lane_veh_per_h: float) -> Scen
     return ScenarioConfig(kind=kind, flow_veh_per_h=flow, exit_share=exit_share)
 
 
+def cases(ramp_flows: list[float] | None) -> list[tuple[str, float, ScenarioConfig]]:
+    """(the row's road, its veh/h a lane at the narrowest part, the scenario) of every row, in order."""
+    if ramp_flows:
+        lanes = ScenarioConfig(kind="merge").lanes
+        return [(f"merge (ramp {flow:g} veh/h)", (ScenarioConfig(kind="merge").flow_veh_per_h + flow) / lanes,
+                 ScenarioConfig(kind="merge", ramp_flow_veh_per_h=flow)) for flow in ramp_flows]
+    return [(f"{kind} (exit_share {exit_share:g})" if kind == "exit" else kind, per_lane,
+             scenario_at(kind, exit_share, per_lane)) for kind, exit_share in ROADS for per_lane in PER_LANE_VEH_PER_H]
+
+
 def run(scenario: ScenarioConfig, seed: int) -> dict[str, float]:
     """SUMO alone for WARMUP_S + MEASURED_S: delivered flow [veh/h], insertion backlog at the end [veh], mean speed
     of the vehicles on the road over the measured time [m/s]."""
@@ -64,27 +75,26 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--out", type=Path, required=True)
     parser.add_argument("--seeds", type=int, default=3)
+    parser.add_argument("--ramp-flows", type=float, nargs="+", help="the on-ramp at these ramp flows [veh/h] instead")
     args = parser.parse_args()
     started = time.time()
     rows = ["| road | veh/h a lane at the narrowest part | scenario.flow_veh_per_h | exit traffic [veh/h] | "
             "delivered / demand | backlog at the end [veh] | mean speed [m/s] | carried |",
             "|---|---|---|---|---|---|---|---|"]
-    for kind, exit_share in ROADS:
-        free_speed = None
-        for per_lane in PER_LANE_VEH_PER_H:
-            scenario = scenario_at(kind, exit_share, per_lane)
-            demand = scenario.flow_veh_per_h + (scenario.ramp_flow_veh_per_h if kind == "merge" else 0.0)
-            runs = [run(scenario, seed) for seed in range(1, args.seeds + 1)]
-            free_speed = free_speed or statistics.mean(r["speed"] for r in runs)
-            delivered, speed = (statistics.mean(r[key] for r in runs) for key in ("delivered", "speed"))
-            backlog = max(r["backlog"] for r in runs)
-            carried = delivered >= 0.95 * demand and backlog <= 20 and speed >= 0.75 * free_speed
-            exit_traffic = f"{scenario.flow_veh_per_h * exit_share:g}" if kind == "exit" else "-"
-            road = f"{kind} (exit_share {exit_share:g})" if kind == "exit" else kind
-            rows.append(f"| {road} | {per_lane} | {scenario.flow_veh_per_h:g} | {exit_traffic} | "
-                        f"{delivered / demand:.2f} | {backlog:.0f} | {speed:.1f} | "
-                        f"{'yes' if carried else '**no**'} |")
-            print(rows[-1], flush=True)
+    free_speeds: dict[str, float] = {}
+    for road, per_lane, scenario in cases(args.ramp_flows):
+        kind = scenario.kind
+        demand = scenario.flow_veh_per_h + (scenario.ramp_flow_veh_per_h if kind == "merge" else 0.0)
+        runs = [run(scenario, seed) for seed in range(1, args.seeds + 1)]
+        free_speed = free_speeds.setdefault(road.split(" (ramp")[0], statistics.mean(r["speed"] for r in runs))
+        delivered, speed = (statistics.mean(r[key] for r in runs) for key in ("delivered", "speed"))
+        backlog = max(r["backlog"] for r in runs)
+        carried = delivered >= 0.95 * demand and backlog <= 20 and speed >= 0.75 * free_speed
+        exit_traffic = f"{scenario.flow_veh_per_h * scenario.exit_share:g}" if kind == "exit" else "-"
+        rows.append(f"| {road} | {per_lane:g} | {scenario.flow_veh_per_h:g} | {exit_traffic} | "
+                    f"{delivered / demand:.2f} | {backlog:.0f} | {speed:.1f} | "
+                    f"{'yes' if carried else '**no**'} |")
+        print(rows[-1], flush=True)
     args.out.parent.mkdir(parents=True, exist_ok=True)
     with written_atomically(args.out) as written:
         written.write_text(f"Command: `python {' '.join(sys.argv)}` ({time.time() - started:.0f} s; SUMO alone, "
