@@ -1,4 +1,4 @@
-"""The table of experiments/rail_ablations.sh from one evaluation (validation or test episodes).
+"""The table of experiments/specs/rail_ablations.toml from one evaluation (validation or test episodes).
 
 Drivers are named VARIANT_sSEED/policy_* (one per variant and training seed). For each variant and measure: its
 value pooled over the training seeds, and its paired difference to BC and to `independent` (RAIL as first

@@ -1,4 +1,4 @@
-"""The benchmark's figure (experiments/imitation_table.sh): for each method, on-policy agreement, lane-change
+"""The benchmark's figure (experiments/specs/imitation_table.toml): for each method, on-policy agreement, lane-change
 recall, lane changes and overtakes per episode, pooled over its training seeds with the 95% interval of
 experiments/seeded.py (bar), each training run's own estimate (dots) and the expert's value (dashed line).
 

@@ -1,4 +1,4 @@
-"""The benchmark's tables (experiments/imitation_table.sh): every method pooled over its training seeds on the
+"""The benchmark's tables (experiments/specs/imitation_table.toml): every method pooled over its training seeds on the
 same test episodes, its difference to the expert, the paired differences between methods, the training budget
 and the distribution distances to the expert. Seeds are pooled as experiments/seeded.py says. Prints Markdown.
 

@@ -1,4 +1,4 @@
-"""The DART noise level chosen on validation episodes (experiments/dart.sh): the level whose BC agrees most with the
+"""The DART noise level chosen on validation episodes (specs/dart.toml): the level whose BC agrees most with the
 expert on the validation episodes (ties: the smaller level). Prints each level's agreement, then the chosen level.
 
 Usage: python experiments/dart_choose.py OUT_DIR   (reads OUT_DIR/validation_epsLEVEL.parquet)

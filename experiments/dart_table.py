@@ -1,8 +1,8 @@
 """The DART rows of the benchmark and the benchmark's safety measures (issue 36), as Markdown: DART (BC on the
-demonstrations of experiments/dart.sh) and RAIL started from it (experiments/dart_rail.sh, DART_DIR/rail) against the
+demonstrations of specs/dart.toml) and RAIL started from it (specs/dart.toml's rail steps, DART_DIR/rail) against the
 committed BC, RAIL, DAgger and GAIL runs on the same test episodes, paired by training seed and episode as
 experiments/benchmark_table.py pairs them; then the safety measures of every method (from the SAFETY_DIRs,
-experiments/safety_table.sh, and DART's own evaluations), and a check that the re-evaluation reproduces every
+specs/safety_table.toml, and DART's own evaluations), and a check that the re-evaluation reproduces every
 committed column. DART_DIR "-": no DART (the realizable benchmark's safety table).
 
 Usage: python experiments/dart_table.py BENCH_DIR DART_DIR|- [SAFETY_DIR ...]   (each holds test_sSEED.parquet files)

@@ -1,4 +1,4 @@
-"""The figure of experiments/demonstrations_sweep.sh: on-policy agreement, lane-change recall and lane changes per
+"""The figure of specs/demonstrations_sweep.toml: on-policy agreement, lane-change recall and lane changes per
 episode of BC, RAIL and DAgger against the number of expert episodes they learned from, each point over the
 training seeds with its 95% interval (experiments/seeded.py) and each run's own estimate as a dot, the expert's
 lane changes dashed. Prints the table as Markdown, then RAIL - BC and DAgger - BC in agreement and lane changes

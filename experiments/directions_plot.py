@@ -1,4 +1,4 @@
-"""The figure of experiments/directions_sweep.sh: for each number of directions N, validation agreement with the
+"""The figure of experiments/specs/directions_sweep.toml: for each number of directions N, validation agreement with the
 expert against training iterations and against environment decisions (mean over training seeds, the seeds' range
 shaded), and the discriminator's mean return beside them (it moves with the discriminator, so it is the secondary
 panel). Prints a table of each N's cost (decisions per iteration: mean over seeds; wall time per iteration: the
@@ -10,7 +10,7 @@ slow to matter), "undecided" when it is too wide to say. Runs with no validation
 how far the search moved the weights against how far a search without signal would wander (experiments/wander.py;
 about 1 when the steps are noise). N = 512 is projected from a straight-line fit of the cost in N (a projection,
 not a run) until a run of N = 512 is there. Runs whose rollouts are decision budgets on K respawning egos
-(experiments/directions_sweep.sh with EGOS, folders nN_kKr_sSEED) are a series of their own.
+(experiments/specs/directions_sweep.toml with EGOS, folders nN_kKr_sSEED) are a series of their own.
 Writes OUT_DIR/directions.png.
 
 Usage: python experiments/directions_plot.py OUT_DIR [SERIES ...]   (reads OUT_DIR/SERIES_sSEED/log.parquet, a

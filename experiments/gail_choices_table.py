@@ -1,4 +1,4 @@
-"""The table of experiments/gail_choices.sh from one evaluation (validation episodes).
+"""The table of experiments/specs/gail_choices.toml from one evaluation (validation episodes).
 
 Drivers are named VARIANT_sSEED/policy_latest, with " (sampled)" when evaluated by sampling, and
 all_sSEED/policy_bc (BC, every variant's start). For each variant, evaluation and measure: its value over the

@@ -1,4 +1,4 @@
-"""The generalisation table (experiments/generalisation.sh): the expert on every road (its rows of each (a) file);
+"""The generalisation table (specs/generalisation.toml): the expert on every road (its rows of each (a) file);
 BC, DAgger, RAIL and GAIL (their rail_*.parquet and gail_*.parquet evaluations) trained and tested on each road (a),
 trained on the straight road
 and tested on the others and at densities it never saw (b), trained on a mix of roads (c), and trained without the

@@ -1,5 +1,5 @@
 """Concatenate demonstration files recorded on different roads into one (the generalisation table's mixed training
-set, experiments/generalisation.sh): episodes renumbered in order, the first file's provenance with the files and roads
+set, specs/generalisation.toml): episodes renumbered in order, the first file's provenance with the files and roads
 mixed. Usage: python experiments/mix_demos.py OUT.parquet IN.parquet [IN.parquet ...]"""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""The tables of experiments/observation_study.sh: per design, BC's held-out accuracy on demonstrations and the
+"""The tables of specs/observation_study.toml: per design, BC's held-out accuracy on demonstrations and the
 on-policy agreement with the expert of BC (round 0) and of each DAgger round on validation episodes (point
 estimates on the rounds' few episodes), then the final paired evaluation of BC and DAgger's last policy on the
 same validation episodes, with 95% intervals, and each design's difference to the first design's on those episodes
@@ -27,7 +27,7 @@ from sumo_rail.evaluation.summary import measure_samples
 from sumo_rail.sim.observation import observation_space
 
 MEASURES = ("agreement", "lane_change_recall", "lane_change_precision")
-# Each design's settings, as experiments/observation_study.sh sets them (the observation size follows from them).
+# Each design's settings, as specs/observation_study.toml sets them (the observation size follows from them).
 DESIGN_SETTINGS: dict[str, dict[str, dict[str, int]]] = {
     "lidar24": {}, "lidar72": {"lidar": {"beams": 72}}, "lidar24_lanes": {"observation": {"lane_block": 1}},
     "lidar24_sensor_expert": {"expert": {"view_range_m": 100}},

@@ -1,4 +1,4 @@
-"""The figure of experiments/paper_scale.sh: RAIL from BC at the paper's N = 512 beside the benchmark's N = 32 run of
+"""The figure of specs/paper_scale.toml: RAIL from BC at the paper's N = 512 beside the benchmark's N = 32 run of
 the same seed: validation agreement with the expert against decisions, and the discriminator's mean return against
 iterations. Prints a table of each run's cost and validations. Writes OUT.png.
 

@@ -1,6 +1,6 @@
 """The paper's table (expert, RAIL stacked, RAIL linear: 16 episodes, 40 trajectories, its Unity simulator) beside this
 project's benchmark on the same rows, plus agreement and BC; and RAIL at the paper's N = 512 from BC
-(experiments/paper_scale.sh: each run's test.parquet holds the expert, the run's BC and its RAIL on the benchmark's
+(specs/paper_scale.toml: each run's test.parquet holds the expert, the run's BC and its RAIL on the benchmark's
 test episodes), with RAIL minus its own BC paired by training seed and episode. Prints Markdown.
 
 Usage: python experiments/paper_table.py BENCH_DIR [PAPER_SCALE_DIR]

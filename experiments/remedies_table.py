@@ -1,4 +1,4 @@
-"""The table of experiments/rail_remedies.sh: every variant against BC and against the paper's setting, paired by
+"""The table of specs/rail_remedies.toml: every variant against BC and against the paper's setting, paired by
 training seed and episode (experiments/seeded.py says how seeds are pooled). Prints Markdown.
 
 Usage: python experiments/remedies_table.py METRICS.parquet [METRICS.parquet ...]   (evaluations on the same validation

@@ -1,4 +1,4 @@
-"""The table of experiments/shared_road.sh: RAIL, DAgger and GAIL (by argmax and sampled) trained with K egos per
+"""The table of specs/shared_road.toml: RAIL, DAgger and GAIL (by argmax and sampled) trained with K egos per
 simulation minus the same method trained with one, paired by training seed and test episode (experiments/seeded.py).
 Prints Markdown.
 

@@ -1,4 +1,4 @@
-"""The table of experiments/style_fidelity.sh: for each style (calm, sporty) and method (BC, RAIL, DAgger, over
+"""The table of experiments/specs/style_fidelity.toml: for each style (calm, sporty) and method (BC, RAIL, DAgger, over
 their training seeds, experiments/seeded.py), agreement with the expert of the style it learned from, and on speed,
 overtakes and lane changes the difference to its own expert and to the other style's expert, with which is
 closer (point estimates); then RAIL - BC and DAgger - BC in agreement, paired. Prints Markdown.

@@ -1,5 +1,6 @@
 import dataclasses
 import json
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -26,9 +27,14 @@ def test_experiment_scripts_parse_and_are_executable(script: Path):
     assert script.stat().st_mode & 0o111
 
 
-def test_every_documented_experiment_exists():
-    assert {path.name for path in SCRIPTS} >= {"demo.sh", "imitation_table.sh", "directions_sweep.sh",
-                                               "style_fidelity.sh"}
+def test_the_demo_is_the_one_shell_script_and_every_documented_experiment_is_a_spec():
+    """Experiments are specs run by experiments/grid.py; docs name each by its spec, and every spec they name exists."""
+    assert [path.name for path in SCRIPTS] == ["demo.sh"]
+    documents = [EXPERIMENTS.parent / "README.md", *sorted((EXPERIMENTS.parent / "docs").glob("*.md"))]
+    named = {name for document in documents for name in re.findall(r"experiments/specs/(\w+)\.toml",
+                                                                    document.read_text())}
+    assert {"imitation_table", "generalisation", "dart", "bc_class_balance"} <= named
+    assert sorted(name for name in named if not (EXPERIMENTS / "specs" / f"{name}.toml").is_file()) == []
 
 
 def _searched_run(folder: Path, signal: float, iterations: int = 60) -> Path:
