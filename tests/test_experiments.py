@@ -34,7 +34,8 @@ def test_the_demo_is_the_one_shell_script_and_every_documented_experiment_is_a_s
     named = {name for document in documents for name in re.findall(r"experiments/specs/(\w+)\.toml",
                                                                     document.read_text())}
     assert {"imitation_table", "generalisation", "dart", "bc_class_balance"} <= named
-    assert sorted(name for name in named if not (EXPERIMENTS / "specs" / f"{name}.toml").is_file()) == []
+    missing = [name for name in named if name != "NAME" and not (EXPERIMENTS / "specs" / f"{name}.toml").is_file()]
+    assert sorted(missing) == []
 
 
 def _searched_run(folder: Path, signal: float, iterations: int = 60) -> Path:
