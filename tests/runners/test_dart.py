@@ -10,6 +10,7 @@ from sumo_rail.runners.backends import ProcessPoolBackend, SerialBackend
 from sumo_rail.runners.dart import ActionNoise
 from sumo_rail.runners.record import record_demonstrations
 from sumo_rail.runners.rollout import ExpertDriver, KeepDriver, run_shared_episode
+from sumo_rail.sim.actions import Action
 from sumo_rail.sim.parallel_env import ParallelHighwayEnv
 
 
@@ -90,3 +91,20 @@ def test_dart_noise_with_several_egos_is_accepted_by_the_command(tmp_path):
                                       "--set", "scenario.length_m=1500", "--out", str(out)])
     assert result.exit_code == 0, result.output
     assert read_metadata(out)["egos"] == 2 and read_metadata(out)["dart"]["epsilon"] == 0.1
+
+
+def test_each_ego_of_a_shared_road_draws_its_noise_from_its_own_episode_s_stream(small_config, tmp_path):
+    """A driver that always keeps: every set-point change is a noisy accelerate or decelerate, so each ego's changes
+    fall exactly where the noise stream of its own episode seed put one (most of them: at the speed bounds a step
+    changes nothing). Every ego on ego 0's stream changes where that stream says, not where its own does."""
+    out = tmp_path / "demos.parquet"
+    noise = ActionNoise(0.3)
+    with SerialBackend() as backend:
+        record_demonstrations(small_config, KeepDriver(), "keep", 0, 2, backend, out, egos=2, noise=noise)
+    table = pq.read_table(out).to_pandas()
+    for _, rows in table.groupby("episode"):
+        perturb = noise.perturbation(int(rows["episode_seed"].iloc[0]))
+        executed = [perturb(0) for _ in range(len(rows))]
+        drawn = {step for step, action in enumerate(executed[:-1]) if action in (Action.ACCELERATE, Action.DECELERATE)}
+        changed = set(np.flatnonzero(np.diff(rows["set_point_mps"].to_numpy()) != 0).tolist())
+        assert changed <= drawn and len(changed) >= len(drawn) / 2, (sorted(changed), sorted(drawn))
