@@ -170,8 +170,10 @@ def evaluate_command(config: Config, policies: tuple[str, ...],
         raise click.BadParameter(f"{reference!r} is not one of the drivers ({', '.join(names)})",
                                  param_hint="'--reference'")
     seeds = episode_seeds(Purpose.EVALUATE, seed, episodes)
-    backend = (SerialBackend(render_mode="human", gui_delay_ms=100.0 if gui_delay_ms is None else gui_delay_ms)
-               if gui else build_backend(backend_name, workers, address))
+    in_process = gui or (workers == 1 and backend_name == "process" and address is None)  # no worker for one
+    backend = (SerialBackend(render_mode="human" if gui else None,
+                             gui_delay_ms=100.0 if gui_delay_ms is None else gui_delay_ms)
+               if in_process else build_backend(backend_name, workers, address))
     bar = progress(len(drivers) * episodes, "evaluating")
     with interruptible_run(bar, "interrupted; nothing was written" if out is not None else "interrupted", backend):
         evaluation = evaluate(drivers, config, seeds, backend, references, pool,

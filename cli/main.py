@@ -5,17 +5,34 @@ from __future__ import annotations
 import logging
 
 import click
-from sumo_rail_cli.commands import evaluate_command, record_expert, train_command
-from sumo_rail_cli.dagger_command import dagger_command
-from sumo_rail_cli.export_command import export_minari_command
-from sumo_rail_cli.gail_command import gail_command
-from sumo_rail_cli.import_command import import_recording_command
-from sumo_rail_cli.ppo_command import ppo_command
-from sumo_rail_cli.report_command import report_command
-from sumo_rail_cli.signal_command import step_signal_command
+from sumo_rail_cli.running import STARTING_INTERRUPTED, interrupted_while_starting, make_interruptible
+
+make_interruptible()  # first: Ctrl-C and SIGTERM in the slow imports below (libsumo, scipy) and the commands' own
+try:
+    from sumo_rail_cli.commands import evaluate_command, record_expert, train_command
+    from sumo_rail_cli.dagger_command import dagger_command
+    from sumo_rail_cli.export_command import export_minari_command
+    from sumo_rail_cli.gail_command import gail_command
+    from sumo_rail_cli.import_command import import_recording_command
+    from sumo_rail_cli.ppo_command import ppo_command
+    from sumo_rail_cli.report_command import report_command
+    from sumo_rail_cli.signal_command import step_signal_command
+except KeyboardInterrupt:
+    interrupted_while_starting()
 
 
-@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+class _Commands(click.Group):
+    """The command group: a Ctrl-C or SIGTERM before a command's work began (its imports, its checks) is one
+    sentence, exit 1, as one during the work is."""
+
+    def invoke(self, ctx: click.Context) -> object:
+        try:
+            return super().invoke(ctx)
+        except KeyboardInterrupt:
+            raise click.ClickException(STARTING_INTERRUPTED) from None
+
+
+@click.group(cls=_Commands, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(package_name="sumo-rail", prog_name="sumo-rail")
 @click.option("-v", "--verbose", is_flag=True, help="Log progress details to stderr.")
 def cli(verbose: bool) -> None:

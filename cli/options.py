@@ -11,6 +11,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import click
+from sumo_rail_cli.output_lock import lock_output
 from sumo_rail_cli.param_types import FiniteFloat
 from sumo_rail_cli.running import library_errors
 
@@ -248,7 +249,8 @@ def build_backend(name: str, workers: int, address: str | None) -> RolloutBacken
 
 
 def check_output(out: Path | None, overwrite: bool) -> None:
-    """Refuse an unusable --out before any work starts (usage error, exit 2)."""
+    """Refuse an unusable --out before any work starts (usage error, exit 2), and one another command is writing
+    (exit 1); hold it until the command ends (`lock_output`)."""
     from sumo_rail.datasets import DatasetError, check_output_path
 
     if out is None:
@@ -257,16 +259,19 @@ def check_output(out: Path | None, overwrite: bool) -> None:
         check_output_path(out, overwrite)
     except DatasetError as error:
         raise click.BadParameter(str(error), param_hint="'--out'") from error
+    lock_output(out)
 
 
 def check_run_folder(out: Path) -> None:
-    """Refuse a run folder --out that cannot be made or written before any work starts (usage error, exit 2)."""
+    """Refuse a run folder --out that cannot be made or written before any work starts (usage error, exit 2), and
+    one another command is writing (exit 1); hold it until the command ends (`lock_output`)."""
     from sumo_rail.datasets import DatasetError, check_output_folder
 
     try:
         check_output_folder(out)
     except DatasetError as error:
         raise click.BadParameter(str(error), param_hint="'--out'") from error
+    lock_output(out)
 
 
 def tensorboard_option(command: Callable[..., Any]) -> Callable[..., Any]:

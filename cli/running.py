@@ -6,11 +6,12 @@ from __future__ import annotations
 import contextlib
 import math
 import signal
+import sys
 from collections.abc import Callable, Iterator
 from contextlib import AbstractContextManager
 from pathlib import Path
 from types import FrameType
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, NoReturn
 
 import click
 
@@ -126,6 +127,17 @@ def make_interruptible() -> None:
     after it are ignored while it closes (a burst of Ctrl-Cs would otherwise interrupt the closing)."""
     signal.signal(signal.SIGINT, _stop_once)
     signal.signal(signal.SIGTERM, _stop_once)
+
+
+STARTING_INTERRUPTED = "interrupted before any work began; nothing was written"
+"""What a command stopped while it starts (its imports, its checks) says."""
+
+
+def interrupted_while_starting() -> NoReturn:
+    """End the process stopped while `sumo-rail` imports its commands: the one sentence, exit 1 (as click would)."""
+    ignore_stop_signals()
+    click.echo(f"Error: {STARTING_INTERRUPTED}", err=True)
+    sys.exit(1)
 
 
 def ignore_stop_signals() -> None:

@@ -25,7 +25,7 @@ from types import TracebackType
 from typing import Any, Protocol, Self
 
 from sumo_rail.config import Config
-from sumo_rail.runners.spawning import ignore_stop_signals, start_shielded
+from sumo_rail.runners.spawning import die_with_parent, ignore_stop_signals, start_shielded
 from sumo_rail.sim.env import HighwayEnv
 from sumo_rail.sim.parallel_env import ParallelHighwayEnv
 
@@ -333,6 +333,7 @@ def _stop_workers(pool: list[_Worker]) -> None:
 def _worker_main(conn: Connection) -> None:
     """Entry point of a worker process: run the tasks received on `conn` until told to stop or the parent is gone."""
     ignore_stop_signals()  # Ctrl-C and a SIGTERM reach the whole process group: the parent decides
+    die_with_parent()
     threading.Thread(target=_exit_when_parent_dies, name="parent-watchdog", daemon=True).start()
     context = WorkerContext()
     try:

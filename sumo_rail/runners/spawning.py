@@ -11,9 +11,16 @@ before. A worker whose parent is gone exits by itself (its pipe closes), so igno
 
 from __future__ import annotations
 
+import ctypes
+import multiprocessing
+import os
 import signal
+import sys
 from multiprocessing import resource_tracker
 from multiprocessing.process import BaseProcess
+
+_PR_SET_PDEATHSIG = 1
+"""prctl(2)'s option: the signal the kernel sends this process when the thread that started it ends."""
 
 STOP_SIGNALS = {signal.SIGINT, signal.SIGTERM}
 """What stops a command: Ctrl-C and SIGTERM (the parent handles them; its workers ignore them)."""
@@ -36,3 +43,15 @@ def ignore_stop_signals() -> None:
     for number in STOP_SIGNALS:
         signal.signal(number, signal.SIG_IGN)
     signal.pthread_sigmask(signal.SIG_UNBLOCK, STOP_SIGNALS)
+
+
+def die_with_parent() -> None:
+    """In a worker process (first thing): on Linux, have the kernel kill it when its parent ends, however the parent
+    ends and whatever the worker is doing (a long call that never lets its own parent watch run); a parent already
+    gone ends it now. Elsewhere nothing: the worker's pipe closing ends it."""
+    if not sys.platform.startswith("linux"):
+        return
+    ctypes.CDLL(None, use_errno=True).prctl(_PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
+    parent = multiprocessing.parent_process()
+    if parent is not None and os.getppid() != parent.pid:
+        os._exit(1)  # the parent ended before prctl: this process is already an orphan

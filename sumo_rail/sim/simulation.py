@@ -17,6 +17,7 @@ import itertools
 import logging
 import os
 import warnings
+import weakref
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -142,6 +143,9 @@ class Simulation(EgoPlacement, Stepping, Sensing):
             raise SimulationError(f"sumo-gui did not start (is a display available?): {describe(error)}") from error
         self._api = sumo_gui.PacedApi(api, self.gui_delay_ms / 1000.0) if self.gui else api
         self._calls = decision_calls(self._api)
+        # a SUMO process is closed at the latest when this simulation is collected or the process ends: dropped with
+        # its socket, it would report "peer shutdown" and "Quitting (on error)" where no error happened
+        self._closing = weakref.finalize(self, _close_quietly, api) if self.transport == "traci" else None
 
     def _load(self, extra: list[str]) -> None:
         self.forget_sizes()  # a loaded state may give known ids to other vehicles
@@ -265,14 +269,22 @@ class Simulation(EgoPlacement, Stepping, Sensing):
         self._running = False
         if _ACTIVE_LIBSUMO is self:
             _ACTIVE_LIBSUMO = None
-        try:
-            self._api.close()
-        except Exception as error:
-            log.debug("ignored error while closing SUMO: %s", error)
+        if self._closing is not None:
+            self._closing()
+        else:
+            _close_quietly(self._api)
 
     def _require_running(self) -> None:
         if not self._running:
             raise SimulationError("this simulation is closed; create a new one")
+
+
+def _close_quietly(api: object) -> None:
+    """Close a SUMO connection, logging (not raising) an error of a SUMO already gone."""
+    try:
+        api.close()  # type: ignore[attr-defined]
+    except Exception as error:
+        log.debug("ignored error while closing SUMO: %s", error)
 
 
 def sumo_options(scenario: ScenarioConfig, built: network.BuiltNetwork) -> list[str]:

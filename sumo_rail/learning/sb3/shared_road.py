@@ -29,7 +29,7 @@ import numpy as np
 
 from sumo_rail.config import Config
 from sumo_rail.learning.sb3.envs import LOST_ENV, exit_reporting
-from sumo_rail.runners.spawning import ignore_stop_signals
+from sumo_rail.runners.spawning import die_with_parent, ignore_stop_signals
 from sumo_rail.seeding import Purpose, episode_seeds
 from sumo_rail.sim.parallel_env import NoRoomToRespawn, ParallelHighwayEnv
 
@@ -97,6 +97,7 @@ def _road_process(remote: Connection, parent_remote: Connection, config: Config,
                   error_file: str) -> None:
     """A worker process: one `RespawningRoad` answering "reset", "step" and "close" over `remote`."""
     ignore_stop_signals()  # Ctrl-C and a SIGTERM reach the whole process group: the parent decides
+    die_with_parent()
     parent_remote.close()
     try:
         road = RespawningRoad(config, egos, seed)

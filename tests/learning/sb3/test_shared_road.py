@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import os
 import signal
+import threading
 
 import numpy as np
 import pandas as pd
@@ -14,6 +15,7 @@ from test_cli import SMALL, SMALL_CONFIG, invoke
 
 from sumo_rail.drivers.policies import load_policy
 from sumo_rail.learning.sb3.driving_envs import driving_processes
+from sumo_rail.learning.sb3.envs import close_envs
 from sumo_rail.learning.sb3.shared_road import RespawningRoad, env_seeds
 from sumo_rail.runners.rollout import run_lives
 from sumo_rail.sim import parallel_env
@@ -190,3 +192,29 @@ def test_rail_lives_go_on_after_a_jam_within_each_egos_budget(monkeypatch, small
     cut = [life.metrics for ego_lives in lives for life in ego_lives
            if life.metrics["truncated"] and life.metrics["termination"] not in ("end_of_road", "time_limit")]
     assert len(cut) >= 2, "the jam cut the lives of the egos still driving"
+
+
+def _closes(close, processes) -> bool:
+    """Whether `close()` ends, stopping `processes`, within a bound on a hang (not on speed); a hung one is killed."""
+    closing = threading.Thread(target=close, daemon=True)
+    closing.start()
+    closing.join(60)
+    for process in processes:
+        if process.is_alive():
+            os.kill(process.pid, signal.SIGKILL)
+    return not closing.is_alive()
+
+
+def test_env_processes_are_stopped_though_they_ignore_sigterm(tmp_path):
+    """A hung env process (stopped: it answers nothing) is killed when the VecEnv closes, and after a lost env the
+    others, waiting for orders, are killed without asking: SIGTERM, which they ignore, would leave them running."""
+    venv = driving_processes(SMALL_CONFIG, processes=3, egos=1, seed=3, error_dir=tmp_path)
+    venv.reset()
+    os.kill(venv.processes[1].pid, signal.SIGSTOP)
+    processes = list(venv.processes)
+    assert _closes(venv.close, processes) and not any(process.is_alive() for process in processes)
+    venv = driving_processes(SMALL_CONFIG, processes=3, egos=1, seed=3, error_dir=tmp_path)
+    venv.reset()
+    processes = list(venv.processes)
+    assert _closes(lambda: close_envs(venv, lost=True), processes)
+    assert not any(process.is_alive() for process in processes)
