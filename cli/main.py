@@ -15,6 +15,7 @@ try:
     from sumo_rail_cli.gail_command import gail_command
     from sumo_rail_cli.import_command import import_recording_command
     from sumo_rail_cli.ppo_command import ppo_command
+    from sumo_rail_cli.recordings_commands import record_sumo_drivers_command, recorded_demos_command
     from sumo_rail_cli.report_command import report_command
     from sumo_rail_cli.signal_command import step_signal_command
 except KeyboardInterrupt:
@@ -55,4 +56,6 @@ cli.add_command(report_command)
 cli.add_command(export_minari_command)
 cli.add_command(step_signal_command)
 cli.add_command(import_recording_command)
+cli.add_command(record_sumo_drivers_command)
+cli.add_command(recorded_demos_command)
 

@@ -154,7 +154,8 @@ def train_dagger(folder: Path, settings: DaggerSettings, config: Config, rounds:
     demos = read_demonstrations(Path(settings.demos), observation_size)
     demos_path, demos_hash = demos_record(settings.demos)
     settings = dataclasses.replace(settings, demos=demos_path)
-    style = settings.expert or demonstrations_expert(demos.metadata)
+    recorded = demonstrations_expert(demos.metadata)  # NotQueryable for recorded drivers, --expert or not
+    style = settings.expert or recorded
     expert = resolve_expert(style, config, recorded_by=None if settings.expert else settings.demos)
     shape = PolicyShape(settings.kind, observation_size, settings.hidden)
     run_record = {"settings": settings.to_dict(), "expert": style, **demos_hash,

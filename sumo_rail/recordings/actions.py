@@ -116,12 +116,19 @@ def read_track(time_s: np.ndarray, speed_mps: np.ndarray, lane: np.ndarray, edge
 def speed_actions(speeds_mps: np.ndarray, rule: ActionRule) -> np.ndarray:
     """The speed action (an `Action` value) of each period between consecutive decision instants, from the speeds
     [m/s] at the instants (one more than the periods), against the estimated set-point (module docstring, 2.)."""
+    return speed_reading(speeds_mps, rule)[0]
+
+
+def speed_reading(speeds_mps: np.ndarray, rule: ActionRule) -> tuple[np.ndarray, np.ndarray]:
+    """`speed_actions` and the estimated set-point S [m/s] at the start of each period (before its action)."""
     acceleration = np.diff(speeds_mps) / rule.decision_period_s
     actions = np.full(len(acceleration), int(Action.KEEP), dtype=np.int64)
+    set_points = np.zeros(len(acceleration))
     set_point, tolerance, step = float(speeds_mps[0]), rule.set_point_tolerance_mps, rule.speed_step_mps
     period = 0
     while period < len(acceleration):
         set_point = max(set_point, float(speeds_mps[period]))
+        set_points[period] = set_point
         sign = int(np.sign(acceleration[period])) if abs(acceleration[period]) > rule.dead_band_mps2 else 0
         if sign == 0:
             period += 1
@@ -134,13 +141,17 @@ def speed_actions(speeds_mps: np.ndarray, rule: ActionRule) -> np.ndarray:
             steps = round((speeds_mps[end] - set_point) / step) if speeds_mps[end] > set_point + tolerance else 0
             steps = min(max(steps, int(at_set_point)), end - period)
             actions[period:period + steps] = Action.ACCELERATE
+            set_points[period:end] = set_point + step * np.minimum(np.arange(end - period), steps)
             set_point += steps * step
         elif at_set_point:
             steps = min(max(round((speeds_mps[period] - speeds_mps[end]) / step), 1), end - period)
             actions[period:period + steps] = Action.DECELERATE
+            set_points[period:end] = set_point - step * np.minimum(np.arange(end - period), steps)
             set_point -= steps * step
+        else:
+            set_points[period:end] = set_point
         period = end
-    return actions
+    return actions, set_points
 
 
 def _onset(time_s: np.ndarray, lateral_m: np.ndarray, row: int, left: bool, previous_s: float,

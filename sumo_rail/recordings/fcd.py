@@ -162,22 +162,23 @@ def _lanes(columns: dict[str, list], network: NetworkLanes, network_path: Path) 
     return np.asarray(edges, dtype=object)[inverse], np.asarray(indices)[inverse]
 
 
-def write(tracks: pd.DataFrame, path: Path) -> Path:
+def write(tracks: pd.DataFrame, path: Path, decimals: int = 2) -> Path:
     """Write `tracks` as SUMO FCD XML (gzip-compressed when `path` ends in .gz), with acceleration, length and
-    width; the type is the vehicle class."""
+    width; the type is the vehicle class. Values carry `decimals` decimals (SUMO's default --precision 2)."""
     rows = tracks.sort_values(["time_s", "vehicle_id"], kind="stable")
+    d = decimals
     with (gzip.open(path, "wt", encoding="utf-8") if str(path).endswith(".gz")
           else open(path, "w", encoding="utf-8")) as file:
         file.write('<?xml version="1.0" encoding="UTF-8"?>\n<fcd-export>\n')
         for time_s, step in rows.groupby("time_s", sort=True):
             file.write(f'    <timestep time="{time_s:.2f}">\n')
             for row in step.itertuples(index=False):
-                file.write(f'        <vehicle id={quoteattr(str(row.vehicle_id))} x="{row.x_m:.2f}" y="{row.y_m:.2f}" '
-                           f'angle="{row.heading_deg:.2f}" type={quoteattr(str(row.vehicle_class))} '
-                           f'speed="{row.speed_mps:.2f}" pos="{row.lane_position_m:.2f}" '
-                           f'lane={quoteattr(f"{row.edge}_{row.lane}")} slope="0.00" '
-                           f'acceleration="{row.acceleration_mps2:.2f}" length="{row.length_m:.2f}" '
-                           f'width="{row.width_m:.2f}"/>\n')
+                file.write(f'        <vehicle id={quoteattr(str(row.vehicle_id))} x="{row.x_m:.{d}f}" '
+                           f'y="{row.y_m:.{d}f}" angle="{row.heading_deg:.{d}f}" '
+                           f'type={quoteattr(str(row.vehicle_class))} speed="{row.speed_mps:.{d}f}" '
+                           f'pos="{row.lane_position_m:.{d}f}" lane={quoteattr(f"{row.edge}_{row.lane}")} '
+                           f'slope="0.00" acceleration="{row.acceleration_mps2:.{d}f}" '
+                           f'length="{row.length_m:.{d}f}" width="{row.width_m:.{d}f}"/>\n')
             file.write("    </timestep>\n")
         file.write("</fcd-export>\n")
     return path

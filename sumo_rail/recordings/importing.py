@@ -132,24 +132,25 @@ def selected(recording: Recording, settings: ImportSettings) -> pd.DataFrame:
     return tracks
 
 
-def split_table(tracks: pd.DataFrame, settings: ImportSettings) -> pa.Table:
-    """vehicle_id -> "train" | "validation" | "test": by time (the vehicles entering at or after --hold-out-after
-    are the test set, the others shared out by --validation-share) or by vehicle (a seeded permutation shared out by
-    --test-share and --validation-share)."""
+def split_table(tracks: pd.DataFrame, split_seed: int, test_share: float, validation_share: float,
+                hold_out_after_s: float | None = None) -> pa.Table:
+    """vehicle_id -> "train" | "validation" | "test": by time (the vehicles entering at or after `hold_out_after_s`
+    [s] are the test set, the others shared out by `validation_share`) or by vehicle (a permutation seeded by
+    `split_seed` shared out by `test_share` and `validation_share`)."""
     first_s = tracks.groupby("vehicle_id", sort=True)["time_s"].min()
     vehicles = first_s.index.to_numpy()
     split = np.full(len(vehicles), "train", dtype=object)
-    rng = np.random.default_rng(settings.split_seed)
-    if settings.hold_out_after_s is not None:
-        later = first_s.to_numpy() >= settings.hold_out_after_s
+    rng = np.random.default_rng(split_seed)
+    if hold_out_after_s is not None:
+        later = first_s.to_numpy() >= hold_out_after_s
         split[later] = "test"
         earlier = np.flatnonzero(~later)
         order = earlier[rng.permutation(len(earlier))]
-        split[order[: round(len(earlier) * settings.validation_share)]] = "validation"
+        split[order[: round(len(earlier) * validation_share)]] = "validation"
     else:
         order = rng.permutation(len(vehicles))
-        tests = round(len(vehicles) * settings.test_share)
-        validations = round(len(vehicles) * settings.validation_share)
+        tests = round(len(vehicles) * test_share)
+        validations = round(len(vehicles) * validation_share)
         split[order[:tests]] = "test"
         split[order[tests:tests + validations]] = "validation"
     return pa.table({"vehicle_id": pa.array(vehicles.astype(str)), "split": pa.array(split.astype(str))})
@@ -165,7 +166,8 @@ def import_recording(settings: ImportSettings, config: Config, network: NetworkL
         reasons = sorted(set(dropped.values()))
         raise RecordingDataError(f"no track of {settings.files[0]} is left to keep ({len(dropped)} dropped: "
                                  f"{'; '.join(reasons) or 'none in the section or the vehicles chosen'})")
-    split = split_table(tracks, settings)
+    split = split_table(tracks, settings.split_seed, settings.test_share, settings.validation_share,
+                        settings.hold_out_after_s)
     sources = {str(path.resolve()): file_sha256(path) for path in settings.files}
     if settings.network is not None:
         sources[str(settings.network.resolve())] = file_sha256(settings.network)
@@ -177,12 +179,12 @@ def import_recording(settings: ImportSettings, config: Config, network: NetworkL
                      network=str(settings.network.resolve()) if settings.network else "road.net.xml",
                      lanes=recording.lanes, direction=settings.direction if settings.format == "highd" else "",
                      sources=sources, dropped=dropped, settings=recorded)
-    _write_folder(settings.out, recording, tracks, split, meta, config)
+    write_scene_folder(settings.out, recording, tracks, split, meta, config)
     counts = pd.Series(split.column("split").to_pylist()).value_counts()
     return ImportSummary(len(split), dropped, recording.notes, {name: int(counts.get(name, 0)) for name in SPLITS})
 
 
-def _write_folder(out: Path, recording: Recording, tracks: pd.DataFrame, split: pa.Table, meta: SceneMeta,
+def write_scene_folder(out: Path, recording: Recording, tracks: pd.DataFrame, split: pa.Table, meta: SceneMeta,
                   config: Config) -> None:
     """Write the scene's files together (scene.json last); a folder this call made is removed again on failure."""
     made = not out.exists()

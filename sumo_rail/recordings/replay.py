@@ -35,9 +35,11 @@ class ScenePlayer:
         net = net if net.is_absolute() else Path(folder) / net
         self.step_length_s = 1.0 / self.meta.frame_rate_hz
         self.frames = {time: frame for time, frame in tracks.groupby(np.round(tracks["time_s"], 6), sort=True)}
+        self._offset_s = self.step_length_s - min(self.frames)
+        """SUMO's time minus the scene's [s]: the first frame is SUMO's first step (SUMO begins at 0)."""
         self._api: Any = load_api("libsumo")
         self._api.start([network.sumo_binary("sumo"), "-n", str(net), "--step-length", str(self.step_length_s),
-                         "--begin", str(min(self.frames) - self.step_length_s), "--no-step-log", "true",
+                         "--begin", "0", "--no-step-log", "true",
                          "--no-warnings", "true", "--collision.action", "none"])
         self._routes: set[str] = set()
         self._present: set[str] = set()
@@ -64,7 +66,7 @@ class ScenePlayer:
                 api.vehicle.setLaneChangeMode(vehicle, 0)
             api.vehicle.moveToXY(vehicle, edge, lane, x, y, angle, KEEP_ROUTE_ANY_EDGE)
         self._present = set(ids)
-        api.simulationStep(time_s)
+        api.simulationStep(time_s + self._offset_s)
 
     def positions(self) -> dict[str, tuple[float, float]]:
         """Each vehicle's SUMO position [m] (front bumper centre)."""

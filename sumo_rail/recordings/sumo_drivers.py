@@ -1,119 +1,201 @@
-"""A recording of drivers whose rules no one here wrote: SUMO's own models (Krauss and IDM car following, LC2013
-lane changing with three temperaments, sigma > 0, a spread of desired speeds, cars and trucks) on the project's
-straight motorway, captured from libsumo at every step into the scene schema and written as a scene folder
-(format "sumo")."""
+"""A recording of drivers no one here wrote: SUMO's own car-following and lane-changing models on a straight
+motorway, captured from libsumo at every step and written as a scene folder (format "sumo").
+
+The road is `road.build_road`'s straight edge (the scenario's lanes, lane width and length, as the package's own
+straight highway). The traffic is a Poisson flow (scenario.flow_veh_per_h unless given) of `DRIVER_TYPES`: cars and
+trucks, Krauss and IDM car following, LC2013 lane changing with calm, eager and cooperative temperaments (lcSpeedGain,
+lcCooperative, lcAssertive), driver imperfection sigma > 0 and a spread of desired speeds (a normal speedFactor per
+vehicle). After `warmup_s` [s] every vehicle on the road is captured at every step for `duration_s` [s]: its front
+bumper's centre, heading, speed, acceleration, edge, lane and position along it, size and class. The same seed gives
+the same bytes (SUMO's --seed; nothing else is random).
+"""
 
 from __future__ import annotations
 
-import json
-import shutil
+import dataclasses
 import tempfile
-from dataclasses import asdict
+import xml.etree.ElementTree as ElementTree
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
-import pyarrow as pa
-import pyarrow.parquet as pq
 
-from sumo_rail.config import ScenarioConfig
-from sumo_rail.recordings.scene import TRACK_SCHEMA, SceneMeta
-from sumo_rail.sim import network
+from sumo_rail.config import Config
+from sumo_rail.datasets import DatasetError, check_output_folder
+from sumo_rail.recordings.importing import SCENE_FILES, SPLITS, split_table, write_scene_folder
+from sumo_rail.recordings.road import ROAD_EDGE, ROAD_SPEED_MPS, build_road
+from sumo_rail.recordings.scene import SceneMeta
+from sumo_rail.recordings.tracks import Recording, RecordingDataError, RecordingUsageError, kept_tracks
+from sumo_rail.sim.built_network import BuiltNetwork, sumo_binary
+from sumo_rail.sim.simulation import sumo_options
 from sumo_rail.sim.sumo_api import load_api, load_constants
 
-DRIVER_TYPES = {
-    # id: (vClass, carFollowModel, length [m], lcSpeedGain, lcCooperative, lcAssertive, speedFactor distribution)
-    "car_krauss_calm": ("passenger", "Krauss", 4.5, 0.5, 1.0, 1.0, "norm(1.0,0.08,0.8,1.2)"),
-    "car_krauss_eager": ("passenger", "Krauss", 4.5, 3.0, 0.5, 2.0, "norm(1.1,0.1,0.8,1.3)"),
-    "car_idm_calm": ("passenger", "IDM", 4.5, 1.0, 1.0, 1.0, "norm(0.95,0.08,0.7,1.2)"),
-    "car_idm_eager": ("passenger", "IDM", 4.5, 2.0, 0.2, 1.5, "norm(1.05,0.1,0.8,1.3)"),
-    "truck_krauss": ("truck", "Krauss", 12.0, 0.3, 1.0, 1.0, "norm(0.8,0.05,0.7,0.9)"),
+_CAR = {"vClass": "passenger", "length": "4.5", "width": "1.8", "minGap": "2.5", "maxSpeed": "50.0", "accel": "2.6",
+        "decel": "4.5", "emergencyDecel": "9.0"}
+_TRUCK = {"vClass": "truck", "length": "12.0", "width": "2.5", "minGap": "3.0", "maxSpeed": "25.0", "accel": "1.1",
+          "decel": "4.0", "emergencyDecel": "7.0"}
+DRIVER_TYPES: dict[str, dict[str, str]] = {
+    # Krauss: sigma dawdles; calm keeps right and cooperates, eager overtakes and squeezes in
+    "car_krauss_calm": {**_CAR, "carFollowModel": "Krauss", "sigma": "0.5", "tau": "1.2", "lcSpeedGain": "0.7",
+                        "lcCooperative": "1.0", "lcAssertive": "1.0", "speedFactor": "normc(0.95,0.08,0.7,1.2)",
+                        "probability": "0.30"},
+    "car_krauss_eager": {**_CAR, "carFollowModel": "Krauss", "sigma": "0.3", "tau": "0.8", "lcSpeedGain": "2.5",
+                         "lcCooperative": "0.3", "lcAssertive": "2.0", "speedFactor": "normc(1.15,0.10,0.9,1.4)",
+                         "accel": "3.2", "probability": "0.15"},
+    # IDM: smooth following (delta 4); cooperative drivers let others in, eager ones overtake
+    "car_idm_cooperative": {**_CAR, "carFollowModel": "IDM", "sigma": "0.2", "tau": "1.4", "lcSpeedGain": "1.0",
+                            "lcCooperative": "1.0", "lcAssertive": "0.8", "speedFactor": "normc(1.0,0.10,0.7,1.3)",
+                            "probability": "0.25"},
+    "car_idm_eager": {**_CAR, "carFollowModel": "IDM", "sigma": "0.2", "tau": "0.9", "lcSpeedGain": "2.0",
+                      "lcCooperative": "0.5", "lcAssertive": "1.5", "speedFactor": "normc(1.1,0.10,0.8,1.4)",
+                      "probability": "0.15"},
+    "truck_krauss": {**_TRUCK, "carFollowModel": "Krauss", "sigma": "0.5", "tau": "1.5", "lcSpeedGain": "0.3",
+                     "lcCooperative": "1.0", "lcAssertive": "0.7", "lcKeepRight": "2.0",
+                     "speedFactor": "normc(0.75,0.05,0.6,0.85)", "probability": "0.10"},
+    "truck_idm": {**_TRUCK, "carFollowModel": "IDM", "sigma": "0.3", "tau": "1.6", "lcSpeedGain": "0.3",
+                  "lcCooperative": "1.0", "lcAssertive": "0.7", "lcKeepRight": "2.0",
+                  "speedFactor": "normc(0.75,0.05,0.6,0.85)", "probability": "0.05"},
 }
-"""Each driver type's vehicle class, car-following model, length and LC2013 temperament."""
-SIGMA = 0.5
-"""Driver imperfection of every type (Krauss' and IDM's sigma)."""
-SPLIT_SHARES = (("train", 0.6), ("validation", 0.2), ("test", 0.2))
+"""The background drivers' SUMO vTypes (probability = share of arrivals; all LC2013, actionStepLength 0.5 s)."""
 
 
-def _routes_xml(flow_veh_per_h: float, duration_s: float) -> str:
-    """SUMO routes: one vType per `DRIVER_TYPES`, drawn by a vTypeDistribution, and one Poisson flow."""
-    types = "\n".join(
-        f'  <vType id="{name}" vClass="{vclass}" carFollowModel="{model}" length="{length}" sigma="{SIGMA}" '
-        f'laneChangeModel="LC2013" lcSpeedGain="{gain}" lcCooperative="{coop}" lcAssertive="{assertive}" '
-        f'speedFactor="{factor}" probability="{0.15 if vclass == "truck" else 0.2125}"/>'
-        for name, (vclass, model, length, gain, coop, assertive, factor) in DRIVER_TYPES.items())
-    rate_per_s = flow_veh_per_h / 3600.0
-    return (f'<routes>\n<vTypeDistribution id="drivers">\n{types}\n</vTypeDistribution>\n'
-            f'<route id="through" edges="{network.EDGE_ID}"/>\n'
-            f'<flow id="f" type="drivers" route="through" begin="0" end="{duration_s}" period="exp({rate_per_s})" '
-            f'departLane="random" departSpeed="desired"/>\n</routes>\n')
+@dataclass(frozen=True)
+class SumoDriversSettings:
+    """What to record (the options of `sumo-rail record-sumo-drivers`)."""
+
+    out: Path
+    seed: int
+    """SUMO's --seed: arrivals, types, desired speeds, dawdling."""
+    duration_s: float = 600.0
+    """Recorded time after the warm-up [s]."""
+    warmup_s: float = 120.0
+    """Time before recording [s]: long enough for the first vehicles to cross the road."""
+    flow_veh_per_h: float | None = None
+    """Arrivals [veh/h]; None: scenario.flow_veh_per_h."""
+    split_seed: int = 0
+    test_share: float = 0.2
+    validation_share: float = 0.1
+    overwrite: bool = False
 
 
-def drive(scenario: ScenarioConfig, duration_s: float, traffic_seed: int) -> pd.DataFrame:
-    """Run SUMO's drivers on the straight road for `duration_s` [s] and return every vehicle's track at every step
-    (TRACK_SCHEMA columns; vehicle ids carry the seed so tracks of several seeds never share one)."""
-    built = network.build(scenario)
-    api, tc = load_api("libsumo"), load_constants()
-    variables = (tc.VAR_POSITION, tc.VAR_ANGLE, tc.VAR_SPEED, tc.VAR_ACCELERATION, tc.VAR_ROAD_ID,
-                 tc.VAR_LANE_INDEX, tc.VAR_LANEPOSITION, tc.VAR_LENGTH, tc.VAR_WIDTH, tc.VAR_VEHICLECLASS)
-    rows: list[tuple] = []
+@dataclass(frozen=True)
+class SumoDriversSummary:
+    """What a recording holds."""
+
+    tracks: int
+    rows: int
+    dropped: int
+    split_counts: dict[str, int]
+    types: dict[str, int]
+    """Vehicles of each of `DRIVER_TYPES` among the kept tracks."""
+
+
+def routes_xml(flow_veh_per_h: float) -> bytes:
+    """The routes file: `DRIVER_TYPES` as one distribution, flowing with Poisson arrivals along the built road."""
+    root = ElementTree.Element("routes")
+    for type_id, attributes in DRIVER_TYPES.items():
+        ElementTree.SubElement(root, "vType", id=type_id, laneChangeModel="LC2013", actionStepLength="0.5",
+                               attrib=attributes)
+    ElementTree.SubElement(root, "vTypeDistribution", id="drivers", vTypes=" ".join(DRIVER_TYPES))
+    ElementTree.SubElement(root, "route", id="road_route", edges=ROAD_EDGE)
+    ElementTree.SubElement(root, "flow", id="drivers", route="road_route", type="drivers", begin="0", end="1e9",
+                           period=f"exp({flow_veh_per_h / 3600.0!r})", departLane="random", departSpeed="max",
+                           departPos="base")
+    return ElementTree.tostring(root)
+
+
+def _capture(config: Config, settings: SumoDriversSettings, net_file: Path, scratch: Path) -> pd.DataFrame:
+    """Run SUMO on `net_file` and return every vehicle's rows (TRACK_COLUMNS, frame, source_id, type)."""
+    scenario = config.scenario
+    routes = scratch / "drivers.rou.xml"
+    routes.write_bytes(routes_xml(settings.flow_veh_per_h or scenario.flow_veh_per_h))
+    built = BuiltNetwork(net_file, routes, scratch, (ROAD_EDGE,))
+    api, constants = load_api("libsumo"), load_constants()
+    variables = (constants.VAR_POSITION, constants.VAR_ANGLE, constants.VAR_SPEED, constants.VAR_ACCELERATION,
+                 constants.VAR_ROAD_ID, constants.VAR_LANE_INDEX, constants.VAR_LANEPOSITION)
+    step_s = scenario.step_length_s
+    warmup_steps, steps = round(settings.warmup_s / step_s), round(settings.duration_s / step_s)
+    columns: dict[str, list] = {name: [] for name in ("frame", "id", "x", "y", "angle", "speed", "accel", "edge",
+                                                      "lane", "pos")}
+    kinds: dict[str, tuple[float, float, str, str]] = {}
+    api.start([sumo_binary("sumo"), *sumo_options(scenario, built), "--seed", str(settings.seed)])
+    try:
+        for _ in range(warmup_steps):
+            api.simulationStep()
+        for vehicle in api.vehicle.getIDList():
+            api.vehicle.subscribe(vehicle, variables)
+        for frame in range(steps):
+            api.simulationStep()
+            for vehicle in api.simulation.getDepartedIDList():
+                api.vehicle.subscribe(vehicle, variables)
+            for vehicle, values in api.vehicle.getAllSubscriptionResults().items():
+                if vehicle not in kinds:
+                    type_id = api.vehicle.getTypeID(vehicle)
+                    kinds[vehicle] = (api.vehicle.getLength(vehicle), api.vehicle.getWidth(vehicle),
+                                      "truck" if api.vehicle.getVehicleClass(vehicle) == "truck" else "passenger",
+                                      type_id)
+                position = values[constants.VAR_POSITION]
+                columns["frame"].append(frame)
+                columns["id"].append(vehicle)
+                columns["x"].append(position[0])
+                columns["y"].append(position[1])
+                for name, variable in (("angle", constants.VAR_ANGLE), ("speed", constants.VAR_SPEED),
+                                       ("accel", constants.VAR_ACCELERATION), ("edge", constants.VAR_ROAD_ID),
+                                       ("lane", constants.VAR_LANE_INDEX), ("pos", constants.VAR_LANEPOSITION)):
+                    columns[name].append(values[variable])
+    finally:
+        api.close()
+    ids = columns["id"]
+    return pd.DataFrame({
+        "vehicle_id": ids, "source_id": ids, "frame": np.asarray(columns["frame"], dtype=np.int64),
+        "time_s": np.round(np.asarray(columns["frame"]) * step_s, 9), "x_m": columns["x"],
+        "y_m": columns["y"], "heading_deg": columns["angle"], "speed_mps": columns["speed"],
+        "acceleration_mps2": columns["accel"], "edge": columns["edge"],
+        "lane": np.where(np.asarray(columns["edge"]) == ROAD_EDGE, columns["lane"], -1).astype(np.int16),
+        "lane_position_m": columns["pos"], "length_m": np.array([kinds[v][0] for v in ids], dtype=np.float32),
+        "width_m": np.array([kinds[v][1] for v in ids], dtype=np.float32),
+        "vehicle_class": [kinds[v][2] for v in ids], "type": [kinds[v][3] for v in ids]})
+
+
+def check_recording(settings: SumoDriversSettings) -> None:
+    """RecordingUsageError for anything wrong before work starts: the folder, a scene already in it, the shares."""
+    try:
+        check_output_folder(settings.out)
+    except DatasetError as error:
+        raise RecordingUsageError(str(error)) from error
+    existing = [name for name in (*SCENE_FILES, "road.net.xml") if (settings.out / name).exists()]
+    if existing and not settings.overwrite:
+        raise RecordingUsageError(f"{settings.out} already holds a scene ({existing[0]}); pass --overwrite to "
+                                  f"replace it")
+    if settings.test_share + settings.validation_share >= 1:
+        raise RecordingUsageError("--test-share and --validation-share must leave vehicles to train")
+
+
+def record_sumo_drivers(settings: SumoDriversSettings, config: Config) -> SumoDriversSummary:
+    """Record `settings.duration_s` of SUMO's drivers and write the scene folder `settings.out`."""
+    scenario = config.scenario
+    widths = [scenario.lane_width_m] * scenario.lanes
     with tempfile.TemporaryDirectory() as scratch:
-        routes = Path(scratch) / "drivers.rou.xml"
-        routes.write_text(_routes_xml(scenario.flow_veh_per_h, duration_s))
-        api.start([network.sumo_binary("sumo"), "-n", str(built.net_file), "-r", str(routes),
-                   "--step-length", str(scenario.step_length_s), "--seed", str(traffic_seed),
-                   "--lanechange.duration", str(scenario.lane_change_duration_s), "--no-step-log", "true",
-                   "--no-warnings", "true", "--collision.action", "none"])
-        try:
-            while api.simulation.getTime() < duration_s:
-                api.simulation.step()
-                for vehicle in api.simulation.getDepartedIDList():
-                    api.vehicle.subscribe(vehicle, variables)
-                time_s = api.simulation.getTime()
-                for vehicle, values in api.vehicle.getAllSubscriptionResults().items():
-                    x_m, y_m = values[tc.VAR_POSITION]
-                    rows.append((f"s{traffic_seed}_{vehicle}", time_s, x_m, y_m, values[tc.VAR_ANGLE],
-                                 values[tc.VAR_SPEED], values[tc.VAR_ACCELERATION], values[tc.VAR_ROAD_ID],
-                                 values[tc.VAR_LANE_INDEX], values[tc.VAR_LANEPOSITION], values[tc.VAR_LENGTH],
-                                 values[tc.VAR_WIDTH], "truck" if values[tc.VAR_VEHICLECLASS] == "truck"
-                                 else "passenger"))
-        finally:
-            api.close()
-    frame = pd.DataFrame(rows, columns=TRACK_SCHEMA.names)
-    return frame[~frame["edge"].str.startswith(":")].reset_index(drop=True)
-
-
-def split_by_vehicle(vehicle_ids: list[str], seed: int) -> pd.DataFrame:
-    """vehicle_id -> train / validation / test, a seeded shuffle in SPLIT_SHARES' proportions."""
-    order = np.random.default_rng(seed).permutation(sorted(vehicle_ids))
-    bounds = np.cumsum([0] + [round(share * len(order)) for _, share in SPLIT_SHARES[:-1]] + [len(order)])
-    bounds[-1] = len(order)
-    parts = [name for name, _ in SPLIT_SHARES]
-    split = [parts[min(np.searchsorted(bounds, i, side="right") - 1, len(parts) - 1)] for i in range(len(order))]
-    return pd.DataFrame({"vehicle_id": order.tolist(), "split": split})
-
-
-def write_scene(folder: Path, scenario: ScenarioConfig, duration_s: float, traffic_seeds: list[int]) -> SceneMeta:
-    """Drive every seed, write the scene folder (tracks.parquet, split.parquet, scene.json, road.net.xml); the
-    folder is written aside and renamed into place, so it is whole or absent."""
-    tracks = pd.concat([drive(scenario, duration_s, seed) for seed in traffic_seeds], ignore_index=True)
-    folder = Path(folder)
-    meta = SceneMeta(format="sumo", frame_rate_hz=1.0 / scenario.step_length_s, network="road.net.xml",
-                     lanes=scenario.lanes,
-                     settings={"duration_s": duration_s, "traffic_seeds": list(traffic_seeds), "sigma": SIGMA,
-                               "driver_types": {k: list(v) for k, v in DRIVER_TYPES.items()},
-                               "scenario": asdict(scenario)})
-    folder.parent.mkdir(parents=True, exist_ok=True)
-    with tempfile.TemporaryDirectory(dir=folder.parent, prefix=f".{folder.name}.") as scratch:
-        staging = Path(scratch) / "scene"
-        staging.mkdir()
-        pq.write_table(pa.Table.from_pandas(tracks, schema=TRACK_SCHEMA, preserve_index=False),
-                       staging / "tracks.parquet")
-        split = split_by_vehicle(tracks["vehicle_id"].unique().tolist(), traffic_seeds[0])
-        pq.write_table(pa.Table.from_pandas(split, preserve_index=False), staging / "split.parquet")
-        shutil.copyfile(network.build(scenario).net_file, staging / "road.net.xml")
-        (staging / "scene.json").write_text(json.dumps(asdict(meta), indent=1, sort_keys=True))
-        if folder.exists():
-            shutil.rmtree(folder)
-        staging.rename(folder)
-    return meta
+        net_file = Path(scratch) / "road.net.xml"
+        build_road(widths, scenario.length_m, net_file)
+        rows = _capture(config, settings, net_file, Path(scratch))
+    if rows.empty:
+        raise RecordingDataError(f"no vehicle drove in the {settings.duration_s:g} s recorded; raise --flow-veh-per-h "
+                                 f"or --duration-s")
+    rate_hz = 1.0 / scenario.step_length_s
+    tracks, dropped = kept_tracks(rows, rate_hz, config.env.decision_period_s, "the SUMO run", gaps_fail=False)
+    split = split_table(tracks, settings.split_seed, settings.test_share, settings.validation_share)
+    recorded = {key: (str(value) if isinstance(value, Path) else value)
+                for key, value in dataclasses.asdict(settings).items() if key not in ("out", "overwrite")}
+    recorded |= {"decision_period_s": config.env.decision_period_s, "step_length_s": scenario.step_length_s,
+                 "road_speed_mps": ROAD_SPEED_MPS, "driver_types": DRIVER_TYPES}
+    meta = SceneMeta(format="sumo", frame_rate_hz=rate_hz, network="road.net.xml", lanes=scenario.lanes,
+                     sources={}, dropped=dropped, settings=recorded)
+    recording = Recording(tracks, rate_hz, scenario.lanes, tuple(widths), scenario.length_m)
+    write_scene_folder(settings.out, recording, tracks, split, meta, config)
+    counts = pd.Series(split.column("split").to_pylist()).value_counts()
+    types = tracks.drop_duplicates("vehicle_id")["type"].value_counts()
+    return SumoDriversSummary(len(split), len(tracks), len(dropped),
+                              {name: int(counts.get(name, 0)) for name in SPLITS},
+                              {name: int(types.get(name, 0)) for name in DRIVER_TYPES})

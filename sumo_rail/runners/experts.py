@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from sumo_rail.config import Config
-from sumo_rail.datasets import file_sha256
+from sumo_rail.datasets import DatasetError, file_sha256
 from sumo_rail.drivers.expert import DEFAULT_STYLE, STYLES
 from sumo_rail.drivers.policies import PolicyFileError, load_policy
 from sumo_rail.runners.rollout import DriverSpec, ExpertDriver, PolicyDriver
@@ -140,6 +140,23 @@ def recorded_expert(metadata: Mapping[str, Any]) -> str | None:
     return None
 
 
-def demonstrations_expert(metadata: Mapping[str, Any]) -> str:
-    """Who a demonstrations file recorded (its metadata), the default style for a file that does not say."""
+RECORDED_SCENE = "recorded_scene"
+"""The metadata key of demonstrations read from a recorded scene (`recordings.recorded_demos`): what they came from."""
+
+
+class NotQueryable(DatasetError):
+    """Demonstrations of recorded drivers given where an expert must be asked at new states."""
+
+
+def demonstrations_expert(metadata: Mapping[str, Any], recorded_stand_in: str | None = None) -> str:
+    """Who a demonstrations file recorded (its metadata), the default style for a file that does not say. A file read
+    from a recorded scene has no expert to ask: NotQueryable, unless `recorded_stand_in` names the driver that
+    stands in for it (the rule-based style RAIL's agreement measures ask)."""
+    scene = metadata.get(RECORDED_SCENE)
+    if isinstance(scene, Mapping):
+        if recorded_stand_in is not None:
+            return recorded_stand_in
+        raise NotQueryable(f"these demonstrations were read from the recorded scene {scene.get('folder')}: a "
+                           f"recorded driver cannot be asked what it would do at the states another driver reaches, "
+                           f"so DAgger, DART and agreement with the expert do not apply (train BC, RAIL or GAIL)")
     return recorded_expert(metadata) or DEFAULT_STYLE

@@ -41,9 +41,16 @@ def demonstrations_table(results: Sequence[EpisodeResult], seeds: Sequence[int],
         for name, values in per_episode.items():
             columns.setdefault(name, []).append(values)
     data = {name: np.concatenate(parts) for name, parts in columns.items()}
-    observations = data.pop("observation").astype(np.float32)
+    return demonstrations_from_columns(data, data.pop("observation"), observation_size)
+
+
+def demonstrations_from_columns(data: dict[str, np.ndarray], observations: np.ndarray,
+                                observation_size: int) -> pa.Table:
+    """The demonstrations table of every column of DEMONSTRATION_COLUMNS but the observation (`data`) and the
+    observations, shape (N, `observation_size`)."""
     arrays = {name: pa.array(data[name], type=kind) for name, kind in _DEMONSTRATION_SCALARS.items()}
-    arrays["observation"] = pa.FixedSizeListArray.from_arrays(pa.array(observations.ravel()), observation_size)
+    arrays["observation"] = pa.FixedSizeListArray.from_arrays(pa.array(observations.astype(np.float32).ravel()),
+                                                              observation_size)
     return pa.table({name: arrays[name] for name in DEMONSTRATION_COLUMNS})
 
 

@@ -6,15 +6,16 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from sumo_rail.config import ScenarioConfig
+from sumo_rail.config import Config
 from sumo_rail.recordings.replay import ScenePlayer
-from sumo_rail.recordings.sumo_drivers import write_scene
+from sumo_rail.recordings.sumo_drivers import SumoDriversSettings, record_sumo_drivers
 
 
 @pytest.fixture(scope="module")
 def scene(tmp_path_factory):
     folder = tmp_path_factory.mktemp("replay") / "scene"
-    write_scene(folder, ScenarioConfig(length_m=600.0, lanes=3, flow_veh_per_h=3000.0), 30.0, [4])
+    config = Config.from_dict({"scenario": {"length_m": 1000.0, "lanes": 3, "flow_veh_per_h": 3000.0}})
+    record_sumo_drivers(SumoDriversSettings(out=folder, seed=4, duration_s=30.0, warmup_s=30.0), config)
     tracks = pd.read_parquet(folder / "tracks.parquet")
     first = tracks["vehicle_id"].iloc[0]  # leaves mid-road, at 5 s: the replay must take it away
     tracks = tracks[(tracks["vehicle_id"] != first) | (tracks["time_s"] <= tracks["time_s"].min() + 5.0)]

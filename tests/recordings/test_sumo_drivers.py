@@ -1,38 +1,107 @@
-"""SUMO's own drivers written as a scene folder: schema, both car-following models, trucks, lane changes, split."""
+"""`sumo-rail record-sumo-drivers`: SUMO's own drivers recorded as a scene, the same bytes for a seed, over 500
+tracks in the default duration, and the scene written as FCD and highD read back by import-recording."""
 
 from __future__ import annotations
 
 import json
 
 import pandas as pd
+import pyarrow.parquet as pq
+import pytest
+from click.testing import CliRunner
+from sumo_rail_cli.main import cli
 
-from sumo_rail.config import ScenarioConfig
-from sumo_rail.recordings.scene import TRACK_COLUMNS
-from sumo_rail.recordings.sumo_drivers import drive, split_by_vehicle, write_scene
+from sumo_rail.recordings import fcd, highd
+from sumo_rail.recordings.scene import TRACK_SCHEMA
+from sumo_rail.recordings.sumo_drivers import DRIVER_TYPES
 
-SCENARIO = ScenarioConfig(length_m=600.0, lanes=3, flow_veh_per_h=5000.0)  # above one arrival a second
-
-
-def test_scene_folder_holds_tracks_split_and_meta(tmp_path):
-    meta = write_scene(tmp_path / "scene", SCENARIO, duration_s=40.0, traffic_seeds=[1, 2])
-    tracks = pd.read_parquet(tmp_path / "scene" / "tracks.parquet")
-    assert tuple(tracks.columns) == TRACK_COLUMNS
-    assert {"passenger", "truck"} <= set(tracks["vehicle_class"])
-    assert tracks["vehicle_id"].str.startswith("s1_").any() and tracks["vehicle_id"].str.startswith("s2_").any()
-    assert tracks["lane"].between(0, SCENARIO.lanes - 1).all()
-    assert (tracks.groupby("vehicle_id")["lane"].nunique() > 1).any()  # somebody changed lanes
-    split = pd.read_parquet(tmp_path / "scene" / "split.parquet")
-    assert set(split["vehicle_id"]) == set(tracks["vehicle_id"])
-    assert json.loads((tmp_path / "scene" / "scene.json").read_text())["format"] == meta.format == "sumo"
-    assert (tmp_path / "scene" / "road.net.xml").exists()
+FILES = ("road.net.xml", "scene.json", "split.parquet", "tracks.parquet")
 
 
-def test_same_seed_same_tracks():
-    first, second = drive(SCENARIO, 20.0, 3), drive(SCENARIO, 20.0, 3)
-    pd.testing.assert_frame_equal(first, second)
+def record(folder, *extra: str):
+    result = CliRunner().invoke(cli, ["record-sumo-drivers", "--out", str(folder), *extra])
+    assert result.exit_code == 0, result.output
+    return result
 
 
-def test_split_covers_every_vehicle_once():
-    split = split_by_vehicle([str(i) for i in range(50)], 0)
-    assert sorted(split["vehicle_id"]) == sorted(str(i) for i in range(50))
-    assert split["split"].value_counts().to_dict() == {"train": 30, "validation": 10, "test": 10}
+@pytest.fixture(scope="module")
+def short_scene(tmp_path_factory):
+    """60 s of seed 3 after a 100 s warm-up."""
+    folder = tmp_path_factory.mktemp("drivers") / "scene"
+    record(folder, "--seed", "3", "--duration-s", "60", "--warmup-s", "100")
+    return folder
+
+
+def test_the_same_seed_gives_the_same_bytes_and_another_seed_other_traffic(short_scene, tmp_path):
+    record(tmp_path / "again", "--seed", "3", "--duration-s", "60", "--warmup-s", "100")
+    for name in FILES:
+        assert (short_scene / name).read_bytes() == (tmp_path / "again" / name).read_bytes(), name
+    record(tmp_path / "other", "--seed", "4", "--duration-s", "60", "--warmup-s", "100")
+    ours, theirs = (pq.read_table(folder / "tracks.parquet").to_pandas()
+                    for folder in (short_scene, tmp_path / "other"))
+    assert len(ours) != len(theirs) or not ours["x_m"].equals(theirs["x_m"])  # the traffic, not only the metadata
+
+
+def test_the_scene_holds_every_model_and_class_on_the_five_lanes(short_scene):
+    tracks = pq.read_table(short_scene / "tracks.parquet")
+    assert tracks.schema.remove_metadata() == TRACK_SCHEMA
+    frame = tracks.to_pandas()
+    assert set(frame["lane"]) == {0, 1, 2, 3, 4} and set(frame["vehicle_class"]) == {"passenger", "truck"}
+    assert frame["time_s"].min() == 0.0 and frame["time_s"].max() == pytest.approx(59.9)
+    lane_changes = (frame.groupby("vehicle_id")["lane"].nunique() > 1).sum()
+    assert lane_changes >= 5
+    # positions are front bumpers on the road along +x, left edge y = 0: lane k's centre at -(5 - k - 0.5) * 3.2
+    steady = frame[frame["heading_deg"].round(3) == 90.0]
+    assert (steady["y_m"] + (4.5 - steady["lane"]) * 3.2).abs().max() < 0.01
+    speeds = frame.groupby("vehicle_id")["speed_mps"].max()
+    assert speeds.std() > 2.0  # a spread of desired speeds
+    scene = json.loads((short_scene / "scene.json").read_text())
+    assert scene["format"] == "sumo" and scene["network"] == "road.net.xml" and scene["lanes"] == 5
+    models = {values["carFollowModel"] for values in scene["settings"]["driver_types"].values()}
+    assert models == {"Krauss", "IDM"} and all(float(v["sigma"]) > 0 for v in DRIVER_TYPES.values())
+    split = pq.read_table(short_scene / "split.parquet").to_pandas()
+    assert sorted(split["vehicle_id"]) == sorted(frame["vehicle_id"].unique())
+    assert set(split["split"]) == {"train", "validation", "test"}
+
+
+def test_the_default_duration_records_over_500_tracks(tmp_path):
+    result = record(tmp_path / "scene", "--seed", "1")
+    tracks = int(result.output.split("recorded ")[1].split(" tracks")[0])
+    assert tracks >= 500
+    assert pq.read_table(tmp_path / "scene" / "split.parquet").num_rows == tracks
+
+
+def test_an_existing_scene_is_kept_without_overwrite(short_scene):
+    result = CliRunner().invoke(cli, ["record-sumo-drivers", "--out", str(short_scene), "--seed", "3"])
+    assert result.exit_code == 2 and "already holds a scene" in result.output
+
+
+@pytest.mark.parametrize("form", ["fcd", "highd"])
+def test_written_as_fcd_or_highd_it_reads_back_through_import_recording(short_scene, tmp_path, form):
+    scene = pq.read_table(short_scene / "tracks.parquet").to_pandas()
+    scene = scene[scene["vehicle_id"].isin(sorted(scene["vehicle_id"].unique())[:40])]
+    if form == "fcd":
+        files = [str(fcd.write(scene, tmp_path / "fcd.xml"))]
+        extra = ["--network", str(short_scene / "road.net.xml")]
+    else:
+        files = [str(path) for path in highd.write(scene, (3.2,) * 5, 3000.0, tmp_path / "01")]
+        extra = []
+    result = CliRunner().invoke(cli, ["import-recording", "--format", form, *files, "--out", str(tmp_path / "read"),
+                                      *extra])
+    assert result.exit_code == 0, result.output
+    assert "kept 40 tracks" in result.output
+    read = pq.read_table(tmp_path / "read" / "tracks.parquet").to_pandas()
+    if form == "fcd":  # FCD keeps the ids and SUMO's 10 Hz
+        merged = read.merge(scene, on=["vehicle_id", "time_s"], suffixes=("", "_scene"))
+        assert len(merged) == len(scene)
+    else:  # highD numbers the vehicles in the order of their ids and resamples to 25 Hz
+        mapping = dict(zip([str(k) for k in range(1, 41)], sorted(scene["vehicle_id"].unique(),
+                                                                  key=lambda v: (len(v), v)), strict=True))
+        read = read.assign(vehicle_id=read["vehicle_id"].map(mapping), time_s=read["time_s"].round(6))
+        merged = read.merge(scene.assign(time_s=scene["time_s"].round(6)), on=["vehicle_id", "time_s"],
+                            suffixes=("", "_scene"))
+        assert len(merged) >= 0.19 * len(read)  # every 0.2 s a 25 Hz frame is a 10 Hz row
+    for column in ("x_m", "y_m", "speed_mps"):
+        assert (merged[column] - merged[f"{column}_scene"]).abs().max() < 0.01, column
+    assert (merged["lane"] == merged["lane_scene"]).all()
+    assert pd.Series(merged["vehicle_class"] == merged["vehicle_class_scene"]).all()

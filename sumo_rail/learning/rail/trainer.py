@@ -24,6 +24,7 @@ import torch
 
 from sumo_rail.config import Config
 from sumo_rail.datasets import DatasetError, describe, write_failure, write_parquet, written_together
+from sumo_rail.drivers.expert import DEFAULT_STYLE
 from sumo_rail.drivers.policies import Policy, PolicyShape, save_policy
 from sumo_rail.learning.bc import IMITATION_BC, BcReport, BcSettings, behaviour_cloning
 from sumo_rail.learning.rail.discriminator import Discriminator, DiscriminatorSettings
@@ -82,7 +83,7 @@ def train(folder: Path, settings: RunSettings, config: Config, iterations: int, 
     demos_path, demos_hash = demos_record(settings.demos)
     settings = dataclasses.replace(settings, demos=demos_path)
     shape = PolicyShape(settings.kind, observation_size, settings.hidden)
-    expert = demonstrations_expert(demos.metadata)
+    expert = demonstrations_expert(demos.metadata, recorded_stand_in=DEFAULT_STYLE)  # recorded: agreement asks it
     run_record = {"settings": settings.to_dict(), "expert": expert, **demos_hash,
                   **provenance("training_run", config, settings.rail.seed)}
     expert_stats = RunningStats.of(demos.observations)

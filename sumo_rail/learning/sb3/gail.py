@@ -44,6 +44,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from sumo_rail.config import Config
+from sumo_rail.drivers.expert import DEFAULT_STYLE
 from sumo_rail.drivers.policies import Policy, PolicyShape, save_policy
 from sumo_rail.learning.bc import IMITATION_BC, BcReport, BcSettings, behaviour_cloning
 from sumo_rail.learning.rail.discriminator import Discriminator, DiscriminatorSettings
@@ -123,7 +124,8 @@ def train_gail(folder: Path, settings: GailSettings, config: Config,
     demos_path, demos_hash = demos_record(settings.demos)
     settings = dataclasses.replace(settings, demos=demos_path)
     shape = PolicyShape(settings.kind, observation_size, settings.hidden)
-    run_record = {"settings": settings.to_dict(), "expert": demonstrations_expert(demos.metadata), **demos_hash,
+    expert = demonstrations_expert(demos.metadata, DEFAULT_STYLE)  # recorded drivers: the rule-based stands in
+    run_record = {"settings": settings.to_dict(), "expert": expert, **demos_hash,
                   **provenance("gail_run", config, settings.seed)}
     checkpoint = resume_run(folder, run_record) if resume else None
     if checkpoint is None:

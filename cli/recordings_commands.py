@@ -1,0 +1,96 @@
+"""The commands `record-sumo-drivers` (a scene of SUMO's own drivers) and `recorded-demos` (a scene's tracks as
+demonstrations)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import click
+from sumo_rail_cli.param_types import FiniteFloat
+from sumo_rail_cli.settings import config_options
+
+if TYPE_CHECKING:
+    from sumo_rail.config import Config
+
+
+@click.command("record-sumo-drivers")
+@config_options
+@click.option("--out", type=click.Path(path_type=Path, file_okay=False), required=True,
+              help="The scene folder to write (tracks.parquet, scene.json, road.net.xml, split.parquet).")
+@click.option("--seed", type=click.IntRange(min=0), required=True, help="SUMO's traffic seed.")
+@click.option("--duration-s", type=FiniteFloat(1, 3600), default=600.0, show_default=True,
+              help="Recorded time after the warm-up [s].")
+@click.option("--warmup-s", type=FiniteFloat(0, 3600), default=120.0, show_default=True,
+              help="Time simulated before recording [s].")
+@click.option("--flow-veh-per-h", type=FiniteFloat(1, 30_000), default=None,
+              help="Arrivals [veh/h]  [default: scenario.flow_veh_per_h].")
+@click.option("--split-seed", type=click.IntRange(min=0), default=0, show_default=True,
+              help="Seed of the split by vehicle.")
+@click.option("--test-share", type=FiniteFloat(0, 1, max_open=True), default=0.2, show_default=True,
+              help="Share of vehicles held out to test.")
+@click.option("--validation-share", type=FiniteFloat(0, 1, max_open=True), default=0.1, show_default=True,
+              help="Share of vehicles kept for validation.")
+@click.option("--overwrite", is_flag=True, help="Replace a scene already in --out.")
+def record_sumo_drivers_command(config: Config, out: Path, seed: int, duration_s: float, warmup_s: float,
+                                flow_veh_per_h: float | None, split_seed: int, test_share: float,
+                                validation_share: float, overwrite: bool) -> None:
+    """Record SUMO's own drivers (Krauss and IDM, LC2013 with several temperaments, cars and trucks) on a straight
+    motorway of the scenario's lanes as a scene folder: drivers whose rules no one here wrote.
+
+    Every vehicle is captured at every SUMO step after the warm-up; the default 600 s at the default flow gives
+    over 500 tracks (about 700 per seed). The same seed gives the same files, byte for byte."""
+    from sumo_rail.datasets import DatasetError
+    from sumo_rail.recordings.sumo_drivers import SumoDriversSettings, check_recording, record_sumo_drivers
+    from sumo_rail.recordings.tracks import RecordingUsageError
+
+    settings = SumoDriversSettings(out, seed, duration_s, warmup_s, flow_veh_per_h, split_seed, test_share,
+                                   validation_share, overwrite)
+    try:
+        check_recording(settings)
+    except RecordingUsageError as error:
+        raise click.UsageError(str(error)) from error
+    try:
+        summary = record_sumo_drivers(settings, config)
+    except DatasetError as error:
+        raise click.ClickException(str(error)) from error
+    click.echo(f"recorded {summary.tracks} tracks ({summary.rows} rows at every "
+               f"{config.scenario.step_length_s:g} s step), dropped {summary.dropped} too short or broken")
+    click.echo("drivers: " + ", ".join(f"{count} {name}" for name, count in summary.types.items()))
+    click.echo("split: " + ", ".join(f"{count} {name}" for name, count in summary.split_counts.items()))
+    click.echo(f"wrote the scene to {out}")
+
+
+@click.command("recorded-demos")
+@config_options
+@click.argument("scene", type=click.Path(path_type=Path, file_okay=False))
+@click.option("--out", type=click.Path(path_type=Path, dir_okay=False), required=True,
+              help="The demonstrations file to write (Parquet, record-expert's schema).")
+@click.option("--split", type=click.Choice(["train", "validation", "test"]), default="train", show_default=True,
+              help="Whose tracks: the scene's vehicles of this split.")
+@click.option("--overwrite", is_flag=True, help="Replace --out if it exists.")
+def recorded_demos_command(config: Config, scene: Path, out: Path, split: str, overwrite: bool) -> None:
+    """Read a scene's tracks as demonstrations: one row per decision instant of each track of --split, the
+    observation the env would give that vehicle there (computed from the scene's vehicles at that instant) and the
+    action the reading rule reads (docs/recordings.md). train (BC, RAIL) and gail take the file as it is; DAgger
+    refuses it, as a recorded driver cannot be asked what it would do elsewhere."""
+    from sumo_rail.datasets import DatasetError, check_output_path
+    from sumo_rail.recordings.recorded_demos import write_recorded_demos
+    from sumo_rail.recordings.tracks import RecordingUsageError
+    from sumo_rail.sim.actions import Action
+
+    try:
+        check_output_path(out, overwrite)
+    except DatasetError as error:
+        raise click.UsageError(str(error)) from error
+    try:
+        summary = write_recorded_demos(scene, config, split, out)
+    except RecordingUsageError as error:
+        raise click.UsageError(str(error)) from error
+    except DatasetError as error:
+        raise click.ClickException(str(error)) from error
+    counts = ", ".join(f"{summary.action_counts.get(int(action), 0)} {action.name.lower()}" for action in Action)
+    skipped = f", skipped {summary.skipped} shorter than one decision" if summary.skipped else ""
+    click.echo(f"read {summary.decisions} decisions of {summary.tracks} tracks ({split}){skipped}")
+    click.echo(f"actions: {counts}")
+    click.echo(f"wrote {out}")

@@ -1,0 +1,184 @@
+"""`sumo-rail recorded-demos`: a scene's tracks as demonstrations in record-expert's schema (`runners.tables`).
+
+Each track of the chosen split is an episode; its decisions are the instants t0 + k T of the env's period T from the
+track's first row (`actions.read_track`), as long as the track lasts one more period. At each instant the row holds
+the observation the env would give that vehicle (`scene_observations.observe`, the scene's vehicles at that instant,
+the cruise set-point estimated by the action rule, `actions.speed_reading`, within [v_min, v_max]) and the action
+`ActionRule.for_env` reads; the columns after the action are the env's for the period's end (its speed, lane,
+position along the road, the estimated set-point, whether a lane change was under way in the period, and the
+rewards the env's formulas give them; no collision). The metadata names the scene (`RECORDED_SCENE`: its files
+with their sha256, the source recording's files, the vehicles, the split and the rule's settings): a recorded driver
+cannot be asked what it would do elsewhere, so DAgger refuses such a file (`experts.demonstrations_expert`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from sumo_rail.config import Config
+from sumo_rail.datasets import DatasetError, check_file, file_sha256, read_table, write_parquet
+from sumo_rail.recordings.actions import ActionRule, read_track, speed_reading
+from sumo_rail.recordings.importing import SCENE_FILES, SPLITS
+from sumo_rail.recordings.scene import TRACK_COLUMNS, SceneMeta
+from sumo_rail.recordings.scene_observations import SceneFrames, SceneRoad, observe, scene_road
+from sumo_rail.recordings.tracks import RecordingUsageError
+from sumo_rail.runners.experts import RECORDED_SCENE
+from sumo_rail.runners.tables import DEMONSTRATIONS, demonstrations_from_columns, provenance
+from sumo_rail.sim.observation import observation_space
+from sumo_rail.sim.rewards import lateral_reward, longitudinal_reward
+
+
+@dataclass(frozen=True)
+class Scene:
+    """A scene folder read back: its meta, tracks (`TRACK_COLUMNS`), split and network file."""
+
+    folder: Path
+    meta: SceneMeta
+    tracks: pd.DataFrame
+    split: pd.DataFrame
+    network: Path
+
+
+def read_scene(folder: Path) -> Scene:
+    """The scene folder `folder`; RecordingUsageError naming the missing or unreadable file."""
+    try:
+        for name in SCENE_FILES:
+            check_file(folder / name, "scene file")
+        meta = SceneMeta(**json.loads((folder / "scene.json").read_text()))
+        network = Path(meta.network) if Path(meta.network).is_absolute() else folder / meta.network
+        check_file(network, "scene network")
+        tracks = read_table(folder / "tracks.parquet", columns=list(TRACK_COLUMNS)).to_pandas()
+        split = read_table(folder / "split.parquet", columns=["vehicle_id", "split"]).to_pandas()
+    except (DatasetError, json.JSONDecodeError, TypeError, KeyError, UnicodeDecodeError) as error:
+        raise RecordingUsageError(f"{folder} is not a readable scene folder ({error})") from error
+    return Scene(folder, meta, tracks, split, network)
+
+
+def check_scene(scene: Scene, config: Config, split: str) -> SceneRoad:
+    """The scene's road; RecordingUsageError when the scene cannot give this configuration's observation (another
+    lane count, a road that is not one straight edge) or `split` names no vehicle."""
+    if split not in SPLITS:
+        raise RecordingUsageError(f"unknown split {split!r}; known: {', '.join(SPLITS)}")
+    try:
+        road = scene_road(scene.network)
+    except DatasetError as error:
+        raise RecordingUsageError(str(error)) from error
+    if road.lanes != config.scenario.lanes:
+        raise RecordingUsageError(f"the scene {scene.folder} has {road.lanes} lanes and the observation "
+                                  f"scenario.lanes={config.scenario.lanes}; pass --set scenario.lanes={road.lanes}")
+    if not (scene.split["split"] == split).any():
+        raise RecordingUsageError(f"the scene {scene.folder} has no vehicle in the {split} split")
+    return road
+
+
+def scene_sources(scene: Scene) -> dict[str, str]:
+    """The scene's own files (and its network) -> sha256 of their bytes."""
+    paths = [scene.folder / name for name in SCENE_FILES] + [scene.network]
+    return {str(path.resolve()): file_sha256(path) for path in paths}
+
+
+@dataclass(frozen=True)
+class TrackDecisions:
+    """One track's decisions: instants [s], actions, set-points before each action and after the last [m/s]."""
+
+    vehicle: str
+    instants_s: np.ndarray
+    actions: np.ndarray
+    set_points_mps: np.ndarray
+
+
+def track_decisions(vehicle: str, track: pd.DataFrame, rule: ActionRule, config: Config) -> TrackDecisions:
+    """The decisions `rule` reads off one track (rows sorted by time), with the set-point it estimates."""
+    time_s = track["time_s"].to_numpy()
+    instants, actions = read_track(time_s, track["speed_mps"].to_numpy(), track["lane"].to_numpy(),
+                                   track["edge"].to_numpy(), track["y_m"].to_numpy(), rule)
+    speeds = np.interp(np.append(instants, time_s[0] + rule.decision_period_s * len(instants)), time_s,
+                       track["speed_mps"].to_numpy())
+    set_points = speed_reading(speeds, rule)[1]
+    after = set_points[-1] if len(set_points) else speeds[0]
+    set_points = np.clip(np.append(set_points, after), config.env.v_min_mps, config.env.v_max_mps)
+    return TrackDecisions(vehicle, instants, actions, set_points)
+
+
+def decisions_table(scene: Scene, road: SceneRoad, config: Config, decisions: list[TrackDecisions],
+                    observation_size: int) -> tuple[dict[str, np.ndarray], np.ndarray]:
+    """The demonstration columns and observations of `decisions` (one episode each, in order)."""
+    frames = SceneFrames(scene.tracks, scene.meta.frame_rate_hz)
+    flag = 2 * config.lidar.beams + 2 + config.scenario.lanes  # the observation's lane-change flag
+    wanted: dict[float, list[tuple[int, int]]] = {}
+    for episode, decided in enumerate(decisions):
+        for step, instant in enumerate(np.append(decided.instants_s, decided.instants_s[-1]
+                                                 + config.env.decision_period_s)):
+            wanted.setdefault(round(float(instant), 6), []).append((episode, step))
+    states: list[dict[int, tuple]] = [{} for _ in decisions]  # step -> (observation, speed, lane, position, changing)
+    for instant in sorted(wanted):
+        ids, values, lanes = frames.at(instant)
+        for episode, step in wanted[instant]:
+            decided = decisions[episode]
+            row = int(np.flatnonzero(ids == decided.vehicle)[0])
+            observation = observe(config, road, ids, values, lanes, decided.vehicle,
+                                  float(decided.set_points_mps[step]))
+            states[episode][step] = (observation, float(values["speed_mps"][row]), int(lanes[row]),
+                                     float(values["lane_position_m"][row]), bool(observation[flag]))
+    env, observations, rows = config.env, [], []
+    for episode, decided in enumerate(decisions):
+        for step, action in enumerate(decided.actions):
+            now, after = states[episode][step], states[episode][step + 1]
+            changing = now[4] or after[4] or now[2] != after[2]
+            r_long = longitudinal_reward(after[1], env.v_min_mps, env.v_max_mps)
+            r_lat = lateral_reward(changing, env.lane_change_reward)
+            observations.append(now[0])
+            rows.append((episode, step, -1, int(action), r_long + r_lat, r_long, r_lat, 0.0, after[1], after[2],
+                         after[3], float(decided.set_points_mps[step + 1]), changing, False,
+                         step == len(decided.actions) - 1))
+    names = ("episode", "step", "episode_seed", "action", "reward", "reward_longitudinal", "reward_lateral",
+             "reward_collision", "speed_mps", "lane", "position_m", "set_point_mps", "lane_change_in_progress",
+             "terminated", "truncated")
+    columns = {name: np.array(values) for name, values in zip(names, zip(*rows, strict=True), strict=True)}
+    return columns, np.stack(observations).reshape(-1, observation_size)
+
+
+@dataclass(frozen=True)
+class RecordedDemosSummary:
+    """What a demonstrations file read from a scene holds."""
+
+    tracks: int
+    decisions: int
+    action_counts: dict[int, int]
+    skipped: int
+    """Tracks of the split shorter than one decision and the next instant."""
+
+
+def write_recorded_demos(folder: Path, config: Config, split: str, out: Path) -> RecordedDemosSummary:
+    """Read the scene `folder`, compute the demonstrations of its `split` and write them to `out`."""
+    scene = read_scene(folder)
+    road = check_scene(scene, config, split)
+    rule = ActionRule.for_env(config.env)
+    vehicles = sorted(scene.split.loc[scene.split["split"] == split, "vehicle_id"].astype(str))
+    chosen = scene.tracks[scene.tracks["vehicle_id"].isin(vehicles)].sort_values(["vehicle_id", "time_s"],
+                                                                                   kind="stable")
+    decisions = [track_decisions(str(vehicle), track, rule, config)
+                 for vehicle, track in chosen.groupby("vehicle_id", sort=True)]
+    kept = [decided for decided in decisions if len(decided.actions)]
+    if not kept:
+        raise DatasetError(f"no track of the {split} split of {folder} lasts one decision period")
+    size = observation_space(config).shape[0]
+    columns, observations = decisions_table(scene, road, config, kept, size)
+    table = demonstrations_from_columns(columns, observations, size)
+    record = {"folder": str(folder.resolve()), "format": scene.meta.format, "files": scene_sources(scene),
+              "recording_sources": scene.meta.sources, "split": split,
+              "vehicles": [decided.vehicle for decided in kept], "action_rule": dataclasses.asdict(rule),
+              "set_point": "estimated by the action rule, within [env.v_min_mps, env.v_max_mps]"}
+    seed = int(scene.meta.settings.get("split_seed", 0))  # type: ignore[call-overload]
+    write_parquet(table, out, provenance(DEMONSTRATIONS, config, seed, driver="recorded drivers",
+                                         episodes=len(kept), episode_seeds=[], **{RECORDED_SCENE: record}))
+    counts = pd.Series(columns["action"]).value_counts()
+    return RecordedDemosSummary(len(kept), len(columns["action"]), {int(k): int(v) for k, v in counts.items()},
+                                len(decisions) - len(kept))
+

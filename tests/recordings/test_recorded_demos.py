@@ -1,0 +1,122 @@
+"""`sumo-rail recorded-demos`: a scene's tracks as demonstrations in record-expert's schema, with the env's
+observation computed from the scene, provenance naming the scene; train and gail take them, dagger refuses."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pyarrow.parquet as pq
+import pytest
+from click.testing import CliRunner
+from sumo_rail_cli.main import cli
+
+from sumo_rail.config import Config
+from sumo_rail.datasets import file_sha256, read_metadata
+from sumo_rail.recordings.importing import split_table, write_scene_folder
+from sumo_rail.recordings.road import ROAD_EDGE
+from sumo_rail.recordings.scene import SceneMeta
+from sumo_rail.recordings.tracks import Recording
+from sumo_rail.runners.experts import RECORDED_SCENE
+from sumo_rail.runners.tables import DEMONSTRATION_COLUMNS, read_demonstrations
+from sumo_rail.sim.actions import Action
+from sumo_rail.sim.observation import observation_names, observation_space
+
+SMALL = ["--set", "scenario.length_m=1500", "--set", "scenario.warmup_s=120", "--set", "scenario.snapshots=3",
+         "--set", "scenario.snapshot_interval_s=10", "--set", "env.ego_start_max_m=500"]
+LANE_Y = (-14.4, -11.2, -8.0, -4.8, -1.6)
+"""Lane centres [m] of the five 3.2 m lanes right of y = 0, rightmost first."""
+
+
+def two_car_scene(folder, lanes: int = 5) -> None:
+    """A truck 40 m ahead of a car in lane 1, both at 25 m/s for 4 s at 10 Hz; the car then speeds up."""
+    rows = []
+    for vehicle, front0, length, width, cls, accel in (("car", 100.0, 4.5, 1.8, "passenger", 2.0),
+                                                       ("truck", 140.0, 12.0, 2.5, "truck", 0.0)):
+        t = np.round(np.arange(0.0, 4.0 + 1e-9, 0.1), 6)
+        speed = 25.0 + accel * np.maximum(t - 2.0, 0.0)
+        x = front0 + 25.0 * t + 0.5 * accel * np.maximum(t - 2.0, 0.0) ** 2
+        rows.append(pd.DataFrame({
+            "vehicle_id": vehicle, "source_id": vehicle, "frame": np.arange(len(t)), "time_s": t, "x_m": x,
+            "y_m": LANE_Y[1], "heading_deg": 90.0, "speed_mps": speed, "acceleration_mps2": 0.0, "edge": ROAD_EDGE,
+            "lane": np.int16(1), "lane_position_m": x, "length_m": np.float32(length), "width_m": np.float32(width),
+            "vehicle_class": cls}))
+    tracks = pd.concat(rows, ignore_index=True)
+    split = split_table(tracks, 0, 0.0, 0.0)
+    meta = SceneMeta(format="sumo", frame_rate_hz=10.0, network="road.net.xml", lanes=lanes,
+                     settings={"split_seed": 0})
+    write_scene_folder(folder, Recording(tracks, 10.0, lanes, (3.2,) * lanes, 1000.0), tracks, split, meta, Config())
+
+
+def invoke(*args: str):
+    return CliRunner().invoke(cli, list(args))
+
+
+def test_the_observation_is_the_envs_seen_from_the_recorded_car(tmp_path):
+    two_car_scene(tmp_path / "scene")
+    result = invoke("recorded-demos", str(tmp_path / "scene"), "--out", str(tmp_path / "demos.parquet"),
+                    "--set", "observation.lane_block=1")
+    assert result.exit_code == 0, result.output
+    assert "read 16 decisions of 2 tracks (train)" in result.output  # 4 s: 8 periods each
+    config = Config.from_dict({"observation": {"lane_block": 1}})
+    table = pq.read_table(tmp_path / "demos.parquet")
+    assert table.column_names == list(DEMONSTRATION_COLUMNS)
+    frame = table.to_pandas()
+    observations = np.stack(frame["observation"].to_numpy())
+    assert observations.shape == (16, observation_space(config).shape[0])
+    names = observation_names(config)
+    car = observations[frame["episode"].to_numpy() == 0]  # episodes in the order of the ids: car, truck
+    # beam 0 looks ahead from the car's centre: the truck's rear is 40 - 12 + 4.5 / 2 m ahead, closer once the car
+    # speeds up; the lane block's gap is bumper to bumper
+    assert car[0, names.index("lidar_distance_00")] * config.lidar.range_m == pytest.approx(30.25, abs=1e-3)
+    assert car[-1, names.index("lidar_distance_00")] * config.lidar.range_m < 30.25 - 1.0
+    assert car[0, names.index("own_lane_front_gap")] * config.lidar.range_m == pytest.approx(28.0, abs=1e-3)
+    assert (car[:, names.index("lane_1")] == 1).all() and (car[:, names.index("lane_0")] == 0).all()
+    assert car[0, names.index("ego_speed")] == pytest.approx(25.0 / config.env.v_max_mps)
+    assert car[0, names.index("lane_change_in_progress")] == 0
+    # the right road edge is 1.6 + 3.2 m right of the car's lane centre
+    right = names.index(f"lidar_distance_{3 * config.lidar.beams // 4:02d}")
+    assert car[0, right] * config.lidar.range_m == pytest.approx(1.6 + 3.2, abs=1e-3)
+    actions = frame.loc[frame["episode"] == 0, "action"].tolist()
+    assert actions[:4] == [Action.KEEP] * 4 and Action.ACCELERATE in actions[4:]
+
+
+def test_provenance_names_the_scene_files_vehicles_and_rule(tmp_path):
+    two_car_scene(tmp_path / "scene")
+    assert invoke("recorded-demos", str(tmp_path / "scene"), "--out", str(tmp_path / "d.parquet")).exit_code == 0
+    record = read_metadata(tmp_path / "d.parquet")[RECORDED_SCENE]
+    assert record["vehicles"] == ["car", "truck"] and record["split"] == "train"
+    for name in ("tracks.parquet", "split.parquet", "scene.json", "road.net.xml"):
+        path = str((tmp_path / "scene" / name).resolve())
+        assert record["files"][path] == file_sha256(tmp_path / "scene" / name)
+    assert record["action_rule"]["decision_period_s"] == 0.5 and record["action_rule"]["dead_band_mps2"] > 0
+    assert read_demonstrations(tmp_path / "d.parquet", observation_space(Config()).shape[0]).actions.shape == (16,)
+
+
+def test_a_scene_of_other_lanes_or_an_empty_split_is_a_usage_error(tmp_path):
+    two_car_scene(tmp_path / "scene", lanes=3)
+    result = invoke("recorded-demos", str(tmp_path / "scene"), "--out", str(tmp_path / "d.parquet"))
+    assert result.exit_code == 2 and "pass --set scenario.lanes=3" in result.output
+    result = invoke("recorded-demos", str(tmp_path / "scene"), "--out", str(tmp_path / "d.parquet"), "--split",
+                    "test", "--set", "scenario.lanes=3")
+    assert result.exit_code == 2 and "has no vehicle in the test split" in result.output
+    result = invoke("recorded-demos", str(tmp_path / "nothing"), "--out", str(tmp_path / "d.parquet"))
+    assert result.exit_code == 2 and "is not a readable scene folder" in result.output
+    assert not (tmp_path / "d.parquet").exists()
+
+
+def test_train_and_gail_take_recorded_demos_and_dagger_refuses_them(tmp_path):
+    two_car_scene(tmp_path / "scene")
+    demos = str(tmp_path / "demos.parquet")
+    assert invoke("recorded-demos", str(tmp_path / "scene"), "--out", demos).exit_code == 0
+    result = invoke("train", *SMALL, "--demos", demos, "--iterations", "1", "--directions", "2", "--top", "1",
+                    "--bc-epochs", "1", "--eval-every", "0", "--out", str(tmp_path / "rail"))
+    assert result.exit_code == 0, result.output
+    assert (tmp_path / "rail" / "policy_latest.npz").is_file()
+    result = invoke("dagger", *SMALL, "--demos", demos, "--rounds", "1", "--episodes-per-round", "1",
+                    "--bc-epochs", "1", "--eval-every", "0", "--out", str(tmp_path / "dagger"))
+    assert result.exit_code == 1 and "a recorded driver cannot be asked what it would do" in result.output
+    assert "Traceback" not in result.output and not (tmp_path / "dagger").exists()
+    pytest.importorskip("stable_baselines3", reason="gail is the package's optional extra [baselines]")
+    result = invoke("gail", *SMALL, "--demos", demos, "--timesteps", "64", "--n-steps", "32", "--envs", "1",
+                    "--bc-epochs", "1", "--out", str(tmp_path / "gail"))
+    assert result.exit_code == 0, result.output
