@@ -51,15 +51,17 @@ def preset_help() -> str:
 
 def resolve_config(preset: str, config_path: Path | None, overrides: tuple[str, ...]) -> Config:
     """The preset, then the TOML file, then each --set; a bad value, or a road that cannot be built (a missing or
-    broken network, a route not in it), is a usage error (exit 2), before any work."""
+    broken network, a route not in it), is a usage error (exit 2), before any work. A user's network and traffic
+    file are kept as absolute paths, so that the outputs name them from any folder."""
     try:
         config = Config.preset(preset)
         config = config.with_toml(config_path) if config_path else config
         config = config.with_overrides(_parse_overrides(overrides)) if overrides else config
         if config.scenario.kind != "straight":
-            from sumo_rail.sim import network
+            from sumo_rail.sim import network, user_network
 
-            network.build(config.scenario)
+            user_network.check_start_window(config.env, network.build(config.scenario))
+            config = config.with_overrides({"scenario": user_network.absolute_paths(config.scenario)})
         return config
     except ConfigError as error:
         raise click.UsageError(str(error)) from error

@@ -106,12 +106,14 @@ class ScenarioConfig:
     exit_share: float = bounded(0, 1, default=0.2, high_open=True)
     """Share of the main road's traffic that takes the exit (kind exit), at least 0 and below 1."""
     network: str = ""
-    """A SUMO network file (.net.xml) of your own (kind network), e.g. built by netconvert from OpenStreetMap."""
+    """A SUMO network file (.net.xml or .net.xml.gz) of your own (kind network), e.g. built by netconvert from
+    OpenStreetMap; in a --config TOML, relative to the TOML's folder."""
     route: str = ""
     """The ego's route on scenario.network: its edge ids in order, separated by spaces (kind network)."""
     traffic_file: str = ""
-    """A SUMO route file with the background traffic on scenario.network (kind network); empty: a flow of
-    scenario.flow_veh_per_h along the ego's route, with the types of the built-in roads."""
+    """A SUMO route file with the background traffic on scenario.network (kind network), running through the warm-up
+    and its snapshots (docs/scenarios.md); empty: a flow of scenario.flow_veh_per_h along the ego's route, with the
+    types of the built-in roads."""
 
     @property
     def has_route_measures(self) -> bool:
@@ -165,6 +167,10 @@ class ScenarioConfig:
         if self.kind == "network":
             _require(bool(self.network), "scenario.kind network needs scenario.network, the path of a .net.xml")
             _require(bool(self.route.split()), "scenario.kind network needs scenario.route, the ego's edge ids")
+        given = [name for name in ("network", "route", "traffic_file") if getattr(self, name)]
+        _require(self.kind == "network" or not given,
+                 f"scenario.{' and scenario.'.join(given)} only serve{'s' if len(given) == 1 else ''} scenario.kind "
+                 f"network, not {self.kind}; drop {'it' if len(given) == 1 else 'them'} or set scenario.kind=network")
 
 
 @dataclass(frozen=True)
@@ -265,7 +271,7 @@ class EnvConfig:
                  f"env.max_episode_s must be at least one decision period, got {self.max_episode_s}")
         _require(0 <= self.ego_start_min_m <= self.ego_start_max_m,
                  f"env.ego_start_min_m must be between 0 and env.ego_start_max_m, got {self.ego_start_min_m}")
-        _require(self.ego_start_max_m + self.end_margin_m < scenario.length_m,
+        _require(scenario.kind == "network" or self.ego_start_max_m + self.end_margin_m < scenario.length_m,
                  f"env.ego_start_max_m + env.end_margin_m must be shorter than the road "
                  f"({scenario.length_m} m), got {self.ego_start_max_m + self.end_margin_m}")
         if scenario.kind in FEATURE_KINDS:
@@ -312,7 +318,8 @@ class Config:
         return cls.from_dict(PRESETS[name])
 
     def with_toml(self, path: str | Path) -> Config:
-        """A copy with the keys of a TOML file's tables replaced (the format of `from_toml`)."""
+        """A copy with the keys of a TOML file's tables replaced (the format of `from_toml`); scenario.network and
+        scenario.traffic_file relative to the TOML's folder."""
         try:
             with open(path, "rb") as handle:
                 data = tomllib.load(handle)
@@ -320,6 +327,10 @@ class Config:
             raise ConfigError(f"cannot read config file {path}: {error.strerror or error}") from error
         except tomllib.TOMLDecodeError as error:
             raise ConfigError(f"config file {path} is not valid TOML: {error}") from error
+        scenario = data.get("scenario")
+        for key in ("network", "traffic_file"):  # a file named in the TOML is found from the TOML's folder
+            if isinstance(scenario, dict) and isinstance(scenario.get(key), str) and scenario[key]:
+                scenario[key] = str(Path(path).parent / Path(scenario[key]).expanduser())
         return self.with_overrides(data)
 
     @classmethod

@@ -28,6 +28,7 @@ from sumo_rail.datasets import (
     write_bytes_atomically,
     write_failure,
 )
+from sumo_rail.runners.tables import ROAD_FILES
 
 
 class RunError(ValueError):
@@ -82,6 +83,11 @@ def check_resumable(folder: Path, checkpoint: str, run_record: dict[str, Any], d
     if isinstance(run_record["settings"].get("demos"), str) and isinstance(settings.get("demos"), str):
         check_same_demos(folder, settings["demos"], stored.get(DEMOS_HASH), run_record)
         settings = {**settings, "demos": run_record["settings"]["demos"]}
+    changed = [path for path, digest in stored.get(ROAD_FILES, {}).items()
+               if run_record.get(ROAD_FILES, {}).get(path, digest) != digest]
+    if changed:
+        raise RunError(f"{changed[0]} has changed since run {folder} was started on it (its content hash differs); "
+                       f"resume it on the file it was started with")
     if (fixed(settings) != fixed(run_record["settings"]) or stored["config"] != run_record["config"]
             or stored.get("kind") != run_record.get("kind")):
         raise RunError(f"run {folder} was started with other settings (see its run.json); resume it with the same "

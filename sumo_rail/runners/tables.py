@@ -15,16 +15,21 @@ import pyarrow.parquet as pq
 from sumo_rail.config import Config
 from sumo_rail.datasets import FORMAT_VERSION, DatasetError, describe, read_metadata, read_table, versions
 from sumo_rail.runners.rollout import ACTION_COLUMNS, EpisodeResult
+from sumo_rail.sim import user_network
 from sumo_rail.sim.observation import observation_names
 
 DEMONSTRATIONS = "demonstrations"
 EPISODE_METRICS = "episode_metrics"
+ROAD_FILES = "road_files"
+"""The provenance entry holding a user's network and traffic file: their sha256 by absolute path (kind network)."""
 
 
 def provenance(kind: str, config: Config, seed: int, **extra: Any) -> dict[str, Any]:
-    """The metadata stored with every output table."""
+    """The metadata stored with every output table (on a user's network, its files' content hashes: `ROAD_FILES`)."""
+    road = user_network.road_files(config.scenario)
     return {"kind": kind, "format_version": FORMAT_VERSION, "seed": seed, "config": config.to_dict(),
-            "observation_names": observation_names(config), "versions": versions(), **extra}
+            "observation_names": observation_names(config), "versions": versions(),
+            **({ROAD_FILES: road} if road else {}), **extra}
 
 
 def demonstrations_table(results: Sequence[EpisodeResult], seeds: Sequence[int], observation_size: int) -> pa.Table:

@@ -21,6 +21,11 @@ class BuiltNetwork:
     """A user's own traffic (kind network), loaded after `routes_file`."""
     route_id: str = "ego_route"
     """The ego's route in the routes file."""
+    route_length_m: float | None = None
+    """The length of a user's route (kind network) [m]; None on the generated roads (scenario.length_m)."""
+    speed_limit_mps: float | None = None
+    """The highest speed limit along a user's route (kind network) [m/s]; None on the generated roads
+    (scenario.speed_limit_mps)."""
 
     @property
     def route_files(self) -> str:

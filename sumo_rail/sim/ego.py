@@ -84,7 +84,7 @@ class Ego:
         returns the first observation and info."""
         cfg = self.config
         ego, neighbours = sim.observe(self.vehicle)
-        self.set_point_mps = min(max(ego.speed_mps, cfg.env.v_min_mps), cfg.env.v_max_mps)
+        self.set_point_mps = min(max(ego.speed_mps, cfg.env.v_min_mps), self.top_speed_mps(sim))
         sim.set_cruise_speed(self.set_point_mps, self.vehicle)
         self.lane = ego.lane
         self.changing_lane = ego.changing_lane
@@ -95,6 +95,11 @@ class Ego:
         self.traffic = TrafficView(ego, neighbours, self.set_point_mps, cfg.scenario.lanes)
         return self.last_observation, self._info(ego, 0.0, 0.0, 0.0, False, "")
 
+    def top_speed_mps(self, sim: Simulation) -> float:
+        """The highest set-point and the speed of the full longitudinal reward [m/s]: env.v_max_mps, or the road's
+        speed limit when lower (the ego keeps to it)."""
+        return min(self.config.env.v_max_mps, sim.speed_limit_mps)
+
     def command(self, sim: Simulation, action: Action) -> None:
         """Give SUMO the command of this decision's `action` (before the period's steps)."""
         cfg, metrics = self.config, self.metrics
@@ -102,7 +107,7 @@ class Ego:
         route = self.traffic.ego.route if self.traffic is not None else None
         lowest, highest = (0, cfg.scenario.lanes - 1) if route is None else (route.lowest_lane, route.highest_lane)
         command = command_for(action, self.set_point_mps, self.lane, highest + 1, cfg.env.speed_step_mps,
-                              cfg.env.v_min_mps, cfg.env.v_max_mps, lowest)
+                              cfg.env.v_min_mps, self.top_speed_mps(sim), lowest)
         if command.set_point_mps != self.set_point_mps:
             self.set_point_mps = command.set_point_mps
             sim.set_cruise_speed(self.set_point_mps, self.vehicle)
@@ -129,7 +134,7 @@ class Ego:
         self.changing_lane = ego.changing_lane
         metrics.lane_changes += abs(ego.lane - self.lane)
         self.lane = ego.lane
-        r_long = longitudinal_reward(ego.speed_mps, cfg.env.v_min_mps, cfg.env.v_max_mps)
+        r_long = longitudinal_reward(ego.speed_mps, cfg.env.v_min_mps, self.top_speed_mps(sim))
         r_lat = lateral_reward(changing, cfg.env.lane_change_reward)
         metrics.longitudinal_reward += r_long
         metrics.lateral_reward += r_lat

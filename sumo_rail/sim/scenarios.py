@@ -99,14 +99,22 @@ def road_sources(scenario: ScenarioConfig, sources: dict[str, bytes]) -> RoadSou
 
 
 def network_routes(scenario: ScenarioConfig, vehicle_types: bytes, ego_route: tuple[str, ...],
-                   with_flow: bool) -> bytes:
+                   with_flow: bool, their_types: frozenset[str] | set[str] = frozenset()) -> bytes:
     """The routes file for a network of the user's (kind network): the vehicle types, the ego's route and, with
-    `with_flow`, a flow of scenario.flow_veh_per_h along it."""
+    `with_flow`, a flow of scenario.flow_veh_per_h along it. Types a user's traffic file defines (`their_types`) are
+    left out, as is a distribution of them: the user's win; the ego's type is the project's own."""
+    if EGO_TYPE in their_types:
+        raise ConfigError(f"scenario.traffic_file defines a vehicle type {EGO_TYPE!r}, the project's name for the "
+                          f"ego's type: rename it")
     root = ElementTree.fromstring(vehicle_types)
     _find(root, "vType", EGO_TYPE, VEHICLE_TYPES_FILE)
     flow = _find(root, "flow", "traffic", VEHICLE_TYPES_FILE)
     for element in [*root.findall("route"), flow]:
         root.remove(element)
+    for element in [*root.findall("vType"), *root.findall("vTypeDistribution")]:
+        members = {element.get("id"), *element.get("vTypes", "").split()}
+        if members & their_types:
+            root.remove(element)
     ElementTree.SubElement(root, "route", id="ego_route", edges=" ".join(ego_route))
     if with_flow:
         flow.set("route", "ego_route")

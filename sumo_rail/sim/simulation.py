@@ -247,7 +247,12 @@ class Simulation(EgoPlacement, Stepping, Sensing):
         speed instead would be a hard cap that SUMO enforces at emergency deceleration, 9 m/s^2; a lower speed
         factor is reached at the ego type's comfortable deceleration.)
         """
-        self._api.vehicle.setSpeedFactor(vehicle, speed_mps / self.scenario.speed_limit_mps)
+        self._api.vehicle.setSpeedFactor(vehicle, speed_mps / self.speed_limit_mps)
+
+    @property
+    def speed_limit_mps(self) -> float:
+        """The road's speed limit [m/s]: scenario.speed_limit_mps, or the highest along a user's route."""
+        return self._built.speed_limit_mps or self.scenario.speed_limit_mps
 
     def request_lane_change(self, lane: int, duration_s: float, vehicle: str = EGO_ID, zip_merge: bool = False) -> None:
         """Ask SUMO to move an ego to route lane `lane` when safe within `duration_s`; unsafe changes wait, never

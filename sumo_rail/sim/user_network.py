@@ -1,24 +1,35 @@
 """A SUMO network of the user's own as the road (`scenario.kind = "network"`): checked, then used as it is.
 
 The network file (for example built by netconvert from an OpenStreetMap extract, docs/scenarios.md) and the ego's
-route (`scenario.route`) are checked with sumolib before SUMO starts: the file must be a SUMO network, every edge of
-the route must be in it and each must lead to the next. The routes file written to the cache holds the built-in
-vehicle types, the ego's route and, without `scenario.traffic_file`, a flow along that route.
+route (`scenario.route`) are checked with sumolib before SUMO starts: the file (plain or `.gz`) must be a SUMO
+network, every edge of the route must be in it, each must lead to the next, have a lane a passenger car may use and
+end at no traffic light. The routes file written to the cache holds the built-in vehicle types (less those a user's
+traffic file defines: the user's win), the ego's route and, without `scenario.traffic_file`, a flow along that route.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import itertools
 import json
 import subprocess
-import xml.etree.ElementTree as ElementTree
 from pathlib import Path
 
-from sumo_rail.config import BOTTLENECK_LANE_CAPACITY_VEH_PER_H, LANE_CAPACITY_VEH_PER_H, ConfigError, ScenarioConfig
-from sumo_rail.datasets import sumo_version, write_bytes_atomically
-from sumo_rail.sim import scenarios
+from sumo_rail.bounds import bounds_of
+from sumo_rail.config import (
+    BOTTLENECK_LANE_CAPACITY_VEH_PER_H,
+    LANE_CAPACITY_VEH_PER_H,
+    ConfigError,
+    EnvConfig,
+    ScenarioConfig,
+)
+from sumo_rail.datasets import file_sha256, sumo_version, write_bytes_atomically
+from sumo_rail.sim import scenarios, user_traffic
 from sumo_rail.sim.built_network import BuiltNetwork, sumo_binary
+
+EGO_CLASS = "passenger"
+"""The ego's SUMO vehicle class (its vType in networks/traffic.rou.xml)."""
 
 
 def build(scenario: ScenarioConfig, cache_root: Path, vehicle_types_file: Path) -> BuiltNetwork:
@@ -26,58 +37,83 @@ def build(scenario: ScenarioConfig, cache_root: Path, vehicle_types_file: Path) 
     net_file = Path(scenario.network).expanduser().resolve()
     ego_route = tuple(scenario.route.split())
     net_bytes = _network_bytes(net_file)
-    lane_counts = check_route(net_file, ego_route, scenario.lanes)
+    lane_counts, route_length_m, speed_limit_mps = check_route(net_file, ego_route, scenario.lanes)
     narrowest, capacity = min(lane_counts), lane_capacity(lane_counts)
-    traffic_file = None
+    traffic_file, their_types = None, set[str]()
     if scenario.traffic_file:
         traffic_file = Path(scenario.traffic_file).expanduser().resolve()
-        scenarios.read_source(traffic_file)
+        their_types = user_traffic.user_types(traffic_file, scenario)
     elif scenario.flow_veh_per_h > capacity * narrowest:
         raise ConfigError(f"scenario.flow_veh_per_h ({scenario.flow_veh_per_h:g} veh/h) is more than the route's "
                           f"narrowest edge in {net_file.name} ({narrowest} lane{'s' if narrowest > 1 else ''}) can "
                           f"carry (about {capacity:g} veh/h a lane)")
     routes = scenarios.network_routes(scenario, scenarios.read_source(vehicle_types_file), ego_route,
-                                      with_flow=traffic_file is None)
+                                      with_flow=traffic_file is None, their_types=their_types)
     digest = hashlib.sha256(json.dumps({"route": ego_route, "sumo": sumo_version(),
                                         "traffic": str(traffic_file)}).encode())
     digest.update(net_bytes + b"\0" + routes)
     directory = cache_root / "networks" / digest.hexdigest()[:16]
     routes_file = directory / "traffic.rou.xml"
     loads = directory / "sumo_loads"  # written once SUMO has loaded these files
-    if not loads.exists():
-        check_sumo_loads(net_file, traffic_file)
     if not (routes_file.exists() and routes_file.read_bytes() == routes):
         directory.mkdir(parents=True, exist_ok=True)
         write_bytes_atomically(routes_file, routes)
     if not loads.exists():
+        check_sumo_loads(net_file, [routes_file, *([traffic_file] if traffic_file else [])])
         write_bytes_atomically(loads, b"")
-    return BuiltNetwork(net_file, routes_file, directory, ego_route, traffic_file)
+    return BuiltNetwork(net_file, routes_file, directory, ego_route, traffic_file, route_length_m=route_length_m,
+                        speed_limit_mps=speed_limit_mps)
+
+
+def absolute_paths(scenario: ScenarioConfig) -> dict[str, str]:
+    """scenario.network and scenario.traffic_file (when given) as absolute paths, as settings to replace."""
+    return {key: str(Path(getattr(scenario, key)).expanduser().resolve())
+            for key in ("network", "traffic_file") if getattr(scenario, key)}
+
+
+def road_files(scenario: ScenarioConfig) -> dict[str, str]:
+    """The content hash (sha256) of a user's network and traffic file by absolute path, as outputs' provenance holds
+    them (kind network; empty for the generated roads, whose settings make them)."""
+    return {path: file_sha256(Path(path)) for path in absolute_paths(scenario).values()} \
+        if scenario.kind == "network" else {}
+
+
+def check_start_window(env: EnvConfig, built: BuiltNetwork) -> None:
+    """ConfigError unless the ego's start window and end margin fit on a user's route (its own length counts) and
+    its speed limit is above env.v_min_mps (the set-points lie between them)."""
+    if built.speed_limit_mps is not None and built.speed_limit_mps <= env.v_min_mps:
+        raise ConfigError(f"scenario.route's speed limit in {built.net_file.name} ({built.speed_limit_mps:g} m/s) "
+                          f"must be above env.v_min_mps ({env.v_min_mps:g} m/s); lower env.v_min_mps")
+    if built.route_length_m is not None and env.ego_start_max_m + env.end_margin_m >= built.route_length_m:
+        raise ConfigError(f"env.ego_start_max_m + env.end_margin_m ({env.ego_start_max_m + env.end_margin_m:g} m) "
+                          f"must be shorter than scenario.route ({built.route_length_m:.0f} m long in "
+                          f"{built.net_file.name}); lower them or choose a longer route")
 
 
 def _network_bytes(net_file: Path) -> bytes:
-    try:
-        data = net_file.read_bytes()
-        root = ElementTree.fromstring(data)
-    except OSError as error:
-        raise ConfigError(f"cannot read scenario.network {net_file}: {error.strerror or error}") from error
-    except ElementTree.ParseError as error:
-        raise ConfigError(f"scenario.network {net_file} is not well-formed XML: {error}") from error
+    root = user_traffic.read_xml(net_file, "scenario.network")
+    if root.tag == "configuration":
+        inputs = {tag: element.get("value", "") for tag in ("net-file", "route-files")
+                  for element in root.iter(tag)}
+        raise ConfigError(f"scenario.network {net_file.name} is a SUMO configuration, not a network: give its "
+                          f"net-file ({inputs.get('net-file') or 'none'}) as scenario.network and its route-files "
+                          f"({inputs.get('route-files') or 'none'}) as scenario.traffic_file")
     if root.tag != "net":
         raise ConfigError(f"scenario.network {net_file} is not a SUMO network (its root element is <{root.tag}>, "
                           f"not <net>)")
-    return data
+    return net_file.read_bytes()
 
 
-def check_sumo_loads(net_file: Path, traffic_file: Path | None) -> None:
-    """ConfigError with SUMO's first error unless SUMO itself loads the network (and the traffic file): sumolib reads
-    files SUMO refuses, such as a lane without its shape."""
+def check_sumo_loads(net_file: Path, route_files: list[Path]) -> None:
+    """ConfigError with SUMO's first error unless SUMO itself loads the network with the route files (the built-in
+    ones, then a user's traffic): sumolib reads files SUMO refuses, such as a lane without its shape."""
     command = [sumo_binary("sumo"), "--net-file", str(net_file), "--end", "0", "--no-step-log", "true",
-               "--no-warnings", "true", *(["--route-files", str(traffic_file)] if traffic_file else [])]
+               "--no-warnings", "true", "--route-files", ",".join(str(path) for path in route_files)]
     result = subprocess.run(command, capture_output=True, text=True, check=False)
     if result.returncode != 0:
         errors = [line.removeprefix("Error: ").strip() for line in (result.stderr + result.stdout).splitlines()
                   if line.startswith("Error: ")]
-        loaded = f"{net_file.name}{f' with {traffic_file.name}' if traffic_file else ''}"
+        loaded = f"{net_file.name}{f' with {route_files[1].name}' if len(route_files) > 1 else ''}"
         raise ConfigError(f"SUMO cannot load scenario.network {loaded}: {errors[0] if errors else 'no output'}")
 
 
@@ -87,9 +123,11 @@ def lane_capacity(lane_counts: list[int]) -> float:
     return LANE_CAPACITY_VEH_PER_H if min(lane_counts) == lane_counts[0] else BOTTLENECK_LANE_CAPACITY_VEH_PER_H
 
 
-def check_route(net_file: Path, ego_route: tuple[str, ...], lanes: int) -> list[int]:
-    """The lane counts of the route's edges, in order; ConfigError unless every edge of `ego_route` is in the network,
-    each leads to the next, and the route's widest edge has `lanes` lanes (the observation's lane count)."""
+def check_route(net_file: Path, ego_route: tuple[str, ...], lanes: int) -> tuple[list[int], float, float]:
+    """The lane counts of the route's edges, in order, the route's length [m] and its highest speed limit [m/s];
+    ConfigError unless every edge of
+    `ego_route` is in the network, each leads to the next, has a lane the ego's class (passenger) may use and ends
+    at no traffic light before the route's end, and the route's widest edge has `lanes` lanes (the observation's)."""
     import sumolib
 
     try:
@@ -104,8 +142,20 @@ def check_route(net_file: Path, ego_route: tuple[str, ...], lanes: int) -> list[
         if net.getEdge(target) not in net.getEdge(source).getOutgoing():
             raise ConfigError(f"scenario.route is not connected: edge {source!r} does not lead to {target!r} in "
                               f"{net_file.name}")
+    for edge in ego_route:
+        if not any(lane.allows(EGO_CLASS) for lane in net.getEdge(edge).getLanes()):
+            raise ConfigError(f"scenario.route's edge {edge!r} in {net_file.name} has no lane a {EGO_CLASS} car may "
+                              f"use (the ego's class); route the ego around it")
+    for edge in ego_route[:-1]:
+        if net.getEdge(edge).getToNode().getType().startswith("traffic_light"):
+            raise ConfigError(f"scenario.route's edge {edge!r} in {net_file.name} ends at a traffic light, which the "
+                              f"ego does not obey; choose a route without traffic lights")
     counts = [net.getEdge(edge).getLaneNumber() for edge in ego_route]
     if max(counts) != lanes:
+        bounds = bounds_of(next(field for field in dataclasses.fields(ScenarioConfig) if field.name == "lanes"))
+        advice = (f"set --set scenario.lanes={max(counts)}" if bounds is None or bounds.holds(max(counts)) else
+                  f"scenario.lanes must be {bounds.describe()}: choose a route with fewer lanes")
         raise ConfigError(f"scenario.lanes is {lanes} but the route's widest edge in {net_file.name} has {max(counts)} "
-                          f"lanes; set --set scenario.lanes={max(counts)}")
-    return counts
+                          f"lanes; {advice}")
+    edges = [net.getEdge(edge) for edge in ego_route]
+    return counts, sum(edge.getLength() for edge in edges), max(edge.getSpeed() for edge in edges)

@@ -1,0 +1,186 @@
+"""A user's own network (scenario.kind network) and traffic file: what is refused before any work, in one sentence,
+and what SUMO itself takes is taken."""
+
+from __future__ import annotations
+
+import gzip
+import subprocess
+from pathlib import Path
+
+import pytest
+
+from sumo_rail.config import Config, ConfigError
+from sumo_rail.sim import network, user_network
+
+ROUTES = '<routes><vType id="{type}" vClass="passenger"/>' \
+         '<flow id="mine" from="first" to="second" type="{type}" begin="0" end="{end}" period="5"/></routes>'
+"""A user's traffic file: a flow of its own vehicle type (`type`, defined here) until `end` [s]."""
+
+
+def two_edges(folder: Path, first: str = 'numLanes="2"', node: str = "priority", length_m: float = 900.0) -> Path:
+    """A network built with netconvert in `folder`: edge "first" (`first`'s attributes) of `length_m`, then
+    "second" (2 lanes, 600 m), joined at a node of type `node`."""
+    (folder / "road.nod.xml").write_text(
+        f'<nodes><node id="a" x="0" y="0"/><node id="b" x="{length_m}" y="0" type="{node}"/>'
+        f'<node id="c" x="{length_m + 600}" y="0"/></nodes>')
+    (folder / "road.edg.xml").write_text(
+        f'<edges><edge id="first" from="a" to="b" {first} speed="30"/>'
+        '<edge id="second" from="b" to="c" numLanes="2" speed="30"/></edges>')
+    net = folder / "road.net.xml"
+    subprocess.run([network.sumo_binary("netconvert"), "--node-files", str(folder / "road.nod.xml"),
+                    "--edge-files", str(folder / "road.edg.xml"), "-o", str(net), "--no-turnarounds", "true"],
+                   check=True, capture_output=True)
+    return net
+
+
+def on(config: Config, net: Path, lanes: int = 2, **scenario: object) -> Config:
+    return config.with_overrides({"scenario": {"kind": "network", "network": str(net), "route": "first second",
+                                               "lanes": lanes, **scenario}})
+
+
+def test_the_start_window_is_checked_against_the_routes_own_length(small_config, tmp_path):
+    # scenario.length_m (1500 m) would hold the window and margin (500 m + 300 m); the route (about 750 m) does not
+    short = on(small_config.with_overrides({"env": {"end_margin_m": 300.0}}), two_edges(tmp_path, length_m=150.0))
+    with pytest.raises(ConfigError, match=r"\(800 m\) must be shorter than scenario\.route \(7\d\d m long in "
+                                          r"road\.net\.xml\)"):
+        user_network.check_start_window(short.env, network.build(short.scenario))
+    # a route (2600 m) that holds the window, on a config whose scenario.length_m (600 m) would not
+    long = on(small_config.with_overrides({"scenario": {"length_m": 600.0}, "env": {"end_margin_m": 50.0}}),
+              two_edges(tmp_path, length_m=2000.0))
+    user_network.check_start_window(long.env, network.build(long.scenario))
+
+
+@pytest.mark.parametrize("setting", ["network", "route", "traffic_file"])
+def test_a_users_road_settings_with_a_generated_road_are_refused(small_config, setting):
+    with pytest.raises(ConfigError, match=rf"scenario\.{setting} only serves scenario\.kind network, not merge; drop"):
+        small_config.with_overrides({"scenario": {"kind": "merge", "feature_at_m": 750.0, setting: "x"}})
+
+
+def test_an_edge_the_ego_may_not_use_is_named_before_any_work(small_config, tmp_path):
+    bus_only = on(small_config, two_edges(tmp_path, first='numLanes="2" allow="bus"'))
+    with pytest.raises(ConfigError, match=r"edge 'first' in road\.net\.xml has no lane a passenger car may use"):
+        network.build(bus_only.scenario)
+
+
+def test_lanes_advice_is_never_a_value_that_is_then_refused(small_config, tmp_path):
+    wide = on(small_config, two_edges(tmp_path, first='numLanes="12"'))
+    with pytest.raises(ConfigError, match=r"has 12 lanes; scenario\.lanes must be between 1 and 10") as error:
+        network.build(wide.scenario)
+    assert "--set" not in str(error.value)
+
+
+def test_a_route_with_a_traffic_light_is_refused(small_config, tmp_path):
+    lit = on(small_config, two_edges(tmp_path, node="traffic_light"))
+    with pytest.raises(ConfigError, match=r"edge 'first' in road\.net\.xml ends at a traffic light"):
+        network.build(lit.scenario)
+
+
+def test_a_traffic_file_that_leaves_the_road_empty_is_refused(small_config, tmp_path):
+    net = two_edges(tmp_path)
+    (tmp_path / "net_as_traffic.xml").write_bytes(net.read_bytes())
+    with pytest.raises(ConfigError, match=r"net_as_traffic\.xml is not a SUMO route file"):
+        network.build(on(small_config, net, traffic_file=str(tmp_path / "net_as_traffic.xml")).scenario)
+    # the small config's warm-up and snapshots last 120 s + 3 x 10 s
+    (tmp_path / "early.rou.xml").write_text(ROUTES.format(type="mine", end=149))
+    with pytest.raises(ConfigError, match=r"departs its last vehicle at 149 s, before the warm-up and its "
+                                          r"snapshots end at 150 s, so the road would be empty"):
+        network.build(on(small_config, net, traffic_file=str(tmp_path / "early.rou.xml")).scenario)
+    (tmp_path / "enough.rou.xml").write_text(ROUTES.format(type="mine", end=150))
+    network.build(on(small_config, net, traffic_file=str(tmp_path / "enough.rou.xml")).scenario)
+
+
+@pytest.mark.parametrize("vehicle_type", ["car", "truck", "traffic"])
+def test_a_traffic_file_may_define_or_use_the_built_in_type_names(small_config, tmp_path, vehicle_type):
+    net = two_edges(tmp_path)
+    (tmp_path / "own.rou.xml").write_text(ROUTES.format(type=vehicle_type, end=1000))
+    network.build(on(small_config, net, traffic_file=str(tmp_path / "own.rou.xml")).scenario)
+    used = ROUTES.format(type="unused", end=1000).replace('type="unused"', f'type="{vehicle_type}"')
+    (tmp_path / "uses.rou.xml").write_text(used)
+    network.build(on(small_config, net, traffic_file=str(tmp_path / "uses.rou.xml")).scenario)
+
+
+def test_a_compressed_network_is_taken_and_a_sumo_configuration_is_refused(small_config, tmp_path):
+    net = two_edges(tmp_path)
+    packed = tmp_path / "road.net.xml.gz"
+    packed.write_bytes(gzip.compress(net.read_bytes()))
+    assert network.build(on(small_config, packed).scenario).net_file == packed
+    (tmp_path / "run.sumocfg").write_text('<configuration><input><net-file value="road.net.xml"/>'
+                                          '<route-files value="cars.rou.xml"/></input></configuration>')
+    with pytest.raises(ConfigError, match=r"run\.sumocfg is a SUMO configuration, not a network: give its net-file "
+                                          r"\(road\.net\.xml\) as scenario\.network and its route-files "
+                                          r"\(cars\.rou\.xml\) as scenario\.traffic_file$"):
+        network.build(on(small_config, tmp_path / "run.sumocfg").scenario)
+
+
+def test_a_users_files_are_found_from_the_toml_kept_absolute_and_pinned_by_their_hash(small_config, tmp_path,
+                                                                                       monkeypatch):
+    from sumo_rail_cli.settings import resolve_config
+
+    from sumo_rail.datasets import file_sha256
+    from sumo_rail.learning.run_folder import RunError, check_resumable, start_run_folder
+    from sumo_rail.runners.tables import ROAD_FILES, provenance
+
+    road = tmp_path / "road"
+    road.mkdir()
+    net = two_edges(road)
+    (road / "cars.rou.xml").write_text(ROUTES.format(type="car", end=1e6))
+    (road / "road.toml").write_text('[scenario]\nkind = "network"\nnetwork = "road.net.xml"\nroute = "first second"\n'
+                                    'lanes = 2\ntraffic_file = "cars.rou.xml"\n')
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    monkeypatch.chdir(elsewhere)
+    config = resolve_config("paper", Path("../road/road.toml"), ())
+    assert config.scenario.network == str(net) and config.scenario.traffic_file == str(road / "cars.rou.xml")
+    record = {"settings": {}, **provenance("training_run", config, 0)}
+    cars = road / "cars.rou.xml"
+    assert record[ROAD_FILES] == {str(net): file_sha256(net), str(cars): file_sha256(cars)}
+    start_run_folder(tmp_path / "run", record)
+    (tmp_path / "run" / "checkpoint.pt").write_bytes(b"")
+    check_resumable(tmp_path / "run", "checkpoint.pt", record)
+    net.write_bytes(net.read_bytes().replace(b'speed="30.00"', b'speed="20.00"'))
+    changed = {"settings": {}, **provenance("training_run", config, 0)}
+    with pytest.raises(RunError, match=rf"{net} has changed since run .* was started on it"):
+        check_resumable(tmp_path / "run", "checkpoint.pt", changed)
+
+
+def test_the_set_point_keeps_to_a_slower_roads_limit_and_its_reward_is_full_there(small_config, tmp_path):
+    from sumo_rail.sim.actions import Action
+    from sumo_rail.sim.env import HighwayEnv
+
+    net = two_edges(tmp_path, length_m=1500.0)
+    net.write_bytes(net.read_bytes().replace(b'speed="30.00"', b'speed="20.00"'))
+    config = on(small_config, net, flow_veh_per_h=100.0)
+    assert config.env.v_max_mps > 20.0
+    env = HighwayEnv(config)
+    try:
+        env.reset(seed=0)
+        infos = [env.step(int(Action.ACCELERATE))[4] for _ in range(30)]
+    finally:
+        env.close()
+    assert max(info["set_point_mps"] for info in infos) == 20.0
+    fast = [info for info in infos if info["speed_mps"] >= 19.9]
+    assert fast and all(info["reward_longitudinal"] == 1.0 for info in fast)
+    assert max(info["speed_mps"] for info in infos) < 20.5
+
+
+def test_a_route_slower_than_the_lowest_set_point_is_refused(small_config, tmp_path):
+    net = two_edges(tmp_path)
+    net.write_bytes(net.read_bytes().replace(b'speed="30.00"', b'speed="8.00"'))
+    config = on(small_config, net)
+    with pytest.raises(ConfigError, match=r"speed limit in road\.net\.xml \(8 m/s\) must be above env\.v_min_mps"):
+        user_network.check_start_window(config.env, network.build(config.scenario))
+
+
+def test_the_docs_name_netconvert_the_projects_type_names_and_how_long_user_traffic_must_run():
+    import xml.etree.ElementTree as ElementTree
+
+    from sumo_rail.sim import scenarios
+
+    docs = (Path(__file__).parents[2] / "docs" / "scenarios.md").read_text()
+    assert ".venv/bin/netconvert" in docs
+    types = ElementTree.parse(network.sources_dir() / scenarios.VEHICLE_TYPES_FILE).getroot()
+    for element in [*types.iter("vType"), *types.iter("vTypeDistribution")]:
+        assert f"`{element.get('id')}`" in docs
+    defaults = Config().scenario
+    needed = defaults.warmup_s + defaults.snapshots * defaults.snapshot_interval_s
+    assert f"{defaults.warmup_s:g} + {defaults.snapshots} x {defaults.snapshot_interval_s:g} = {needed:g} s" in docs
