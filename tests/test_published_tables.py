@@ -49,6 +49,8 @@ REGENERATED: dict[str, list[str]] = {
     "observation_study/table.md": ["experiments/observation_table.py", f"@{R}/observation_study", *DESIGNS],
     "style_fidelity/table.md": ["experiments/style_table.py", f"{R}/style_fidelity/test.parquet"],
     "bc_class_balance/table.md": ["experiments/bc_class_balance_table.py", f"{R}/bc_class_balance/validation.parquet"],
+    "human_likeness/table.md": ["experiments/human_likeness_open_loop.py", "table",
+                                f"{R}/human_likeness/open_loop.parquet"],
     "ppo_expert/lane_change_context.md": ["experiments/lane_change_context.py",
                                           f"{R}/ppo_expert/test_ppo_expert.decisions.parquet"],
     "ars_reference/table.md": ["experiments/ars_reference.py", "--seeds", "0", "1", "2", "3", "4",
