@@ -1,92 +1,102 @@
-"""One driving score per episode, built as nuPlan's closed-loop score (nuplan-devkit's metric configs): gates that
-multiply (at-fault collisions, leaving the road, making progress) times a weighted mean of progress, time to
-collision, speed-limit compliance and comfort. Each term is in docs/replay.md."""
+"""One driving score per episode, built as nuPlan's closed-loop score (nuplan-devkit, docs/metrics_description.md and
+the simulation metric config; Caesar et al., "nuPlan", 2021; Karnchanachari et al., ICRA 2024):
+
+    score = no_collision x on_road x route_completed x making_progress
+            x (5 progress + 5 ttc_compliant + 4 speed_limit_compliance + 2 comfortable) / 16
+
+Gates (0 or 1, multiplying):
+- no_collision: nuPlan's no_ego_at_fault_collisions. The env does not say who caused a collision, so every
+  collision of the ego counts as at fault (nuPlan gives 0.5 for a collision with a static object; there are none).
+- on_road: nuPlan's drivable_area_compliance. The env refuses a lane change off the road (an invalid action that
+  does nothing), so its ego cannot leave the road: 1 unless the metrics have a boolean `off_road` column (a
+  recorded scene may set it).
+- route_completed: the failed manoeuvre, nuPlan's driving along the route: 0 after a missed exit or a stop at a lane
+  end (`sumo_rail.sim.route_progress`).
+- making_progress: nuPlan's ego_is_making_progress: the progress ratio at least `MIN_PROGRESS_RATIO`.
+Weighted terms (weights 5, 5, 4, 2: nuPlan's ego_progress_along_expert_route, time_to_collision_within_bound,
+speed_limit_compliance, ego_is_comfortable):
+- progress: the distance driven over the reference's in the same episode (the expert's, or the human's in a recorded
+  scene), capped at 1; 1 when the reference did not move.
+- ttc_compliant: no decision with a time to collision below nuPlan's least_min_ttc, `TTC_BOUND_S` (from the episode's
+  `min_ttc_s`, read at every decision rather than nuPlan's 0.1 s steps).
+- speed_limit_compliance: 1 - (time-mean overspeed) / `MAX_OVERSPEED_MPS`, floored at 0, as nuPlan's; the overspeed
+  is the ego's speed above the road's limit at each decision.
+- comfortable: nuPlan's ego_is_comfortable on what the env reads: the longitudinal deceleration within nuPlan's
+  -4.05 m/s^2 (the env's `hard_braking` count, at its threshold `env.hard_brake_mps2`, 4 m/s^2 by default), and the
+  longitudinal jerk within `MAX_ABS_LON_JERK_MPS3`, taken on the episode's mean absolute jerk `jerk_mean_mps3`:
+  SUMO sets a new acceleration at every 0.1 s step without actuator dynamics, so the step-to-step maximum
+  (`jerk_max_mps3`, some 56 m/s^3 for the expert) is not comparable with nuPlan's jerk, which is smoothed
+  (Savitzky-Golay) first. Lateral acceleration, yaw rate and yaw acceleration (nuPlan's other comfort limits) have no
+  reading in the env (a SUMO lane change has no lateral dynamics) and are left out, as is the upper acceleration
+  limit (2.40 m/s^2: no per-episode reading).
+"""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
+import pandas as pd
 
-MIN_LON_ACCEL_MPS2 = -4.05
-"""nuPlan's ego_lon_acceleration min_lon_accel [m/s^2]."""
-MAX_LON_ACCEL_MPS2 = 2.40
-"""nuPlan's ego_lon_acceleration max_lon_accel [m/s^2]."""
-MAX_ABS_LON_JERK_MPS3 = 4.13
-"""nuPlan's ego_lon_jerk max_abs_lon_jerk [m/s^3]."""
-MAX_ABS_JERK_MPS3 = 8.37
-"""nuPlan's ego_jerk max_abs_mag_jerk [m/s^3] (here the jerk along the heading: SUMO's lateral motion is a lane
-change of fixed duration, so the magnitude is the longitudinal one)."""
-LEAST_MIN_TTC_S = 0.95
-"""nuPlan's time_to_collision_within_bound least_min_ttc [s]."""
+TTC_BOUND_S = 0.95
+"""nuPlan's least_min_ttc: a time to collision below this fails time_to_collision_within_bound [s]."""
 MAX_OVERSPEED_MPS = 2.23
-"""nuPlan's speed_limit_compliance max_overspeed_value_threshold [m/s]."""
+"""nuPlan's max_overspeed_value_threshold: a time-mean overspeed of this scores 0 [m/s]."""
+MAX_ABS_LON_JERK_MPS3 = 4.13
+"""nuPlan's max_abs_lon_jerk [m/s^3]."""
+MIN_LON_ACCEL_MPS2 = -4.05
+"""nuPlan's min_lon_accel (read through the env's hard braking count) [m/s^2]."""
 MIN_PROGRESS_RATIO = 0.2
-"""nuPlan's ego_is_making_progress min_progress_threshold (share of the expert's progress)."""
-PROGRESS_DISTANCE_THRESHOLD_M = 2.0
-"""nuPlan's ego_progress_along_expert_route score_progress_threshold [m]: below it the expert barely moved and the
-progress term is 1."""
-WEIGHTS = {"progress": 5.0, "ttc": 5.0, "speed_limit": 4.0, "comfort": 2.0}
-"""nuPlan's weights of the averaged terms."""
+"""nuPlan's ego_is_making_progress threshold on the progress ratio."""
+WEIGHTS = {"progress": 5.0, "ttc_compliant": 5.0, "speed_limit_compliance": 4.0, "comfortable": 2.0}
+"""nuPlan's weights of the closed-loop score's weighted mean."""
+GATES = ("no_collision", "on_road", "route_completed", "making_progress")
+SCORE_COLUMNS = ("driving_score", *GATES, *WEIGHTS)
+"""Episode columns of the driving score and its parts, in table order."""
 
 
-@dataclass(frozen=True)
-class EpisodeDriving:
-    """What the score needs from one closed-loop episode of the ego (per-step arrays at the simulation step)."""
-
-    step_length_s: float
-    speed_mps: np.ndarray
-    acceleration_mps2: np.ndarray
-    speed_limit_mps: float
-    min_ttc_s: float
-    """The smallest time to collision with the vehicle ahead over the episode [s] (inf: never closing in)."""
-    progress_m: float
-    """The ego's distance along the road [m]."""
-    reference_progress_m: float
-    """The human's (or the reference driver's) distance along the road over the same time [m]."""
-    at_fault_collision: bool
-    """The ego rear-ended someone or changed lanes into them."""
-    left_road: bool
-
-
-def comfortable(acceleration_mps2: np.ndarray, step_length_s: float) -> bool:
-    """nuPlan's ego_is_comfortable on the longitudinal motion: acceleration and jerk within the published bounds."""
-    acceleration = np.asarray(acceleration_mps2, dtype=float)
-    jerk = np.diff(acceleration) / step_length_s if acceleration.size > 1 else np.zeros(0)
-    return bool(acceleration.size == 0 or (acceleration.min() >= MIN_LON_ACCEL_MPS2
-                                           and acceleration.max() <= MAX_LON_ACCEL_MPS2
-                                           and np.all(np.abs(jerk) <= min(MAX_ABS_LON_JERK_MPS3,
-                                                                          MAX_ABS_JERK_MPS3))))
-
-
-def speed_limit_score(speed_mps: np.ndarray, speed_limit_mps: float, step_length_s: float) -> float:
-    """1 - the time integral of the speed above the limit over (MAX_OVERSPEED_MPS x the episode's duration), >= 0."""
-    speed = np.asarray(speed_mps, dtype=float)
-    if speed.size == 0:
-        return 1.0
-    over = np.clip(speed - speed_limit_mps, 0.0, None).sum() * step_length_s
-    return float(max(0.0, 1.0 - over / (MAX_OVERSPEED_MPS * speed.size * step_length_s)))
-
-
-def progress_ratio(progress_m: float, reference_progress_m: float) -> float:
-    """The ego's progress over the reference's, in [0, 1]; 1 where the reference moved less than the threshold."""
-    if reference_progress_m < PROGRESS_DISTANCE_THRESHOLD_M:
-        return 1.0
-    return float(min(max(progress_m / reference_progress_m, 0.0), 1.0))
-
-
-def driving_score(episode: EpisodeDriving) -> dict[str, float]:
-    """The score and each of its parts (gates in {0, 1}, terms in [0, 1])."""
-    progress = progress_ratio(episode.progress_m, episode.reference_progress_m)
+def driving_scores(episodes: pd.DataFrame, reference_distance_m: np.ndarray,
+                   mean_overspeed_mps: np.ndarray) -> pd.DataFrame:
+    """SCORE_COLUMNS for each episode of `episodes` (metrics rows with `collisions`, `missed_exits`,
+    `lane_end_stops`, `distance_m`, `min_ttc_s`, `hard_braking`, `jerk_mean_mps3`, optionally `off_road`), given the
+    reference's distance in the same episode [m] and the ego's time-mean speed above the limit [m/s]."""
+    distance = episodes["distance_m"].to_numpy(dtype=float)
+    reference = np.asarray(reference_distance_m, dtype=float)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        progress = np.where(reference > 0, np.clip(distance / reference, 0.0, 1.0), 1.0)
+    off_road = episodes["off_road"].to_numpy(dtype=bool) if "off_road" in episodes else np.zeros(len(episodes), bool)
     parts = {
-        "no_at_fault_collision": 0.0 if episode.at_fault_collision else 1.0,
-        "on_road": 0.0 if episode.left_road else 1.0,
-        "making_progress": 1.0 if progress >= MIN_PROGRESS_RATIO else 0.0,
+        "no_collision": episodes["collisions"].to_numpy() == 0,
+        "on_road": ~off_road,
+        "route_completed": (episodes["missed_exits"].to_numpy() + episodes["lane_end_stops"].to_numpy()) == 0,
+        "making_progress": progress >= MIN_PROGRESS_RATIO,
         "progress": progress,
-        "ttc": 1.0 if episode.min_ttc_s >= LEAST_MIN_TTC_S else 0.0,
-        "speed_limit": speed_limit_score(episode.speed_mps, episode.speed_limit_mps, episode.step_length_s),
-        "comfort": 1.0 if comfortable(episode.acceleration_mps2, episode.step_length_s) else 0.0,
+        "ttc_compliant": episodes["min_ttc_s"].to_numpy(dtype=float) >= TTC_BOUND_S,
+        "speed_limit_compliance": np.clip(1.0 - np.asarray(mean_overspeed_mps, dtype=float) / MAX_OVERSPEED_MPS,
+                                          0.0, 1.0),
+        "comfortable": (episodes["hard_braking"].to_numpy() == 0)
+        & (episodes["jerk_mean_mps3"].to_numpy(dtype=float) <= MAX_ABS_LON_JERK_MPS3),
     }
-    gates = parts["no_at_fault_collision"] * parts["on_road"] * parts["making_progress"]
-    mean = sum(weight * parts[name] for name, weight in WEIGHTS.items()) / sum(WEIGHTS.values())
-    return {"driving_score": gates * mean, **parts}
+    frame = pd.DataFrame({name: np.asarray(values, dtype=float) for name, values in parts.items()},
+                         index=episodes.index)
+    weighted = sum(weight * frame[name] for name, weight in WEIGHTS.items()) / sum(WEIGHTS.values())
+    frame.insert(0, "driving_score", frame[list(GATES)].prod(axis=1) * weighted)
+    return frame[list(SCORE_COLUMNS)]
+
+
+def reference_distances(metrics: pd.DataFrame) -> np.ndarray:
+    """Each episode's reference distance [m]: that of the driver its `reference` column names (the expert it was
+    compared with) on the same seed, where that driver was evaluated; else the longest any evaluated driver drove on
+    that seed (a reference nobody beats, as NAVSIM's PDM score takes the best of ego and PDM-Closed)."""
+    by_driver = metrics.groupby(["policy", "seed"])["distance_m"].first()
+    best = metrics.groupby("seed")["distance_m"].max()
+    named = metrics["reference"] if "reference" in metrics else pd.Series(None, index=metrics.index, dtype=object)
+    return np.array([by_driver.get((reference, seed), best[seed]) if isinstance(reference, str) else best[seed]
+                     for reference, seed in zip(named, metrics["seed"], strict=True)], dtype=float)
+
+
+def mean_overspeed(decisions: pd.DataFrame, metrics: pd.DataFrame, speed_limit_mps: float) -> np.ndarray:
+    """Each metrics row's time-mean speed above `speed_limit_mps` over its decisions (`speed_mps`, evenly spaced)
+    [m/s], matched on (policy, episode); 0 for an episode without decisions."""
+    over = (decisions["speed_mps"] - speed_limit_mps).clip(lower=0.0)
+    means = over.groupby([decisions["policy"], decisions["episode"]]).mean()
+    return np.array([means.get((policy, episode), 0.0)
+                     for policy, episode in zip(metrics["policy"], metrics["episode"], strict=True)], dtype=float)

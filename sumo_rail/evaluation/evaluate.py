@@ -15,6 +15,7 @@ import pyarrow as pa
 from sumo_rail.config import Config
 from sumo_rail.datasets import write_parquet
 from sumo_rail.drivers.expert import DEFAULT_STYLE, STYLES
+from sumo_rail.evaluation.driving_score import SCORE_COLUMNS, driving_scores, mean_overspeed, reference_distances
 from sumo_rail.evaluation.fidelity import CONFUSION_COLUMNS, DECISION_FIELDS, RATE_COLUMNS, DecisionProbe
 from sumo_rail.evaluation.safety import SAFETY_DECISION_FIELDS, SAFETY_MEASURES, SafetyProbe
 from sumo_rail.runners.backends import RolloutBackend, WorkerContext
@@ -47,8 +48,10 @@ DEFAULT_REFERENCE = ExpertDriver(DEFAULT_STYLE)
 FIDELITY_TYPES: dict[str, pa.DataType] = {
     "reference": pa.string(), **{name: pa.int32() for name in CONFUSION_COLUMNS},
     **{name: pa.float64() for name in RATE_COLUMNS}, **{name: pa.float64() for name in SAFETY_MEASURES},
+    **{name: pa.float64() for name in SCORE_COLUMNS},
 }
-"""Metrics columns added by the on-policy comparison with the reference expert and the safety measures."""
+"""Metrics columns added by the on-policy comparison with the reference expert, the safety measures and the driving
+score with its parts (`sumo_rail.evaluation.driving_score`)."""
 DECISIONS = "decisions"
 _DECISION_KEYS: dict[str, pa.DataType] = {"policy": pa.string(), "episode": pa.int32(), "seed": pa.int64(),
                                           "step": pa.int32()}
@@ -131,7 +134,11 @@ def evaluate(drivers: Sequence[DriverSpec], config: Config, seeds: Sequence[int]
         decisions.append(pd.DataFrame({**{key: np.full(steps, value) for key, value in keys.items()},
                                        "step": np.arange(steps), **result.decisions}))
     metrics = pd.DataFrame(rows, columns=[*METRIC_COLUMNS, *FIDELITY_TYPES])
-    return Evaluation(metrics, pd.concat(decisions, ignore_index=True)[list(DECISION_TYPES)], videos)
+    decisions_frame = pd.concat(decisions, ignore_index=True)[list(DECISION_TYPES)]
+    metrics[list(SCORE_COLUMNS)] = driving_scores(
+        metrics, reference_distances(metrics),
+        mean_overspeed(decisions_frame, metrics, config.scenario.speed_limit_mps))
+    return Evaluation(metrics, decisions_frame, videos)
 
 
 def recorded_reference(driver: DriverSpec, source: str, config: Config,

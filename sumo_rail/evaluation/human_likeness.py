@@ -1,39 +1,85 @@
-"""How a learner's driving in recorded scenes is distributed against the humans': Wasserstein-1 distances with a
-bootstrap interval that resamples whole vehicles (a vehicle's values are not independent draws)."""
+"""How human a driver is in a recorded scene: how far its track drifts from the human's it replaced, and how far its
+distributions (speeds, accelerations, headways, lane-change gaps) are from the humans'.
+
+A track is a table with columns `time_s` [s], `x_m` and `y_m` [m] (positions in the recording's plane), time
+increasing. The position error at horizon h is the distance between the driven and the reference track h seconds
+after the reference's start, both interpolated linearly in time (the displacement error of nuPlan's open-loop and
+Waymax's log metrics, at one instant); undefined (NaN) when either track ends earlier (the driven one after a
+collision, say). Distributions are compared with the Wasserstein-1 distance (in the quantity's own unit), and its
+interval comes from a bootstrap that resamples whole vehicles or episodes: values of one vehicle are not independent.
+"""
 
 from __future__ import annotations
 
 from collections.abc import Sequence
 
 import numpy as np
+import pandas as pd
 from scipy.stats import wasserstein_distance
 
-from sumo_rail.evaluation.statistics import CONFIDENCE, RESAMPLES, Interval
+from sumo_rail.evaluation.statistics import CONFIDENCE, RESAMPLES, Interval, interval, mean_sample
+
+HORIZONS_S = (1.0, 5.0, 10.0)
+"""Horizons of the position error [s]."""
 
 
-def _pooled(per_vehicle: Sequence[np.ndarray], chosen: np.ndarray) -> np.ndarray:
-    values = [np.asarray(per_vehicle[i], dtype=float) for i in chosen]
-    pooled = np.concatenate(values) if values else np.zeros(0)
-    return pooled[np.isfinite(pooled)]
+def position_at(track: pd.DataFrame, time_s: float) -> np.ndarray:
+    """The track's (x, y) [m] at `time_s` [s], linearly interpolated; NaNs outside the track's time span."""
+    times = track["time_s"].to_numpy(dtype=float)
+    if len(times) == 0 or not times[0] <= time_s <= times[-1]:
+        return np.full(2, np.nan)
+    return np.array([np.interp(time_s, times, track[axis].to_numpy(dtype=float)) for axis in ("x_m", "y_m")])
 
 
-def wasserstein_interval(learner: Sequence[np.ndarray], human: Sequence[np.ndarray], seed: int = 0,
+def position_errors(driven: pd.DataFrame, reference: pd.DataFrame,
+                    horizons_s: Sequence[float] = HORIZONS_S) -> np.ndarray:
+    """The distance [m] between `driven` and `reference` at each horizon [s] after the reference's start; NaN where
+    either track has ended."""
+    if reference.empty:
+        raise ValueError("the reference track is empty")
+    start = float(reference["time_s"].iloc[0])
+    return np.array([float(np.hypot(*(position_at(driven, start + h) - position_at(reference, start + h))))
+                     for h in horizons_s])
+
+
+def position_error_intervals(pairs: Sequence[tuple[pd.DataFrame, pd.DataFrame]], seed: int = 0,
+                             horizons_s: Sequence[float] = HORIZONS_S) -> dict[float, Interval]:
+    """Per horizon [s], the mean position error [m] over the episodes (driven, reference) whose tracks both reach it,
+    with its 95% bootstrap interval over episodes (`statistics.interval`); NaN without any."""
+    errors = np.array([position_errors(driven, reference, horizons_s) for driven, reference in pairs],
+                      dtype=float).reshape(len(pairs), len(horizons_s))
+    result = {}
+    for column, horizon in enumerate(horizons_s):
+        reached = errors[:, column][~np.isnan(errors[:, column])]
+        result[float(horizon)] = (interval(mean_sample(reached), seed) if len(reached)
+                                  else Interval(np.nan, np.nan, np.nan))
+    return result
+
+
+def wasserstein(ours: np.ndarray, theirs: np.ndarray) -> float:
+    """Wasserstein-1 distance between two samples (NaNs left out), in their unit; NaN when either is empty."""
+    ours, theirs = (np.asarray(values, dtype=float) for values in (ours, theirs))
+    ours, theirs = ours[~np.isnan(ours)], theirs[~np.isnan(theirs)]
+    return float(wasserstein_distance(ours, theirs)) if len(ours) and len(theirs) else np.nan
+
+
+def wasserstein_interval(ours: Sequence[np.ndarray], theirs: Sequence[np.ndarray], seed: int = 0,
                          resamples: int = RESAMPLES) -> Interval:
-    """W1 between the pooled finite values of the learner's vehicles and the humans' (each a list with one array
-    per vehicle, in the quantity's unit), with a percentile interval from resampling the vehicles of each side
-    with replacement; NaN where a side has no value."""
-    everyone = (np.arange(len(learner)), np.arange(len(human)))
-    ours, theirs = _pooled(learner, everyone[0]), _pooled(human, everyone[1])
-    if ours.size == 0 or theirs.size == 0:
-        return Interval(np.nan, np.nan, np.nan)
-    estimate = float(wasserstein_distance(ours, theirs))
+    """The Wasserstein-1 distance between two samples given in groups (one array per vehicle or episode), with a
+    95% percentile interval from resampling whole groups of each side with replacement (`resamples` times, seeded:
+    the same input gives the same interval). NaN bounds with fewer than two groups on a side."""
+    ours, theirs = ([np.asarray(group, dtype=float) for group in side] for side in (ours, theirs))
+    estimate = wasserstein(_joined(ours), _joined(theirs))
+    if min(len(ours), len(theirs)) < 2 or np.isnan(estimate):
+        return Interval(estimate, np.nan, np.nan)
     rng = np.random.default_rng(seed)
-    draws = []
-    for _ in range(resamples):
-        ours = _pooled(learner, rng.integers(len(learner), size=len(learner)))
-        theirs = _pooled(human, rng.integers(len(human), size=len(human)))
-        if ours.size and theirs.size:
-            draws.append(wasserstein_distance(ours, theirs))
+    draws = np.array([wasserstein(_joined([ours[k] for k in rng.integers(len(ours), size=len(ours))]),
+                                  _joined([theirs[k] for k in rng.integers(len(theirs), size=len(theirs))]))
+                      for _ in range(resamples)])
     tail = 50 * (1 - CONFIDENCE)
-    low, high = np.percentile(draws, [tail, 100 - tail]) if draws else (np.nan, np.nan)
+    low, high = np.nanpercentile(draws, [tail, 100 - tail])
     return Interval(estimate, float(low), float(high))
+
+
+def _joined(groups: Sequence[np.ndarray]) -> np.ndarray:
+    return np.concatenate(groups) if groups else np.empty(0)

@@ -6,6 +6,7 @@ from __future__ import annotations
 import pandas as pd
 
 from sumo_rail.evaluation.distributions import distance_table
+from sumo_rail.evaluation.driving_score import SCORE_COLUMNS
 from sumo_rail.evaluation.fidelity import CONFUSION_COLUMNS, RATES, agreement_counts
 from sumo_rail.evaluation.safety import SAFETY_MEASURES
 from sumo_rail.evaluation.statistics import (
@@ -27,9 +28,9 @@ ends the episode: the share of episodes that failed), merges per episode and the
 lane-end stops per episode; summarised for every road with a feature (`route=True`: a missed exit counts even where
 every episode left the road well), and elsewhere where an episode merged or failed (none on the straight road but
 collisions, which have their own row)."""
-MEASURES = (*RATES, *EPISODE_MEASURES, *ROUTE_MEASURES, *SAFETY_MEASURES)
+MEASURES = (*RATES, *EPISODE_MEASURES, *ROUTE_MEASURES, *SAFETY_MEASURES, *SCORE_COLUMNS)
 """Rows of the summary: the agreement rates (pooled over decisions) first, then the episode means (the safety
-measures where a metrics file has them: files written before them do not)."""
+measures and the driving score with its parts where a metrics file has them: files written before them do not)."""
 DETECTABLE = "*"
 
 
@@ -40,8 +41,8 @@ def measure_samples(episodes: pd.DataFrame, route: bool = False) -> dict[str, Sa
     if set(CONFUSION_COLUMNS) <= set(episodes.columns):
         counts = agreement_counts(episodes[list(CONFUSION_COLUMNS)].to_numpy().reshape(-1, 5, 5))
         samples |= {name: (counts[top], counts[bottom]) for name, (top, bottom) in RATES.items()}
-    samples |= {name: mean_sample(episodes[name].to_numpy()) for name in (*EPISODE_MEASURES, *SAFETY_MEASURES)
-                if name in episodes}
+    samples |= {name: mean_sample(episodes[name].to_numpy()) for name in (*EPISODE_MEASURES, *SAFETY_MEASURES,
+                                                                          *SCORE_COLUMNS) if name in episodes}
     return samples | route_samples(episodes, route)
 
 

@@ -1,32 +1,64 @@
-"""Wasserstein distance between learners and humans, with an interval over vehicles."""
-
-from __future__ import annotations
-
 import numpy as np
+import pandas as pd
+import pytest
 
-from sumo_rail.evaluation.human_likeness import wasserstein_interval
-
-
-def test_shifted_distribution_is_its_shift_and_inside_the_interval():
-    rng = np.random.default_rng(0)
-    human = [rng.normal(25.0, 2.0, 50) for _ in range(30)]
-    learner = [values + 3.0 for values in human]
-    result = wasserstein_interval(learner, human, resamples=200)
-    assert abs(result.estimate - 3.0) < 1e-9
-    assert result.low <= result.estimate <= result.high
-    assert result.low > 2.0
+from sumo_rail.evaluation.human_likeness import (
+    position_error_intervals,
+    position_errors,
+    wasserstein,
+    wasserstein_interval,
+)
 
 
-def test_interval_widens_with_fewer_vehicles():
+def _track(start_s: float, seconds: float, x0: float = 0.0, y0: float = 0.0, speed: float = 30.0) -> pd.DataFrame:
+    times = start_s + np.arange(0.0, seconds + 1e-9, 0.04)  # highD's 25 Hz
+    return pd.DataFrame({"time_s": times, "x_m": x0 + speed * (times - start_s), "y_m": np.full(len(times), y0)})
+
+
+def test_a_constant_offset_track_gives_that_offset_at_every_horizon():
+    human = _track(100.0, 12.0)
+    beside = _track(100.0, 12.0, x0=3.0, y0=4.0)  # 3 m ahead, 4 m across: 5 m
+    assert position_errors(beside, human) == pytest.approx([5.0, 5.0, 5.0])
+    assert position_errors(human, human).tolist() == [0.0, 0.0, 0.0]
+
+
+def test_a_slower_track_drifts_in_proportion_and_an_ended_track_has_no_error():
+    human = _track(0.0, 12.0, speed=30.0)
+    slower = _track(0.0, 12.0, speed=28.0)  # 2 m/s slower: 2, 10, 20 m behind
+    assert position_errors(slower, human) == pytest.approx([2.0, 10.0, 20.0])
+    crashed = _track(0.0, 3.0)
+    errors = position_errors(crashed, human)
+    assert errors[0] == 0.0 and np.isnan(errors[1:]).all()
+
+
+def test_errors_over_episodes_have_their_mean_and_interval():
+    human = _track(0.0, 12.0)
+    pairs = [(_track(0.0, 12.0, y0=offset), human) for offset in (1.0, 2.0, 3.0, 4.0)] + [(_track(0.0, 3.0), human)]
+    found = position_error_intervals(pairs, seed=3)
+    assert found[1.0].estimate == pytest.approx((1 + 2 + 3 + 4 + 0) / 5)
+    assert found[10.0].estimate == pytest.approx(2.5)  # the ended track left out
+    assert 1.0 <= found[10.0].low < 2.5 < found[10.0].high <= 4.0
+    assert position_error_intervals(pairs, seed=3) == found  # seeded
+
+
+def test_wasserstein_of_identical_and_shifted_samples():
+    speeds = np.random.default_rng(0).normal(30.0, 3.0, 500)
+    assert wasserstein(speeds, speeds) == 0.0
+    assert wasserstein(speeds + 1.5, speeds) == pytest.approx(1.5)
+    assert np.isnan(wasserstein(np.array([np.nan]), speeds))
+
+
+def test_the_bootstrap_resamples_whole_vehicles_and_is_reproducible():
     rng = np.random.default_rng(1)
-    many = [rng.normal(rng.normal(25.0, 3.0), 1.0, 20) for _ in range(60)]
-    few = many[:6]
-    wide = wasserstein_interval(few, [v + 1.0 for v in few], resamples=200, seed=2)
-    narrow = wasserstein_interval(many, [v + 1.0 for v in many], resamples=200, seed=2)
-    assert (wide.high - wide.low) > (narrow.high - narrow.low)
-
-
-def test_nan_values_are_left_out_and_empty_side_is_nan():
-    with_nan = [np.array([1.0, np.nan, 2.0])]
-    assert wasserstein_interval(with_nan, [np.array([1.0, 2.0])], resamples=20).estimate == 0.0
-    assert np.isnan(wasserstein_interval([np.array([np.nan])], [np.array([1.0])], resamples=20).estimate)
+    humans = [rng.normal(mean, 1.0, 50) for mean in rng.normal(30.0, 2.0, 40)]
+    shifted = [vehicle + 2.0 for vehicle in humans]
+    found = wasserstein_interval(shifted, humans, seed=5, resamples=400)
+    assert found.estimate == pytest.approx(2.0)
+    assert found.low < 2.0 < found.high
+    assert wasserstein_interval(shifted, humans, seed=5, resamples=400) == found
+    # Vehicles differ more between than within: resampling whole vehicles gives a wider interval than
+    # resampling values one by one would (each value its own group).
+    values = wasserstein_interval([[v] for g in shifted for v in g], [[v] for g in humans for v in g], seed=5,
+                                  resamples=400)
+    assert found.high - found.low > 1.5 * (values.high - values.low)
+    assert np.isnan(wasserstein_interval([shifted[0]], humans).low)
