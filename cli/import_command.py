@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -37,6 +38,19 @@ def _vehicles(value: str | None) -> tuple[str, ...]:
     return tuple(found)
 
 
+def split_options(command: Callable[..., None]) -> Callable[..., None]:
+    """The options of a scene's split by vehicle (import-recording, record-sumo-drivers)."""
+    for option in reversed((
+            click.option("--split-seed", type=click.IntRange(min=0), default=0, show_default=True,
+                         help="Seed of the split by vehicle."),
+            click.option("--test-share", type=FiniteFloat(0, 1, max_open=True), default=0.2, show_default=True,
+                         help="Share of vehicles held out to test."),
+            click.option("--validation-share", type=FiniteFloat(0, 1, max_open=True), default=0.1,
+                         show_default=True, help="Share of vehicles kept for validation."))):
+        command = option(command)
+    return command
+
+
 @click.command("import-recording")
 @config_options
 @click.option("--format", "format_", type=click.Choice(["highd", "ngsim", "fcd"]), required=True,
@@ -54,12 +68,7 @@ def _vehicles(value: str | None) -> tuple[str, ...]:
 @click.option("--vehicles", default=None, metavar="IDS", help="Keep only these source ids: 3,17,20-40.")
 @click.option("--section", default=None, metavar="START:END", help="Keep only the rows whose front x lies in "
               "START..END m (scene coordinates: along the road in the driving direction for highD and NGSIM).")
-@click.option("--split-seed", type=click.IntRange(min=0), default=0, show_default=True,
-              help="Seed of the split by vehicle.")
-@click.option("--test-share", type=FiniteFloat(0, 1, max_open=True), default=0.2, show_default=True,
-              help="Share of vehicles held out to test.")
-@click.option("--validation-share", type=FiniteFloat(0, 1, max_open=True), default=0.1, show_default=True,
-              help="Share of vehicles kept for validation.")
+@split_options
 @click.option("--hold-out-after", "hold_out_after_s", type=FiniteFloat(min=0), default=None, metavar="T",
               help="Split by time instead: vehicles entering at or after T s are the test set.")
 @click.option("--overwrite", is_flag=True, help="Replace a scene already in --out.")

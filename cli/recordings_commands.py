@@ -7,6 +7,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 import click
+from sumo_rail_cli.import_command import split_options
 from sumo_rail_cli.param_types import FiniteFloat
 from sumo_rail_cli.settings import config_options
 
@@ -25,12 +26,7 @@ if TYPE_CHECKING:
               help="Time simulated before recording [s].")
 @click.option("--flow-veh-per-h", type=FiniteFloat(1, 30_000), default=None,
               help="Arrivals [veh/h]  [default: scenario.flow_veh_per_h].")
-@click.option("--split-seed", type=click.IntRange(min=0), default=0, show_default=True,
-              help="Seed of the split by vehicle.")
-@click.option("--test-share", type=FiniteFloat(0, 1, max_open=True), default=0.2, show_default=True,
-              help="Share of vehicles held out to test.")
-@click.option("--validation-share", type=FiniteFloat(0, 1, max_open=True), default=0.1, show_default=True,
-              help="Share of vehicles kept for validation.")
+@split_options
 @click.option("--overwrite", is_flag=True, help="Replace a scene already in --out.")
 def record_sumo_drivers_command(config: Config, out: Path, seed: int, duration_s: float, warmup_s: float,
                                 flow_veh_per_h: float | None, split_seed: int, test_share: float,

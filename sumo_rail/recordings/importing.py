@@ -71,6 +71,17 @@ class ImportSummary:
     split_counts: dict[str, int]
 
 
+def check_scene_output(out: Path, overwrite: bool) -> None:
+    """RecordingUsageError unless a scene folder can be written to `out` (without `overwrite`: holding no scene)."""
+    try:
+        check_output_folder(out)
+    except DatasetError as error:
+        raise RecordingUsageError(str(error)) from error
+    existing = [name for name in (*SCENE_FILES, "road.net.xml") if (out / name).exists()]
+    if existing and not overwrite:
+        raise RecordingUsageError(f"{out} already holds a scene ({existing[0]}); pass --overwrite to replace it")
+
+
 def check_import(settings: ImportSettings) -> NetworkLanes | None:
     """RecordingUsageError for anything wrong before work starts; returns the FCD network's lanes (else None)."""
     if settings.format not in FORMATS:
@@ -82,13 +93,9 @@ def check_import(settings: ImportSettings) -> NetworkLanes | None:
     try:
         for path in settings.files:
             check_file(path, "recording file")
-        check_output_folder(settings.out)
     except DatasetError as error:
         raise RecordingUsageError(str(error)) from error
-    existing = [name for name in (*SCENE_FILES, "road.net.xml") if (settings.out / name).exists()]
-    if existing and not settings.overwrite:
-        raise RecordingUsageError(f"{settings.out} already holds a scene ({existing[0]}); pass --overwrite to "
-                                  f"replace it")
+    check_scene_output(settings.out, settings.overwrite)
     if not 0 <= settings.test_share < 1 or not 0 <= settings.validation_share < 1 or (
             settings.test_share + settings.validation_share >= 1):
         raise RecordingUsageError("--test-share and --validation-share must be in [0, 1) and leave vehicles to train")

@@ -22,8 +22,7 @@ import numpy as np
 import pandas as pd
 
 from sumo_rail.config import Config
-from sumo_rail.datasets import DatasetError, check_output_folder
-from sumo_rail.recordings.importing import SCENE_FILES, SPLITS, split_table, write_scene_folder
+from sumo_rail.recordings.importing import SPLITS, check_scene_output, split_table, write_scene_folder
 from sumo_rail.recordings.road import ROAD_EDGE, ROAD_SPEED_MPS, build_road
 from sumo_rail.recordings.scene import SceneMeta
 from sumo_rail.recordings.tracks import Recording, RecordingDataError, RecordingUsageError, kept_tracks
@@ -160,14 +159,7 @@ def _capture(config: Config, settings: SumoDriversSettings, net_file: Path, scra
 
 def check_recording(settings: SumoDriversSettings) -> None:
     """RecordingUsageError for anything wrong before work starts: the folder, a scene already in it, the shares."""
-    try:
-        check_output_folder(settings.out)
-    except DatasetError as error:
-        raise RecordingUsageError(str(error)) from error
-    existing = [name for name in (*SCENE_FILES, "road.net.xml") if (settings.out / name).exists()]
-    if existing and not settings.overwrite:
-        raise RecordingUsageError(f"{settings.out} already holds a scene ({existing[0]}); pass --overwrite to "
-                                  f"replace it")
+    check_scene_output(settings.out, settings.overwrite)
     if settings.test_share + settings.validation_share >= 1:
         raise RecordingUsageError("--test-share and --validation-share must leave vehicles to train")
 
