@@ -7,6 +7,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import click
+from sumo_rail_cli.demos_options import check_demos
 from sumo_rail_cli.options import (
     backend_options,
     build_backend,
@@ -28,6 +29,7 @@ from sumo_rail_cli.param_types import FiniteFloat
 from sumo_rail_cli.progress import advance_to, complete, progress, start_at
 from sumo_rail_cli.running import (
     bc_summary,
+    failures_summary,
     interruptible_run,
     kept_until_resume,
     tensorboard_logger,
@@ -72,10 +74,10 @@ def record_expert(config: Config, episodes: int, seed: int, workers: int, backen
                                         noise=ActionNoise(dart_noise) if dart_noise else None)
         complete(bar)
     decisions = sum(row["steps"] for row in metrics)
-    collisions = sum(row["collisions"] for row in metrics)
+    failures = {name: sum(row[name] for row in metrics) for name in ("collisions", "missed_exits", "lane_end_stops")}
     noise = f", DART noise {dart_noise:g}" if dart_noise else ""
     click.echo(f"wrote {out}: {len(metrics)} episodes, {decisions} decisions, expert {expert}{noise}, "
-               f"{collisions} collisions")
+               f"{failures_summary(failures)}")
 
 
 @click.command("evaluate")
@@ -246,7 +248,7 @@ def _write_videos(videos: dict[str, bytes], video_dir: Path | None) -> list[str]
 @roads_option("the directions' rollouts")
 @run_folder_options("iteration", eval_every=10)
 @tensorboard_option
-def train_command(config: Config, demos: Path, kind: str, hidden: int,
+def train_command(config: Config, demos: Path, include_failed: bool, other_road: bool, kind: str, hidden: int,
                   bc_epochs: int, bc_class_balance: float, search: SearchOptions, iterations: int, roads: str,
                   workers: int,
                   backend_name: str, address: str | None, seed: int, eval_every: int, eval_episodes: int, out: Path,
@@ -260,7 +262,9 @@ def train_command(config: Config, demos: Path, kind: str, hidden: int,
     check_run_folder(out)
     rail, discriminator = search.settings(seed)
     rail = dataclasses.replace(rail, roads=checked_roads(config, roads))
-    settings = RunSettings(str(demos), kind, hidden, bc_epochs, rail, discriminator, bc_class_balance)
+    settings = RunSettings(str(demos), kind, hidden, bc_epochs, rail, discriminator, bc_class_balance,
+                           include_failed_demos=include_failed)
+    check_demos(demos, config, include_failed, other_road)
     backend = build_backend(backend_name, workers, address)
     bar = progress(iterations, "training", unit="iteration")
 

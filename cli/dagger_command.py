@@ -6,6 +6,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import click
+from sumo_rail_cli.demos_options import check_demos
 from sumo_rail_cli.options import (
     SettingOption,
     build_backend,
@@ -51,7 +52,7 @@ DAGGER = "sumo_rail.learning.dagger"
 @expert_option("Who labels the learner's states [default: the demonstrations' expert].", default=None)
 @run_folder_options("round", eval_every=1)
 @tensorboard_option
-def dagger_command(config: Config, demos: Path, kind: str, hidden: int,
+def dagger_command(config: Config, demos: Path, include_failed: bool, other_road: bool, kind: str, hidden: int,
                    bc_epochs: int, bc_class_balance: float, rounds: int, episodes_per_round: int, beta: float,
                    beta_decay: float, roads: str, egos: int, expert: str | None, workers: int, backend_name: str,
                    address: str | None, seed: int, eval_every: int, eval_episodes: int, out: Path, resume: bool,
@@ -72,11 +73,12 @@ def dagger_command(config: Config, demos: Path, kind: str, hidden: int,
     try:
         settings = DaggerSettings(str(demos), kind, hidden, episodes_per_round, beta, beta_decay,
                                   BcSettings(epochs=max(bc_epochs, 1), class_balance=bc_class_balance, seed=seed),
-                                  seed, expert, egos, checked_roads(config, roads))
+                                  seed, expert, egos, checked_roads(config, roads), include_failed)
     except ValueError as error:
         raise click.UsageError(str(error)) from error
     check_egos(config, egos)
     check_run_folder(out)
+    check_demos(demos, config, include_failed, other_road)
     backend = build_backend(backend_name, workers, address)
     bar = progress(rounds + 1, "DAgger", unit="round")
 

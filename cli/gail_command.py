@@ -6,6 +6,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import click
+from sumo_rail_cli.demos_options import check_demos
 from sumo_rail_cli.options import (
     check_egos,
     check_run_folder,
@@ -39,7 +40,7 @@ if TYPE_CHECKING:
 @click.option("--out", type=click.Path(path_type=Path, file_okay=False), required=True,
               help="Run folder (new or empty, or the run to continue with --resume).")
 @tensorboard_option
-def gail_command(config: Config, demos: Path, timesteps: int, kind: str,
+def gail_command(config: Config, demos: Path, include_failed: bool, other_road: bool, timesteps: int, kind: str,
                  hidden: int, bc_epochs: int, bc_class_balance: float, envs: int, egos: int, n_steps: int,
                  learning_rate: float, normalize_reward: bool, critic_warmup: int, resume: bool, seed: int,
                  out: Path, tensorboard_dir: Path | None) -> None:
@@ -60,12 +61,13 @@ def gail_command(config: Config, demos: Path, timesteps: int, kind: str,
                                 bc_class_balance=bc_class_balance, envs=envs, egos=egos, n_steps=n_steps,
                                 batch_size=minibatch_size(None, n_steps, envs, egos), learning_rate=learning_rate,
                                 normalize_reward=normalize_reward,
-                                critic_warmup=critic_warmup, seed=seed,
+                                critic_warmup=critic_warmup, seed=seed, include_failed_demos=include_failed,
                                 discriminator=DiscriminatorSettings(seed=seed))
     except ValueError as error:
         raise click.UsageError(str(error)) from error
     check_egos(config, egos)
     check_run_folder(out)
+    check_demos(demos, config, include_failed, other_road)
     bar = progress(settings.updates * settings.steps_per_update, "GAIL", unit="timestep")
 
     def show_bc(report: BcReport) -> None:

@@ -11,6 +11,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import click
+from sumo_rail_cli.demos_options import demos_selection_options
 from sumo_rail_cli.output_lock import lock_output
 from sumo_rail_cli.param_types import FiniteFloat
 from sumo_rail_cli.running import library_errors
@@ -50,8 +51,8 @@ def _field_default(cls: type, name: str) -> Any:
 
 
 def imitation_options(command: Callable[..., Any]) -> Callable[..., Any]:
-    """--demos, the actor (--policy, --hidden) and its behaviour-cloning initialisation (--bc-epochs,
-    --bc-class-balance): what train and gail share."""
+    """--demos (`demos_selection_options`), the actor (--policy, --hidden) and its behaviour-cloning initialisation
+    (--bc-epochs, --bc-class-balance): what train, dagger and gail share."""
     bc_options = [
         click.option("--bc-epochs", cls=SettingOption, type=click.IntRange(min=0),
                      default=setting_default("sumo_rail.learning.bc", "IMITATION_BC.epochs"), show_default=True,
@@ -65,7 +66,8 @@ def imitation_options(command: Callable[..., Any]) -> Callable[..., Any]:
     for option in reversed(bc_options):
         command = option(command)
     return click.option("--demos", type=click.Path(path_type=Path, dir_okay=False), required=True,
-                        help="Expert demonstrations written by record-expert.")(policy_shape_options(command))
+                        help="Expert demonstrations written by record-expert.")(
+        demos_selection_options(policy_shape_options(command)))
 
 
 def policy_shape_options(command: Callable[..., Any]) -> Callable[..., Any]:

@@ -17,7 +17,7 @@ from sumo_rail_cli.running import library_errors
               help="Folder written by evaluate --video: adds GIFs of each driver above the expert on the same seed "
                    "(needs pip install 'sumo-rail[video]').")
 def report_command(inputs: tuple[Path, ...], out: Path, videos: Path | None) -> None:
-    """Plot training runs (folders written by train, gail or ppo) and evaluation metrics (files written by
+    """Plot training runs (folders written by train, dagger, gail or ppo) and evaluation metrics (files written by
     evaluate --out)."""
     from sumo_rail.report.inputs import ReportError, read_inputs
     from sumo_rail.report.markdown import write_report

@@ -104,8 +104,11 @@ def sb3_outcome(result: Any, out: Path, critic_warmup: int) -> str:
 
 
 def bc_summary(report: BcReport, policy_path: Path) -> str:
-    """One line on a behaviour-cloning result: train and held-out accuracy, where the policy was saved."""
+    """One line on a behaviour-cloning result: train and held-out accuracy (beside the held-out accuracy of always
+    choosing the commonest action), where the policy was saved."""
     holdout = "n/a" if report.holdout_accuracy is None else f"{report.holdout_accuracy:.3f}"
+    if report.majority_accuracy is not None:
+        holdout += f" (majority action {report.majority_accuracy:.3f})"
     return (f"behaviour cloning: train accuracy {report.train_accuracy:.3f}, holdout accuracy {holdout} "
             f"({report.holdout_rows} held-out decisions); saved {policy_path}")
 
@@ -117,8 +120,16 @@ def validation_summary(row: dict[str, Any], episodes: int) -> str:
     spread = "" if low is None or math.isnan(low) else f" [{low:.3f}, {high:.3f}]"
     return (f"validation agreement {row['eval_agreement']:.3f}{spread} on {episodes} episode{'s' * (episodes != 1)} "
             f"(lane-change recall {row['eval_lane_change_recall']:.2f}), speed {row['eval_average_speed_kmh']:.1f} "
-            f"km/h, overtakes {row['eval_overtakes']:.2f}, lane changes {row['eval_lane_changes']:.2f}, collisions "
-            f"{row['eval_collisions']:.2f}")
+            f"km/h, overtakes {row['eval_overtakes']:.2f}, lane changes {row['eval_lane_changes']:.2f}, "
+            f"{failures_summary(row, 'eval_', '.2f')}")
+
+
+def failures_summary(counts: dict[str, Any], prefix: str = "", spec: str = "d") -> str:
+    """Collisions and route failures (missed exits, stops at a lane end) of `counts` (`prefix` + measure, formatted
+    by `spec`); a measure a row lacks (a log written before it) is left out."""
+    names = {"collisions": "collisions", "missed_exits": "missed exits", "lane_end_stops": "stops at a lane end"}
+    return ", ".join(f"{names[name]} {counts[prefix + name]:{spec}}" for name in names
+                     if counts.get(prefix + name) is not None)
 
 
 def make_interruptible() -> None:

@@ -53,6 +53,9 @@ class BcReport:
     """Mean cross-entropy (nats per row) of each epoch."""
     train_rows: int
     holdout_rows: int
+    majority_accuracy: float | None = None
+    """The held-out accuracy of always choosing the training rows' commonest action (the baseline a held-out
+    accuracy beats or not); None without a holdout."""
 
 
 class PolicyNetwork(nn.Module):
@@ -138,7 +141,8 @@ def behaviour_cloning(demos: Demonstrations, shape: PolicyShape, settings: BcSet
     policy = torch_to_policy(network)
     report = BcReport(train_accuracy=_accuracy(policy, observations[train], actions[train]),
                       holdout_accuracy=_accuracy(policy, observations[holdout], actions[holdout]) if holdout.any()
-                      else None, losses=losses, train_rows=int(train.sum()), holdout_rows=int(holdout.sum()))
+                      else None, losses=losses, train_rows=int(train.sum()), holdout_rows=int(holdout.sum()),
+                      majority_accuracy=majority_accuracy(actions[train], actions[holdout]))
     logger.info("behaviour cloning: loss %.4f, train accuracy %.3f, holdout accuracy %s", losses[-1],
                 report.train_accuracy, "n/a" if report.holdout_accuracy is None else f"{report.holdout_accuracy:.3f}")
     return policy, report
@@ -170,6 +174,11 @@ def class_weights(actions: torch.Tensor, count: int, balance: float) -> torch.Te
     frequency = torch.bincount(actions, minlength=count).double()
     weights = frequency.clamp(min=1.0).pow(-balance)
     return (weights * len(actions) / (weights * frequency).sum()).float()
+
+
+def majority_accuracy(train: np.ndarray, holdout: np.ndarray) -> float | None:
+    """Share of `holdout` actions equal to the commonest of `train` (ties: lowest index); None for no holdout."""
+    return float(np.mean(holdout == np.bincount(train).argmax())) if len(holdout) else None
 
 
 def _accuracy(policy: Policy, observations: np.ndarray, actions: np.ndarray) -> float:

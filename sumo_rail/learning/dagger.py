@@ -73,6 +73,8 @@ class DaggerSettings:
     roads: tuple[str, ...] = ()
     """Roads (scenario kinds) a round's simulations are spread over in turn, simulation j on roads[j mod len]: DAgger
     on a mix of roads. Empty: every simulation on the configured road."""
+    include_failed_demos: bool = False
+    """Learn from the demonstrations' failed episodes too (`read_demonstrations`)."""
 
     def __post_init__(self) -> None:
         if self.episodes_per_round < 1 or self.egos < 1:
@@ -151,7 +153,7 @@ def train_dagger(folder: Path, settings: DaggerSettings, config: Config, rounds:
     """Run DAgger until `rounds` rounds after BC are done; returns the last policy. Safe to interrupt."""
     folder, validation = Path(folder), validation or Validation()
     observation_size = observation_space(config).shape[0]
-    demos = read_demonstrations(Path(settings.demos), observation_size)
+    demos = read_demonstrations(Path(settings.demos), observation_size, settings.include_failed_demos)
     demos_path, demos_hash = demos_record(settings.demos)
     settings = dataclasses.replace(settings, demos=demos_path)
     recorded = demonstrations_expert(demos.metadata)  # NotQueryable for recorded drivers, --expert or not

@@ -35,10 +35,20 @@ class RunError(ValueError):
     """A run folder cannot be used as asked (message is one sentence)."""
 
 
+COMMANDS = {"training_run": "train", "dagger_run": "dagger", "gail_run": "gail", "ppo_run": "ppo"}
+"""The command that makes a run folder of each run.json kind."""
+
+
 def start_run_folder(folder: Path, run_record: dict[str, Any]) -> None:
     """Make the new or empty run `folder` (and its parents) with its run.json; a RunError, one sentence, when it is
-    not empty or cannot be made."""
+    not empty (advising --resume only where this command could continue it) or cannot be made."""
     if folder.is_dir() and any(folder.iterdir()):
+        made_by = _made_by(folder)
+        if made_by is not None and made_by != run_record.get("kind"):
+            raise RunError(f"run folder {folder} holds a run made by {COMMANDS.get(str(made_by), made_by)}, not by "
+                           f"{COMMANDS.get(str(run_record.get('kind')), 'this command')}; choose another --out")
+        if made_by is None or not any(folder.glob("checkpoint.*")):
+            raise RunError(f"run folder {folder} is not empty and holds no run to continue; choose another --out")
         raise RunError(f"run folder {folder} is not empty; pass --resume to continue it or choose another --out")
     try:
         folder.mkdir(parents=True, exist_ok=True)
@@ -72,6 +82,10 @@ def check_resumable(folder: Path, checkpoint: str, run_record: dict[str, Any], d
     started with the same settings (those added since it was written filled in from `defaults`, `with_defaults`; the
     settings named in `free`, such as the run's length, may differ), config and kind. A RunError otherwise."""
     path = Path(folder) / checkpoint
+    made_by = _made_by(Path(folder))
+    if made_by is not None and made_by != run_record.get("kind"):
+        raise RunError(f"run {folder} was made by {COMMANDS.get(str(made_by), made_by)}, not by "
+                       f"{COMMANDS.get(str(run_record.get('kind')), 'this command')}: resume it with that command")
     if not path.is_file():
         raise RunError(f"nothing to resume: {path} does not exist")
     stored = read_run_record(folder)
@@ -79,7 +93,8 @@ def check_resumable(folder: Path, checkpoint: str, run_record: dict[str, Any], d
     def fixed(settings: dict[str, Any]) -> dict[str, Any]:
         return {key: value for key, value in settings.items() if key not in free}
 
-    settings = with_defaults(stored["settings"], defaults or {})
+    added = {"include_failed_demos": False} if "include_failed_demos" in run_record["settings"] else {}
+    settings = with_defaults(stored["settings"], {**added, **(defaults or {})})
     if isinstance(run_record["settings"].get("demos"), str) and isinstance(settings.get("demos"), str):
         check_same_demos(folder, settings["demos"], stored.get(DEMOS_HASH), run_record)
         settings = {**settings, "demos": run_record["settings"]["demos"]}
@@ -93,6 +108,14 @@ def check_resumable(folder: Path, checkpoint: str, run_record: dict[str, Any], d
         raise RunError(f"run {folder} was started with other settings (see its run.json); resume it with the same "
                        f"options")
     return stored
+
+
+def _made_by(folder: Path) -> Any:
+    """The kind of the run in `folder` as its run.json says (None without a readable one)."""
+    try:
+        return read_run_record(folder).get("kind")
+    except RunError:
+        return None
 
 
 DEMOS_HASH = "demos_sha256"

@@ -18,9 +18,11 @@ from sumo_rail.seeding import Purpose, episode_seeds
 VALIDATION_BASE_SEED = 1_000_000
 """Validation episodes use evaluation-class seeds from this base, far from `evaluate`'s default test seeds."""
 VALIDATION_METRICS = ("agreement", "lane_change_recall", "lane_change_precision", "average_speed_kmh", "overtakes",
-                      "lane_changes", "longitudinal_reward", "lateral_reward", "collisions")
+                      "lane_changes", "longitudinal_reward", "lateral_reward", "collisions", "missed_exits",
+                      "lane_end_stops")
 """Measures the log holds as eval_<measure>: the agreement rates with the expert (pooled over the validation
-decisions) and the episode metrics' means."""
+decisions) and the episode metrics' means, route failures (missed exits, stops at a lane end) beside collisions.
+Logs written before some of them lack them (`with_validation_columns`)."""
 VALIDATION_INTERVAL = ("eval_agreement_low", "eval_agreement_high")
 """The log's bounds of the 95% interval of eval_agreement (bootstrap over the validation episodes, as `evaluate`
 gives it; NaN with one episode). Logs written before them lack them (`with_validation_columns`)."""
@@ -59,7 +61,7 @@ def validate(policy: Policy, config: Config, backend: RolloutBackend, validation
     `expert` (`resolve_expert`), and the agreement's 95% interval (VALIDATION_INTERVAL)."""
     seeds = episode_seeds(Purpose.EVALUATE, VALIDATION_BASE_SEED, validation.episodes)
     evaluation = evaluate([PolicyDriver(policy, "policy")], config, seeds, backend, expert, pool="validation")
-    samples = measure_samples(evaluation.metrics)
+    samples = measure_samples(evaluation.metrics, route=True)
     agreement = interval(samples["agreement"])
     return {**{f"eval_{measure}": float(ratio(samples[measure])) for measure in VALIDATION_METRICS},
             "eval_agreement_low": agreement.low, "eval_agreement_high": agreement.high}

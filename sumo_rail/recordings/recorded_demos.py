@@ -136,10 +136,10 @@ def decisions_table(scene: Scene, road: SceneRoad, config: Config, decisions: li
             observations.append(now[0])
             rows.append((episode, step, -1, int(action), r_long + r_lat, r_long, r_lat, 0.0, after[1], after[2],
                          after[3], float(decided.set_points_mps[step + 1]), changing, False,
-                         step == len(decided.actions) - 1))
+                         step == len(decided.actions) - 1, "end_of_track"))  # a recorded track never fails
     names = ("episode", "step", "episode_seed", "action", "reward", "reward_longitudinal", "reward_lateral",
              "reward_collision", "speed_mps", "lane", "position_m", "set_point_mps", "lane_change_in_progress",
-             "terminated", "truncated")
+             "terminated", "truncated", "termination")
     columns = {name: np.array(values) for name, values in zip(names, zip(*rows, strict=True), strict=True)}
     return columns, np.stack(observations).reshape(-1, observation_size)
 

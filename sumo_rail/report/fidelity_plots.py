@@ -8,6 +8,7 @@ import pandas as pd
 from matplotlib.figure import Figure
 
 from sumo_rail.evaluation.distributions import frequencies
+from sumo_rail.evaluation.driving_score import SCORE_COLUMNS
 from sumo_rail.evaluation.fidelity import ACTION_NAMES, CONFUSION_COLUMNS, HEADWAY_CAP_S, RATES
 from sumo_rail.evaluation.summary import MEASURES
 from sumo_rail.report.plots import _colour, _figure, _grid
@@ -108,7 +109,8 @@ def behaviour_distributions(decisions: pd.DataFrame, reference: str, lanes: int)
 def forest_plot(differences: pd.DataFrame, reference: str) -> Figure:
     """Paired differences to `reference` with 95% intervals, one panel per measure (rows of
     `evaluation.summary.paired_differences`); filled markers: the interval excludes 0."""
-    measures = [measure for measure in MEASURES if measure in set(differences["measure"])]
+    parts = set(SCORE_COLUMNS[1:])  # the driving score's parts stay in the tables; its panel is the score
+    measures = [measure for measure in MEASURES if measure in set(differences["measure"]) and measure not in parts]
     drivers = list(dict.fromkeys(differences["policy"]))
     columns = 3
     rows = -(-len(measures) // columns)

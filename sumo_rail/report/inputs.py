@@ -18,8 +18,10 @@ from sumo_rail.runners.tables import EPISODE_METRICS
 from sumo_rail.sim.actions import Action
 
 TRAINING_LOG = "training_log"
+DAGGER_LOG = "dagger_log"
 LOG_COLUMNS = ("iteration", "env_steps", "return_mean", "return_max", "return_std", "wall_time_s")
-"""Columns of log.parquet the report needs."""
+"""Columns of log.parquet the report needs (a DAgger run's has no return: NaN)."""
+RETURN_COLUMNS = ("return_mean", "return_max", "return_std")
 EVAL_COLUMNS = ("eval_agreement", "eval_lane_change_recall", "eval_average_speed_kmh", "eval_overtakes",
                 "eval_lane_changes", "eval_collisions")
 """Validation columns of log.parquet the report shows; optional (older runs have none), null where not evaluated."""
@@ -47,7 +49,10 @@ class Run:
     trained one is policy_latest.npz (what the tables evaluate), else policy_best.npz."""
     observation_names: list[str]
     method: str = "RAIL"
-    """'RAIL', 'GAIL' or 'PPO' (`ppo`, whose return is the environment's reward, not a discriminator's)."""
+    """'RAIL', 'GAIL', 'DAgger' (no return) or 'PPO' (`ppo`, whose return is the environment's reward, not a
+    discriminator's)."""
+    road: str = "?"
+    """The road (scenario.kind) it trained on, as run.json says ('?' without it)."""
 
     @property
     def return_name(self) -> str:
@@ -56,8 +61,8 @@ class Run:
 
     @property
     def step_name(self) -> str:
-        """What one row of the log is: a PPO "update" (a `ppo` run) or an "iteration"."""
-        return "update" if self.method == "PPO" else "iteration"
+        """What one row of the log is: a PPO "update" (a `gail` or `ppo` run), a DAgger "round" or an "iteration"."""
+        return {"PPO": "update", "GAIL": "update", "DAgger": "round"}.get(self.method, "iteration")
 
     @property
     def kind(self) -> str:
@@ -108,14 +113,17 @@ def read_inputs(paths: list[Path]) -> Inputs:
 
 
 def read_run(folder: Path, name: str) -> Run:
-    """A run folder written by `sumo-rail train`: log.parquet (required), run.json and the policies (optional)."""
+    """A run folder written by `sumo-rail train`, `dagger`, `gail` or `ppo`: log.parquet (required), run.json and
+    the policies (optional)."""
     log_path = folder / "log.parquet"
     if not log_path.is_file():
         raise ReportError(f"{folder} is not a training run folder: it has no log.parquet")
     kind = read_metadata(log_path).get("kind")
-    if kind != TRAINING_LOG:
+    if kind not in (TRAINING_LOG, DAGGER_LOG):
         raise ReportError(f"{log_path} holds {kind!r} data, not a training log")
     log = _read_parquet(log_path)
+    if kind == DAGGER_LOG:
+        log = log.assign(**dict.fromkeys((column for column in RETURN_COLUMNS if column not in log), float("nan")))
     _require_columns(log, LOG_COLUMNS, log_path)
     if log.empty:
         raise ReportError(f"{log_path} holds no iterations yet")
@@ -123,7 +131,7 @@ def read_run(folder: Path, name: str) -> Run:
     for column in EVAL_COLUMNS:
         log[column] = pd.to_numeric(log[column], errors="coerce") if column in log else float("nan")
     log["cumulative_env_steps"] = log["env_steps"].cumsum()
-    settings, method = _read_run_record(folder / "run.json")
+    settings, method, road = _read_run_record(folder / "run.json")
     policies: dict[str, tuple[Policy, str]] = {}
     metadata: dict[str, Any] = {}
     for label, files in (("BC", ("policy_bc.npz",)), (method, ("policy_latest.npz", "policy_best.npz"))):
@@ -133,7 +141,7 @@ def read_run(folder: Path, name: str) -> Run:
             policies[label] = (policy, file)
     if len({policy.shape for policy, _ in policies.values()}) > 1:
         raise ReportError(f"the BC and {method} policies in {folder} have different shapes")
-    return Run(name, folder, settings, log, policies, _observation_names(policies, metadata), method)
+    return Run(name, folder, settings, log, policies, _observation_names(policies, metadata), method, road)
 
 
 def read_metrics(path: Path) -> pd.DataFrame:
@@ -182,16 +190,19 @@ def _require_columns(table: pd.DataFrame, columns: tuple[str, ...], path: Path) 
         raise ReportError(f"{path} has non-numeric column(s) {', '.join(not_numbers)}")
 
 
-def _read_run_record(path: Path) -> tuple[dict[str, Any], str]:
-    """run.json's settings and the training method ('GAIL' for a gail run, 'PPO' for a ppo run, else 'RAIL'); ({},
-    'RAIL') without it."""
+def _read_run_record(path: Path) -> tuple[dict[str, Any], str, str]:
+    """run.json's settings, the training method ('GAIL' for a gail run, 'PPO' for a ppo run, 'DAgger' for a dagger
+    run, else 'RAIL') and the road (scenario.kind); ({}, 'RAIL', '?') without it."""
     if not path.is_file():
-        return {}, "RAIL"
+        return {}, "RAIL", "?"
     record = read_json_record(path, "run record")
     settings = record.get("settings")
     if not isinstance(settings, dict):
         raise ReportError(f"{path} is not a sumo-rail run record")
-    return settings, {"gail_run": "GAIL", "ppo_run": "PPO"}.get(str(record.get("kind")), "RAIL")
+    scenario = record.get("config", {}).get("scenario", {}) if isinstance(record.get("config"), dict) else {}
+    return (settings, {"gail_run": "GAIL", "ppo_run": "PPO", "dagger_run": "DAgger"}.get(str(record.get("kind")),
+                                                                                         "RAIL"),
+            str(scenario.get("kind", "?")) if isinstance(scenario, dict) else "?")
 
 
 def _observation_names(policies: dict[str, tuple[Policy, str]], metadata: dict[str, Any]) -> list[str]:

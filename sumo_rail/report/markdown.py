@@ -55,7 +55,7 @@ def write_report(inputs: Inputs, out: Path, videos: Path | None = None) -> Path:
                  "Mean environment return (the env's reward plus any shaping, what PPO maximises) of the episodes "
                  "that ended in each update (band: +- std, dashed: best episode) against cumulative environment "
                  "steps."), lambda: learning_curves(runs))
-    elif runs:
+    elif any(run.log["return_mean"].notna().any() for run in runs):  # a DAgger run has no return
         add(Plot("learning_curves.png", "Learning curves",
                  "Mean discriminator return of each iteration's rollouts (RAIL: the perturbed rollouts; GAIL: "
                  "the episodes of a PPO update) (band: +- std, dashed: best rollout) against cumulative "
@@ -137,8 +137,9 @@ def markdown(inputs: Inputs, plots: list[Plot]) -> str:
                   "reward plus any shaping); updates count from 1; wall time sums the updates." if environment else
                   "D return: mean over one iteration's rollouts (RAIL: perturbed rollouts; GAIL: a PPO update's "
                   "episodes) of the per-decision discriminator reward "
-                  "log D - log(1 - D); iterations count from 1; wall time sums the iterations (without behaviour "
-                  "cloning); validation: means over the validation episodes of the last evaluated iteration.", ""]
+                  "log D - log(1 - D) (DAgger: none); iterations and updates count from 1, DAgger's rounds from 0 "
+                  "(its first BC); wall time sums them (without behaviour cloning); validation: means over the "
+                  "validation episodes of the last evaluated one.", ""]
     if inputs.metrics is not None:
         files = ", ".join(f"`{path}`" for path in inputs.metrics_files)
         lines += ["## Evaluation", "", f"From {files}:", "", "```text",
@@ -161,17 +162,18 @@ def markdown(inputs: Inputs, plots: list[Plot]) -> str:
 
 def run_table(runs: list[Run]) -> list[str]:
     """One Markdown table row per run."""
-    name = runs[0].return_name if runs else "D return"
-    step = runs[0].step_name if runs else "iteration"  # runs of one table share their method's kind of return
-    header = (f"| run | policy | {step}s | env steps | wall time (min) | final {name} | best {name} ({step}) "
+    name = runs[0].return_name if runs else "D return"  # runs of one table share their method's kind of return
+    names = list(dict.fromkeys(run.step_name for run in runs)) or ["iteration"]
+    step, steps = "/".join(names), "/".join(f"{one}s" for one in names)
+    header = (f"| run | road | policy | {steps} | env steps | wall time (min) | final {name} | best {name} ({step}) "
               f"| validated at {step} | speed (km/h) | overtakes | lane changes | collisions |")
-    rows = [header, "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+    rows = [header, "|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for run in runs:
         log, returns = run.log, run.log["return_mean"].dropna()  # a ppo update in which no episode ended has none
         best = "-" if returns.empty else (f"{returns.max():+.3f} "
-                                          f"({int(log['iteration'].loc[returns.idxmax()]) + 1})")
+                                          f"({int(log['iteration'].loc[returns.idxmax()]) + _first(run)})")
         final = "-" if pd.isna(log["return_mean"].iloc[-1]) else f"{log['return_mean'].iloc[-1]:+.3f}"
-        cells = [run.name, run.kind, f"{len(log)}", f"{int(log['env_steps'].sum()):,}",
+        cells = [run.name, run.road, run.kind, f"{len(log)}", f"{int(log['env_steps'].sum()):,}",
                  f"{log['wall_time_s'].sum() / 60:.1f}", final, best, *_last_validation(run)]
         rows.append("| " + " | ".join(cells) + " |")
     return rows
@@ -182,8 +184,13 @@ def _last_validation(run: Run) -> list[str]:
     if evaluated.empty:
         return ["-"] * 5
     last = evaluated.iloc[-1]
-    return [f"{int(last['iteration']) + 1}", f"{last['eval_average_speed_kmh']:.1f}", f"{last['eval_overtakes']:.2f}",
-            f"{last['eval_lane_changes']:.2f}", f"{last['eval_collisions']:.2f}"]
+    return [f"{int(last['iteration']) + _first(run)}", f"{last['eval_average_speed_kmh']:.1f}",
+            f"{last['eval_overtakes']:.2f}", f"{last['eval_lane_changes']:.2f}", f"{last['eval_collisions']:.2f}"]
+
+
+def _first(run: Run) -> int:
+    """The number of a run's first log row: DAgger's rounds count from 0 (BC), iterations and updates from 1."""
+    return 0 if run.method == "DAgger" else 1
 
 
 def save_png(figure: Figure, path: Path) -> None:

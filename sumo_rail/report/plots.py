@@ -30,7 +30,8 @@ METRIC_PANELS = (("average_speed_kmh", "average speed (km/h)"),
                  ("longitudinal_reward", "longitudinal reward (sum per episode)"),
                  ("lateral_reward", "lateral reward (sum per episode)"),
                  ("collisions", "collisions per episode"))
-POLICY_COLOURS = {"BC": "tab:orange", "RAIL": "tab:blue", "GAIL": "tab:green", "PPO": "tab:purple"}
+POLICY_COLOURS = {"BC": "tab:orange", "RAIL": "tab:blue", "GAIL": "tab:green", "PPO": "tab:purple",
+                  "DAgger": "tab:red"}
 WEIGHT_COLOURMAP = "RdBu_r"
 
 

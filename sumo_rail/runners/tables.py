@@ -42,7 +42,8 @@ def demonstrations_table(results: Sequence[EpisodeResult], seeds: Sequence[int],
         per_episode = {"episode": np.full(count, episode), "step": np.arange(count),
                        "episode_seed": np.full(count, seed), **result.steps,
                        "terminated": np.full(count, bool(result.metrics["terminated"])),
-                       "truncated": np.full(count, bool(result.metrics["truncated"]))}
+                       "truncated": np.full(count, bool(result.metrics["truncated"])),
+                       "termination": np.full(count, result.metrics["termination"] or "", dtype=object)}
         for name, values in per_episode.items():
             columns.setdefault(name, []).append(values)
     data = {name: np.concatenate(parts) for name, parts in columns.items()}
@@ -64,7 +65,7 @@ _DEMONSTRATION_SCALARS: dict[str, pa.DataType] = {
     "reward": pa.float64(), "reward_longitudinal": pa.float64(), "reward_lateral": pa.float64(),
     "reward_collision": pa.float64(), "speed_mps": pa.float64(), "lane": pa.int8(), "position_m": pa.float64(),
     "set_point_mps": pa.float64(), "lane_change_in_progress": pa.bool_(), "terminated": pa.bool_(),
-    "truncated": pa.bool_(),
+    "truncated": pa.bool_(), "termination": pa.string(),
 }
 DEMONSTRATION_COLUMNS = ("episode", "step", "episode_seed", "observation", *list(_DEMONSTRATION_SCALARS)[3:])
 
@@ -100,8 +101,15 @@ class Demonstrations:
     metadata: dict[str, Any]
 
 
-def read_demonstrations(path: Path, observation_size: int | None = None) -> Demonstrations:
-    """Read and validate a demonstrations file; `observation_size` checks it against an environment."""
+FAILURES = ("collision", "missed_exit", "lane_end")
+"""The `termination` of a failed episode: a collision, a missed exit, a stop at a lane's end."""
+
+
+def read_demonstrations(path: Path, observation_size: int | None = None, include_failed: bool = True
+                        ) -> Demonstrations:
+    """Read and validate a demonstrations file; `observation_size` checks it against an environment. Without
+    `include_failed`, the episodes whose `termination` is a failure (`FAILURES`) are left out (a file written before
+    that column counts as not failed); a DatasetError when that leaves none."""
     path = Path(path)
     metadata = read_metadata(path)
     if metadata.get("kind") != DEMONSTRATIONS:
@@ -116,8 +124,8 @@ def read_demonstrations(path: Path, observation_size: int | None = None) -> Demo
         raise DatasetError(f"{path} has no fixed-size observation column")
     size = observation_type.list_size
     if observation_size is not None and size != observation_size:
-        raise DatasetError(f"{path} has observations of size {size}, the environment gives {observation_size}: "
-                           f"give the --preset (or --config / --set observation options) it was recorded with")
+        raise DatasetError(f"{path} has observations of size {size}, the environment gives {observation_size}: the "
+                           f"lane count or the observation settings they were recorded with differ from this run's")
     if table.num_rows == 0:
         raise DatasetError(f"{path} holds no demonstrations")
     if not all(pa.types.is_integer(table.schema.field(name).type) for name in ("episode", "action")):
@@ -131,6 +139,21 @@ def read_demonstrations(path: Path, observation_size: int | None = None) -> Demo
         raise DatasetError(f"{path} has non-finite observations")
     if actions.min() < 0 or actions.max() >= len(ACTION_COLUMNS):
         raise DatasetError(f"{path} has actions outside 0..{len(ACTION_COLUMNS) - 1}")
-    return Demonstrations(observations, actions, table.column("episode").to_numpy(), metadata)
+    episodes = table.column("episode").to_numpy()
+    failed = np.isin(episodes, failed_episodes(path)) if not include_failed else np.zeros(len(episodes), bool)
+    if failed.all():
+        raise DatasetError(f"every episode in {path} failed (a collision or a route failure); pass "
+                           f"--include-failed-demos to learn from them")
+    return Demonstrations(observations[~failed], actions[~failed], episodes[~failed], metadata)
+
+
+def failed_episodes(path: Path) -> np.ndarray:
+    """The episode numbers of a demonstrations file whose `termination` is a failure (`FAILURES`); none in a file
+    written before that column."""
+    if "termination" not in pq.read_schema(path).names:
+        return np.zeros(0, dtype=np.int64)
+    table = read_table(path, columns=["episode", "termination"])
+    failed = np.isin(table.column("termination").to_numpy(zero_copy_only=False).astype(str), FAILURES)
+    return np.unique(table.column("episode").to_numpy()[failed])
 
 

@@ -130,3 +130,18 @@ def test_bc_rejects_bad_input():
         behaviour_cloning(empty, shape, BcSettings())
     with pytest.raises(ValueError, match="expects"):
         behaviour_cloning(demos, PolicyShape("linear", N + 1), BcSettings())
+
+
+def test_the_holdout_accuracy_comes_with_the_majority_action_baseline():
+    demos = separable(episodes=4, rows_per_episode=30)
+    train, holdout = split_episodes(demos.episodes, 0.2, 0)
+    commonest = np.bincount(demos.actions[train]).argmax()
+    _, report = behaviour_cloning(demos, PolicyShape("linear", N), BcSettings(epochs=1))
+    assert report.majority_accuracy == pytest.approx(np.mean(demos.actions[holdout] == commonest))
+    assert 0 < report.majority_accuracy < 1
+    from sumo_rail_cli.running import bc_summary
+
+    assert f"(majority action {report.majority_accuracy:.3f})" in bc_summary(report, "p.npz")
+    _, single = behaviour_cloning(separable(episodes=1, rows_per_episode=20), PolicyShape("linear", N),
+                                  BcSettings(epochs=1))
+    assert single.majority_accuracy is None and "majority" not in bc_summary(single, "p.npz")

@@ -92,8 +92,8 @@ def test_report_of_runs_and_metrics_files(tmp_path):
     report = (out / "report.md").read_text()
     for name in pngs:
         assert f"]({name})" in report
-    assert "| mlp_run | mlp (6 hidden) | 4 | 4,060 | 0.8 | -0.050 | -0.050 (4) | 4 | 103.0 |" in report
-    assert "| linear_run | linear | 4 |" in report and report.count("| - ") == 5
+    assert "| mlp_run | straight | mlp (6 hidden) | 4 | 4,060 | 0.8 | -0.050 | -0.050 (4) | 4 | 103.0 |" in report
+    assert "| linear_run | straight | linear | 4 |" in report and report.count("| - ") == 5
     assert "expert-normal [m1]" in report and "expert-normal [m2]" in report and "policy_best" in report
     assert "mean [95% interval]" in report and "difference to expert-normal [m1] on the same seeds" in report
     assert "predate the comparison with the expert" in report  # metrics files without confusion counts still load
@@ -188,7 +188,7 @@ def test_a_ppo_run_is_labelled_by_the_environments_return_and_not_mixed_with_dis
     text = (tmp_path / "report" / "report.md").read_text()
     assert "| updates | env steps | wall time (min) | final env return | best env return (update) | validated at " \
         "update |" in text and "D return" not in text and "iteration" not in text.split("## Plots")[0]
-    assert "train, gail or ppo" in invoke("report", "--help").output
+    assert "train, dagger, gail or ppo" in invoke("report", "--help").output
     assert "Mean environment return" in text and "discriminator return" not in text
     log = pd.read_parquet(ppo / "log.parquet").assign(return_mean=float("nan"))  # no episode ended in any update
     write_parquet(pa.Table.from_pandas(log, preserve_index=False), ppo / "log.parquet",
@@ -214,3 +214,22 @@ def test_a_report_of_a_road_with_a_feature_shows_its_route_measures():
         inputs = read_inputs([data / f"a_{road}.parquet"])
         assert inputs.route is route
         assert ("\nmissed_exits " in markdown(inputs, [])) is route
+
+
+def test_a_dagger_run_is_reported_with_its_road_and_gails_updates_are_called_updates(tmp_path):
+    dagger = make_run(tmp_path / "dagger", "mlp", evaluated=True, method="dagger_run")
+    log = pd.read_parquet(dagger / "log.parquet").drop(columns=["return_mean", "return_max", "return_std"])
+    exit_road = provenance("dagger_run", CONFIG.with_overrides({"scenario": {"kind": "exit"}}), 0)
+    (dagger / "run.json").write_text(json.dumps({"settings": {"kind": "mlp", "hidden": 6}, **exit_road}))
+    write_parquet(pa.Table.from_pandas(log, preserve_index=False), dagger / "log.parquet",
+                  {**exit_road, "kind": "dagger_log"})
+    result = invoke("report", str(dagger), "--out", str(tmp_path / "report"))
+    assert result.exit_code == 0, result.output
+    text = (tmp_path / "report" / "report.md").read_text()
+    assert "| dagger | exit | mlp (6 hidden) | 4 | 4,060 | 0.8 | - | - | 3 | 103.0 |" in text  # rounds from 0
+    assert "| rounds |" in text and "learning_curves.png" not in text and "validation.png" in text
+    gail = make_run(tmp_path / "gail", "mlp", evaluated=False, method="gail_run")
+    result = invoke("report", str(gail), "--out", str(tmp_path / "gail_report"))
+    assert result.exit_code == 0, result.output
+    table = (tmp_path / "gail_report" / "report.md").read_text().split("## Plots")[0]
+    assert "| updates |" in table and "(update) | validated at update |" in table and "| iterations |" not in table

@@ -24,7 +24,8 @@ def fake_episode(steps: int, seed: int, collided: bool = False) -> EpisodeResult
         "position_m": np.arange(steps) * 15.0, "set_point_mps": np.full(steps, 30.0),
         "lane_change_in_progress": np.zeros(steps, dtype=bool),
     }
-    metrics = {"terminated": collided, "truncated": not collided}
+    metrics = {"terminated": collided, "truncated": not collided,
+               "termination": "collision" if collided else "time_limit"}
     return EpisodeResult(metrics, columns)
 
 
@@ -53,6 +54,7 @@ def test_demonstrations_round_trip_with_provenance(tmp_path):
     table = pq.read_table(path)
     assert table.column_names == list(tables.DEMONSTRATION_COLUMNS)
     assert table.column("terminated").to_pylist() == [False] * 4 + [True] * 3
+    assert table.column("termination").to_pylist() == ["time_limit"] * 4 + ["collision"] * 3
     assert table.column("step").to_pylist() == [0, 1, 2, 3, 0, 1, 2]
 
 
@@ -87,7 +89,7 @@ def test_bad_demonstration_files_give_one_sentence_errors(tmp_path):
         read_demonstrations(foreign)
     good = tmp_path / "good.parquet"
     write_demos(good)
-    with pytest.raises(DatasetError, match="size 56, the environment gives 60: give the --preset"):
+    with pytest.raises(DatasetError, match="size 56, the environment gives 60: the lane count"):
         read_demonstrations(good, observation_size=60)
     metrics = tmp_path / "metrics.parquet"
     row = {name: 0 for name in tables.METRIC_COLUMNS} | {"policy": "x", "termination": "", "terminated": False,

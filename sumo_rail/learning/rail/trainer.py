@@ -61,6 +61,8 @@ class RunSettings:
     discriminator: DiscriminatorSettings
     bc_class_balance: float = IMITATION_BC.class_balance
     """`BcSettings.class_balance`."""
+    include_failed_demos: bool = False
+    """Learn from the demonstrations' failed episodes too (`read_demonstrations`)."""
 
     def to_dict(self) -> dict[str, Any]:
         return as_json(dataclasses.asdict(self))
@@ -79,7 +81,7 @@ def train(folder: Path, settings: RunSettings, config: Config, iterations: int, 
     `on_start` the iterations already done (those of the resumed run, else 0) before the first new one."""
     folder, validation = Path(folder), validation or Validation()
     observation_size = observation_space(config).shape[0]
-    demos = read_demonstrations(Path(settings.demos), observation_size)
+    demos = read_demonstrations(Path(settings.demos), observation_size, settings.include_failed_demos)
     demos_path, demos_hash = demos_record(settings.demos)
     settings = dataclasses.replace(settings, demos=demos_path)
     shape = PolicyShape(settings.kind, observation_size, settings.hidden)

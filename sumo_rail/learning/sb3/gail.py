@@ -92,6 +92,8 @@ class GailSettings(PpoSchedule):
     """Behaviour-cloning epochs that initialise the actor (0: PPO's own initialisation)."""
     bc_class_balance: float = IMITATION_BC.class_balance
     """`BcSettings.class_balance`."""
+    include_failed_demos: bool = False
+    """Learn from the demonstrations' failed episodes too (`read_demonstrations`)."""
     critic_warmup: int = field(default=5, kw_only=True)
     discriminator: DiscriminatorSettings = field(default_factory=DiscriminatorSettings)
 
@@ -120,7 +122,7 @@ def train_gail(folder: Path, settings: GailSettings, config: Config,
     require_stable_baselines3(INSTALL_HINT)
     folder = Path(folder)
     observation_size = observation_space(config).shape[0]
-    demos = read_demonstrations(Path(settings.demos), observation_size)
+    demos = read_demonstrations(Path(settings.demos), observation_size, settings.include_failed_demos)
     demos_path, demos_hash = demos_record(settings.demos)
     settings = dataclasses.replace(settings, demos=demos_path)
     shape = PolicyShape(settings.kind, observation_size, settings.hidden)
