@@ -26,6 +26,7 @@ import numpy as np
 from gymnasium import spaces
 
 from sumo_rail.config import Config
+from sumo_rail.sim import network
 from sumo_rail.sim.actions import Action
 from sumo_rail.sim.ego import CONTEXT_MARGIN_M, Ego, checked_action, edge_rows
 from sumo_rail.sim.observation import observation_space
@@ -91,6 +92,7 @@ class HighwayEnv(gymnasium.Env[np.ndarray, np.int64]):
         super().reset(seed=seed)
         cfg = self.config
         if self._sim is None:
+            network.check_user_route(cfg)
             self._sim = Simulation(cfg.scenario, cfg.lidar.range_m + CONTEXT_MARGIN_M,
                                    gui=self.render_mode == "human", transport=self.transport,
                                    gui_delay_ms=self.gui_delay_ms)

@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from sumo_rail.config import ConfigError, ScenarioConfig
+from sumo_rail.config import Config, ConfigError, ScenarioConfig
 from sumo_rail.datasets import sumo_version, written_atomically
 from sumo_rail.sim import scenarios, user_network
 from sumo_rail.sim.built_network import BuiltNetwork, sumo_binary
@@ -45,6 +45,13 @@ def cache_dir() -> Path:
     if os.environ.get("SUMO_RAIL_CACHE"):
         return Path(os.environ["SUMO_RAIL_CACHE"])
     return Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "sumo-rail"
+
+
+def check_user_route(config: Config) -> None:
+    """`user_network.check_start_window` on a user's network (kind network), as the CLI checks it before any work:
+    for an env built from Python, before its first simulation starts."""
+    if config.scenario.kind == "network":
+        user_network.check_start_window(config.env, build(config.scenario))
 
 
 def build(scenario: ScenarioConfig, source_dir: Path | None = None) -> BuiltNetwork:

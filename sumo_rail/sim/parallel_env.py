@@ -46,6 +46,7 @@ from gymnasium.utils import seeding
 from pettingzoo import ParallelEnv
 
 from sumo_rail.config import Config
+from sumo_rail.sim import network
 from sumo_rail.sim.actions import Action
 from sumo_rail.sim.ego import CONTEXT_MARGIN_M, Ego, checked_action, edge_rows
 from sumo_rail.sim.observation import observation_space
@@ -134,6 +135,7 @@ class ParallelHighwayEnv(ParallelEnv[str, np.ndarray, np.int64]):
             self._np_random, _ = seeding.np_random(seed)
         cfg = self.config
         if self._sim is None:
+            network.check_user_route(cfg)
             self._sim = Simulation(cfg.scenario, cfg.lidar.range_m + CONTEXT_MARGIN_M, transport=self.transport)
         sim = self._sim
         starts = EpisodeStarts.draw(self.np_random, cfg, sim.snapshot_count, len(self.possible_agents),

@@ -184,3 +184,15 @@ def test_the_docs_name_netconvert_the_projects_type_names_and_how_long_user_traf
     defaults = Config().scenario
     needed = defaults.warmup_s + defaults.snapshots * defaults.snapshot_interval_s
     assert f"{defaults.warmup_s:g} + {defaults.snapshots} x {defaults.snapshot_interval_s:g} = {needed:g} s" in docs
+
+
+def test_an_env_built_from_python_checks_the_route_s_length_before_sumo_starts(small_config, tmp_path):
+    """The CLI's check, for a user who builds the env in Python (Gymnasium's make, a vector env)."""
+    from sumo_rail.sim.env import HighwayEnv
+    from sumo_rail.sim.parallel_env import ParallelHighwayEnv
+
+    short = on(small_config.with_overrides({"env": {"end_margin_m": 300.0}}), two_edges(tmp_path, length_m=150.0))
+    for env in (HighwayEnv(short), ParallelHighwayEnv(2, short)):
+        with pytest.raises(ConfigError, match=r"must be shorter than scenario\.route"):
+            env.reset(seed=0)
+        env.close()
