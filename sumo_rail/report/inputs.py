@@ -192,7 +192,8 @@ def _require_columns(table: pd.DataFrame, columns: tuple[str, ...], path: Path) 
 
 def _read_run_record(path: Path) -> tuple[dict[str, Any], str, str]:
     """run.json's settings, the training method ('GAIL' for a gail run, 'PPO' for a ppo run, 'DAgger' for a dagger
-    run, else 'RAIL') and the road (scenario.kind); ({}, 'RAIL', '?') without it."""
+    run, else 'RAIL') and the road (scenario.kind: 'straight' in a config written before roads had kinds, the
+    only road then); ({}, 'RAIL', '?') without run.json."""
     if not path.is_file():
         return {}, "RAIL", "?"
     record = read_json_record(path, "run record")
@@ -202,7 +203,7 @@ def _read_run_record(path: Path) -> tuple[dict[str, Any], str, str]:
     scenario = record.get("config", {}).get("scenario", {}) if isinstance(record.get("config"), dict) else {}
     return (settings, {"gail_run": "GAIL", "ppo_run": "PPO", "dagger_run": "DAgger"}.get(str(record.get("kind")),
                                                                                          "RAIL"),
-            str(scenario.get("kind", "?")) if isinstance(scenario, dict) else "?")
+            str(scenario.get("kind", "straight")) if isinstance(scenario, dict) and scenario else "?")
 
 
 def _observation_names(policies: dict[str, tuple[Policy, str]], metadata: dict[str, Any]) -> list[str]:
