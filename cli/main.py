@@ -17,6 +17,7 @@ try:
     from sumo_rail_cli.ppo_command import ppo_command
     from sumo_rail_cli.recordings_commands import record_sumo_drivers_command, recorded_demos_command
     from sumo_rail_cli.report_command import report_command
+    from sumo_rail_cli.scene_command import evaluate_scene_command
     from sumo_rail_cli.signal_command import step_signal_command
 except KeyboardInterrupt:
     interrupted_while_starting()
@@ -58,4 +59,5 @@ cli.add_command(step_signal_command)
 cli.add_command(import_recording_command)
 cli.add_command(record_sumo_drivers_command)
 cli.add_command(recorded_demos_command)
+cli.add_command(evaluate_scene_command)
 

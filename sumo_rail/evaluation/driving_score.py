@@ -5,8 +5,10 @@ the simulation metric config; Caesar et al., "nuPlan", 2021; Karnchanachari et a
             x (5 progress + 5 ttc_compliant + 4 speed_limit_compliance + 2 comfortable) / 16
 
 Gates (0 or 1, multiplying):
-- no_collision: nuPlan's no_ego_at_fault_collisions. The env does not say who caused a collision, so every
-  collision of the ego counts as at fault (nuPlan gives 0.5 for a collision with a static object; there are none).
+- no_collision: nuPlan's no_ego_at_fault_collisions. The generated roads' env does not say who caused a collision,
+  so there every collision of the ego counts as at fault; a recorded scene's episodes have `at_fault_collisions`
+  (the ego ran into the other, `scene_evaluation`), which is then used (nuPlan gives 0.5 for a collision with a
+  static object; there are none).
 - on_road: nuPlan's drivable_area_compliance. The env refuses a lane change off the road (an invalid action that
   does nothing), so its ego cannot leave the road: 1 unless the metrics have a boolean `off_road` column (a
   recorded scene may set it).
@@ -55,16 +57,18 @@ SCORE_COLUMNS = ("driving_score", *GATES, *WEIGHTS)
 
 def driving_scores(episodes: pd.DataFrame, reference_distance_m: np.ndarray,
                    mean_overspeed_mps: np.ndarray) -> pd.DataFrame:
-    """SCORE_COLUMNS for each episode of `episodes` (metrics rows with `collisions`, `missed_exits`,
-    `lane_end_stops`, `distance_m`, `min_ttc_s`, `hard_braking`, `jerk_mean_mps3`, optionally `off_road`), given the
-    reference's distance in the same episode [m] and the ego's time-mean speed above the limit [m/s]."""
+    """SCORE_COLUMNS for each episode of `episodes` (metrics rows with `collisions` or `at_fault_collisions`,
+    `missed_exits`, `lane_end_stops`, `distance_m`, `min_ttc_s`, `hard_braking`, `jerk_mean_mps3`, optionally
+    `off_road`), given the reference's distance in the same episode [m] and the ego's time-mean speed above the
+    limit [m/s]."""
     distance = episodes["distance_m"].to_numpy(dtype=float)
     reference = np.asarray(reference_distance_m, dtype=float)
     with np.errstate(invalid="ignore", divide="ignore"):
         progress = np.where(reference > 0, np.clip(distance / reference, 0.0, 1.0), 1.0)
     off_road = episodes["off_road"].to_numpy(dtype=bool) if "off_road" in episodes else np.zeros(len(episodes), bool)
     parts = {
-        "no_collision": episodes["collisions"].to_numpy() == 0,
+        "no_collision": episodes["at_fault_collisions" if "at_fault_collisions" in episodes else "collisions"]
+        .to_numpy() == 0,
         "on_road": ~off_road,
         "route_completed": (episodes["missed_exits"].to_numpy() + episodes["lane_end_stops"].to_numpy()) == 0,
         "making_progress": progress >= MIN_PROGRESS_RATIO,

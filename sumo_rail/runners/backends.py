@@ -17,7 +17,7 @@ import time
 import traceback
 import weakref
 from collections import deque
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Hashable, Sequence
 from dataclasses import dataclass
 from multiprocessing.connection import Connection, wait
 from multiprocessing.process import BaseProcess
@@ -57,7 +57,7 @@ class WorkerContext:
     def __init__(self, render_mode: str | None = None, gui_delay_ms: float = 100.0) -> None:
         self._render_mode = render_mode
         self._gui_delay_ms = gui_delay_ms
-        self._key: tuple[Config, int | None] | None = None
+        self._key: Hashable = None
         self._env: HighwayEnv | ParallelHighwayEnv | None = None
 
     def env(self, config: Config) -> HighwayEnv:
@@ -77,6 +77,15 @@ class WorkerContext:
             self._env = ParallelHighwayEnv(egos, config, transport="libsumo")
             self._key = (config, egos)
         assert isinstance(self._env, ParallelHighwayEnv)
+        return self._env
+
+    def custom_env(self, key: Hashable, create: Callable[[], Any]) -> Any:
+        """An env of another kind (a recorded scene's), made by `create` on first use and kept like `env` for later
+        tasks with an equal `key`."""
+        if self._env is None or self._key != key:
+            self.close()
+            self._env = create()
+            self._key = key
         return self._env
 
     def close(self) -> None:

@@ -1,0 +1,104 @@
+"""The command `evaluate-scene`: drivers in held-out recorded drivers' seats, closed loop (docs/replay.md)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import click
+from sumo_rail_cli.options import backend_options, build_backend, check_output, output_options, seed_option
+from sumo_rail_cli.param_types import FiniteFloat
+from sumo_rail_cli.progress import complete, progress
+from sumo_rail_cli.running import interruptible_run
+from sumo_rail_cli.settings import config_options
+
+if TYPE_CHECKING:
+    from sumo_rail.config import Config
+
+
+@click.command("evaluate-scene")
+@config_options
+@click.argument("scenes", nargs=-1, required=True, type=click.Path(path_type=Path, file_okay=False))
+@click.option("--policy", "policies", multiple=True, default=("expert",), show_default=True,
+              metavar="expert[:STYLE]|keep|sumo-idm|PATH",
+              help="Driver in the seats (repeatable): the rule-based expert, keep (a constant set-point, the human's "
+                   "speed at the start), sumo-idm (SUMO's IDM and LC2013 drive the ego) or a saved policy file.")
+@click.option("--split", type=click.Choice(["test", "validation"]), default="test", show_default=True,
+              help="Whose seats: the scenes' held-out vehicles of this split (passenger cars only).")
+@click.option("--mode", "modes", multiple=True, type=click.Choice(["non-reactive", "reactive"]),
+              default=("non-reactive", "reactive"), show_default=True,
+              help="non-reactive: the other vehicles replayed as recorded; reactive: driven by SUMO from their "
+                   "recorded state (repeatable).")
+@click.option("--horizon-s", type=FiniteFloat(1, 600), default=15.0, show_default=True,
+              help="Length of each episode [s] (the position error is read at 1, 5 and 10 s).")
+@click.option("--lead-s", type=FiniteFloat(0, 600), default=5.0, show_default=True,
+              help="The ego takes the seat this long after the vehicle's track begins [s].")
+@click.option("--seats", "limit", type=click.IntRange(min=1), default=None,
+              help="Seats per scene, drawn by --seed  [default: every seat that fits].")
+@seed_option("Seed of the seats' draw and of each episode's SUMO seed.")
+@backend_options
+@output_options(required=False)
+def evaluate_scene_command(config: Config, scenes: tuple[Path, ...], policies: tuple[str, ...], split: str,
+                           modes: tuple[str, ...], horizon_s: float, lead_s: float, limit: int | None, seed: int,
+                           workers: int, backend_name: str, address: str | None, out: Path | None,
+                           overwrite: bool) -> None:
+    """Put each driver in the seat of each held-out recorded car of SCENES (folders of import-recording or
+    record-sumo-drivers) for --horizon-s, and measure it against that car's recorded track: position error at 1, 5
+    and 10 s, collisions and those the ego caused, stops, progress relative to the human, lane changes per km, hard
+    braking, TTC below 1.5 s, the driving score, and the distances of its speed, acceleration and gap distributions to
+    the humans'. --out gets one row per episode and NAME.tracks.parquet beside it one row per decision (the humans'
+    own rows under the driver "human")."""
+    from sumo_rail.datasets import DatasetError
+    from sumo_rail.drivers.policies import PolicyFileError
+    from sumo_rail.evaluation.evaluate import DEFAULT_REFERENCE, parse_driver, unique_names
+    from sumo_rail.evaluation.scene_evaluation import (
+        SumoDriver,
+        choose_seats,
+        evaluate_seats,
+        tracks_path,
+        write_scene_evaluation,
+    )
+    from sumo_rail.evaluation.scene_summary import distribution_table, track_table
+    from sumo_rail.recordings.scene_folder import read_scene
+    from sumo_rail.recordings.scene_observations import scene_road
+    from sumo_rail.recordings.tracks import RecordingUsageError
+
+    check_output(out, overwrite)
+    if out is not None:
+        check_output(tracks_path(out), overwrite)
+    config = config.with_overrides({"env": {"max_episode_s": horizon_s}})
+    try:
+        read = [read_scene(scene) for scene in scenes]
+        for scene in read:
+            scene_road(scene.network)  # one straight edge, or one sentence
+        seats = [seat for scene in read for seat in choose_seats(scene, split, horizon_s, lead_s, limit, seed)]
+    except (DatasetError, RecordingUsageError) as error:
+        raise click.UsageError(str(error)) from error
+    if not seats:
+        raise click.UsageError(f"no {split} car of {', '.join(map(str, scenes))} has a track of --lead-s + "
+                               f"--horizon-s = {lead_s + horizon_s:g} s")
+    drivers = []
+    for text in policies:
+        try:
+            drivers.append(SumoDriver() if text == "sumo-idm" else parse_driver(text, config, DEFAULT_REFERENCE))
+        except PolicyFileError as error:
+            raise click.ClickException(str(error)) from error
+        except ValueError as error:
+            raise click.BadParameter(str(error), param_hint="'--policy'") from error
+    names = unique_names(drivers)
+    backend = build_backend(backend_name, workers, address)
+    bar = progress(len(drivers) * len(seats) * len(modes), "driving in recorded seats")
+    with interruptible_run(bar, "interrupted; nothing was written" if out is not None else "interrupted", backend):
+        metrics, tracks = evaluate_seats(drivers, names, config, seats, modes, backend, seed,
+                                         on_episode=lambda index, result: bar.update())
+        if out is not None:
+            write_scene_evaluation(metrics, tracks, config, seed, out, scenes=[str(scene.folder) for scene in read],
+                                   policies=list(policies), split=split, lead_s=lead_s)
+        complete(bar)
+    methods = {name: [name] for name in names}
+    click.echo(f"{len(seats)} seats of {len(read)} scene(s), {horizon_s:g} s each\n")
+    click.echo(track_table(metrics, methods) + "\n")
+    click.echo("Wasserstein-1 distance to the humans' distributions:\n")
+    click.echo(distribution_table(tracks, methods, config.env.decision_period_s))
+    if out is not None:
+        click.echo(f"wrote {out}: {len(metrics)} episodes; {tracks_path(out)}: {len(tracks)} decisions")

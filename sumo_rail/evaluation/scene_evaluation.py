@@ -1,0 +1,206 @@
+"""Drivers in recorded drivers' seats (closed loop): each driver takes each chosen held-out vehicle's place in its
+scene (`sumo_rail.recordings.seat.SceneEnv`) for a fixed horizon, non-reactive or reactive, and is measured against
+that vehicle's recorded track.
+
+A seat is a held-out passenger car (the ego is a car) whose track covers `lead_s` + `horizon_s` [s]; the ego starts
+`lead_s` after the track begins (the car is fully on the road and has moved with its traffic). Per episode: the
+paper's metrics, the safety measures (`safety.SafetyProbe`), the position error against the human's track at 1, 5 and
+10 s (`human_likeness`), collisions and those the ego caused (SUMO names the ego the collider: it ran into the
+other; a replayed vehicle running into the ego from behind is the other's fault), a stop (speed below
+`STOP_MPS`), the progress relative to the human (distances along the road over the same time), lane changes per km
+and the driving score with its parts (`driving_score`; the human's distance is the reference's). Per decision, for the
+distributions: the ego's and, once per seat, the human's time, position, speed, lane and gap to the leader in its lane.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+import pyarrow as pa
+
+from sumo_rail.config import Config
+from sumo_rail.datasets import write_parquet
+from sumo_rail.evaluation.driving_score import SCORE_COLUMNS, driving_scores
+from sumo_rail.evaluation.human_likeness import HORIZONS_S, position_errors
+from sumo_rail.evaluation.safety import SafetyProbe
+from sumo_rail.recordings.scene_folder import Scene, read_scene
+from sumo_rail.recordings.scene_observations import SceneFrames
+from sumo_rail.recordings.seat import SceneEnv
+from sumo_rail.runners.backends import RolloutBackend, WorkerContext
+from sumo_rail.runners.rollout import DriverSpec, KeepDriver, run_episode
+from sumo_rail.runners.tables import provenance
+from sumo_rail.sim.traffic import TrafficView, lane_gaps
+
+STOP_MPS = 0.5
+"""A speed below this is a stop [m/s]."""
+GAP_RANGE_M = 100.0
+"""Gaps to a leader beyond this (or none) are no headway sample [m] (the LIDAR's range)."""
+HUMAN = "human"
+"""The driver name of the recorded vehicles' own rows."""
+MODES = {"non-reactive": False, "reactive": True}
+SCENE_EPISODES, SCENE_TRACKS = "scene_episodes", "scene_tracks"
+"""The `kind` in the provenance of evaluate-scene's two tables."""
+TRACK_COLUMNS = ("time_s", "x_m", "y_m", "speed_mps", "lane", "lane_position_m", "gap_m")
+
+
+@dataclass(frozen=True)
+class SumoDriver:
+    """SUMO's IDM and LC2013 in the ego's seat (`SceneEnv`'s "sumo_driver"); the actions are not used."""
+
+    name: str = "sumo-idm"
+
+    def create(self, config: Config, seed: int) -> Callable[[np.ndarray, TrafficView], int]:
+        return KeepDriver().create(config, seed)
+
+
+@dataclass(frozen=True)
+class Seat:
+    """A recorded vehicle's seat: its scene folder, id and the instant the ego takes it [s]."""
+
+    scene: str
+    vehicle: str
+    start_s: float
+
+
+def choose_seats(scene: Scene, split: str, horizon_s: float, lead_s: float, limit: int | None,
+                 seed: int) -> list[Seat]:
+    """The seats of `split`'s passenger cars whose tracks cover `lead_s` + `horizon_s`, in id order; with `limit`,
+    that many drawn without replacement by `seed`, kept in id order."""
+    held_out = set(scene.split.loc[scene.split["split"] == split, "vehicle_id"].astype(str))
+    spans = scene.tracks.groupby("vehicle_id").agg(begin=("time_s", "min"), end=("time_s", "max"),
+                                                   kind=("vehicle_class", "first"))
+    fit = spans[(spans["kind"] == "passenger") & (spans["end"] - spans["begin"] >= lead_s + horizon_s - 1e-9)
+                & spans.index.isin(held_out)].sort_index()
+    if limit is not None and limit < len(fit):
+        fit = fit.iloc[np.sort(np.random.default_rng(seed).choice(len(fit), limit, replace=False))]
+    return [Seat(str(scene.folder), str(vehicle), float(begin) + lead_s) for vehicle, begin in fit["begin"].items()]
+
+
+class _TrackProbe:
+    """The ego's state at every decision (a `DecisionProbe`)."""
+
+    def __init__(self) -> None:
+        self.rows: list[tuple[float, ...]] = []
+
+    def __call__(self, observation: np.ndarray, traffic: TrafficView, action: int, info: dict[str, Any]) -> None:
+        self.add(traffic)
+
+    def add(self, traffic: TrafficView) -> None:
+        ego, gap = traffic.ego, lane_gaps(traffic, traffic.ego.lane).front_gap_m
+        self.rows.append((ego.front_x, ego.front_y, ego.speed_mps, ego.lane, ego.lane_position_m,
+                          gap if gap <= GAP_RANGE_M else np.nan))
+
+
+def human_track(frames: SceneFrames, seat: Seat, period_s: float, decisions: int) -> pd.DataFrame:
+    """The seat's recorded vehicle at the episode's decision instants (`TRACK_COLUMNS`)."""
+    rows = []
+    for k in range(decisions + 1):
+        time_s = seat.start_s + k * period_s
+        ids, values, lanes = frames.at(time_s)
+        row = np.flatnonzero(ids == seat.vehicle)
+        if not len(row):
+            break
+        i = int(row[0])
+        same = (lanes == lanes[i]) & (np.arange(len(ids)) != i)
+        rears = values["lane_position_m"][same] - values["length_m"][same]
+        ahead = rears[rears > values["lane_position_m"][i]] - values["lane_position_m"][i]
+        gap = float(ahead.min()) if len(ahead) and ahead.min() <= GAP_RANGE_M else np.nan
+        rows.append((time_s, values["x_m"][i], values["y_m"][i], values["speed_mps"][i], int(lanes[i]),
+                     values["lane_position_m"][i], gap))
+    return pd.DataFrame(rows, columns=list(TRACK_COLUMNS))
+
+
+@dataclass(frozen=True)
+class SeatTask:
+    """One driver's episode in one seat, in one mode (the unit of work of `evaluate_seats`)."""
+
+    config: Config
+    seat: Seat
+    driver: DriverSpec
+    reactive: bool
+    seed: int
+
+    def run(self, context: WorkerContext) -> tuple[dict[str, Any], pd.DataFrame]:
+        env = context.custom_env(("scene", self.config, self.seat.scene, self.reactive),
+                                 lambda: SceneEnv(self.config, Path(self.seat.scene), self.reactive,
+                                                  transport="libsumo"))
+        assert isinstance(env, SceneEnv)
+        track, safety = _TrackProbe(), SafetyProbe()
+        options = {"vehicle": self.seat.vehicle, "start_s": self.seat.start_s,
+                   "sumo_driver": isinstance(self.driver, SumoDriver)}
+        result = run_episode(env, self.driver.create(env.config, self.seed), self.seed, options=options,
+                             probe=lambda *decision: (track(*decision), safety(*decision)))
+        if result.metrics["termination"] != "collision":
+            track.add(env.traffic)
+        period = env.config.env.decision_period_s
+        driven = pd.DataFrame([(self.seat.start_s + k * period, *row) for k, row in enumerate(track.rows)],
+                              columns=list(TRACK_COLUMNS))
+        return {**result.metrics, **safety.episode_columns(),
+                "at_fault_collisions": sum(collider == "ego" for collider, _ in env.ego_collisions),
+                "limit_mps": env.config.scenario.speed_limit_mps}, driven
+
+
+def seat_columns(driven: pd.DataFrame, human: pd.DataFrame, simulated_s: float) -> dict[str, float]:
+    """The measures of one episode against the human's track: position errors, progress, stop, lane changes."""
+    errors = position_errors(driven, human) if len(driven) else np.full(len(HORIZONS_S), np.nan)
+    start = human["lane_position_m"].iloc[0]
+    human_m = float(np.interp(human["time_s"].iloc[0] + simulated_s, human["time_s"], human["lane_position_m"])
+                    - start)
+    driven_m = float(driven["lane_position_m"].iloc[-1] - driven["lane_position_m"].iloc[0]) if len(driven) else 0.0
+    changes = int(np.abs(np.diff(driven["lane"].to_numpy())).sum()) if len(driven) else 0
+    return {**{f"position_error_{h:g}s_m": float(e) for h, e in zip(HORIZONS_S, errors, strict=True)},
+            "human_distance_m": human_m, "progress_ratio": driven_m / human_m if human_m > 0 else np.nan,
+            "stopped": bool(len(driven) and driven["speed_mps"].min() < STOP_MPS),
+            "lane_changes_per_km": changes / (driven_m / 1000.0) if driven_m > 0 else np.nan}
+
+
+def evaluate_seats(drivers: Sequence[DriverSpec], names: Sequence[str], config: Config, seats: Sequence[Seat],
+                   modes: Sequence[str], backend: RolloutBackend, seed: int,
+                   on_episode: Callable[[int, Any], None] | None = None) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """Every driver in every seat in every mode: (one metrics row per episode, one track row per decision with the
+    human's rows once per seat and mode under driver `HUMAN`)."""
+    tasks = [SeatTask(config, seat, driver, MODES[mode], seed + index)
+             for mode in modes for driver in drivers for index, seat in enumerate(seats)]
+    results = backend.run(tasks, on_result=on_episode)
+    frames = {scene: SceneFrames(read.tracks, read.meta.frame_rate_hz)
+              for scene, read in ((scene, read_scene(Path(scene))) for scene in {seat.scene for seat in seats})}
+    period = config.env.decision_period_s
+    horizon_decisions = round(config.env.max_episode_s / period)
+    humans = {seat: human_track(frames[seat.scene], seat, period, horizon_decisions) for seat in seats}
+    rows, tracks = [], []
+    for task, (metrics, driven) in zip(tasks, results, strict=True):
+        mode = "reactive" if task.reactive else "non-reactive"
+        keys = {"policy": names[list(drivers).index(task.driver)], "mode": mode, "scene": Path(task.seat.scene).name,
+                "vehicle": task.seat.vehicle, "start_s": task.seat.start_s}
+        rows.append({**keys, **metrics, **seat_columns(driven, humans[task.seat], metrics["simulated_s"])})
+        tracks.append(driven.assign(**keys))
+    for mode in modes:
+        for seat, human in humans.items():
+            tracks.append(human.assign(policy=HUMAN, mode=mode, scene=Path(seat.scene).name, vehicle=seat.vehicle,
+                                       start_s=seat.start_s))
+    metrics_frame = pd.DataFrame(rows)
+    overspeed = [float(np.clip(driven["speed_mps"] - limit, 0.0, None).mean()) if len(driven) else 0.0
+                 for driven, limit in zip(tracks[:len(rows)], metrics_frame["limit_mps"], strict=True)]
+    metrics_frame[list(SCORE_COLUMNS)] = driving_scores(metrics_frame, metrics_frame["human_distance_m"].to_numpy(),
+                                                        np.array(overspeed))
+    return metrics_frame, pd.concat(tracks, ignore_index=True)
+
+
+
+def tracks_path(metrics_path: Path) -> Path:
+    """Where the per-decision tracks of a metrics file go: NAME.tracks.parquet beside NAME.parquet."""
+    return Path(metrics_path).with_suffix(".tracks.parquet")
+
+
+def write_scene_evaluation(metrics: pd.DataFrame, tracks: pd.DataFrame, config: Config, seed: int, out: Path,
+                           **extra: Any) -> None:
+    """The metrics at `out` and the tracks beside it (`tracks_path`), with provenance, each atomically."""
+    write_parquet(pa.Table.from_pandas(metrics, preserve_index=False), out,
+                  provenance(SCENE_EPISODES, config, seed, **extra))
+    write_parquet(pa.Table.from_pandas(tracks, preserve_index=False), tracks_path(out),
+                  provenance(SCENE_TRACKS, config, seed, metrics_file=Path(out).name, **extra))

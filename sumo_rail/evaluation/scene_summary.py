@@ -1,0 +1,104 @@
+"""The closed-loop human-likeness tables of drivers in recorded drivers' seats (`scene_evaluation`'s outputs).
+
+A method is one driver or several training runs of one (one policy per training seed, every run in the same seats);
+each cell is the method's estimate with its 95% interval (`statistics.seeded_interval`: over training runs and seats),
+each difference row the paired difference of two methods, seat by seat and training seed by training seed. The
+distributions table gives the Wasserstein-1 distance between a method's and the humans' samples of speed,
+acceleration, gap to the leader and the gap to the new leader taken at lane changes, with an interval from resampling
+whole episodes (`human_likeness.wasserstein_interval`; a method's training runs' episodes pooled).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+
+import numpy as np
+import pandas as pd
+
+from sumo_rail.evaluation.human_likeness import HORIZONS_S, wasserstein_interval
+from sumo_rail.evaluation.scene_evaluation import HUMAN
+from sumo_rail.evaluation.statistics import Interval, Sample, seeded_interval
+
+SEAT_KEYS = ["mode", "scene", "vehicle", "start_s"]
+MEASURES: dict[str, str] = {
+    **{f"position error {h:g} s [m]": f"position_error_{h:g}s_m" for h in HORIZONS_S},
+    "collisions": "collided", "at fault": "at_fault", "stops": "stopped", "progress vs human": "progress_ratio",
+    "lane changes / km": "lane_changes_per_km", "hard braking / episode": "hard_braking",
+    "TTC < 1.5 s share": "ttc_below_1_5s_share", "driving score": "driving_score",
+}
+"""Table heading -> the measure (`samples`)."""
+DISTRIBUTIONS = {"speed [m/s]": "speed", "acceleration [m/s^2]": "acceleration", "gap to leader [m]": "gap",
+                 "lane-change gap [m]": "lane_change_gap"}
+
+
+def samples(episodes: pd.DataFrame, measure: str) -> Sample:
+    """One (numerator, denominator) per episode of `measure`: a mean over the episodes where it is defined, lane
+    changes per km driven, the TTC share per decision."""
+    if measure == "lane_changes_per_km":
+        return episodes["lane_changes"].to_numpy(float), np.maximum(episodes["distance_m"].to_numpy(float), 0) / 1e3
+    if measure == "ttc_below_1_5s_share":
+        steps = episodes["steps"].to_numpy(float)
+        return episodes[measure].to_numpy(float) * steps, steps
+    if measure == "collided":
+        values = (episodes["collisions"] > 0).to_numpy(float)
+    elif measure == "at_fault":
+        values = (episodes["at_fault_collisions"] > 0).to_numpy(float)
+    else:
+        values = episodes[measure].to_numpy(float)
+    defined = ~np.isnan(values)
+    return np.where(defined, values, 0.0), defined.astype(float)
+
+
+def _runs(metrics: pd.DataFrame, names: Sequence[str], mode: str) -> list[pd.DataFrame]:
+    """Each run's episodes in `mode`, in the same seat order."""
+    return [metrics[(metrics["policy"] == name) & (metrics["mode"] == mode)].sort_values(SEAT_KEYS) for name in names]
+
+
+def track_table(metrics: pd.DataFrame, methods: Mapping[str, Sequence[str]],
+                differences: Sequence[tuple[str, str]] = ()) -> str:
+    """The measures of every method in every mode, then each (method, reference) difference."""
+    lines = ["| driver | mode | " + " | ".join(MEASURES) + " |", "|---|---|" + "---|" * len(MEASURES)]
+    modes = sorted(metrics["mode"].unique())
+    for mode in modes:
+        for method, names in methods.items():
+            runs = _runs(metrics, names, mode)
+            cells = [seeded_interval([samples(run, measure) for run in runs]).format(2)
+                     for measure in MEASURES.values()]
+            lines.append(f"| {method} | {mode} | " + " | ".join(cells) + " |")
+        for method, reference in differences:
+            runs, others = _runs(metrics, methods[method], mode), _runs(metrics, methods[reference], mode)
+            cells = [_starred(seeded_interval([samples(run, measure) for run in runs],
+                                              [samples(run, measure) for run in others]))
+                     for measure in MEASURES.values()]
+            lines.append(f"| {method} - {reference} | {mode} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def _starred(difference: Interval) -> str:
+    return difference.format(2, signed=True) + (" *" if difference.excludes_zero else "")
+
+
+def distribution_samples(track: pd.DataFrame, period_s: float) -> dict[str, np.ndarray]:
+    """One episode's (or one human's) samples: speeds, accelerations between decisions, gaps to the leader and the
+    gaps at lane changes (the gap in the new lane at the first decision there)."""
+    speed = track["speed_mps"].to_numpy(float)
+    lane = track["lane"].to_numpy()
+    gap = track["gap_m"].to_numpy(float)
+    changed = np.flatnonzero(np.diff(lane) != 0) + 1
+    return {"speed": speed, "acceleration": np.diff(speed) / period_s, "gap": gap, "lane_change_gap": gap[changed]}
+
+
+def distribution_table(tracks: pd.DataFrame, methods: Mapping[str, Sequence[str]], period_s: float) -> str:
+    """The Wasserstein-1 distance of every method's samples to the humans' of the same seats and mode."""
+    lines = ["| driver | mode | " + " | ".join(DISTRIBUTIONS) + " |", "|---|---|" + "---|" * len(DISTRIBUTIONS)]
+    by_episode = {key: distribution_samples(group, period_s)
+                  for key, group in tracks.groupby(["policy", *SEAT_KEYS], sort=True)}
+    for mode in sorted(tracks["mode"].unique()):
+        humans = [values for key, values in by_episode.items() if key[0] == HUMAN and key[1] == mode]
+        for method, names in methods.items():
+            ours = [values for key, values in by_episode.items() if key[0] in names and key[1] == mode]
+            cells = [wasserstein_interval([episode[name] for episode in ours],
+                                          [episode[name] for episode in humans]).format(2)
+                     for name in DISTRIBUTIONS.values()]
+            lines.append(f"| {method} | {mode} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)

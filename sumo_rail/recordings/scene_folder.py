@@ -1,0 +1,72 @@
+"""A scene folder read back and checked (the contract is `scene`): its meta, tracks, split and network."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+import pandas as pd
+
+from sumo_rail.config import Config
+from sumo_rail.datasets import DatasetError, check_file, file_sha256, read_table
+from sumo_rail.recordings.importing import SCENE_FILES, SPLITS
+from sumo_rail.recordings.scene import TRACK_COLUMNS, SceneMeta
+from sumo_rail.recordings.scene_observations import SceneRoad, scene_road
+from sumo_rail.recordings.tracks import RecordingUsageError
+
+
+@dataclass(frozen=True)
+class Scene:
+    """A scene folder read back: its meta, tracks (`TRACK_COLUMNS`), split and network file."""
+
+    folder: Path
+    meta: SceneMeta
+    tracks: pd.DataFrame
+    split: pd.DataFrame
+    network: Path
+
+    def track(self, vehicle: str) -> pd.DataFrame:
+        """One vehicle's rows in time order; DatasetError when the scene has no such vehicle."""
+        rows = self.tracks[self.tracks["vehicle_id"] == vehicle]
+        if rows.empty:
+            raise DatasetError(f"scene {self.folder} has no vehicle {vehicle!r}")
+        return rows.sort_values("time_s")
+
+
+def read_scene(folder: Path) -> Scene:
+    """The scene folder `folder`; RecordingUsageError naming the missing or unreadable file."""
+    try:
+        for name in SCENE_FILES:
+            check_file(folder / name, "scene file")
+        meta = SceneMeta(**json.loads((folder / "scene.json").read_text()))
+        network = Path(meta.network) if Path(meta.network).is_absolute() else folder / meta.network
+        check_file(network, "scene network")
+        tracks = read_table(folder / "tracks.parquet", columns=list(TRACK_COLUMNS)).to_pandas()
+        split = read_table(folder / "split.parquet", columns=["vehicle_id", "split"]).to_pandas()
+    except (DatasetError, json.JSONDecodeError, TypeError, KeyError, UnicodeDecodeError) as error:
+        raise RecordingUsageError(f"{folder} is not a readable scene folder ({error})") from error
+    return Scene(folder, meta, tracks, split, network)
+
+
+def check_scene(scene: Scene, config: Config, split: str) -> SceneRoad:
+    """The scene's road; RecordingUsageError when the scene cannot give this configuration's observation (another
+    lane count, a road that is not one straight edge) or `split` names no vehicle."""
+    if split not in SPLITS:
+        raise RecordingUsageError(f"unknown split {split!r}; known: {', '.join(SPLITS)}")
+    try:
+        road = scene_road(scene.network)
+    except DatasetError as error:
+        raise RecordingUsageError(str(error)) from error
+    if road.lanes != config.scenario.lanes:
+        raise RecordingUsageError(f"the scene {scene.folder} has {road.lanes} lanes and the observation "
+                                  f"scenario.lanes={config.scenario.lanes}; pass --set scenario.lanes={road.lanes}")
+    if not (scene.split["split"] == split).any():
+        raise RecordingUsageError(f"the scene {scene.folder} has no vehicle in the {split} split")
+    return road
+
+
+def scene_sources(scene: Scene) -> dict[str, str]:
+    """The scene's own files (and its network) -> sha256 of their bytes."""
+    paths = [scene.folder / name for name in SCENE_FILES] + [scene.network]
+    return {str(path.resolve()): file_sha256(path) for path in paths}

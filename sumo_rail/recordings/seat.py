@@ -1,0 +1,170 @@
+"""The ego in a recorded driver's seat: `SceneEnv` is `HighwayEnv` on a scene's road whose traffic is the scene's
+vehicles (`scene_traffic`), and whose every reset puts the ego where one recorded vehicle is at a chosen instant, at
+its recorded lane, position, speed, length and width, that vehicle then left out of the replay. The ego then drives
+exactly as in the generated roads (the same actions, ACC, observation, rewards, safety readings), until the
+episode's horizon (`env.max_episode_s`), a collision or the end of the road. The human's recorded track is the
+reference of the episode (`sumo_rail.evaluation.scene_evaluation`).
+
+Scenes on one straight edge only (highD, NGSIM, record-sumo-drivers; an FCD recording on a user's network of several
+edges is refused in one sentence, as for `recorded-demos`). The seat's driver may also be SUMO itself: with reset
+option `"sumo_driver": True` the ego is given SUMO's IDM car following and LC2013 lane changing (a type of the
+scene's routes file, `IDM_TYPE`), desired speed the ego's top set-point, and the actions passed to `step` are ignored.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import xml.etree.ElementTree as ElementTree
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import gymnasium
+import numpy as np
+import pandas as pd
+
+from sumo_rail.config import Config
+from sumo_rail.datasets import DatasetError, write_bytes_atomically
+from sumo_rail.recordings.scene_folder import Scene, read_scene
+from sumo_rail.recordings.scene_observations import SceneFrames, SceneRoad, scene_road
+from sumo_rail.recordings.scene_traffic import LANE_CHANGE_MODE_SUMO, REPLAY_ROUTE, SceneTraffic
+from sumo_rail.sim.ego import CONTEXT_MARGIN_M, Ego, edge_rows
+from sumo_rail.sim.env import HighwayEnv
+from sumo_rail.sim.simulation import EGO_ID, Simulation, SimulationError, sumo_options
+
+IDM_TYPE = "scene_idm"
+"""The vehicle type of a SUMO-driven seat: IDM car following, LC2013 lane changing, SUMO's default parameters."""
+
+
+def scene_config(config: Config, scene: Scene, road: SceneRoad) -> Config:
+    """`config` on the scene's road: kind network, the scene's network and its one edge, the scene's lanes."""
+    return config.with_overrides({"scenario": {"kind": "network", "network": str(scene.network.resolve()),
+                                               "route": road.edge, "traffic_file": "", "lanes": road.lanes}})
+
+
+class SceneSimulation(Simulation):
+    """A `Simulation` of a scene's road whose traffic is the scene's vehicles, stepped with them (`SceneTraffic`)."""
+
+    def __init__(self, config: Config, frames: SceneFrames, tracks: pd.DataFrame, road: SceneRoad, reactive: bool,
+                 transport: str = "libsumo", gui: bool = False) -> None:
+        self.frames, self.road = frames, road
+        self._routes: Path | None = None
+        self.ego_collisions: list[tuple[str, str]] = []
+        """(collider, victim) of each collision of the ego in the episode (SUMO's collider: the follower)."""
+        self._step_s = config.scenario.step_length_s
+        super().__init__(config.scenario, config.lidar.range_m + CONTEXT_MARGIN_M, gui=gui, transport=transport)
+        self.traffic = SceneTraffic(frames, tracks, road.edge, reactive, self.speed_limit_mps)
+        self.traffic.api = self._api
+
+    def _options(self) -> list[str]:
+        """The routes file without the generated flow, with the replay's route and the IDM seat's type."""
+        if self._routes is None:
+            root = ElementTree.parse(self._built.routes_file).getroot()
+            for flow in root.findall("flow"):
+                root.remove(flow)
+            ElementTree.SubElement(root, "route", id=REPLAY_ROUTE, edges=self.road.edge)
+            ElementTree.SubElement(root, "vType", id=IDM_TYPE, carFollowModel="IDM", laneChangeModel="LC2013")
+            self._routes = self._built.directory / "scene.rou.xml"
+            write_bytes_atomically(self._routes, ElementTree.tostring(root))
+        return sumo_options(self.scenario, dataclasses.replace(self._built, routes_file=self._routes))
+
+    def _start(self, extra: list[str]) -> None:
+        super()._start(extra)
+        self._calls = self._calls._replace(step=self._replaying_step)
+
+    def _replaying_step(self) -> None:
+        """One SUMO step with the recorded vehicles placed for its end; the ego's collisions kept."""
+        end_s = self._api.simulation.getTime() + self._step_s
+        self.traffic.place(end_s)
+        self._api.simulationStep(end_s)  # to a time: over traci a plain step after a load may keep SUMO's clock
+        simulation = self._api.simulation
+        if simulation.getCollidingVehiclesNumber():
+            self.ego_collisions += [(collision.collider, collision.victim) for collision in simulation.getCollisions()
+                                    if EGO_ID in (collision.collider, collision.victim)]
+
+    def reset_egos(self, snapshot: int, sumo_seed: int, egos: Any, pool: str = "train") -> list[str]:
+        raise SimulationError("a scene's episodes start in a recorded vehicle's seat (seat), not from warm states")
+
+    def seat(self, vehicle: str, start_s: float, sumo_seed: int) -> None:
+        """Load the scene's road afresh at `start_s` [s] with SUMO seed `sumo_seed`, place the recorded vehicles
+        there (but `vehicle`) and put the ego in `vehicle`'s place, state and size."""
+        self._require_running()
+        self._load(["--begin", repr(start_s - self._step_s), "--seed", str(sumo_seed)])
+        self._zip_merging.clear()
+        self.ego_collisions.clear()
+        self.traffic.begin(vehicle)
+        self._calls.step()
+        ids, values, lanes = self.frames.at(start_s)
+        row = np.flatnonzero(ids == vehicle)
+        if not len(row):
+            raise DatasetError(f"vehicle {vehicle} of the scene is not on the road at {start_s:g} s")
+        k, vehicle_api = int(row[0]), self._api.vehicle
+        speed_mps = float(values["speed_mps"][k])
+        # placed standing, then given the recorded speed: SUMO refuses a departure above the type's limit on the lane
+        self._force_in(EGO_ID, int(lanes[k]), float(values["lane_position_m"][k]), 0.0)
+        vehicle_api.setSpeedFactor(EGO_ID, max(1.0, speed_mps / self.speed_limit_mps))
+        vehicle_api.setPreviousSpeed(EGO_ID, speed_mps)
+        vehicle_api.setLength(EGO_ID, float(values["length_m"][k]))
+        vehicle_api.setWidth(EGO_ID, float(values["width_m"][k]))
+        self.forget_sizes(EGO_ID)
+
+    def hand_to_sumo(self, desired_mps: float) -> None:
+        """Give the seated ego to SUMO: IDM car following, LC2013 lane changing, desired speed `desired_mps`."""
+        vehicle = self._api.vehicle
+        vehicle.setType(EGO_ID, IDM_TYPE)
+        vehicle.setLaneChangeMode(EGO_ID, LANE_CHANGE_MODE_SUMO)
+        vehicle.setSpeedFactor(EGO_ID, desired_mps / self.speed_limit_mps)
+
+
+class SceneEnv(HighwayEnv):
+    """`HighwayEnv` in a recorded scene (`scene`: a scene folder) with its vehicles replayed (`reactive` False) or
+    driven by SUMO from their recorded state (True). `reset(options={"vehicle": ID, "start_s": T})` seats the ego
+    in vehicle ID at T [s] (default: where its track begins); `"sumo_driver": True` lets SUMO drive it."""
+
+    def __init__(self, config: Config | Mapping[str, Any] | str | Path | None, scene: Path | Scene,
+                 reactive: bool = False, render_mode: str | None = None, transport: str = "auto") -> None:
+        self.scene = scene if isinstance(scene, Scene) else read_scene(Path(scene))
+        self.frames = SceneFrames(self.scene.tracks, self.scene.meta.frame_rate_hz)
+        self.road = scene_road(self.scene.network)
+        self.reactive = reactive
+        self._sumo_driver = False
+        super().__init__(scene_config(Config.coerce(config), self.scene, self.road), render_mode=render_mode,
+                         transport=transport)
+
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None,
+              ) -> tuple[np.ndarray, dict[str, Any]]:
+        gymnasium.Env.reset(self, seed=seed)
+        options = dict(options or {})
+        if "vehicle" not in options:
+            raise ValueError("SceneEnv.reset needs options={'vehicle': ID}: the recorded vehicle whose seat the ego "
+                             "takes")
+        vehicle = str(options["vehicle"])
+        start_s = float(options.get("start_s", self.scene.track(vehicle)["time_s"].iloc[0]))
+        if self._sim is None:
+            self._sim = SceneSimulation(self.config, self.frames, self.scene.tracks, self.road, self.reactive,
+                                        self.transport, gui=self.render_mode == "human")
+        sim = self._sim
+        assert isinstance(sim, SceneSimulation)
+        sim.seat(vehicle, start_s, int(self.np_random.integers(2**31 - 1)))
+        if self._edges is None:
+            self._edges = edge_rows(sim)
+        self._ego = Ego(self.config, EGO_ID, self._edges)
+        self._sumo_driver = bool(options.get("sumo_driver", False))
+        first = self._ego.start(sim)
+        if self._sumo_driver:
+            sim.hand_to_sumo(self._ego.top_speed_mps(sim))
+        return first
+
+    def step(self, action: int | np.integer) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        if not self._sumo_driver:
+            return super().step(action)
+        if self._sim is None or self._ego is None:
+            raise RuntimeError("call reset() before step()")
+        ego = self._ego
+        ego.metrics.decisions += 1
+        return ego.finish(self._sim, self._sim.advance(self._steps_per_decision, ego.period_safety.watched()))
+
+    @property
+    def ego_collisions(self) -> list[tuple[str, str]]:
+        """(collider, victim) of the ego's collisions in this episode."""
+        return self._sim.ego_collisions if isinstance(self._sim, SceneSimulation) else []

@@ -1,0 +1,158 @@
+"""The ego in a recorded driver's seat: it starts in the human's state, the other vehicles follow the recording
+exactly (non-reactive) or react to the ego (reactive), and SUMO can drive the seat itself."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from sumo_rail.config import Config
+from sumo_rail.recordings.seat import IDM_TYPE, SceneEnv
+from sumo_rail.sim.actions import Action
+from sumo_rail.sim.simulation import EGO_ID
+
+CONFIG = Config.from_dict({"observation": {"lane_block": 1}, "env": {"max_episode_s": 10.0}})
+
+
+def recorded(tracks: pd.DataFrame, time_s: float) -> pd.DataFrame:
+    return tracks[np.isclose(tracks["time_s"], time_s)].set_index("vehicle_id")
+
+
+def long_track(tracks: pd.DataFrame, lane: int | None = None) -> tuple[str, float]:
+    """A car on the road for at least 15 s (in `lane` at its start), and the instant 2 s into its track."""
+    spans = tracks.groupby("vehicle_id").agg(begin=("time_s", "min"), end=("time_s", "max"),
+                                             kind=("vehicle_class", "first"))
+    for vehicle, row in spans[(spans["end"] - spans["begin"] >= 15) & (spans["kind"] == "passenger")].iterrows():
+        start = recorded(tracks, row["begin"] + 2.0)
+        if lane is None or start.at[vehicle, "lane"] == lane:
+            return str(vehicle), float(row["begin"] + 2.0)
+    raise AssertionError("no such track in the scene")
+
+
+@pytest.fixture(scope="module")
+def replay(drivers_scene):
+    env = SceneEnv(CONFIG, drivers_scene, reactive=False)
+    yield env
+    env.close()
+
+
+def test_the_ego_starts_in_the_humans_state(replay):
+    tracks = replay.scene.tracks
+    vehicle, start_s = long_track(tracks)
+    replay.reset(seed=0, options={"vehicle": vehicle, "start_s": start_s})
+    human = recorded(tracks, start_s).loc[vehicle]
+    ego = replay.traffic.ego
+    assert ego.lane == human["lane"]
+    assert ego.lane_position_m == pytest.approx(human["lane_position_m"], abs=1e-6)
+    assert ego.speed_mps == pytest.approx(human["speed_mps"], abs=1e-6)
+    assert ego.length_m == pytest.approx(human["length_m"])
+    assert vehicle not in replay.traffic.neighbours.ids  # the human's own vehicle is left out
+
+
+def test_replayed_vehicles_are_where_the_recording_has_them_whatever_the_ego_does(replay):
+    tracks = replay.scene.tracks
+    vehicle, start_s = long_track(tracks)
+    replay.reset(seed=0, options={"vehicle": vehicle, "start_s": start_s})
+    api = replay._sim._api
+    cut = tracks.groupby("vehicle_id")["time_s"].max()
+    for k, action in enumerate([Action.DECELERATE] * 6 + [Action.LANE_LEFT] + [Action.ACCELERATE] * 6):
+        _, _, terminated, truncated, _ = replay.step(int(action))
+        time_s = start_s + (k + 1) * CONFIG.env.decision_period_s
+        frame = recorded(tracks, time_s).drop(index=vehicle, errors="ignore")
+        on_road = set(api.vehicle.getIDList()) - {EGO_ID}
+        assert on_road == set(frame.index)  # entered and left as recorded (one track ends mid-road at 5 s)
+        for other in on_road:
+            x, y = api.vehicle.getPosition(other)
+            assert np.hypot(x - frame.at[other, "x_m"], y - frame.at[other, "y_m"]) < 1e-3
+        if terminated or truncated:
+            break
+    assert cut.min() < tracks["time_s"].max() - 1.0  # the cut track really ended mid-recording
+
+
+def test_reactive_followers_brake_for_a_slowing_ego_and_replayed_ones_do_not(drivers_scene):
+    """The same seat and actions in both modes: behind a braking ego, the reactive follower leaves its recorded track
+    (it brakes), the replayed one stays on it (and may run into the ego)."""
+    deviations = {}
+    for reactive in (False, True):
+        env = SceneEnv(CONFIG, drivers_scene, reactive=reactive)
+        try:
+            tracks = env.scene.tracks
+            vehicle, start_s = follower_seat(env, tracks)
+            env.reset(seed=0, options={"vehicle": vehicle, "start_s": start_s})
+            follower = env_follower(env)
+            api, time_s, deviation = env._sim._api, start_s, 0.0
+            for _ in range(8):
+                _, _, terminated, truncated, _ = env.step(int(Action.DECELERATE))
+                time_s += CONFIG.env.decision_period_s
+                if follower not in api.vehicle.getIDList() or terminated or truncated:
+                    break
+                x, _ = api.vehicle.getPosition(follower)
+                deviation = max(deviation, abs(x - recorded(tracks, time_s).at[follower, "x_m"]))
+            deviations[reactive] = deviation
+        finally:
+            env.close()
+    assert deviations[False] < 1e-3
+    assert deviations[True] > 1.0
+
+
+def follower_seat(env: SceneEnv, tracks: pd.DataFrame) -> tuple[str, float]:
+    """A car with a recorded follower within 40 m behind it in its lane at 2 s into its track."""
+    spans = tracks.groupby("vehicle_id").agg(begin=("time_s", "min"), end=("time_s", "max"),
+                                             kind=("vehicle_class", "first"))
+    for vehicle, row in spans[(spans["end"] - spans["begin"] >= 15) & (spans["kind"] == "passenger")].iterrows():
+        start_s = float(row["begin"] + 2.0)
+        frame = recorded(tracks, start_s)
+        me = frame.loc[vehicle]
+        behind = frame[(frame["lane"] == me["lane"]) & (frame["lane_position_m"] < me["lane_position_m"])
+                       & (frame["lane_position_m"] > me["lane_position_m"] - 40.0)]
+        if len(behind):
+            return str(vehicle), start_s
+    raise AssertionError("no car with a close follower in the scene")
+
+
+def env_follower(env: SceneEnv) -> str:
+    traffic = env.traffic
+    same = [(position, name) for name, position, lane in zip(traffic.neighbours.ids,
+                                                             traffic.neighbours.lane_position_m,
+                                                             traffic.neighbours.lane, strict=True)
+            if lane == traffic.ego.lane and position < traffic.ego.lane_position_m]
+    return max(same)[1]
+
+
+def test_sumo_drives_the_seat_when_asked(replay):
+    tracks = replay.scene.tracks
+    vehicle, start_s = long_track(tracks)
+    replay.reset(seed=0, options={"vehicle": vehicle, "start_s": start_s, "sumo_driver": True})
+    assert replay._sim._api.vehicle.getTypeID(EGO_ID) == IDM_TYPE
+    start = replay.traffic.ego.lane_position_m
+    for _ in range(4):
+        _, _, terminated, _, info = replay.step(int(Action.LANE_LEFT))  # ignored: SUMO drives
+        assert not terminated
+    assert replay.metrics.decisions == 4
+    assert replay.metrics.invalid_actions == 0 and info["position_m"] > start + 20.0
+
+
+def test_a_reset_needs_a_vehicle(replay):
+    with pytest.raises(ValueError, match="vehicle"):
+        replay.reset(seed=0)
+
+
+def test_libsumo_and_traci_drive_the_same_seat_alike(drivers_scene, replay):
+    """The fixture's env holds libsumo; the same seat over traci gives the same states, decision by decision."""
+    tracks = replay.scene.tracks
+    vehicle, start_s = long_track(tracks)
+    actions = [Action.ACCELERATE, Action.LANE_LEFT, Action.KEEP, Action.DECELERATE, Action.LANE_RIGHT] * 3
+    states = []
+    for env in (replay, SceneEnv(CONFIG, drivers_scene, reactive=False, transport="traci")):
+        observation, _ = env.reset(seed=3, options={"vehicle": vehicle, "start_s": start_s})
+        rows = [observation]
+        for action in actions:
+            observation, _, terminated, truncated, _ = env.step(int(action))
+            rows.append(observation)
+            if terminated or truncated:
+                break
+        states.append(np.array(rows))
+        if env is not replay:
+            env.close()
+    np.testing.assert_array_equal(states[0], states[1])
