@@ -122,8 +122,6 @@ class Simulation(EgoPlacement, Stepping, Sensing):
     def _start(self, extra: list[str]) -> None:
         binary = network.sumo_binary("sumo-gui" if self.gui else "sumo")
         gui_options = self._gui_options()
-        from traci.exceptions import FatalTraCIError
-
         if self.gui and not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
             raise SimulationError("sumo-gui needs a display and neither DISPLAY nor WAYLAND_DISPLAY is set; "
                                   "run headless instead (--gui-off; in Python, render_mode None or 'rgb_array')")
@@ -139,7 +137,7 @@ class Simulation(EgoPlacement, Stepping, Sensing):
                 api = self._client
         except self._client.TraCIException as error:  # type: ignore[attr-defined]
             raise SimulationError(f"SUMO failed to start: {describe(error)}") from error
-        except FatalTraCIError as error:
+        except self._client.FatalTraCIError as error:  # type: ignore[attr-defined]
             raise SimulationError(f"sumo-gui did not start (is a display available?): {describe(error)}") from error
         self._api = sumo_gui.PacedApi(api, self.gui_delay_ms / 1000.0) if self.gui else api
         self._calls = decision_calls(self._api)

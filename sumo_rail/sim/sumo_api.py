@@ -26,10 +26,18 @@ class SimulationError(RuntimeError):
 def load_api(transport: str) -> ModuleType:
     """libsumo, or traci's own socket client for "traci"."""
     if transport == "traci":
-        # traci's own socket client: a plain `import traci` gives libsumo once LIBSUMO_AS_TRACI is set (below)
+        # traci's own socket client: a plain `import traci` gives libsumo once LIBSUMO_AS_TRACI is set (below), and
+        # then even traci.main's exception names are libsumo's, while the socket client raises its own: the client
+        # is traci.main with the exceptions its connection raises, or an error over traci in a process that loaded
+        # libsumo first (the "auto" fallback) would not be caught
+        import traci.connection
         import traci.main
 
-        return traci.main
+        client = ModuleType("traci_socket_client")
+        client.__dict__.update(vars(traci.main))
+        client.TraCIException = traci.connection.TraCIException  # type: ignore[attr-defined]
+        client.FatalTraCIError = traci.connection.FatalTraCIError  # type: ignore[attr-defined]
+        return client
     os.environ.setdefault("LIBSUMO_AS_TRACI", "quiet")
     import libsumo
 

@@ -36,6 +36,12 @@ def test_a_clean_episode_scores_one_and_each_gate_zeroes_it():
     assert off["driving_score"].item() == 0.0 and off["on_road"].item() == 0.0
 
 
+def test_in_a_recorded_scene_only_collisions_the_ego_caused_zero_the_score():
+    """A replayed vehicle running into the ego from behind is not the ego's fault (nuPlan's at-fault gate)."""
+    rows = [_episode(collisions=1, at_fault_collisions=0), _episode(collisions=1, at_fault_collisions=1)]
+    assert _scores(rows)["no_collision"].tolist() == [1.0, 0.0]
+
+
 def test_weighted_terms_count_with_nuplans_weights():
     rows = [_episode(distance_m=500.0),  # progress 0.5: (5 x 0.5 + 11) / 16
             _episode(min_ttc_s=0.9),  # TTC below 0.95 s: (5 + 0 + 4 + 2) / 16

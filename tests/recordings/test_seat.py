@@ -73,7 +73,7 @@ def test_replayed_vehicles_are_where_the_recording_has_them_whatever_the_ego_doe
 def test_reactive_followers_brake_for_a_slowing_ego_and_replayed_ones_do_not(drivers_scene):
     """The same seat and actions in both modes: behind a braking ego, the reactive follower leaves its recorded track
     (it brakes), the replayed one stays on it (and may run into the ego)."""
-    deviations = {}
+    deviations, slowest, collided = {}, {}, {}
     for reactive in (False, True):
         env = SceneEnv(CONFIG, drivers_scene, reactive=reactive)
         try:
@@ -81,19 +81,41 @@ def test_reactive_followers_brake_for_a_slowing_ego_and_replayed_ones_do_not(dri
             vehicle, start_s = follower_seat(env, tracks)
             env.reset(seed=0, options={"vehicle": vehicle, "start_s": start_s})
             follower = env_follower(env)
-            api, time_s, deviation = env._sim._api, start_s, 0.0
-            for _ in range(8):
+            api, time_s, deviation, below = env._sim._api, start_s, 0.0, 0.0
+            for _ in range(16):
                 _, _, terminated, truncated, _ = env.step(int(Action.DECELERATE))
                 time_s += CONFIG.env.decision_period_s
                 if follower not in api.vehicle.getIDList() or terminated or truncated:
                     break
                 x, _ = api.vehicle.getPosition(follower)
                 deviation = max(deviation, abs(x - recorded(tracks, time_s).at[follower, "x_m"]))
-            deviations[reactive] = deviation
+                below = max(below, recorded(tracks, time_s).at[follower, "speed_mps"] - api.vehicle.getSpeed(follower))
+            deviations[reactive], slowest[reactive], collided[reactive] = deviation, below, env.metrics.collisions
         finally:
             env.close()
-    assert deviations[False] < 1e-3
-    assert deviations[True] > 1.0
+    assert deviations[False] < 1e-3 and slowest[False] < 0.1  # the speed its recorded moves imply
+    assert deviations[True] > 1.0 and slowest[True] > 2.0 and collided[True] == 0
+
+
+def test_reactive_vehicles_are_handed_to_sumos_models_after_their_first_step(drivers_scene):
+    """Placed at their recorded state, then SUMO's: its lane changing and a desired speed of the fastest speed their
+    track records; replayed vehicles keep both off."""
+    for reactive in (False, True):
+        env = SceneEnv(CONFIG, drivers_scene, reactive=reactive)
+        try:
+            tracks = env.scene.tracks
+            vehicle, start_s = long_track(tracks)
+            env.reset(seed=0, options={"vehicle": vehicle, "start_s": start_s})
+            env.step(int(Action.KEEP))
+            api, top = env._sim._api, tracks.groupby("vehicle_id")["speed_mps"].max()
+            others = set(api.vehicle.getIDList()) - {EGO_ID}
+            modes = {api.vehicle.getLaneChangeMode(other) for other in others}
+            assert modes == ({1621} if reactive else {0})
+            if reactive:
+                for other in others:
+                    assert api.vehicle.getSpeedFactor(other) * env._sim.speed_limit_mps == pytest.approx(top[other])
+        finally:
+            env.close()
 
 
 def follower_seat(env: SceneEnv, tracks: pd.DataFrame) -> tuple[str, float]:

@@ -128,3 +128,17 @@ def test_an_ego_with_no_room_to_enter_is_an_error_naming_the_traffic_flow(small_
             simulation.reset(snapshot=0, sumo_seed=1, ego_lane=2, ego_position_m=400.0)
     finally:
         simulation.close()
+
+
+def test_the_traci_client_catches_what_its_connection_raises_after_libsumo_was_loaded():
+    """With libsumo loaded (LIBSUMO_AS_TRACI), traci's own names are libsumo's while its socket connection raises
+    its own exceptions: the client's must be the connection's, or a collision over the traci fallback is a crash."""
+    import traci.connection
+
+    from sumo_rail.sim.sumo_api import load_api
+
+    load_api("libsumo")
+    client = load_api("traci")
+    assert client.TraCIException is traci.connection.TraCIException
+    assert client.FatalTraCIError is traci.connection.FatalTraCIError
+    assert callable(client.start) and callable(client.getConnection)

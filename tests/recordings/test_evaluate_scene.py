@@ -1,0 +1,215 @@
+"""Drivers in held-out recorded drivers' seats: which seats, the measures against the human's track, the tables,
+`sumo-rail evaluate-scene` end to end and its refusals."""
+
+from __future__ import annotations
+
+import json
+import shutil
+
+import numpy as np
+import pandas as pd
+import pytest
+from click.testing import CliRunner
+from sumo_rail_cli.main import cli
+
+from sumo_rail.config import Config
+from sumo_rail.datasets import read_metadata
+from sumo_rail.evaluation.human_likeness import position_errors
+from sumo_rail.evaluation.scene_evaluation import (
+    HUMAN,
+    SumoDriver,
+    choose_seats,
+    evaluate_seats,
+    human_track,
+    seat_columns,
+    tracks_path,
+)
+from sumo_rail.evaluation.scene_summary import distribution_samples, track_table
+from sumo_rail.recordings.scene_folder import read_scene
+from sumo_rail.recordings.scene_observations import SceneFrames, scene_road
+from sumo_rail.runners.backends import SerialBackend
+from sumo_rail.runners.factory import make_backend
+from sumo_rail.runners.rollout import KeepDriver
+
+CONFIG = Config.from_dict({"observation": {"lane_block": 1}, "env": {"max_episode_s": 10.0}})
+
+
+def test_seats_are_held_out_cars_whose_tracks_cover_the_episode(drivers_scene):
+    scene = read_scene(drivers_scene)
+    seats = choose_seats(scene, "test", horizon_s=10.0, lead_s=2.0, limit=None, seed=0)
+    test = set(scene.split.loc[scene.split["split"] == "test", "vehicle_id"])
+    spans = scene.tracks.groupby("vehicle_id").agg(begin=("time_s", "min"), end=("time_s", "max"),
+                                                   kind=("vehicle_class", "first"))
+    fitting = spans[(spans["end"] - spans["begin"] >= 12.0) & (spans["kind"] == "passenger")].index
+    assert {seat.vehicle for seat in seats} == test & set(fitting) and len(seats) >= 3
+    assert all(seat.start_s == pytest.approx(spans.at[seat.vehicle, "begin"] + 2.0) for seat in seats)
+    drawn = choose_seats(scene, "test", 10.0, 2.0, limit=2, seed=5)
+    assert drawn == choose_seats(scene, "test", 10.0, 2.0, limit=2, seed=5) and len(drawn) == 2
+    assert {seat.vehicle for seat in drawn} <= {seat.vehicle for seat in seats}
+
+
+def test_the_humans_track_is_its_recorded_one_with_the_gap_to_its_leader(drivers_scene):
+    scene = read_scene(drivers_scene)
+    seat = choose_seats(scene, "test", 10.0, 2.0, None, 0)[0]
+    human = human_track(SceneFrames(scene.tracks, scene.meta.frame_rate_hz), seat, 0.5, 20)
+    recorded = scene.track(seat.vehicle)
+    assert len(human) == 21 and np.allclose(position_errors(human, recorded[recorded["time_s"] >= seat.start_s]), 0)
+    at = scene.tracks[np.isclose(scene.tracks["time_s"], seat.start_s)]
+    me = at[at["vehicle_id"] == seat.vehicle].iloc[0]
+    ahead = at[(at["lane"] == me["lane"]) & (at["lane_position_m"] - at["length_m"] > me["lane_position_m"])]
+    gap = (ahead["lane_position_m"] - ahead["length_m"]).min() - me["lane_position_m"]
+    assert human["gap_m"].iloc[0] == pytest.approx(gap) if gap <= 100 else np.isnan(human["gap_m"].iloc[0])
+
+
+def test_progress_and_lane_changes_are_measured_against_the_human():
+    times = np.arange(0.0, 10.5, 0.5)
+    human = pd.DataFrame({"time_s": times, "x_m": 30.0 * times, "y_m": 0.0, "speed_mps": 30.0, "lane": 0,
+                          "lane_position_m": 30.0 * times, "gap_m": np.nan})
+    driven = human.assign(x_m=20.0 * times, lane_position_m=20.0 * times, lane=np.where(times >= 5, 1, 0))
+    columns = seat_columns(driven, human, simulated_s=10.0)
+    assert columns["progress_ratio"] == pytest.approx(2 / 3)
+    assert columns["lane_changes_per_km"] == pytest.approx(1 / 0.2)
+    assert columns["position_error_1s_m"] == pytest.approx(10.0) and columns["position_error_10s_m"] == 100.0
+    assert not columns["stopped"]
+    early = seat_columns(driven[times <= 4.0].assign(speed_mps=0.2), human, simulated_s=4.0)  # it stopped at 4 s
+    assert early["progress_ratio"] == pytest.approx(80.0 / 120.0) and early["stopped"]
+    assert np.isnan(early["position_error_5s_m"]) and early["lane_changes_per_km"] == 0.0
+
+
+def test_lane_change_gaps_are_the_gaps_in_the_new_lane():
+    track = pd.DataFrame({"speed_mps": [30.0, 31.0, 31.0, 29.0], "lane": [0, 0, 1, 1],
+                          "gap_m": [50.0, 40.0, 12.0, 15.0]})
+    samples = distribution_samples(track, 0.5)
+    assert samples["lane_change_gap"].tolist() == [12.0]
+    assert samples["acceleration"].tolist() == [2.0, 0.0, -4.0]
+
+
+def test_a_difference_row_is_paired_seat_by_seat_and_starred_when_detectable():
+    rng = np.random.default_rng(0)
+    base = pd.DataFrame({"mode": "reactive", "scene": "s", "vehicle": [f"v{k}" for k in range(30)],
+                         "start_s": 1.0, "collisions": 0, "at_fault_collisions": 0, "stopped": False,
+                         "progress_ratio": 1.0, "lane_changes": 0, "distance_m": 400.0, "hard_braking": 0,
+                         "ttc_below_1_5s_share": 0.0, "steps": 30, "driving_score": 1.0,
+                         "position_error_1s_m": 1.0, "position_error_5s_m": 5.0,
+                         "position_error_10s_m": rng.uniform(10, 20, 30)})
+    worse = base.assign(policy="rail", position_error_10s_m=base["position_error_10s_m"] + 3.0)
+    shuffled = pd.concat([base.assign(policy="bc"), worse]).sample(frac=1.0, random_state=1)  # rows in any order
+    table = track_table(shuffled, {"BC": ["bc"], "RAIL": ["rail"]}, [("RAIL", "BC")])
+    row = next(line for line in table.splitlines() if line.startswith("| RAIL - BC"))
+    assert "+3.00 [+3.00, +3.00] *" in row  # the seat-to-seat spread cancels out of the paired difference
+
+
+def test_the_same_seed_gives_the_same_episodes_whatever_the_workers(drivers_scene):
+    scene = read_scene(drivers_scene)
+    seats = choose_seats(scene, "test", 10.0, 2.0, 3, 0)
+    runs = []
+    for backend in (SerialBackend(), make_backend("process", 2)):
+        with backend:
+            runs.append(evaluate_seats([KeepDriver(), SumoDriver()], ["keep", "sumo-idm"], CONFIG, seats,
+                                       ["non-reactive", "reactive"], backend, seed=7))
+    pd.testing.assert_frame_equal(runs[0][0], runs[1][0])
+    pd.testing.assert_frame_equal(runs[0][1], runs[1][1])
+    metrics, tracks = runs[0]
+    assert len(metrics) == 2 * 3 * 2 and set(tracks["policy"]) == {"keep", "sumo-idm", HUMAN}
+
+
+def invoke(*args: str):
+    return CliRunner().invoke(cli, ["evaluate-scene", *args])
+
+
+def test_evaluate_scene_writes_both_tables_with_provenance(drivers_scene, tmp_path):
+    out = tmp_path / "scene_eval.parquet"
+    result = invoke(str(drivers_scene), "--set", "observation.lane_block=1", "--policy", "keep", "--policy",
+                    "sumo-idm", "--seats", "2", "--horizon-s", "10", "--lead-s", "2", "--mode", "reactive",
+                    "--out", str(out))
+    assert result.exit_code == 0, result.output
+    assert "position error 10 s [m]" in result.output and "lane-change gap [m]" in result.output
+    metrics, tracks = pd.read_parquet(out), pd.read_parquet(tracks_path(out))
+    assert len(metrics) == 4 and set(metrics["mode"]) == {"reactive"}
+    assert (tracks["policy"] == HUMAN).sum() == 2 * 21
+    assert read_metadata(out)["kind"] == "scene_episodes" and read_metadata(out)["split"] == "test"
+
+
+@pytest.mark.parametrize("problem", ["not a scene", "two edges", "no seat", "policy"])
+def test_evaluate_scene_refuses_in_one_sentence_and_writes_nothing(drivers_scene, tmp_path, problem):
+    scene, extra, code = drivers_scene, [], 2
+    if problem == "not a scene":
+        scene = tmp_path / "empty"
+        scene.mkdir()
+    elif problem == "two edges":
+        scene = tmp_path / "bent"
+        shutil.copytree(drivers_scene, scene)
+        net = (scene / "road.net.xml").read_text()
+        (scene / "road.net.xml").write_text(net.replace("</net>", '<edge id="other" from="a" to="b"/></net>'))
+    elif problem == "no seat":
+        extra = ["--horizon-s", "600"]
+    else:
+        (tmp_path / "policy.npz").write_bytes(b"not a policy")
+        extra, code = ["--policy", str(tmp_path / "policy.npz")], 1
+    out = tmp_path / "out.parquet"
+    result = invoke(str(scene), *extra, "--out", str(out))
+    assert result.exit_code == code, result.output
+    errors = [line for line in result.output.splitlines() if line.startswith("Error:")]
+    assert "Traceback" not in result.output and len(errors) == 1 and errors[0].count(". ") == 0
+    assert not out.exists() and not tracks_path(out).exists()
+
+
+class _Braking:
+    """Always decelerates (a DriverSpec)."""
+
+    name = "braking"
+
+    def create(self, config, seed):
+        return lambda observation, traffic: 2
+
+
+def test_a_replayed_follower_running_into_a_braking_ego_is_not_the_egos_fault(drivers_scene):
+    """Non-reactive: the follower keeps its recorded speed and hits the ego from behind; SUMO names it the collider,
+    so the collision counts, but not as the ego's fault (the driving score's gate stays open)."""
+    scene = read_scene(drivers_scene)
+    config = CONFIG.with_overrides({"env": {"max_episode_s": 20.0}})
+    seats = choose_seats(scene, "test", 20.0, 2.0, None, 0) + choose_seats(scene, "train", 20.0, 2.0, None, 0)
+    with SerialBackend() as backend:
+        metrics, _ = evaluate_seats([_Braking()], ["braking"], config, seats, ["non-reactive", "reactive"], backend,
+                                    seed=0)
+    replayed, reactive = (metrics[metrics["mode"] == mode] for mode in ("non-reactive", "reactive"))
+    assert replayed["collisions"].sum() >= 1 and replayed["at_fault_collisions"].sum() == 0
+    hit = replayed[replayed["collisions"] > 0]
+    assert (hit["termination"] == "collision").all() and (hit["no_collision"] == 1.0).all()
+    assert reactive["collisions"].sum() < replayed["collisions"].sum()  # SUMO's drivers brake for the ego
+
+
+def cut_in_scene(drivers_scene, folder):
+    """Two cars on the drivers scene's road: "human" at 30 m/s in lane 0, and "cutter", beside it in lane 1 until
+    1 s, then 0.5 m ahead of it in lane 0 at 5 m/s: whoever sits in the human's seat runs into it."""
+    shutil.copytree(drivers_scene, folder)
+    road = scene_road(folder / "road.net.xml")
+    rows = []
+    for k in range(151):
+        time_s = k / 10.0
+        human_x = 100.0 + 30.0 * time_s
+        cut = time_s >= 1.0
+        cutter_x = 100.0 + 30.0 + 5.0 + 5.0 * (time_s - 1.0) if cut else human_x + 8.0
+        for vehicle, x, lane, speed in (("human", human_x, 0, 30.0), ("cutter", cutter_x, 0 if cut else 1,
+                                                                     5.0 if cut else 30.0)):
+            rows.append({"vehicle_id": vehicle, "time_s": time_s, "x_m": x, "y_m": road.lane_y_m[lane],
+                         "heading_deg": 90.0, "speed_mps": speed, "acceleration_mps2": 0.0, "edge": road.edge,
+                         "lane": lane, "lane_position_m": x, "length_m": 4.5, "width_m": 1.8,
+                         "vehicle_class": "passenger"})
+    pd.DataFrame(rows).astype({"lane": "int16", "length_m": "float32", "width_m": "float32"}).to_parquet(
+        folder / "tracks.parquet", index=False)
+    pd.DataFrame({"vehicle_id": ["human", "cutter"], "split": ["test", "train"]}).to_parquet(
+        folder / "split.parquet", index=False)
+    meta = json.loads((folder / "scene.json").read_text())
+    (folder / "scene.json").write_text(json.dumps(meta | {"dropped": {}}))
+    return folder
+
+
+def test_running_into_a_vehicle_that_cut_in_is_the_egos_fault(drivers_scene, tmp_path):
+    scene = read_scene(cut_in_scene(drivers_scene, tmp_path / "cut_in"))
+    seats = choose_seats(scene, "test", 10.0, 0.5, None, 0)
+    with SerialBackend() as backend:
+        metrics, _ = evaluate_seats([KeepDriver()], ["keep"], CONFIG, seats, ["non-reactive"], backend, seed=0)
+    row = metrics.iloc[0]
+    assert row["termination"] == "collision" and row["at_fault_collisions"] == 1
+    assert row["driving_score"] == 0.0 and row["no_collision"] == 0.0
