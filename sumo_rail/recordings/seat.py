@@ -52,6 +52,8 @@ class SceneSimulation(Simulation):
         self.ego_collisions: list[tuple[str, str]] = []
         """(collider, victim) of each collision of the ego in the episode (SUMO's collider: the follower)."""
         self._step_s = config.scenario.step_length_s
+        self._ego_in = False
+        """The ego is on the road (seated, not yet gone)."""
         super().__init__(config.scenario, config.lidar.range_m + CONTEXT_MARGIN_M, gui=gui, transport=transport)
         self.traffic = SceneTraffic(frames, tracks, road.edge, reactive, self.speed_limit_mps)
         self.traffic.api = self._api
@@ -75,12 +77,22 @@ class SceneSimulation(Simulation):
     def _replaying_step(self) -> None:
         """One SUMO step with the recorded vehicles placed for its end; the ego's collisions kept."""
         end_s = self._api.simulation.getTime() + self._step_s
-        self.traffic.place(end_s)
+        self.traffic.place(end_s, self._api.vehicle.getPosition(EGO_ID)[0] if self._ego_in else None)
         self._api.simulationStep(end_s)  # to a time: over traci a plain step after a load may keep SUMO's clock
         simulation = self._api.simulation
         if simulation.getCollidingVehiclesNumber():
             self.ego_collisions += [(collision.collider, collision.victim) for collision in simulation.getCollisions()
                                     if EGO_ID in (collision.collider, collision.victim)]
+            self._ego_in = self._ego_in and not self.ego_collisions
+        if self._ego_in and simulation.getArrivedNumber() and EGO_ID in simulation.getArrivedIDList():
+            self._ego_in = False
+
+    def _why_gone(self, vehicle: str) -> tuple[bool, bool]:
+        """A collision with a replayed vehicle (moved by moveToXY) may leave the ego answering for the rest of the
+        step and unknown only at the next, whose collision list no longer names it: the episode's own record says."""
+        if vehicle == EGO_ID and self.ego_collisions:
+            return True, False
+        return super()._why_gone(vehicle)
 
     def reset_egos(self, snapshot: int, sumo_seed: int, egos: Any, pool: str = "train") -> list[str]:
         raise SimulationError("a scene's episodes start in a recorded vehicle's seat (seat), not from warm states")
@@ -92,6 +104,7 @@ class SceneSimulation(Simulation):
         self._load(["--begin", repr(start_s - self._step_s), "--seed", str(sumo_seed)])
         self._zip_merging.clear()
         self.ego_collisions.clear()
+        self._ego_in = False
         self.traffic.begin(vehicle)
         self._calls.step()
         ids, values, lanes = self.frames.at(start_s)
@@ -107,6 +120,7 @@ class SceneSimulation(Simulation):
         vehicle_api.setLength(EGO_ID, float(values["length_m"][k]))
         vehicle_api.setWidth(EGO_ID, float(values["width_m"][k]))
         self.forget_sizes(EGO_ID)
+        self._ego_in = True
 
     def hand_to_sumo(self, desired_mps: float) -> None:
         """Give the seated ego to SUMO: IDM car following, LC2013 lane changing, desired speed `desired_mps`."""

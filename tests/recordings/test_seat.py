@@ -8,6 +8,8 @@ import pandas as pd
 import pytest
 
 from sumo_rail.config import Config
+from sumo_rail.recordings import scene_traffic
+from sumo_rail.recordings.scene_traffic import REPLAY_RADIUS_M
 from sumo_rail.recordings.seat import IDM_TYPE, SceneEnv
 from sumo_rail.sim.actions import Action
 from sumo_rail.sim.simulation import EGO_ID
@@ -56,18 +58,45 @@ def test_replayed_vehicles_are_where_the_recording_has_them_whatever_the_ego_doe
     replay.reset(seed=0, options={"vehicle": vehicle, "start_s": start_s})
     api = replay._sim._api
     cut = tracks.groupby("vehicle_id")["time_s"].max()
+    far = 0
     for k, action in enumerate([Action.DECELERATE] * 6 + [Action.LANE_LEFT] + [Action.ACCELERATE] * 6):
         _, _, terminated, truncated, _ = replay.step(int(action))
         time_s = start_s + (k + 1) * CONFIG.env.decision_period_s
         frame = recorded(tracks, time_s).drop(index=vehicle, errors="ignore")
         on_road = set(api.vehicle.getIDList()) - {EGO_ID}
-        assert on_road == set(frame.index)  # entered and left as recorded (one track ends mid-road at 5 s)
+        if EGO_ID in api.vehicle.getIDList():  # those within the replay radius of the ego (it moved in the step)
+            away = np.abs(frame["x_m"] - api.vehicle.getPosition(EGO_ID)[0])
+            inside, outside = set(frame.index[away < REPLAY_RADIUS_M - 5]), set(frame.index[away < REPLAY_RADIUS_M + 5])
+            assert inside <= on_road <= outside
+            far += int((away >= REPLAY_RADIUS_M + 5).sum())
+        else:
+            assert on_road == set(frame.index)  # entered and left as recorded (one track ends mid-road at 5 s)
         for other in on_road:
             x, y = api.vehicle.getPosition(other)
             assert np.hypot(x - frame.at[other, "x_m"], y - frame.at[other, "y_m"]) < 1e-3
         if terminated or truncated:
             break
     assert cut.min() < tracks["time_s"].max() - 1.0  # the cut track really ended mid-recording
+    assert far > 0  # some recorded vehicles were out of the radius, and so out of SUMO
+
+
+def test_vehicles_out_of_the_replay_radius_change_nothing_for_the_ego(drivers_scene, replay, monkeypatch):
+    """The same seat and actions with every vehicle in SUMO (an unbounded radius) give the same observations."""
+    tracks = replay.scene.tracks
+    vehicle, start_s = long_track(tracks)
+    actions = [Action.DECELERATE] * 4 + [Action.LANE_LEFT] + [Action.ACCELERATE] * 10
+    runs = []
+    for radius_m in (REPLAY_RADIUS_M, 1e9):
+        monkeypatch.setattr(scene_traffic, "REPLAY_RADIUS_M", radius_m)
+        observation, _ = replay.reset(seed=0, options={"vehicle": vehicle, "start_s": start_s})
+        rows = [observation]
+        for action in actions:
+            observation, _, terminated, truncated, _ = replay.step(int(action))
+            rows.append(observation)
+            if terminated or truncated:
+                break
+        runs.append(np.array(rows))
+    np.testing.assert_array_equal(runs[0], runs[1])
 
 
 def test_reactive_followers_brake_for_a_slowing_ego_and_replayed_ones_do_not(drivers_scene):
@@ -178,3 +207,13 @@ def test_libsumo_and_traci_drive_the_same_seat_alike(drivers_scene, replay):
         if env is not replay:
             env.close()
     np.testing.assert_array_equal(states[0], states[1])
+
+
+def test_an_ego_gone_after_a_recorded_collision_collided():
+    """SUMO may drop an ego that ran into a replayed vehicle one step after naming the collision; the episode's own
+    record of the ego's collisions says why it is gone."""
+    from sumo_rail.recordings.seat import SceneSimulation
+
+    simulation = object.__new__(SceneSimulation)
+    simulation.ego_collisions = [(EGO_ID, "cutter")]
+    assert simulation._why_gone(EGO_ID) == (True, False)

@@ -1,0 +1,136 @@
+"""Benchmark: a closed-loop episode in a recorded scene (`evaluate-scene`'s episode: the ego in a recorded car's seat,
+deciding every 0.5 s through the env, the others replayed or reactive) against raw SUMO stepping of the same scene
+(the same vehicles, each departing at its first recorded time, lane, position and speed from a route file, driven
+by SUMO alone: libsumo's `simulationStep` and nothing else). Writes its section of docs/benchmarks.md.
+
+Two scenes: a synthetic highD-sized recording (bench_import's: 3,000 vehicles over 15 minutes at 25 Hz, about
+1,000,000 rows, imported as a user does) and a record-sumo-drivers scene (5 lanes, 3 km, 600 s, about 150 vehicles
+on the road at once). Speed is simulated seconds per wall-clock second, the ego's episodes' resets (a fresh load of
+the road and the first placement) included.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import platform
+import tempfile
+import time
+import xml.etree.ElementTree as ElementTree
+from pathlib import Path
+
+import libsumo
+import numpy as np
+from bench_import import synthetic_recording
+from doc_section import write_section
+
+from sumo_rail.config import Config
+from sumo_rail.datasets import sumo_version
+from sumo_rail.recordings.importing import ImportSettings, check_import, import_recording
+from sumo_rail.recordings.scene_folder import Scene, read_scene
+from sumo_rail.recordings.seat import SceneEnv
+from sumo_rail.recordings.sumo_drivers import SumoDriversSettings, record_sumo_drivers
+from sumo_rail.sim import network
+
+LEAD_S = 1.0
+"""The ego takes a seat this long into the car's track [s]."""
+
+
+def raw_speed(scene: Scene, begin_s: float, seconds: float, step_s: float) -> float:
+    """Simulated seconds per wall second of SUMO alone driving the scene's vehicles from `begin_s` for `seconds`."""
+    routes = ElementTree.Element("routes")
+    edge = str(scene.tracks["edge"].iloc[0])
+    ElementTree.SubElement(routes, "route", id="r", edges=edge)
+    first = scene.tracks.sort_values("time_s").groupby("vehicle_id", sort=False).first().sort_values("time_s")
+    for vehicle, row in first.iterrows():
+        ElementTree.SubElement(routes, "vehicle", id=str(vehicle), route="r", depart=f"{row['time_s']:.2f}",
+                               departLane=str(int(row["lane"])), departPos=f"{max(row['lane_position_m'], 0):.2f}",
+                               departSpeed=f"{row['speed_mps']:.2f}", length=f"{row['length_m']:.2f}")
+    route_file = scene.folder / "bench.rou.xml"
+    ElementTree.ElementTree(routes).write(route_file)
+    libsumo.start([network.sumo_binary("sumo"), "-n", str(scene.network), "-r", str(route_file), "--step-length",
+                   str(step_s), "--no-step-log", "true", "--no-warnings", "true"])
+    try:
+        libsumo.simulationStep(begin_s)
+        start = time.perf_counter()
+        for _ in range(round(seconds / step_s)):
+            libsumo.simulationStep()
+        return seconds / (time.perf_counter() - start)
+    finally:
+        libsumo.close()
+
+
+def closed_loop_speed(scene: Scene, config: Config, reactive: bool, seats: list[tuple[str, float]]) -> float:
+    """Simulated seconds per wall second of always-keep episodes in `seats` (vehicle, start [s])."""
+    env = SceneEnv(config, scene, reactive=reactive, transport="libsumo")
+    try:
+        env.reset(seed=0, options={"vehicle": seats[0][0], "start_s": seats[0][1]})  # SUMO started, not timed
+        simulated, start = 0.0, time.perf_counter()
+        for vehicle, start_s in seats:
+            env.reset(seed=0, options={"vehicle": vehicle, "start_s": start_s})
+            done, info = False, {}
+            while not done:
+                _, _, terminated, truncated, info = env.step(0)
+                done = terminated or truncated
+            simulated += info["time_s"]
+        return simulated / (time.perf_counter() - start)
+    finally:
+        env.close()
+
+
+def seats_of(scene: Scene, count: int, horizon_s: float) -> list[tuple[str, float]]:
+    """`count` cars whose tracks last `LEAD_S` + `horizon_s`, seated `LEAD_S` in, spread over the recording."""
+    spans = scene.tracks.groupby("vehicle_id").agg(begin=("time_s", "min"), end=("time_s", "max"),
+                                                   kind=("vehicle_class", "first"))
+    fit = spans[(spans["end"] - spans["begin"] >= horizon_s + LEAD_S) & (spans["kind"] == "passenger")]
+    fit = fit.sort_values("begin").iloc[np.linspace(0, len(fit) - 1, count).astype(int)]
+    return [(str(vehicle), float(begin) + LEAD_S) for vehicle, begin in fit["begin"].items()]
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--seats", type=int, default=30, help="episodes per scene and mode")
+    parser.add_argument("--out", type=Path, default=Path("docs/benchmarks.md"))
+    args = parser.parse_args()
+    rows = []
+    with tempfile.TemporaryDirectory() as folder:
+        tracks, _ = synthetic_recording(Path(folder), 3000, 334, seed=0)
+        highd = ImportSettings("highd", (tracks,), Path(folder) / "highd")
+        import_recording(highd, Config(), check_import(highd))
+        drivers = Path(folder) / "drivers"
+        record_sumo_drivers(SumoDriversSettings(out=drivers, seed=1), Config())
+        scenes = (("synthetic highD (3 lanes, 420 m, 25 Hz)", highd.out, 3, 10.0),
+                  ("record-sumo-drivers (5 lanes, 3 km, 10 Hz)", drivers, 5, 15.0))
+        for label, path, lanes, horizon_s in scenes:
+            scene = read_scene(path)
+            config = Config.from_dict({"scenario": {"lanes": lanes}, "env": {"max_episode_s": horizon_s}})
+            seats = seats_of(scene, args.seats, horizon_s)
+            window_s = seats[-1][1] - seats[0][1]
+            raw = raw_speed(scene, seats[0][1], window_s, config.scenario.step_length_s)
+            on_road = scene.tracks.groupby("time_s").size().median()
+            speeds = [closed_loop_speed(scene, config, reactive, seats) for reactive in (False, True)]
+            cells = " | ".join(f"{speed:.0f} ({speed / raw:.2f}x)" for speed in speeds)
+            rows.append(f"| {label} | {horizon_s:g} | {on_road:.0f} | {raw:.0f} | {cells} |")
+    section = f"""
+## Closed-loop episodes in a recorded scene (issue 46)
+
+Command: `make bench` (runs `python benchmarks/bench_replay.py --seats {args.seats}`).
+Machine: {platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}, SUMO {sumo_version()}.
+Simulated seconds per wall-clock second, one process. Raw SUMO: the scene's vehicles departing from a route file at
+their first recorded state, driven by SUMO alone (`simulationStep` only) over the seats' time span. Closed loop:
+{args.seats} always-keep episodes in seats spread over the recording ({LEAD_S:g} s into each car's track), through
+`SceneEnv` (a decision every 0.5 s: observation, command, safety readings), resets included; non-reactive places every recorded
+vehicle with `moveToXY` at every 0.1 s step, reactive places each once.
+
+| scene | episode [s] | vehicles on the road (median) | raw SUMO [sim s / s] | non-reactive | reactive |
+|---|---|---|---|---|---|
+{chr(10).join(rows)}
+
+Goal: a closed-loop episode at least 0.8x raw SUMO stepping of the same scene.
+"""
+    print(section)
+    write_section(args.out, "replay", section)
+
+
+if __name__ == "__main__":
+    main()
