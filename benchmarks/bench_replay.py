@@ -119,8 +119,8 @@ Machine: {platform.machine()}, {os.cpu_count()} cores, Python {platform.python_v
 Simulated seconds per wall-clock second, one process. Raw SUMO: the scene's vehicles departing from a route file at
 their first recorded state, driven by SUMO alone (`simulationStep` only) over the seats' time span. Closed loop:
 {args.seats} always-keep episodes in seats spread over the recording ({LEAD_S:g} s into each car's track), through
-`SceneEnv` (a decision every 0.5 s: observation, command, safety readings), resets included; non-reactive places every recorded
-vehicle with `moveToXY` at every 0.1 s step, reactive places each once.
+`SceneEnv` (a decision every 0.5 s: observation, command, safety readings), resets included; non-reactive places
+every recorded vehicle within 500 m of the ego with `moveToXY` at every 0.1 s step, reactive places each once.
 
 | scene | episode [s] | vehicles on the road (median) | raw SUMO [sim s / s] | non-reactive | reactive |
 |---|---|---|---|---|---|
