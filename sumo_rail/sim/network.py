@@ -54,6 +54,15 @@ def check_user_route(config: Config) -> None:
         user_network.check_start_window(config.env, build(config.scenario))
 
 
+def road_length_m(config: Config) -> float:
+    """The length of the ego's road [m]: a user's route's own (kind network), else scenario.length_m."""
+    if config.scenario.kind == "network":
+        length_m = build(config.scenario).route_length_m
+        assert length_m is not None
+        return length_m
+    return config.scenario.length_m
+
+
 def build(scenario: ScenarioConfig, source_dir: Path | None = None) -> BuiltNetwork:
     """Build (or reuse from the cache) the network and traffic files for `scenario`."""
     if scenario.kind == "network":

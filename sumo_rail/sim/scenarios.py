@@ -15,6 +15,7 @@ Lanes keep their place from the left across the joints (connections are generate
 
 from __future__ import annotations
 
+import copy
 import xml.etree.ElementTree as ElementTree
 from dataclasses import dataclass
 from pathlib import Path
@@ -99,10 +100,14 @@ def road_sources(scenario: ScenarioConfig, sources: dict[str, bytes]) -> RoadSou
 
 
 def network_routes(scenario: ScenarioConfig, vehicle_types: bytes, ego_route: tuple[str, ...],
-                   with_flow: bool, their_types: frozenset[str] | set[str] = frozenset()) -> bytes:
+                   with_flow: bool, their_types: frozenset[str] | set[str] = frozenset(),
+                   through_route: tuple[str, ...] | None = None) -> bytes:
     """The routes file for a network of the user's (kind network): the vehicle types, the ego's route and, with
-    `with_flow`, a flow of scenario.flow_veh_per_h along it. Types a user's traffic file defines (`their_types`) are
-    left out, as is a distribution of them: the user's win; the ego's type is the project's own."""
+    `with_flow`, a flow of scenario.flow_veh_per_h along it; where the ego's route leaves the main road
+    (`through_route`: the main road's route), scenario.exit_share of that flow along the ego's route and the rest
+    along the main road, as on the generated exit road (all of it along the ego's route would queue every vehicle
+    into the exit, leaving the ego no gap to take it). Types a user's traffic file defines (`their_types`) are left
+    out, as is a distribution of them: the user's win; the ego's type is the project's own."""
     if EGO_TYPE in their_types:
         raise ConfigError(f"scenario.traffic_file defines a vehicle type {EGO_TYPE!r}, the project's name for the "
                           f"ego's type: rename it")
@@ -116,10 +121,21 @@ def network_routes(scenario: ScenarioConfig, vehicle_types: bytes, ego_route: tu
         if members & their_types:
             root.remove(element)
     ElementTree.SubElement(root, "route", id="ego_route", edges=" ".join(ego_route))
-    if with_flow:
+    if with_flow and through_route is None:
         flow.set("route", "ego_route")
         flow.set("period", _period(scenario.flow_veh_per_h))
         root.append(flow)
+    elif with_flow:
+        ElementTree.SubElement(root, "route", id="main_road", edges=" ".join(through_route))
+        leaving = copy.deepcopy(flow)
+        for element, route, share in ((flow, "main_road", 1.0 - scenario.exit_share),
+                                      (leaving, "ego_route", scenario.exit_share)):
+            if share == 0.0:
+                continue
+            element.set("route", route)
+            element.set("period", _period(scenario.flow_veh_per_h * share))
+            root.append(element)
+        leaving.set("id", "route_traffic")
     return ElementTree.tostring(root)
 
 

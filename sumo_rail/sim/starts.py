@@ -37,22 +37,27 @@ GAP_M = 20.0
 
 def start_slots(config: Config, egos: int) -> list[tuple[float, float]]:
     """The interval [m] in which each of `egos` egos starts its front, nearest the start of the road first (see
-    the module's docstring); ValueError when they do not fit on the road before its end margin."""
+    the module's docstring); `check_start_slots` says whether they fit on the road."""
     if isinstance(egos, bool) or not (isinstance(egos, int | np.integer) and egos >= 1):
         raise ValueError(f"egos must be an integer >= 1, got {egos!r}")
     low, high = config.env.ego_start_min_m, config.env.ego_start_max_m
     if egos == 1:
         return [(low, high)]
-    width = (high - low) / egos
-    if width < MIN_SLOT_M:
-        width = MIN_SLOT_M
-        high = low + egos * width
-        room = config.scenario.length_m - config.env.end_margin_m
-        if high >= room:
-            raise ValueError(f"{egos} egos need start slots of {MIN_SLOT_M:g} m from {low:g} m to {high:g} m, "
-                             f"past the road's end margin at {room:g} m; use fewer egos or a longer road")
+    width = max((high - low) / egos, MIN_SLOT_M)
+    high = max(high, low + egos * width)
     return [(low + k * width, low + (k + 1) * width - GAP_M) for k in range(egos - 1)] + \
         [(low + (egos - 1) * width, high)]
+
+
+def check_start_slots(config: Config, egos: int, road_length_m: float) -> None:
+    """ValueError when the start slots of `egos` egos reach past the end margin of a road (a route) of
+    `road_length_m` [m] (`network.road_length_m`: a user's route's own length)."""
+    slots = start_slots(config, egos)
+    room = road_length_m - config.env.end_margin_m
+    if egos > 1 and slots[-1][1] >= room and slots[-1][1] > config.env.ego_start_max_m:
+        raise ValueError(f"{egos} egos need start slots of {MIN_SLOT_M:g} m from {slots[0][0]:g} m to "
+                         f"{slots[-1][1]:g} m, past the road's end margin at {room:g} m; use fewer egos or a longer "
+                         f"road")
 
 
 @dataclass(frozen=True)

@@ -15,6 +15,7 @@ import itertools
 import json
 import subprocess
 from pathlib import Path
+from typing import Any
 
 from sumo_rail.bounds import bounds_of
 from sumo_rail.config import (
@@ -37,7 +38,7 @@ def build(scenario: ScenarioConfig, cache_root: Path, vehicle_types_file: Path) 
     net_file = Path(scenario.network).expanduser().resolve()
     ego_route = tuple(scenario.route.split())
     net_bytes = _network_bytes(net_file)
-    lane_counts, route_length_m, speed_limit_mps = check_route(net_file, ego_route, scenario.lanes)
+    lane_counts, route_length_m, speed_limit_mps, through = check_route(net_file, ego_route, scenario.lanes)
     narrowest, capacity = min(lane_counts), lane_capacity(lane_counts)
     traffic_file, their_types = None, set[str]()
     if scenario.traffic_file:
@@ -48,7 +49,7 @@ def build(scenario: ScenarioConfig, cache_root: Path, vehicle_types_file: Path) 
                           f"narrowest edge in {net_file.name} ({narrowest} lane{'s' if narrowest > 1 else ''}) can "
                           f"carry (about {capacity:g} veh/h a lane)")
     routes = scenarios.network_routes(scenario, scenarios.read_source(vehicle_types_file), ego_route,
-                                      with_flow=traffic_file is None, their_types=their_types)
+                                      with_flow=traffic_file is None, their_types=their_types, through_route=through)
     digest = hashlib.sha256(json.dumps({"route": ego_route, "sumo": sumo_version(),
                                         "traffic": str(traffic_file)}).encode())
     digest.update(net_bytes + b"\0" + routes)
@@ -117,15 +118,20 @@ def check_sumo_loads(net_file: Path, route_files: list[Path]) -> None:
         raise ConfigError(f"SUMO cannot load scenario.network {loaded}: {errors[0] if errors else 'no output'}")
 
 
+MAIN_ROAD_EDGES = 200
+"""The longest main-road route `through_route` follows [edges]."""
+
+
 def lane_capacity(lane_counts: list[int]) -> float:
     """The most traffic a lane of the route's narrowest edge may carry [veh/h], from the lane counts of its edges in
     order: the road's start's (the excess waits off the road) unless a later edge has fewer lanes (there it jams)."""
     return LANE_CAPACITY_VEH_PER_H if min(lane_counts) == lane_counts[0] else BOTTLENECK_LANE_CAPACITY_VEH_PER_H
 
 
-def check_route(net_file: Path, ego_route: tuple[str, ...], lanes: int) -> tuple[list[int], float, float]:
-    """The lane counts of the route's edges, in order, the route's length [m] and its highest speed limit [m/s];
-    ConfigError unless every edge of
+def check_route(net_file: Path, ego_route: tuple[str, ...],
+                lanes: int) -> tuple[list[int], float, float, tuple[str, ...] | None]:
+    """The lane counts of the route's edges, in order, the route's length [m], its highest speed limit [m/s] and the
+    main road's route where the ego's leaves it (`through_route`); ConfigError unless every edge of
     `ego_route` is in the network, each leads to the next, has a lane the ego's class (passenger) may use and ends
     at no traffic light before the route's end, and the route's widest edge has `lanes` lanes (the observation's)."""
     import sumolib
@@ -158,4 +164,26 @@ def check_route(net_file: Path, ego_route: tuple[str, ...], lanes: int) -> tuple
         raise ConfigError(f"scenario.lanes is {lanes} but the route's widest edge in {net_file.name} has {max(counts)} "
                           f"lanes; {advice}")
     edges = [net.getEdge(edge) for edge in ego_route]
-    return counts, sum(edge.getLength() for edge in edges), max(edge.getSpeed() for edge in edges)
+    return (counts, sum(edge.getLength() for edge in edges), max(edge.getSpeed() for edge in edges),
+            through_route(net, ego_route))
+
+
+def through_route(net: Any, ego_route: tuple[str, ...]) -> tuple[str, ...] | None:
+    """Where the ego's route leaves the main road (at a junction it takes another edge than the main one: the
+    successor with the most lanes, then the highest priority, then the id), the main road's route: the ego's edges
+    up to there, then the main edge after each junction until the road ends (or `MAIN_ROAD_EDGES` edges); None
+    when the ego's route keeps to the main road."""
+    def main_after(edge: Any) -> Any:
+        successors = [after for after in edge.getOutgoing() if after.allows(EGO_CLASS)]
+        return max(successors, key=lambda after: (after.getLaneNumber(), after.getPriority(), after.getID()),
+                   default=None)
+
+    for index, (edge_id, next_id) in enumerate(itertools.pairwise(ego_route)):
+        main = main_after(net.getEdge(edge_id))
+        if main is not None and main.getID() != next_id:
+            route = [*ego_route[:index + 1]]
+            while main is not None and main.getID() not in route and len(route) < MAIN_ROAD_EDGES:
+                route.append(main.getID())
+                main = main_after(main)
+            return tuple(route)
+    return None

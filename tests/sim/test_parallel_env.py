@@ -17,7 +17,7 @@ from sumo_rail.sim.actions import Action
 from sumo_rail.sim.env import HighwayEnv
 from sumo_rail.sim.parallel_env import ParallelHighwayEnv
 from sumo_rail.sim.simulation import SimulationError
-from sumo_rail.sim.starts import GAP_M, MIN_SLOT_M, EpisodeStart, EpisodeStarts, start_slots
+from sumo_rail.sim.starts import GAP_M, MIN_SLOT_M, EpisodeStart, EpisodeStarts, check_start_slots, start_slots
 from sumo_rail.sim.traffic import TrafficView
 from sumo_rail.sim.vehicles import Neighbours
 
@@ -158,7 +158,8 @@ def test_start_slots_share_the_single_egos_window_and_widen_when_it_is_too_narro
     wide = start_slots(small_config, 16)  # 200 m / 16 < 40 m: slots of 40 m past the window
     assert wide[0] == (300.0, 340.0 - GAP_M) and wide[-1] == (300.0 + 15 * MIN_SLOT_M, 300.0 + 16 * MIN_SLOT_M)
     with pytest.raises(ValueError, match="30 egos need start slots"):
-        start_slots(small_config, 30)
+        check_start_slots(small_config, 30, small_config.scenario.length_m)
+    check_start_slots(small_config, 30, 2000.0)  # a user's route of 2 km holds them
     for egos in (0, 2.5, True):
         with pytest.raises(ValueError, match="egos must be an integer"):
             start_slots(small_config, egos)

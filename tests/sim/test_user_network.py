@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import gzip
 import subprocess
+import xml.etree.ElementTree as ElementTree
 from pathlib import Path
 
 import pytest
@@ -172,8 +173,6 @@ def test_a_route_slower_than_the_lowest_set_point_is_refused(small_config, tmp_p
 
 
 def test_the_docs_name_netconvert_the_projects_type_names_and_how_long_user_traffic_must_run():
-    import xml.etree.ElementTree as ElementTree
-
     from sumo_rail.sim import scenarios
 
     docs = (Path(__file__).parents[2] / "docs" / "scenarios.md").read_text()
@@ -196,3 +195,71 @@ def test_an_env_built_from_python_checks_the_route_s_length_before_sumo_starts(s
         with pytest.raises(ConfigError, match=r"must be shorter than scenario\.route"):
             env.reset(seed=0)
         env.close()
+
+
+def exit_road(folder: Path) -> Path:
+    """A motorway with an off-ramp as the OpenStreetMap walk-through builds it (netconvert --ramps.guess): "main1"
+    (3 lanes, ~1 km), its added deceleration lane "main1-AddedOffRampEdge", then "main2" (3 lanes) or "exit"."""
+    (folder / "exit.nod.xml").write_text('<nodes><node id="a" x="0" y="0"/><node id="b" x="1100" y="0"/>'
+                                         '<node id="c" x="2000" y="0"/><node id="r" x="1400" y="-150"/></nodes>')
+    (folder / "exit.edg.xml").write_text(
+        '<edges><edge id="main1" from="a" to="b" numLanes="3" speed="33.33" priority="3"/>'
+        '<edge id="main2" from="b" to="c" numLanes="3" speed="33.33" priority="3"/>'
+        '<edge id="exit" from="b" to="r" numLanes="1" speed="22.22" priority="1"/></edges>')
+    net = folder / "exit.net.xml"
+    subprocess.run([network.sumo_binary("netconvert"), "--node-files", str(folder / "exit.nod.xml"),
+                    "--edge-files", str(folder / "exit.edg.xml"), "-o", str(net), "--ramps.guess",
+                    "--no-turnarounds", "true"], check=True, capture_output=True)
+    return net
+
+
+EXIT_ROUTE = "main1 main1-AddedOffRampEdge exit"
+
+
+def test_generated_traffic_takes_the_exit_at_exit_share_and_the_rest_the_main_road(small_config, tmp_path):
+    config = on(small_config, exit_road(tmp_path), lanes=4, route=EXIT_ROUTE, flow_veh_per_h=1800.0)
+    root = ElementTree.parse(network.build(config.scenario).routes_file).getroot()
+    routes = {route.get("id"): route.get("edges") for route in root.iter("route")}
+    flows = {flow.get("route"): flow.get("period") for flow in root.iter("flow")}
+    assert routes["main_road"] == "main1 main1-AddedOffRampEdge main2" and routes["ego_route"] == EXIT_ROUTE
+    assert flows == {"main_road": f"exp({1800 * 0.8 / 3600!r})", "ego_route": f"exp({1800 * 0.2 / 3600!r})"}
+    straight = on(small_config, two_edges(tmp_path))  # a route along the main road: one flow along it, as before
+    assert [flow.get("route") for flow in ElementTree.parse(network.build(straight.scenario).routes_file)
+            .getroot().iter("flow")] == ["ego_route"]
+
+
+def test_the_expert_takes_its_routes_exit_on_a_users_motorway(small_config, tmp_path):
+    """The walk-through's road: with all generated traffic queueing into the exit, the expert missed it in 12 of 80
+    episodes; with the traffic split at the exit, in none."""
+    from sumo_rail.runners.rollout import ExpertDriver
+    from sumo_rail.sim.env import HighwayEnv
+
+    config = on(small_config, exit_road(tmp_path), lanes=4, route=EXIT_ROUTE, flow_veh_per_h=1500.0).with_overrides(
+        {"env": {"ego_start_min_m": 300.0, "ego_start_max_m": 700.0}, "observation": {"route_block": 1}})
+    env = HighwayEnv(config)
+    expert = ExpertDriver().create(config, 0)
+    terminations = []
+    try:
+        for seed in range(30):
+            observation, _ = env.reset(seed=seed)
+            done = False
+            while not done:
+                observation, _, terminated, truncated, info = env.step(expert(observation, env.traffic))
+                done = terminated or truncated
+            terminations.append(info["termination"])
+    finally:
+        env.close()
+    assert terminations == ["end_of_road"] * 30
+
+
+def test_several_egos_start_slots_are_checked_against_the_routes_own_length(small_config, tmp_path):
+    """scenario.length_m (3 km by default) is not a user's road: 16 egos' slots end at 940 m, past the 1500 m
+    route's end margin only when that margin is 600 m."""
+    from sumo_rail.sim.starts import check_start_slots
+
+    config = on(small_config.with_overrides({"scenario": {"length_m": 100_000.0}}), two_edges(tmp_path))
+    assert network.road_length_m(config) == pytest.approx(1500.0, abs=1.0)
+    check_start_slots(config, 16, network.road_length_m(config))
+    tight = config.with_overrides({"env": {"end_margin_m": 600.0}})
+    with pytest.raises(ValueError, match="past the road's end margin at 9"):
+        check_start_slots(tight, 16, network.road_length_m(tight))
