@@ -88,15 +88,20 @@ def test_vehicles_out_of_the_replay_radius_change_nothing_for_the_ego(drivers_sc
     runs = []
     for radius_m in (REPLAY_RADIUS_M, 1e9):
         monkeypatch.setattr(scene_traffic, "REPLAY_RADIUS_M", radius_m)
-        observation, _ = replay.reset(seed=0, options={"vehicle": vehicle, "start_s": start_s})
-        rows = [observation]
-        for action in actions:
-            observation, _, terminated, truncated, _ = replay.step(int(action))
-            rows.append(observation)
-            if terminated or truncated:
-                break
-        runs.append(np.array(rows))
+        runs.append(observations(replay, vehicle, start_s, actions, seed=0))
     np.testing.assert_array_equal(runs[0], runs[1])
+
+
+def observations(env: SceneEnv, vehicle: str, start_s: float, actions: list[Action], seed: int) -> np.ndarray:
+    """The observations of one episode in `vehicle`'s seat under `actions` (until it ends)."""
+    observation, _ = env.reset(seed=seed, options={"vehicle": vehicle, "start_s": start_s})
+    rows = [observation]
+    for action in actions:
+        observation, _, terminated, truncated, _ = env.step(int(action))
+        rows.append(observation)
+        if terminated or truncated:
+            break
+    return np.array(rows)
 
 
 def test_reactive_followers_brake_for_a_slowing_ego_and_replayed_ones_do_not(drivers_scene):
@@ -196,14 +201,7 @@ def test_libsumo_and_traci_drive_the_same_seat_alike(drivers_scene, replay):
     actions = [Action.ACCELERATE, Action.LANE_LEFT, Action.KEEP, Action.DECELERATE, Action.LANE_RIGHT] * 3
     states = []
     for env in (replay, SceneEnv(CONFIG, drivers_scene, reactive=False, transport="traci")):
-        observation, _ = env.reset(seed=3, options={"vehicle": vehicle, "start_s": start_s})
-        rows = [observation]
-        for action in actions:
-            observation, _, terminated, truncated, _ = env.step(int(action))
-            rows.append(observation)
-            if terminated or truncated:
-                break
-        states.append(np.array(rows))
+        states.append(observations(env, vehicle, start_s, actions, seed=3))
         if env is not replay:
             env.close()
     np.testing.assert_array_equal(states[0], states[1])
