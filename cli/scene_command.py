@@ -59,9 +59,9 @@ def evaluate_scene_command(config: Config, scenes: tuple[Path, ...], policies: t
         write_scene_evaluation,
     )
     from sumo_rail.evaluation.scene_summary import distribution_table, track_table
-    from sumo_rail.recordings.scene_folder import read_scene
-    from sumo_rail.recordings.scene_observations import scene_road
+    from sumo_rail.recordings.scene_folder import check_scene, read_scene
     from sumo_rail.recordings.tracks import RecordingUsageError
+    from sumo_rail.runners.backends import SerialBackend
 
     check_output(out, overwrite)
     if out is not None:
@@ -70,7 +70,7 @@ def evaluate_scene_command(config: Config, scenes: tuple[Path, ...], policies: t
     try:
         read = [read_scene(scene) for scene in scenes]
         for scene in read:
-            scene_road(scene.network)  # one straight edge, or one sentence
+            check_scene(scene, config, split)  # one straight edge of the observation's lanes, with such cars
         seats = [seat for scene in read for seat in choose_seats(scene, split, horizon_s, lead_s, limit, seed)]
     except (DatasetError, RecordingUsageError) as error:
         raise click.UsageError(str(error)) from error
@@ -86,7 +86,8 @@ def evaluate_scene_command(config: Config, scenes: tuple[Path, ...], policies: t
         except ValueError as error:
             raise click.BadParameter(str(error), param_hint="'--policy'") from error
     names = unique_names(drivers)
-    backend = build_backend(backend_name, workers, address)
+    in_process = workers == 1 and backend_name == "process" and address is None  # no worker for one
+    backend = SerialBackend() if in_process else build_backend(backend_name, workers, address)
     bar = progress(len(drivers) * len(seats) * len(modes), "driving in recorded seats")
     with interruptible_run(bar, "interrupted; nothing was written" if out is not None else "interrupted", backend):
         metrics, tracks = evaluate_seats(drivers, names, config, seats, modes, backend, seed,

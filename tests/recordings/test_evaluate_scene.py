@@ -119,8 +119,8 @@ def invoke(*args: str):
 
 def test_evaluate_scene_writes_both_tables_with_provenance(drivers_scene, tmp_path):
     out = tmp_path / "scene_eval.parquet"
-    result = invoke(str(drivers_scene), "--set", "observation.lane_block=1", "--policy", "keep", "--policy",
-                    "sumo-idm", "--seats", "2", "--horizon-s", "10", "--lead-s", "2", "--mode", "reactive",
+    result = invoke(str(drivers_scene), "--set", "observation.lane_block=1", "--set", "scenario.lanes=3",
+                    "--policy", "keep", "--policy", "sumo-idm", "--seats", "2", "--horizon-s", "10", "--lead-s", "2", "--mode", "reactive",
                     "--out", str(out))
     assert result.exit_code == 0, result.output
     assert "position error 10 s [m]" in result.output and "lane-change gap [m]" in result.output
@@ -130,9 +130,9 @@ def test_evaluate_scene_writes_both_tables_with_provenance(drivers_scene, tmp_pa
     assert read_metadata(out)["kind"] == "scene_episodes" and read_metadata(out)["split"] == "test"
 
 
-@pytest.mark.parametrize("problem", ["not a scene", "two edges", "no seat", "policy"])
+@pytest.mark.parametrize("problem", ["not a scene", "two edges", "no seat", "policy", "other lanes"])
 def test_evaluate_scene_refuses_in_one_sentence_and_writes_nothing(drivers_scene, tmp_path, problem):
-    scene, extra, code = drivers_scene, [], 2
+    scene, extra, code = drivers_scene, ["--set", "scenario.lanes=3"], 2
     if problem == "not a scene":
         scene = tmp_path / "empty"
         scene.mkdir()
@@ -142,10 +142,12 @@ def test_evaluate_scene_refuses_in_one_sentence_and_writes_nothing(drivers_scene
         net = (scene / "road.net.xml").read_text()
         (scene / "road.net.xml").write_text(net.replace("</net>", '<edge id="other" from="a" to="b"/></net>'))
     elif problem == "no seat":
-        extra = ["--horizon-s", "600"]
+        extra += ["--horizon-s", "600"]
+    elif problem == "other lanes":  # the scene has 3 lanes, the observation 5: a policy would read a wrong layout
+        extra = ["--set", "scenario.lanes=5"]
     else:
         (tmp_path / "policy.npz").write_bytes(b"not a policy")
-        extra, code = ["--policy", str(tmp_path / "policy.npz")], 1
+        extra, code = [*extra, "--policy", str(tmp_path / "policy.npz")], 1
     out = tmp_path / "out.parquet"
     result = invoke(str(scene), *extra, "--out", str(out))
     assert result.exit_code == code, result.output
