@@ -120,7 +120,8 @@ def invoke(*args: str):
 def test_evaluate_scene_writes_both_tables_with_provenance(drivers_scene, tmp_path):
     out = tmp_path / "scene_eval.parquet"
     result = invoke(str(drivers_scene), "--set", "observation.lane_block=1", "--set", "scenario.lanes=3",
-                    "--policy", "keep", "--policy", "sumo-idm", "--seats", "2", "--horizon-s", "10", "--lead-s", "2", "--mode", "reactive",
+                    "--policy", "keep", "--policy", "sumo-idm", "--seats", "2", "--horizon-s", "10", "--lead-s", "2",
+                    "--mode", "reactive",
                     "--out", str(out))
     assert result.exit_code == 0, result.output
     assert "position error 10 s [m]" in result.output and "lane-change gap [m]" in result.output
