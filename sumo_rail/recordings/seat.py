@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import dataclasses
 import xml.etree.ElementTree as ElementTree
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -31,6 +31,7 @@ from sumo_rail.recordings.scene_traffic import LANE_CHANGE_MODE_SUMO, REPLAY_ROU
 from sumo_rail.sim.ego import CONTEXT_MARGIN_M, Ego, edge_rows
 from sumo_rail.sim.env import HighwayEnv
 from sumo_rail.sim.simulation import EGO_ID, Simulation, SimulationError, sumo_options
+from sumo_rail.sim.vehicles import PeriodReport
 
 IDM_TYPE = "scene_idm"
 """The vehicle type of a SUMO-driven seat: IDM car following, LC2013 lane changing, SUMO's default parameters."""
@@ -86,6 +87,14 @@ class SceneSimulation(Simulation):
             self._ego_in = self._ego_in and not self.ego_collisions
         if self._ego_in and simulation.getArrivedNumber() and EGO_ID in simulation.getArrivedIDList():
             self._ego_in = False
+
+    def advance(self, steps: int, watch: Sequence[str] = ()) -> PeriodReport:
+        """`Stepping.advance`, and a collision of the ego with a replayed vehicle in the period's last step said as
+        one: SUMO then still answers for the ego (it leaves at the next step) but no longer sees it."""
+        report = super().advance(steps, watch)
+        if self.ego_collisions and not report.ego_collided:
+            return dataclasses.replace(report, ego_collided=True, ego_left_network=False)
+        return report
 
     def _why_gone(self, vehicle: str) -> tuple[bool, bool]:
         """A collision with a replayed vehicle (moved by moveToXY) may leave the ego answering for the rest of the

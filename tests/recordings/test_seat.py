@@ -215,3 +215,19 @@ def test_an_ego_gone_after_a_recorded_collision_collided():
     simulation = object.__new__(SceneSimulation)
     simulation.ego_collisions = [(EGO_ID, "cutter")]
     assert simulation._why_gone(EGO_ID) == (True, False)
+
+
+def test_a_collision_in_a_periods_last_step_ends_the_episode(monkeypatch):
+    """SUMO still answers for an ego that ran into a replayed vehicle in the period's last step (it leaves at the
+    next): the period's report says it collided, from the episode's record."""
+    from sumo_rail.recordings.seat import SceneSimulation
+    from sumo_rail.sim.stepping import Stepping
+    from sumo_rail.sim.vehicles import PeriodReport
+
+    monkeypatch.setattr(Stepping, "advance", lambda self, steps, watch=(): PeriodReport(False, False, False, 0.0, 0))
+    simulation = object.__new__(SceneSimulation)
+    simulation.ego_collisions = []
+    assert not simulation.advance(5).ego_collided
+    simulation.ego_collisions = [(EGO_ID, "cutter")]
+    report = simulation.advance(5)
+    assert report.ego_collided and not report.ego_left_network
