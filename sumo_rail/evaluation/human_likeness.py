@@ -67,18 +67,42 @@ def wasserstein_interval(ours: Sequence[np.ndarray], theirs: Sequence[np.ndarray
                          resamples: int = RESAMPLES) -> Interval:
     """The Wasserstein-1 distance between two samples given in groups (one array per vehicle or episode), with a
     95% percentile interval from resampling whole groups of each side with replacement (`resamples` times, seeded:
-    the same input gives the same interval). NaN bounds with fewer than two groups on a side."""
+    the same input gives the same interval). NaN bounds with fewer than two groups on a side.
+
+    A resample is the same values weighted by how often their group was drawn, so the values are sorted once and
+    each resample's distance is the area between the two weighted distribution functions (`_weighted_w1`): the
+    distance scipy gives for the resampled values, in a few numpy operations."""
     ours, theirs = ([np.asarray(group, dtype=float) for group in side] for side in (ours, theirs))
     estimate = wasserstein(_joined(ours), _joined(theirs))
     if min(len(ours), len(theirs)) < 2 or np.isnan(estimate):
         return Interval(estimate, np.nan, np.nan)
+    values = np.concatenate([_joined(ours), _joined(theirs)])
+    groups = np.concatenate([np.repeat(np.arange(len(side)), [len(group) for group in side])
+                             for side in (ours, theirs)])
+    side = np.repeat([0, 1], [sum(map(len, ours)), sum(map(len, theirs))])
+    keep = ~np.isnan(values)
+    order = np.argsort(values[keep], kind="stable")
+    values, groups, side = values[keep][order], groups[keep][order], side[keep][order]
+    is_ours = side == 0
     rng = np.random.default_rng(seed)
-    draws = np.array([wasserstein(_joined([ours[k] for k in rng.integers(len(ours), size=len(ours))]),
-                                  _joined([theirs[k] for k in rng.integers(len(theirs), size=len(theirs))]))
-                      for _ in range(resamples)])
+    draws = np.empty(resamples)
+    for k in range(resamples):
+        weights = [np.zeros(len(values)), np.zeros(len(values))]
+        for weight, members, count in ((weights[0], is_ours, len(ours)), (weights[1], ~is_ours, len(theirs))):
+            weight[members] = np.bincount(rng.integers(count, size=count), minlength=count)[groups[members]]
+        draws[k] = _weighted_w1(values, *weights)
     tail = 50 * (1 - CONFIDENCE)
     low, high = np.nanpercentile(draws, [tail, 100 - tail])
     return Interval(estimate, float(low), float(high))
+
+
+def _weighted_w1(values: np.ndarray, ours: np.ndarray, theirs: np.ndarray) -> float:
+    """The Wasserstein-1 distance between two weighted samples of the same sorted `values` (weights `ours`,
+    `theirs`): the integral of |F_ours - F_theirs|; NaN when a side has no weight."""
+    if ours.sum() == 0 or theirs.sum() == 0:
+        return np.nan
+    difference = np.cumsum(ours) / ours.sum() - np.cumsum(theirs) / theirs.sum()
+    return float(np.sum(np.abs(difference[:-1]) * np.diff(values)))
 
 
 def _joined(groups: Sequence[np.ndarray]) -> np.ndarray:
