@@ -171,11 +171,11 @@ def checked_roads(config: Config, roads: str) -> tuple[str, ...]:
 
 def check_egos(config: Config, egos: int) -> None:
     """A usage error when `egos` egos do not fit on the configuration's road."""
-    from sumo_rail.sim.network import road_length_m
+    from sumo_rail.sim.network import latest_start_m, road_length_m
     from sumo_rail.sim.starts import check_start_slots
 
     try:
-        check_start_slots(config, egos, road_length_m(config))
+        check_start_slots(config, egos, road_length_m(config), latest_start_m(config))
     except ValueError as error:
         raise click.BadParameter(str(error), param_hint="'--egos'") from error
 

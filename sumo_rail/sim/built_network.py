@@ -26,6 +26,10 @@ class BuiltNetwork:
     speed_limit_mps: float | None = None
     """The highest speed limit along a user's route (kind network) [m/s]; None on the generated roads
     (scenario.speed_limit_mps)."""
+    exit_at_m: float | None = None
+    """Where a user's route leaves the main road (kind network), along the route [m]; None where it keeps to it."""
+    start_lanes: int = 1
+    """Lanes of the route's first edge, where the ego starts."""
 
     @property
     def route_files(self) -> str:

@@ -63,6 +63,15 @@ def road_length_m(config: Config) -> float:
     return config.scenario.length_m
 
 
+def latest_start_m(config: Config) -> float:
+    """The farthest along a user's route an ego may start [m]: `user_network.exit_clearance_m` before where the route
+    leaves the main road; inf where it keeps to it and on the generated roads (their config checks the window)."""
+    if config.scenario.kind != "network":
+        return math.inf
+    built = build(config.scenario)
+    return math.inf if built.exit_at_m is None else built.exit_at_m - user_network.exit_clearance_m(built.start_lanes)
+
+
 def build(scenario: ScenarioConfig, source_dir: Path | None = None) -> BuiltNetwork:
     """Build (or reuse from the cache) the network and traffic files for `scenario`."""
     if scenario.kind == "network":

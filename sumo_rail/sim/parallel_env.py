@@ -85,7 +85,7 @@ class ParallelHighwayEnv(ParallelEnv[str, np.ndarray, np.int64]):
         if transport not in TRANSPORTS:
             raise ValueError(f"transport must be one of {', '.join(TRANSPORTS)}, got {transport!r}")
         self.config = Config.coerce(config)
-        check_start_slots(self.config, egos, network.road_length_m(self.config))
+        check_start_slots(self.config, egos, network.road_length_m(self.config), network.latest_start_m(self.config))
         self.slots = start_slots(self.config, egos)
         """Start interval of each ego's front [m] (`sumo_rail.sim.starts.start_slots`)."""
         self.transport = transport

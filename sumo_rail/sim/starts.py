@@ -18,6 +18,7 @@ single ego of `HighwayEnv` and of `ParallelHighwayEnv` alike.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Any
 
@@ -49,15 +50,20 @@ def start_slots(config: Config, egos: int) -> list[tuple[float, float]]:
         [(low + (egos - 1) * width, high)]
 
 
-def check_start_slots(config: Config, egos: int, road_length_m: float) -> None:
+def check_start_slots(config: Config, egos: int, road_length_m: float, latest_start_m: float = math.inf) -> None:
     """ValueError when the start slots of `egos` egos reach past the end margin of a road (a route) of
-    `road_length_m` [m] (`network.road_length_m`: a user's route's own length)."""
+    `road_length_m` [m] (`network.road_length_m`: a user's route's own length) or past `latest_start_m` [m], the
+    farthest start that leaves room before a user's route's exit (`network.latest_start_m`)."""
     slots = start_slots(config, egos)
     room = road_length_m - config.env.end_margin_m
     if egos > 1 and slots[-1][1] >= room and slots[-1][1] > config.env.ego_start_max_m:
         raise ValueError(f"{egos} egos need start slots of {MIN_SLOT_M:g} m from {slots[0][0]:g} m to "
                          f"{slots[-1][1]:g} m, past the road's end margin at {room:g} m; use fewer egos or a longer "
                          f"road")
+    if egos > 1 and slots[-1][1] > latest_start_m and slots[-1][1] > config.env.ego_start_max_m:
+        raise ValueError(f"{egos} egos need start slots of {MIN_SLOT_M:g} m from {slots[0][0]:g} m to "
+                         f"{slots[-1][1]:g} m, past {latest_start_m:.0f} m, the farthest start that leaves the ego "
+                         f"room to reach its route's exit (docs/scenarios.md); use fewer egos")
 
 
 @dataclass(frozen=True)

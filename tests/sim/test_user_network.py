@@ -263,3 +263,66 @@ def test_several_egos_start_slots_are_checked_against_the_routes_own_length(smal
     tight = config.with_overrides({"env": {"end_margin_m": 600.0}})
     with pytest.raises(ValueError, match="past the road's end margin at 9"):
         check_start_slots(tight, 16, network.road_length_m(tight))
+
+
+def test_a_start_window_too_near_the_routes_exit_is_refused(small_config, tmp_path):
+    """The route leaves the main road at the end of main1's deceleration lane (about 1090 m); 3 lanes on main1 need
+    2 x 150 m before it."""
+    built = network.build(on(small_config, exit_road(tmp_path), lanes=4, route=EXIT_ROUTE,
+                             flow_veh_per_h=1500.0).scenario)
+    assert built.exit_at_m == pytest.approx(1090.0, abs=10.0) and built.start_lanes == 3
+    assert user_network.exit_clearance_m(3) == 300.0
+    docs = (Path(__file__).parents[2] / "docs" / "scenarios.md").read_text()
+    assert f"at least {user_network.EXIT_PER_CHANGE_M:g} m for each lane change" in docs
+    near = small_config.with_overrides({"env": {"ego_start_max_m": built.exit_at_m - 299.0}})
+    with pytest.raises(ConfigError, match=r"must end at least 300 m before scenario\.route leaves the main road at "
+                                          r"10\d\d m in exit\.net\.xml \(150 m for each lane change across its "
+                                          r"first edge's 3 lanes, else the ego may miss the exit\); lower"):
+        user_network.check_start_window(near.env, built)
+    user_network.check_start_window(small_config.with_overrides(
+        {"env": {"ego_start_max_m": built.exit_at_m - 300.0}}).env, built)
+    straight = network.build(on(small_config, two_edges(tmp_path)).scenario)  # no exit: the window is not bound
+    assert straight.exit_at_m is None
+    user_network.check_start_window(small_config.with_overrides({"env": {"ego_start_max_m": 1000.0}}).env, straight)
+
+
+def test_the_expert_takes_its_exit_from_the_nearest_start_the_check_lets_through(small_config, tmp_path):
+    """Starts in the last 90 m of the window the check allows; 100-200 m before the exit, it missed the exit in up
+    to 4 of 30 episodes."""
+    from sumo_rail.runners.rollout import ExpertDriver
+    from sumo_rail.sim.env import HighwayEnv
+
+    config = on(small_config, exit_road(tmp_path), lanes=4, route=EXIT_ROUTE, flow_veh_per_h=1500.0,
+                warmup_s=60.0, snapshots=8)
+    built = network.build(config.scenario)
+    high_m = built.exit_at_m - user_network.exit_clearance_m(built.start_lanes)
+    config = config.with_overrides({"env": {"ego_start_min_m": high_m - 90.0, "ego_start_max_m": high_m}})
+    user_network.check_start_window(config.env, built)
+    env = HighwayEnv(config)
+    expert = ExpertDriver().create(config, 0)
+    terminations = []
+    try:
+        for seed in range(40):
+            observation, _ = env.reset(seed=seed)
+            done = False
+            while not done:
+                observation, _, terminated, truncated, info = env.step(expert(observation, env.traffic))
+                done = terminated or truncated
+            terminations.append(info["termination"])
+    finally:
+        env.close()
+    assert terminations == ["end_of_road"] * 40
+
+
+def test_several_egos_start_slots_are_checked_against_the_routes_exit(small_config, tmp_path):
+    """16 egos' slots of 40 m (300 m to 940 m) reach past the farthest start (about 790 m) that the exit at about
+    1090 m leaves: refused; 4 egos share the window (300 m to 500 m): taken."""
+    from sumo_rail.sim.starts import check_start_slots
+
+    config = on(small_config, exit_road(tmp_path), lanes=4, route=EXIT_ROUTE, flow_veh_per_h=1500.0)
+    latest_m = network.latest_start_m(config)
+    assert latest_m == pytest.approx(790.0, abs=10.0) and network.latest_start_m(small_config) == float("inf")
+    with pytest.raises(ValueError, match=r"16 egos need start slots of 40 m from 300 m to 940 m, past 7\d\d m, the "
+                                         r"farthest start that leaves the ego room to reach its route's exit"):
+        check_start_slots(config, 16, network.road_length_m(config), latest_m)
+    check_start_slots(config, 4, network.road_length_m(config), latest_m)
