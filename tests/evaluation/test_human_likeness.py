@@ -62,3 +62,25 @@ def test_the_bootstrap_resamples_whole_vehicles_and_is_reproducible():
                                   resamples=400)
     assert found.high - found.low > 1.5 * (values.high - values.low)
     assert np.isnan(wasserstein_interval([shifted[0]], humans).low)
+
+
+def test_the_bootstrap_distances_are_scipys_on_the_resampled_values():
+    """Each resample weighs the sorted values by how often their group was drawn: the interval is the one a plain
+    loop over resampled, concatenated groups gives with scipy's distance."""
+    from scipy.stats import wasserstein_distance
+
+    from sumo_rail.evaluation.statistics import CONFIDENCE
+
+    rng = np.random.default_rng(3)
+    ours = [rng.normal(1.0, 1.0, rng.integers(1, 6)) for _ in range(12)]
+    theirs = [rng.normal(0.0, 2.0, rng.integers(1, 6)) for _ in range(9)]
+    theirs[2][0] = np.nan  # left out, as everywhere
+    found = wasserstein_interval(ours, theirs, seed=11, resamples=300)
+    draws = np.random.default_rng(11)
+    plain = []
+    for _ in range(300):
+        picked = [np.concatenate([side[k] for k in draws.integers(len(side), size=len(side))])
+                  for side in (ours, theirs)]
+        plain.append(wasserstein_distance(*(values[~np.isnan(values)] for values in picked)))
+    tail = 50 * (1 - CONFIDENCE)
+    assert (found.low, found.high) == pytest.approx(tuple(np.percentile(plain, [tail, 100 - tail])), rel=1e-9)
