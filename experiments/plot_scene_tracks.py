@@ -1,6 +1,7 @@
 """The README's figure of a replayed scene: in one held-out car's seat, the human's recorded track and the tracks of
 BC, RAIL and the constant set-point driven there (non-reactive), as lateral position against distance along the road
-and distance ahead of the human against time. The seat is the one, among those where the human changed lanes, where
+and distance ahead of the human against time; an x marks where a driver's episode ended early (a collision). The seat
+is the one, among those where the human changed lanes, where
 the BC and RAIL of training seed 0 end farthest apart.
 
     python experiments/plot_scene_tracks.py CLOSED_LOOP.parquet OUT.png
@@ -36,7 +37,7 @@ def chosen_seat(tracks: pd.DataFrame) -> tuple:
 
 
 def main(metrics_path: Path, out: Path) -> None:
-    tracks = pd.read_parquet(tracks_path(metrics_path))
+    tracks, metrics = pd.read_parquet(tracks_path(metrics_path)), pd.read_parquet(metrics_path)
     seat = chosen_seat(tracks)
     chosen = tracks[(tracks["mode"] == "non-reactive") & (tracks[SEAT] == pd.Series(seat, index=SEAT)).all(axis=1)]
     human = chosen[chosen["policy"] == HUMAN].set_index("time_s")
@@ -47,15 +48,18 @@ def main(metrics_path: Path, out: Path) -> None:
         if track.empty:
             continue
         style = {"color": colour, "linewidth": 2.5 if policy == HUMAN else 1.5}
-        above.plot(track["x_m"], track["y_m"], label=label, **style)
+        ended = metrics[(metrics["policy"] == policy) & (metrics["mode"] == "non-reactive")
+                        & (metrics[SEAT] == pd.Series(seat, index=SEAT)).all(axis=1)]["termination"]
+        marker = {"marker": "x", "markevery": [len(track) - 1], "markersize": 9} if (ended == "collision").any() else {}
+        above.plot(track["x_m"], track["y_m"], label=label, **style, **marker)
         ahead = track["lane_position_m"].to_numpy() - np.interp(track["time_s"], human.index,
                                                                 human["lane_position_m"])
-        below.plot(track["time_s"] - seat[2], ahead, **style)
+        below.plot(track["time_s"] - seat[2], ahead, **style, **marker)
     above.set_xlabel("x along the road [m]")
     above.set_ylabel("y [m] (lanes)")
     above.legend(loc="best", fontsize=8)
-    above.set_title(f"{seat[1]} of {seat[0]}, seated at {seat[2]:g} s; the other cars replayed as recorded",
-                    fontsize=9)
+    above.set_title(f"{seat[1]} of {seat[0]}, seated at {seat[2]:g} s; the other cars replayed as recorded "
+                    f"(x: a replayed car ran into it)", fontsize=9)
     below.axhline(0.0, color="black", linewidth=0.5)
     below.set_xlabel("time in the seat [s]")
     below.set_ylabel("ahead of the human [m]")

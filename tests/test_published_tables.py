@@ -51,6 +51,8 @@ REGENERATED: dict[str, list[str]] = {
     "bc_class_balance/table.md": ["experiments/bc_class_balance_table.py", f"{R}/bc_class_balance/validation.parquet"],
     "human_likeness/table.md": ["experiments/human_likeness_open_loop.py", "table",
                                 f"{R}/human_likeness/open_loop.parquet"],
+    "human_likeness/closed_loop.md": ["experiments/human_likeness_closed_loop.py",
+                                      f"{R}/human_likeness/closed_loop.parquet"],
     "ppo_expert/lane_change_context.md": ["experiments/lane_change_context.py",
                                           f"{R}/ppo_expert/test_ppo_expert.decisions.parquet"],
     "ars_reference/table.md": ["experiments/ars_reference.py", "--seeds", "0", "1", "2", "3", "4",
