@@ -6,7 +6,11 @@ taken with the set-point outside the band in which the expert keeps it (its desi
 expert accelerates below it and decelerates above it at every decision) and the agreement there and elsewhere.
 Drivers named METHOD_sSEED/... are pooled over seeds as METHOD. Prints Markdown.
 
-Usage: python experiments/agreement_episodes.py STYLE METRICS.parquet [METRICS.parquet ...]
+The table reads the records only as each driver's decisions and agreements at each set-point (`setpoint_counts`):
+where METRICS.decisions.parquet is not committed, METRICS.setpoints.parquet holds them (--summary writes it beside
+every METRICS file from its records).
+
+Usage: python experiments/agreement_episodes.py STYLE METRICS.parquet [METRICS.parquet ...] [--summary]
 """
 
 from __future__ import annotations
@@ -27,25 +31,50 @@ def method(policy: str) -> str:
     return re.sub(r"_s\d+/", "/", policy)
 
 
+def setpoint_counts(decisions: pd.DataFrame) -> pd.DataFrame:
+    """Per driver and set-point [m/s]: its decisions and the ones where it chose the expert's action."""
+    agrees = (decisions["action"] == decisions["expert_action"]).astype("int64")
+    counts = decisions.assign(agrees=agrees).groupby(["policy", "set_point_mps"], sort=False)["agrees"]
+    return pd.DataFrame({"decisions": counts.size(), "agrees": counts.sum()}).reset_index()
+
+
+def read_counts(path: Path) -> pd.DataFrame:
+    """`setpoint_counts` of a metrics file: from its records, or the summary committed in their place."""
+    records = path.with_suffix(".decisions.parquet")
+    return setpoint_counts(pd.read_parquet(records)) if records.is_file() else pd.read_parquet(
+        path.with_suffix(".setpoints.parquet"))
+
+
 def table(style: str, paths: list[Path]) -> str:
     desired, half_step = STYLES[style].desired_speed_mps, Config().env.speed_step_mps / 2
     metrics = pd.concat([pd.read_parquet(path) for path in paths])
-    decisions = pd.concat([pd.read_parquet(path.with_suffix(".decisions.parquet")) for path in paths])
+    decisions = pd.concat([read_counts(path) for path in paths])
     metrics["method"], decisions["method"] = metrics["policy"].map(method), decisions["policy"].map(method)
     decisions["off_band"] = (decisions["set_point_mps"] - desired).abs() > half_step + 1e-6
-    decisions["agrees"] = decisions["action"] == decisions["expert_action"]
     lines = ["| driver | episodes | agreement | episodes below 0.5 | 5% quantile of episode agreement | decisions "
              "with the set-point off the expert's band | agreement there | agreement elsewhere |",
              "|---|---:|---:|---:|---:|---:|---:|---:|"]
     for name, episodes in metrics.groupby("method", sort=False):
         mine = decisions[decisions["method"] == name]
         off, on = mine[mine["off_band"]], mine[~mine["off_band"]]
-        lines.append(f"| {name} | {len(episodes)} | {mine['agrees'].mean():.3f} | "
+        total, off_total = int(mine["decisions"].sum()), int(off["decisions"].sum())
+        off_agreement = off["agrees"].sum() / off_total if off_total else float("nan")
+        lines.append(f"| {name} | {len(episodes)} | {mine['agrees'].sum() / total:.3f} | "
                      f"{(episodes['agreement'] < 0.5).mean():.1%} | {np.quantile(episodes['agreement'], 0.05):.2f} | "
-                     f"{mine['off_band'].mean():.1%} | {off['agrees'].mean() if len(off) else float('nan'):.3f} | "
-                     f"{on['agrees'].mean():.3f} |")
+                     f"{off_total / total:.1%} | {off_agreement:.3f} | "
+                     f"{on['agrees'].sum() / on['decisions'].sum():.3f} |")
     return "\n".join(lines)
 
 
+def write_summaries(paths: list[Path]) -> None:
+    """METRICS.setpoints.parquet beside each metrics file, from its records."""
+    for path in paths:
+        setpoint_counts(pd.read_parquet(path.with_suffix(".decisions.parquet"))).to_parquet(
+            path.with_suffix(".setpoints.parquet"), index=False)
+
+
 if __name__ == "__main__":
-    print(table(sys.argv[1], [Path(path) for path in sys.argv[2:]]))
+    arguments = [argument for argument in sys.argv[2:] if argument != "--summary"]
+    if "--summary" in sys.argv[2:]:
+        write_summaries([Path(path) for path in arguments])
+    print(table(sys.argv[1], [Path(path) for path in arguments]))

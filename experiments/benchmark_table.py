@@ -2,7 +2,9 @@
 same test episodes, its difference to the expert, the paired differences between methods, the training budget
 and the distribution distances to the expert. Seeds are pooled as experiments/seeded.py says. Prints Markdown.
 
-Usage: python experiments/benchmark_table.py OUT_DIR   (reads OUT_DIR/test_sSEED.parquet and the run folders)
+Usage: python experiments/benchmark_table.py OUT_DIR [--summary]
+(reads OUT_DIR/test_sSEED.parquet and the run folders, and the per-decision records beside the evaluations or, where
+they are not committed, OUT_DIR/distributions.parquet, the summary of them the table reads; --summary writes it)
 """
 
 from __future__ import annotations
@@ -14,9 +16,10 @@ import pandas as pd
 from seeded import difference_cell, digits_of, seed_samples, training_seeds, value_cell
 
 from sumo_rail.datasets import read_metadata
+from sumo_rail.evaluation.distributions import decision_summary, summary_distances
 from sumo_rail.evaluation.evaluate import decisions_path
 from sumo_rail.evaluation.statistics import Sample, interval, seeded_interval
-from sumo_rail.evaluation.summary import distance_summary, measure_samples
+from sumo_rail.evaluation.summary import distance_text, measure_samples
 from sumo_rail.runners.experts import SAMPLED_SUFFIX
 
 METHODS = {  # key: (label, run folder stem, policy in it)
@@ -30,6 +33,10 @@ METHODS = {  # key: (label, run folder stem, policy in it)
 }
 COMPARISONS = (("rail_mlp", "bc_mlp"), ("rail_linear", "bc_linear"), ("rail_mlp", "dagger"), ("rail_mlp", "gail"),
                ("rail_mlp", "gail_sampled"), ("dagger", "bc_mlp"))
+SUMMARY = "distributions.parquet"
+"""The decision summary of all test evaluations pooled (the expert once), committed in place of their records."""
+DERIVED = (".decisions.parquet", ".distributions.parquet", ".setpoints.parquet")
+"""Files beside an evaluation NAME.parquet that are not metrics: its records and the summaries of them."""
 HEADLINE = ("agreement", "lane_change_recall", "lane_change_precision", "average_speed_kmh", "overtakes",
             "lane_changes", "collisions")
 MEASURES = ("agreement", "lane_change_recall", "lane_change_precision", "lateral_agreement", "longitudinal_agreement",
@@ -44,15 +51,21 @@ def expert_driver(metrics: pd.DataFrame) -> str:
     return experts[0]
 
 
-def read_evaluations(out: Path) -> tuple[pd.DataFrame, pd.DataFrame, int, str]:
-    """All test_sSEED evaluations as one metrics table (the expert once), their per-decision records, the
-    scenario's lane count and the expert's name (`expert_driver`)."""
-    paths = sorted(out.glob("test_s*.parquet"))
-    paths = [path for path in paths if not path.name.endswith(".decisions.parquet")]
+def evaluation_files(out: Path, pattern: str = "test_s*.parquet") -> list[Path]:
+    """The metrics files of `out` that match `pattern`, without the per-decision records and summaries beside them."""
+    return sorted(path for path in out.glob(pattern) if not path.name.endswith(DERIVED))
+
+
+def read_evaluations(out: Path) -> tuple[pd.DataFrame, pd.DataFrame | None, int, str]:
+    """All test_sSEED evaluations as one metrics table (the expert once), their per-decision records (None when
+    some file's are not there: not committed, SUMMARY holds what the table reads of them), the scenario's lane count
+    and the expert's name (`expert_driver`)."""
+    paths = evaluation_files(out)
     if not paths:
         raise SystemExit(f"no evaluation test_sSEED.parquet in {out} yet")
     metrics = [pd.read_parquet(path) for path in paths]
-    decisions = [pd.read_parquet(decisions_path(path)) for path in paths]
+    decisions = ([pd.read_parquet(decisions_path(path)) for path in paths]
+                 if all(decisions_path(path).is_file() for path in paths) else None)
     expert = expert_driver(metrics[0])
     expert_seeds = sorted(metrics[0].loc[metrics[0]["policy"] == expert, "seed"])
     for path, frame in zip(paths, metrics, strict=True):
@@ -63,9 +76,20 @@ def read_evaluations(out: Path) -> tuple[pd.DataFrame, pd.DataFrame, int, str]:
     keep_expert = [True] + [False] * (len(paths) - 1)
     return (pd.concat([frame[(frame["policy"] != expert) | keep] for frame, keep in zip(metrics, keep_expert,
                                                                                           strict=True)]),
-            pd.concat([frame[(frame["policy"] != expert) | keep] for frame, keep in zip(decisions, keep_expert,
-                                                                                          strict=True)]),
+            None if decisions is None else pd.concat([frame[(frame["policy"] != expert) | keep] for frame, keep
+                                                      in zip(decisions, keep_expert, strict=True)]),
             lanes, expert)
+
+
+def decisions_summary(out: Path, decisions: pd.DataFrame | None, expert: str, lanes: int) -> pd.DataFrame:
+    """What the table reads of the pooled per-decision records (`decision_summary`): made from them, or OUT/SUMMARY
+    where they are not there (`--summary` writes it from them)."""
+    if decisions is not None:
+        return decision_summary(decisions, expert, lanes)
+    if not (out / SUMMARY).is_file():
+        raise SystemExit(f"neither the per-decision records of {out}'s evaluations nor {out / SUMMARY}: the "
+                         f"evaluations' grid spec writes the records again")
+    return pd.read_parquet(out / SUMMARY)
 
 
 def budget(out: Path, stem: str, seeds: list[int]) -> str:
@@ -121,8 +145,13 @@ def print_comparisons(found: Found, comparisons: tuple[tuple[str, str], ...], me
             print(f"| {methods[candidate][0]} - {methods[reference][0]} ({seeds}) | {measure} | {cell} |")
 
 
-def main(out: Path) -> None:
+def main(out: Path, write_summary: bool = False) -> None:
     metrics, decisions, lanes, expert_name = read_evaluations(out)
+    summary = decisions_summary(out, decisions, expert_name, lanes)
+    if write_summary:
+        if decisions is None:
+            raise SystemExit(f"--summary: no per-decision records in {out} to summarise")
+        summary.to_parquet(out / SUMMARY)
     expert = measure_samples(metrics[metrics["policy"] == expert_name].sort_values("seed"))
     found = methods_found(metrics)
     episodes = int((metrics["policy"] == expert_name).sum())
@@ -145,8 +174,8 @@ def main(out: Path) -> None:
     print("|---|---:|---:|")
     for key, (seeds, _) in found.items():
         print(f"| {METHODS[key][0]} | {budget(out, METHODS[key][1], seeds)} |")
-    print("\n```\n" + distance_summary(decisions, expert_name, lanes) + "\n```")
+    print("\n```\n" + distance_text(summary_distances(summary, expert_name), expert_name) + "\n```")
 
 
 if __name__ == "__main__":
-    main(Path(sys.argv[1]))
+    main(Path(sys.argv[1]), "--summary" in sys.argv[2:])

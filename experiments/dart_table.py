@@ -14,7 +14,16 @@ import sys
 from pathlib import Path
 
 import pandas as pd
-from benchmark_table import HEADLINE, METHODS, Found, expert_driver, methods_found, print_comparisons, print_headline
+from benchmark_table import (
+    DERIVED,
+    HEADLINE,
+    METHODS,
+    Found,
+    expert_driver,
+    methods_found,
+    print_comparisons,
+    print_headline,
+)
 from seeded import difference_cell, digits_of
 
 from sumo_rail.evaluation.safety import SAFETY_MEASURES
@@ -31,7 +40,7 @@ SAFETY = (*SAFETY_MEASURES, "hard_braking", "collisions")
 def evaluations(*folders: Path) -> pd.DataFrame:
     """Every test_sSEED*.parquet metrics file of `folders`, one row per (driver, episode seed)."""
     paths = [path for folder in folders for path in sorted(folder.glob("test_s*.parquet"))
-             if not path.name.endswith(".decisions.parquet")]
+             if not path.name.endswith(DERIVED)]
     if not paths:
         raise SystemExit(f"no test_sSEED.parquet in {', '.join(map(str, folders))}")
     return pd.concat([pd.read_parquet(path) for path in paths]).drop_duplicates(["policy", "seed"])

@@ -3,21 +3,27 @@ is within HEADWAY seconds at any decision, and at the decision before each lane 
 (a driver that overtakes moves left when it is close behind a leader far more often than the base rate), and the
 share of decisions in each lane (0 = rightmost). Prints Markdown.
 
-Usage: python experiments/lane_change_context.py EVALUATION.decisions.parquet [HEADWAY_S (3.0)]
+Where the records are not committed, EVALUATION.lane_changes.parquet beside them holds the counts the table is made
+of (`lane_change_counts`; --summary writes it from the records).
+
+Usage: python experiments/lane_change_context.py EVALUATION.decisions.parquet [HEADWAY_S (3.0)] [--summary]
 """
 
 from __future__ import annotations
 
 import sys
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
 
-def lane_change_context(decisions: pd.DataFrame, headway_s: float) -> pd.DataFrame:
-    """One row per driver: decisions, the shares with a leader within `headway_s` (all, before a change to the left
-    or right, with the changes' counts) and the lane shares."""
+def lane_change_counts(decisions: pd.DataFrame, headway_s: float) -> pd.DataFrame:
+    """One row per driver: its decisions (but each episode's last), the ones with a leader within `headway_s`, its
+    changes to the left and right and the ones taken with a leader that close, and its decisions in each lane: all the
+    table reads of the records (LANE_CHANGES beside them holds it where they are not committed)."""
     rows = []
+    lanes_seen = int(decisions["lane"].max()) + 1
     for policy, driver in decisions.sort_values(["policy", "seed", "step"]).groupby("policy", sort=False):
         changes, close, lanes = [], [], []
         for _, episode in driver.groupby("seed"):
@@ -26,16 +32,50 @@ def lane_change_context(decisions: pd.DataFrame, headway_s: float) -> pd.DataFra
             close.append(np.nan_to_num(episode["headway_s"].to_numpy()[:-1], nan=np.inf) < headway_s)
             lanes.append(lane[:-1])
         change, near, lane = np.concatenate(changes), np.concatenate(close), np.concatenate(lanes).astype(int)
-        shares = np.bincount(lane, minlength=int(decisions["lane"].max()) + 1) / len(lane)
-        rows.append({"driver": policy, "decisions": len(change), "leader close, any decision": near.mean(),
-                     "before a change left": near[change > 0].mean(), "changes left": int((change > 0).sum()),
-                     "before a change right": near[change < 0].mean(), "changes right": int((change < 0).sum()),
+        counts = np.bincount(lane, minlength=lanes_seen)
+        rows.append({"driver": policy, "headway_s": headway_s, "decisions": len(change), "close": int(near.sum()),
+                     "changes_left": int((change > 0).sum()), "close_left": int(near[change > 0].sum()),
+                     "changes_right": int((change < 0).sum()), "close_right": int(near[change < 0].sum()),
+                     **{f"lane_{k}": int(count) for k, count in enumerate(counts)}})
+    return pd.DataFrame(rows)
+
+
+def lane_change_context(counts: pd.DataFrame) -> pd.DataFrame:
+    """One row per driver of `lane_change_counts`: decisions, the shares with a leader within its headway (all,
+    before a change to the left or right, with the changes' counts) and the lane shares."""
+    lanes = [column for column in counts.columns if column.startswith("lane_")]
+    rows = []
+    for row in counts.itertuples(index=False):
+        values = row._asdict()
+        shares = np.array([values[lane] for lane in lanes]) / row.decisions
+        rows.append({"driver": row.driver, "decisions": row.decisions, "leader close, any decision":
+                     row.close / row.decisions, "before a change left": _share(row.close_left, row.changes_left),
+                     "changes left": row.changes_left, "before a change right":
+                     _share(row.close_right, row.changes_right), "changes right": row.changes_right,
                      "lane shares (0 = rightmost)": ", ".join(f"{share:.2f}" for share in shares)})
     return pd.DataFrame(rows)
 
 
-def main(path: str, headway_s: float = 3.0) -> None:
-    table = lane_change_context(pd.read_parquet(path), headway_s)
+def _share(part: int, whole: int) -> float:
+    return part / whole if whole else float("nan")
+
+
+def counts_path(path: str) -> Path:
+    """LANE_CHANGES: NAME.lane_changes.parquet beside NAME.decisions.parquet."""
+    return Path(path.removesuffix(".decisions.parquet") + ".lane_changes.parquet")
+
+
+def main(path: str, headway_s: float = 3.0, write: bool = False) -> None:
+    if Path(path).is_file():
+        counts = lane_change_counts(pd.read_parquet(path), headway_s)
+        if write:
+            counts.to_parquet(counts_path(path), index=False)
+    else:
+        counts = pd.read_parquet(counts_path(path))
+        if set(counts["headway_s"]) != {headway_s}:
+            raise SystemExit(f"{counts_path(path)} counts leaders within {set(counts['headway_s'])} s, not "
+                             f"{headway_s:g}; its records ({path}) are not here")
+    table = lane_change_context(counts)
     print(f"Share of decisions with a leader within {headway_s:g} s\n")
     print("| " + " | ".join(table.columns) + " |")
     print("|---|" + "---:|" * (len(table.columns) - 2) + "---|")
@@ -44,4 +84,5 @@ def main(path: str, headway_s: float = 3.0) -> None:
 
 
 if __name__ == "__main__":
-    main(sys.argv[1], *(float(value) for value in sys.argv[2:]))
+    arguments = [argument for argument in sys.argv[1:] if argument != "--summary"]
+    main(arguments[0], *(float(value) for value in arguments[1:]), write="--summary" in sys.argv[1:])

@@ -4,6 +4,9 @@ and distance ahead of the human against time; an x marks where a driver's episod
 is the one, among those where the human changed lanes, where
 the BC and RAIL of training seed 0 end farthest apart.
 
+docs/results commits the tracks' positions and times (x_m, y_m, lane_position_m, time_s) only in the seat this figure
+shows (`thin_tracks`; the closed-loop table reads none of them): the figure is the same from either.
+
     python experiments/plot_scene_tracks.py CLOSED_LOOP.parquet OUT.png
 """
 
@@ -34,6 +37,18 @@ def chosen_seat(tracks: pd.DataFrame) -> tuple:
                                                                                  np.nan))
              for seat in changed[changed > 1].index}
     return max((seat for seat in apart if not np.isnan(apart[seat])), key=apart.get)
+
+
+POSITIONS = ["x_m", "y_m", "lane_position_m", "time_s"]
+"""What only this figure reads of the tracks."""
+
+
+def thin_tracks(tracks: pd.DataFrame) -> pd.DataFrame:
+    """The tracks with POSITIONS left empty (null) outside the chosen seat: the same figure and the same closed-loop
+    table, from a third of the file."""
+    seat = chosen_seat(tracks)
+    elsewhere = ~(tracks[SEAT] == pd.Series(seat, index=SEAT)).all(axis=1)
+    return tracks.assign(**{name: tracks[name].mask(elsewhere) for name in POSITIONS})
 
 
 def main(metrics_path: Path, out: Path) -> None:

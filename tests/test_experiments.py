@@ -175,3 +175,27 @@ def test_each_road_s_safety_rows_are_paired_with_the_expert_on_the_same_episodes
                                            "+0.00)"] * 3)
     assert rows["RAIL"][2].split(" ")[0] == rows["expert"][2].split(" ")[0]  # least TTC: the expert's own mean
     assert rows["BC"][2].split(" ")[0] != rows["expert"][2].split(" ")[0]
+
+
+def test_thinned_tracks_keep_the_figure_s_seat_and_everything_the_table_reads():
+    """docs/results commits the closed-loop tracks with positions only in the README figure's seat (issue 45)."""
+    import pandas as pd
+    from plot_scene_tracks import POSITIONS, chosen_seat, thin_tracks
+
+    rows = []
+    for vehicle, rail_end in (("a", 50.0), ("b", 90.0), ("c", 300.0)):
+        for policy, lanes, end in (("human", [0, 1], 100.0), ("rail_s0/policy_bc", [0, 0], 100.0),
+                                   ("rail_s0/policy_latest", [0, 1], rail_end)):
+            lanes = [0, 0] if vehicle == "c" and policy == "human" else lanes  # c: the human kept its lane
+            for step, lane in enumerate(lanes):
+                rows.append({"policy": policy, "mode": "non-reactive", "scene": "s", "vehicle": vehicle,
+                             "start_s": 10.0, "time_s": 10.0 + step, "x_m": end * step, "y_m": 1.0 * lane,
+                             "lane_position_m": end * step, "speed_mps": 20.0 + step, "lane": lane, "gap_m": 5.0})
+    tracks = pd.DataFrame(rows)
+    thin = thin_tracks(tracks)
+    assert chosen_seat(thin) == chosen_seat(tracks) == ("s", "a", 10.0)  # BC and RAIL end farthest apart in a
+    kept = thin["vehicle"] == "a"
+    assert thin.loc[kept, POSITIONS].equals(tracks.loc[kept, POSITIONS])
+    assert thin.loc[~kept, POSITIONS].isna().all().all()
+    others = [column for column in tracks.columns if column not in POSITIONS]
+    assert thin[others].equals(tracks[others])

@@ -89,11 +89,12 @@ NOT_REGENERABLE: dict[str, str] = {
     "generalisation/previous_5b09e52/table.md": "an earlier run's table as published then; its evaluations are not "
                                                 "committed",
     "generalisation/previous_expert/table.md": "an earlier run's table as published then, by an earlier "
-                                               "generalisation_table.py; the folder's expert evaluations (50 "
-                                               "episodes) are not the 250 it was made with, and lack the safety "
-                                               "measures the script now tables",
-    "generalisation/previous_learners/table.md": "an earlier run's table as published then; the folder's expert "
-                                                 "evaluations (50 episodes) are not the 250 it was made with",
+                                               "generalisation_table.py; its evaluations are not committed (the "
+                                               "expert's 50 episodes the folder held were not the 250 it was made "
+                                               "with; issue 45 removed them)",
+    "generalisation/previous_learners/table.md": "an earlier run's table as published then; its evaluations are not "
+                                                 "committed (the expert's 50 episodes the folder held were not the "
+                                                 "250 it was made with; issue 45 removed them)",
 }
 
 

@@ -161,7 +161,11 @@ def summary_table(metrics: pd.DataFrame, reference: str | None = None, seed: int
 
 def distance_summary(decisions: pd.DataFrame, reference: str, lanes: int) -> str:
     """Distribution distances of every driver to `reference`, as text."""
-    table = distance_table(decisions, reference, lanes)
+    return distance_text(distance_table(decisions, reference, lanes), reference)
+
+
+def distance_text(table: pd.DataFrame, reference: str) -> str:
+    """A `distance_table` as text."""
     return (f"distance of each driver's distributions to {reference}'s (Wasserstein-1 in the unit named; total "
             f"variation for lanes and actions; no-leader share: difference):\n{table.round(3).to_string()}")
 

@@ -7,7 +7,7 @@ import numpy as np
 import pandas as pd
 from matplotlib.figure import Figure
 
-from sumo_rail.evaluation.distributions import frequencies
+from sumo_rail.evaluation.distributions import HEADWAY_BINS, SPEED_BINS_KMH
 from sumo_rail.evaluation.driving_score import SCORE_COLUMNS
 from sumo_rail.evaluation.fidelity import ACTION_NAMES, CONFUSION_COLUMNS, HEADWAY_CAP_S, RATES
 from sumo_rail.evaluation.summary import MEASURES
@@ -75,29 +75,37 @@ def confusion_maps(metrics: pd.DataFrame) -> Figure:
     return figure
 
 
-def behaviour_distributions(decisions: pd.DataFrame, reference: str, lanes: int) -> Figure:
-    """Speed, time headway and lane occupancy of every driver (lines) over the reference expert's (grey bars)."""
-    drivers = [driver for driver in dict.fromkeys(decisions["policy"]) if driver != reference]
-    groups = dict(tuple(decisions.groupby("policy", sort=False)))
+def behaviour_distributions(summary: pd.DataFrame, reference: str) -> Figure:
+    """Speed, time headway and lane occupancy of every driver (lines) over the reference expert's (grey bars), from a
+    decision summary (`evaluation.distributions.decision_summary`: each driver's histogram counts and lane shares)."""
+    drivers = [driver for driver in summary.index if driver != reference]
+    lanes = sum(column.removeprefix("lane_").isdigit() for column in summary.columns)  # lane_K, not lane_tv
     figure = _figure(15, 4.8)
     speed, headway, lane = figure.subplots(1, 3)
-    panels = ((speed, lambda frame: frame["speed_mps"] * 3.6, np.linspace(0, 130, 27), "speed (km/h)"),
-              (headway, lambda frame: frame["headway_s"].dropna(), np.linspace(0, HEADWAY_CAP_S, 21),
+    panels = ((speed, "speed_bin_", SPEED_BINS_KMH, "speed (km/h)"),
+              (headway, "headway_bin_", np.linspace(0, HEADWAY_CAP_S, HEADWAY_BINS),
                f"time headway to the leader (s; capped at {HEADWAY_CAP_S:g}, decisions with a leader)"))
-    for axes, values, bins, label in panels:
-        axes.hist(values(groups[reference]), bins=bins, density=True, color="lightgrey", label=f"{reference}")
+    for axes, prefix, bins, label in panels:
+        def counts(driver: str, prefix: str = prefix, bins: np.ndarray = bins) -> np.ndarray:
+            return summary.loc[driver, [f"{prefix}{k}" for k in range(len(bins) - 1)]].to_numpy(dtype=float)
+
+        middles = (bins[:-1] + bins[1:]) / 2  # one weighted value a bin draws the histogram of its decisions
+        axes.hist(middles, bins=bins, weights=counts(reference), density=True, color="lightgrey",
+                  label=f"{reference}")
         for index, driver in enumerate(drivers):
-            axes.hist(values(groups[driver]), bins=bins, density=True, histtype="step", linewidth=1.6,
+            axes.hist(middles, bins=bins, weights=counts(driver), density=True, histtype="step", linewidth=1.6,
                       color=_colour(index), label=driver)
         axes.set(xlabel=label, ylabel="density (per unit of x)")
         _grid(axes, axis="y")
     positions = np.arange(lanes)
     width = 0.8 / (len(drivers) + 1)
-    lane.bar(positions - 0.4 + width / 2, frequencies(groups[reference]["lane"], lanes), width, color="lightgrey",
-             label=reference)
+
+    def shares(driver: str) -> np.ndarray:
+        return summary.loc[driver, [f"lane_{k}" for k in range(lanes)]].to_numpy(dtype=float)
+
+    lane.bar(positions - 0.4 + width / 2, shares(reference), width, color="lightgrey", label=reference)
     for index, driver in enumerate(drivers):
-        lane.bar(positions - 0.4 + width * (index + 1.5), frequencies(groups[driver]["lane"], lanes), width,
-                 color=_colour(index), label=driver)
+        lane.bar(positions - 0.4 + width * (index + 1.5), shares(driver), width, color=_colour(index), label=driver)
     lane.set_xticks(positions, [f"{k}" + (" (right)" if k == 0 else "") for k in positions])
     lane.set(xlabel="lane occupied (0 = rightmost)", ylabel="share of decisions")
     _grid(lane, axis="y")

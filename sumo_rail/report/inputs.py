@@ -12,6 +12,7 @@ import pyarrow as pa
 
 from sumo_rail.datasets import describe, read_json_record, read_metadata
 from sumo_rail.drivers.policies import Policy, load_policy
+from sumo_rail.evaluation.distributions import summary_path
 from sumo_rail.evaluation.evaluate import DECISIONS, decisions_path
 from sumo_rail.evaluation.summary import EPISODE_MEASURES
 from sumo_rail.runners.tables import EPISODE_METRICS
@@ -88,6 +89,9 @@ class Inputs:
     """The per-decision records beside the metrics files (NAME.decisions.parquet), when every file has them."""
     route: bool = False
     """Some metrics file is of a road with a feature, whose route measures are shown even when none happened."""
+    summary: pd.DataFrame | None = None
+    """Without them, the decision summary beside a single metrics file (NAME.distributions.parquet,
+    `evaluation.distributions.decision_summary`): what the report reads of the records."""
 
 
 def read_inputs(paths: list[Path]) -> Inputs:
@@ -108,8 +112,11 @@ def read_inputs(paths: list[Path]) -> Inputs:
                  if decisions_path(path).is_file()]
     route = any(read_metadata(path).get("config", {}).get("scenario", {}).get("kind", "straight") != "straight"
                 for path, _ in metrics)
+    every = metrics and len(decisions) == len(metrics)
+    summary = (pd.read_parquet(summary_path(metrics[0][0])) if not every and len(metrics) == 1
+               and summary_path(metrics[0][0]).is_file() else None)
     return Inputs(runs, _concatenate(metrics), [path for path, _ in metrics],
-                  _concatenate(decisions) if metrics and len(decisions) == len(metrics) else None, route)
+                  _concatenate(decisions) if every else None, route, summary)
 
 
 def read_run(folder: Path, name: str) -> Run:

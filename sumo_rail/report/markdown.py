@@ -14,7 +14,7 @@ import pandas as pd
 from matplotlib.figure import Figure
 
 from sumo_rail.datasets import file_in_the_way, write_bytes_atomically, written_atomically
-from sumo_rail.evaluation.distributions import distance_table
+from sumo_rail.evaluation.distributions import decision_summary, summary_distances
 from sumo_rail.evaluation.fidelity import CONFUSION_COLUMNS
 from sumo_rail.evaluation.summary import intervals, paired_differences, summary_table
 from sumo_rail.report.fidelity_plots import agreement_bars, behaviour_distributions, confusion_maps, forest_plot
@@ -101,11 +101,11 @@ def _evaluation_plots(inputs: Inputs, add: Callable[[Plot, Callable[[], Figure]]
                  "Decisions by driver action (rows) and expert action (columns); colour: share of the expert's "
                  "column, so the diagonal is the expert's recall per action."), lambda: confusion_maps(metrics))
     expert = reference_expert(metrics)
-    if inputs.decisions is not None and expert in set(inputs.decisions["policy"]) and len(drivers) > 1:
-        decisions, lanes = inputs.decisions, lane_count(inputs)
+    summary = decisions_summary(inputs, expert)
+    if summary is not None and len(drivers) > 1:
         add(Plot("distributions.png", "Behaviour distributions",
                  f"Speed, time headway and lane occupancy at every decision, each driver over {expert}'s."),
-            lambda: behaviour_distributions(decisions, expert, lanes))
+            lambda: behaviour_distributions(summary, expert))
     if len(drivers) > 1:
         differences = paired_differences(metrics, drivers[0])
         add(Plot("differences.png", "Paired differences",
@@ -123,8 +123,14 @@ def reference_expert(metrics) -> str:
     return f"expert-{styles.iloc[0] if len(styles) else 'normal'}"
 
 
-def lane_count(inputs: Inputs) -> int:
-    return int(max(inputs.decisions["lane"].max() + 1, 1))
+def decisions_summary(inputs: Inputs, expert: str) -> pd.DataFrame | None:
+    """What the report reads of the per-decision records (`decision_summary`): made from the records, or the summary
+    committed in their place beside a metrics file; None without either or without `expert` among the drivers."""
+    if inputs.decisions is not None:
+        if expert not in set(inputs.decisions["policy"]):
+            return None
+        return decision_summary(inputs.decisions, expert, int(max(inputs.decisions["lane"].max() + 1, 1)))
+    return inputs.summary if inputs.summary is not None and expert in inputs.summary.index else None
 
 
 def markdown(inputs: Inputs, plots: list[Plot]) -> str:
@@ -148,8 +154,9 @@ def markdown(inputs: Inputs, plots: list[Plot]) -> str:
             lines += ["These metrics files predate the comparison with the expert (no confusion counts): agreement, "
                       "lane-change precision and recall are absent.", ""]
         expert = reference_expert(inputs.metrics)
-        if inputs.decisions is not None and expert in set(inputs.decisions["policy"]):
-            table = distance_table(inputs.decisions, expert, lane_count(inputs))
+        summary = decisions_summary(inputs, expert)
+        if summary is not None:
+            table = summary_distances(summary, expert)
             lines += [f"Distances of each driver's distributions to {expert}'s (Wasserstein-1 in the unit named; "
                       "total variation for lanes and actions; no-leader share: difference):", "",
                       "```text", table.round(3).to_string(), "```", ""]

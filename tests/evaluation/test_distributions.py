@@ -47,3 +47,25 @@ def test_lane_shares_count_an_acceleration_lane_or_ramp_below_lane_0():
     on_ramp_then_lane_0 = pd.Series([-1, -1, 0, 0])
     assert _total_variation(on_ramp_then_lane_0, pd.Series([0, 0, 0, 0]), 5) == 0.5
     assert _total_variation(on_ramp_then_lane_0, on_ramp_then_lane_0, 5) == 0.0
+
+
+def test_a_decision_summary_holds_the_distance_table_and_the_histograms(tmp_path):
+    """What docs/results commits in place of the records (issue 45): the same distances after a parquet round trip,
+    and each driver's histogram counts and lane shares."""
+    from sumo_rail.evaluation.distributions import SPEED_BINS_KMH, decision_summary, summary_distances
+
+    rng = np.random.default_rng(1)
+    frames = [records(rng.uniform(20, 35, 300), np.r_[rng.uniform(0.5, 12, 250), [np.nan] * 50],
+                      rng.integers(0, 3, 300), rng.integers(0, 5, 300)).assign(policy=name)
+              for name in ("bc", "expert-normal", "dagger")]
+    decisions = pd.concat(frames, ignore_index=True)
+    decision_summary(decisions, "expert-normal", lanes=3).to_parquet(tmp_path / "summary.parquet")
+    summary = pd.read_parquet(tmp_path / "summary.parquet")
+    pd.testing.assert_frame_equal(summary_distances(summary, "expert-normal"),
+                                  distance_table(decisions, "expert-normal", lanes=3), check_exact=True)
+    assert summary.index.tolist() == ["bc", "expert-normal", "dagger"]
+    speed_bins = [f"speed_bin_{k}" for k in range(len(SPEED_BINS_KMH) - 1)]
+    assert (summary[speed_bins].sum(axis=1) == 300).all()
+    assert summary.loc["bc", [f"lane_{k}" for k in range(3)]].sum() == pytest.approx(1.0)
+    with pytest.raises(ValueError, match="reference driver 'expert-calm'"):
+        summary_distances(summary, "expert-calm")

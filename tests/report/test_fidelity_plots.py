@@ -33,3 +33,22 @@ def test_report_without_the_decisions_file_skips_the_distributions(tmp_path):
     assert result.exit_code == 0, result.output
     assert not (out / "distributions.png").exists() and (out / "agreement.png").exists()
     assert len(pd.read_parquet(metrics)) == 4
+
+
+def test_a_report_from_the_decision_summary_is_the_report_from_the_decisions(tmp_path):
+    """docs/results commits NAME.distributions.parquet in place of NAME.decisions.parquet (issue 45): the report
+    reads the same distances and histograms from it."""
+    from sumo_rail.evaluation.distributions import decision_summary, summary_path
+
+    metrics = tmp_path / "metrics.parquet"
+    assert invoke("evaluate", *SMALL, "--policy", "expert", "--policy", "keep", "--episodes", "2",
+                  "--out", str(metrics)).exit_code == 0
+    assert invoke("report", str(metrics), "--out", str(tmp_path / "from_decisions")).exit_code == 0
+    decisions = pd.read_parquet(tmp_path / "metrics.decisions.parquet")
+    decision_summary(decisions, "expert-normal", int(decisions["lane"].max()) + 1).to_parquet(summary_path(metrics))
+    (tmp_path / "metrics.decisions.parquet").unlink()
+    result = invoke("report", str(metrics), "--out", str(tmp_path / "from_summary"))
+    assert result.exit_code == 0, result.output
+    assert (tmp_path / "from_summary" / "distributions.png").exists()
+    assert ((tmp_path / "from_summary" / "report.md").read_text()
+            == (tmp_path / "from_decisions" / "report.md").read_text())
