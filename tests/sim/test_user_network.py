@@ -231,16 +231,21 @@ def test_generated_traffic_takes_the_exit_at_exit_share_and_the_rest_the_main_ro
 def test_the_expert_takes_its_routes_exit_on_a_users_motorway(small_config, tmp_path):
     """The walk-through's road: with all generated traffic queueing into the exit, the expert missed it in 12 of 80
     episodes; with the traffic split at the exit, in none."""
+    config = on(small_config, exit_road(tmp_path), lanes=4, route=EXIT_ROUTE, flow_veh_per_h=1500.0).with_overrides(
+        {"env": {"ego_start_min_m": 300.0, "ego_start_max_m": 700.0}, "observation": {"route_block": 1}})
+    assert expert_terminations(config, 30) == ["end_of_road"] * 30
+
+
+def expert_terminations(config: Config, episodes: int) -> list[str]:
+    """How each of the expert's episodes on seeds 0, 1, ... ended (`termination`)."""
     from sumo_rail.runners.rollout import ExpertDriver
     from sumo_rail.sim.env import HighwayEnv
 
-    config = on(small_config, exit_road(tmp_path), lanes=4, route=EXIT_ROUTE, flow_veh_per_h=1500.0).with_overrides(
-        {"env": {"ego_start_min_m": 300.0, "ego_start_max_m": 700.0}, "observation": {"route_block": 1}})
     env = HighwayEnv(config)
     expert = ExpertDriver().create(config, 0)
     terminations = []
     try:
-        for seed in range(30):
+        for seed in range(episodes):
             observation, _ = env.reset(seed=seed)
             done = False
             while not done:
@@ -249,7 +254,7 @@ def test_the_expert_takes_its_routes_exit_on_a_users_motorway(small_config, tmp_
             terminations.append(info["termination"])
     finally:
         env.close()
-    assert terminations == ["end_of_road"] * 30
+    return terminations
 
 
 def test_several_egos_start_slots_are_checked_against_the_routes_own_length(small_config, tmp_path):
@@ -289,29 +294,13 @@ def test_a_start_window_too_near_the_routes_exit_is_refused(small_config, tmp_pa
 def test_the_expert_takes_its_exit_from_the_nearest_start_the_check_lets_through(small_config, tmp_path):
     """Starts in the last 90 m of the window the check allows; 100-200 m before the exit, it missed the exit in up
     to 4 of 30 episodes."""
-    from sumo_rail.runners.rollout import ExpertDriver
-    from sumo_rail.sim.env import HighwayEnv
-
     config = on(small_config, exit_road(tmp_path), lanes=4, route=EXIT_ROUTE, flow_veh_per_h=1500.0,
                 warmup_s=60.0, snapshots=8)
     built = network.build(config.scenario)
     high_m = built.exit_at_m - user_network.exit_clearance_m(built.start_lanes)
     config = config.with_overrides({"env": {"ego_start_min_m": high_m - 90.0, "ego_start_max_m": high_m}})
     user_network.check_start_window(config.env, built)
-    env = HighwayEnv(config)
-    expert = ExpertDriver().create(config, 0)
-    terminations = []
-    try:
-        for seed in range(40):
-            observation, _ = env.reset(seed=seed)
-            done = False
-            while not done:
-                observation, _, terminated, truncated, info = env.step(expert(observation, env.traffic))
-                done = terminated or truncated
-            terminations.append(info["termination"])
-    finally:
-        env.close()
-    assert terminations == ["end_of_road"] * 40
+    assert expert_terminations(config, 40) == ["end_of_road"] * 40
 
 
 def test_several_egos_start_slots_are_checked_against_the_routes_exit(small_config, tmp_path):
