@@ -29,7 +29,7 @@ from doc_section import write_section
 
 from sumo_rail.config import Config
 from sumo_rail.datasets import sumo_version
-from sumo_rail.sim.env import EpisodeStart, HighwayEnv
+from sumo_rail.sim.env import HighwayEnv, start_ego
 from sumo_rail.sim.simulation import EGO_ID, Simulation
 
 
@@ -64,9 +64,8 @@ def raw_round(sim: Simulation, config: Config, seeds: list[int],
     vehicles = []
     for seed, count in zip(seeds, decisions, strict=True):
         rng, _ = gymnasium.utils.seeding.np_random(seed)
-        start = EpisodeStart.draw(rng, config, sim.snapshot_count, sim.start_lanes)
         t0 = clocks()
-        sim.reset(**dataclasses.asdict(start))
+        start_ego(sim, rng, config, {})
         # the env's initial cruise set-point (kept by a 'keep' driver), so both egos drive alike
         set_point = min(max(libsumo.vehicle.getSpeed(EGO_ID), config.env.v_min_mps), config.env.v_max_mps)
         sim.set_cruise_speed(set_point)
@@ -85,7 +84,7 @@ def untimed_first_reset(sim: Simulation, config: Config, seed: int) -> None:
     first reset checks its pool's warm-state files (parses every one), which would otherwise be timed as a reset of
     the raw side."""
     rng, _ = gymnasium.utils.seeding.np_random(seed)
-    sim.reset(**dataclasses.asdict(EpisodeStart.draw(rng, config, sim.snapshot_count, sim.start_lanes)))
+    start_ego(sim, rng, config, {})
 
 
 def cold_warmup_seconds(config: Config) -> float:

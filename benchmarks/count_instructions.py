@@ -9,7 +9,6 @@ Usage: `python benchmarks/count_instructions.py [--seed 1000] [--roads exit merg
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import gc
 import os
 import re
@@ -60,13 +59,13 @@ def inner_raw(kind: str, seed: int, decisions: int) -> int:
     import libsumo
 
     from sumo_rail.sim.ego import CONTEXT_MARGIN_M
+    from sumo_rail.sim.env import start_ego
     from sumo_rail.sim.simulation import EGO_ID, Simulation
-    from sumo_rail.sim.starts import EpisodeStart
 
     config = config_of(kind)
     sim = Simulation(config.scenario, config.lidar.range_m + CONTEXT_MARGIN_M)
     rng, _ = gymnasium.utils.seeding.np_random(seed)
-    sim.reset(**dataclasses.asdict(EpisodeStart.draw(rng, config, sim.snapshot_count, sim.start_lanes)))
+    start_ego(sim, rng, config, {})
     sim.set_cruise_speed(min(max(libsumo.vehicle.getSpeed(EGO_ID), config.env.v_min_mps), config.env.v_max_mps))
     instrument()
     for _ in range(decisions * config.env.steps_per_decision(config.scenario.step_length_s)):

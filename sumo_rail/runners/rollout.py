@@ -19,7 +19,8 @@ from sumo_rail.runners.dart import ActionNoise
 from sumo_rail.seeding import driver_generator
 from sumo_rail.sim.actions import Action
 from sumo_rail.sim.env import HighwayEnv
-from sumo_rail.sim.parallel_env import NoRoomToRespawn, ParallelHighwayEnv
+from sumo_rail.sim.parallel_env import ParallelHighwayEnv
+from sumo_rail.sim.respawning import RespawningEgos
 from sumo_rail.sim.rewards import EpisodeMetrics
 from sumo_rail.sim.traffic import TrafficView
 
@@ -182,48 +183,28 @@ def run_lives(env: ParallelHighwayEnv, drivers: Sequence[Driver], seed: int, dec
               ) -> list[list[EpisodeResult]]:
     """Reset `env` with `seed` and drive ego_j with drivers[j] (asked in ego order at each decision) for `decisions`
     decisions each, across as many lives as it takes: an ego whose episode ends, or that found no room at the reset,
-    respawns at once (`ParallelHighwayEnv.respawn`), so every ego decides in every period and none waits for
-    another; when the egos jam the road's start so that one finds no place to respawn, every life is cut there (a
+    respawns at once (`sumo_rail.sim.respawning.RespawningEgos`), so every ego decides in every period and none waits
+    for another; when the egos jam the road's start so that one finds no place to respawn, every life is cut there (a
     truncation) and the road resets. Each ego's lives in order, as `run_episode` gives an episode (metrics' seed
     `seed`); the last one, cut by the budget, neither terminated nor truncated."""
-    observations, infos = _start_road(env, seed)
+    road = RespawningEgos(env, seed, reset_when_empty=False)
+    observations, infos = road.start()
     agents = list(env.possible_agents)
     logs = {agent: _EpisodeLog(record) for agent in agents}
     lives: dict[str, list[EpisodeResult]] = {agent: [] for agent in agents}
-
-    def end_life(agent: str, terminated: bool, truncated: bool) -> None:
-        if env.metrics(agent).decisions:
-            lives[agent].append(logs[agent].result(env.metrics(agent), seed, infos[agent], terminated, truncated))
-        logs[agent] = _EpisodeLog(record)
-
     for _ in range(decisions):
         actions = {agent: int(driver(observations[agent], env.traffic(agent)))
                    for agent, driver in zip(agents, drivers, strict=True)}
-        seen, before = observations, infos
-        observations, rewards, terminations, truncations, infos = env.step(actions)
-        ended = [agent for agent in agents if terminations[agent] or truncations[agent]]
+        step = road.step(actions)
         for agent, action in actions.items():
-            logs[agent].add(seen[agent], action, rewards[agent], before[agent], infos[agent])
-        for agent in ended:
-            end_life(agent, terminations[agent], truncations[agent])
-        try:
-            for agent in ended:
-                observations[agent], infos[agent] = env.respawn(agent)
-        except NoRoomToRespawn:
-            for agent in env.agents:
-                end_life(agent, False, True)
-            observations, infos = _start_road(env, None)
+            logs[agent].add(observations[agent], action, step.rewards[agent], infos[agent], step.infos[agent])
+        for agent in step.ended:
+            lives[agent].append(logs[agent].result(step.metrics[agent], seed, step.infos[agent],
+                                                   step.terminations[agent], step.truncated(agent)))
+            logs[agent] = _EpisodeLog(record)
+        observations, infos = step.next_observations, step.next_infos
     return [[*lives[agent], *([logs[agent].result(env.metrics(agent), seed, infos[agent], False, False)]
                               if env.metrics(agent).decisions else [])] for agent in agents]
-
-
-def _start_road(env: ParallelHighwayEnv, seed: int | None) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
-    """Reset `env` (with `seed`, or drawing on from its generator) and respawn each ego that found no room."""
-    observations, infos = env.reset(seed=seed)
-    for agent in env.possible_agents:
-        if agent not in observations:
-            observations[agent], infos[agent] = env.respawn(agent)
-    return observations, infos
 
 
 class _EpisodeLog:

@@ -16,7 +16,6 @@ frame of the last decision (`sumo_rail.sim.render`); `"human"` drives SUMO in su
 
 from __future__ import annotations
 
-import dataclasses
 from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -31,16 +30,23 @@ from sumo_rail.sim.actions import Action
 from sumo_rail.sim.ego import CONTEXT_MARGIN_M, Ego, checked_action, edge_rows
 from sumo_rail.sim.observation import observation_space
 from sumo_rail.sim.rewards import EpisodeMetrics
-from sumo_rail.sim.simulation import EGO_ID, TRANSPORTS, EgoCouldNotEnter, Simulation
-from sumo_rail.sim.starts import START_DRAWS, EpisodeStart, no_room_anywhere, warm_state_options
+from sumo_rail.sim.simulation import EGO_ID, TRANSPORTS, Simulation
+from sumo_rail.sim.starts import start_egos
 from sumo_rail.sim.traffic import TrafficView
 
 if TYPE_CHECKING:
     from sumo_rail.sim.render import FrameRenderer
 
-__all__ = ["RENDER_MODES", "EpisodeStart", "HighwayEnv", "TrafficView"]
+__all__ = ["RENDER_MODES", "HighwayEnv", "TrafficView", "start_ego"]
 RENDER_MODES = ("human", "rgb_array")
 """human: sumo-gui (needs a display); rgb_array: `render()` returns a bird's-eye frame (no display needed)."""
+
+
+def start_ego(sim: Simulation, rng: np.random.Generator, config: Config, options: dict[str, Any]) -> None:
+    """What `HighwayEnv.reset` does to SUMO: reset `sim` with the single ego at its start drawn from `rng`
+    (`starts.start_egos`), in the warm state and pool that reset's `options` choose."""
+    start_egos(sim, rng, config, 1, options, lambda start, pool: sim.reset(
+        start.snapshot, start.sumo_seed, start.lanes[0], start.positions_m[0], pool))
 
 
 class HighwayEnv(gymnasium.Env[np.ndarray, np.int64]):
@@ -97,18 +103,7 @@ class HighwayEnv(gymnasium.Env[np.ndarray, np.int64]):
                                    gui=self.render_mode == "human", transport=self.transport,
                                    gui_delay_ms=self.gui_delay_ms)
         sim = self._sim
-        start = EpisodeStart.draw(self.np_random, cfg, sim.snapshot_count, sim.start_lanes)
-        pool, warm_state = warm_state_options(options or {}, sim.snapshot_count)
-        if warm_state is not None:
-            start = dataclasses.replace(start, snapshot=warm_state)
-        for attempt in range(START_DRAWS):
-            try:
-                sim.reset(**dataclasses.asdict(start), pool=pool)
-                break
-            except EgoCouldNotEnter as error:
-                if attempt + 1 == START_DRAWS:
-                    raise EgoCouldNotEnter(no_room_anywhere(cfg, 1)) from error
-                start = start.redraw(self.np_random, cfg, sim.start_lanes)
+        start_ego(sim, self.np_random, cfg, options or {})
         if self._edges is None:
             self._edges = edge_rows(sim)
         self._ego = Ego(cfg, EGO_ID, self._edges)

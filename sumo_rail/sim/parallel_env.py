@@ -26,7 +26,8 @@ start together, so the time limit truncates every ego still driving at the same 
 `agents` is empty.
 
 Respawns: `respawn(agent)` starts a new episode of an ego that has left while the others drive on (a new vehicle
-placed at once in the start window), for learners that keep every ego busy (`sumo_rail.learning.sb3.shared_road`).
+placed at once in the start window), for runners and learners that keep every ego busy
+(`sumo_rail.sim.respawning`).
 
 For a rollout runner: before each `step`, `traffic(agent)` is that ego's `TrafficView` (what `HighwayEnv.traffic`
 gives for the single ego, so an expert can be asked at every decision), and `metrics(agent)` its episode totals
@@ -51,16 +52,8 @@ from sumo_rail.sim.actions import Action
 from sumo_rail.sim.ego import CONTEXT_MARGIN_M, Ego, checked_action, edge_rows
 from sumo_rail.sim.observation import observation_space
 from sumo_rail.sim.rewards import EpisodeMetrics
-from sumo_rail.sim.simulation import TRANSPORTS, EgoCouldNotEnter, Simulation, SimulationError
-from sumo_rail.sim.starts import (
-    RESET_OPTIONS,
-    START_DRAWS,
-    EpisodeStarts,
-    check_start_slots,
-    no_room_anywhere,
-    start_slots,
-    warm_state_options,
-)
+from sumo_rail.sim.simulation import TRANSPORTS, Simulation, SimulationError
+from sumo_rail.sim.starts import RESET_OPTIONS, check_start_slots, start_egos, start_slots
 from sumo_rail.sim.traffic import TrafficView
 
 RESPAWN_DRAWS = 100
@@ -140,25 +133,15 @@ class ParallelHighwayEnv(ParallelEnv[str, np.ndarray, np.int64]):
             network.check_user_route(cfg)
             self._sim = Simulation(cfg.scenario, cfg.lidar.range_m + CONTEXT_MARGIN_M, transport=self.transport)
         sim = self._sim
-        starts = EpisodeStarts.draw(self.np_random, cfg, sim.snapshot_count, len(self.possible_agents),
-                                    sim.start_lanes)
         options = dict(options or {})
         unknown = sorted(set(options) - set(RESET_OPTIONS))
         if unknown:
             warnings.warn(f"ignored unknown reset options {unknown}; known: {', '.join(RESET_OPTIONS)}",
                           stacklevel=2)
-        pool, warm_state = warm_state_options({key: options[key] for key in RESET_OPTIONS if key in options},
-                                              sim.snapshot_count)
-        snapshot = starts.snapshot if warm_state is None else warm_state
-        for attempt in range(START_DRAWS):  # as HighwayEnv.reset: a start where no ego found room is drawn again
-            try:
-                absent = sim.reset_egos(snapshot, starts.sumo_seed, list(zip(
-                    self.possible_agents, starts.lanes, starts.positions_m, strict=True)), pool)
-                break
-            except EgoCouldNotEnter as error:
-                if attempt + 1 == START_DRAWS:
-                    raise EgoCouldNotEnter(no_room_anywhere(cfg, len(self.possible_agents))) from error
-                starts = starts.redraw(self.np_random, cfg, sim.start_lanes)
+        absent = start_egos(sim, self.np_random, cfg, len(self.possible_agents),
+                            {key: options[key] for key in RESET_OPTIONS if key in options},
+                            lambda starts, pool: sim.reset_egos(starts.snapshot, starts.sumo_seed, list(zip(
+                                self.possible_agents, starts.lanes, starts.positions_m, strict=True)), pool))
         if self._edges is None:
             self._edges = edge_rows(sim)
         self._egos = {agent: Ego(cfg, agent, self._edges) for agent in self.possible_agents}

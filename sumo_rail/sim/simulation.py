@@ -171,10 +171,11 @@ class Simulation(EgoPlacement, Stepping, Sensing):
                     api.simulation.saveState(str(temporary))
         log.info("saved %d warm states in %s", len(paths), paths[0].parent)
 
-    def reset(self, snapshot: int, sumo_seed: int, ego_lane: int, ego_position_m: float, pool: str = "train") -> None:
+    def reset(self, snapshot: int, sumo_seed: int, ego_lane: int, ego_position_m: float,
+              pool: str = "train") -> list[str]:
         """Reload warm state `snapshot` of `pool` with SUMO seed `sumo_seed` and insert the ego; steps until it
-        is in."""
-        self.reset_egos(snapshot, sumo_seed, [(EGO_ID, ego_lane, ego_position_m)], pool)
+        is in. Returns [] (`reset_egos`: the ego is in, or EgoCouldNotEnter)."""
+        return self.reset_egos(snapshot, sumo_seed, [(EGO_ID, ego_lane, ego_position_m)], pool)
 
     def reset_egos(self, snapshot: int, sumo_seed: int, egos: Sequence[tuple[str, int, float]],
                    pool: str = "train") -> list[str]:

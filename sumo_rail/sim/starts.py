@@ -13,23 +13,25 @@ cover the same window as the single ego's do over episodes (up to the gaps), whe
 The draws come in this order: the warm state, SUMO's seed, then lane and position of ego_0, ego_1, ... Lanes are
 those of the route's first edge. Where no ego finds room at its drawn place (a crowded start), every ego's lane and
 position are drawn again in its slot (`EpisodeStarts.redraw`, the next draws), up to `START_DRAWS` places: the
-single ego of `HighwayEnv` and of `ParallelHighwayEnv` alike.
+single ego of `HighwayEnv` and of `ParallelHighwayEnv` alike: both reset by `start_egos`.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from collections.abc import Callable
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
 
 from sumo_rail.config import Config
+from sumo_rail.sim.simulation import EgoCouldNotEnter, Simulation
 from sumo_rail.sim.warm_states import WARM_STATE_POOLS
 
 _SUMO_SEED_BOUND = 2**31 - 1
 START_DRAWS = 20
-"""Places tried for the single ego's start before a reset gives up: the road has no room anywhere in the window."""
+"""Places tried for the egos' starts before a reset gives up: the road has no room anywhere in the window."""
 MIN_SLOT_M = 40.0
 """Narrowest start slot of an ego when several share the road [m]."""
 GAP_M = 20.0
@@ -68,7 +70,7 @@ def check_start_slots(config: Config, egos: int, road_length_m: float, latest_st
 
 @dataclass(frozen=True)
 class EpisodeStarts:
-    """Everything a reset with several egos draws from the env's `np_random`, in the order of the fields."""
+    """Everything a reset draws from the env's `np_random` (one ego or several), in the order of the fields."""
 
     snapshot: int
     sumo_seed: int
@@ -112,29 +114,6 @@ def no_room_anywhere(config: Config, egos: int) -> str:
             f"{config.scenario.flow_veh_per_h:g} veh/h)")
 
 
-@dataclass(frozen=True)
-class EpisodeStart:
-    """Everything a reset of the single-ego env draws from its `np_random`, in this order."""
-
-    snapshot: int
-    sumo_seed: int
-    ego_lane: int
-    ego_position_m: float
-
-    @classmethod
-    def draw(cls, rng: np.random.Generator, config: Config, snapshots: int,
-             start_lanes: int | None = None) -> EpisodeStart:
-        starts = EpisodeStarts.draw(rng, config, snapshots, egos=1, start_lanes=start_lanes)
-        return cls(starts.snapshot, starts.sumo_seed, starts.lanes[0], starts.positions_m[0])
-
-    def redraw(self, rng: np.random.Generator, config: Config, start_lanes: int | None = None) -> EpisodeStart:
-        """The same warm state and SUMO seed, with the ego's lane and position drawn again (its first place had no
-        room): the next draws of `rng`, so every driver of the episode's seed gets the same start."""
-        starts = EpisodeStarts(self.snapshot, self.sumo_seed, (self.ego_lane,), (self.ego_position_m,))
-        starts = starts.redraw(rng, config, start_lanes)
-        return EpisodeStart(self.snapshot, self.sumo_seed, starts.lanes[0], starts.positions_m[0])
-
-
 RESET_OPTIONS = ("pool", "warm_state")
 """What reset's options may say: the warm-state pool and a fixed warm state (its index in the pool)."""
 
@@ -151,3 +130,25 @@ def warm_state_options(options: dict[str, Any], snapshots: int) -> tuple[str, in
     if warm_state is not None and not (isinstance(warm_state, int | np.integer) and 0 <= warm_state < snapshots):
         raise ValueError(f"reset option 'warm_state' must be an integer in [0, {snapshots}), got {warm_state!r}")
     return pool, None if warm_state is None else int(warm_state)
+
+
+def start_egos(sim: Simulation, rng: np.random.Generator, config: Config, egos: int, options: dict[str, Any],
+               enter: Callable[[EpisodeStarts, str], list[str]]) -> list[str]:
+    """Reset `sim` for an episode of `egos` egos: draw their starts from `rng` (`EpisodeStarts`, with the warm state
+    that reset's `options` fix, if any) and put them on the road with `enter(starts, pool)` (`Simulation.reset` for
+    `HighwayEnv`'s ego, `reset_egos` for `ParallelHighwayEnv`'s: the egos that sit the episode out); where no ego
+    found room, every ego's place is drawn again, up to `START_DRAWS` places, then EgoCouldNotEnter. Returns what
+    `enter` returned."""
+    starts = EpisodeStarts.draw(rng, config, sim.snapshot_count, egos, sim.start_lanes)
+    pool, warm_state = warm_state_options(options, sim.snapshot_count)
+    if warm_state is not None:
+        starts = replace(starts, snapshot=warm_state)
+    attempt = 1
+    while True:
+        try:
+            return enter(starts, pool)
+        except EgoCouldNotEnter as error:
+            if attempt == START_DRAWS:
+                raise EgoCouldNotEnter(no_room_anywhere(config, egos)) from error
+        attempt += 1
+        starts = starts.redraw(rng, config, sim.start_lanes)

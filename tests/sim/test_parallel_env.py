@@ -12,12 +12,12 @@ import pytest
 from pettingzoo.test import parallel_api_test, parallel_seed_test
 
 import sumo_rail
-from sumo_rail.sim import parallel_env, simulation
+from sumo_rail.sim import parallel_env, simulation, starts
 from sumo_rail.sim.actions import Action
 from sumo_rail.sim.env import HighwayEnv
 from sumo_rail.sim.parallel_env import ParallelHighwayEnv
 from sumo_rail.sim.simulation import SimulationError
-from sumo_rail.sim.starts import GAP_M, MIN_SLOT_M, EpisodeStart, EpisodeStarts, check_start_slots, start_slots
+from sumo_rail.sim.starts import GAP_M, MIN_SLOT_M, EpisodeStarts, check_start_slots, start_slots
 from sumo_rail.sim.traffic import TrafficView
 from sumo_rail.sim.vehicles import Neighbours
 
@@ -163,10 +163,6 @@ def test_start_slots_share_the_single_egos_window_and_widen_when_it_is_too_narro
     for egos in (0, 2.5, True):
         with pytest.raises(ValueError, match="egos must be an integer"):
             start_slots(small_config, egos)
-    for seed in range(5):
-        one = EpisodeStarts.draw(np.random.default_rng(seed), small_config, 3, egos=1)
-        single = EpisodeStart.draw(np.random.default_rng(seed), small_config, 3)
-        assert (one.snapshot, one.sumo_seed, one.lanes[0], one.positions_m[0]) == dataclasses.astuple(single)
 
 
 def test_egos_enter_where_the_rule_draws_them(make_env, small_config):
@@ -192,7 +188,7 @@ def test_an_ego_that_finds_no_room_sits_the_episode_out(make_env, monkeypatch):
         def draw(rng, config, snapshots, egos, start_lanes):
             return EpisodeStarts(0, 1, (1, 1), (400.0, 400.0))
     monkeypatch.setattr(simulation, "ENTRY_WAIT_S", 0.1)
-    monkeypatch.setattr(parallel_env, "EpisodeStarts", BothAtOnePlace)
+    monkeypatch.setattr(starts, "EpisodeStarts", BothAtOnePlace)
     observations, infos = env.reset(seed=0)
     assert env.agents == ["ego_0"] and set(observations) == set(infos) == {"ego_0"}
     assert "ego_1" not in libsumo.vehicle.getIDList() + libsumo.simulation.getPendingVehicles()

@@ -2,16 +2,16 @@
 `driving_envs.driving_processes`.
 
 SB3 steps every env of a VecEnv at once and restarts one as soon as its episode ends; in a shared simulation an ego
-cannot restart alone by a reset, so the egos of a `RespawningRoad` respawn instead: an ego that ends is replaced at
-once by a new one in the start window (`ParallelHighwayEnv.respawn`) while the others drive on, and when no ego is
-left on the road (always, with one ego) the road itself resets, drawing its next start from its `np_random` as a
-single-ego env's reset does. When the egos jam the road's start so that one finds no place to respawn (learners
-stopped on a one-lane ramp), every ego's episode is cut there (a truncation) and the road resets. Each env index
-always has an ego driving, and the step that ends an ego's episode returns what SB3's own auto-resetting
-`SubprocVecEnv` returns: done, the episode's last observation as info["terminal_observation"],
-info["TimeLimit.truncated"] for a truncation (end of road, time limit), and the new episode's first observation;
-rewards are float64 as SubprocVecEnv stacks them. With K = 1 this is bit for bit what SubprocVecEnv gives for a
-`HighwayEnv` whose first reset is seeded.
+cannot restart alone by a reset, so the egos of a `RespawningRoad` respawn instead
+(`sumo_rail.sim.respawning.RespawningEgos`): an ego that ends is replaced at once by a new one in the start window
+while the others drive on, and when no ego is left on the road (always, with one ego) the road itself resets,
+drawing its next start from its `np_random` as a single-ego env's reset does. When the egos jam the road's start so
+that one finds no place to respawn (learners stopped on a one-lane ramp), every ego's episode is cut there (a
+truncation) and the road resets. Each env index always has an ego driving, and the step that ends an ego's episode
+returns what SB3's own auto-resetting `SubprocVecEnv` returns: done, the episode's last observation as
+info["terminal_observation"], info["TimeLimit.truncated"] for a truncation (end of road, time limit), and the new
+episode's first observation; rewards are float64 as SubprocVecEnv stacks them. With K = 1 this is bit for bit what
+SubprocVecEnv gives for a `HighwayEnv` whose first reset is seeded.
 
 Env index i is ego i % K of process i // K. Process p's road is first reset with the seed of `env_seeds(seed,
 processes)[p]`, and every respawn and later reset draws from that road's `np_random`, so the same seed, K and
@@ -31,7 +31,8 @@ from sumo_rail.config import Config
 from sumo_rail.learning.sb3.envs import LOST_ENV, exit_reporting
 from sumo_rail.runners.spawning import die_with_parent, ignore_stop_signals
 from sumo_rail.seeding import Purpose, episode_seeds
-from sumo_rail.sim.parallel_env import NoRoomToRespawn, ParallelHighwayEnv
+from sumo_rail.sim.parallel_env import ParallelHighwayEnv
+from sumo_rail.sim.respawning import RespawningEgos
 
 StepBatch = tuple[np.ndarray, np.ndarray, np.ndarray, list[dict[str, Any]]]
 """(observations (K, n), rewards (K,), dones (K,), infos) of one step of the K egos, SB3's VecEnv layout."""
@@ -47,47 +48,25 @@ class RespawningRoad:
 
     def __init__(self, config: Config, egos: int, seed: int) -> None:
         self.env = ParallelHighwayEnv(egos, config, transport="libsumo")
-        self.seed: int | None = seed
-        """Seed of the first reset (later resets go on drawing from the road's generator)."""
+        self.egos = RespawningEgos(self.env, seed, reset_when_empty=True)
 
     def reset(self) -> np.ndarray:
-        """Reset the road (the first time with `seed`); an ego that could not enter respawns. Returns the egos' first
-        observations (K, n)."""
-        observations = self._start()
+        """Reset the road (the first time with the road's seed); an ego that could not enter respawns. Returns the
+        egos' first observations (K, n)."""
+        observations, _ = self.egos.start()
         return np.stack([observations[agent] for agent in self.env.possible_agents])
-
-    def _start(self) -> dict[str, np.ndarray]:
-        observations, _ = self.env.reset(seed=self.seed)
-        self.seed = None
-        for agent in self.env.possible_agents:
-            if agent not in observations:
-                observations[agent], _ = self.env.respawn(agent)
-        return observations
 
     def step(self, actions: Sequence[int]) -> StepBatch:
         """One decision of every ego (`actions` in agent order); an ego whose episode ended respawns, or the road
         resets when none is left on it."""
         agents = self.env.possible_agents
-        observations, rewards, terminations, truncations, infos = self.env.step(dict(zip(agents, actions,
-                                                                                      strict=True)))
-        dones = np.array([terminations[agent] or truncations[agent] for agent in agents])
-        for agent in (agent for agent, done in zip(agents, dones, strict=True) if done):
-            infos[agent]["TimeLimit.truncated"] = truncations[agent] and not terminations[agent]
-            infos[agent]["terminal_observation"] = observations[agent]
-        try:
-            for agent in (agent for agent, done in zip(agents, dones, strict=True) if done and self.env.agents):
-                observations[agent], _ = self.env.respawn(agent)
-        except NoRoomToRespawn:  # the egos jam the road's start (a ramp): every episode is cut, the road starts again
-            for index, agent in enumerate(agents):
-                if not dones[index]:
-                    dones[index] = True
-                    infos[agent]["TimeLimit.truncated"] = True
-                    infos[agent]["terminal_observation"] = observations[agent]
-            observations = self._start()
-        if not self.env.agents:
-            observations = self._start()
-        return (np.stack([observations[agent] for agent in agents]), np.array([rewards[agent] for agent in agents]),
-                dones, [infos[agent] for agent in agents])
+        step = self.egos.step(dict(zip(agents, actions, strict=True)))
+        for agent in step.ended:
+            step.infos[agent]["TimeLimit.truncated"] = step.truncated(agent) and not step.terminations[agent]
+            step.infos[agent]["terminal_observation"] = step.observations[agent]
+        return (np.stack([step.next_observations[agent] for agent in agents]),
+                np.array([step.rewards[agent] for agent in agents]),
+                np.array([agent in step.ended for agent in agents]), [step.infos[agent] for agent in agents])
 
     def close(self) -> None:
         self.env.close()
