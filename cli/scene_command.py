@@ -59,7 +59,7 @@ def evaluate_scene_command(config: Config, scenes: tuple[Path, ...], policies: t
         write_scene_evaluation,
     )
     from sumo_rail.evaluation.scene_summary import distribution_table, track_table
-    from sumo_rail.recordings.scene_folder import check_scene, read_scene
+    from sumo_rail.recordings.scene_folder import check_scene, read_scene, scene_sources
     from sumo_rail.recordings.tracks import RecordingUsageError
     from sumo_rail.runners.backends import SerialBackend
 
@@ -93,7 +93,8 @@ def evaluate_scene_command(config: Config, scenes: tuple[Path, ...], policies: t
         metrics, tracks = evaluate_seats(drivers, names, config, seats, modes, backend, seed,
                                          on_episode=lambda index, result: bar.update())
         if out is not None:
-            write_scene_evaluation(metrics, tracks, config, seed, out, scenes=[str(scene.folder) for scene in read],
+            write_scene_evaluation(metrics, tracks, config, seed, out,
+                                   scenes={str(scene.folder.resolve()): scene_sources(scene) for scene in read},
                                    policies=list(policies), split=split, lead_s=lead_s)
         complete(bar)
     methods = {name: [name] for name in names}

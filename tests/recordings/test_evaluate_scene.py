@@ -13,7 +13,7 @@ from click.testing import CliRunner
 from sumo_rail_cli.main import cli
 
 from sumo_rail.config import Config
-from sumo_rail.datasets import read_metadata
+from sumo_rail.datasets import file_sha256, read_metadata
 from sumo_rail.evaluation.human_likeness import position_errors
 from sumo_rail.evaluation.scene_evaluation import (
     HUMAN,
@@ -128,7 +128,10 @@ def test_evaluate_scene_writes_both_tables_with_provenance(drivers_scene, tmp_pa
     metrics, tracks = pd.read_parquet(out), pd.read_parquet(tracks_path(out))
     assert len(metrics) == 4 and set(metrics["mode"]) == {"reactive"}
     assert (tracks["policy"] == HUMAN).sum() == 2 * 21
-    assert read_metadata(out)["kind"] == "scene_episodes" and read_metadata(out)["split"] == "test"
+    metadata = read_metadata(out)
+    assert metadata["kind"] == "scene_episodes" and metadata["split"] == "test"
+    sources = metadata["scenes"][str(drivers_scene.resolve())]  # each scene file with its sha256
+    assert sources[str((drivers_scene / "tracks.parquet").resolve())] == file_sha256(drivers_scene / "tracks.parquet")
 
 
 @pytest.mark.parametrize("problem", ["not a scene", "two edges", "no seat", "policy", "other lanes"])
