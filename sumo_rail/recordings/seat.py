@@ -55,6 +55,8 @@ class SceneSimulation(Simulation):
         self._step_s = config.scenario.step_length_s
         self._ego_in = False
         """The ego is on the road (seated, not yet gone)."""
+        self._seat_size_m = (0.0, 0.0)
+        """The seat's recorded length and width [m]."""
         super().__init__(config.scenario, config.lidar.range_m + CONTEXT_MARGIN_M, gui=gui, transport=transport)
         self.traffic = SceneTraffic(frames, tracks, road.edge, reactive, self.speed_limit_mps)
         self.traffic.api = self._api
@@ -126,15 +128,21 @@ class SceneSimulation(Simulation):
         self._force_in(EGO_ID, int(lanes[k]), float(values["lane_position_m"][k]), 0.0)
         vehicle_api.setSpeedFactor(EGO_ID, max(1.0, speed_mps / self.speed_limit_mps))
         vehicle_api.setPreviousSpeed(EGO_ID, speed_mps)
-        vehicle_api.setLength(EGO_ID, float(values["length_m"][k]))
-        vehicle_api.setWidth(EGO_ID, float(values["width_m"][k]))
-        self.forget_sizes(EGO_ID)
+        self._seat_size_m = (float(values["length_m"][k]), float(values["width_m"][k]))
+        self._size_ego()
         self._ego_in = True
+
+    def _size_ego(self) -> None:
+        """Give the ego its seat's recorded length and width [m]."""
+        self._api.vehicle.setLength(EGO_ID, self._seat_size_m[0])
+        self._api.vehicle.setWidth(EGO_ID, self._seat_size_m[1])
+        self.forget_sizes(EGO_ID)
 
     def hand_to_sumo(self, desired_mps: float) -> None:
         """Give the seated ego to SUMO: IDM car following, LC2013 lane changing, desired speed `desired_mps`."""
         vehicle = self._api.vehicle
         vehicle.setType(EGO_ID, IDM_TYPE)
+        self._size_ego()  # a new type brings its own size
         vehicle.setLaneChangeMode(EGO_ID, LANE_CHANGE_MODE_SUMO)
         vehicle.setSpeedFactor(EGO_ID, desired_mps / self.speed_limit_mps)
 

@@ -180,7 +180,9 @@ def test_sumo_drives_the_seat_when_asked(replay):
     tracks = replay.scene.tracks
     vehicle, start_s = long_track(tracks)
     replay.reset(seed=0, options={"vehicle": vehicle, "start_s": start_s, "sumo_driver": True})
-    assert replay._sim._api.vehicle.getTypeID(EGO_ID) == IDM_TYPE
+    api = replay._sim._api
+    assert api.vehicle.getTypeID(EGO_ID).split("@")[0] == IDM_TYPE  # "@ego": its own copy, of the seat's size
+    assert api.vehicle.getLength(EGO_ID) == pytest.approx(recorded(tracks, start_s).at[vehicle, "length_m"])
     start = replay.traffic.ego.lane_position_m
     for _ in range(4):
         _, _, terminated, _, info = replay.step(int(Action.LANE_LEFT))  # ignored: SUMO drives
