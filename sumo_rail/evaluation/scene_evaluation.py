@@ -164,8 +164,10 @@ def evaluate_seats(drivers: Sequence[DriverSpec], names: Sequence[str], config: 
                    on_episode: Callable[[int, Any], None] | None = None) -> tuple[pd.DataFrame, pd.DataFrame]:
     """Every driver in every seat in every mode: (one metrics row per episode, one track row per decision with the
     human's rows once per seat and mode under driver `HUMAN`)."""
-    tasks = [SeatTask(config, seat, driver, MODES[mode], seed + index)
-             for mode in modes for driver in drivers for index, seat in enumerate(seats)]
+    labelled = [(name, SeatTask(config, seat, driver, MODES[mode], seed + index))
+                for mode in modes for driver, name in zip(drivers, names, strict=True)
+                for index, seat in enumerate(seats)]
+    tasks = [task for _, task in labelled]
     results = backend.run(tasks, on_result=on_episode)
     frames = {scene: SceneFrames(read.tracks, read.meta.frame_rate_hz)
               for scene, read in ((scene, read_scene(Path(scene))) for scene in {seat.scene for seat in seats})}
@@ -173,9 +175,9 @@ def evaluate_seats(drivers: Sequence[DriverSpec], names: Sequence[str], config: 
     horizon_decisions = round(config.env.max_episode_s / period)
     humans = {seat: human_track(frames[seat.scene], seat, period, horizon_decisions) for seat in seats}
     rows, tracks = [], []
-    for task, (metrics, driven) in zip(tasks, results, strict=True):
+    for (name, task), (metrics, driven) in zip(labelled, results, strict=True):
         mode = "reactive" if task.reactive else "non-reactive"
-        keys = {"policy": names[list(drivers).index(task.driver)], "mode": mode, "scene": Path(task.seat.scene).name,
+        keys = {"policy": name, "mode": mode, "scene": Path(task.seat.scene).name,
                 "vehicle": task.seat.vehicle, "start_s": task.seat.start_s}
         rows.append({**keys, **metrics, **seat_columns(driven, humans[task.seat], metrics["simulated_s"])})
         tracks.append(driven.assign(**keys))

@@ -111,6 +111,10 @@ def test_the_same_seed_gives_the_same_episodes_whatever_the_workers(drivers_scen
     pd.testing.assert_frame_equal(runs[0][1], runs[1][1])
     metrics, tracks = runs[0]
     assert len(metrics) == 2 * 3 * 2 and set(tracks["policy"]) == {"keep", "sumo-idm", HUMAN}
+    with SerialBackend() as backend:  # the same driver twice keeps both names (evaluate-scene's "keep#2")
+        twice, _ = evaluate_seats([KeepDriver(), KeepDriver()], ["keep", "keep#2"], CONFIG, seats[:1],
+                                  ["reactive"], backend, seed=7)
+    assert twice["policy"].tolist() == ["keep", "keep#2"]
 
 
 def invoke(*args: str):
