@@ -130,7 +130,7 @@ def table(passes: dict[str, list[Pass]]) -> str:
             f"| single-ego `HighwayEnv` | {single:.0f} | 1.00 | {single / raw:.2f} | {rate(passes['single'], 0):.0f} "
             f"| {statistics.mean(passes['single'][-1].episode_decisions):.0f} | | | 1 |"]
     for name, key in [(f"`parallel_env`, K = {k}", f"K={k}") for k in EGOS] + \
-            [(f"respawning egos (gail/ppo --egos), K = {k}", f"respawn K={k}") for k in EGOS]:
+            [(f"respawning egos (gail.egos/ppo.egos), K = {k}", f"respawn K={k}") for k in EGOS]:
         multi = passes[key]
         last = multi[-1]
         k_rate = rate(multi, 1)
@@ -179,7 +179,7 @@ one process, one core. Default scenario: {scenario.lanes} lanes, {scenario.lengt
   the mean number of egos deciding in each period. A 'keep' ego keeps the set-point it started with,
   its speed when it entered the road, which is the lowest set-point (36 km/h) when it entered behind a slow
   vehicle; one such ego in K drags an episode out.
-- Respawning egos (`sumo_rail/learning/sb3/shared_road.py`, what `gail --egos K` and `ppo --egos K` run in each
+- Respawning egos (`sumo_rail/learning/sb3/shared_road.py`, what `gail.egos` and `ppo.egos` = K run in each
   environment process): an ego that finishes is replaced at once in the start window, so all K egos decide in
   every period. Each drives as many periods as the single-ego env's episodes have decisions (the same simulated
   time), from one (untimed) reset.

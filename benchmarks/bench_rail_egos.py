@@ -133,10 +133,11 @@ iteration 0 per side and round ({args.rounds} alternating rounds, medians), disc
 included.
 
 - single: each rollout one episode of the single-ego `HighwayEnv`, RAIL's path before issue 34.
-- episodes K: K rollouts a road, each one whole episode (`train --egos K`); the road's episode lasts until its
+- episodes K: K rollouts a road, each one whole episode (`train --set rail.egos=K`); the road's episode lasts until its
   slowest ego has finished. K = 1 ended on parameters identical to the single side's: **{identical}**.
 - respawning K: K rollouts a road, each a budget of {args.decisions} decisions of its ego, respawning whenever an
-  episode ends (`train --egos K --rollout-decisions {args.decisions}`), so every ego decides in every period.
+  episode ends (`train --set rail.egos=K --set rail.rollout_decisions={args.decisions}`), so every ego decides in
+  every period.
 
 Respawning egos at K = 8: **{at_8:.2f}x** the single-ego path's decisions per core-second (goal: at least 3.5x).
 

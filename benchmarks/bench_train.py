@@ -26,6 +26,7 @@ from doc_section import write_section
 from sumo_rail.config import Config
 from sumo_rail.datasets import sumo_version
 from sumo_rail.drivers.policies import load_policy
+from sumo_rail.learning.bc import BcSettings
 from sumo_rail.learning.rail.discriminator import DiscriminatorSettings
 from sumo_rail.learning.rail.iteration import RailSettings
 from sumo_rail.learning.rail.trainer import RunSettings, train
@@ -84,9 +85,9 @@ def main() -> None:
         demos = Path(folder) / "demos.parquet"
         with ProcessPoolBackend(2) as pool:
             record_demonstrations(config, ExpertDriver("normal"), "normal", 0, args.demo_episodes, pool, demos)
-        settings = RunSettings(str(demos), "mlp", 10, 20, RailSettings(directions=args.directions,
-                                                                       top=args.directions // 2),
-                               DiscriminatorSettings())
+        settings = RunSettings(str(demos), "mlp", 10, RailSettings(directions=args.directions,
+                                                                   top=args.directions // 2),
+                               DiscriminatorSettings(), BcSettings(epochs=20))
         for round_ in range(args.rounds):
             for workers in (0, 1, 2):
                 runs[workers].append(measure(settings, config, workers, args.iterations,

@@ -35,7 +35,6 @@ from sumo_rail_cli.running import (
     tensorboard_logger,
     validation_summary,
 )
-from sumo_rail_cli.search_options import RESEARCH_OPTIONS, ResearchOptionsCommand, SearchOptions, search_options
 from sumo_rail_cli.settings import config_options
 
 from sumo_rail.seeding import EVALUATION_EPISODES
@@ -43,6 +42,7 @@ from sumo_rail.seeding import EVALUATION_EPISODES
 if TYPE_CHECKING:
     from sumo_rail.config import Config
     from sumo_rail.learning.bc import BcReport
+    from sumo_rail.learning.settings import LearnerSettings
 
 
 @click.command("record-expert")
@@ -83,16 +83,15 @@ def record_expert(config: Config, episodes: int, seed: int, workers: int, backen
 @click.command("evaluate")
 @config_options
 @click.option("--policy", "policies", multiple=True, default=("expert",), show_default=True,
-              metavar="expert[:STYLE]|keep|random|PATH",
-              help="Driver to evaluate (repeatable: drivers side by side on the same seeds).")
-@click.option("--sample-policy", "sampled_policies", multiple=True, type=click.Path(path_type=Path), metavar="PATH",
-              help="Policy file evaluated by sampling each action from the softmax of its logits (named 'NAME "
-                   "(sampled)'; repeatable; after the --policy drivers), with a generator seeded by the episode's "
-                   "seed.")
+              metavar="expert[:STYLE]|keep|random|PATH|sampled:PATH",
+              help="Driver to evaluate (repeatable: drivers side by side on the same seeds): the expert (of a style), "
+                   "the constant set-point, uniformly random actions, a policy file by the argmax of its logits, or "
+                   "one drawing each action from their softmax (named 'NAME (sampled)'), with a generator seeded by "
+                   "the episode's seed.")
 @expert_option("The expert: the driver --policy expert, and who is asked at every decision what it would do, for "
                "every driver. Without it each driver is compared with the expert its policy file records (the one "
                "whose demonstrations trained it), others with the normal style; the table names it per driver.",
-               "--reference-style", default=None)
+               default=None)
 @click.option("--reference", default=None, metavar="NAME",
               help="Driver the others are compared with, paired by seed (default: the first --policy).")
 @click.option("--pool", type=click.Choice(["test", "validation"]), default="test", show_default=True,
@@ -113,7 +112,7 @@ def record_expert(config: Config, episodes: int, seed: int, workers: int, backen
               help="With --video: episodes recorded per driver  [default: 1].")
 @output_options(required=False)
 def evaluate_command(config: Config, policies: tuple[str, ...],
-                     sampled_policies: tuple[Path, ...], expert: str | None, reference: str | None,
+                     expert: str | None, reference: str | None,
                      pool: str, episodes: int, seed: int, workers: int, backend_name: str, address: str | None,
                      gui: bool, gui_delay_ms: float | None, video_dir: Path | None, video_episodes: int | None,
                      out: Path | None, overwrite: bool) -> None:
@@ -135,20 +134,20 @@ def evaluate_command(config: Config, policies: tuple[str, ...],
         decisions_path,
         evaluate,
         parse_driver,
+        policy_source,
         recorded_reference,
         unique_names,
         write_evaluation,
     )
     from sumo_rail.evaluation.summary import distance_summary, summary_table
     from sumo_rail.runners.backends import SerialBackend
-    from sumo_rail.runners.experts import parse_policy
     from sumo_rail.seeding import Purpose, episode_seeds
 
     if out is not None:
         check_output(decisions_path(out), overwrite)
     recorded_expert, expert_driver = resolve_expert_option(expert or DEFAULT_STYLE, config)
 
-    drivers, sources = [], [*policies, *map(str, sampled_policies)]
+    drivers = []
     for text in policies:
         try:
             drivers.append(parse_driver(text, config, expert_driver))
@@ -156,12 +155,10 @@ def evaluate_command(config: Config, policies: tuple[str, ...],
             raise click.ClickException(str(error)) from error
         except ValueError as error:
             raise click.BadParameter(str(error), param_hint="'--policy'") from error
-    try:
-        drivers += [parse_policy(path, config, sampled=True) for path in sampled_policies]
-        # an explicit --expert is every driver's; without it, each its own file's
-        references = [expert_driver if expert is not None else recorded_reference(driver, source, config,
+    try:  # an explicit --expert is every driver's; without it, each its own file's
+        references = [expert_driver if expert is not None else recorded_reference(driver, policy_source(text), config,
                                                                                   expert_driver)
-                      for driver, source in zip(drivers, sources, strict=True)]
+                      for driver, text in zip(drivers, policies, strict=True)]
     except ValueError as error:  # a PolicyFileError, or a file recording an expert that is no style nor file
         raise click.ClickException(str(error)) from error
     if gui:
@@ -182,8 +179,7 @@ def evaluate_command(config: Config, policies: tuple[str, ...],
                               on_episode=lambda index, result: bar.update(),
                               video_episodes=(video_episodes or 1) if video_dir is not None else 0)
         if out is not None:
-            write_evaluation(evaluation, config, seed, out, policies=list(policies),
-                             sampled_policies=[str(path) for path in sampled_policies], episode_seeds=seeds,
+            write_evaluation(evaluation, config, seed, out, policies=list(policies), episode_seeds=seeds,
                              expert=recorded_expert if expert is not None else None, pool=pool)
         written_videos = _write_videos(evaluation.videos, video_dir)
         complete(bar)
@@ -239,31 +235,31 @@ def _write_videos(videos: dict[str, bytes], video_dir: Path | None) -> list[str]
     return sorted(videos)
 
 
-@click.command("train", cls=ResearchOptionsCommand, research=RESEARCH_OPTIONS)
-@config_options
+@click.command("train")
+@config_options(learners=("network", "bc", "rail", "discriminator"))
 @imitation_options
-@search_options
 @click.option("--iterations", type=click.IntRange(min=1), default=200, show_default=True,
               help="Iterations in total (with --resume: including those already done).")
 @roads_option("the directions' rollouts")
 @run_folder_options("iteration", eval_every=10)
 @tensorboard_option
-def train_command(config: Config, demos: Path, include_failed: bool, other_road: bool, kind: str, hidden: int,
-                  bc_epochs: int, bc_class_balance: float, search: SearchOptions, iterations: int, roads: str,
-                  workers: int,
-                  backend_name: str, address: str | None, seed: int, eval_every: int, eval_episodes: int, out: Path,
-                  resume: bool, tensorboard_dir: Path | None) -> None:
-    """Learn a driving policy from demonstrations with RAIL (BC initialisation, then ARS with an LS-GAN reward)."""
+def train_command(config: Config, settings: LearnerSettings, demos: Path, include_failed: bool, other_road: bool,
+                  iterations: int, roads: str, workers: int, backend_name: str, address: str | None, seed: int,
+                  eval_every: int, eval_episodes: int, out: Path, resume: bool, tensorboard_dir: Path | None) -> None:
+    """Learn a driving policy from demonstrations with RAIL (BC initialisation, then ARS with an LS-GAN reward).
+
+    Its settings are the sections [network], [bc], [rail] and [discriminator] of --config and --set (e.g. --set
+    rail.directions=16 --set network.shape=linear); --help-settings lists them. run.json stores them whole."""
     from sumo_rail.learning.rail.trainer import RunSettings, train
     from sumo_rail.learning.run_folder import RunError
     from sumo_rail.learning.validation import Validation
 
-    check_egos(config, search.egos)
+    rail = dataclasses.replace(settings.rail, seed=seed, roads=checked_roads(config, roads))
+    check_egos(config, rail.egos, "rail.egos")
     check_run_folder(out)
-    rail, discriminator = search.settings(seed)
-    rail = dataclasses.replace(rail, roads=checked_roads(config, roads))
-    settings = RunSettings(str(demos), kind, hidden, bc_epochs, rail, discriminator, bc_class_balance,
-                           include_failed_demos=include_failed)
+    discriminator = dataclasses.replace(settings.discriminator, seed=seed)
+    run = RunSettings(str(demos), settings.network.shape, settings.network.hidden, rail, discriminator,
+                      dataclasses.replace(settings.bc, seed=seed), include_failed_demos=include_failed)
     check_demos(demos, config, include_failed, other_road)
     backend = build_backend(backend_name, workers, address)
     bar = progress(iterations, "training", unit="iteration")
@@ -282,7 +278,7 @@ def train_command(config: Config, demos: Path, include_failed: bool, other_road:
 
     with interruptible_run(bar, lambda: kept_until_resume(out, "iteration"), backend,
                            tensorboard_logger(tensorboard_dir, "rail", out), errors=(RunError,)) as board:
-        state = train(out, settings, config, iterations, backend, resume, Validation(eval_every, eval_episodes),
+        state = train(out, run, config, iterations, backend, resume, Validation(eval_every, eval_episodes),
                       on_bc=show_bc, on_iteration=show, on_start=lambda done: start_at(bar, done))
         complete(bar)
     click.echo(f"trained {state.iteration} iteration{'s' * (state.iteration != 1)}; policies in {out}")

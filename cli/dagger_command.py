@@ -2,59 +2,46 @@
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import click
 from sumo_rail_cli.demos_options import check_demos
 from sumo_rail_cli.options import (
-    SettingOption,
     build_backend,
     check_egos,
     check_run_folder,
     checked_roads,
-    egos_option,
     expert_option,
     imitation_options,
     resolve_expert_option,
     roads_option,
     run_folder_options,
-    setting_default,
     tensorboard_option,
 )
-from sumo_rail_cli.param_types import FiniteFloat
 from sumo_rail_cli.progress import advance_to, complete, progress
 from sumo_rail_cli.running import interruptible_run, kept_until_resume, tensorboard_logger, validation_summary
 from sumo_rail_cli.settings import config_options
 
 if TYPE_CHECKING:
     from sumo_rail.config import Config
+    from sumo_rail.learning.settings import LearnerSettings
 
 DAGGER = "sumo_rail.learning.dagger"
 
 
 @click.command("dagger")
-@config_options
+@config_options(learners=("network", "bc", "dagger"))
 @imitation_options
 @click.option("--rounds", type=click.IntRange(min=0), default=5, show_default=True,
               help="Rounds after the first BC (with --resume: including those already done).")
-@click.option("--episodes-per-round", cls=SettingOption, type=click.IntRange(min=1),
-              default=setting_default(DAGGER, "DaggerSettings.episodes_per_round"), show_default=True,
-              help="Episodes the mixture of policy and expert drives each round.")
-@click.option("--beta", cls=SettingOption, type=FiniteFloat(0, 1),
-              default=setting_default(DAGGER, "DaggerSettings.beta"), show_default=True,
-              help="Probability that the expert drives a decision in round 1.")
-@click.option("--beta-decay", cls=SettingOption, type=FiniteFloat(0, 1),
-              default=setting_default(DAGGER, "DaggerSettings.beta_decay"), show_default=True,
-              help="beta of round r: beta x beta-decay^(r - 1).")
 @roads_option("each round's episodes")
-@egos_option("Episodes of a round")
 @expert_option("Who labels the learner's states [default: the demonstrations' expert].", default=None)
 @run_folder_options("round", eval_every=1)
 @tensorboard_option
-def dagger_command(config: Config, demos: Path, include_failed: bool, other_road: bool, kind: str, hidden: int,
-                   bc_epochs: int, bc_class_balance: float, rounds: int, episodes_per_round: int, beta: float,
-                   beta_decay: float, roads: str, egos: int, expert: str | None, workers: int, backend_name: str,
+def dagger_command(config: Config, settings: LearnerSettings, demos: Path, include_failed: bool, other_road: bool,
+                   rounds: int, roads: str, expert: str | None, workers: int, backend_name: str,
                    address: str | None, seed: int, eval_every: int, eval_episodes: int, out: Path, resume: bool,
                    tensorboard_dir: Path | None) -> None:
     """Learn a driving policy with DAgger: BC on the demonstrations, then rounds in which the expert labels every
@@ -62,21 +49,19 @@ def dagger_command(config: Config, demos: Path, include_failed: bool, other_road
 
     Writes run.json, dataset.parquet, policy_bc.npz, policy_latest.npz (evaluate it with evaluate --policy),
     log.parquet (one row per round) and checkpoint.json. Ctrl-C or SIGTERM keeps the last complete round;
-    --resume continues it with the same result."""
-    from sumo_rail.learning.bc import BcSettings
-    from sumo_rail.learning.dagger import DaggerSettings, train_dagger
+    --resume continues it with the same result. Its settings are the [network], [bc] and [dagger] sections of --config
+    and --set (--help-settings lists them); BC clones at least one epoch."""
+    from sumo_rail.learning.dagger import train_dagger
     from sumo_rail.learning.run_folder import RunError
     from sumo_rail.learning.validation import Validation
 
     if expert is not None:
         expert, _ = resolve_expert_option(expert, config)
-    try:
-        settings = DaggerSettings(str(demos), kind, hidden, episodes_per_round, beta, beta_decay,
-                                  BcSettings(epochs=max(bc_epochs, 1), class_balance=bc_class_balance, seed=seed),
-                                  seed, expert, egos, checked_roads(config, roads), include_failed)
-    except ValueError as error:
-        raise click.UsageError(str(error)) from error
-    check_egos(config, egos)
+    bc = dataclasses.replace(settings.bc, epochs=max(settings.bc.epochs, 1), seed=seed)
+    run = dataclasses.replace(settings.dagger, demos=str(demos), kind=settings.network.shape,
+                              hidden=settings.network.hidden, bc=bc, seed=seed, expert=expert,
+                              roads=checked_roads(config, roads), include_failed_demos=include_failed)
+    check_egos(config, run.egos, "dagger.egos")
     check_run_folder(out)
     check_demos(demos, config, include_failed, other_road)
     backend = build_backend(backend_name, workers, address)
@@ -95,7 +80,7 @@ def dagger_command(config: Config, demos: Path, include_failed: bool, other_road
 
     with interruptible_run(bar, lambda: kept_until_resume(out, "round", "checkpoint.json"), backend,
                            tensorboard_logger(tensorboard_dir, "dagger", out), errors=(RunError,)) as board:
-        train_dagger(out, settings, config, rounds, backend, resume, Validation(eval_every, eval_episodes),
+        train_dagger(out, run, config, rounds, backend, resume, Validation(eval_every, eval_episodes),
                      on_round=show)
         complete(bar)
     click.echo(f"DAgger: {rounds} round{'s' * (rounds != 1)}; policy in {out / 'policy_latest.npz'}")

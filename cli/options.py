@@ -1,7 +1,7 @@
 """Options shared by the commands, and how each becomes what the library takes: episodes, seeds, workers and
-backends, outputs, the expert, the imitation, PPO and run-folder options, and defaults read from the settings
-dataclasses (`SettingOption`). RAIL's search options are `search_options`; the configuration (preset, TOML, `--set`)
-is `settings`; how the long commands run (Ctrl-C, errors, progress) is `running`."""
+backends, outputs, the expert, the demonstrations, PPO's length and the run folder, and defaults read from the
+settings dataclasses (`SettingOption`). The settings (preset, TOML, `--set`, the learners' sections) are `settings`;
+how the long commands run (Ctrl-C, errors, progress) is `running`."""
 
 from __future__ import annotations
 
@@ -13,7 +13,6 @@ from typing import TYPE_CHECKING, Any
 import click
 from sumo_rail_cli.demos_options import demos_selection_options
 from sumo_rail_cli.output_lock import lock_output
-from sumo_rail_cli.param_types import FiniteFloat
 from sumo_rail_cli.running import library_errors
 
 from sumo_rail.config import Config
@@ -30,93 +29,36 @@ class SettingOption(click.Option):
         return super().get_default(ctx, call=True)
 
 
-def setting_default(module: str, path: str, convert: Callable[[Any], Any] = lambda value: value) -> Callable[[], Any]:
-    """A function giving the default of the settings field `path` ("RailSettings.noise.initial": a dataclass of
-    `module`, then fields) through `convert`, for a `SettingOption`."""
+def setting_default(module: str, path: str) -> Callable[[], Any]:
+    """A function giving the default of the settings dataclass field `path` ("Validation.episodes": a dataclass of
+    `module` and its field), for a `SettingOption`."""
     def read() -> Any:
         import importlib
 
-        owner, *names = path.split(".")
-        value: Any = getattr(importlib.import_module(module), owner)
-        for name in names:
-            value = _field_default(value, name) if dataclasses.is_dataclass(value) and isinstance(value, type) \
-                else getattr(value, name)
-        return convert(value)
+        owner, name = path.split(".")
+        field = next(field for field in dataclasses.fields(getattr(importlib.import_module(module), owner))
+                     if field.name == name)
+        return field.default
     return read
 
 
-def _field_default(cls: type, name: str) -> Any:
-    field = next(field for field in dataclasses.fields(cls) if field.name == name)
-    return field.default_factory() if field.default is dataclasses.MISSING else field.default  # type: ignore[misc]
-
-
 def imitation_options(command: Callable[..., Any]) -> Callable[..., Any]:
-    """--demos (`demos_selection_options`), the actor (--policy, --hidden) and its behaviour-cloning initialisation
-    (--bc-epochs, --bc-class-balance): what train, dagger and gail share."""
-    bc_options = [
-        click.option("--bc-epochs", cls=SettingOption, type=click.IntRange(min=0),
-                     default=setting_default("sumo_rail.learning.bc", "IMITATION_BC.epochs"), show_default=True,
-                     help="Behaviour-cloning epochs that initialise the policy (0: no BC); few demonstrations need "
-                          "more (about 4000 / episodes, e.g. 100 for 40)."),
-        click.option("--bc-class-balance", cls=SettingOption, type=FiniteFloat(min=0),
-                     default=setting_default("sumo_rail.learning.bc", "IMITATION_BC.class_balance"), show_default=True,
-                     help="Exponent p of BC's class weights (1/frequency)^p: 0 plain cross-entropy, 1 all actions "
-                          "equal."),
-    ]
-    for option in reversed(bc_options):
-        command = option(command)
+    """--demos and which of their episodes count (`demos_selection_options`): what train, dagger and gail share."""
     return click.option("--demos", type=click.Path(path_type=Path, dir_okay=False), required=True,
-                        help="Expert demonstrations written by record-expert.")(
-        demos_selection_options(policy_shape_options(command)))
+                        help="Expert demonstrations written by record-expert (or recorded-demos).")(
+        demos_selection_options(command))
 
 
-def policy_shape_options(command: Callable[..., Any]) -> Callable[..., Any]:
-    """The trained policy's layout: --policy (kind) and --hidden."""
-    command = click.option("--hidden", cls=SettingOption, type=click.IntRange(min=1),
-                           default=setting_default("sumo_rail.learning.dagger", "DaggerSettings.hidden"),
-                           show_default=True, help="Hidden units of mlp.")(command)
-    return click.option("--policy", "kind", cls=SettingOption, type=click.Choice(["linear", "mlp"]),
-                        default=setting_default("sumo_rail.learning.dagger", "DaggerSettings.kind"), show_default=True,
-                        help="linear: obs -> 5 logits; mlp: obs -> --hidden tanh units -> 5 logits.")(command)
-
-
-def ppo_options(settings: str, critic_help: str = "") -> Callable[[Callable[..., Any]], Callable[..., Any]]:
-    """What gail and ppo share: --timesteps, --envs, --egos, --n-steps, --learning-rate, --normalize-reward (their
-    defaults those of `settings`, "module:Class", GailSettings or PpoSettings), --critic-warmup and --resume.
-    --critic-warmup's default is the settings' unless `critic_help` (which ends its help) says another."""
+def timesteps_options(settings: str) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
+    """What gail and ppo share besides their settings sections: --timesteps (its default that of `settings`,
+    "module:Class", GailSettings or PpoSettings) and --resume."""
     module, owner = settings.split(":")
-
-    def default(name: str) -> Callable[[], Any]:
-        return setting_default(module, f"{owner}.{name}")
-
-    critic_default: dict[str, Any] = ({"cls": SettingOption, "default": default("critic_warmup"), "show_default": True}
-                                      if not critic_help else {"default": None})
     options = [
-        click.option("--timesteps", cls=SettingOption, type=click.IntRange(min=1), default=default("timesteps"),
-                     show_default=True,
-                     help="Environment decisions in total (rounded up to whole updates of --n-steps x --envs x "
-                          "--egos)."),
-        click.option("--envs", cls=SettingOption, type=click.IntRange(min=1), default=default("envs"),
-                     show_default=True, help="Environment processes; unlike train's --workers, the result depends on "
-                                             "it."),
-        click.option("--egos", cls=SettingOption, type=click.IntRange(min=1), default=default("egos"),
-                     show_default=True,
-                     help="Egos per environment process, sharing its simulation (PPO's envs are --envs x --egos): an "
-                          "ego whose episode ends is replaced at once by a new one in the start window while the "
-                          "others drive on. The result depends on it."),
-        click.option("--n-steps", cls=SettingOption, type=click.IntRange(min=1), default=default("n_steps"),
-                     show_default=True, help="PPO decisions per env (ego) and update."),
-        click.option("--learning-rate", cls=SettingOption, type=FiniteFloat(min=0, min_open=True),
-                     default=default("learning_rate"), show_default=True, help="PPO's Adam step size."),
-        click.option("--normalize-reward/--no-normalize-reward", cls=SettingOption, default=default("normalize_reward"),
-                     show_default=True,
-                     help="Divide PPO's rewards by the running std of the discounted return and clip them to +-10 "
-                          "(Stable-Baselines3's VecNormalize), so that one collision cannot swamp the critic."),
-        click.option("--critic-warmup", type=click.IntRange(min=0), metavar="K", **critic_default,
-                     help=f"First K updates with the actor frozen, only the critic learning (they count in "
-                          f"--timesteps){critic_help}."),
+        click.option("--timesteps", cls=SettingOption, type=click.IntRange(min=1),
+                     default=setting_default(module, f"{owner}.timesteps"), show_default=True,
+                     help="Environment decisions in total (rounded up to whole updates of n_steps x envs x egos)."),
         click.option("--resume", is_flag=True,
-                     help="Continue the run in --out from its last complete update (with the same options; "
+                     help="Continue the run in --out from its last complete update (with the same settings; "
                           "--timesteps may grow); see docs/reliability.md for what it restores exactly."),
     ]
 
@@ -125,16 +67,6 @@ def ppo_options(settings: str, critic_help: str = "") -> Callable[[Callable[...,
             command = option(command)
         return command
     return decorate
-
-
-DEFAULT_BATCH = 64
-"""PPO's minibatch size [decisions] when none is given, or an update's decisions if fewer."""
-
-
-def minibatch_size(requested: int | None, n_steps: int, envs: int, egos: int) -> int:
-    """PPO's minibatch size: `requested`, else DEFAULT_BATCH or an update's n_steps x envs x egos decisions if fewer
-    (what Stable-Baselines3 does then, one minibatch of the whole update, without its warning)."""
-    return requested if requested is not None else min(DEFAULT_BATCH, n_steps * envs * egos)
 
 
 def egos_option(shared: str, note: str = "") -> Callable[[Callable[..., Any]], Callable[..., Any]]:
@@ -169,15 +101,16 @@ def checked_roads(config: Config, roads: str) -> tuple[str, ...]:
     return names
 
 
-def check_egos(config: Config, egos: int) -> None:
-    """A usage error when `egos` egos do not fit on the configuration's road."""
+def check_egos(config: Config, egos: int, setting: str = "--egos") -> None:
+    """A usage error naming `setting` (the option or setting that gave it) when `egos` egos do not fit on the
+    configuration's road."""
     from sumo_rail.sim.network import latest_start_m, road_length_m
     from sumo_rail.sim.starts import check_start_slots
 
     try:
         check_start_slots(config, egos, road_length_m(config), latest_start_m(config))
     except ValueError as error:
-        raise click.BadParameter(str(error), param_hint="'--egos'") from error
+        raise click.BadParameter(str(error), param_hint=f"'{setting}'") from error
 
 
 def episode_options(default_seed: int, default_episodes: int) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
@@ -285,11 +218,9 @@ def tensorboard_option(command: Callable[..., Any]) -> Callable[..., Any]:
                                            "'sumo-rail[tensorboard]'.")(command)
 
 
-def expert_option(help_text: str, *aliases: str, default: str | None = "normal"
-                  ) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
-    """--expert STYLE|POLICY_FILE (aliases --style and `aliases`): who the expert is; `resolve_expert_option` builds
-    it."""
-    return click.option("--expert", "--style", *aliases, "expert", default=default, show_default=default is not None,
+def expert_option(help_text: str, default: str | None = "normal") -> Callable[[Callable[..., Any]], Callable[..., Any]]:
+    """--expert STYLE|POLICY_FILE: who the expert is; `resolve_expert_option` builds it."""
+    return click.option("--expert", "expert", default=default, show_default=default is not None,
                         metavar="STYLE|POLICY_FILE", help=help_text + " A rule-based style (calm, normal, sporty) or a "
                         "policy file whose observation layout is this configuration's.")
 

@@ -1,42 +1,56 @@
 """The settings every command takes: --preset, --config and --set, resolved into one `Config` (and the road it names
-checked) before any work."""
+checked) and, for a learner's command, its `LearnerSettings`, before any work; --help-settings lists them."""
 
 from __future__ import annotations
 
 import functools
-import tomllib
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import click
 
-from sumo_rail.config import PRESETS, Config, ConfigError
+from sumo_rail.config import PRESETS, SECTIONS, Config, ConfigError, read_config_file
 
 
-def config_options(command: Callable[..., Any]) -> Callable[..., Any]:
-    """Add --preset NAME, --config FILE and repeatable --set SECTION.KEY=VALUE to a command, which receives the
-    settings they make as one `config: Config` argument (`resolve_config`)."""
+def config_options(command: Callable[..., Any] | None = None, *, learners: tuple[str, ...] = ()) -> Any:
+    """Add --preset NAME, --config FILE, repeatable --set SECTION.KEY=VALUE and --help-settings to a command, which
+    receives the simulation's settings as one `config: Config` argument and, with `learners` (learner sections such
+    as ("network", "bc", "rail")), those sections as one `settings: LearnerSettings` argument (`resolve_settings`).
+    Use bare (`@config_options`) or with the learners (`@config_options(learners=...)`)."""
+    if command is None:
+        return functools.partial(config_options, learners=learners)
+    sections = [*SECTIONS, *learners]
     options = [
         click.option("--preset", type=click.Choice(list(PRESETS)), default="paper", show_default=True,
                      help=preset_help()),
         click.option("--config", "config_path", type=click.Path(path_type=Path, dir_okay=False),
-                     help="TOML file whose [scenario], [lidar], [env], [observation] and [expert] tables change the "
-                          "preset."),
+                     help=f"TOML file whose {', '.join(f'[{name}]' for name in sections)} tables change the preset "
+                          f"(a learner's table this command does not take is left for the command that does)."),
         click.option("--set", "overrides", multiple=True, metavar="SECTION.KEY=VALUE",
-                     help="Change one setting, e.g. --set scenario.lanes=4 --set env.decision_period_s=1.0 "
-                          "(repeatable; after --config); every number has a range, stated with its default in "
-                          "sumo_rail/config.py, and a value outside it is refused."),
+                     help="Change one setting, e.g. --set scenario.lanes=4" + (f" --set {learners[-1]}."
+                          f"{_example(learners[-1])}" if learners else " --set env.decision_period_s=1.0") +
+                          " (repeatable; after --config); --help-settings lists every one with its default, and a "
+                          "value outside its range is refused."),
+        click.option("--help-settings", is_flag=True, expose_value=False, is_eager=True,
+                     callback=functools.partial(_print_settings, learners=learners),
+                     help="List every setting --config and --set change, with its default and help, and exit."),
     ]
 
     @functools.wraps(command)
     def with_config(*args: Any, preset: str, config_path: Path | None, overrides: tuple[str, ...],
                     **kwargs: Any) -> Any:
-        return command(*args, config=resolve_config(preset, config_path, overrides), **kwargs)
+        config, settings = resolve_settings(preset, config_path, overrides, learners)
+        return command(*args, config=config, **({"settings": settings} if learners else {}), **kwargs)
 
     for option in reversed(options):
         with_config = option(with_config)
     return with_config
+
+
+def _example(section: str) -> str:
+    return {"rail": "directions=16", "discriminator": "hidden=32", "dagger": "beta=0.3", "gail": "n_steps=256",
+            "ppo": "ent_coef=0.02", "network": "shape=linear"}.get(section, "epochs=40")
 
 
 def preset_help() -> str:
@@ -49,37 +63,62 @@ def preset_help() -> str:
             "one lane over, observation.route_block=1 where the lane leads (lanes that end, merges, exits).")
 
 
-def resolve_config(preset: str, config_path: Path | None, overrides: tuple[str, ...]) -> Config:
-    """The preset, then the TOML file, then each --set; a bad value, or a road that cannot be built (a missing or
-    broken network, a route not in it), is a usage error (exit 2), before any work. A user's network and traffic
-    file are kept as absolute paths, so that the outputs name them from any folder."""
+def _print_settings(ctx: click.Context, param: click.Parameter, value: bool, learners: tuple[str, ...]) -> None:
+    if not value or ctx.resilient_parsing:
+        return
+    from sumo_rail.learning.settings import LearnerSettings
+    from sumo_rail.setting_tables import settings_listing
+
+    config = Config()
+    sections = {name: getattr(config, name) for name in SECTIONS}
+    if learners:
+        sections.update(LearnerSettings.defaults(learners).sections)
+    click.echo(f"Settings of {ctx.command_path}, each with its default (--preset recommended changes "
+               f"observation.*), set by --set SECTION.KEY=VALUE or a --config TOML table [SECTION]:\n")
+    click.echo(settings_listing(sections))
+    ctx.exit()
+
+
+def resolve_settings(preset: str, config_path: Path | None, overrides: tuple[str, ...],
+                     learners: tuple[str, ...] = ()) -> tuple[Config, Any]:
+    """The preset, then the TOML file, then each --set, split into the simulation's `Config` and the `learners`'
+    `LearnerSettings` (None without learners). A bad value, a section no command takes, a --set of a learner section
+    this command does not take, or a road that cannot be built (a missing or broken network, a route not in it) is a
+    usage error (exit 2), before any work. A user's network and traffic file are kept as absolute paths, so that the
+    outputs name them from any folder."""
+    from sumo_rail.learning.settings import SECTIONS as LEARNER_SECTIONS
+    from sumo_rail.setting_tables import read_assignments
+
     try:
+        from_file = read_config_file(config_path) if config_path else {}
+        from_words = read_assignments(overrides)
+        unknown = sorted((set(from_file) | set(from_words)) - set(SECTIONS) - set(LEARNER_SECTIONS))
+        if unknown:
+            raise ConfigError(f"unknown config section(s) {unknown}; known: {', '.join([*SECTIONS, *learners])}")
         config = Config.preset(preset)
-        config = config.with_toml(config_path) if config_path else config
-        config = config.with_overrides(_parse_overrides(overrides)) if overrides else config
+        for tables in (from_file, from_words):
+            config = config.with_overrides({name: tables[name] for name in SECTIONS if name in tables})
+        settings = _learner_settings(learners, from_file, from_words)
         if config.scenario.kind != "straight":
             from sumo_rail.sim import network, user_network
 
             user_network.check_start_window(config.env, network.build(config.scenario))
             config = config.with_overrides({"scenario": user_network.absolute_paths(config.scenario)})
-        return config
+        return config, settings
     except ConfigError as error:
         raise click.UsageError(str(error)) from error
 
 
-def _parse_overrides(overrides: tuple[str, ...]) -> dict[str, dict[str, Any]]:
-    sections: dict[str, dict[str, Any]] = {}
-    for item in overrides:
-        key, separator, raw = item.partition("=")
-        section, dot, name = key.strip().partition(".")
-        if not separator or not dot or not section or not name:
-            raise ConfigError(f"--set expects SECTION.KEY=VALUE, got {item!r}")
-        raw = raw.strip()
-        try:
-            value = tomllib.loads(f"value = {raw}")["value"]
-        except tomllib.TOMLDecodeError as error:
-            if not raw or raw[0] in "\"'[{":
-                raise ConfigError(f"--set {key.strip()} has an unreadable value {raw!r}") from error
-            value = raw  # bare words (scenario.kind=merge, a file's path, a route's edges) are a string
-        sections.setdefault(section, {})[name] = value
-    return sections
+def _learner_settings(learners: tuple[str, ...], from_file: dict[str, Any], from_words: dict[str, Any]) -> Any:
+    """The learner sections `learners` from the file's tables (others left for the commands that take them) and the
+    --set words (others refused)."""
+    from sumo_rail.learning.settings import LearnerSettings
+
+    words = {name: values for name, values in from_words.items() if name not in SECTIONS}
+    if not learners:
+        if words:
+            raise ConfigError(f"--set {next(iter(words))}.*: this command takes no learner's settings")
+        return None
+    settings = LearnerSettings.defaults(learners)
+    settings = settings.with_tables({name: from_file[name] for name in learners if name in from_file})
+    return settings.with_tables(words)

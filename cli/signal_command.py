@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -18,17 +19,17 @@ from sumo_rail_cli.options import (
 )
 from sumo_rail_cli.progress import complete, progress
 from sumo_rail_cli.running import interruptible_run, library_errors
-from sumo_rail_cli.search_options import SearchOptions, search_options
 from sumo_rail_cli.settings import config_options
 
 from sumo_rail.learning.rail.step_signal import REWARD_VARIANTS
 
 if TYPE_CHECKING:
     from sumo_rail.config import Config
+    from sumo_rail.learning.settings import LearnerSettings
 
 
 @click.command("step-signal")
-@config_options
+@config_options(learners=("rail", "discriminator"))
 @click.option("--demos", type=click.Path(path_type=Path, dir_okay=False), required=True,
               help="Expert demonstrations (the discriminator's expert pairs and the flip rate's states).")
 @click.option("--policy", "policy_path", type=click.Path(path_type=Path, dir_okay=False), required=True,
@@ -38,26 +39,28 @@ if TYPE_CHECKING:
 @expert_option("Who is asked at every decision for agreement [default: the demonstrations' expert].", default=None)
 @click.option("--discriminator", "rewards", multiple=True, type=click.Choice(list(REWARD_VARIANTS)),
               default=tuple(REWARD_VARIANTS), show_default=True,
-              help="Discriminators whose rewards are measured, as changes to the --disc-* options (repeatable).")
+              help="Discriminators whose rewards are measured, as changes to the [discriminator] settings "
+                   "(repeatable).")
 @click.option("--warmup-rounds", type=click.IntRange(min=0), default=5, show_default=True,
               help="Training calls of each discriminator on the policy's perturbed rollouts before the measured step.")
-@search_options
 @backend_options
 @seed_option("Seed of the directions, the traffic draws and the discriminators.")
 @click.option("--out", type=click.Path(path_type=Path, dir_okay=False), default=None,
               help="JSON file for the report (with its settings and provenance), written atomically.")
-def step_signal_command(config: Config, demos: Path, policy_path: Path,
+def step_signal_command(config: Config, settings: LearnerSettings, demos: Path, policy_path: Path,
                         zero_weights: bool, expert: str | None, rewards: tuple[str, ...], warmup_rounds: int,
-                        search: SearchOptions, workers: int, backend_name: str, address: str | None, seed: int,
+                        workers: int, backend_name: str, address: str | None, seed: int,
                         out: Path | None) -> None:
     """Measure one ARS step of RAIL without training: how much of it two independent draws of traffic agree on
     (signal) and whether the directions the discriminator's reward prefers raise agreement with the expert
-    (alignment), with 95% intervals over the directions."""
+    (alignment), with 95% intervals over the directions. Its settings are the [rail] and [discriminator] sections of
+    --config and --set, as train's (--help-settings lists them)."""
     check_output(out, overwrite=True)  # the report replaces an earlier one
-    check_egos(config, search.egos)
-    rail, discriminator_settings = search.settings(seed)
+    rail = dataclasses.replace(settings.rail, seed=seed)
+    discriminator_settings = dataclasses.replace(settings.discriminator, seed=seed)
+    check_egos(config, rail.egos, "rail.egos")
     if rail.directions < 3:
-        raise click.UsageError("--directions must be at least 3: the meter correlates the draws across directions")
+        raise click.UsageError("rail.directions must be at least 3: the meter correlates the draws across directions")
     import numpy as np
 
     from sumo_rail.datasets import write_bytes_atomically
@@ -98,7 +101,8 @@ def step_signal_command(config: Config, demos: Path, policy_path: Path,
         complete(bar)
     record = {**report, "policy": str(policy_path), "zero_weights": zero_weights, "expert": expert,
               "demos": str(demos), "meter": {"warmup_rounds": warmup_rounds},
-              "settings": {"rail": _plain(rail), "discriminator": _plain(discriminator_settings)},
+              "settings": {"rail": dataclasses.asdict(rail),
+                           "discriminator": dataclasses.asdict(discriminator_settings)},
               **provenance("step_signal", config, seed)}
     click.echo(signal_table(record))
     if out is not None:
@@ -112,12 +116,6 @@ def step_signal_command(config: Config, demos: Path, policy_path: Path,
 def _rollouts_in(result: list[Any]) -> int:
     """Rollouts in one task's result: a shared road's (--egos) holds one list of trajectories per member."""
     return len(result) if result and isinstance(result[0], list) else 1
-
-
-def _plain(settings: Any) -> dict[str, Any]:
-    import dataclasses
-
-    return dataclasses.asdict(settings)
 
 
 def _estimate(estimate: dict[str, float]) -> str:

@@ -16,9 +16,6 @@ from sumo_rail.drivers.policies import PolicyShape
 from sumo_rail.learning.bc import BcSettings, behaviour_cloning
 from sumo_rail.runners.tables import read_demonstrations
 
-TRAIN_CLASS_BALANCE = 0.75
-"""`sumo-rail train`'s --bc-class-balance default."""
-
 
 def main(epochs: list[int], paths: list[Path]) -> None:
     print("| demonstrations | episodes | training decisions | epochs | gradient steps | training accuracy | "
@@ -28,7 +25,7 @@ def main(epochs: list[int], paths: list[Path]) -> None:
         demos = read_demonstrations(path)
         shape = PolicyShape("mlp", demos.observations.shape[1], 10)
         for count in epochs:
-            settings = BcSettings(epochs=count, class_balance=TRAIN_CLASS_BALANCE)
+            settings = BcSettings(epochs=count)  # train's other BC settings
             _, report = behaviour_cloning(demos, shape, settings)
             steps = count * math.ceil(report.train_rows / settings.batch_size)
             held_out = "n/a" if report.holdout_accuracy is None else f"{report.holdout_accuracy:.3f}"

@@ -14,10 +14,10 @@ mkdir -p "$out/policies"
 $sumo_rail record-expert --preset "$preset" --episodes 40 --seed 0 --workers 2 --out "$out/demos.parquet"
 # BC: 100 epochs, not train's 20: on 40 demonstration episodes 20 leave BC under-trained (about 0.2 agreement
 # with the expert against about 0.6; docs/results.md, "Number of expert demonstrations", gives BC 4000 / episodes)
-$sumo_rail train --preset "$preset" --demos "$out/demos.parquet" --policy mlp --bc-epochs 100 --directions 16 \
-  --top 8 --iterations 15 --eval-every 5 --workers 2 --seed 0 --out "$out/rail"
-$sumo_rail dagger --preset "$preset" --demos "$out/demos.parquet" --policy mlp --bc-epochs 100 --rounds 3 \
-  --episodes-per-round 10 --eval-every 3 --workers 2 --seed 0 --out "$out/dagger"
+$sumo_rail train --preset "$preset" --demos "$out/demos.parquet" --set network.shape=mlp --set bc.epochs=100 \
+  --set rail.directions=16 --set rail.top=8 --iterations 15 --eval-every 5 --workers 2 --seed 0 --out "$out/rail"
+$sumo_rail dagger --preset "$preset" --demos "$out/demos.parquet" --set network.shape=mlp --set bc.epochs=100 \
+  --rounds 3 --set dagger.episodes_per_round=10 --eval-every 3 --workers 2 --seed 0 --out "$out/dagger"
 # the policies under the names the table shows
 cp "$out/rail/policy_bc.npz" "$out/policies/BC.npz"
 cp "$out/rail/policy_latest.npz" "$out/policies/RAIL.npz"

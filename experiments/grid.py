@@ -5,7 +5,7 @@ A spec names its axes (methods, seeds, roads, settings: any name with a list of 
     root = "results/benchmark"                 # {root} in templates; relative to the current folder
     [axes]
     seed = [0, 1, 2]
-    setting = [{name = "paper", args = []}, {name = "flip20", args = ["--flip-rate", "0.2"]}]
+    setting = [{name = "paper", args = []}, {name = "flip20", args = ["--set", "rail.flip_rate=0.2"]}]
     [[step]]
     out = "{root}/bc_{setting}_s{seed}"        # the step's output: a file or a run folder
     command = ["sumo-rail", "train", "{setting.args}", "--seed", "{seed}", "--out", "{out}"]

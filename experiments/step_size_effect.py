@@ -1,10 +1,10 @@
 """How much one ARS step size moves a policy: the share of demonstrated states whose decision changes.
 
-For each run folder (made by `sumo-rail train ... --step-size ALPHA --iterations K`), compares the policy after K
-iterations (policy_latest.npz) with the BC policy it started from (policy_bc.npz), on the observations of the
-demonstrations: the share of decisions that differ, the share that differ when only the weights moved (the end
-weights with BC's observation normaliser; with --merge-normalizer RAIL also merges its rollouts into it) and the largest
-parameter change. Prints Markdown.
+For each run folder (made by `sumo-rail train ... --set rail.step_size=ALPHA --iterations K`), compares the policy
+after K iterations (policy_latest.npz) with the BC policy it started from (policy_bc.npz), on the observations of
+the demonstrations: the share of decisions that differ, the share that differ when only the weights moved (the end
+weights with BC's observation normaliser; with --set rail.freeze_normalizer=false RAIL also merges its rollouts into
+it) and the largest parameter change. Prints Markdown.
 
 Usage: python experiments/step_size_effect.py DEMOS.parquet RUN [RUN ...]
 """

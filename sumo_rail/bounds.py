@@ -1,11 +1,13 @@
 """The values a setting may take: the range of each number, declared once with its dataclass field (`bounded`) and
-checked by `check_fields`, and the type a user's value must have (`replace_section`, `coerce`). Errors are a
-one-sentence `ConfigError` naming the setting."""
+checked by `check_fields`, and the type a user's value must have (`replace_settings`, `coerce`); a field a command
+fills itself is `given`. Errors are a one-sentence `ConfigError` naming the setting."""
 
 from __future__ import annotations
 
 import dataclasses
 import math
+import types
+import typing
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
@@ -45,12 +47,12 @@ class Bounds:
 
 
 def bounded(low: float, high: float, unit: str = "", *, default: float, low_open: bool = False,
-            high_open: bool = False) -> Any:
+            high_open: bool = False, **field_options: Any) -> Any:
     """A numeric setting's dataclass field with its default and its range as metadata, e.g.
     `speed_limit_mps: float = bounded(0, 70, "m/s", default=33.33, low_open=True)`."""
     integer = isinstance(default, int)
-    return dataclasses.field(default=default,
-                             metadata={"bounds": Bounds(low, high, unit, low_open, high_open, integer)})
+    bounds = Bounds(low, high, unit, low_open, high_open, integer)
+    return dataclasses.field(default=default, metadata={"bounds": bounds}, **field_options)
 
 
 def bounds_of(field: dataclasses.Field[Any]) -> Bounds | None:
@@ -70,27 +72,73 @@ def check_fields(settings: Any, prefix: str = "") -> None:
             raise ConfigError(f"{key} must be {finite}{bounds.describe()}, got {_number(value)}")
 
 
-def replace_section(name: str, section: Any, values: Mapping[str, Any]) -> Any:
-    """A copy of the settings dataclass `section` (named `name`) with `values` replaced; unknown keys and values of
-    the wrong type raise ConfigError (ranges are `check_fields`' job)."""
+def given(source: str, default: Any = dataclasses.MISSING, **field_options: Any) -> Any:
+    """A field its command fills from `source` (an option, "--seed", or another setting, "network.hidden") rather
+    than a setting of its own section: `replace_settings` refuses it, naming `source`."""
+    return dataclasses.field(default=default, metadata={"given_by": source}, **field_options)
+
+
+def given_by(field: dataclasses.Field[Any]) -> str | None:
+    """Where a `given` field's value comes from; None for a setting."""
+    return field.metadata.get("given_by")
+
+
+def replace_settings(name: str, section: Any, values: Mapping[str, Any]) -> Any:
+    """A copy of the settings dataclass `section` (named `name`, e.g. "rail") with `values` replaced, a field that is
+    itself a dataclass by a nested table ("rail.noise"). Unknown keys, `given` fields, values of the wrong type and
+    values the dataclass's own checks refuse raise a one-sentence ConfigError naming the setting (ranges of `bounded`
+    fields are `check_fields`' job)."""
     fields = {f.name: f for f in dataclasses.fields(section)}
     unknown = sorted(set(values) - set(fields))
     if unknown:
         raise ConfigError(f"unknown config key(s) {[f'{name}.{key}' for key in unknown]}")
-    coerced = {key: coerce(f"{name}.{key}", value, type(getattr(section, key))) for key, value in values.items()}
-    return dataclasses.replace(section, **coerced)
+    for key in values:
+        if (source := given_by(fields[key])) is not None:
+            raise ConfigError(f"{name}.{key} is not set here: it comes from {source}")
+    hints = typing.get_type_hints(type(section))
+    coerced = {key: _coerced(f"{name}.{key}", value, hints[key], getattr(section, key))
+               for key, value in values.items()}
+    for key, value in coerced.items():  # a bounded field's range says it finite (`check_fields`)
+        if isinstance(value, float) and not math.isfinite(value) and bounds_of(fields[key]) is None:
+            raise ConfigError(f"{name}.{key} must be a finite number, got {value}")
+    try:
+        return dataclasses.replace(section, **coerced)
+    except ConfigError:
+        raise
+    except ValueError as error:  # the dataclass's own checks, e.g. rail.top above rail.directions
+        raise ConfigError(str(error)) from error
+
+
+def _coerced(key: str, value: Any, hint: Any, current: Any) -> Any:
+    """`value` as the setting `key` of declared type `hint` (whose value now is `current`) takes it."""
+    if dataclasses.is_dataclass(current):
+        if not isinstance(value, Mapping):
+            raise ConfigError(f"{key} is a table of settings, got {value!r}")
+        return replace_settings(key, current, value)
+    kinds = [kind for kind in typing.get_args(hint) if kind is not type(None)] if _is_union(hint) else [hint]
+    if typing.get_origin(kinds[0]) is tuple:
+        if not isinstance(value, list | tuple) or not all(isinstance(item, str) for item in value):
+            raise ConfigError(f"{key} must be a list of strings, got {value!r}")
+        return tuple(value)
+    return coerce(key, value, kinds[0])
+
+
+def _is_union(hint: Any) -> bool:
+    return typing.get_origin(hint) in (typing.Union, types.UnionType)
 
 
 def coerce(key: str, value: Any, kind: type) -> Any:
-    """`value` as the setting `key` of type `kind` (float, int or str) takes it: an integer for a float becomes a
-    float; anything else of the wrong type raises ConfigError."""
+    """`value` as the setting `key` of type `kind` (bool, float, int or str) takes it: an integer for a float becomes
+    a float; anything else of the wrong type raises ConfigError."""
+    if kind is bool and isinstance(value, bool):
+        return value
     if kind is float and isinstance(value, (int, float)) and not isinstance(value, bool):
         return float(value)
     if kind is int and isinstance(value, int) and not isinstance(value, bool):
         return value
     if kind is str and isinstance(value, str):
         return value
-    names = {float: "a number", int: "an integer", str: "a string"}
+    names = {bool: "true or false", float: "a number", int: "an integer", str: "a string"}
     raise ConfigError(f"{key} must be {names[kind]}, got {value!r}")
 
 

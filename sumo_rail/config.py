@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from sumo_rail.bounds import ConfigError, bounded, check_fields, replace_section
+from sumo_rail.bounds import ConfigError, bounded, check_fields, replace_settings
 
 SCENARIO_KINDS = ("straight", "merge", "merge_from_ramp", "lane_drop", "exit", "network")
 """The roads of `ScenarioConfig.kind`."""
@@ -318,20 +318,8 @@ class Config:
         return cls.from_dict(PRESETS[name])
 
     def with_toml(self, path: str | Path) -> Config:
-        """A copy with the keys of a TOML file's tables replaced (the format of `from_toml`); scenario.network and
-        scenario.traffic_file relative to the TOML's folder."""
-        try:
-            with open(path, "rb") as handle:
-                data = tomllib.load(handle)
-        except OSError as error:
-            raise ConfigError(f"cannot read config file {path}: {error.strerror or error}") from error
-        except tomllib.TOMLDecodeError as error:
-            raise ConfigError(f"config file {path} is not valid TOML: {error}") from error
-        scenario = data.get("scenario")
-        for key in ("network", "traffic_file"):  # a file named in the TOML is found from the TOML's folder
-            if isinstance(scenario, dict) and isinstance(scenario.get(key), str) and scenario[key]:
-                scenario[key] = str(Path(path).parent / Path(scenario[key]).expanduser())
-        return self.with_overrides(data)
+        """A copy with the keys of a TOML file's tables replaced (the format of `from_toml`)."""
+        return self.with_overrides(read_config_file(path))
 
     @classmethod
     def coerce(cls, value: Config | Mapping[str, Any] | str | Path | None) -> Config:
@@ -358,8 +346,29 @@ class Config:
         for name, current in sections.items():
             values = data.get(name, {})
             _require(isinstance(values, Mapping), f"config section [{name}] must be a table, got {values!r}")
-            updated[name] = replace_section(name, current, values)
+            updated[name] = replace_settings(name, current, values)
         return Config(**updated)
+
+
+SECTIONS = tuple(item.name for item in dataclasses.fields(Config))
+"""The simulation's sections of a --config file; the learners' are `sumo_rail.learning.settings.SECTIONS`."""
+
+
+def read_config_file(path: str | Path) -> dict[str, Any]:
+    """The tables of a --config TOML file, scenario.network and scenario.traffic_file made relative to the file's
+    folder; an unreadable file is a one-sentence ConfigError."""
+    try:
+        with open(path, "rb") as handle:
+            data = tomllib.load(handle)
+    except OSError as error:
+        raise ConfigError(f"cannot read config file {path}: {error.strerror or error}") from error
+    except tomllib.TOMLDecodeError as error:
+        raise ConfigError(f"config file {path} is not valid TOML: {error}") from error
+    scenario = data.get("scenario")
+    for key in ("network", "traffic_file"):  # a file named in the TOML is found from the TOML's folder
+        if isinstance(scenario, dict) and isinstance(scenario.get(key), str) and scenario[key]:
+            scenario[key] = str(Path(path).parent / Path(scenario[key]).expanduser())
+    return data
 
 
 def _require(condition: bool, message: str) -> None:

@@ -6,6 +6,7 @@ from __future__ import annotations
 import dataclasses
 from pathlib import Path
 
+from sumo_rail.learning.bc import BcSettings
 from sumo_rail.learning.rail.discriminator import DiscriminatorSettings
 from sumo_rail.learning.rail.iteration import RailSettings
 from sumo_rail.learning.rail.trainer import RunSettings
@@ -24,4 +25,4 @@ def run_settings(demos_path: Path | str, kind: str = "mlp", remedies: bool = Fal
         rail = dataclasses.replace(rail, fitness="rank", flip_rate=0.1, episodes_per_rollout=2, egos=2)
         discriminator = dataclasses.replace(discriminator, reward_form="contrast", balance=1.0, gradient_penalty=1.0,
                                             replay=2)
-    return RunSettings(str(demos_path), kind, 4, 3, rail, discriminator)
+    return RunSettings(str(demos_path), kind, 4, rail, discriminator, BcSettings(epochs=3))

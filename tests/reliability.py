@@ -15,8 +15,10 @@ from test_cli import SMALL
 
 def train_args(iterations: int = 1) -> tuple[str, ...]:
     """How the workspace's run was made (with --iterations 1)."""
-    return ("train", *SMALL, "--demos", "demos.parquet", "--policy", "mlp", "--hidden", "4", "--directions", "2",
-            "--top", "1", "--iterations", str(iterations), "--bc-epochs", "1", "--eval-every", "0", "--workers", "1")
+    return ("train", *SMALL, "--demos", "demos.parquet", "--set", "network.shape=mlp", "--set", "network.hidden=4",
+            "--set", "rail.directions=2",
+            "--set", "rail.top=1", "--iterations", str(iterations), "--set", "bc.epochs=1", "--eval-every", "0",
+            "--workers", "1")
 
 
 TRAIN_ARGS = train_args()

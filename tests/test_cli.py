@@ -11,13 +11,14 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
+import click
 import numpy as np
 import pandas as pd
 import pyarrow.parquet as pq
 import pytest
 from click.testing import CliRunner
 from sumo_rail_cli.main import cli
-from sumo_rail_cli.settings import resolve_config
+from sumo_rail_cli.settings import resolve_settings
 
 import sumo_rail
 from sumo_rail.config import Config
@@ -53,22 +54,25 @@ def test_version_and_help():
     assert result.exit_code == 0 and "record-expert" in result.output and "evaluate" in result.output
 
 
-def test_train_help_leaves_its_research_options_to_help_all():
-    short, full = invoke("train", "--help"), invoke("train", "--help-all")
-    assert short.exit_code == 0 and full.exit_code == 0, short.output + full.output
-    for research in ("--flip-rate", "--fitness", "--reward", "--traffic", "--episodes-per-rollout",
-                     "--merge-normalizer", "--disc-reward", "--disc-balance", "--disc-penalty", "--disc-replay"):
-        assert research not in short.output and research in full.output.split("Research options")[1], research
-    for option in ("--demos", "--directions", "--step-size", "--egos", "--rollout-decisions", "--out", "--help-all"):
-        assert option in short.output and option in full.output, option
-    assert "10 research options" in short.output
+def test_learner_commands_help_shows_at_most_20_options_and_no_learner_setting():
+    """The learners' settings are --set words, not options: --help stays short, and one name per idea holds (the
+    network's shape is network.shape, not --policy; parallel SUMOs are --workers or a learner's envs)."""
+    for command in ("train", "step-signal", "dagger", "gail", "ppo", "evaluate", "record-expert", "evaluate-scene"):
+        result, shown = invoke(command, "--help"), cli.commands[command]
+        options = [param for param in shown.get_params(shown.make_context(command, ["--help"], resilient_parsing=True))
+                   if isinstance(param, click.Option) and not param.hidden]
+        assert result.exit_code == 0 and len(options) <= 20, (command, len(options))
+        names = {name for option in options for name in option.opts}
+        assert "--help-settings" in names and "--envs" not in names, command
+        assert not names & {"--directions", "--bc-epochs", "--disc-hidden", "--hidden", "--n-steps", "--style"}
+        assert ("--policy" in names) == (command in ("evaluate", "evaluate-scene", "step-signal")), command
 
 
 def test_record_expert_is_identical_for_any_worker_count_and_run(tmp_path):
     paths = []
     for name, workers in (("a", "1"), ("b", "2"), ("c", "2")):
         paths.append(tmp_path / f"{name}.parquet")
-        result = invoke("record-expert", *SMALL, "--episodes", "3", "--seed", "5", "--style", "calm",
+        result = invoke("record-expert", *SMALL, "--episodes", "3", "--seed", "5", "--expert", "calm",
                         "--workers", workers, "--out", str(paths[-1]))
         assert result.exit_code == 0, result.output
     contents = [path.read_bytes() for path in paths]
@@ -104,12 +108,15 @@ def test_record_expert_with_two_egos_a_simulation_is_identical_for_any_worker_co
     assert not first_alone.equals(first_shared)  # the same seed, with another ego on the road
 
 
-@pytest.mark.parametrize("command", [["record-expert"], ["dagger", "--demos", "d.parquet"],
-                                     ["train", "--demos", "d.parquet"], ["ppo"], ["gail", "--demos", "d.parquet"],
-                                     ["step-signal", "--demos", "d.parquet", "--policy", "p.npz"]])
-def test_more_egos_than_the_road_holds_is_a_usage_error_before_any_work(tmp_path, command):
-    result = invoke(*command, *SMALL, "--egos", "400", "--out", str(tmp_path / "out"))
-    assert result.exit_code == 2 and "'--egos'" in result.output and "use fewer egos" in result.output
+@pytest.mark.parametrize(("command", "egos"), [
+    (["record-expert"], "--egos"), (["dagger", "--demos", "d.parquet"], "dagger.egos"),
+    (["train", "--demos", "d.parquet"], "rail.egos"), (["ppo"], "ppo.egos"), (["gail", "--demos", "d.parquet"],
+    "gail.egos"),
+    (["step-signal", "--demos", "d.parquet", "--policy", "p.npz"], "rail.egos")])
+def test_more_egos_than_the_road_holds_is_a_usage_error_before_any_work(tmp_path, command, egos):
+    words = ("--egos", "400") if egos == "--egos" else ("--set", f"{egos}=400")
+    result = invoke(*command, *SMALL, *words, "--out", str(tmp_path / "out"))
+    assert result.exit_code == 2 and f"'{egos}'" in result.output and "use fewer egos" in result.output
     assert "Traceback" not in result.output and not (tmp_path / "out").exists()
 
 
@@ -245,10 +252,10 @@ def test_the_recommended_preset_is_the_lane_and_route_blocks_in_every_output(tmp
 def test_the_config_file_changes_the_preset_and_set_changes_both(tmp_path):
     path = tmp_path / "c.toml"
     path.write_text("[observation]\nlane_block = 0\n[scenario]\nlanes = 4\n")
-    assert resolve_config("recommended", None, ()) == Config.preset("recommended")
-    assert resolve_config("recommended", path, ()) == Config().with_overrides({"scenario": {"lanes": 4},
+    assert resolve_settings("recommended", None, ())[0] == Config.preset("recommended")
+    assert resolve_settings("recommended", path, ())[0] == Config().with_overrides({"scenario": {"lanes": 4},
                                                                                 "observation": {"route_block": 1}})
-    assert resolve_config("recommended", path, ("scenario.lanes=3",)).scenario.lanes == 3
+    assert resolve_settings("recommended", path, ("scenario.lanes=3",))[0].scenario.lanes == 3
     assert invoke("evaluate", "--preset", "best").exit_code == 2
 
 
@@ -330,19 +337,20 @@ def test_ctrl_c_leaves_no_partial_output(tmp_path):
 def test_train_bad_input(tmp_path):
     result = invoke("train", *SMALL, "--demos", str(tmp_path / "missing.parquet"), "--out", str(tmp_path / "run"))
     assert result.exit_code == 1 and "does not exist" in result.output
-    result = invoke("train", *SMALL, "--demos", "x.parquet", "--directions", "4", "--top", "5", "--out", "run")
-    assert result.exit_code == 2 and "--top" in result.output
-    result = invoke("train", *SMALL, "--demos", "x.parquet", "--rollout-decisions", "100", "--episodes-per-rollout",
-                    "2", "--out", "run")
-    assert result.exit_code == 2 and "--rollout-decisions" in result.output and "Traceback" not in result.output
+    result = invoke("train", *SMALL, "--demos", "x.parquet", "--set", "rail.directions=4", "--set", "rail.top=5",
+                    "--out", "run")
+    assert result.exit_code == 2 and "rail.top" in result.output
+    result = invoke("train", *SMALL, "--demos", "x.parquet", "--set", "rail.rollout_decisions=100", "--set",
+                    "rail.episodes_per_rollout=2", "--out", "run")
+    assert result.exit_code == 2 and "rail.rollout_decisions" in result.output and "Traceback" not in result.output
 
 
 def test_train_interrupted_keeps_a_checkpoint_and_resumes(tmp_path):
     demos = tmp_path / "demos.parquet"
     assert invoke("record-expert", *SMALL, "--episodes", "2", "--out", str(demos)).exit_code == 0
     run = tmp_path / "run"
-    command = ["train", *SMALL, "--demos", str(demos), "--directions", "2",
-               "--top", "1", "--iterations", "500", "--out", str(run)]
+    command = ["train", *SMALL, "--demos", str(demos), "--set", "rail.directions=2",
+               "--set", "rail.top=1", "--iterations", "500", "--out", str(run)]
     # started with SIGINT ignored, as a shell script's background job is: Ctrl-C must still stop it
     with command_process(*command, preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_IGN)) as (process,
                                                                                                        lines):
@@ -355,7 +363,7 @@ def test_train_interrupted_keeps_a_checkpoint_and_resumes(tmp_path):
     assert 1 <= done < 500
     assert not [p for p in run.iterdir() if p.name.endswith(".tmp")]
     assert "behaviour cloning: train accuracy" in output  # BC initialises RAIL by default
-    result = invoke("train", *SMALL, "--demos", str(demos), "--directions", "2", "--top", "1",
+    result = invoke("train", *SMALL, "--demos", str(demos), "--set", "rail.directions=2", "--set", "rail.top=1",
                     "--iterations", str(done + 1), "--eval-episodes", "1", "--out", str(run), "--resume")
     assert result.exit_code == 0, result.output
     assert f"iteration {done + 1}: validation agreement" in result.output  # the last iteration is evaluated

@@ -81,8 +81,8 @@ def test_recording_a_policy_file_keeps_its_decisions_and_names_it(tmp_path, lear
     assert demos.metadata["expert"] == expert_reference(str(learned_expert)) and "style" not in demos.metadata
     # DAgger run on these demonstrations asks the same expert by default, and records it
     run = tmp_path / "dagger"
-    result = invoke("dagger", *SMALL, "--demos", str(out), "--rounds", "1", "--episodes-per-round", "1",
-                    "--bc-epochs", "2", "--eval-every", "1", "--eval-episodes", "1", "--out", str(run))
+    result = invoke("dagger", *SMALL, "--demos", str(out), "--rounds", "1", "--set", "dagger.episodes_per_round=1",
+                    "--set", "bc.epochs=2", "--eval-every", "1", "--eval-episodes", "1", "--out", str(run))
     assert result.exit_code == 0, result.output
     assert json.loads((run / "run.json").read_text())["expert"] == expert_reference(str(learned_expert))
     dataset = pq.read_table(run / "dataset.parquet")
@@ -182,8 +182,9 @@ def test_demonstrations_whose_expert_file_is_gone_are_one_sentence_naming_them(t
     result = invoke("record-expert", *SMALL, "--expert", str(expert), "--episodes", "1", "--out", str(demos))
     assert result.exit_code == 0, result.output
     expert.unlink()
-    for command in (("dagger", "--rounds", "1", "--episodes-per-round", "1"), ("train", "--iterations", "1")):
-        result = invoke(*command, *SMALL, "--demos", str(demos), "--bc-epochs", "1", "--eval-every", "0",
+    for command in (("dagger", "--rounds", "1", "--set", "dagger.episodes_per_round=1"), ("train", "--iterations",
+                    "1")):
+        result = invoke(*command, *SMALL, "--demos", str(demos), "--set", "bc.epochs=1", "--eval-every", "0",
                         "--out", str(tmp_path / command[0]))
         assert result.exit_code == 1 and "Traceback" not in result.output, result.output
         assert f"which {demos} records as its expert, does not exist" in result.output
@@ -222,8 +223,10 @@ def test_the_agreement_reward_asks_the_policy_file_the_demonstrations_recorded(t
     returns = []
     for name in (demos, restyled):
         run = tmp_path / name.stem
-        result = invoke("train", *ROAD, "--demos", str(name), "--reward", "agreement", "--policy", "linear",
-                        "--bc-epochs", "2", "--directions", "2", "--iterations", "1", "--eval-every", "0", "--out",
+        result = invoke("train", *ROAD, "--demos", str(name), "--set", "rail.reward=agreement", "--set",
+                        "network.shape=linear",
+                        "--set", "bc.epochs=2", "--set", "rail.directions=2", "--iterations", "1", "--eval-every",
+                        "0", "--out",
                         str(run))
         assert result.exit_code == 0, result.output
         returns.append(pd.read_parquet(run / "log.parquet")["return_mean"].item())

@@ -1,5 +1,9 @@
-"""Every float option of every command refuses NaN and infinities before any work: exit 2, one sentence naming the
-option, nothing written. The options are found by walking the command group, so a new one cannot escape."""
+"""Every float option and every float setting of every command refuses NaN and infinities before any work: exit 2,
+one sentence naming the option or setting, nothing written. Both are found by walking the command group and the
+settings dataclasses, so a new one cannot escape."""
+
+import dataclasses
+import typing
 
 import click
 import pytest
@@ -18,8 +22,7 @@ def float_options() -> list[tuple[str, str]]:
 
 
 def test_the_walk_finds_the_float_options_the_issue_names():
-    assert {("record-expert", "--dart-noise"), ("train", "--step-size"), ("train", "--bc-class-balance"),
-            ("gail", "--learning-rate")} <= set(float_options())
+    assert {("record-expert", "--dart-noise"), ("evaluate", "--gui-delay")} <= set(float_options())
 
 
 @pytest.mark.parametrize(("command", "option"), float_options(), ids=lambda part: part)
@@ -32,3 +35,41 @@ def test_a_float_option_refuses_what_is_no_number(tmp_path, monkeypatch, command
     assert errors == [f"Error: Invalid value for '{option}': {value} is not a finite number."], result.output
     assert "Traceback" not in result.output
     assert list(tmp_path.iterdir()) == []
+
+
+def float_settings() -> list[tuple[str, str]]:
+    """(learner section, dotted key) for every float setting of every learner section, nested tables too."""
+    from sumo_rail.bounds import given_by
+    from sumo_rail.learning.settings import SECTIONS, default_section
+
+    found = []
+
+    def walk(name: str, section) -> None:
+        hints = typing.get_type_hints(type(section))
+        for field in dataclasses.fields(section):
+            value = getattr(section, field.name)
+            if given_by(field) is not None:
+                continue
+            if dataclasses.is_dataclass(value):
+                walk(f"{name}.{field.name}", value)
+            elif float in (typing.get_args(hints[field.name]) or (hints[field.name],)):
+                found.append((name.split(".")[0], f"{name}.{field.name}"))
+    for name in SECTIONS:
+        walk(name, default_section(name))
+    return found
+
+
+def test_the_walk_finds_the_float_settings():
+    assert {("rail", "rail.step_size"), ("rail", "rail.noise.initial"), ("rail", "rail.flip_rate"),
+            ("bc", "bc.class_balance"), ("ppo", "ppo.gamma")} <= set(float_settings())
+
+
+@pytest.mark.parametrize(("section", "key"), float_settings(), ids=lambda part: part)
+@pytest.mark.parametrize("value", ["nan", "inf", "-inf"])
+def test_a_float_setting_refuses_what_is_no_number(section, key, value):
+    from sumo_rail.config import ConfigError
+    from sumo_rail.learning.settings import LearnerSettings
+    from sumo_rail.setting_tables import read_assignments
+
+    with pytest.raises(ConfigError, match=rf"^{key} must be a finite number"):
+        LearnerSettings.defaults((section,)).with_tables(read_assignments([f"{key}={value}"]))

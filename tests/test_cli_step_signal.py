@@ -35,8 +35,9 @@ def policy(tmp_path_factory) -> Path:
 
 
 def test_the_report_holds_every_measure_with_its_settings_and_is_reproducible(tmp_path, demos, policy):
-    args = ["step-signal", *SMALL, "--demos", str(demos), "--policy", str(policy), "--directions", "3",
-            "--warmup-rounds", "0", "--discriminator", "given", "--discriminator", "contrast", "--flip-rate", "0.1"]
+    args = ["step-signal", *SMALL, "--demos", str(demos), "--policy", str(policy), "--set", "rail.directions=3",
+            "--warmup-rounds", "0", "--discriminator", "given", "--discriminator", "contrast", "--set",
+            "rail.flip_rate=0.1"]
     first = invoke(*args, "--out", str(tmp_path / "a.json"))
     assert first.exit_code == 0, first.output
     second = invoke(*args, "--workers", "2", "--out", str(tmp_path / "b.json"))
@@ -58,6 +59,6 @@ def test_bad_input_is_one_sentence(tmp_path, demos, policy):
     lane_block = invoke("step-signal", *SMALL, "--set", "observation.lane_block=1", "--demos", str(demos),
                         "--policy", str(policy))
     assert lane_block.exit_code != 0 and "Traceback" not in lane_block.output
-    for option, value in (("--top", "40"), ("--directions", "2")):
-        refused = invoke("step-signal", *SMALL, "--demos", str(demos), "--policy", str(policy), option, value)
-        assert refused.exit_code == 2 and option in refused.output
+    for word in ("rail.top=40", "rail.directions=2"):
+        refused = invoke("step-signal", *SMALL, "--demos", str(demos), "--policy", str(policy), "--set", word)
+        assert refused.exit_code == 2 and word.split("=")[0] in refused.output

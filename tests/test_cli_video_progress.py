@@ -95,13 +95,14 @@ def test_the_last_progress_line_is_at_100_percent_for_resumed_runs_and_egos_and_
     demos = tmp_path / "demos.parquet"
     result = invoke("record-expert", *SMALL, "--episodes", "3", "--egos", "2", "--out", str(demos))
     assert result.exit_code == 0 and "recording: 3/3 episodes (100%)" in result.output, result.output
-    dagger = ("dagger", *SMALL, "--demos", str(demos), "--rounds", "1", "--episodes-per-round", "1", "--bc-epochs",
-              "1", "--eval-every", "0", "--out", str(tmp_path / "dagger"))
+    dagger = ("dagger", *SMALL, "--demos", str(demos), "--rounds", "1", "--set", "dagger.episodes_per_round=1", "--set",
+              "bc.epochs=1", "--eval-every", "0", "--out", str(tmp_path / "dagger"))
     result = invoke(*dagger)
     assert result.exit_code == 0 and "DAgger: 1 round; policy in" in result.output, result.output
     result = invoke(*dagger, "--resume")  # nothing left to do
     assert result.exit_code == 0 and "DAgger: 2/2 rounds (100%)" in result.output, result.output
-    train = ("train", *SMALL, "--demos", str(demos), "--directions", "2", "--bc-epochs", "1", "--eval-every", "0",
+    train = ("train", *SMALL, "--demos", str(demos), "--set", "rail.directions=2", "--set", "bc.epochs=1",
+             "--eval-every", "0",
              "--out", str(tmp_path / "train"))
     result = invoke(*train, "--iterations", "1")
     assert result.exit_code == 0 and "trained 1 iteration; policies in" in result.output, result.output

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import click
 import pytest
-from sumo_rail_cli.settings import resolve_config
+from sumo_rail_cli.settings import resolve_settings
 
 import sumo_rail.config
 from sumo_rail.bounds import Bounds, bounds_of, check_fields
@@ -106,12 +106,12 @@ def test_direct_construction_is_checked_too():
 ])
 def test_the_issue_s_values_are_usage_errors(tmp_path, setting, message):
     with pytest.raises(click.UsageError) as caught:
-        resolve_config("paper", None, (f"{setting}",))
+        resolve_settings("paper", None, (f"{setting}",))[0]
     assert caught.value.message == message
     toml = tmp_path / "c.toml"
     key, value = setting.split("=")
     section, name = key.split(".")
     toml.write_text(f"[{section}]\n{name} = {value}\n")
     with pytest.raises(click.UsageError) as caught:
-        resolve_config("paper", toml, ())
+        resolve_settings("paper", toml, ())[0]
     assert caught.value.message == message

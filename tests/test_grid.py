@@ -100,7 +100,7 @@ def test_each_table_axes_stdout_read_and_copy(tmp_path):
 root = "{tmp_path / 'out'}"
 [axes]
 seed = [0, 1]
-setting = [{{name = "plain", args = []}}, {{name = "flip", args = ["--flip-rate", "0.2"]}}]
+setting = [{{name = "plain", args = []}}, {{name = "flip", args = ["--set", "rail.flip_rate=0.2"]}}]
 [[step]]
 out = "{{root}}/budget_s{{seed}}.txt"
 stdout = "{{out}}"
@@ -122,7 +122,7 @@ command = ["python", "-c", "{echo}", {{each = "seed", args = ["--policy", "p{{se
     assert result.exit_code == 0, result.output
     out = tmp_path / "out"
     assert (out / "copy_s1.txt").read_text() == "100\n"
-    assert (out / "run_flip_s1.txt").read_text() == "--flip-rate 0.2 --timesteps 100\n"
+    assert (out / "run_flip_s1.txt").read_text() == "--set rail.flip_rate=0.2 --timesteps 100\n"
     assert (out / "run_plain_s0.txt").read_text() == "--timesteps 000\n"
     assert (out / "evaluate.txt").read_text() == "--policy p0 --policy p1\n"
     assert not list(out.glob("*.partial"))

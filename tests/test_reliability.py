@@ -211,8 +211,10 @@ READERS = [
     Reader("log.parquet", "report", ("report", "run", "--out", "../report")),
     Reader("demonstrations", "train", (*TRAIN_ARGS, "--out", "new_run"), control=False),
     Reader("demonstrations", "train --resume", (*TRAIN_ARGS, "--out", "run", "--resume")),
-    Reader("demonstrations", "gail", ("gail", *SMALL, "--demos", "demos.parquet", "--timesteps", "32", "--envs", "1",
-                                      "--n-steps", "32", "--bc-epochs", "1", "--out", "gail_run"), control=False),
+    Reader("demonstrations", "gail", ("gail", *SMALL, "--demos", "demos.parquet", "--timesteps", "32", "--set",
+    "gail.envs=1",
+                                      "--set", "gail.n_steps=32", "--set", "bc.epochs=1", "--out", "gail_run"),
+                                      control=False),
     Reader("metrics", "report", ("report", "metrics.parquet", "--out", "../report")),
     # dagger and the exports join here, e.g. Reader("demonstrations", "dagger", ("dagger", ...)).
 ]

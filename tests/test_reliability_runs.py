@@ -70,6 +70,7 @@ def test_a_full_disk_during_a_save_keeps_the_previous_iteration(workspace: Path,
 
 def test_a_full_disk_during_a_gail_update_keeps_the_previous_update(workspace: Path,
                                                                     monkeypatch: pytest.MonkeyPatch):
+    from sumo_rail.learning.bc import BcSettings
     from sumo_rail.learning.sb3.gail import GailSettings, train_gail
     from sumo_rail.learning.sb3.runs import BaselineError
 
@@ -83,7 +84,8 @@ def test_a_full_disk_during_a_gail_update_keeps_the_previous_update(workspace: P
             raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
         monkeypatch.setattr(pq, "write_table", write_half_then_fail)
 
-    settings = GailSettings("demos.parquet", timesteps=64, envs=1, n_steps=32, batch_size=32, bc_epochs=1)
+    settings = GailSettings("demos.parquet", timesteps=64, envs=1, n_steps=32, batch_size=32,
+                            bc=BcSettings(epochs=1))
     with pytest.raises(BaselineError) as caught:
         train_gail(workspace / "gail_run", settings, SMALL_CONFIG, on_update=fail_from_the_second_update)
     monkeypatch.setattr(pq, "write_table", original)
@@ -117,11 +119,14 @@ def _is_env_process(pid: int) -> bool:
 
 
 LOSING_RUNS = {
-    "GAIL": ["gail", *SMALL, "--demos", "demos.parquet", "--timesteps", "100000", "--envs", "1", "--n-steps", "32",
-             "--bc-epochs", "1", "--out", "sb3_run"],
-    "PPO": ["ppo", *SMALL, "--timesteps", "100000", "--envs", "1", "--n-steps", "32", "--out", "sb3_run"],
-    "PPO with two egos a process": ["ppo", *SMALL, "--timesteps", "100000", "--envs", "1", "--egos", "2",
-                                    "--n-steps", "32", "--out", "sb3_run"],
+    "GAIL": ["gail", *SMALL, "--demos", "demos.parquet", "--timesteps", "100000", "--set", "gail.envs=1", "--set",
+             "gail.n_steps=32",
+             "--set", "bc.epochs=1", "--out", "sb3_run"],
+    "PPO": ["ppo", *SMALL, "--timesteps", "100000", "--set", "ppo.envs=1", "--set", "ppo.n_steps=32", "--out",
+    "sb3_run"],
+    "PPO with two egos a process": ["ppo", *SMALL, "--timesteps", "100000", "--set", "ppo.envs=1", "--set",
+    "ppo.egos=2",
+                                    "--set", "ppo.n_steps=32", "--out", "sb3_run"],
 }
 
 

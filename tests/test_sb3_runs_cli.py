@@ -35,9 +35,11 @@ def demos(tmp_path_factory) -> Path:
 
 
 def runs(demos: Path) -> dict[str, list[str]]:
-    common = [*SMALL, "--envs", "1", "--n-steps", "32"]
-    return {"ppo": ["ppo", *common],
-            "gail": ["gail", *common, "--demos", str(demos), "--bc-epochs", "1", "--critic-warmup", "0"]}
+    def common(section: str) -> list[str]:
+        return [*SMALL, "--set", f"{section}.envs=1", "--set", f"{section}.n_steps=32"]
+    return {"ppo": ["ppo", *common("ppo")],
+            "gail": ["gail", *common("gail"), "--demos", str(demos), "--set", "bc.epochs=1", "--set",
+                     "gail.critic_warmup=0"]}
 
 
 @pytest.mark.parametrize("command", ["ppo", "gail"])
@@ -80,7 +82,7 @@ def test_a_sigterm_to_the_whole_process_group_stops_as_ctrl_c_does(tmp_path, dem
     ignore it as they ignore a Ctrl-C, so the run stops after its update with Ctrl-C's sentence (not 'environment
     process 0 was killed by signal 15')."""
     run = tmp_path / "run"
-    process = subprocess.Popen([sys.executable, "-m", "sumo_rail_cli", *runs(demos)["ppo"], "--envs", "2",
+    process = subprocess.Popen([sys.executable, "-m", "sumo_rail_cli", *runs(demos)["ppo"], "--set", "ppo.envs=2",
                                 "--out", str(run), "--timesteps", "100000"],
                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
     try:
@@ -157,7 +159,7 @@ def test_a_ctrl_c_before_the_first_update_says_how_to_start_again(tmp_path, demo
 def test_two_egos_a_process_drive_twice_the_decisions_counted_in_the_environment(tmp_path, demos, command):
     steps = {}
     for egos in (1, 2):
-        result = invoke(*runs(demos)[command], "--egos", str(egos), "--timesteps", "1", "--out",
+        result = invoke(*runs(demos)[command], "--set", f"{command}.egos={egos}", "--timesteps", "1", "--out",
                         str(tmp_path / f"egos{egos}"))
         assert result.exit_code == 0, result.output
         steps[egos] = pd.read_parquet(tmp_path / f"egos{egos}" / "log.parquet")["env_steps"].tolist()

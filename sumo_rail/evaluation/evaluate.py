@@ -27,9 +27,11 @@ from sumo_rail.sim.env import HighwayEnv
 
 
 def parse_driver(text: str, config: Config, expert: DriverSpec) -> DriverSpec:
-    """'expert' (the given `expert`), 'expert:STYLE', 'keep', 'random', or the path of a saved policy file
-    (`parse_policy`)."""
+    """'expert' (the given `expert`), 'expert:STYLE', 'keep', 'random', the path of a saved policy file
+    (`parse_policy`), or 'sampled:PATH', that policy drawing each action from the softmax of its logits."""
     name, colon, style = text.partition(":")
+    if name == "sampled" and colon:
+        return parse_policy(Path(style), config, sampled=True)
     if name == "expert":
         if not colon:
             return expert
@@ -139,6 +141,12 @@ def evaluate(drivers: Sequence[DriverSpec], config: Config, seeds: Sequence[int]
         metrics, reference_distances(metrics),
         mean_overspeed(decisions_frame, metrics, config.scenario.speed_limit_mps))
     return Evaluation(metrics, decisions_frame, videos)
+
+
+def policy_source(text: str) -> str:
+    """The policy file a --policy word names ("sampled:PATH" names PATH), or the word itself."""
+    name, colon, path = text.partition(":")
+    return path if name == "sampled" and colon else text
 
 
 def recorded_reference(driver: DriverSpec, source: str, config: Config,

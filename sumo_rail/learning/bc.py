@@ -16,6 +16,7 @@ import numpy as np
 import torch
 from torch import nn
 
+from sumo_rail.bounds import bounded, check_fields, given
 from sumo_rail.drivers.policies import MIN_STD, Policy, PolicyShape
 from sumo_rail.learning.torch_threads import single_thread
 from sumo_rail.runners.tables import Demonstrations
@@ -25,19 +26,24 @@ logger = logging.getLogger(__name__)
 
 @dataclass(frozen=True)
 class BcSettings:
-    epochs: int = 20
-    batch_size: int = 256
-    learning_rate: float = 1e-3
+    epochs: int = bounded(0, 100_000, default=20)
+    """Passes over the demonstrations (0: no behaviour cloning; DAgger clones at least one)."""
+    batch_size: int = bounded(1, 1_000_000, default=256)
+    """Decisions per gradient step."""
+    learning_rate: float = bounded(0, 1, default=1e-3, low_open=True)
     """Adam step size."""
-    holdout_fraction: float = 0.2
+    holdout_fraction: float = bounded(0, 1, default=0.2, high_open=True)
     """Share of demonstration episodes held out for accuracy (at least one when there are two or more)."""
-    class_balance: float = 0.75
+    class_balance: float = bounded(0, 10, default=0.75)
     """Exponent p of the cross-entropy's class weights (1 / frequency)^p, normalised to a mean weight of 1 per
     row: 0 is the plain cross-entropy, 1 weighs every action equally. An expert keeps its lane in ~96% of its
     decisions, so plain BC never changes lanes. p = 0.75 came closest to the expert's lane changes among 0, 0.5,
     0.65, 0.75 and 1, and agrees with the expert more than p = 0 on validation episodes (+0.48 [+0.25, +0.72],
     docs/results.md, "BC's class balance")."""
-    seed: int = 0
+    seed: int = given("--seed", 0)
+
+    def __post_init__(self) -> None:
+        check_fields(self, "bc.")
 
 
 IMITATION_BC = BcSettings()

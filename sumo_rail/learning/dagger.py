@@ -26,6 +26,7 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 
+from sumo_rail.bounds import bounded, check_fields, given
 from sumo_rail.config import Config
 from sumo_rail.datasets import read_metadata, write_bytes_atomically, write_parquet
 from sumo_rail.drivers.policies import Policy, PolicyShape, save_policy
@@ -56,32 +57,29 @@ DATASET = "dagger_dataset"
 class DaggerSettings:
     """What defines a DAgger run; `resume` requires the same (except the number of rounds)."""
 
-    demos: str
-    kind: str = "mlp"
-    hidden: int = 10
-    episodes_per_round: int = 20
-    beta: float = 0.5
+    demos: str = given("--demos")
+    kind: str = given("network.shape", "mlp")
+    hidden: int = given("network.hidden", 10)
+    episodes_per_round: int = bounded(1, 100_000, default=20)
+    """Episodes the mixture of policy and expert drives each round."""
+    beta: float = bounded(0, 1, default=0.5)
     """Probability that the expert drives a decision in round 1."""
-    beta_decay: float = 0.5
+    beta_decay: float = bounded(0, 1, default=0.5)
     """beta_r = beta * beta_decay^(r - 1)."""
-    bc: BcSettings = IMITATION_BC
-    seed: int = 0
-    expert: str | None = None
+    bc: BcSettings = given("[bc]", IMITATION_BC)
+    seed: int = given("--seed", 0)
+    expert: str | None = given("--expert", None)
     """Who labels: a style or a policy file (`experts.resolve_expert`); None: the demonstrations' expert."""
-    egos: int = 1
+    egos: int = bounded(1, 1000, default=1)
     """Egos per simulation: a round's episodes run K at a time in one SUMO (`DaggerTask`)."""
-    roads: tuple[str, ...] = ()
+    roads: tuple[str, ...] = given("--roads", ())
     """Roads (scenario kinds) a round's simulations are spread over in turn, simulation j on roads[j mod len]: DAgger
     on a mix of roads. Empty: every simulation on the configured road."""
-    include_failed_demos: bool = False
+    include_failed_demos: bool = given("--include-failed", False)
     """Learn from the demonstrations' failed episodes too (`read_demonstrations`)."""
 
     def __post_init__(self) -> None:
-        if self.episodes_per_round < 1 or self.egos < 1:
-            raise ValueError(f"--episodes-per-round and --egos must be at least 1, got {self.episodes_per_round} and "
-                             f"{self.egos}")
-        if not (0.0 <= self.beta <= 1.0 and 0.0 <= self.beta_decay <= 1.0):
-            raise ValueError(f"--beta and --beta-decay must be in [0, 1], got {self.beta} and {self.beta_decay}")
+        check_fields(self, "dagger.")
 
     def beta_of(self, round_: int) -> float:
         return self.beta * self.beta_decay ** (round_ - 1)

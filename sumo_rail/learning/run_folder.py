@@ -8,6 +8,7 @@ writes last, so the checkpoint marks the last complete step (`written_together`)
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import pickle
 import signal
@@ -28,6 +29,7 @@ from sumo_rail.datasets import (
     write_bytes_atomically,
     write_failure,
 )
+from sumo_rail.learning.bc import BcSettings
 from sumo_rail.runners.tables import ROAD_FILES
 
 
@@ -94,7 +96,7 @@ def check_resumable(folder: Path, checkpoint: str, run_record: dict[str, Any], d
         return {key: value for key, value in settings.items() if key not in free}
 
     added = {"include_failed_demos": False} if "include_failed_demos" in run_record["settings"] else {}
-    settings = with_defaults(stored["settings"], {**added, **(defaults or {})})
+    settings = with_defaults(upgraded(stored["settings"]), {**added, **(defaults or {})})
     if isinstance(run_record["settings"].get("demos"), str) and isinstance(settings.get("demos"), str):
         check_same_demos(folder, settings["demos"], stored.get(DEMOS_HASH), run_record)
         settings = {**settings, "demos": run_record["settings"]["demos"]}
@@ -155,6 +157,18 @@ def check_same_demos(folder: Path, recorded: str, digest: str | None, run_record
 def as_json(settings: dict[str, Any]) -> dict[str, Any]:
     """`settings` as run.json reads them back (tuples as lists), so a resumed run compares like with like."""
     return json.loads(json.dumps(settings))
+
+
+def upgraded(settings: dict[str, Any]) -> dict[str, Any]:
+    """A run.json's settings in today's layout. Before BC's settings were stored whole (the `bc` section), train and
+    gail stored `bc_epochs` and later `bc_class_balance` (absent: 0, the plain cross-entropy BC was then); the rest of
+    their BC was what today's defaults are, seeded with the run's seed."""
+    if "bc_epochs" not in settings:
+        return settings
+    settings = dict(settings)
+    seed = settings.get("seed", settings.get("rail", {}).get("seed", 0))
+    bc = BcSettings(epochs=settings.pop("bc_epochs"), class_balance=settings.pop("bc_class_balance", 0.0), seed=seed)
+    return {**settings, "bc": dataclasses.asdict(bc)}
 
 
 def with_defaults(stored: dict[str, Any], defaults: dict[str, Any]) -> dict[str, Any]:

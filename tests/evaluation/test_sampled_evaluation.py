@@ -1,4 +1,4 @@
-"""evaluate --sample-policy: a policy file evaluated by sampling from its softmax, seeded per episode."""
+"""evaluate --policy sampled:PATH: a policy file evaluated by sampling from its softmax, seeded per episode."""
 
 import numpy as np
 import pandas as pd
@@ -30,7 +30,7 @@ def test_sampled_evaluation_is_the_same_for_any_worker_count_and_differs_from_ar
     policy = hand_made_policy(tmp_path / "mostly_keep.npz", action=0)  # logits 1 vs 0: argmax keeps, softmax 40%
     outs = [tmp_path / "m1.parquet", tmp_path / "m2.parquet"]
     for out, workers in zip(outs, ("1", "2"), strict=True):
-        result = invoke("evaluate", *SMALL, "--policy", str(policy), "--sample-policy", str(policy), "--episodes",
+        result = invoke("evaluate", *SMALL, "--policy", str(policy), "--policy", f"sampled:{policy}", "--episodes",
                         "2", "--seed", "1000", "--workers", workers, "--out", str(out))
         assert result.exit_code == 0, result.output
         assert "mostly_keep (sampled)" in result.output
@@ -38,7 +38,7 @@ def test_sampled_evaluation_is_the_same_for_any_worker_count_and_differs_from_ar
     pd.testing.assert_frame_equal(frames[0], frames[1])
     pd.testing.assert_frame_equal(*(pd.read_parquet(out.with_suffix(".decisions.parquet")) for out in outs))
     assert frames[0]["policy"].tolist() == ["mostly_keep"] * 2 + ["mostly_keep (sampled)"] * 2
-    assert read_metadata(outs[0])["sampled_policies"] == [str(policy)]
+    assert read_metadata(outs[0])["policies"] == [str(policy), f"sampled:{policy}"]
     decisions = pd.read_parquet(outs[0].with_suffix(".decisions.parquet"))
     argmax = decisions[decisions["policy"] == "mostly_keep"]["action"]
     sampled = decisions[decisions["policy"] == "mostly_keep (sampled)"]["action"]
@@ -47,5 +47,5 @@ def test_sampled_evaluation_is_the_same_for_any_worker_count_and_differs_from_ar
 
 
 def test_a_bad_sampled_policy_file_is_one_sentence(tmp_path):
-    result = invoke("evaluate", *SMALL, "--sample-policy", str(tmp_path / "missing.npz"))
+    result = invoke("evaluate", *SMALL, "--policy", f"sampled:{tmp_path / 'missing.npz'}")
     assert result.exit_code == 1 and "does not exist" in result.output and "Traceback" not in result.output

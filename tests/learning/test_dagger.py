@@ -151,8 +151,8 @@ def test_in_a_shared_simulation_each_ego_follows_its_own_mixture(demos, beta, ex
 
 def test_dagger_command_end_to_end(tmp_path, demos):
     out = tmp_path / "run"
-    result = invoke("dagger", *SMALL, "--demos", str(demos), "--rounds", "1", "--episodes-per-round", "1",
-                    "--bc-epochs", "2", "--eval-episodes", "1", "--out", str(out))
+    result = invoke("dagger", *SMALL, "--demos", str(demos), "--rounds", "1", "--set", "dagger.episodes_per_round=1",
+                    "--set", "bc.epochs=2", "--eval-episodes", "1", "--out", str(out))
     assert result.exit_code == 0, result.output
     assert "round 1:" in result.output and "validation agreement" in result.output
     assert sorted(path.name for path in out.iterdir()) == ["checkpoint.json", "dataset.parquet", "log.parquet",
@@ -161,17 +161,17 @@ def test_dagger_command_end_to_end(tmp_path, demos):
     assert result.exit_code == 0 and "run/policy_latest" in result.output
     again = invoke("dagger", *SMALL, "--demos", str(demos), "--rounds", "1", "--out", str(out))
     assert again.exit_code == 1 and "not empty" in again.output and "Traceback" not in again.output
-    bad = invoke("dagger", *SMALL, "--demos", str(demos), "--beta", "1.5", "--out", str(tmp_path / "x"))
+    bad = invoke("dagger", *SMALL, "--demos", str(demos), "--set", "dagger.beta=1.5", "--out", str(tmp_path / "x"))
     assert bad.exit_code == 2
 
 
-def test_the_dagger_options_default_to_its_settings():
-    """Each default is written once, in DaggerSettings and Validation: the options read them."""
+def test_the_dagger_defaults_are_its_settings():
+    """Each default is written once, in DaggerSettings and Validation: the command reads them."""
     from sumo_rail_cli.dagger_command import dagger_command
+    from sumo_rail_cli.settings import resolve_settings
 
     params = dagger_command.make_context("dagger", ["--demos", "d.parquet", "--out", "run"]).params
-    for name in ("episodes_per_round", "beta", "beta_decay"):
-        assert params[name] == getattr(DaggerSettings("d.parquet"), name), name
+    assert resolve_settings("paper", None, (), ("dagger",))[1].dagger == DaggerSettings("")
     assert params["eval_episodes"] == Validation().episodes
 
 

@@ -33,7 +33,8 @@ def demos(tmp_path_factory):
 def test_train_logs_each_iteration_to_tensorboard_and_resume_continues_the_steps(demos, tmp_path):
     pytest.importorskip("tensorboard", reason="--tensorboard is the package's optional extra [tensorboard]")
     run, board = tmp_path / "run", tmp_path / "board"
-    common = ["train", *SMALL, "--demos", str(demos), "--directions", "2", "--top", "1", "--bc-epochs", "1",
+    common = ["train", *SMALL, "--demos", str(demos), "--set", "rail.directions=2", "--set", "rail.top=1", "--set",
+              "bc.epochs=1",
               "--eval-every", "0", "--out", str(run), "--tensorboard", str(board)]
     assert (result := CliRunner().invoke(cli, [*common, "--iterations", "2"])).exit_code == 0, result.output
     assert (result := CliRunner().invoke(cli, [*common, "--iterations", "3", "--resume"])).exit_code == 0, \
@@ -50,9 +51,9 @@ def test_gail_logs_each_update_to_tensorboard(demos, tmp_path):
     pytest.importorskip("tensorboard", reason="--tensorboard is the package's optional extra [tensorboard]")
     pytest.importorskip("stable_baselines3", reason="gail is the package's optional extra [baselines]")
     run, board = tmp_path / "run", tmp_path / "run" / "tensorboard"  # inside the new run folder is fine
-    result = CliRunner().invoke(cli, ["gail", *SMALL, "--demos", str(demos), "--timesteps", "256", "--n-steps",
-                                      "64", "--envs", "2", "--bc-epochs", "1", "--out", str(run), "--tensorboard",
-                                      str(board)])
+    result = CliRunner().invoke(cli, ["gail", *SMALL, "--demos", str(demos), "--timesteps", "256", "--set",
+                                      "gail.n_steps=64", "--set", "gail.envs=2", "--set", "bc.epochs=1", "--out",
+                                      str(run), "--tensorboard", str(board)])
     assert result.exit_code == 0, result.output
     log = pd.read_parquet(run / "log.parquet")
     logged = scalars(board)
@@ -63,7 +64,7 @@ def test_gail_logs_each_update_to_tensorboard(demos, tmp_path):
 def test_dagger_logs_each_round_to_tensorboard_and_resume_continues_the_steps(demos, tmp_path):
     pytest.importorskip("tensorboard", reason="--tensorboard is the package's optional extra [tensorboard]")
     run, board = tmp_path / "run", tmp_path / "board"
-    common = ["dagger", *SMALL, "--demos", str(demos), "--episodes-per-round", "1", "--bc-epochs", "1",
+    common = ["dagger", *SMALL, "--demos", str(demos), "--set", "dagger.episodes_per_round=1", "--set", "bc.epochs=1",
               "--eval-every", "0", "--out", str(run), "--tensorboard", str(board)]
     assert (result := CliRunner().invoke(cli, [*common, "--rounds", "1"])).exit_code == 0, result.output
     assert (result := CliRunner().invoke(cli, [*common, "--rounds", "2", "--resume"])).exit_code == 0, result.output

@@ -108,15 +108,17 @@ def test_train_and_gail_take_recorded_demos_and_dagger_refuses_them(tmp_path):
     two_car_scene(tmp_path / "scene")
     demos = str(tmp_path / "demos.parquet")
     assert invoke("recorded-demos", str(tmp_path / "scene"), "--out", demos).exit_code == 0
-    result = invoke("train", *SMALL, "--demos", demos, "--iterations", "1", "--directions", "2", "--top", "1",
-                    "--bc-epochs", "1", "--eval-every", "0", "--out", str(tmp_path / "rail"))
+    result = invoke("train", *SMALL, "--demos", demos, "--iterations", "1", "--set", "rail.directions=2", "--set",
+                    "rail.top=1",
+                    "--set", "bc.epochs=1", "--eval-every", "0", "--out", str(tmp_path / "rail"))
     assert result.exit_code == 0, result.output
     assert (tmp_path / "rail" / "policy_latest.npz").is_file()
-    result = invoke("dagger", *SMALL, "--demos", demos, "--rounds", "1", "--episodes-per-round", "1",
-                    "--bc-epochs", "1", "--eval-every", "0", "--out", str(tmp_path / "dagger"))
+    result = invoke("dagger", *SMALL, "--demos", demos, "--rounds", "1", "--set", "dagger.episodes_per_round=1",
+                    "--set", "bc.epochs=1", "--eval-every", "0", "--out", str(tmp_path / "dagger"))
     assert result.exit_code == 1 and "a recorded driver cannot be asked what it would do" in result.output
     assert "Traceback" not in result.output and not (tmp_path / "dagger").exists()
     pytest.importorskip("stable_baselines3", reason="gail is the package's optional extra [baselines]")
-    result = invoke("gail", *SMALL, "--demos", demos, "--timesteps", "64", "--n-steps", "32", "--envs", "1",
-                    "--bc-epochs", "1", "--out", str(tmp_path / "gail"))
+    result = invoke("gail", *SMALL, "--demos", demos, "--timesteps", "64", "--set", "gail.n_steps=32", "--set",
+                    "gail.envs=1",
+                    "--set", "bc.epochs=1", "--out", str(tmp_path / "gail"))
     assert result.exit_code == 0, result.output

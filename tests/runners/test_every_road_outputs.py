@@ -105,8 +105,8 @@ def test_minari_exports_a_roads_demonstrations_and_loads_them_back(recorded, tmp
 
 
 def rail_settings(demos: Path) -> RunSettings:
-    return RunSettings(str(demos), "mlp", 4, 3, RailSettings(directions=2, top=1, step_size=0.01, seed=1),
-                       DiscriminatorSettings(seed=1, steps_per_iteration=2))
+    return RunSettings(str(demos), "mlp", 4, RailSettings(directions=2, top=1, step_size=0.01, seed=1),
+                       DiscriminatorSettings(seed=1, steps_per_iteration=2), BcSettings(epochs=3))
 
 
 def policy_arrays(path: Path) -> dict[str, np.ndarray]:

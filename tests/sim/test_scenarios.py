@@ -296,15 +296,17 @@ def test_the_cli_takes_a_road_by_its_bare_name_and_records_it_in_the_outputs_pro
 
 
 def test_set_reads_bare_words_and_edge_lists_as_strings_and_numbers_as_numbers():
-    from sumo_rail_cli.settings import _parse_overrides, resolve_config
+    from sumo_rail_cli.settings import resolve_settings
 
-    scenario = _parse_overrides(("scenario.route=e1 e2", "scenario.flow_veh_per_h=2000",
+    from sumo_rail.setting_tables import read_assignments
+
+    scenario = read_assignments(("scenario.route=e1 e2", "scenario.flow_veh_per_h=2000",
                                  'scenario.traffic_file="my file.rou.xml"'))["scenario"]
     assert scenario == {"route": "e1 e2", "flow_veh_per_h": 2000, "traffic_file": "my file.rou.xml"}
     with pytest.raises(Exception, match="unreadable value"):
-        resolve_config("paper", None, ('scenario.route="e1',))
+        resolve_settings("paper", None, ('scenario.route="e1',))[0]
     with pytest.raises(Exception, match="must be a number"):
-        resolve_config("paper", None, ("scenario.flow_veh_per_h=lots",))
+        resolve_settings("paper", None, ("scenario.flow_veh_per_h=lots",))[0]
 
 
 def test_several_egos_share_a_ramp_and_respawn_on_it(small_config):

@@ -115,7 +115,7 @@ def test_a_compressed_network_is_taken_and_a_sumo_configuration_is_refused(small
 
 def test_a_users_files_are_found_from_the_toml_kept_absolute_and_pinned_by_their_hash(small_config, tmp_path,
                                                                                        monkeypatch):
-    from sumo_rail_cli.settings import resolve_config
+    from sumo_rail_cli.settings import resolve_settings
 
     from sumo_rail.datasets import file_sha256
     from sumo_rail.learning.run_folder import RunError, check_resumable, start_run_folder
@@ -130,7 +130,7 @@ def test_a_users_files_are_found_from_the_toml_kept_absolute_and_pinned_by_their
     elsewhere = tmp_path / "elsewhere"
     elsewhere.mkdir()
     monkeypatch.chdir(elsewhere)
-    config = resolve_config("paper", Path("../road/road.toml"), ())
+    config, _ = resolve_settings("paper", Path("../road/road.toml"), ())
     assert config.scenario.network == str(net) and config.scenario.traffic_file == str(road / "cars.rou.xml")
     record = {"settings": {}, **provenance("training_run", config, 0)}
     cars = road / "cars.rou.xml"

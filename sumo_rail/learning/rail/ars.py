@@ -20,6 +20,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.stats import rankdata
 
+from sumo_rail.bounds import bounded, check_fields
+
 
 @dataclass(frozen=True, eq=False)
 class ArsStep:
@@ -90,16 +92,15 @@ def ars_update(parameters: np.ndarray, deltas: np.ndarray, returns_plus: np.ndar
 class NoiseAdaptation:
     """Schedule of the noise coefficient nu (RAIL, Algorithm 1, lines 20-24)."""
 
-    initial: float = 0.03
+    initial: float = bounded(0, 10, default=0.03, low_open=True)
     """nu_init, the perturbation scale after an improvement (parameter units)."""
-    increment: float = 0.001
+    increment: float = bounded(0, 10, default=0.001)
     """tau, added to nu at each check without improvement."""
-    every: int = 10
+    every: int = bounded(1, 1_000_000, default=10)
     """eta, iterations between checks."""
 
     def __post_init__(self) -> None:
-        if not (self.initial > 0 and self.increment >= 0 and self.every >= 1):
-            raise ValueError(f"noise adaptation needs initial > 0, increment >= 0 and every >= 1, got {self}")
+        check_fields(self, "rail.noise.")
 
 
 def adapt_noise(nu: float, iteration: int, best_before: float, best_now: float, schedule: NoiseAdaptation) -> float:

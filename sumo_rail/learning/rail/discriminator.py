@@ -19,6 +19,7 @@ import numpy as np
 import torch
 from torch import nn
 
+from sumo_rail.bounds import ConfigError, bounded, check_fields, given
 from sumo_rail.drivers.policies import MIN_STD
 from sumo_rail.learning.torch_threads import single_thread
 
@@ -31,30 +32,36 @@ REWARD_FORMS = ("logit", "contrast")
 
 @dataclass(frozen=True)
 class DiscriminatorSettings:
-    hidden: int = 64
+    hidden: int = bounded(1, 4096, default=64)
     """Units of each of the two hidden layers."""
-    learning_rate: float = 3e-4
+    learning_rate: float = bounded(0, 1, default=3e-4, low_open=True)
     """Adam step size."""
-    steps_per_iteration: int = 10
+    steps_per_iteration: int = bounded(1, 100_000, default=10)
     """Gradient steps per `train` call."""
-    batch_size: int = 512
+    batch_size: int = bounded(1, 1_000_000, default=512)
     """Expert pairs and policy pairs per step (each sampled with replacement)."""
-    reward_clip: float = 1e-3
+    reward_clip: float = bounded(0, 0.5, default=1e-3, low_open=True, high_open=True)
     """D is clipped to [clip, 1 - clip] before the log, bounding the reward by log((1 - clip) / clip)."""
-    seed: int = 0
+    seed: int = given("--seed", 0)
     reward_form: str = "logit"
     """'logit': log D(s, a) - log(1 - D(s, a)), the paper's reward; 'contrast': that minus its mean over every action
     at the same state, so the part that depends on the state alone (how expert-like the visited traffic is) cancels
     and only the choice among the actions at that state is rewarded."""
-    balance: float = 0.0
+    balance: float = bounded(0, 10, default=0.0)
     """Minibatches draw each side's pairs with weights (1 / frequency of their action on that side)^balance: 0 draws
     pairs uniformly, 1 every action equally often (the rare lane changes as often as keeping the lane)."""
-    gradient_penalty: float = 0.0
+    gradient_penalty: float = bounded(0, 1e6, default=0.0)
     """Weight of the mean squared norm of the gradient of D's logit with respect to its input at expert pairs (R1,
     Mescheder et al. 2018), added to the loss: it keeps D smooth rather than chasing the last policy's pairs."""
-    replay: int = 1
+    replay: int = bounded(1, 100_000, default=1)
     """Policy pairs of this many most recent `train` calls (RAIL iterations) are the policy side of each minibatch;
     1: the current call's only, as the paper."""
+
+    def __post_init__(self) -> None:
+        check_fields(self, "discriminator.")
+        if self.reward_form not in REWARD_FORMS:
+            raise ConfigError(f"discriminator.reward_form must be one of {', '.join(REWARD_FORMS)}, got "
+                              f"{self.reward_form!r}")
 
 
 @dataclass(frozen=True)
@@ -84,15 +91,6 @@ class Discriminator:
         if mean.shape != (observation_size,) or std.shape != (observation_size,):
             raise ValueError(f"normalisation statistics must have shape ({observation_size},), got {mean.shape} "
                              f"and {std.shape}")
-        if not 0.0 < settings.reward_clip < 0.5 or settings.steps_per_iteration < 1 or settings.batch_size < 1:
-            raise ValueError(f"discriminator settings need 0 < reward_clip < 0.5, steps_per_iteration >= 1 and "
-                             f"batch_size >= 1, got {settings}")
-        if settings.reward_form not in REWARD_FORMS:
-            raise ValueError(f"the discriminator's reward form must be one of {', '.join(REWARD_FORMS)}, got "
-                             f"{settings.reward_form!r}")
-        if settings.balance < 0 or settings.gradient_penalty < 0 or settings.replay < 1:
-            raise ValueError(f"discriminator settings need balance >= 0, gradient_penalty >= 0 and replay >= 1, got "
-                             f"{settings}")
         self.observation_size, self.actions, self.settings = observation_size, actions, settings
         self._mean = torch.as_tensor(mean, dtype=torch.float32)
         self._scale = torch.as_tensor(1.0 / np.where(std < MIN_STD, 1.0, std), dtype=torch.float32)

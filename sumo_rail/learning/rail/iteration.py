@@ -27,6 +27,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from sumo_rail.bounds import given
 from sumo_rail.config import Config
 from sumo_rail.drivers.expert import DEFAULT_STYLE
 from sumo_rail.drivers.policies import Policy, PolicyShape
@@ -69,7 +70,7 @@ class RailSettings:
     (docs/results.md, "RAIL ablations"), so the default deviates from it."""
     noise: NoiseAdaptation = field(default_factory=NoiseAdaptation)
     """nu_init 0.03, tau 0.001, eta."""
-    seed: int = 0
+    seed: int = given("--seed", 0)
     common_traffic: bool = False
     """All directions and signs of an iteration drive the same episode seeds (common random numbers); the default,
     each direction its own (both signs share them), imitates better on validation episodes (docs/results.md, "RAIL
@@ -99,30 +100,30 @@ class RailSettings:
     """When set, nu is chosen at every iteration so that the iteration's perturbations change this share of the
     policy's decisions on CALIBRATION_STATES of the expert's states (`noise.noise_for_flip_rate`), in place of the
     paper's nu schedule (`noise`)."""
-    roads: tuple[str, ...] = ()
+    roads: tuple[str, ...] = given("--roads", ())
     """Roads (scenario kinds) the directions take in turn, direction k's rollouts on roads[k mod len]: RAIL on a mix
     of roads (`runners.road_mix`). Empty: every rollout on the configured road."""
 
     def __post_init__(self) -> None:
         if self.directions < 1:
-            raise ValueError(f"--directions must be at least 1, got {self.directions}")
+            raise ValueError(f"rail.directions must be at least 1, got {self.directions}")
         if not 1 <= self.kept <= self.directions:
-            raise ValueError(f"--top must be between 1 and --directions ({self.directions}), got {self.top}")
+            raise ValueError(f"rail.top must be between 1 and rail.directions ({self.directions}), got {self.top}")
         if self.step_size <= 0:
-            raise ValueError(f"the step size must be positive, got {self.step_size}")
+            raise ValueError(f"rail.step_size must be positive, got {self.step_size}")
         if self.episodes_per_rollout < 1:
-            raise ValueError(f"--episodes-per-rollout must be at least 1, got {self.episodes_per_rollout}")
+            raise ValueError(f"rail.episodes_per_rollout must be at least 1, got {self.episodes_per_rollout}")
         if self.fitness not in FITNESS_SHAPINGS:
-            raise ValueError(f"--fitness must be one of {', '.join(FITNESS_SHAPINGS)}, got {self.fitness!r}")
+            raise ValueError(f"rail.fitness must be one of {', '.join(FITNESS_SHAPINGS)}, got {self.fitness!r}")
         if self.egos < 1:
-            raise ValueError(f"--egos must be at least 1, got {self.egos}")
+            raise ValueError(f"rail.egos must be at least 1, got {self.egos}")
         if self.rollout_decisions is not None and (self.rollout_decisions < 1 or self.episodes_per_rollout > 1):
-            raise ValueError(f"--rollout-decisions must be at least 1 and replaces --episodes-per-rollout, got "
+            raise ValueError(f"rail.rollout_decisions must be at least 1 and replaces rail.episodes_per_rollout, got "
                              f"{self.rollout_decisions} with {self.episodes_per_rollout} episodes per rollout")
         if self.reward not in REWARDS:
-            raise ValueError(f"--reward must be one of {', '.join(REWARDS)}, got {self.reward!r}")
+            raise ValueError(f"rail.reward must be one of {', '.join(REWARDS)}, got {self.reward!r}")
         if self.flip_rate is not None and not 0.0 < self.flip_rate < 1.0:
-            raise ValueError(f"--flip-rate must be between 0 and 1, got {self.flip_rate}")
+            raise ValueError(f"rail.flip_rate must be between 0 and 1, got {self.flip_rate}")
 
     @property
     def kept(self) -> int:

@@ -51,16 +51,17 @@ CHECKPOINT_FORMAT = "sumo-rail checkpoint 1"
 
 @dataclass(frozen=True)
 class RunSettings:
-    """What defines a run; `--resume` requires the same (except the number of iterations)."""
+    """What defines a run, every setting of its sections (stored whole in run.json); `--resume` requires the same
+    (except the number of iterations)."""
 
     demos: str
     kind: str
+    """The network's shape (network.shape)."""
     hidden: int
-    bc_epochs: int
     rail: RailSettings
     discriminator: DiscriminatorSettings
-    bc_class_balance: float = IMITATION_BC.class_balance
-    """`BcSettings.class_balance`."""
+    bc: BcSettings = IMITATION_BC
+    """The behaviour cloning that initialises the policy (bc.epochs 0: none, zero weights); its seed is the run's."""
     include_failed_demos: bool = False
     """Learn from the demonstrations' failed episodes too (`read_demonstrations`)."""
 
@@ -76,7 +77,7 @@ def train(folder: Path, settings: RunSettings, config: Config, iterations: int, 
           on_start: Callable[[int], None] | None = None) -> TrainingState:
     """Train until `iterations` iterations are done; returns the final state. Safe to interrupt at any time.
 
-    `on_bc` receives the behaviour-cloning report (new runs with bc_epochs > 0); `on_iteration` each iteration's
+    `on_bc` receives the behaviour-cloning report (new runs with bc.epochs > 0); `on_iteration` each iteration's
     log row (IterationLog fields, wall_time_s and eval_* metrics); `on_rollout` each rollout as it arrives;
     `on_start` the iterations already done (those of the resumed run, else 0) before the first new one."""
     folder, validation = Path(folder), validation or Validation()
@@ -118,14 +119,12 @@ def train(folder: Path, settings: RunSettings, config: Config, iterations: int, 
 
 def _initial_state(folder: Path, settings: RunSettings, shape: PolicyShape, demos: Any, run_record: dict[str, Any],
                    on_bc: Callable[[BcReport], None] | None) -> TrainingState:
-    """BC-initialised parameters and statistics when --bc-epochs > 0, else zeros and the demonstrations'
+    """BC-initialised parameters and statistics when bc.epochs > 0, else zeros and the demonstrations'
     statistics (BC's are the demonstrations' too, so a frozen normaliser always holds the expert's)."""
-    if settings.bc_epochs < 1:
+    if settings.bc.epochs < 1:
         zeros = np.zeros(shape.parameter_count, np.float32)
         return TrainingState.start(zeros, RunningStats.of(demos.observations), settings.rail)
-    bc_settings = BcSettings(epochs=settings.bc_epochs, class_balance=settings.bc_class_balance,
-                             seed=settings.rail.seed)
-    policy, report = behaviour_cloning(demos, shape, bc_settings)
+    policy, report = behaviour_cloning(demos, shape, dataclasses.replace(settings.bc, seed=settings.rail.seed))
     save_policy(policy, folder / "policy_bc.npz", {**run_record, "bc_report": dataclasses.asdict(report)})
     if on_bc is not None:
         on_bc(report)

@@ -31,7 +31,7 @@ rollout), entropy (PPO's mean policy entropy [nats]), actor_frozen (a critic war
 PPO's rewards were divided by at the update's end; 1 without normalisation). SIGINT / SIGTERM stop the run after
 the current update, and `resume` continues from the last complete one (`sb3.resume` says what it restores
 exactly and what not). `sumo-rail evaluate` takes the policy's argmax (`--policy`, as RAIL's)
-or samples from its softmax, the policy PPO trains (`--sample-policy`).
+or samples from its softmax, the policy PPO trains (`evaluate --policy sampled:PATH`).
 """
 
 from __future__ import annotations
@@ -39,10 +39,11 @@ from __future__ import annotations
 import dataclasses
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from sumo_rail.bounds import bounded, given
 from sumo_rail.config import Config
 from sumo_rail.drivers.expert import DEFAULT_STYLE
 from sumo_rail.drivers.policies import Policy, PolicyShape, save_policy
@@ -87,22 +88,17 @@ INSTALL_HINT = "the GAIL baseline needs Stable-Baselines3: pip install 'sumo-rai
 class GailSettings(PpoSchedule):
     """What defines a GAIL run (stored in run.json)."""
 
-    demos: str
-    bc_epochs: int = IMITATION_BC.epochs
-    """Behaviour-cloning epochs that initialise the actor (0: PPO's own initialisation)."""
-    bc_class_balance: float = IMITATION_BC.class_balance
-    """`BcSettings.class_balance`."""
-    include_failed_demos: bool = False
+    demos: str = given("--demos")
+    bc: BcSettings = given("[bc]", IMITATION_BC)
+    """The behaviour cloning that initialises the actor (bc.epochs 0: PPO's own initialisation)."""
+    include_failed_demos: bool = given("--include-failed", False)
     """Learn from the demonstrations' failed episodes too (`read_demonstrations`)."""
-    critic_warmup: int = field(default=5, kw_only=True)
-    discriminator: DiscriminatorSettings = field(default_factory=DiscriminatorSettings)
+    critic_warmup: int = bounded(0, 100_000, default=5, kw_only=True)
+    """First updates with the actor frozen: only the critic learns; they count in --timesteps."""
+    discriminator: DiscriminatorSettings = given("[discriminator]", default_factory=DiscriminatorSettings)
 
     def __post_init__(self) -> None:
-        self.check_schedule("GAIL")
-        if self.bc_epochs < 0:
-            raise ValueError(f"GAIL needs bc_epochs >= 0, got {self.bc_epochs}")
-        if self.critic_warmup < 0:
-            raise ValueError(f"GAIL needs critic_warmup >= 0, got {self.critic_warmup}")
+        self.check_schedule("gail")
 
 
 @dataclass(frozen=True)
@@ -162,10 +158,10 @@ def _initial_policy(folder: Path, settings: GailSettings, shape: PolicyShape, de
                     run_record: dict[str, Any], on_bc: Callable[[BcReport], None] | None,
                     ) -> tuple[Policy | None, FixedNormalisation]:
     """The BC policy (saved as policy_bc.npz) and its statistics, or None and the demonstrations' statistics."""
-    if settings.bc_epochs < 1:
+    if settings.bc.epochs < 1:
         stats = RunningStats.of(demos.observations)
         return None, FixedNormalisation(stats.mean.copy(), stats.std.copy())
-    bc_settings = BcSettings(epochs=settings.bc_epochs, class_balance=settings.bc_class_balance, seed=settings.seed)
+    bc_settings = dataclasses.replace(settings.bc, seed=settings.seed)
     policy, report = behaviour_cloning(demos, shape, bc_settings)
     save_policy(policy, folder / "policy_bc.npz", {**run_record, "bc_report": dataclasses.asdict(report)})
     if on_bc is not None:

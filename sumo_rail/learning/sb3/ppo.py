@@ -33,12 +33,13 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from sumo_rail.bounds import ConfigError, bounded, given
 from sumo_rail.config import Config
 from sumo_rail.drivers.policies import Policy, PolicyShape
 from sumo_rail.learning.run_folder import start_run_folder, stop_requests
@@ -69,27 +70,28 @@ KMH_PER_MPS = 3.6
 class PpoSettings(PpoSchedule):
     """What defines a PPO driver run (stored in run.json)."""
 
-    timesteps: int = field(default=400_000, kw_only=True)
-    ent_coef: float = 0.01
+    timesteps: int = given("--timesteps", 400_000, kw_only=True)
+    ent_coef: float = bounded(0, 10, default=0.01)
     """PPO's entropy bonus: keeps lane changes tried until their worth is learnt."""
-    overtake_reward: float = 0.0
+    overtake_reward: float = bounded(0, 100, default=0.0)
     """Shaping: reward per vehicle overtaken (0: the env's reward alone)."""
-    keep_right_reward: float = 0.0
+    keep_right_reward: float = bounded(0, 100, default=0.0)
     """Shaping: reward per decision in the rightmost lane, falling linearly to 0 in the leftmost."""
-    init: str | None = None
+    init: str | None = given("--init", None)
     """Policy file the actor starts from (None: PPO's own random initialisation)."""
-    critic_warmup: int = field(default=0, kw_only=True)
-    """With `init` only: first updates with the actor frozen while the critic learns; they count in `timesteps`."""
+    critic_warmup: int = bounded(0, 100_000, default=0, kw_only=True)
+    """With --init only: first updates with the actor frozen while the critic learns; they count in --timesteps
+    (left unset with --init: 5)."""
 
     def __post_init__(self) -> None:
-        self.check_schedule("PPO")
-        if min(self.ent_coef, self.overtake_reward, self.keep_right_reward, self.critic_warmup) < 0:
-            raise ValueError(f"PPO needs ent_coef, overtake_reward, keep_right_reward and critic_warmup >= 0, got "
-                             f"{self.ent_coef}, {self.overtake_reward}, {self.keep_right_reward} and "
-                             f"{self.critic_warmup}")
+        self.check_schedule("ppo")
+
+    def check_warmup(self) -> None:
+        """ConfigError for a critic warm-up without a policy to start from (a setting and an option together, so
+        checked when the run is made, not when the section is set)."""
         if self.critic_warmup and self.init is None:
-            raise ValueError("--critic-warmup needs --init: a critic warm-up keeps an initial actor while the critic "
-                             "learns, and without --init the actor is PPO's random one")
+            raise ConfigError("ppo.critic_warmup needs --init: a critic warm-up keeps an initial actor while the "
+                              "critic learns, and without --init the actor is PPO's random one")
 
     def shape(self, config: Config) -> PolicyShape:
         """The actor's layout on `config`'s observation."""
@@ -156,6 +158,7 @@ def train_ppo_driver(folder: Path, settings: PpoSettings, config: Config,
     """Train into the empty or new `folder`, or with `resume` continue the run in it from its last complete update
     (`sb3.resume`); `on_update` gets each new log row once its update is saved."""
     require_stable_baselines3(INSTALL_HINT)
+    settings.check_warmup()
     folder = Path(folder)
     shape = settings.shape(config)
     run_record = {"settings": settings.to_dict(), **provenance("ppo_run", config, settings.seed)}

@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING, Any
 
 import pyarrow as pa
 
+from sumo_rail.bounds import ConfigError, bounded, check_fields, given
 from sumo_rail.datasets import DatasetError, write_failure, write_parquet, written_together
 from sumo_rail.drivers.policies import Policy, PolicyShape, save_policy
 from sumo_rail.learning.run_folder import save_tensors, signals_ignored
@@ -26,6 +27,10 @@ if TYPE_CHECKING:
     from stable_baselines3 import PPO
     from stable_baselines3.common.vec_env import VecEnv
 
+DEFAULT_BATCH = 64
+"""PPO's minibatch size [decisions] when none is given, or an update's decisions if fewer."""
+
+
 class BaselineError(RuntimeError):
     """A Stable-Baselines3 run cannot go on (message is one sentence)."""
 
@@ -35,44 +40,49 @@ class PpoSchedule:
     """The settings every PPO run has (GAIL's and the PPO driver's, which add their own and may give `timesteps` and
     `critic_warmup` other defaults), their checks, update size and count, and run.json form (stored in run.json)."""
 
-    timesteps: int = 100_000
+    timesteps: int = given("--timesteps", 100_000)
     """Environment decisions in total, rounded up to whole updates of n_steps x envs."""
-    kind: str = "mlp"
-    hidden: int = 10
-    envs: int = 2
-    """Environment processes; the result depends on it."""
-    egos: int = 1
+    kind: str = given("network.shape", "mlp")
+    hidden: int = given("network.hidden", 10)
+    envs: int = bounded(1, 256, default=2)
+    """Environment processes, each running one SUMO; the result depends on it."""
+    egos: int = bounded(1, 1000, default=1)
     """Egos per environment process (`shared_road`): PPO's envs are envs x egos; the result depends on it."""
-    n_steps: int = 512
+    n_steps: int = bounded(1, 1_000_000, default=512)
     """Decisions per env (ego) and update."""
-    learning_rate: float = 3e-4
+    learning_rate: float = bounded(0, 1, default=3e-4, low_open=True)
     """PPO's Adam step size."""
-    batch_size: int = 64
-    """PPO minibatch size [decisions]."""
-    ppo_epochs: int = 10
+    batch_size: int | None = None
+    """PPO minibatch size [decisions], at least 2 and at most an update's decisions; unset: DEFAULT_BATCH, or an
+    update's decisions when fewer (one minibatch of the whole update, what Stable-Baselines3 does then)."""
+    ppo_epochs: int = bounded(1, 1000, default=10)
     """PPO passes over each rollout."""
-    gamma: float = 0.99
+    gamma: float = bounded(0, 1, default=0.99, low_open=True)
     """Discount per decision (0.5 s): a horizon of about 100 decisions."""
     normalize_reward: bool = True
     """Divide PPO's rewards by the running std of the discounted return and clip them (`normalised_rewards`)."""
-    critic_warmup: int = 0
+    critic_warmup: int = bounded(0, 100_000, default=0)
     """First updates with the actor frozen: only the critic learns (`set_actor_trainable`); they count in
     `timesteps`."""
-    seed: int = 0
+    seed: int = given("--seed", 0)
 
-    def check_schedule(self, name: str) -> None:
-        """ValueError naming the first PPO setting out of range (`name`: "GAIL", "PPO")."""
-        if self.timesteps < 1 or min(self.envs, self.egos) < 1 or self.steps_per_update < 2 or self.batch_size < 2:
-            raise ValueError(f"{name} needs timesteps >= 1, envs >= 1, egos >= 1, n_steps x envs x egos >= 2 and "
-                             f"batch_size >= 2, got {self.timesteps}, {self.envs}, {self.egos}, {self.n_steps} and "
-                             f"{self.batch_size}")
-        if self.batch_size > self.steps_per_update:
-            raise ValueError(f"{name}'s batch size {self.batch_size} is larger than an update's "
-                             f"{self.steps_per_update} decisions (n_steps x envs x egos); choose at most "
-                             f"{self.steps_per_update}")
-        if self.ppo_epochs < 1 or self.learning_rate <= 0 or not 0 < self.gamma <= 1:
-            raise ValueError(f"{name} needs ppo_epochs >= 1, learning_rate > 0 and 0 < gamma <= 1, got "
-                             f"{self.ppo_epochs}, {self.learning_rate} and {self.gamma}")
+    def check_schedule(self, section: str) -> None:
+        """ConfigError naming the first setting of `section` ("gail", "ppo") out of range."""
+        check_fields(self, f"{section}.")
+        if self.timesteps < 1:
+            raise ConfigError(f"--timesteps must be at least 1, got {self.timesteps}")
+        update = f"{section}.n_steps x {section}.envs x {section}.egos"
+        if self.steps_per_update < 2:
+            raise ConfigError(f"an update must hold at least 2 decisions ({update}), got {self.steps_per_update}")
+        if not 2 <= self.minibatch <= self.steps_per_update:
+            raise ConfigError(f"{section}.batch_size must be at least 2 and at most an update's "
+                              f"{self.steps_per_update} decisions ({update}), got {self.minibatch}")
+
+    @property
+    def minibatch(self) -> int:
+        """PPO's minibatch size as used [decisions]: batch_size, or DEFAULT_BATCH or an update's decisions if
+        fewer."""
+        return self.batch_size if self.batch_size is not None else min(DEFAULT_BATCH, self.steps_per_update)
 
     @property
     def vec_envs(self) -> int:
@@ -107,7 +117,7 @@ def build_ppo(venv: VecEnv, shape: PolicyShape, settings: PpoSchedule, ent_coef:
     from stable_baselines3.common.logger import Logger
 
     model = PPO("MlpPolicy", venv, learning_rate=settings.learning_rate, n_steps=settings.n_steps,
-                batch_size=settings.batch_size, n_epochs=settings.ppo_epochs, gamma=settings.gamma,
+                batch_size=settings.minibatch, n_epochs=settings.ppo_epochs, gamma=settings.gamma,
                 ent_coef=ent_coef, policy_kwargs=policy_kwargs(shape), seed=settings.seed, device="cpu", verbose=0)
     model.set_logger(Logger(folder=None, output_formats=[]))
     return model

@@ -81,7 +81,7 @@ def test_invalid_arguments():
     for top in (0, 4):
         with pytest.raises(ValueError, match="top must be between 1 and"):
             ars_update(theta, deltas, returns, returns, top, 0.1)
-    with pytest.raises(ValueError, match="every >= 1"):
+    with pytest.raises(ValueError, match=r"rail\.noise\.every must be between 1 and"):
         NoiseAdaptation(every=0)
 
 

@@ -176,8 +176,8 @@ def test_replay_trains_on_the_previous_calls_policy_pairs_too(tmp_path: Path):
 
 
 def test_new_settings_are_checked():
-    for settings, words in ((DiscriminatorSettings(reward_form="softmax"), "reward form"),
-                            (DiscriminatorSettings(balance=-1.0), "balance"),
-                            (DiscriminatorSettings(replay=0), "replay")):
+    for settings, words in (({"reward_form": "softmax"}, "discriminator.reward_form must be one of logit, contrast"),
+                            ({"balance": -1.0}, "discriminator.balance must be between 0 and 10"),
+                            ({"replay": 0}, "discriminator.replay must be between 1 and")):
         with pytest.raises(ValueError, match=words):
-            make(settings)
+            DiscriminatorSettings(**settings)

@@ -88,9 +88,9 @@ def test_frozen_normalizer_keeps_the_starting_statistics():
 
 def test_top_defaults_to_half_the_directions_for_any_n():
     assert [RailSettings(directions=n).kept for n in (1, 8, 9, 32)] == [1, 4, 5, 16]
-    with pytest.raises(ValueError, match="--top must be between 1 and --directions"):
+    with pytest.raises(ValueError, match=r"rail\.top must be between 1 and rail\.directions"):
         RailSettings(directions=8, top=9)
-    with pytest.raises(ValueError, match="--episodes-per-rollout"):
+    with pytest.raises(ValueError, match=r"rail\.episodes_per_rollout"):
         RailSettings(episodes_per_rollout=0)
 
 
@@ -102,7 +102,7 @@ def test_the_agreement_reward_asks_the_expert_and_climbs_agreement():
     total = directions(0, 0, 4, start.parameters.size).sum(axis=0).astype(np.float64)
     step = (state.parameters - start.parameters).astype(np.float64)
     assert step @ total / np.linalg.norm(step) / np.linalg.norm(total) == pytest.approx(1.0, abs=1e-5)
-    with pytest.raises(ValueError, match="--reward"):
+    with pytest.raises(ValueError, match=r"rail\.reward must be one of"):
         RailSettings(reward="oracle")
 
 
@@ -157,7 +157,7 @@ def test_a_rollout_of_decisions_scores_its_reward_per_decision_not_per_life():
     crashed = [[life(10, True), Trajectory(np.zeros((30, SIZE), np.float32), np.zeros(30, np.int64), True, 30,
                                            np.ones(30, np.int64))]]
     assert agreement_returns(crashed, 100, per_decision=True)[0] == 10 / 110  # the crash fills its life to 100
-    with pytest.raises(ValueError, match="--rollout-decisions"):
+    with pytest.raises(ValueError, match=r"rail\.rollout_decisions"):
         RailSettings(rollout_decisions=200, episodes_per_rollout=2)
 
 

@@ -10,6 +10,7 @@ from test_cli import SMALL, hand_made_policy, invoke
 
 from sumo_rail.drivers.policies import MIN_STD, load_policy
 from sumo_rail.evaluation.summary import intervals
+from sumo_rail.learning.bc import BcSettings
 from sumo_rail.learning.rail.discriminator import DiscriminatorSettings
 from sumo_rail.learning.rail.iteration import RailSettings, rollout_return
 from sumo_rail.learning.rail.trainer import RunSettings, train
@@ -29,7 +30,7 @@ def test_a_collision_never_pays_by_ending_early():
 
 
 def test_settings_reject_top_above_directions():
-    with pytest.raises(ValueError, match="--top"):
+    with pytest.raises(ValueError, match=r"rail\.top must be between 1 and rail\.directions"):
         RailSettings(directions=4, top=5)
 
 
@@ -90,8 +91,8 @@ def test_without_bc_a_frozen_normaliser_holds_the_demonstrations_statistics(tmp_
                                                                             small_config_module):
     from sumo_rail.runners.tables import read_demonstrations
 
-    settings = RunSettings(str(demos_path), "linear", 4, 0, RailSettings(directions=2, top=1, seed=1),
-                           DiscriminatorSettings(seed=1, steps_per_iteration=1))
+    settings = RunSettings(str(demos_path), "linear", 4, RailSettings(directions=2, top=1, seed=1),
+                           DiscriminatorSettings(seed=1, steps_per_iteration=1), BcSettings(epochs=0))
     with SerialBackend() as backend:
         train(tmp_path / "run", settings, small_config_module, 1, backend, resume=False,
               validation=Validation(every=0, episodes=1))
@@ -157,7 +158,7 @@ def test_run_folder_rules(tmp_path, demos_path, small_config_module):
         assert log["eval_lane_changes"].isna().all() and log["eval_lane_changes"].dtype == np.float64
         with pytest.raises(RunError, match="not empty"):
             train(tmp_path / "run", settings, small_config_module, 2, backend, resume=False)
-        other = RunSettings(settings.demos, "mlp", 4, 3, settings.rail, settings.discriminator)
+        other = RunSettings(settings.demos, "mlp", 4, settings.rail, settings.discriminator, BcSettings(epochs=3))
         with pytest.raises(RunError, match="other settings"):
             train(tmp_path / "run", other, small_config_module, 2, backend, resume=True)
         (tmp_path / "run" / "checkpoint.pt").write_bytes(b"garbage")

@@ -168,8 +168,8 @@ def test_ppo_updates_leave_no_logger_directories_behind_and_keep_their_values(tm
 
 
 def tiny_settings(demos_path) -> GailSettings:
-    return GailSettings(str(demos_path), timesteps=256, n_steps=64, envs=2, bc_epochs=2, critic_warmup=1, seed=3,
-                        discriminator=DiscriminatorSettings(seed=3, steps_per_iteration=2))
+    return GailSettings(str(demos_path), timesteps=256, n_steps=64, envs=2, bc=BcSettings(epochs=2), critic_warmup=1,
+                        seed=3, discriminator=DiscriminatorSettings(seed=3, steps_per_iteration=2))
 
 
 @pytest.fixture(scope="module")
@@ -238,16 +238,19 @@ def test_gail_refuses_a_non_empty_out_and_bad_sizes(tmp_path, demos_path):
     result = invoke("gail", *SMALL, "--demos", str(demos_path), "--out", str(tmp_path / "run"))
     assert result.exit_code == 1 and "not empty" in result.output and "Traceback" not in result.output
     assert [path.name for path in (tmp_path / "run").iterdir()] == ["precious.txt"]
-    result = invoke("gail", "--demos", str(demos_path), "--envs", "1", "--n-steps", "1", "--out", str(tmp_path / "x"))
-    assert result.exit_code == 2 and "n_steps x envs x egos >= 2" in result.output
-    result = invoke("gail", "--demos", str(demos_path), "--critic-warmup", "-1", "--out", str(tmp_path / "x"))
-    assert result.exit_code == 2 and "--critic-warmup" in result.output and "Traceback" not in result.output
+    result = invoke("gail", "--demos", str(demos_path), "--set", "gail.envs=1", "--set", "gail.n_steps=1", "--out",
+                    str(tmp_path / "x"))
+    assert result.exit_code == 2
+    assert "an update must hold at least 2 decisions (gail.n_steps x gail.envs x gail.egos)" in result.output
+    result = invoke("gail", "--demos", str(demos_path), "--set", "gail.critic_warmup=-1", "--out", str(tmp_path / "x"))
+    assert result.exit_code == 2 and "gail.critic_warmup" in result.output and "Traceback" not in result.output
 
 
 def test_gail_without_reward_normalisation_and_a_warmup_longer_than_the_run(tmp_path, demos_path):
     run = tmp_path / "run"
-    result = invoke("gail", *SMALL, "--demos", str(demos_path), "--timesteps", "64", "--envs", "1", "--n-steps",
-                    "64", "--bc-epochs", "1", "--no-normalize-reward", "--out", str(run))
+    result = invoke("gail", *SMALL, "--demos", str(demos_path), "--timesteps", "64", "--set", "gail.envs=1", "--set",
+                    "gail.n_steps=64", "--set", "bc.epochs=1", "--set", "gail.normalize_reward=false", "--out",
+                    str(run))
     assert result.exit_code == 0, result.output
     assert ("trained 1 PPO update (64 timesteps; the actor frozen in it for the critic's warm-up, so the policy is "
             "the initial one)") in result.output

@@ -1,3 +1,4 @@
+import dataclasses
 import json
 import sys
 
@@ -45,8 +46,9 @@ def test_without_shaping_the_reward_is_the_envs():
 def test_bad_settings_are_usage_errors(tmp_path):
     with pytest.raises(ValueError, match="overtake_reward"):
         PpoSettings(overtake_reward=-1.0)
-    result = invoke("ppo", "--envs", "1", "--n-steps", "1", "--out", str(tmp_path / "x"))
-    assert result.exit_code == 2 and "n_steps x envs x egos >= 2" in result.output and not (tmp_path / "x").exists()
+    result = invoke("ppo", "--set", "ppo.envs=1", "--set", "ppo.n_steps=1", "--out", str(tmp_path / "x"))
+    assert result.exit_code == 2 and not (tmp_path / "x").exists()
+    assert "an update must hold at least 2 decisions (ppo.n_steps x ppo.envs x ppo.egos)" in result.output
     (tmp_path / "run").mkdir()
     (tmp_path / "run" / "precious.txt").write_text("keep")
     result = invoke("ppo", *SMALL, "--out", str(tmp_path / "run"))
@@ -58,9 +60,10 @@ def test_bad_settings_are_usage_errors(tmp_path):
 def runs(tmp_path_factory):
     """The same small PPO run twice, and once with another seed and the overtake shaping."""
     root = tmp_path_factory.mktemp("ppo")
-    common = ("ppo", *SMALL, "--timesteps", "128", "--envs", "1", "--n-steps", "64", "--batch-size", "32")
+    common = ("ppo", *SMALL, "--timesteps", "128", "--set", "ppo.envs=1", "--set", "ppo.n_steps=64", "--set",
+              "ppo.batch_size=32")
     folders = []
-    for name, extra in (("a", ()), ("b", ()), ("c", ("--seed", "1", "--overtake-reward", "1"))):
+    for name, extra in (("a", ()), ("b", ()), ("c", ("--seed", "1", "--set", "ppo.overtake_reward=1"))):
         result = invoke(*common, *extra, "--out", str(root / name))
         assert result.exit_code == 0, result.output
         folders.append(root / name)
@@ -119,8 +122,10 @@ def cloned_driver(path, observation_size: int = 56):
 @pytest.mark.parametrize("warmup", [2, 0])
 def test_init_starts_the_actor_from_the_policy_file_and_the_critic_warmup_keeps_it_there(tmp_path, warmup):
     initial = cloned_driver(tmp_path / "bc.npz")
-    result = invoke("ppo", *SMALL, "--timesteps", "128", "--envs", "1", "--n-steps", "64", "--batch-size", "32",
-                    "--init", str(tmp_path / "bc.npz"), "--critic-warmup", str(warmup), "--out", str(tmp_path / "run"))
+    result = invoke("ppo", *SMALL, "--timesteps", "128", "--set", "ppo.envs=1", "--set", "ppo.n_steps=64", "--set",
+                    "ppo.batch_size=32",
+                    "--init", str(tmp_path / "bc.npz"), "--set", f"ppo.critic_warmup={warmup}", "--out",
+                    str(tmp_path / "run"))
     assert result.exit_code == 0, result.output
     assert ("the actor frozen in all 2 for the critic's warm-up, so the policy is the initial one" in result.output
             ) == (warmup == 2)
@@ -134,7 +139,7 @@ def test_init_starts_the_actor_from_the_policy_file_and_the_critic_warmup_keeps_
 
 def test_an_init_policy_of_another_shape_or_observation_is_refused_before_any_work(tmp_path):
     cloned_driver(tmp_path / "bc.npz")
-    result = invoke("ppo", *SMALL, "--init", str(tmp_path / "bc.npz"), "--policy", "linear", "--out",
+    result = invoke("ppo", *SMALL, "--init", str(tmp_path / "bc.npz"), "--set", "network.shape=linear", "--out",
                     str(tmp_path / "run"))
     assert result.exit_code == 2 and "is a mlp (10 hidden units) policy but the run asks for a linear" in result.output
     cloned_driver(tmp_path / "short.npz", observation_size=30)
@@ -144,41 +149,44 @@ def test_an_init_policy_of_another_shape_or_observation_is_refused_before_any_wo
 
 
 def test_ppo_refuses_a_warmup_without_init_and_a_batch_larger_than_an_update_before_any_work(tmp_path):
-    common = ("ppo", *SMALL, "--envs", "1", "--n-steps", "32", "--out", str(tmp_path / "run"))
-    result = invoke(*common, "--critic-warmup", "3")
-    assert result.exit_code == 2 and "--critic-warmup needs --init" in result.output
-    result = invoke(*common, "--batch-size", "33")
-    assert result.exit_code == 2 and "batch size 33 is larger than an update's 32 decisions" in result.output
+    common = ("ppo", *SMALL, "--set", "ppo.envs=1", "--set", "ppo.n_steps=32", "--out", str(tmp_path / "run"))
+    result = invoke(*common, "--set", "ppo.critic_warmup=3")
+    assert result.exit_code == 2 and "ppo.critic_warmup needs --init" in result.output
+    result = invoke(*common, "--set", "ppo.batch_size=33")
+    assert result.exit_code == 2
+    assert "ppo.batch_size must be at least 2 and at most an update's 32 decisions" in result.output
     assert "Traceback" not in result.output and not (tmp_path / "run").exists()
 
 
 def test_resume_refuses_other_settings_a_damaged_checkpoint_and_nothing_to_resume(tmp_path):
-    common = ("ppo", *SMALL, "--envs", "1", "--n-steps", "32", "--batch-size", "16", "--resume")
+    common = ("ppo", *SMALL, "--set", "ppo.envs=1", "--set", "ppo.n_steps=32", "--set", "ppo.batch_size=16", "--resume")
     result = invoke(*common, "--out", str(tmp_path / "none"))
     assert result.exit_code == 1 and "nothing to resume" in result.output
     run = tmp_path / "run"
     assert invoke(*common[:-1], "--timesteps", "32", "--out", str(run)).exit_code == 0
-    result = invoke(*common, "--timesteps", "64", "--gamma", "0.9", "--out", str(run))
+    result = invoke(*common, "--timesteps", "64", "--set", "ppo.gamma=0.9", "--out", str(run))
     assert result.exit_code == 1 and "was started with other settings" in result.output
     (run / "checkpoint.pt").write_bytes((run / "checkpoint.pt").read_bytes()[:500])
     result = invoke(*common, "--timesteps", "64", "--out", str(run))
     assert result.exit_code == 1 and "checkpoint" in result.output and "Traceback" not in result.output
 
 
-def test_the_ppo_and_gail_options_default_to_their_settings():
-    """Each default is written once, in PpoSettings and GailSettings: the options read them."""
+def test_the_ppo_and_gail_defaults_are_their_settings(tmp_path):
+    """Each default is written once, in PpoSettings and GailSettings: --timesteps reads it, and a run without a
+    setting stores the dataclass's values in run.json (the minibatch as used, the seed the run's)."""
     from sumo_rail_cli.gail_command import gail_command
     from sumo_rail_cli.ppo_command import ppo_command
 
     from sumo_rail.learning.sb3.gail import GailSettings
 
-    shared = ("timesteps", "envs", "egos", "n_steps", "learning_rate", "normalize_reward")
-    ppo = ppo_command.make_context("ppo", ["--out", "run"]).params
-    for name in (*shared, "ent_coef", "gamma", "overtake_reward", "keep_right_reward"):
-        assert ppo[name] == getattr(PpoSettings(), name), name
+    assert ppo_command.make_context("ppo", ["--out", "run"]).params["timesteps"] == PpoSettings().timesteps
     gail = gail_command.make_context("gail", ["--demos", "d.parquet", "--out", "run"]).params
-    for name in (*shared, "critic_warmup"):
-        assert gail[name] == getattr(GailSettings("d.parquet"), name), name
+    assert gail["timesteps"] == GailSettings("d.parquet").timesteps
+    result = invoke("ppo", *SMALL, "--timesteps", "1", "--set", "ppo.n_steps=8", "--out", str(tmp_path / "run"))
+    assert result.exit_code == 0, result.output
+    stored = json.loads((tmp_path / "run" / "run.json").read_text())["settings"]
+    expected = dataclasses.asdict(PpoSettings(n_steps=8, timesteps=1, batch_size=16))
+    assert stored == expected
 
 
 def test_the_finished_lines_say_the_critics_warm_up_in_words():

@@ -123,13 +123,14 @@ def test_the_vec_env_is_its_processes_roads_side_by_side_and_a_ctrl_c_while_they
 
 @pytest.mark.parametrize("command", ["ppo", "gail"])
 def test_ppo_and_gail_with_several_egos_a_process_are_reproducible(tmp_path, command):
-    extra = (["--demos", str(tmp_path / "demos.parquet"), "--bc-epochs", "1"] if command == "gail"
-             else ["--batch-size", "32"])
+    extra = (["--demos", str(tmp_path / "demos.parquet"), "--set", "bc.epochs=1"] if command == "gail"
+             else ["--set", "ppo.batch_size=32"])
     if command == "gail":
         result = invoke("record-expert", *SMALL, "--episodes", "2", "--out", str(tmp_path / "demos.parquet"))
         assert result.exit_code == 0, result.output
-    common = (command, *SMALL, "--timesteps", "256", "--envs", "1", "--egos", "2", "--n-steps", "64",
-              "--critic-warmup", "0", *extra)
+    common = (command, *SMALL, "--timesteps", "256", *(part for word in ("envs=1", "egos=2", "n_steps=64",
+                                                                        "critic_warmup=0")
+                                                        for part in ("--set", f"{command}.{word}")), *extra)
     for name in ("a", "b"):
         result = invoke(*common, "--out", str(tmp_path / name))
         assert result.exit_code == 0, result.output
@@ -142,7 +143,7 @@ def test_ppo_and_gail_with_several_egos_a_process_are_reproducible(tmp_path, com
 
 
 def test_too_many_egos_for_the_road_is_a_usage_error(tmp_path):
-    result = invoke("ppo", *SMALL, "--egos", "40", "--out", str(tmp_path / "run"))
+    result = invoke("ppo", *SMALL, "--set", "ppo.egos=40", "--out", str(tmp_path / "run"))
     assert result.exit_code == 2 and "40 egos need start slots" in result.output
     assert not (tmp_path / "run").exists()
 
