@@ -37,7 +37,7 @@ def policy(tmp_path_factory) -> Path:
 def test_the_report_holds_every_measure_with_its_settings_and_is_reproducible(tmp_path, demos, policy):
     args = ["step-signal", *SMALL, "--demos", str(demos), "--policy", str(policy), "--set", "rail.directions=3",
             "--warmup-rounds", "0", "--discriminator", "given", "--discriminator", "contrast", "--set",
-            "rail.flip_rate=0.1"]
+            "rail.flip_rate=0.1", "--set", "discriminator.hidden=6", "--seed", "5"]
     first = invoke(*args, "--out", str(tmp_path / "a.json"))
     assert first.exit_code == 0, first.output
     second = invoke(*args, "--workers", "2", "--out", str(tmp_path / "b.json"))
@@ -45,6 +45,8 @@ def test_the_report_holds_every_measure_with_its_settings_and_is_reproducible(tm
     report = json.loads((tmp_path / "a.json").read_text())
     assert set(report["rewards"]) == {"given", "contrast"} and "agreement" in report
     assert report["settings"]["rail"]["flip_rate"] == 0.1 and report["kind"] == "step_signal"
+    assert report["settings"]["discriminator"]["hidden"] == 6  # the [discriminator] settings, seeded by --seed
+    assert report["settings"]["rail"]["seed"] == report["settings"]["discriminator"]["seed"] == report["seed"] == 5
     assert report["versions"]["sumo"] and report["config"]["scenario"]["length_m"] == 900
     assert 0 < report["flip_rate"] <= 0.2 and report["nu"] != 0.03  # nu was set by the flip rate
     assert len(report["returns"]["agreement"]["plus"]) == 2 and len(report["returns"]["agreement"]["plus"][0]) == 3

@@ -2,12 +2,13 @@
 
 import numpy as np
 import pandas as pd
-from test_cli import SMALL, hand_made_policy, invoke
+from test_cli import SMALL, SMALL_CONFIG, hand_made_policy, invoke
 
 from sumo_rail.datasets import read_metadata
-from sumo_rail.drivers.policies import Policy, PolicyShape
+from sumo_rail.drivers.policies import Policy, PolicyShape, save_policy
 from sumo_rail.runners.rollout import PolicyDriver
 from sumo_rail.seeding import driver_generator
+from sumo_rail.sim.observation import observation_names
 
 
 def test_a_sampled_driver_repeats_itself_per_seed_and_draws_apart_from_the_env():
@@ -49,3 +50,16 @@ def test_sampled_evaluation_is_the_same_for_any_worker_count_and_differs_from_ar
 def test_a_bad_sampled_policy_file_is_one_sentence(tmp_path):
     result = invoke("evaluate", *SMALL, "--policy", f"sampled:{tmp_path / 'missing.npz'}")
     assert result.exit_code == 1 and "does not exist" in result.output and "Traceback" not in result.output
+
+
+def test_a_sampled_policy_file_recording_a_bad_expert_is_named_by_its_path(tmp_path):
+    """Without --expert a sampled driver is compared with the expert its file records, as the argmax one is; the
+    error naming a bad recorded expert names the file, not the --policy word."""
+    shape = PolicyShape("linear", len(observation_names(SMALL_CONFIG)))
+    path = tmp_path / "learner.npz"
+    save_policy(Policy(shape, np.zeros(shape.parameter_count, np.float32)), path,
+                {"observation_names": observation_names(SMALL_CONFIG), "expert": "reckless"})
+    for word in (str(path), f"sampled:{path}"):
+        result = invoke("evaluate", *SMALL, "--policy", word, "--episodes", "1")
+        assert result.exit_code == 1 and "Traceback" not in result.output, result.output
+        assert f"Error: {path} records the expert 'reckless'" in result.output, result.output

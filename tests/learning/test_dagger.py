@@ -1,6 +1,7 @@
 """DAgger on the small scenario: labels are the expert's, the dataset aggregates, and the result does not depend
 on workers or on an interruption."""
 
+import json
 from dataclasses import dataclass
 
 import numpy as np
@@ -206,3 +207,17 @@ def test_an_unknown_road_in_the_mix_is_a_usage_error(tmp_path, demos):
                     str(tmp_path / "run"))
     assert result.exit_code == 2 and "unknown scenario.kind 'roundabout'" in result.output
     assert not (tmp_path / "run").exists()
+
+
+def test_dagger_takes_the_network_settings_and_clones_at_least_one_epoch(tmp_path, demos):
+    """network.hidden shapes DAgger's policies; bc.epochs=0 means no behaviour cloning for train and gail, but
+    DAgger's first policy is BC's, so it clones one epoch: its first policy is no untrained one, and run.json says
+    so."""
+    out = tmp_path / "run"
+    result = invoke("dagger", *SMALL, "--demos", str(demos), "--rounds", "0", "--set", "bc.epochs=0", "--set",
+                    "network.hidden=7", "--eval-every", "0", "--out", str(out))
+    assert result.exit_code == 0, result.output
+    settings = json.loads((out / "run.json").read_text())["settings"]
+    assert settings["bc"]["epochs"] == 1 and settings["hidden"] == 7
+    policy = load_policy(out / "policy_bc.npz")[0]
+    assert policy.shape.hidden == 7 and np.any(policy.parameters != 0)

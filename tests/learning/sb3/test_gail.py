@@ -260,3 +260,21 @@ def test_gail_without_reward_normalisation_and_a_warmup_longer_than_the_run(tmp_
     assert log["reward_std"].tolist() == [1.0] and log["actor_frozen"].tolist() == [True]
     latest, bc = load_policy(run / "policy_latest.npz")[0], load_policy(run / "policy_bc.npz")[0]
     assert np.array_equal(latest.parameters, bc.parameters)
+
+
+def test_the_network_bc_discriminator_and_gail_settings_reach_the_run(tmp_path, demos_path):
+    """Each section gail takes lands in run.json and the run (a dropped one fails): the policy file has the hidden
+    units network.hidden asks for; the run's seed is BC's and the discriminator's."""
+    run = tmp_path / "run"
+    result = invoke("gail", *SMALL, "--demos", str(demos_path), "--timesteps", "32", "--set", "gail.envs=1", "--set",
+                    "gail.n_steps=32", "--set", "gail.critic_warmup=0", "--set", "gail.gamma=0.9", "--set",
+                    "network.hidden=7", "--set", "bc.epochs=1", "--set", "bc.class_balance=0.3", "--set",
+                    "discriminator.hidden=9", "--seed", "13", "--out", str(run))
+    assert result.exit_code == 0, result.output
+    settings = json.loads((run / "run.json").read_text())["settings"]
+    assert (settings["kind"], settings["hidden"], settings["gamma"], settings["n_steps"]) == ("mlp", 7, 0.9, 32)
+    assert (settings["bc"]["epochs"], settings["bc"]["class_balance"], settings["discriminator"]["hidden"]) == (
+        1, 0.3, 9)
+    assert settings["seed"] == settings["bc"]["seed"] == settings["discriminator"]["seed"] == 13
+    assert read_run(run, "gail").kind == "mlp (7 hidden)"
+    assert load_policy(run / "policy_latest.npz")[0].shape.hidden == 7

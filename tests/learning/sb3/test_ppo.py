@@ -119,22 +119,25 @@ def cloned_driver(path, observation_size: int = 56):
     return policy
 
 
-@pytest.mark.parametrize("warmup", [2, 0])
+@pytest.mark.parametrize("warmup", [2, 0, None])
 def test_init_starts_the_actor_from_the_policy_file_and_the_critic_warmup_keeps_it_there(tmp_path, warmup):
+    """ppo.critic_warmup as set, and with --init and no ppo.critic_warmup (None) its default there, 5 updates."""
     initial = cloned_driver(tmp_path / "bc.npz")
+    chosen = () if warmup is None else ("--set", f"ppo.critic_warmup={warmup}")
     result = invoke("ppo", *SMALL, "--timesteps", "128", "--set", "ppo.envs=1", "--set", "ppo.n_steps=64", "--set",
                     "ppo.batch_size=32",
-                    "--init", str(tmp_path / "bc.npz"), "--set", f"ppo.critic_warmup={warmup}", "--out",
-                    str(tmp_path / "run"))
+                    "--init", str(tmp_path / "bc.npz"), *chosen, "--out", str(tmp_path / "run"))
     assert result.exit_code == 0, result.output
+    frozen = warmup != 0
     assert ("the actor frozen in all 2 for the critic's warm-up, so the policy is the initial one" in result.output
-            ) == (warmup == 2)
+            ) == frozen
     trained, _ = load_policy(tmp_path / "run" / "policy_latest.npz")
     assert np.array_equal(trained.observation_mean, initial.observation_mean)
     assert np.array_equal(trained.observation_std, initial.observation_std)
-    assert np.array_equal(trained.parameters, initial.parameters) == (warmup == 2)
-    assert pd.read_parquet(tmp_path / "run" / "log.parquet")["actor_frozen"].tolist() == [warmup == 2] * 2
-    assert json.loads((tmp_path / "run" / "run.json").read_text())["settings"]["init"] == str(tmp_path / "bc.npz")
+    assert np.array_equal(trained.parameters, initial.parameters) == frozen
+    assert pd.read_parquet(tmp_path / "run" / "log.parquet")["actor_frozen"].tolist() == [frozen] * 2
+    stored = json.loads((tmp_path / "run" / "run.json").read_text())["settings"]
+    assert stored["init"] == str(tmp_path / "bc.npz") and stored["critic_warmup"] == (5 if warmup is None else warmup)
 
 
 def test_an_init_policy_of_another_shape_or_observation_is_refused_before_any_work(tmp_path):
