@@ -81,13 +81,14 @@ def _print_settings(ctx: click.Context, param: click.Parameter, value: bool, lea
 
 def resolve_settings(preset: str, config_path: Path | None, overrides: tuple[str, ...],
                      learners: tuple[str, ...] = ()) -> tuple[Config, Any]:
-    """The preset, then the TOML file, then each --set, split into the simulation's `Config` and the `learners`'
-    `LearnerSettings` (None without learners). A bad value, a section no command takes, a --set of a learner section
+    """The preset, then the TOML file, then each --set (merged before any check, so that settings valid only together
+    may come from both), split into the simulation's `Config` and the `learners`' `LearnerSettings` (None without
+    learners). A bad value, a section no command takes, a --set of a learner section
     this command does not take, or a road that cannot be built (a missing or broken network, a route not in it) is a
     usage error (exit 2), before any work. A user's network and traffic file are kept as absolute paths, so that the
     outputs name them from any folder."""
     from sumo_rail.learning.settings import SECTIONS as LEARNER_SECTIONS
-    from sumo_rail.setting_tables import read_assignments
+    from sumo_rail.setting_tables import merged_tables, read_assignments
 
     try:
         from_file = read_config_file(config_path) if config_path else {}
@@ -95,10 +96,9 @@ def resolve_settings(preset: str, config_path: Path | None, overrides: tuple[str
         unknown = sorted((set(from_file) | set(from_words)) - set(SECTIONS) - set(LEARNER_SECTIONS))
         if unknown:
             raise ConfigError(f"unknown config section(s) {unknown}; known: {', '.join([*SECTIONS, *learners])}")
-        config = Config.preset(preset)
-        for tables in (from_file, from_words):
-            config = config.with_overrides({name: tables[name] for name in SECTIONS if name in tables})
-        settings = _learner_settings(learners, from_file, from_words)
+        tables = merged_tables(from_file, from_words)
+        config = Config.preset(preset).with_overrides({name: tables[name] for name in SECTIONS if name in tables})
+        settings = _learner_settings(learners, tables, from_words)
         if config.scenario.kind != "straight":
             from sumo_rail.sim import network, user_network
 
@@ -109,16 +109,16 @@ def resolve_settings(preset: str, config_path: Path | None, overrides: tuple[str
         raise click.UsageError(str(error)) from error
 
 
-def _learner_settings(learners: tuple[str, ...], from_file: dict[str, Any], from_words: dict[str, Any]) -> Any:
-    """The learner sections `learners` from the file's tables (others left for the commands that take them) and the
-    --set words (others refused)."""
+def _learner_settings(learners: tuple[str, ...], tables: dict[str, Any], from_words: dict[str, Any]) -> Any:
+    """The learner sections `learners` of `tables` (the file's and the --set words' together); a file's table of
+    another learner is left for the command that takes it, a --set word of one is refused."""
     from sumo_rail.learning.settings import LearnerSettings
 
-    words = {name: values for name, values in from_words.items() if name not in SECTIONS}
+    foreign = [name for name in from_words if name not in SECTIONS and name not in learners]
+    if foreign:
+        raise ConfigError(f"--set {foreign[0]}.*: this command takes no [{foreign[0]}] settings"
+                          + (f"; its learner settings are {', '.join(f'[{name}]' for name in learners)}"
+                             if learners else ""))
     if not learners:
-        if words:
-            raise ConfigError(f"--set {next(iter(words))}.*: this command takes no learner's settings")
         return None
-    settings = LearnerSettings.defaults(learners)
-    settings = settings.with_tables({name: from_file[name] for name in learners if name in from_file})
-    return settings.with_tables(words)
+    return LearnerSettings.defaults(learners).with_tables({name: tables[name] for name in learners if name in tables})

@@ -43,6 +43,15 @@ def read_assignments(words: Iterable[str]) -> dict[str, Any]:
     return tables
 
 
+def merged_tables(first: Mapping[str, Any], then: Mapping[str, Any]) -> dict[str, Any]:
+    """The tables of `first` with those of `then` merged in, table by table, a value of `then` winning."""
+    merged = dict(first)
+    for key, value in then.items():
+        both = isinstance(value, Mapping) and isinstance(merged.get(key), Mapping)
+        merged[key] = merged_tables(merged[key], value) if both else value
+    return merged
+
+
 def field_docs(cls: type) -> dict[str, str]:
     """The docstring under each field of the dataclass `cls` (and of its bases), by field name."""
     docs: dict[str, str] = {}

@@ -98,6 +98,19 @@ def test_config_tables_set_the_learners_settings(tmp_path):
     assert result.exit_code == 2 and "[ppo]" in result.output and "Traceback" not in result.output
 
 
+def test_settings_valid_only_together_may_come_from_the_file_and_from_set(tmp_path):
+    """The file's tables and the --set words are merged before any check: a file's rail.top that fits only the
+    directions --set gives, and a file's start window that fits only the road --set lengthens, are taken."""
+    from sumo_rail_cli.settings import resolve_settings
+
+    path = tmp_path / "run.toml"
+    path.write_text("[rail]\ntop = 40\n[env]\nego_start_max_m = 3500\n")
+    config, settings = resolve_settings("paper", path, ("rail.directions=64", "scenario.length_m=5000"),
+                                        ("network", "bc", "rail", "discriminator"))
+    assert (settings.rail.top, settings.rail.directions) == (40, 64)
+    assert (config.env.ego_start_max_m, config.scenario.length_m) == (3500, 5000)
+
+
 @pytest.mark.parametrize(("word", "named"), [
     ("rail.directions=0", "rail.directions"), ("rail.directions=4.5", "rail.directions must be an integer"),
     ("rail.seed=3", "--seed"), ("rail.roads=[]", "--roads"), ("rail.nope=1", "rail.nope"),
