@@ -375,7 +375,6 @@ them, on one core, at the speed measured here. The rollout time scales with the 
 |---|---|---|---|---|
 {projection}
 """
-    print(section)
     write_section(args.out, "comparison", section)
 
 

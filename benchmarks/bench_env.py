@@ -242,7 +242,6 @@ env's resets count as its overhead; the row "with the raw run's own resets" coun
 | fresh process: first reset (SUMO started, kernels loaded) [s] | {first["reset"]:.2f} |
 | fresh process: first step after it [ms] | {1000 * first["step"]:.1f} |
 """
-    print(section)
     write_section(args.out, "env", section)
 
 

@@ -63,7 +63,6 @@ one process. Default scenario; drivers expert-{DEFAULT_STYLE}, keep and random, 
 Cost of the comparison: **{100 * (1 - statistics.median(ratios)):.1f}%** of evaluate's episodes/s (median of the
 per-round ratios; target <= 10%).
 """
-    print(section)
     write_section(args.out, "evaluate", section)
 
 

@@ -102,7 +102,6 @@ road with netconvert and writes the scene folder: {summary}.
 
 Goal: at most 60 s and 2 GB on 2 cores.
 """
-    print(section)
     write_section(args.out, "import", section)
 
 

@@ -196,7 +196,6 @@ egos at K = 8: **{respawning_8["random"]:.2f}x**.
 
 {table(random)}
 """
-    print(section)
     write_section(args.out, "multi_ego", section)
 
 

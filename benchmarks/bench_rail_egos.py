@@ -145,7 +145,6 @@ Respawning egos at K = 8: **{at_8:.2f}x** the single-ego path's decisions per co
 |---|---|---|---|---|
 {rows}
 """
-    print(section)
     write_section(args.out, "rail_egos", section)
 
 

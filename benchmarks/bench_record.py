@@ -80,7 +80,6 @@ mean [95% interval] over episodes and each style's paired difference to the firs
 {summary_table(metrics)}
 ```
 """
-    print(section)
     write_section(args.out, "record", section)
 
 

@@ -102,7 +102,6 @@ SUMO {sumo_version()}. The normal expert on the default scenario, {args.episodes
 |---|---|
 {table}
 """
-    print(section)
     write_section(args.out, "render", section)
 
 

@@ -128,7 +128,6 @@ every recorded vehicle within 500 m of the ego with `moveToXY` at every 0.1 s st
 
 Goal: a closed-loop episode at least 0.8x raw SUMO stepping of the same scene.
 """
-    print(section)
     write_section(args.out, "replay", section)
 
 

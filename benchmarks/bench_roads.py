@@ -52,7 +52,6 @@ about 0.92 however cheap a decision; that ratio is kept in the columns "raw rese
 {HEADER}
 {table}
 """
-    print(section)
     write_section(args.out, "roads", section)
 
 

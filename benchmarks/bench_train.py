@@ -137,7 +137,6 @@ of iteration, over 2) over the single-process rate (the serial run's decisions p
 {single_process_rate:.0f}): **{per_worker:.2f}** (target >= 0.85). The final parameters of all
 {3 * args.rounds} runs were {"bit-identical" if identical else "NOT identical"}.
 """
-    print(section)
     write_section(args.out, "train", section)
 
 

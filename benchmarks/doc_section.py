@@ -9,7 +9,9 @@ from pathlib import Path
 
 
 def write_section(path: Path, name: str, section: str) -> None:
-    """Put `section` between `<!-- bench:NAME -->` markers in `path`, replacing what was there; atomic."""
+    """Print `section`, then put it between `<!-- bench:NAME -->` markers in `path`, replacing what was there;
+    atomic."""
+    print(section)
     begin, end = f"<!-- bench:{name} -->", f"<!-- /bench:{name} -->"
     block = f"{begin}\n{section.strip()}\n{end}"
     text = path.read_text() if path.exists() else "# Benchmarks\n\nEach section is written by `make bench`.\n"

@@ -105,6 +105,15 @@ def written_atomically(path: Path, suffix: str = "") -> Iterator[Path]:
         temporary.unlink(missing_ok=True)
 
 
+@contextmanager
+def write_failures(path: Path, error: type[Exception]) -> Iterator[None]:
+    """Raise an OSError of the block, which writes `path`, as `error`: "cannot write PATH: reason" (one sentence)."""
+    try:
+        yield
+    except OSError as exc:
+        raise error(f"cannot write {path}: {exc.strerror or exc}") from exc
+
+
 def write_bytes_atomically(path: Path, content: bytes) -> None:
     """Write `content` to `path` with `written_atomically`."""
     with written_atomically(path) as temporary:
@@ -115,11 +124,8 @@ def write_parquet(table: pa.Table, path: Path, metadata: dict[str, Any]) -> None
     """Write `table` with `metadata` to `path` atomically (`written_atomically`)."""
     path = Path(path)
     schema_metadata = {**(table.schema.metadata or {}), METADATA_KEY: json.dumps(metadata, sort_keys=True).encode()}
-    try:
-        with written_atomically(path) as temporary:
-            pq.write_table(table.replace_schema_metadata(schema_metadata), temporary, write_page_checksum=True)
-    except OSError as error:
-        raise DatasetError(f"cannot write {path}: {error.strerror or error}") from error
+    with write_failures(path, DatasetError), written_atomically(path) as temporary:
+        pq.write_table(table.replace_schema_metadata(schema_metadata), temporary, write_page_checksum=True)
 
 
 def file_sha256(path: Path) -> str:

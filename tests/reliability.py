@@ -5,9 +5,12 @@ from __future__ import annotations
 
 import hashlib
 import os
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import numpy as np
+import pytest
 from click.testing import CliRunner, Result
 from sumo_rail_cli.main import cli
 from test_cli import SMALL
@@ -65,6 +68,17 @@ def scrambled_middle(path: Path) -> None:
 
 
 GENERIC = {"missing": missing, "empty": empty, "truncated": truncated, "garbage": garbage}
+
+
+def assert_refuses_missing_and_garbage(read: Callable[[Path], Any], error: type[Exception], folder: Path, suffix: str,
+                                       content: bytes, unreadable: str) -> None:
+    """`read` refuses a missing file ("does not exist") and one of garbage `content` (`unreadable`) with `error`."""
+    with pytest.raises(error, match="does not exist"):
+        read(folder / f"missing{suffix}")
+    garbage = folder / f"garbage{suffix}"
+    garbage.write_bytes(content)
+    with pytest.raises(error, match=unreadable):
+        read(garbage)
 
 
 def fingerprint(folder: Path) -> dict[str, str]:

@@ -29,10 +29,18 @@ from sumo_rail.evaluation.statistics import MIN_PAIRS
 from sumo_rail.runners.tables import read_demonstrations
 from sumo_rail.sim.observation import observation_names
 
-SMALL = ["--set", "scenario.length_m=1500", "--set", "scenario.warmup_s=120", "--set", "scenario.snapshots=3",
-         "--set", "scenario.snapshot_interval_s=10", "--set", "env.ego_start_max_m=500"]
-SMALL_CONFIG = Config.from_dict({"scenario": {"length_m": 1500.0, "warmup_s": 120.0, "snapshots": 3,
-                                              "snapshot_interval_s": 10.0}, "env": {"ego_start_max_m": 500.0}})
+
+def small_road(length_m: float, ego_start_max_m: float) -> tuple[list[str], Config]:
+    """A short road (a 120 s warm-up, 3 warm states 10 s apart, egos starting within `ego_start_max_m`): its --set
+    words for the commands and its Config, made from one dict."""
+    settings = {"scenario": {"length_m": length_m, "warmup_s": 120.0, "snapshots": 3, "snapshot_interval_s": 10.0},
+                "env": {"ego_start_max_m": ego_start_max_m}}
+    words = [word for section, values in settings.items() for key, value in values.items()
+             for word in ("--set", f"{section}.{key}={value:g}")]
+    return words, Config.from_dict(settings)
+
+
+SMALL, SMALL_CONFIG = small_road(1500.0, 500.0)
 
 
 def invoke(*args: str):

@@ -8,8 +8,7 @@ import numpy as np
 import pandas as pd
 import pyarrow.parquet as pq
 import pytest
-from click.testing import CliRunner
-from sumo_rail_cli.main import cli
+from test_cli import invoke, small_road
 
 from sumo_rail.config import Config
 from sumo_rail.datasets import read_metadata
@@ -18,14 +17,7 @@ from sumo_rail.runners.experts import expert_reference, resolve_expert
 from sumo_rail.runners.tables import read_demonstrations
 from sumo_rail.sim.observation import observation_names
 
-SMALL = ["--set", "scenario.length_m=900", "--set", "scenario.warmup_s=120", "--set", "scenario.snapshots=3",
-         "--set", "scenario.snapshot_interval_s=10", "--set", "env.ego_start_max_m=400"]
-CONFIG = Config.from_dict({"scenario": {"length_m": 900.0, "warmup_s": 120.0, "snapshots": 3,
-                                        "snapshot_interval_s": 10.0}, "env": {"ego_start_max_m": 400.0}})
-
-
-def invoke(*args: str):
-    return CliRunner().invoke(cli, list(args))
+SMALL, CONFIG = small_road(900.0, 400.0)
 
 
 @pytest.fixture(scope="module")

@@ -13,7 +13,7 @@ from pathlib import Path
 import pandas as pd
 from matplotlib.figure import Figure
 
-from sumo_rail.datasets import file_in_the_way, write_bytes_atomically, written_atomically
+from sumo_rail.datasets import file_in_the_way, write_bytes_atomically, write_failures, written_atomically
 from sumo_rail.evaluation.distributions import decision_summary, summary_distances
 from sumo_rail.evaluation.fidelity import CONFUSION_COLUMNS
 from sumo_rail.evaluation.summary import intervals, paired_differences, summary_table
@@ -202,16 +202,11 @@ def _first(run: Run) -> int:
 
 def save_png(figure: Figure, path: Path) -> None:
     """Render `figure` to a PNG at `path` atomically."""
-    try:
-        with written_atomically(path) as temporary:
-            figure.savefig(temporary, format="png", dpi=DPI)
-    except OSError as error:
-        raise ReportError(f"cannot write {path}: {error.strerror or error}") from error
+    with write_failures(path, ReportError), written_atomically(path) as temporary:
+        figure.savefig(temporary, format="png", dpi=DPI)
 
 
 def write_atomically(path: Path, content: bytes) -> None:
-    try:
+    with write_failures(path, ReportError):
         write_bytes_atomically(path, content)
-    except OSError as error:
-        raise ReportError(f"cannot write {path}: {error.strerror or error}") from error
 

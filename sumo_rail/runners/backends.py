@@ -16,7 +16,6 @@ import threading
 import time
 import traceback
 import weakref
-from collections import deque
 from collections.abc import Callable, Hashable, Sequence
 from dataclasses import dataclass
 from multiprocessing.connection import Connection, wait
@@ -26,6 +25,9 @@ from typing import Any, Protocol, Self
 
 from sumo_rail.config import Config
 from sumo_rail.runners.spawning import die_with_parent, ignore_stop_signals, start_shielded
+from sumo_rail.runners.task_queue import BackendError as BackendError  # importable from here, as before
+from sumo_rail.runners.task_queue import TaskError as TaskError
+from sumo_rail.runners.task_queue import TaskQueue
 from sumo_rail.sim.env import HighwayEnv
 from sumo_rail.sim.parallel_env import ParallelHighwayEnv
 
@@ -93,22 +95,6 @@ class WorkerContext:
         if self._env is not None:
             env, self._env, self._key = self._env, None, None
             env.close()
-
-
-class BackendError(RuntimeError):
-    """The backend could not complete the tasks (one-sentence message)."""
-
-
-class TaskError(BackendError):
-    """A task raised an exception in a worker; message names the task index and the worker's exception type and
-    message. Not retried (it would fail again)."""
-
-    def __init__(self, index: int, raised: str, detail: str) -> None:
-        super().__init__(f"task {index} raised {raised}: {detail}")
-        self.raised = raised
-        """The type name of the task's exception."""
-        self.detail = detail
-        """The task's exception's message."""
 
 
 class RolloutBackend(Protocol):
@@ -211,17 +197,13 @@ class ProcessPoolBackend(RolloutBackend):
     def run(self, tasks: Sequence[Task], on_result: Callable[[int, Any], None] | None = None) -> list[Any]:
         if not self._finalizer.alive:
             raise BackendError("the process pool backend is closed")
-        results: list[Any] = [None] * len(tasks)
-        pending = deque(range(len(tasks)))
-        attempts = [0] * len(tasks)
-        remaining = len(tasks)
+        queue = TaskQueue(len(tasks), self.max_attempts, on_result, log)
         try:
-            while remaining:
+            while queue.remaining:
                 self._replace_dead_idle_workers()
                 for worker in self._pool:
-                    if pending and worker.ready and worker.task is None:
-                        index = pending.popleft()
-                        attempts[index] += 1
+                    if queue.waiting() and worker.ready and worker.task is None:
+                        index = queue.next()
                         self._assign(worker, index, tasks[index])
                 active = [worker for worker in self._pool if worker.task is not None or not worker.ready]
                 events = set(wait([w for worker in active for w in worker.waitables()], self._wait_timeout(active)))
@@ -229,12 +211,12 @@ class ProcessPoolBackend(RolloutBackend):
                     if events.isdisjoint(worker.waitables()):
                         if worker.deadline is not None and time.monotonic() > worker.deadline:
                             self._retire(worker, 0.0)
-                            self._resubmit(worker.task, f"timed out after {self.task_timeout_s} s", attempts, pending)
+                            queue.retry(worker.task, f"timed out after {self.task_timeout_s} s")
                         continue
                     message = self._receive(worker)
                     if message is _GONE:
                         code = self._retire(worker, _EXIT_TIMEOUT_S)
-                        self._resubmit(worker.task, f"worker exited with code {code}", attempts, pending)
+                        queue.retry(worker.task, f"worker exited with code {code}")
                     elif not worker.ready:
                         worker.ready = True
                     else:
@@ -244,15 +226,12 @@ class ProcessPoolBackend(RolloutBackend):
                             type_name, text, trace = payload
                             log.debug("task %d raised in worker %d:\n%s", index, worker.process.pid, trace)
                             raise TaskError(index, type_name, text)
-                        results[index] = payload
-                        remaining -= 1
-                        if on_result is not None:
-                            on_result(index, payload)
+                        queue.done(index, payload)
         finally:
             # Only after an exception: tasks still running must not deliver their results to the next run.
             for worker in [worker for worker in self._pool if worker.task is not None]:
                 self._retire(worker, 0.0)
-        return results
+        return queue.results
 
     def close(self) -> None:
         self._finalizer()
@@ -297,15 +276,6 @@ class ProcessPoolBackend(RolloutBackend):
         except (EOFError, OSError):
             pass
         return _GONE
-
-    def _resubmit(self, index: int | None, cause: str, attempts: list[int], pending: deque[int]) -> None:
-        """Queue task `index` again after a worker got no result because of `cause`, if attempts remain."""
-        if index is None:
-            raise BackendError(f"a worker process could not start: {cause}")
-        if attempts[index] >= self.max_attempts:
-            raise BackendError(f"task {index} got no result in {attempts[index]} attempts (last: {cause})")
-        log.warning("task %d: %s; retrying it (attempt %d of %d)", index, cause, attempts[index] + 1, self.max_attempts)
-        pending.appendleft(index)
 
     def _retire(self, worker: _Worker, timeout_s: float) -> int | None:
         """Remove `worker` from the pool, killing it unless it exits within `timeout_s`; returns its exit code."""

@@ -12,13 +12,13 @@ import logging
 import os
 import socket
 import time
-from collections import deque
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from types import ModuleType
 from typing import Any
 
-from sumo_rail.runners.backends import BackendError, RolloutBackend, Task, TaskError, WorkerContext, check_pool_settings
+from sumo_rail.runners.backends import RolloutBackend, Task, WorkerContext, check_pool_settings
+from sumo_rail.runners.task_queue import BackendError, TaskError, TaskQueue
 
 log = logging.getLogger(__name__)
 
@@ -91,19 +91,15 @@ class RayBackend(RolloutBackend):
             raise BackendError("the ray backend is closed")
         ray = self._ray
         self._connect()
-        results: list[Any] = [None] * len(tasks)
-        pending = deque(range(len(tasks)))
-        attempts = [0] * len(tasks)
-        remaining = len(tasks)
+        queue = TaskQueue(len(tasks), self.max_attempts, on_result, log)
         try:
-            while remaining:
+            while queue.remaining:
                 while len(self._slots) < self.workers:
                     actor = self._actor_class.remote()
                     self._slots.append(_Slot(actor, actor.pid.remote()))
                 for slot in self._slots:
-                    if pending and slot.pid is not None and slot.task is None:
-                        index = pending.popleft()
-                        attempts[index] += 1
+                    if queue.waiting() and slot.pid is not None and slot.task is None:
+                        index = queue.next()
                         self._assign(slot, index, tasks[index])
                 awaited = {slot.awaited(): slot for slot in self._slots if slot.awaited() is not None}
                 done, _ = ray.wait(list(awaited), num_returns=1, timeout=self._wait_timeout())
@@ -120,23 +116,19 @@ class RayBackend(RolloutBackend):
                         raise TaskError(index, raised, detail) from error
                     except ray.exceptions.RayError as error:
                         self._retire(slot)
-                        self._resubmit(index, f"Ray worker {slot.pid} was lost ({_describe(error)})", attempts,
-                                       pending)
+                        queue.retry(index, f"Ray worker {slot.pid} was lost ({_describe(error)})")
                         continue
-                    results[index] = result
-                    remaining -= 1
-                    if on_result is not None:
-                        on_result(index, result)
+                    queue.done(index, result)
                 now = time.monotonic()
                 for slot in [s for s in self._slots if s.deadline is not None and s.deadline < now]:
                     index = slot.task
                     self._retire(slot)
-                    self._resubmit(index, f"timed out after {self.task_timeout_s} s", attempts, pending)
+                    queue.retry(index, f"timed out after {self.task_timeout_s} s")
         finally:
             # Only after an exception: tasks still running must not hold up or leak into the next run.
             for slot in [slot for slot in self._slots if slot.task is not None]:
                 self._retire(slot)
-        return results
+        return queue.results
 
     def close(self) -> None:
         if self._closed:
@@ -196,13 +188,6 @@ class RayBackend(RolloutBackend):
     def _wait_timeout(self) -> float | None:
         deadlines = [slot.deadline for slot in self._slots if slot.deadline is not None]
         return max(0.0, min(deadlines) - time.monotonic()) if deadlines else None
-
-    def _resubmit(self, index: int, cause: str, attempts: list[int], pending: deque[int]) -> None:
-        """Queue task `index` again after an actor got no result because of `cause`, if attempts remain."""
-        if attempts[index] >= self.max_attempts:
-            raise BackendError(f"task {index} got no result in {attempts[index]} attempts (last: {cause})")
-        log.warning("task %d: %s; retrying it (attempt %d of %d)", index, cause, attempts[index] + 1, self.max_attempts)
-        pending.appendleft(index)
 
     def _retire(self, slot: _Slot) -> None:
         """Remove `slot` and kill its actor process (and with it the actor's SUMO)."""

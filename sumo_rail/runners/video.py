@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from sumo_rail.datasets import write_bytes_atomically, written_atomically
+from sumo_rail.datasets import write_bytes_atomically, write_failures, written_atomically
 from sumo_rail.sim.env import HighwayEnv
 
 INSTALL_HINT = "pip install 'sumo-rail[video]'"
@@ -108,19 +108,14 @@ def write_gif(frames: Sequence[np.ndarray], path: Path, fps: float) -> None:
     require_encoder()
     import imageio.v2 as imageio
 
-    try:
-        with written_atomically(path, suffix=".gif") as temporary:
-            imageio.mimsave(temporary, list(frames), format="GIF", duration=1000.0 / fps, loop=0)
-    except OSError as error:
-        raise VideoError(f"cannot write {path}: {error.strerror or error}") from error
+    with write_failures(path, VideoError), written_atomically(path, suffix=".gif") as temporary:
+        imageio.mimsave(temporary, list(frames), format="GIF", duration=1000.0 / fps, loop=0)
 
 
 def write_bytes(content: bytes, path: Path) -> None:
     """Write `content` to `path` atomically (`written_atomically`)."""
-    try:
+    with write_failures(path, VideoError):
         write_bytes_atomically(path, content)
-    except OSError as error:
-        raise VideoError(f"cannot write {path}: {error.strerror or error}") from error
 
 
 def video_name(driver: str, episode: int, seed: int) -> str:

@@ -3,6 +3,7 @@ import zipfile
 
 import numpy as np
 import pytest
+from reliability import assert_refuses_missing_and_garbage
 
 from sumo_rail.drivers.policies import Policy, PolicyFileError, PolicyShape, load_policy, save_policy
 
@@ -69,12 +70,8 @@ def test_save_load_round_trip_is_exact_and_picklable(tmp_path):
 
 
 def test_bad_policy_files_give_one_sentence_errors(tmp_path):
-    with pytest.raises(PolicyFileError, match="does not exist"):
-        load_policy(tmp_path / "missing.npz")
-    garbage = tmp_path / "garbage.npz"
-    garbage.write_bytes(b"not a zip file at all")
-    with pytest.raises(PolicyFileError, match="not a readable"):
-        load_policy(garbage)
+    assert_refuses_missing_and_garbage(load_policy, PolicyFileError, tmp_path, ".npz", b"not a zip file at all",
+                                       "not a readable")
     other = tmp_path / "other.npz"
     np.savez(other, weights=np.zeros(3))
     with pytest.raises(PolicyFileError, match="format marker"):

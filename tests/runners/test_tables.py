@@ -4,6 +4,7 @@ import pandas as pd
 import polars as pl
 import pyarrow.parquet as pq
 import pytest
+from reliability import assert_refuses_missing_and_garbage
 
 from sumo_rail.config import Config
 from sumo_rail.datasets import DatasetError, read_metadata, sumo_version, write_parquet
@@ -77,12 +78,8 @@ def test_metrics_table_holds_every_metric_column():
 
 
 def test_bad_demonstration_files_give_one_sentence_errors(tmp_path):
-    with pytest.raises(DatasetError, match="does not exist"):
-        read_demonstrations(tmp_path / "missing.parquet")
-    corrupt = tmp_path / "corrupt.parquet"
-    corrupt.write_bytes(b"PAR1 this is not parquet")
-    with pytest.raises(DatasetError, match="not a readable Parquet"):
-        read_demonstrations(corrupt)
+    assert_refuses_missing_and_garbage(read_demonstrations, DatasetError, tmp_path, ".parquet",
+                                       b"PAR1 this is not parquet", "not a readable Parquet")
     foreign = tmp_path / "foreign.parquet"
     pd.DataFrame({"a": [1]}).to_parquet(foreign)
     with pytest.raises(DatasetError, match="not written by sumo-rail"):

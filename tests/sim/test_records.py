@@ -17,21 +17,16 @@ from sumo_rail.sim.traffic import LaneGap, LaneGaps, TrafficView
 from sumo_rail.sim.vehicles import EgoState, Neighbours, PeriodReport
 
 
-@dataclass(frozen=True)
-class Generated:
-    a: float
-    b: int = 3
-    c: dict = field(default_factory=dict)
-    d: str = field(default="", repr=False, compare=False)
+def frozen_record(name: str) -> type:
+    """A frozen dataclass `name` with a field of each kind: plain, with a default, with a default factory, and left
+    out of repr and comparison; made twice from this one definition, so the two differ only by quick_init."""
+    fields = [("a", float), ("b", int, 3), ("c", dict, field(default_factory=dict)),
+              ("d", str, field(default="", repr=False, compare=False))]
+    return dataclasses.make_dataclass(name, fields, frozen=True, namespace={"__module__": __name__})
 
 
-@quick_init
-@dataclass(frozen=True)
-class Quick:
-    a: float
-    b: int = 3
-    c: dict = field(default_factory=dict)
-    d: str = field(default="", repr=False, compare=False)
+Generated = frozen_record("Generated")
+Quick = quick_init(frozen_record("Quick"))
 
 
 @pytest.mark.parametrize(("args", "kwargs"), [((1.5,), {}), ((1.5, 4), {}), ((1.5,), {"c": {"x": 1}, "d": "y"}),
