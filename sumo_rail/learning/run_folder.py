@@ -105,11 +105,25 @@ def check_resumable(folder: Path, checkpoint: str, run_record: dict[str, Any], d
     if changed:
         raise RunError(f"{changed[0]} has changed since run {folder} was started on it (its content hash differs); "
                        f"resume it on the file it was started with")
-    if (fixed(settings) != fixed(run_record["settings"]) or stored["config"] != run_record["config"]
-            or stored.get("kind") != run_record.get("kind")):
-        raise RunError(f"run {folder} was started with other settings (see its run.json); resume it with the same "
-                       f"options")
+    difference = (first_difference(fixed(settings), fixed(run_record["settings"]))
+                  or first_difference(stored["config"], run_record["config"]))
+    if difference is not None or stored.get("kind") != run_record.get("kind"):
+        said = f" ({difference})" if difference is not None else ""
+        raise RunError(f"run {folder} was started with other settings{said}; resume it with the settings of its "
+                       f"run.json")
     return stored
+
+
+def first_difference(stored: Any, given: Any, key: str = "") -> str | None:
+    """The first setting, by dotted key, whose value in the nested settings `stored` differs from `given`, said as
+    "KEY was V, now W"; None when they are equal."""
+    if isinstance(stored, dict) and isinstance(given, dict):
+        for name in sorted(set(stored) | set(given)):
+            found = first_difference(stored.get(name), given.get(name), f"{key}.{name}" if key else name)
+            if found is not None:
+                return found
+        return None
+    return None if stored == given else f"{key} was {stored!r}, now {given!r}"
 
 
 def _made_by(folder: Path) -> Any:
