@@ -139,44 +139,68 @@ class EpisodeGroupTask:
 def run_episode(env: HighwayEnv, driver: Driver, seed: int, record: bool = False,
                 options: dict[str, Any] | None = None, probe: DecisionProbe | None = None) -> EpisodeResult:
     """Reset with `seed` (and the env's reset `options`) and drive until the episode ends; `record` keeps every
-    (state, action, reward); `probe` watches every decision."""
-    observation, info = env.reset(seed=seed, options=options)
-    log = _EpisodeLog(record)
-    done = terminated = truncated = False
-    while not done:
-        traffic, seen, before = env.traffic, observation, info
-        action = driver(observation, traffic)
-        observation, reward, terminated, truncated, info = env.step(action)
-        if probe is not None:
-            probe(seen, traffic, action, info)
-        log.add(seen, action, reward, before, info)
-        done = terminated or truncated
-    return log.result(env.metrics, seed, info, terminated, truncated)
+    (state, action, reward); `probe` watches every decision. The one ego's episode of `run_shared_episode`."""
+    episode = run_shared_episode(_OneEgo(env, options), [driver], seed, record,
+                                 probes=None if probe is None else [probe])[0]
+    assert episode is not None  # HighwayEnv always places its ego (or raises)
+    return episode
 
 
-def run_shared_episode(env: ParallelHighwayEnv, drivers: Sequence[Driver], seed: int, record: bool = False,
-                       perturbs: Sequence[Callable[[int], int]] | None = None) -> list[EpisodeResult | None]:
+def run_shared_episode(env: ParallelHighwayEnv | _OneEgo, drivers: Sequence[Driver], seed: int, record: bool = False,
+                       perturbs: Sequence[Callable[[int], int]] | None = None,
+                       probes: Sequence[DecisionProbe] | None = None) -> list[EpisodeResult | None]:
     """Reset `env` with `seed` and drive ego_j with drivers[j] (asked in ego order at each decision) until every
-    ego has left: each ego's episode as `run_episode` gives it (its metrics' seed is `seed`), in ego order, None for
-    an ego that found no room on the road. With `perturbs` ego_j's car executes perturbs[j](action) while its
-    records keep the driver's action (DART)."""
+    ego has left: each ego's episode (its metrics' seed is `seed`), in ego order, None for an ego that found no room
+    on the road. With `perturbs` ego_j's car executes perturbs[j](action) while its records keep the driver's action
+    (DART); `probes[j]` watches ego_j's decisions."""
     observations, infos = env.reset(seed=seed)
     agents = list(env.possible_agents)
     logs = {agent: _EpisodeLog(record) for agent in env.agents}
     ends: dict[str, tuple[dict[str, Any], bool, bool]] = {}
     while env.agents:
-        actions = {agent: int(drivers[agents.index(agent)](observations[agent], env.traffic(agent)))
+        traffic = {agent: env.traffic(agent) for agent in env.agents}
+        actions = {agent: int(drivers[agents.index(agent)](observations[agent], traffic[agent]))
                    for agent in env.agents}
         executed = actions if perturbs is None else \
             {agent: perturbs[agents.index(agent)](action) for agent, action in actions.items()}
         seen, before = observations, infos
         observations, rewards, terminations, truncations, infos = env.step(executed)
         for agent, action in actions.items():
+            if probes is not None:
+                probes[agents.index(agent)](seen[agent], traffic[agent], action, infos[agent])
             logs[agent].add(seen[agent], action, rewards[agent], before[agent], infos[agent])
             if terminations[agent] or truncations[agent]:
                 ends[agent] = (infos[agent], terminations[agent], truncations[agent])
     return [logs[agent].result(env.metrics(agent), seed, *ends[agent]) if agent in logs else None
             for agent in agents]
+
+
+class _OneEgo:
+    """The single-ego `HighwayEnv` (or a wrapper of it, e.g. a frame recorder) seen as a road of one ego, as
+    `run_shared_episode` drives a `ParallelHighwayEnv`; `options` go to every reset."""
+
+    possible_agents = ("ego",)
+
+    def __init__(self, env: HighwayEnv, options: dict[str, Any] | None) -> None:
+        self.env, self.options = env, options
+        self.agents: list[str] = []
+
+    def reset(self, seed: int) -> tuple[dict[str, np.ndarray], dict[str, dict[str, Any]]]:
+        observation, info = self.env.reset(seed=seed, options=self.options)
+        self.agents = ["ego"]
+        return {"ego": observation}, {"ego": info}
+
+    def traffic(self, agent: str) -> TrafficView:
+        return self.env.traffic
+
+    def metrics(self, agent: str) -> EpisodeMetrics:
+        return self.env.metrics
+
+    def step(self, actions: dict[str, int]) -> tuple[dict[str, Any], ...]:
+        observation, reward, terminated, truncated, info = self.env.step(actions["ego"])
+        if terminated or truncated:
+            self.agents = []
+        return {"ego": observation}, {"ego": reward}, {"ego": terminated}, {"ego": truncated}, {"ego": info}
 
 
 def run_lives(env: ParallelHighwayEnv, drivers: Sequence[Driver], seed: int, decisions: int, record: bool = False,
