@@ -84,10 +84,10 @@ class ScenarioConfig:
     """Simulated time before the first saved traffic state, so the ego starts in flowing traffic [s], between 0 and
     3600 s."""
     snapshots: int = bounded(1, 10_000, default=256)
-    """Warm traffic states in each pool (train, validation, test; see `sumo_rail.sim.simulation`), between 1 and
-    10000; each episode
-    starts from one. Evaluation gives episode k state k mod snapshots, so up to this many evaluation episodes
-    never share a state."""
+    """Warm states in each pool (train, validation, test; see `sumo_rail.sim.simulation`): SUMO snapshots of the
+    warmed-up traffic, between 1 and 10000; each episode starts from one (the code calls them warm states, the
+    setting keeps SUMO's word). Evaluation gives episode k state k mod snapshots, so up to this many evaluation
+    episodes never share a state."""
     snapshot_interval_s: float = bounded(0, 600, "s", default=10.0, low_open=True)
     """Simulated time between two saved warm states [s], above 0 and at most 600 s."""
     traffic_seed: int = bounded(0, 2**31 - 1, default=0)

@@ -105,7 +105,7 @@ class SceneSimulation(Simulation):
             return True, False
         return super()._why_gone(vehicle)
 
-    def reset_egos(self, snapshot: int, sumo_seed: int, egos: Any, pool: str = "train") -> list[str]:
+    def reset_egos(self, warm_state: int, sumo_seed: int, egos: Any, pool: str = "train") -> list[str]:
         raise SimulationError("a scene's episodes start in a recorded vehicle's seat (seat), not from warm states")
 
     def seat(self, vehicle: str, start_s: float, sumo_seed: int) -> None:

@@ -46,7 +46,7 @@ def start_ego(sim: Simulation, rng: np.random.Generator, config: Config, options
     """What `HighwayEnv.reset` does to SUMO: reset `sim` with the single ego at its start drawn from `rng`
     (`starts.start_egos`), in the warm state and pool that reset's `options` choose."""
     start_egos(sim, rng, config, 1, options, lambda start, pool: sim.reset(
-        start.snapshot, start.sumo_seed, start.lanes[0], start.positions_m[0], pool))
+        start.warm_state, start.sumo_seed, start.lanes[0], start.positions_m[0], pool))
 
 
 class HighwayEnv(gymnasium.Env[np.ndarray, np.int64]):

@@ -140,7 +140,7 @@ class ParallelHighwayEnv(ParallelEnv[str, np.ndarray, np.int64]):
                           stacklevel=2)
         absent = start_egos(sim, self.np_random, cfg, len(self.possible_agents),
                             {key: options[key] for key in RESET_OPTIONS if key in options},
-                            lambda starts, pool: sim.reset_egos(starts.snapshot, starts.sumo_seed, list(zip(
+                            lambda starts, pool: sim.reset_egos(starts.warm_state, starts.sumo_seed, list(zip(
                                 self.possible_agents, starts.lanes, starts.positions_m, strict=True)), pool))
         if self._edges is None:
             self._edges = edge_rows(sim)

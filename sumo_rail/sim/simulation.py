@@ -101,7 +101,7 @@ class Simulation(EgoPlacement, Stepping, Sensing):
         return self._calls.time_s()
 
     @property
-    def snapshot_count(self) -> int:
+    def warm_state_count(self) -> int:
         """Warm states in each pool."""
         return self.scenario.snapshots
 
@@ -171,13 +171,13 @@ class Simulation(EgoPlacement, Stepping, Sensing):
                     api.simulation.saveState(str(temporary))
         log.info("saved %d warm states in %s", len(paths), paths[0].parent)
 
-    def reset(self, snapshot: int, sumo_seed: int, ego_lane: int, ego_position_m: float,
+    def reset(self, warm_state: int, sumo_seed: int, ego_lane: int, ego_position_m: float,
               pool: str = "train") -> list[str]:
-        """Reload warm state `snapshot` of `pool` with SUMO seed `sumo_seed` and insert the ego; steps until it
+        """Reload warm state `warm_state` of `pool` with SUMO seed `sumo_seed` and insert the ego; steps until it
         is in. Returns [] (`reset_egos`: the ego is in, or EgoCouldNotEnter)."""
-        return self.reset_egos(snapshot, sumo_seed, [(EGO_ID, ego_lane, ego_position_m)], pool)
+        return self.reset_egos(warm_state, sumo_seed, [(EGO_ID, ego_lane, ego_position_m)], pool)
 
-    def reset_egos(self, snapshot: int, sumo_seed: int, egos: Sequence[tuple[str, int, float]],
+    def reset_egos(self, warm_state: int, sumo_seed: int, egos: Sequence[tuple[str, int, float]],
                    pool: str = "train") -> list[str]:
         """`reset` with several egos: queue each (vehicle id, lane, front position [m]) in this order, then step
         until all are in (an ego drives on as soon as it is in). SUMO tries no other vehicle in a lane once one
@@ -188,12 +188,12 @@ class Simulation(EgoPlacement, Stepping, Sensing):
         in order (EgoCouldNotEnter when none of the egos is on the road)."""
         self._require_running()
         try:
-            self._load(["--load-state", str(self._pool(pool)[snapshot]), "--seed", str(sumo_seed)])
+            self._load(["--load-state", str(self._pool(pool)[warm_state]), "--seed", str(sumo_seed)])
         except SimulationError as error:  # a cached file damaged since the start: rebuild what is damaged, once
             log.warning("%s; checking the cached network and warm states", error)
             network.build(self.scenario)
             self._warm_states.forget()
-            self._load(["--load-state", str(self._pool(pool)[snapshot]), "--seed", str(sumo_seed)])
+            self._load(["--load-state", str(self._pool(pool)[warm_state]), "--seed", str(sumo_seed)])
         self._zip_merging.clear()
         for ego in egos:
             self._insert(*ego)

@@ -72,7 +72,7 @@ def check_start_slots(config: Config, egos: int, road_length_m: float, latest_st
 class EpisodeStarts:
     """Everything a reset draws from the env's `np_random` (one ego or several), in the order of the fields."""
 
-    snapshot: int
+    warm_state: int
     sumo_seed: int
     lanes: tuple[int, ...]
     """Each ego's start lane (0 = rightmost)."""
@@ -80,19 +80,19 @@ class EpisodeStarts:
     """Each ego's start position (its front, from the start of the road) [m]."""
 
     @classmethod
-    def draw(cls, rng: np.random.Generator, config: Config, snapshots: int, egos: int,
+    def draw(cls, rng: np.random.Generator, config: Config, warm_states: int, egos: int,
              start_lanes: int | None = None) -> EpisodeStarts:
         """Draw the starts; lanes among the `start_lanes` lanes of the route's first edge (default
         scenario.lanes)."""
         slots = start_slots(config, egos)
-        snapshot, sumo_seed = int(rng.integers(snapshots)), int(rng.integers(_SUMO_SEED_BOUND))
-        return cls(snapshot, sumo_seed, *_places(rng, config, slots, start_lanes))
+        warm_state, sumo_seed = int(rng.integers(warm_states)), int(rng.integers(_SUMO_SEED_BOUND))
+        return cls(warm_state, sumo_seed, *_places(rng, config, slots, start_lanes))
 
     def redraw(self, rng: np.random.Generator, config: Config, start_lanes: int | None = None) -> EpisodeStarts:
         """The same warm state and SUMO seed, each ego's lane and position drawn again in its slot (no ego found
         room at its place): the next draws of `rng`, so every driver of the episode's seed gets the same starts."""
         lanes, positions = _places(rng, config, start_slots(config, len(self.lanes)), start_lanes)
-        return EpisodeStarts(self.snapshot, self.sumo_seed, lanes, positions)
+        return EpisodeStarts(self.warm_state, self.sumo_seed, lanes, positions)
 
 
 def _places(rng: np.random.Generator, config: Config, slots: list[tuple[float, float]],
@@ -118,7 +118,7 @@ RESET_OPTIONS = ("pool", "warm_state")
 """What reset's options may say: the warm-state pool and a fixed warm state (its index in the pool)."""
 
 
-def warm_state_options(options: dict[str, Any], snapshots: int) -> tuple[str, int | None]:
+def warm_state_options(options: dict[str, Any], warm_states: int) -> tuple[str, int | None]:
     """The pool and fixed warm state asked for in reset's options (ValueError on unknown keys or values)."""
     unknown = set(options) - set(RESET_OPTIONS)
     if unknown:
@@ -127,8 +127,8 @@ def warm_state_options(options: dict[str, Any], snapshots: int) -> tuple[str, in
     if pool not in WARM_STATE_POOLS:
         raise ValueError(f"reset option 'pool' must be one of {', '.join(WARM_STATE_POOLS)}, got {pool!r}")
     warm_state = options.get("warm_state")
-    if warm_state is not None and not (isinstance(warm_state, int | np.integer) and 0 <= warm_state < snapshots):
-        raise ValueError(f"reset option 'warm_state' must be an integer in [0, {snapshots}), got {warm_state!r}")
+    if warm_state is not None and not (isinstance(warm_state, int | np.integer) and 0 <= warm_state < warm_states):
+        raise ValueError(f"reset option 'warm_state' must be an integer in [0, {warm_states}), got {warm_state!r}")
     return pool, None if warm_state is None else int(warm_state)
 
 
@@ -139,10 +139,10 @@ def start_egos(sim: Simulation, rng: np.random.Generator, config: Config, egos: 
     `HighwayEnv`'s ego, `reset_egos` for `ParallelHighwayEnv`'s: the egos that sit the episode out); where no ego
     found room, every ego's place is drawn again, up to `START_DRAWS` places, then EgoCouldNotEnter. Returns what
     `enter` returned."""
-    starts = EpisodeStarts.draw(rng, config, sim.snapshot_count, egos, sim.start_lanes)
-    pool, warm_state = warm_state_options(options, sim.snapshot_count)
+    starts = EpisodeStarts.draw(rng, config, sim.warm_state_count, egos, sim.start_lanes)
+    pool, warm_state = warm_state_options(options, sim.warm_state_count)
     if warm_state is not None:
-        starts = replace(starts, snapshot=warm_state)
+        starts = replace(starts, warm_state=warm_state)
     attempt = 1
     while True:
         try:

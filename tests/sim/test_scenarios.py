@@ -208,11 +208,11 @@ def test_a_crowded_start_is_drawn_again_the_same_way_for_every_driver(small_conf
     reset = Simulation.reset
     places: list[tuple[int, float]] = []
 
-    def first_place_full(sim, snapshot, sumo_seed, ego_lane, ego_position_m, pool="train"):
+    def first_place_full(sim, warm_state, sumo_seed, ego_lane, ego_position_m, pool="train"):
         places.append((ego_lane, ego_position_m))
         if len(places) % 2 == 1:
             raise EgoCouldNotEnter("the ego could not enter")
-        reset(sim, snapshot, sumo_seed, ego_lane, ego_position_m, pool)
+        reset(sim, warm_state, sumo_seed, ego_lane, ego_position_m, pool)
 
     monkeypatch.setattr(Simulation, "reset", first_place_full)
     env = HighwayEnv(small_config)
@@ -234,11 +234,11 @@ def test_a_crowded_start_on_the_shared_road_is_drawn_again_as_the_single_egos(sm
     reset_egos = Simulation.reset_egos
     places: list[list[tuple[int, float]]] = []
 
-    def first_place_full(sim, snapshot, sumo_seed, egos, pool="train"):
+    def first_place_full(sim, warm_state, sumo_seed, egos, pool="train"):
         places.append([(lane, position_m) for _, lane, position_m in egos])
         if len(places) % 2 == 1:
             raise EgoCouldNotEnter("no ego could enter")
-        return reset_egos(sim, snapshot, sumo_seed, egos, pool)
+        return reset_egos(sim, warm_state, sumo_seed, egos, pool)
 
     monkeypatch.setattr(Simulation, "reset_egos", first_place_full)
     single = HighwayEnv(small_config)

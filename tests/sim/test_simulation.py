@@ -14,8 +14,8 @@ def sim(small_config):
     simulation.close()
 
 
-def traffic_after(sim: Simulation, snapshot: int, seed: int, seconds: float = 20.0) -> dict[str, tuple]:
-    sim.reset(snapshot=snapshot, sumo_seed=seed, ego_lane=2, ego_position_m=400.0)
+def traffic_after(sim: Simulation, warm_state: int, seed: int, seconds: float = 20.0) -> dict[str, tuple]:
+    sim.reset(warm_state=warm_state, sumo_seed=seed, ego_lane=2, ego_position_m=400.0)
     sim.advance(round(seconds / sim.scenario.step_length_s))
     return {v: libsumo.vehicle.getPosition(v) for v in libsumo.vehicle.getIDList()}
 
@@ -49,7 +49,7 @@ def test_close_twice_is_harmless_and_a_new_simulation_can_start(small_config):
 
 
 def test_observe_returns_neighbours_without_the_ego(sim):
-    sim.reset(snapshot=0, sumo_seed=3, ego_lane=1, ego_position_m=400.0)
+    sim.reset(warm_state=0, sumo_seed=3, ego_lane=1, ego_position_m=400.0)
     ego, neighbours = sim.observe()
     assert EGO_ID not in neighbours.ids
     assert ego.lane == 1 and ego.lane_position_m == pytest.approx(400.0, abs=5.0)
@@ -59,7 +59,7 @@ def test_observe_returns_neighbours_without_the_ego(sim):
 
 
 def test_forced_rear_end_collision_is_reported(sim):
-    sim.reset(snapshot=0, sumo_seed=5, ego_lane=0, ego_position_m=400.0)
+    sim.reset(warm_state=0, sumo_seed=5, ego_lane=0, ego_position_m=400.0)
     libsumo.vehicle.add("blocker", "highway_route", typeID="truck", depart="now", departLane="0",
                         departPos="460", departSpeed="0")
     libsumo.vehicle.setSpeedMode(EGO_ID, 0)
@@ -77,7 +77,7 @@ def test_advance_reports_as_advance_egos_does_for_the_single_ego(sim):
     vehicles, up to the collision that ends the ego's episode."""
     reports = {}
     for way in ("advance", "advance_egos"):
-        sim.reset(snapshot=0, sumo_seed=5, ego_lane=0, ego_position_m=400.0)
+        sim.reset(warm_state=0, sumo_seed=5, ego_lane=0, ego_position_m=400.0)
         libsumo.vehicle.add("blocker", "highway_route", typeID="truck", depart="now", departLane="0",
                             departPos="460", departSpeed="0")
         libsumo.vehicle.setSpeedMode(EGO_ID, 0)
@@ -105,17 +105,17 @@ def vehicles_of_state(path) -> set[str]:
 def test_warm_state_pools_never_share_a_state(sim):
     pools = {pool: sim._pool(pool) for pool in WARM_STATE_POOLS}
     paths = [path for states in pools.values() for path in states]
-    assert len(set(paths)) == len(paths) == 3 * sim.snapshot_count
+    assert len(set(paths)) == len(paths) == 3 * sim.warm_state_count
     contents = {path.read_bytes() for path in paths}
     assert len(contents) == len(paths)  # every state distinct, across pools too
     train, test = pools["train"][0], pools["test"][0]
     positions = [traffic_after(sim, 0, seed=1, seconds=0.1)]
-    sim.reset(snapshot=0, sumo_seed=1, ego_lane=2, ego_position_m=400.0, pool="test")
+    sim.reset(warm_state=0, sumo_seed=1, ego_lane=2, ego_position_m=400.0, pool="test")
     positions.append({v: libsumo.vehicle.getPosition(v) for v in libsumo.vehicle.getIDList()})
     assert positions[0] != positions[1]
     assert vehicles_of_state(train) and vehicles_of_state(test)
     with pytest.raises(ValueError, match="warm-state pool"):
-        sim.reset(snapshot=0, sumo_seed=1, ego_lane=2, ego_position_m=400.0, pool="holdout")
+        sim.reset(warm_state=0, sumo_seed=1, ego_lane=2, ego_position_m=400.0, pool="holdout")
 
 
 def test_an_ego_with_no_room_to_enter_is_an_error_naming_the_traffic_flow(small_config, monkeypatch):
@@ -125,7 +125,7 @@ def test_an_ego_with_no_room_to_enter_is_an_error_naming_the_traffic_flow(small_
     simulation = Simulation(jammed, context_radius_m=120.0)
     try:
         with pytest.raises(SimulationError, match=r"could not enter lane 2 .*scenario\.flow_veh_per_h is 14000 veh/h"):
-            simulation.reset(snapshot=0, sumo_seed=1, ego_lane=2, ego_position_m=400.0)
+            simulation.reset(warm_state=0, sumo_seed=1, ego_lane=2, ego_position_m=400.0)
     finally:
         simulation.close()
 
