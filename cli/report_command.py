@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import click
+from sumo_rail_cli.output_lock import lock_output
 from sumo_rail_cli.running import library_errors
 
 
@@ -22,6 +23,7 @@ def report_command(inputs: tuple[Path, ...], out: Path, videos: Path | None) -> 
     from sumo_rail.report.inputs import ReportError, read_inputs
     from sumo_rail.report.markdown import write_report
 
+    lock_output(out)  # one command at a time writes a report folder
     with library_errors():
         try:
             path = write_report(read_inputs(list(inputs)), out, videos)

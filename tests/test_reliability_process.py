@@ -36,6 +36,20 @@ def test_an_output_another_command_writes_is_one_sentence_and_a_dead_holders_loc
     assert sorted(tmp_path.iterdir()) == []
 
 
+def test_a_report_folder_another_command_writes_is_one_sentence(tmp_path):
+    out, metrics = tmp_path / "report", tmp_path / "metrics.parquet"
+    metrics.write_bytes(b"not read: the lock is checked first")
+    holder = subprocess.Popen(["sleep", "600"])
+    try:
+        lock_path(out).write_text(f"{holder.pid}\n")
+        result = CliRunner().invoke(cli, ["report", str(metrics), "--out", str(out)])
+        assert result.exit_code == 1 and f"pid {holder.pid}" in result.output and "Traceback" not in result.output
+        assert not out.exists()
+    finally:
+        holder.kill()
+        holder.wait()
+
+
 def _caught(pid: int, number: int) -> bool:
     """Whether process `pid` has a handler for signal `number` (/proc's SigCgt mask)."""
     status = Path(f"/proc/{pid}/status").read_text()
