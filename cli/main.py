@@ -5,22 +5,19 @@ from __future__ import annotations
 import logging
 
 import click
-from sumo_rail_cli.running import STARTING_INTERRUPTED, interrupted_while_starting, make_interruptible
+from sumo_rail_cli.running import STARTING_INTERRUPTED, end_quietly_while_starting, make_interruptible
 
-make_interruptible()  # first: Ctrl-C and SIGTERM in the slow imports below (libsumo, scipy) and the commands' own
-try:
-    from sumo_rail_cli.commands import evaluate_command, record_expert, train_command
-    from sumo_rail_cli.dagger_command import dagger_command
-    from sumo_rail_cli.export_command import export_minari_command
-    from sumo_rail_cli.gail_command import gail_command
-    from sumo_rail_cli.import_command import import_recording_command
-    from sumo_rail_cli.ppo_command import ppo_command
-    from sumo_rail_cli.recordings_commands import record_sumo_drivers_command, recorded_demos_command
-    from sumo_rail_cli.report_command import report_command
-    from sumo_rail_cli.scene_command import evaluate_scene_command
-    from sumo_rail_cli.signal_command import step_signal_command
-except KeyboardInterrupt:
-    interrupted_while_starting()
+end_quietly_while_starting()  # first: Ctrl-C and SIGTERM in the slow imports below (libsumo, scipy) and click's parsing
+from sumo_rail_cli.commands import evaluate_command, record_expert, train_command
+from sumo_rail_cli.dagger_command import dagger_command
+from sumo_rail_cli.export_command import export_minari_command
+from sumo_rail_cli.gail_command import gail_command
+from sumo_rail_cli.import_command import import_recording_command
+from sumo_rail_cli.ppo_command import ppo_command
+from sumo_rail_cli.recordings_commands import record_sumo_drivers_command, recorded_demos_command
+from sumo_rail_cli.report_command import report_command
+from sumo_rail_cli.scene_command import evaluate_scene_command
+from sumo_rail_cli.signal_command import step_signal_command
 
 
 class _Commands(click.Group):
@@ -29,6 +26,7 @@ class _Commands(click.Group):
 
     def invoke(self, ctx: click.Context) -> object:
         try:
+            make_interruptible()  # the command's own: its work turns a stop into its own sentence
             return super().invoke(ctx)
         except KeyboardInterrupt:
             raise click.ClickException(STARTING_INTERRUPTED) from None

@@ -6,12 +6,11 @@ from __future__ import annotations
 import contextlib
 import math
 import signal
-import sys
 from collections.abc import Callable, Iterator
 from contextlib import AbstractContextManager
 from pathlib import Path
 from types import FrameType
-from typing import TYPE_CHECKING, Any, NoReturn
+from typing import TYPE_CHECKING, Any
 
 import click
 
@@ -141,14 +140,20 @@ def make_interruptible() -> None:
 
 
 STARTING_INTERRUPTED = "interrupted before any work began; nothing was written"
-"""What a command stopped while it starts (its imports, its checks) says."""
+"""What a command stopped while it starts (its imports, click's parsing, its checks) says."""
 
 
-def interrupted_while_starting() -> NoReturn:
-    """End the process stopped while `sumo-rail` imports its commands: the one sentence, exit 1 (as click would)."""
+def end_quietly_while_starting() -> None:
+    """Make SIGINT and SIGTERM end the process with the one sentence `STARTING_INTERRUPTED` (exit 1), wherever they
+    arrive while `sumo-rail` starts (its imports, click's parsing), until a command begins and calls
+    `make_interruptible`; SystemExit, not KeyboardInterrupt, so that no handler on the way turns it into a traceback."""
+    signal.signal(signal.SIGINT, _end_starting)
+    signal.signal(signal.SIGTERM, _end_starting)
+
+
+def _end_starting(signal_number: int, frame: FrameType | None) -> None:
     ignore_stop_signals()
-    click.echo(f"Error: {STARTING_INTERRUPTED}", err=True)
-    sys.exit(1)
+    raise SystemExit(f"Error: {STARTING_INTERRUPTED}")
 
 
 def ignore_stop_signals() -> None:

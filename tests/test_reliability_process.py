@@ -101,6 +101,16 @@ def test_a_sigterm_while_gail_starts_is_one_sentence(tmp_path):
     assert list(tmp_path.iterdir()) == []
 
 
+def test_a_stop_after_the_imports_and_before_the_command_is_one_sentence():
+    """The window between `sumo-rail`'s imports and its command (click's parsing, --version): a signal there is the
+    one sentence, as in the imports and in the command's checks."""
+    script = ("import os, signal\nfrom sumo_rail_cli.main import cli\nos.kill(os.getpid(), signal.SIGTERM)\n"
+              "cli(['--version'], prog_name='sumo-rail')\n")
+    result = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=300)
+    assert result.returncode == 1 and result.stdout == "", result
+    assert result.stderr == "Error: interrupted before any work began; nothing was written\n", result.stderr
+
+
 def test_evaluate_with_one_worker_runs_in_this_process(monkeypatch):
     from sumo_rail.runners.backends import ProcessPoolBackend
 
