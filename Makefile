@@ -26,6 +26,7 @@ bench: $(STAMP)
 	$(PY) benchmarks/bench_env.py --out docs/benchmarks.md
 	$(PY) benchmarks/bench_roads.py --out docs/benchmarks.md
 	$(PY) benchmarks/bench_multi_ego.py --out docs/benchmarks.md
+	$(PY) benchmarks/bench_one_ego.py --out docs/benchmarks.md
 	$(PY) benchmarks/bench_record.py --out docs/benchmarks.md
 	$(PY) benchmarks/bench_evaluate.py --out docs/benchmarks.md
 	$(PY) benchmarks/bench_train.py --out docs/benchmarks.md

@@ -29,8 +29,9 @@ from doc_section import write_section
 
 from sumo_rail.config import Config
 from sumo_rail.datasets import sumo_version
-from sumo_rail.sim.env import HighwayEnv, start_ego
+from sumo_rail.sim.env import HighwayEnv
 from sumo_rail.sim.simulation import EGO_ID, Simulation
+from sumo_rail.sim.starts import start_ego
 
 
 def clocks() -> np.ndarray:

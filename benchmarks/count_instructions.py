@@ -59,8 +59,8 @@ def inner_raw(kind: str, seed: int, decisions: int) -> int:
     import libsumo
 
     from sumo_rail.sim.ego import CONTEXT_MARGIN_M
-    from sumo_rail.sim.env import start_ego
     from sumo_rail.sim.simulation import EGO_ID, Simulation
+    from sumo_rail.sim.starts import start_ego
 
     config = config_of(kind)
     sim = Simulation(config.scenario, config.lidar.range_m + CONTEXT_MARGIN_M)

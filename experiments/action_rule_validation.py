@@ -66,7 +66,7 @@ def drive(config: Config, seeds: list[int], pool: str) -> tuple[pd.DataFrame, pd
     tracks, actions = [], []
     for index, seed in enumerate(seeds):
         observation, _ = env.reset(seed=seed, options={"pool": pool})
-        sim = env._sim
+        sim = env.simulation
         api, start_s = sim._api, sim.time_s
         vehicle, shift_s = f"ep{index:03d}", index * EPISODE_GAP_S - start_s
         rows = [ego_state(api, start_s + shift_s)]

@@ -137,7 +137,7 @@ config = Config.from_dict({"scenario": {"length_m": 1500.0, "warmup_s": 120.0, "
 first, second = HighwayEnv(config), HighwayEnv(config)
 first.reset(seed=1)
 second.reset(seed=1)
-print("ran", first._sim.transport, second._sim.transport)
+print("ran", first.simulation.transport, second.simulation.transport)
 """
     result = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=300)
     assert result.returncode == 0 and result.stdout.split() == ["ran", "libsumo", "traci"], result.stderr

@@ -52,7 +52,7 @@ class _CapturingEnv:
         return result
 
     def _capture(self) -> None:
-        api = self.env._sim._api  # read only: every vehicle of the simulation, as SUMO's FCD output sees them
+        api = self.env.simulation._api  # read only: every vehicle of the simulation, as SUMO's FCD output sees them
         time_s = api.simulation.getTime()
         vehicle = api.vehicle
         for vehicle_id in vehicle.getIDList():

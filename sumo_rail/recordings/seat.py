@@ -16,10 +16,10 @@ from __future__ import annotations
 import dataclasses
 import xml.etree.ElementTree as ElementTree
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import gymnasium
 import numpy as np
 import pandas as pd
 
@@ -28,7 +28,7 @@ from sumo_rail.datasets import DatasetError, write_bytes_atomically
 from sumo_rail.recordings.scene_folder import Scene, read_scene
 from sumo_rail.recordings.scene_observations import SceneFrames, SceneRoad, scene_road
 from sumo_rail.recordings.scene_traffic import LANE_CHANGE_MODE_SUMO, REPLAY_ROUTE, SceneTraffic
-from sumo_rail.sim.ego import CONTEXT_MARGIN_M, Ego, edge_rows
+from sumo_rail.sim.ego import CONTEXT_MARGIN_M, Ego
 from sumo_rail.sim.env import HighwayEnv
 from sumo_rail.sim.simulation import EGO_ID, Simulation, SimulationError, sumo_options
 from sumo_rail.sim.vehicles import PeriodReport
@@ -90,10 +90,10 @@ class SceneSimulation(Simulation):
         if self._ego_in and simulation.getArrivedNumber() and EGO_ID in simulation.getArrivedIDList():
             self._ego_in = False
 
-    def advance(self, steps: int, watch: Sequence[str] = ()) -> PeriodReport:
+    def advance(self, steps: int, watch: Sequence[str] = (), vehicle: str = EGO_ID) -> PeriodReport:
         """`Stepping.advance`, and a collision of the ego with a replayed vehicle in the period's last step said as
         one: SUMO then still answers for the ego (it leaves at the next step) but no longer sees it."""
-        report = super().advance(steps, watch)
+        report = super().advance(steps, watch, vehicle)
         if self.ego_collisions and not report.ego_collided:
             return dataclasses.replace(report, ego_collided=True, ego_left_network=False)
         return report
@@ -147,10 +147,45 @@ class SceneSimulation(Simulation):
         vehicle.setSpeedFactor(EGO_ID, desired_mps / self.speed_limit_mps)
 
 
+@dataclass(frozen=True)
+class SeatStart:
+    """The `StartRule` of a recorded scene (`scene`, its `frames` and `road`): every reset seats the ego in a
+    recorded vehicle (reset options "vehicle", "start_s", "sumo_driver"; see `SceneEnv`)."""
+
+    scene: Scene
+    frames: SceneFrames
+    road: SceneRoad
+    reactive: bool
+    options: tuple[str, ...] = ("vehicle", "start_s", "sumo_driver")
+
+    def simulation(self, config: Config, transport: str, gui: bool, gui_delay_ms: float) -> Simulation:
+        return SceneSimulation(config, self.frames, self.scene.tracks, self.road, self.reactive, transport, gui=gui)
+
+    def enter(self, sim: Simulation, rng: np.random.Generator, config: Config, agents: Sequence[str],
+              options: dict[str, Any]) -> list[str]:
+        if "vehicle" not in options:
+            raise ValueError("SceneEnv.reset needs options={'vehicle': ID}: the recorded vehicle whose seat the ego "
+                             "takes")
+        assert isinstance(sim, SceneSimulation) and tuple(agents) == (EGO_ID,)
+        vehicle = str(options["vehicle"])
+        start_s = float(options.get("start_s", self.scene.track(vehicle)["time_s"].iloc[0]))
+        sim.seat(vehicle, start_s, int(rng.integers(2**31 - 1)))
+        return []
+
+    def started(self, sim: Simulation, egos: Mapping[str, Ego], options: dict[str, Any]) -> None:
+        """With "sumo_driver", SUMO's IDM and LC2013 take the seat, desired speed the ego's top set-point."""
+        if options.get("sumo_driver", False):
+            assert isinstance(sim, SceneSimulation)
+            ego = egos[EGO_ID]
+            sim.hand_to_sumo(ego.top_speed_mps(sim))
+            ego.sumo_driven = True
+
+
 class SceneEnv(HighwayEnv):
     """`HighwayEnv` in a recorded scene (`scene`: a scene folder) with its vehicles replayed (`reactive` False) or
     driven by SUMO from their recorded state (True). `reset(options={"vehicle": ID, "start_s": T})` seats the ego
-    in vehicle ID at T [s] (default: where its track begins); `"sumo_driver": True` lets SUMO drive it."""
+    in vehicle ID at T [s] (default: where its track begins); `"sumo_driver": True` lets SUMO drive it (the actions
+    passed to `step` are then checked, not used)."""
 
     def __init__(self, config: Config | Mapping[str, Any] | str | Path | None, scene: Path | Scene,
                  reactive: bool = False, render_mode: str | None = None, transport: str = "auto") -> None:
@@ -158,44 +193,11 @@ class SceneEnv(HighwayEnv):
         self.frames = SceneFrames(self.scene.tracks, self.scene.meta.frame_rate_hz)
         self.road = scene_road(self.scene.network)
         self.reactive = reactive
-        self._sumo_driver = False
         super().__init__(scene_config(Config.coerce(config), self.scene, self.road), render_mode=render_mode,
-                         transport=transport)
-
-    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None,
-              ) -> tuple[np.ndarray, dict[str, Any]]:
-        gymnasium.Env.reset(self, seed=seed)
-        options = dict(options or {})
-        if "vehicle" not in options:
-            raise ValueError("SceneEnv.reset needs options={'vehicle': ID}: the recorded vehicle whose seat the ego "
-                             "takes")
-        vehicle = str(options["vehicle"])
-        start_s = float(options.get("start_s", self.scene.track(vehicle)["time_s"].iloc[0]))
-        if self._sim is None:
-            self._sim = SceneSimulation(self.config, self.frames, self.scene.tracks, self.road, self.reactive,
-                                        self.transport, gui=self.render_mode == "human")
-        sim = self._sim
-        assert isinstance(sim, SceneSimulation)
-        sim.seat(vehicle, start_s, int(self.np_random.integers(2**31 - 1)))
-        if self._edges is None:
-            self._edges = edge_rows(sim)
-        self._ego = Ego(self.config, EGO_ID, self._edges)
-        self._sumo_driver = bool(options.get("sumo_driver", False))
-        first = self._ego.start(sim)
-        if self._sumo_driver:
-            sim.hand_to_sumo(self._ego.top_speed_mps(sim))
-        return first
-
-    def step(self, action: int | np.integer) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
-        if not self._sumo_driver:
-            return super().step(action)
-        if self._sim is None or self._ego is None:
-            raise RuntimeError("call reset() before step()")
-        ego = self._ego
-        ego.metrics.decisions += 1
-        return ego.finish(self._sim, self._sim.advance(self._steps_per_decision, ego.period_safety.watched()))
+                         transport=transport, start=SeatStart(self.scene, self.frames, self.road, reactive))
 
     @property
     def ego_collisions(self) -> list[tuple[str, str]]:
         """(collider, victim) of the ego's collisions in this episode."""
-        return self._sim.ego_collisions if isinstance(self._sim, SceneSimulation) else []
+        sim = self.simulation
+        return sim.ego_collisions if isinstance(sim, SceneSimulation) else []

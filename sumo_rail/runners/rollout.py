@@ -149,30 +149,47 @@ def run_episode(env: HighwayEnv, driver: Driver, seed: int, record: bool = False
 def run_shared_episode(env: ParallelHighwayEnv | _OneEgo, drivers: Sequence[Driver], seed: int, record: bool = False,
                        perturbs: Sequence[Callable[[int], int]] | None = None,
                        probes: Sequence[DecisionProbe] | None = None) -> list[EpisodeResult | None]:
-    """Reset `env` with `seed` and drive ego_j with drivers[j] (asked in ego order at each decision) until every
-    ego has left: each ego's episode (its metrics' seed is `seed`), in ego order, None for an ego that found no room
-    on the road. With `perturbs` ego_j's car executes perturbs[j](action) while its records keep the driver's action
-    (DART); `probes[j]` watches ego_j's decisions."""
-    observations, infos = env.reset(seed=seed)
+    """Reset `env` with `seed` and drive ego_j with drivers[j] until every ego has left (`drive_egos` without a budget):
+    each ego's episode (its metrics' seed is `seed`), in ego order, None for an ego that found no room on the road."""
+    return [lives[0] if lives else None for lives in drive_egos(env, drivers, seed, None, record, perturbs, probes)]
+
+
+def drive_egos(env: ParallelHighwayEnv | _OneEgo, drivers: Sequence[Driver], seed: int, decisions: int | None = None,
+          record: bool = False, perturbs: Sequence[Callable[[int], int]] | None = None,
+          probes: Sequence[DecisionProbe] | None = None) -> list[list[EpisodeResult]]:
+    """The one episode loop. Reset `env` with `seed` and drive ego_j with drivers[j] (asked in ego order at each
+    decision): with `decisions` None, one whole episode each (an ego leaves when its episode ends; one that found no
+    room has none); with a number, that many decisions each across as many lives as it takes (an ego whose episode
+    ends, or that found no room, respawns at once: `sumo_rail.sim.respawning.RespawningEgos`; when the egos jam the
+    road's start, every life is cut there, a truncation, and the road resets), the last life, cut by the budget,
+    neither terminated nor truncated. Each ego's episodes in order (metrics' seed `seed`). With `perturbs` ego_j's
+    car executes perturbs[j](action) while the records keep the driver's (DART); `probes[j]` watches ego_j's
+    decisions."""
+    road = RespawningEgos(env, seed, reset_when_empty=False, respawn=decisions is not None)  # type: ignore[arg-type]
+    observations, infos = road.start()
     agents = list(env.possible_agents)
-    logs = {agent: _EpisodeLog(record) for agent in env.agents}
-    ends: dict[str, tuple[dict[str, Any], bool, bool]] = {}
-    while env.agents:
+    logs = {agent: _EpisodeLog(record) for agent in agents}
+    lives: dict[str, list[EpisodeResult]] = {agent: [] for agent in agents}
+    done = 0
+    while env.agents and (decisions is None or done < decisions):
         traffic = {agent: env.traffic(agent) for agent in env.agents}
         actions = {agent: int(drivers[agents.index(agent)](observations[agent], traffic[agent]))
                    for agent in env.agents}
         executed = actions if perturbs is None else \
             {agent: perturbs[agents.index(agent)](action) for agent, action in actions.items()}
-        seen, before = observations, infos
-        observations, rewards, terminations, truncations, infos = env.step(executed)
+        step = road.step(executed)
         for agent, action in actions.items():
             if probes is not None:
-                probes[agents.index(agent)](seen[agent], traffic[agent], action, infos[agent])
-            logs[agent].add(seen[agent], action, rewards[agent], before[agent], infos[agent])
-            if terminations[agent] or truncations[agent]:
-                ends[agent] = (infos[agent], terminations[agent], truncations[agent])
-    return [logs[agent].result(env.metrics(agent), seed, *ends[agent]) if agent in logs else None
-            for agent in agents]
+                probes[agents.index(agent)](observations[agent], traffic[agent], action, step.infos[agent])
+            logs[agent].add(observations[agent], action, step.rewards[agent], infos[agent], step.infos[agent])
+        for agent in step.ended:
+            lives[agent].append(logs[agent].result(step.metrics[agent], seed, step.infos[agent],
+                                                   step.terminations[agent], step.truncated(agent)))
+            logs[agent] = _EpisodeLog(record)
+        observations, infos = step.next_observations, step.next_infos
+        done += 1
+    return [[*lives[agent], *([logs[agent].result(env.metrics(agent), seed, infos[agent], False, False)]
+                              if logs[agent].decisions else [])] for agent in agents]
 
 
 class _OneEgo:
@@ -203,46 +220,20 @@ class _OneEgo:
         return {"ego": observation}, {"ego": reward}, {"ego": terminated}, {"ego": truncated}, {"ego": info}
 
 
-def run_lives(env: ParallelHighwayEnv, drivers: Sequence[Driver], seed: int, decisions: int, record: bool = False,
-              ) -> list[list[EpisodeResult]]:
-    """Reset `env` with `seed` and drive ego_j with drivers[j] (asked in ego order at each decision) for `decisions`
-    decisions each, across as many lives as it takes: an ego whose episode ends, or that found no room at the reset,
-    respawns at once (`sumo_rail.sim.respawning.RespawningEgos`), so every ego decides in every period and none waits
-    for another; when the egos jam the road's start so that one finds no place to respawn, every life is cut there (a
-    truncation) and the road resets. Each ego's lives in order, as `run_episode` gives an episode (metrics' seed
-    `seed`); the last one, cut by the budget, neither terminated nor truncated."""
-    road = RespawningEgos(env, seed, reset_when_empty=False)
-    observations, infos = road.start()
-    agents = list(env.possible_agents)
-    logs = {agent: _EpisodeLog(record) for agent in agents}
-    lives: dict[str, list[EpisodeResult]] = {agent: [] for agent in agents}
-    for _ in range(decisions):
-        actions = {agent: int(driver(observations[agent], env.traffic(agent)))
-                   for agent, driver in zip(agents, drivers, strict=True)}
-        step = road.step(actions)
-        for agent, action in actions.items():
-            logs[agent].add(observations[agent], action, step.rewards[agent], infos[agent], step.infos[agent])
-        for agent in step.ended:
-            lives[agent].append(logs[agent].result(step.metrics[agent], seed, step.infos[agent],
-                                                   step.terminations[agent], step.truncated(agent)))
-            logs[agent] = _EpisodeLog(record)
-        observations, infos = step.next_observations, step.next_infos
-    return [[*lives[agent], *([logs[agent].result(env.metrics(agent), seed, infos[agent], False, False)]
-                              if env.metrics(agent).decisions else [])] for agent in agents]
-
-
 class _EpisodeLog:
     """One ego's episode: with `record`, every decision's (observation, state, action, reward) for the step
     columns; the metrics row at its end either way."""
 
     def __init__(self, record: bool) -> None:
         self.record = record
+        self.decisions = 0
         self.observations: list[np.ndarray] = []
         self.rows: list[tuple[Any, ...]] = []
 
     def add(self, observation: np.ndarray, action: int, reward: float, before: dict[str, Any],
             info: dict[str, Any]) -> None:
         """A decision: `before` is the info the driver decided on, `info` the step's."""
+        self.decisions += 1
         if self.record:
             self.observations.append(observation)
             self.rows.append((action, reward, info["reward_longitudinal"], info["reward_lateral"],

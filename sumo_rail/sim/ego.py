@@ -74,6 +74,9 @@ class Ego:
         self.safety_readings: dict[str, float] = NO_READINGS
         """The last period's safety readings (`period_safety.READINGS`, in `info`)."""
         self.requested_lane: int | None = None
+        self.sumo_driven = False
+        """SUMO's own models drive the vehicle (a recorded seat's "sumo_driver"): decisions are counted, actions
+        ignored."""
         self._kernel_settings = (config.lidar.beams, config.lidar.range_m, config.env.v_min_mps, config.env.v_max_mps,
                                  config.scenario.lanes, config.observation.lane_block == 1,
                                  config.observation.route_block == 1)
@@ -101,8 +104,11 @@ class Ego:
         return min(self.config.env.v_max_mps, sim.speed_limit_mps)
 
     def command(self, sim: Simulation, action: Action) -> None:
-        """Give SUMO the command of this decision's `action` (before the period's steps)."""
+        """Give SUMO the command of this decision's `action` (before the period's steps); none when SUMO drives."""
         cfg, metrics = self.config, self.metrics
+        if self.sumo_driven:
+            metrics.decisions += 1
+            return
         self.last_action = action
         route = self.traffic.ego.route if self.traffic is not None else None
         lowest, highest = (0, cfg.scenario.lanes - 1) if route is None else (route.lowest_lane, route.highest_lane)

@@ -1,23 +1,24 @@
-"""`ParallelHighwayEnv`: K controlled egos on one SUMO road, as a PettingZoo `ParallelEnv`
-(`sumo_rail.parallel_env(egos=K, config=...)`).
+"""`ParallelHighwayEnv`: the env core, K controlled egos on one SUMO road (K = 1 the plain case), as a PettingZoo
+`ParallelEnv` (`sumo_rail.parallel_env(egos=K, config=...)`). The Gymnasium env `HighwayEnv` is its adapter for one
+ego; every episode of the project, of one ego or K, starts, steps and ends here.
 
-Agents `ego_0` ... `ego_{K-1}` are SUMO vehicles of the same ids and the ego type. Each is driven exactly as
-`HighwayEnv`'s single ego (`sumo_rail.sim.ego.Ego`: the same actions, observation, rewards, info and metrics) and
+Agents `ego_0` ... `ego_{K-1}` (or the names given as `egos`) are SUMO vehicles of the same ids and the ego type.
+Each is driven by the rules of `sumo_rail.sim.ego.Ego` (actions, observation, rewards, info and metrics) and
 sees the other egos as traffic (they are vehicles within its LIDAR and context radius). Every decision runs one
 decision period of the shared simulation for all egos still driving, so a decision of K egos costs about one
-simulation period plus K observations.
+simulation period plus K observations; one ego's period runs `Simulation.advance`, the one-ego loop of the same
+report (docs/benchmarks.md says what it saves).
 
-Starts: each reset draws, from the env's `np_random`, the warm state, SUMO's seed, then each ego's lane and
-position by the start-slot rule of `sumo_rail.sim.starts` (evenly spaced slots in the single ego's start window,
-ego_0 nearest the start of the road, widened past it when K slots of 40 m do not fit); with K = 1 the draws and
-the episode are `HighwayEnv`'s for the same seed. The episode starts once every ego is on the road (those that
-entered first drive on meanwhile); an ego that finds no room at its place within 30 s of simulated time (a dense
-left lane; 2 of 2400 egos in 150 resets at K = 16 on the default scenario) sits the episode out: `agents` after `reset`
-lacks it and it makes no decision (`Simulation.reset_egos`). When no ego enters (always so for a single ego that
-finds no room), every ego's place is drawn again as `HighwayEnv.reset` draws the single ego's
-(`EpisodeStarts.redraw`), so with K = 1 a crowded start is the same episode in both envs. `reset(options=...)`
-takes `HighwayEnv`'s options ("pool", "warm_state"); others are ignored with a warning (PettingZoo's API test
-passes one).
+Starts (`start`, a `sumo_rail.sim.starts.StartRule`; a recorded scene's is `sumo_rail.recordings.seat.SeatStart`).
+By default (`WarmStateStart`) each reset draws, from the env's `np_random`, the warm state, SUMO's seed, then each
+ego's lane and position by the start-slot rule of `sumo_rail.sim.starts` (evenly spaced slots in the single ego's
+start window, ego_0 nearest the start of the road, widened past it when K slots of 40 m do not fit). The episode
+starts once every ego is on the road (those that entered first drive on meanwhile); an ego that finds no room at its
+place within 30 s of simulated time (a dense left lane; 2 of 2400 egos in 150 resets at K = 16 on the default
+scenario) sits the episode out: `agents` after `reset` lacks it and it makes no decision (`Simulation.reset_egos`).
+When no ego enters (always so for a single ego that finds no room), every ego's place is drawn again
+(`EpisodeStarts.redraw`). `reset(options=...)` takes the start rule's options (by default "pool" and "warm_state");
+others are ignored with a warning (PettingZoo's API test passes one).
 
 Ends: an ego that collides (terminated; SUMO removes the vehicles of a collision, two egos that collide both end)
 or reaches the end of the road (truncated) leaves `agents` while the others drive on; an ego truncated within the
@@ -25,21 +26,25 @@ end margin drives on under SUMO's control as traffic for those behind it, until 
 start together, so the time limit truncates every ego still driving at the same decision; the episode ends when
 `agents` is empty.
 
+Rendering: `render_mode="rgb_array"` makes `render()` the bird's-eye frame of the first ego's last decision
+(`frame(agent)` draws any ego's); `"human"` drives SUMO in sumo-gui (traci), following the first ego, with
+`gui_delay_ms` [ms] of wall time per SUMO step.
+
 Respawns: `respawn(agent)` starts a new episode of an ego that has left while the others drive on (a new vehicle
 placed at once in the start window), for runners and learners that keep every ego busy
 (`sumo_rail.sim.respawning`).
 
-For a rollout runner: before each `step`, `traffic(agent)` is that ego's `TrafficView` (what `HighwayEnv.traffic`
-gives for the single ego, so an expert can be asked at every decision), and `metrics(agent)` its episode totals
-(`decisions` is its number of steps); `infos[agent]` carries `HighwayEnv`'s info keys.
+For a rollout runner: before each `step`, `traffic(agent)` is that ego's `TrafficView` (so an expert can be asked
+at every decision), and `metrics(agent)` its episode totals (`decisions` is its number of steps); `infos[agent]`
+carries `Ego`'s info keys.
 """
 
 from __future__ import annotations
 
 import warnings
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from gymnasium import spaces
@@ -49,12 +54,18 @@ from pettingzoo import ParallelEnv
 from sumo_rail.config import Config
 from sumo_rail.sim import network
 from sumo_rail.sim.actions import Action
-from sumo_rail.sim.ego import CONTEXT_MARGIN_M, Ego, checked_action, edge_rows
+from sumo_rail.sim.ego import Ego, checked_action, edge_rows
 from sumo_rail.sim.observation import observation_space
 from sumo_rail.sim.rewards import EpisodeMetrics
 from sumo_rail.sim.simulation import TRANSPORTS, Simulation, SimulationError
-from sumo_rail.sim.starts import RESET_OPTIONS, check_start_slots, start_egos, start_slots
+from sumo_rail.sim.starts import StartRule, WarmStateStart, check_start_slots, start_slots
 from sumo_rail.sim.traffic import TrafficView
+
+if TYPE_CHECKING:
+    from sumo_rail.sim.ego_frame import EgoFrames
+
+RENDER_MODES = ("human", "rgb_array")
+"""human: sumo-gui (needs a display); rgb_array: `render()` returns a bird's-eye frame (no display needed)."""
 
 RESPAWN_DRAWS = 100
 """Most places `ParallelHighwayEnv.respawn` tries in the start window, then as many again from the road's start to
@@ -69,21 +80,38 @@ Infos = dict[str, dict[str, Any]]
 
 
 class ParallelHighwayEnv(ParallelEnv[str, np.ndarray, np.int64]):
-    """`egos` egos on `HighwayEnv`'s highway in one SUMO, over `transport` as `HighwayEnv`'s (auto by default)."""
+    """`egos` egos (a number, or the agents' names) on the highway of `config`, in one SUMO over `transport`:
+    libsumo (in-process, fast; one simulation per process) or traci (a `sumo` process over a socket); "auto", the
+    default, takes libsumo unless another env of this process holds it, then traci; render_mode "human" (sumo-gui)
+    implies traci. `start` says how episodes start (default `WarmStateStart()`)."""
 
-    metadata = {"name": "sumo_rail_highway_v0", "render_modes": [], "is_parallelizable": True}  # noqa: RUF012
+    metadata = {"name": "sumo_rail_highway_v0", "render_modes": list(RENDER_MODES),  # noqa: RUF012
+                "is_parallelizable": True}
 
-    def __init__(self, egos: int = 1, config: Config | Mapping[str, Any] | str | Path | None = None,
-                 transport: str = "auto") -> None:
+    def __init__(self, egos: int | Sequence[str] = 1, config: Config | Mapping[str, Any] | str | Path | None = None,
+                 transport: str = "auto", render_mode: str | None = None, gui_delay_ms: float = 100.0,
+                 start: StartRule | None = None) -> None:
         if transport not in TRANSPORTS:
             raise ValueError(f"transport must be one of {', '.join(TRANSPORTS)}, got {transport!r}")
+        if render_mode not in (None, *RENDER_MODES):
+            raise ValueError(f"render_mode must be None, 'human' (sumo-gui) or 'rgb_array', got {render_mode!r}")
+        if not (isinstance(gui_delay_ms, int | float) and gui_delay_ms >= 0):
+            raise ValueError(f"gui_delay_ms must be a number of milliseconds >= 0, got {gui_delay_ms!r}")
+        names = [f"ego_{k}" for k in range(egos)] if isinstance(egos, int) and egos >= 1 else egos
+        if isinstance(names, str) or not (isinstance(names, Sequence) and names and len(set(names)) == len(names)
+                                          and all(isinstance(name, str) and name for name in names)):
+            raise ValueError(f"egos must be an integer >= 1 or distinct agent names, got {egos!r}")
         self.config = Config.coerce(config)
-        check_start_slots(self.config, egos, network.road_length_m(self.config), network.latest_start_m(self.config))
-        self.slots = start_slots(self.config, egos)
+        if len(names) > 1:
+            check_start_slots(self.config, len(names), network.road_length_m(self.config),
+                              network.latest_start_m(self.config))
+        self.slots = start_slots(self.config, len(names))
         """Start interval of each ego's front [m] (`sumo_rail.sim.starts.start_slots`)."""
         self.transport = transport
-        self.render_mode: str | None = None  # PettingZoo's attribute: this env does not render
-        self.possible_agents = [f"ego_{k}" for k in range(egos)]
+        self.render_mode = render_mode
+        self.gui_delay_ms = float(gui_delay_ms)
+        self.start = start or WarmStateStart()
+        self.possible_agents = list(names)
         self.agents: list[str] = []
         self.observation_spaces = {agent: observation_space(self.config) for agent in self.possible_agents}
         self.action_spaces = {agent: spaces.Discrete(len(Action)) for agent in self.possible_agents}
@@ -93,6 +121,7 @@ class ParallelHighwayEnv(ParallelEnv[str, np.ndarray, np.int64]):
         self._edges: np.ndarray | None = None
         self._egos: dict[str, Ego] = {}
         self._respawns: dict[str, int] = {}
+        self._frames: EgoFrames | None = None
 
     def observation_space(self, agent: str) -> spaces.Box:
         return self.observation_spaces[agent]
@@ -106,6 +135,15 @@ class ParallelHighwayEnv(ParallelEnv[str, np.ndarray, np.int64]):
         if self._np_random is None:
             self._np_random, _ = seeding.np_random()
         return self._np_random
+
+    @np_random.setter
+    def np_random(self, generator: np.random.Generator) -> None:
+        self._np_random = generator
+
+    @property
+    def simulation(self) -> Simulation | None:
+        """The SUMO simulation (None before the first reset and after `close`)."""
+        return self._sim
 
     def traffic(self, agent: str) -> TrafficView:
         """`agent`'s view of the traffic at its last decision (read from SUMO, not from the LIDAR)."""
@@ -128,20 +166,17 @@ class ParallelHighwayEnv(ParallelEnv[str, np.ndarray, np.int64]):
     def reset(self, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[Observations, Infos]:
         if seed is not None:
             self._np_random, _ = seeding.np_random(seed)
-        cfg = self.config
+        cfg, rule = self.config, self.start
         if self._sim is None:
-            network.check_user_route(cfg)
-            self._sim = Simulation(cfg.scenario, cfg.lidar.range_m + CONTEXT_MARGIN_M, transport=self.transport)
+            self._sim = rule.simulation(cfg, self.transport, self.render_mode == "human", self.gui_delay_ms)
         sim = self._sim
         options = dict(options or {})
-        unknown = sorted(set(options) - set(RESET_OPTIONS))
+        unknown = sorted(set(options) - set(rule.options))
         if unknown:
-            warnings.warn(f"ignored unknown reset options {unknown}; known: {', '.join(RESET_OPTIONS)}",
+            warnings.warn(f"ignored unknown reset options {unknown}; known: {', '.join(rule.options)}",
                           stacklevel=2)
-        absent = start_egos(sim, self.np_random, cfg, len(self.possible_agents),
-                            {key: options[key] for key in RESET_OPTIONS if key in options},
-                            lambda starts, pool: sim.reset_egos(starts.warm_state, starts.sumo_seed, list(zip(
-                                self.possible_agents, starts.lanes, starts.positions_m, strict=True)), pool))
+        absent = rule.enter(sim, self.np_random, cfg, self.possible_agents,
+                            {key: options[key] for key in rule.options if key in options})
         if self._edges is None:
             self._edges = edge_rows(sim)
         self._egos = {agent: Ego(cfg, agent, self._edges) for agent in self.possible_agents}
@@ -150,6 +185,7 @@ class ParallelHighwayEnv(ParallelEnv[str, np.ndarray, np.int64]):
         observations, infos = {}, {}
         for agent in self.agents:
             observations[agent], infos[agent] = self._egos[agent].start(sim)
+        rule.started(sim, self._egos, options)
         return observations, infos
 
     def step(self, actions: dict[str, Any]) -> tuple[Observations, dict[str, float], dict[str, bool],
@@ -167,8 +203,11 @@ class ParallelHighwayEnv(ParallelEnv[str, np.ndarray, np.int64]):
         sim, egos = self._sim, [self._egos[agent] for agent in self.agents]
         for agent, ego in zip(self.agents, egos, strict=True):
             ego.command(sim, chosen[agent])
-        reports = sim.advance_egos(self._steps_per_decision, [ego.vehicle for ego in egos],
-                                   [vehicle for ego in egos for vehicle in ego.period_safety.watched()])
+        if len(egos) == 1:
+            reports = [sim.advance(self._steps_per_decision, egos[0].period_safety.watched(), egos[0].vehicle)]
+        else:
+            reports = sim.advance_egos(self._steps_per_decision, [ego.vehicle for ego in egos],
+                                       [vehicle for ego in egos for vehicle in ego.period_safety.watched()])
         observations, rewards, terminations, truncations, infos = {}, {}, {}, {}, {}
         for agent, ego, report in zip(self.agents, egos, reports, strict=True):
             (observations[agent], rewards[agent], terminations[agent], truncations[agent],
@@ -207,8 +246,27 @@ class ParallelHighwayEnv(ParallelEnv[str, np.ndarray, np.int64]):
         self.agents = [name for name in self.possible_agents if name in self.agents or name == agent]
         return ego.start(sim)
 
-    def render(self) -> None:
-        raise NotImplementedError("ParallelHighwayEnv does not render; HighwayEnv draws one ego's frames")
+    def render(self) -> np.ndarray | None:
+        """With render_mode "rgb_array", the frame of the first ego's last decision (`frame`); with "human",
+        sumo-gui draws by itself and this returns None."""
+        return self.frame() if self.render_mode == "rgb_array" else None
+
+    def frame(self, agent: str | None = None) -> np.ndarray:
+        """A bird's-eye RGB frame (H, W, 3) uint8 of `agent`'s last decision (default: the first ego), whatever the
+        render mode (`sumo_rail.sim.ego_frame.EgoFrames.draw`)."""
+        from sumo_rail.sim.ego_frame import EgoFrames
+
+        if self._sim is None or not self._egos:
+            raise RuntimeError("call reset() before render()")
+        if self._frames is None:
+            self._frames = EgoFrames(self.config)
+        return self._frames.draw(self._sim, self._ego(agent or self.possible_agents[0]))
+
+    def gui_screenshot(self, path: str | Path, width_px: int = 1280, height_px: int = 800) -> None:
+        """With render_mode "human": save sumo-gui's view as a PNG at `path` when the next step is drawn."""
+        if self._sim is None:
+            raise RuntimeError("call reset() before gui_screenshot()")
+        self._sim.screenshot(Path(path), width_px, height_px)
 
     def close(self) -> None:
         if self._sim is not None:

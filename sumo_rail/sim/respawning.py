@@ -1,11 +1,12 @@
-"""Egos that never stop: the one respawn loop of the rollout runner's lives (`sumo_rail.runners.rollout.run_lives`)
-and of the learners' respawning roads (`sumo_rail.learning.sb3.shared_road`).
+"""Egos that never stop: the one respawn loop of the rollout runner's lives (`sumo_rail.runners.rollout.drive_egos` with
+a budget of decisions) and of the learners' respawning roads (`sumo_rail.learning.sb3.shared_road`).
 
 `RespawningEgos` drives every ego of a `ParallelHighwayEnv` at every step: an ego whose episode ends respawns at once
 (`ParallelHighwayEnv.respawn`) while the others drive on. When the egos jam the road's start so that one finds no
 place to respawn, every episode still going is cut there (a truncation) and the road resets. With
 `reset_when_empty`, a step that ends every ego's episode resets the road instead of respawning them (with one ego:
-a reset after each episode, as a single-ego env's).
+a reset after each episode, as a single-ego env's). With `respawn` False an ego whose episode ends leaves the road
+and the road is never reset: one whole episode each, the same steps (`drive_egos` without a budget).
 """
 
 from __future__ import annotations
@@ -43,21 +44,24 @@ class RespawnStep:
 
 
 class RespawningEgos:
-    """The egos of `env`, each respawning as soon as its episode ends (see the module's docstring); the road's first
-    reset is seeded with `seed`, later ones draw on from its generator."""
+    """The egos of `env`, each respawning as soon as its episode ends, unless `respawn` is False (see the module's
+    docstring); the road's first reset is seeded with `seed`, later ones draw on from its generator. Without respawns
+    `env` may be any env of `ParallelHighwayEnv`'s reset/step API (the rollouts' one-ego view of a Gymnasium env)."""
 
-    def __init__(self, env: ParallelHighwayEnv, seed: int | None, reset_when_empty: bool) -> None:
+    def __init__(self, env: ParallelHighwayEnv, seed: int | None, reset_when_empty: bool,
+                 respawn: bool = True) -> None:
         self.env = env
         self.seed = seed
         """Seed of the next reset: the first one's, then None (later resets draw on from the road's generator)."""
         self.reset_when_empty = reset_when_empty
+        self.respawn = respawn
 
     def start(self) -> tuple[Observations, Infos]:
         """Reset the road (the first time with `seed`); an ego that could not enter respawns. Every ego's first
         observation and info."""
         observations, infos = self.env.reset(seed=self.seed)
         self.seed = None
-        for agent in self.env.possible_agents:
+        for agent in self.env.possible_agents if self.respawn else ():
             if agent not in observations:
                 observations[agent], infos[agent] = self.env.respawn(agent)
         return observations, infos
@@ -68,17 +72,17 @@ class RespawningEgos:
         env = self.env
         observations, rewards, terminations, truncations, infos = env.step(actions)
         metrics = {agent: env.metrics(agent) for agent in env.possible_agents}
-        ended = [agent for agent in env.possible_agents if terminations[agent] or truncations[agent]]
+        ended = [agent for agent in env.possible_agents if terminations.get(agent) or truncations.get(agent)]
         next_observations, next_infos = dict(observations), dict(infos)
         jammed = False
-        if env.agents or not self.reset_when_empty:
+        if self.respawn and (env.agents or not self.reset_when_empty):
             try:
                 for agent in ended:
                     next_observations[agent], next_infos[agent] = env.respawn(agent)
             except NoRoomToRespawn:  # the egos jam the road's start (a ramp): every episode is cut
                 jammed = True
         cut = tuple(agent for agent in env.possible_agents if jammed and agent not in ended)
-        if jammed or not env.agents:
+        if self.respawn and (jammed or not env.agents):
             next_observations, next_infos = self.start()
         return RespawnStep(observations, rewards, terminations, truncations, infos, metrics,
                            tuple(agent for agent in env.possible_agents if agent in ended or agent in cut), cut,

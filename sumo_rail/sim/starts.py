@@ -7,26 +7,28 @@ w = (b - a) / K, widened to w = `MIN_SLOT_M` (40 m) when the window is too narro
 then reach past b to a + K w (`start_slots`); ego k starts in slot k, ego_0 nearest the start of the road. Each
 ego's lane is drawn uniformly and its front uniformly in [a + k w, a + (k + 1) w - `GAP_M`] (the last slot
 keeps its whole width, up to b or a + K w), so consecutive egos start at least `GAP_M` (20 m) apart along the road.
-With one ego the slot is the window itself: the draws are exactly `HighwayEnv`'s. Pooled over egos, the starts
+With one ego the slot is the window itself: the draws are exactly the single ego's. Pooled over egos, the starts
 cover the same window as the single ego's do over episodes (up to the gaps), whenever it is wide enough.
 
 The draws come in this order: the warm state, SUMO's seed, then lane and position of ego_0, ego_1, ... Lanes are
 those of the route's first edge. Where no ego finds room at its drawn place (a crowded start), every ego's lane and
 position are drawn again in its slot (`EpisodeStarts.redraw`, the next draws), up to `START_DRAWS` places: the
-single ego of `HighwayEnv` and of `ParallelHighwayEnv` alike: both reset by `start_egos`.
+single ego and K egos alike (`WarmStateStart`, the env core's default `StartRule`).
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, replace
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 
 from sumo_rail.config import Config
-from sumo_rail.sim.simulation import EgoCouldNotEnter, Simulation
+from sumo_rail.sim import network
+from sumo_rail.sim.ego import CONTEXT_MARGIN_M, Ego
+from sumo_rail.sim.simulation import EGO_ID, EgoCouldNotEnter, Simulation
 from sumo_rail.sim.warm_states import WARM_STATE_POOLS
 
 _SUMO_SEED_BOUND = 2**31 - 1
@@ -135,8 +137,8 @@ def warm_state_options(options: dict[str, Any], warm_states: int) -> tuple[str, 
 def start_egos(sim: Simulation, rng: np.random.Generator, config: Config, egos: int, options: dict[str, Any],
                enter: Callable[[EpisodeStarts, str], list[str]]) -> list[str]:
     """Reset `sim` for an episode of `egos` egos: draw their starts from `rng` (`EpisodeStarts`, with the warm state
-    that reset's `options` fix, if any) and put them on the road with `enter(starts, pool)` (`Simulation.reset` for
-    `HighwayEnv`'s ego, `reset_egos` for `ParallelHighwayEnv`'s: the egos that sit the episode out); where no ego
+    that reset's `options` fix, if any) and put them on the road with `enter(starts, pool)` (`Simulation.reset_egos`:
+    the egos that sit the episode out); where no ego
     found room, every ego's place is drawn again, up to `START_DRAWS` places, then EgoCouldNotEnter. Returns what
     `enter` returned."""
     starts = EpisodeStarts.draw(rng, config, sim.warm_state_count, egos, sim.start_lanes)
@@ -152,3 +154,53 @@ def start_egos(sim: Simulation, rng: np.random.Generator, config: Config, egos: 
                 raise EgoCouldNotEnter(no_room_anywhere(config, egos)) from error
         attempt += 1
         starts = starts.redraw(rng, config, sim.start_lanes)
+
+
+def start_ego(sim: Simulation, rng: np.random.Generator, config: Config, options: dict[str, Any]) -> None:
+    """What a reset of the single-ego env does to SUMO: reset `sim` with ego `EGO_ID` at its start drawn from `rng`,
+    in the warm state and pool that reset's `options` choose (the benchmarks' SUMO-only loop)."""
+    WarmStateStart().enter(sim, rng, config, (EGO_ID,), options)
+
+
+class StartRule(Protocol):
+    """How the env core (`ParallelHighwayEnv`) starts an episode: its simulation, the egos' entry, and what follows
+    their first observation. `WarmStateStart` for the generated roads and users' networks;
+    `sumo_rail.recordings.seat.SeatStart` puts the ego in a recorded vehicle's seat."""
+
+    options: tuple[str, ...]
+    """The reset options it reads (the env ignores others, with a warning)."""
+
+    def simulation(self, config: Config, transport: str, gui: bool, gui_delay_ms: float) -> Simulation:
+        """The env's simulation, made at its first reset."""
+        ...
+
+    def enter(self, sim: Simulation, rng: np.random.Generator, config: Config, agents: Sequence[str],
+              options: dict[str, Any]) -> list[str]:
+        """Reset `sim` with the egos `agents` (their SUMO ids) on the road, drawing from `rng`; the agents that sit
+        the episode out."""
+        ...
+
+    def started(self, sim: Simulation, egos: Mapping[str, Ego], options: dict[str, Any]) -> None:
+        """After each ego's first observation."""
+        ...
+
+
+@dataclass(frozen=True)
+class WarmStateStart:
+    """Episodes from warm traffic states: the state, SUMO's seed and each ego's place drawn by `start_egos`."""
+
+    options: tuple[str, ...] = RESET_OPTIONS
+
+    def simulation(self, config: Config, transport: str, gui: bool, gui_delay_ms: float) -> Simulation:
+        network.check_user_route(config)
+        return Simulation(config.scenario, config.lidar.range_m + CONTEXT_MARGIN_M, gui=gui, transport=transport,
+                          gui_delay_ms=gui_delay_ms)
+
+    def enter(self, sim: Simulation, rng: np.random.Generator, config: Config, agents: Sequence[str],
+              options: dict[str, Any]) -> list[str]:
+        return start_egos(sim, rng, config, len(agents), options, lambda starts, pool: sim.reset_egos(
+            starts.warm_state, starts.sumo_seed, list(zip(agents, starts.lanes, starts.positions_m, strict=True)),
+            pool))
+
+    def started(self, sim: Simulation, egos: Mapping[str, Ego], options: dict[str, Any]) -> None:
+        return None

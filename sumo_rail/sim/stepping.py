@@ -19,10 +19,10 @@ class Stepping:
     _calls: DecisionCalls
     """`sumo_api.decision_calls` of `_api`, found once per connection."""
 
-    def advance(self, steps: int, watch: Sequence[str] = ()) -> PeriodReport:
-        """`advance_egos(steps, (EGO_ID,), watch)[0]`, the same report from a loop of its own: the single ego's
-        decisions run this at every decision, and without the per-ego lists and dicts of `advance_egos` it costs
-        about half (tests/sim/test_simulation.py compares the two)."""
+    def advance(self, steps: int, watch: Sequence[str] = (), vehicle: str = EGO_ID) -> PeriodReport:
+        """`advance_egos(steps, (vehicle,), watch)[0]`, the same report from a loop of its own: a road of one ego
+        runs this at every decision, and without the per-ego lists and dicts of `advance_egos` it costs about half
+        (tests/sim/test_simulation.py compares the two; docs/benchmarks.md measures the env's gain)."""
         simulation = self._api.simulation
         step, starting_teleports, acceleration = self._calls[:3]
         error = self._client.TraCIException
@@ -36,14 +36,14 @@ class Stepping:
             if starting_teleports():
                 starting = simulation.getStartingTeleportIDList()
                 teleports += len(starting)
-                teleported = teleported or EGO_ID in starting
+                teleported = teleported or vehicle in starting
             try:
-                append(acceleration(EGO_ID))
+                append(acceleration(vehicle))
             except error:
-                gone, left_at_s = self._why_gone(EGO_ID), simulation.getTime()
-            for vehicle in watch:
+                gone, left_at_s = self._why_gone(vehicle), simulation.getTime()
+            for other in watch:
                 with contextlib.suppress(error):  # a watched vehicle that has left is read no more
-                    watched[vehicle] = min(watched.get(vehicle, math.inf), acceleration(vehicle))
+                    watched[other] = min(watched.get(other, math.inf), acceleration(other))
             if left_at_s is not None:
                 break
         return PeriodReport(*gone, teleported, _lowest(accelerations), teleports, left_at_s, tuple(accelerations),

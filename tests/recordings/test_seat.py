@@ -56,7 +56,7 @@ def test_replayed_vehicles_are_where_the_recording_has_them_whatever_the_ego_doe
     tracks = replay.scene.tracks
     vehicle, start_s = long_track(tracks)
     replay.reset(seed=0, options={"vehicle": vehicle, "start_s": start_s})
-    api = replay._sim._api
+    api = replay.simulation._api
     cut = tracks.groupby("vehicle_id")["time_s"].max()
     far = 0
     for k, action in enumerate([Action.DECELERATE] * 6 + [Action.LANE_LEFT] + [Action.ACCELERATE] * 6):
@@ -115,7 +115,7 @@ def test_reactive_followers_brake_for_a_slowing_ego_and_replayed_ones_do_not(dri
             vehicle, start_s = follower_seat(env, tracks)
             env.reset(seed=0, options={"vehicle": vehicle, "start_s": start_s})
             follower = env_follower(env)
-            api, time_s, deviation, below = env._sim._api, start_s, 0.0, 0.0
+            api, time_s, deviation, below = env.simulation._api, start_s, 0.0, 0.0
             for _ in range(16):
                 _, _, terminated, truncated, _ = env.step(int(Action.DECELERATE))
                 time_s += CONFIG.env.decision_period_s
@@ -141,13 +141,14 @@ def test_reactive_vehicles_are_handed_to_sumos_models_after_their_first_step(dri
             vehicle, start_s = long_track(tracks)
             env.reset(seed=0, options={"vehicle": vehicle, "start_s": start_s})
             env.step(int(Action.KEEP))
-            api, top = env._sim._api, tracks.groupby("vehicle_id")["speed_mps"].max()
+            api, top = env.simulation._api, tracks.groupby("vehicle_id")["speed_mps"].max()
             others = set(api.vehicle.getIDList()) - {EGO_ID}
             modes = {api.vehicle.getLaneChangeMode(other) for other in others}
             assert modes == ({1621} if reactive else {0})
             if reactive:
                 for other in others:
-                    assert api.vehicle.getSpeedFactor(other) * env._sim.speed_limit_mps == pytest.approx(top[other])
+                    limit_mps = env.simulation.speed_limit_mps
+                    assert api.vehicle.getSpeedFactor(other) * limit_mps == pytest.approx(top[other])
         finally:
             env.close()
 
@@ -180,7 +181,7 @@ def test_sumo_drives_the_seat_when_asked(replay):
     tracks = replay.scene.tracks
     vehicle, start_s = long_track(tracks)
     replay.reset(seed=0, options={"vehicle": vehicle, "start_s": start_s, "sumo_driver": True})
-    api = replay._sim._api
+    api = replay.simulation._api
     assert api.vehicle.getTypeID(EGO_ID).split("@")[0] == IDM_TYPE  # "@ego": its own copy, of the seat's size
     assert api.vehicle.getLength(EGO_ID) == pytest.approx(recorded(tracks, start_s).at[vehicle, "length_m"])
     start = replay.traffic.ego.lane_position_m
@@ -226,7 +227,8 @@ def test_a_collision_in_a_periods_last_step_ends_the_episode(monkeypatch):
     from sumo_rail.sim.stepping import Stepping
     from sumo_rail.sim.vehicles import PeriodReport
 
-    monkeypatch.setattr(Stepping, "advance", lambda self, steps, watch=(): PeriodReport(False, False, False, 0.0, 0))
+    monkeypatch.setattr(Stepping, "advance",
+                        lambda self, steps, watch=(), vehicle=EGO_ID: PeriodReport(False, False, False, 0.0, 0))
     simulation = object.__new__(SceneSimulation)
     simulation.ego_collisions = []
     assert not simulation.advance(5).ego_collided

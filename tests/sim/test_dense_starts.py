@@ -26,7 +26,7 @@ def test_an_ego_behind_a_queue_of_entering_traffic_starts_and_k1_on_the_shared_r
         for seed in (0, 1):
             observation, info = single.reset(seed=seed)
             observations, infos = shared.reset(seed=seed)
-            queued = len(single._sim._api.simulation.getPendingVehicles())
+            queued = len(single.simulation._api.simulation.getPendingVehicles())
             assert queued >= queued_config.scenario.lanes  # the situation: traffic queues to enter the road
             assert np.array_equal(observations["ego_0"], observation) and infos["ego_0"] == info
             for _ in range(3):

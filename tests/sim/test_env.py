@@ -82,7 +82,7 @@ def test_several_envs_run_in_one_process_as_a_gymnasium_sync_vector_env(small_co
         with pytest.warns(UserWarning, match="runs over traci"):
             first, _ = envs.reset(seed=[7, 7, 8])
         steps = [envs.step(np.full(3, action)) for action in actions]
-        assert [env.unwrapped._sim.transport for env in envs.envs] == ["libsumo", "traci", "traci"]
+        assert [env.unwrapped.simulation.transport for env in envs.envs] == ["libsumo", "traci", "traci"]
     finally:
         envs.close()
     observations = np.stack([first] + [step[0] for step in steps])  # (decisions, envs, observation)
@@ -209,6 +209,6 @@ def test_a_second_env_in_one_process_runs_over_traci_unless_libsumo_is_asked_for
     try:
         with pytest.warns(UserWarning, match="runs over traci"):
             second.reset(seed=0)
-        assert second._sim.transport == "traci" and env._sim.transport == "libsumo"
+        assert second.simulation.transport == "traci" and env.simulation.transport == "libsumo"
     finally:
         second.close()

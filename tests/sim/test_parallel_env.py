@@ -266,7 +266,7 @@ def test_a_jammed_start_window_sends_a_respawn_upstream_and_a_full_road_is_an_er
     while len(env.agents) == 2:
         env.step(dict.fromkeys(env.agents, Action.ACCELERATE))
     ended = next(agent for agent in env.possible_agents if agent not in env.agents)
-    place = env._sim.place_ego
+    place = env.simulation.place_ego
     window_m = (small_config.env.ego_start_min_m, small_config.env.ego_start_max_m)
     tried: list[float] = []
 
@@ -274,11 +274,11 @@ def test_a_jammed_start_window_sends_a_respawn_upstream_and_a_full_road_is_an_er
         tried.append(position_m)
         return not window_m[0] <= position_m <= window_m[1] and place(vehicle, lane, position_m, max_speed_mps)
 
-    monkeypatch.setattr(env._sim, "place_ego", jammed_window)
+    monkeypatch.setattr(env.simulation, "place_ego", jammed_window)
     _, info = env.respawn(ended)
-    assert env._sim.ego_length_m <= info["position_m"] < window_m[0] and ended in env.agents
+    assert env.simulation.ego_length_m <= info["position_m"] < window_m[0] and ended in env.agents
     assert all(window_m[0] <= position_m <= window_m[1] for position_m in tried[:parallel_env.RESPAWN_DRAWS])
-    monkeypatch.setattr(env._sim, "place_ego", lambda *place_args: False)
+    monkeypatch.setattr(env.simulation, "place_ego", lambda *place_args: False)
     while len(env.agents) == 2:
         env.step(dict.fromkeys(env.agents, Action.ACCELERATE))
     ended = next(agent for agent in env.possible_agents if agent not in env.agents)
@@ -290,7 +290,7 @@ def test_a_jammed_start_window_sends_a_respawn_upstream_and_a_full_road_is_an_er
 def test_a_respawn_is_placed_only_where_it_is_safe(make_env):
     env = make_env(1)
     env.reset(seed=3)
-    sim = env._sim
+    sim = env.simulation
     lane = 2
     vehicles = sorted(libsumo.lane.getLastStepVehicleIDs(f"highway_{lane}"), key=libsumo.vehicle.getLanePosition)
     occupied_m = libsumo.vehicle.getLanePosition(vehicles[len(vehicles) // 2])

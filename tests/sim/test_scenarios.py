@@ -205,22 +205,23 @@ def test_bad_user_networks_name_the_problem(small_config, tmp_path):
 def test_a_crowded_start_is_drawn_again_the_same_way_for_every_driver(small_config, monkeypatch):
     """The first drawn place is full: the ego starts at the next drawn place, the same for every reset of the seed;
     with no room anywhere the reset says so in one sentence."""
-    reset = Simulation.reset
+    reset = Simulation.reset_egos
     places: list[tuple[int, float]] = []
 
-    def first_place_full(sim, warm_state, sumo_seed, ego_lane, ego_position_m, pool="train"):
-        places.append((ego_lane, ego_position_m))
+    def first_place_full(sim, warm_state, sumo_seed, egos, pool="train"):
+        places.append(tuple(egos[0][1:]))
         if len(places) % 2 == 1:
             raise EgoCouldNotEnter("the ego could not enter")
-        reset(sim, warm_state, sumo_seed, ego_lane, ego_position_m, pool)
+        return reset(sim, warm_state, sumo_seed, egos, pool)
 
-    monkeypatch.setattr(Simulation, "reset", first_place_full)
+    monkeypatch.setattr(Simulation, "reset_egos", first_place_full)
     env = HighwayEnv(small_config)
     try:
         first, _ = env.reset(seed=4)
         again, _ = env.reset(seed=4)
         assert places[0] != places[1] and places[1] == places[3] and np.array_equal(first, again)
-        monkeypatch.setattr(Simulation, "reset", lambda *args, **kwargs: (_ for _ in ()).throw(EgoCouldNotEnter("")))
+        monkeypatch.setattr(Simulation, "reset_egos",
+                            lambda *args, **kwargs: (_ for _ in ()).throw(EgoCouldNotEnter("")))
         with pytest.raises(EgoCouldNotEnter, match="no room at 20 places of its start window"):
             env.reset(seed=5)
     finally:
@@ -365,8 +366,8 @@ def test_no_lidar_beam_leaves_the_road_through_a_junction(small_config, kind):
     env = HighwayEnv(config)
     try:
         env.reset(seed=1)
-        walls = np.concatenate([env._sim.road_edges(), env._sim.junction_edges()])
-        assert kind != "straight" or len(env._sim.junction_edges()) == 0
+        walls = np.concatenate([env.simulation.road_edges(), env.simulation.junction_edges()])
+        assert kind != "straight" or len(env.simulation.junction_edges()) == 0
     finally:
         env.close()
     boxes, centre_m = lidar.edge_boxes(walls), -config.scenario.lanes * config.scenario.lane_width_m / 2

@@ -7,7 +7,7 @@ One iteration t:
    directions differ by their parameters only (common random numbers). Workers run the 2N rollouts of
    theta +- nu * delta_k with the observation statistics frozen for the iteration, `egos` of them on one road
    (`RolloutTask`); a rollout is whole episodes (its return the mean over them), or with `rollout_decisions` a
-   budget of decisions of its ego across as many lives as it takes (`rollout.run_lives`: no ego waits for
+   budget of decisions of its ego across as many lives as it takes (`rollout.drive_egos`: no ego waits for
    another; its return the mean per decision);
 2. the discriminator takes its LS-GAN steps on the expert's pairs and this iteration's rollout pairs;
 3. each rollout's return is the mean of r = log D - log(1 - D) over its decisions, as the paper's expectation;
@@ -40,7 +40,7 @@ from sumo_rail.runners.rollout import (
     DriverSpec,
     EpisodeResult,
     ExpertDriver,
-    run_lives,
+    drive_egos,
     run_shared_episode,
     shared_groups,
 )
@@ -179,7 +179,7 @@ class RolloutTask(Perturbations):
     decisions: int | None = None
     """None: every member drives one whole episode per episode seed (the egos of the road wait for the last one).
     D: every member drives D decisions on the road seeded by episode_seeds[0], respawning whenever its episode ends
-    (`rollout.run_lives`), so none waits."""
+    (`rollout.drive_egos`), so none waits."""
 
     def run(self, context: WorkerContext) -> list[list[Trajectory]]:
         """Per member, one trajectory per episode (with no decision where its ego found no room) or, with
@@ -192,7 +192,7 @@ class RolloutTask(Perturbations):
             drivers = [_asking(policy, None if self.expert is None else self.expert.create(self.config, seed), asked)
                        for policy, asked in zip(policies, labels, strict=True)]
             results = ([[result] for result in run_shared_episode(env, drivers, seed, record=True)]
-                       if self.decisions is None else run_lives(env, drivers, seed, self.decisions, record=True))
+                       if self.decisions is None else drive_egos(env, drivers, seed, self.decisions, record=True))
             for member, (lives, asked) in enumerate(zip(results, labels, strict=True)):
                 trajectories[member].extend(_trajectories(lives, asked if self.expert is not None else None,
                                                           env.observation_space(env.possible_agents[0]).shape[0]))

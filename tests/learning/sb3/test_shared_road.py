@@ -17,7 +17,7 @@ from sumo_rail.drivers.policies import load_policy
 from sumo_rail.learning.sb3.driving_envs import driving_processes
 from sumo_rail.learning.sb3.envs import close_envs
 from sumo_rail.learning.sb3.shared_road import RespawningRoad, env_seeds
-from sumo_rail.runners.rollout import run_lives
+from sumo_rail.runners.rollout import drive_egos
 from sumo_rail.sim import parallel_env
 from sumo_rail.sim.actions import Action
 from sumo_rail.sim.env import HighwayEnv
@@ -150,13 +150,13 @@ def test_too_many_egos_for_the_road_is_a_usage_error(tmp_path):
 
 def jam_next_respawn(monkeypatch, env) -> None:
     """Make the next respawn of `env` find no place (every draw of it refused), then let places be found again."""
-    place, refusals = env._sim.place_ego, [2 * parallel_env.RESPAWN_DRAWS]
+    place, refusals = env.simulation.place_ego, [2 * parallel_env.RESPAWN_DRAWS]
 
     def jammed(*args):
         refusals[0] -= 1
         return refusals[0] < 0 and place(*args)
 
-    monkeypatch.setattr(env._sim, "place_ego", jammed)
+    monkeypatch.setattr(env.simulation, "place_ego", jammed)
 
 
 def test_a_jammed_start_cuts_every_egos_episode_and_the_road_starts_again(monkeypatch):
@@ -184,7 +184,7 @@ def test_rail_lives_go_on_after_a_jam_within_each_egos_budget(monkeypatch, small
     try:
         env.reset(seed=5)
         jam_next_respawn(monkeypatch, env)
-        lives = run_lives(env, [lambda observation, traffic: int(Action.ACCELERATE)] * 3, 5, 300)
+        lives = drive_egos(env, [lambda observation, traffic: int(Action.ACCELERATE)] * 3, 5, 300)
     finally:
         env.close()
     for ego_lives in lives:
