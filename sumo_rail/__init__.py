@@ -1,9 +1,9 @@
 """sumo-rail: imitation learning of highway driving decisions (RAIL) in SUMO.
 
 Importing the package registers the Gymnasium environment `sumo_rail/Highway-v0`; SUMO itself is only
-started when an environment is reset. `sumo_rail.HighwayEnv` is the environment class
-(`sumo_rail.sim.env.HighwayEnv`), imported on first use; `sumo_rail.parallel_env(egos=K, config=...)` makes the
-multi-ego PettingZoo environment (`sumo_rail.sim.parallel_env.ParallelHighwayEnv`): K egos on one road.
+started when an environment is reset. `sumo_rail.parallel_env(egos=K, config=...)` makes the env core, a PettingZoo
+environment of K egos on one road (`sumo_rail.sim.parallel_env.ParallelHighwayEnv`); `sumo_rail.HighwayEnv` is its
+one-ego Gymnasium adapter (`sumo_rail.sim.env.HighwayEnv`), imported on first use.
 
 The library has one subpackage per stage of the pipeline, each importing only from the stages before it:
 the top level (`config`, `seeding`, `datasets`) -> `sim` -> `drivers` -> `runners` -> `evaluation` ->
@@ -32,12 +32,13 @@ if ENV_ID not in gymnasium.registry:
 
 
 def parallel_env(egos: int = 1, config: Config | dict[str, Any] | str | Path | None = None,
-                 transport: str = "auto") -> ParallelHighwayEnv:
+                 transport: str = "auto", render_mode: str | None = None) -> ParallelHighwayEnv:
     """A PettingZoo ParallelEnv of `egos` egos (agents ego_0 ... ego_{K-1}) on one SUMO road, each driven as
-    `HighwayEnv`'s ego; `config` as `HighwayEnv` takes it (see `sumo_rail.sim.parallel_env`)."""
+    `HighwayEnv`'s ego; `config`, `transport` and `render_mode` as `HighwayEnv` takes them (see
+    `sumo_rail.sim.parallel_env`)."""
     from sumo_rail.sim.parallel_env import ParallelHighwayEnv
 
-    return ParallelHighwayEnv(egos=egos, config=config, transport=transport)
+    return ParallelHighwayEnv(egos=egos, config=config, transport=transport, render_mode=render_mode)
 
 
 def __getattr__(name: str) -> Any:

@@ -15,6 +15,8 @@ from reliability import GENERIC, scrambled_middle, truncated
 from sumo_rail_cli.main import cli
 from test_cli import SMALL, SMALL_CONFIG
 
+from sumo_rail.sim.simulation import EGO_ID
+
 CACHE_FILES = {"network": "networks/*/highway.net.xml", "routes": "networks/*/traffic.rou.xml",
                "warm state": "states/*/state_001.xml"}
 
@@ -59,7 +61,7 @@ def test_a_damaged_cache_entry_is_rebuilt(cache_template: Path, tmp_path: Path, 
     simulation = Simulation(SMALL_CONFIG.scenario, 100.0)
     try:
         simulation.reset(1, 7, 0, 300.0)
-        simulation.advance(10)
+        simulation.advance_egos(10, [EGO_ID])
     finally:
         simulation.close()
     rebuilt = path.read_bytes()
@@ -87,7 +89,7 @@ def test_a_cache_entry_damaged_while_running_is_rebuilt_and_the_episode_is_the_s
                 [path] = cache.glob(CACHE_FILES[file])
                 damage(path)
             simulation.reset(1, 7, 2, 300.0)
-            simulation.advance(20)
+            simulation.advance_egos(20, [EGO_ID])
             ego, neighbours = simulation.observe()
             episodes.append((ego, neighbours.ids, neighbours.front_xy, neighbours.speed_mps))
     finally:

@@ -90,13 +90,13 @@ class SceneSimulation(Simulation):
         if self._ego_in and simulation.getArrivedNumber() and EGO_ID in simulation.getArrivedIDList():
             self._ego_in = False
 
-    def advance(self, steps: int, watch: Sequence[str] = (), vehicle: str = EGO_ID) -> PeriodReport:
-        """`Stepping.advance`, and a collision of the ego with a replayed vehicle in the period's last step said as
-        one: SUMO then still answers for the ego (it leaves at the next step) but no longer sees it."""
-        report = super().advance(steps, watch, vehicle)
-        if self.ego_collisions and not report.ego_collided:
-            return dataclasses.replace(report, ego_collided=True, ego_left_network=False)
-        return report
+    def advance_egos(self, steps: int, vehicles: Sequence[str], watch: Sequence[str] = ()) -> list[PeriodReport]:
+        """`Stepping.advance_egos`, and a collision of the ego with a replayed vehicle in the period's last step said
+        as one: SUMO then still answers for the ego (it leaves at the next step) but no longer sees it."""
+        reports = super().advance_egos(steps, vehicles, watch)
+        return [dataclasses.replace(report, ego_collided=True, ego_left_network=False)
+                if vehicle == EGO_ID and self.ego_collisions and not report.ego_collided else report
+                for vehicle, report in zip(vehicles, reports, strict=True)]
 
     def _why_gone(self, vehicle: str) -> tuple[bool, bool]:
         """A collision with a replayed vehicle (moved by moveToXY) may leave the ego answering for the rest of the

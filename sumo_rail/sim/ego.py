@@ -1,9 +1,8 @@
-"""One controlled vehicle's decisions, shared by the single-ego `HighwayEnv` and the multi-ego
-`ParallelHighwayEnv`: the action's command to SUMO, the observation (LIDAR kernel), rewards, metrics, info and
-the end of its episode.
+"""One controlled vehicle's decisions, for each ego of the env core (`ParallelHighwayEnv`): the action's command to
+SUMO, the observation (LIDAR kernel), rewards, metrics, info and the end of its episode.
 
-A decision is `command` (set-point and lane-change request), the simulation's period (`Simulation.advance`, or
-`advance_egos` for several egos), then `finish` with the ego's period report. The reward of a decision is
+A decision is `command` (set-point and lane-change request), the simulation's period (`Simulation.advance_egos`),
+then `finish` with the ego's period report. The reward of a decision is
 longitudinal + lateral, or `env.collision_reward` when the ego collides (terminated); a stop at the end of a lane
 that does not lead along its route (a missed exit, a lane end; `route_progress`) terminates with
 `env.collision_reward` added; reaching the end of the route or the time limit truncates.

@@ -6,8 +6,8 @@ Agents `ego_0` ... `ego_{K-1}` (or the names given as `egos`) are SUMO vehicles 
 Each is driven by the rules of `sumo_rail.sim.ego.Ego` (actions, observation, rewards, info and metrics) and
 sees the other egos as traffic (they are vehicles within its LIDAR and context radius). Every decision runs one
 decision period of the shared simulation for all egos still driving, so a decision of K egos costs about one
-simulation period plus K observations; one ego's period runs `Simulation.advance`, the one-ego loop of the same
-report (docs/benchmarks.md says what it saves).
+simulation period plus K observations (`Simulation.advance_egos`, for one ego as for K: a loop of its own for one ego
+saved nothing measurable, docs/benchmarks.md "One ego").
 
 Starts (`start`, a `sumo_rail.sim.starts.StartRule`; a recorded scene's is `sumo_rail.recordings.seat.SeatStart`).
 By default (`WarmStateStart`) each reset draws, from the env's `np_random`, the warm state, SUMO's seed, then each
@@ -203,11 +203,8 @@ class ParallelHighwayEnv(ParallelEnv[str, np.ndarray, np.int64]):
         sim, egos = self._sim, [self._egos[agent] for agent in self.agents]
         for agent, ego in zip(self.agents, egos, strict=True):
             ego.command(sim, chosen[agent])
-        if len(egos) == 1:
-            reports = [sim.advance(self._steps_per_decision, egos[0].period_safety.watched(), egos[0].vehicle)]
-        else:
-            reports = sim.advance_egos(self._steps_per_decision, [ego.vehicle for ego in egos],
-                                       [vehicle for ego in egos for vehicle in ego.period_safety.watched()])
+        reports = sim.advance_egos(self._steps_per_decision, [ego.vehicle for ego in egos],
+                                   [vehicle for ego in egos for vehicle in ego.period_safety.watched()])
         observations, rewards, terminations, truncations, infos = {}, {}, {}, {}, {}
         for agent, ego, report in zip(self.agents, egos, reports, strict=True):
             (observations[agent], rewards[agent], terminations[agent], truncations[agent],

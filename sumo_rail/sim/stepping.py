@@ -7,7 +7,7 @@ import math
 from collections.abc import Sequence
 from typing import Any
 
-from sumo_rail.sim.sumo_api import EGO_ID, DecisionCalls, SimulationError
+from sumo_rail.sim.sumo_api import DecisionCalls, SimulationError
 from sumo_rail.sim.vehicles import PeriodReport
 
 
@@ -18,36 +18,6 @@ class Stepping:
     _client: Any
     _calls: DecisionCalls
     """`sumo_api.decision_calls` of `_api`, found once per connection."""
-
-    def advance(self, steps: int, watch: Sequence[str] = (), vehicle: str = EGO_ID) -> PeriodReport:
-        """`advance_egos(steps, (vehicle,), watch)[0]`, the same report from a loop of its own: a road of one ego
-        runs this at every decision, and without the per-ego lists and dicts of `advance_egos` it costs about half
-        (tests/sim/test_simulation.py compares the two; docs/benchmarks.md measures the env's gain)."""
-        simulation = self._api.simulation
-        step, starting_teleports, acceleration = self._calls[:3]
-        error = self._client.TraCIException
-        accelerations: list[float] = []
-        append = accelerations.append
-        watched: dict[str, float] = {}
-        teleports, teleported, left_at_s = 0, False, None
-        gone = (False, False)
-        for _ in range(steps):
-            step()
-            if starting_teleports():
-                starting = simulation.getStartingTeleportIDList()
-                teleports += len(starting)
-                teleported = teleported or vehicle in starting
-            try:
-                append(acceleration(vehicle))
-            except error:
-                gone, left_at_s = self._why_gone(vehicle), simulation.getTime()
-            for other in watch:
-                with contextlib.suppress(error):  # a watched vehicle that has left is read no more
-                    watched[other] = min(watched.get(other, math.inf), acceleration(other))
-            if left_at_s is not None:
-                break
-        return PeriodReport(*gone, teleported, _lowest(accelerations), teleports, left_at_s, tuple(accelerations),
-                            watched)
 
     def advance_egos(self, steps: int, vehicles: Sequence[str], watch: Sequence[str] = ()) -> list[PeriodReport]:
         """Run `steps` SUMO steps, watching each ego of `vehicles` until it is gone; the steps go on while any of them

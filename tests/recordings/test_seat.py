@@ -227,11 +227,11 @@ def test_a_collision_in_a_periods_last_step_ends_the_episode(monkeypatch):
     from sumo_rail.sim.stepping import Stepping
     from sumo_rail.sim.vehicles import PeriodReport
 
-    monkeypatch.setattr(Stepping, "advance",
-                        lambda self, steps, watch=(), vehicle=EGO_ID: PeriodReport(False, False, False, 0.0, 0))
+    monkeypatch.setattr(Stepping, "advance_egos",
+                        lambda self, steps, vehicles, watch=(): [PeriodReport(False, False, False, 0.0, 0)] * 2)
     simulation = object.__new__(SceneSimulation)
     simulation.ego_collisions = []
-    assert not simulation.advance(5).ego_collided
+    assert not any(report.ego_collided for report in simulation.advance_egos(5, [EGO_ID, "other"]))
     simulation.ego_collisions = [(EGO_ID, "cutter")]
-    report = simulation.advance(5)
-    assert report.ego_collided and not report.ego_left_network
+    ego, other = simulation.advance_egos(5, [EGO_ID, "other"])
+    assert ego.ego_collided and not ego.ego_left_network and not other.ego_collided

@@ -316,3 +316,28 @@ def test_a_respawn_is_placed_only_where_it_is_safe(make_env):
                                           for position_m in placed if libsumo.simulation.getTime() < 2.0 + start_s)])
     assert not collisions, collisions
     assert lowest_mps2 > -4.0, lowest_mps2  # and none starts with an emergency stop (SUMO's: -9 m/s^2)
+
+
+def test_the_core_draws_any_egos_frame_and_its_one_ego_draws_the_gymnasium_envs(small_config):
+    """render() is the first ego's frame; each ego's frame is drawn around it; the Gymnasium env's frame is its
+    core's one ego's, pixel for pixel, for the same seed and actions."""
+    env = sumo_rail.parallel_env(egos=2, config=small_config, render_mode="rgb_array")
+    try:
+        env.reset(seed=3)
+        env.step({agent: int(Action.KEEP) for agent in env.agents})
+        first, second = env.frame("ego_0"), env.frame("ego_1")
+        assert first.dtype == np.uint8 and first.ndim == 3 and np.array_equal(env.render(), first)
+        assert not np.array_equal(first, second)
+    finally:
+        env.close()
+    single, core = HighwayEnv(small_config, render_mode="rgb_array"), sumo_rail.parallel_env(config=small_config)
+    try:
+        single.reset(seed=5)
+        core.reset(seed=5)
+        for action in (Action.ACCELERATE, Action.LANE_LEFT, Action.KEEP):
+            single.step(int(action))
+            core.step({"ego_0": int(action)})
+        assert core.render() is None and np.array_equal(single.render(), core.frame())
+    finally:
+        single.close()
+        core.close()

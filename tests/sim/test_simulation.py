@@ -16,7 +16,7 @@ def sim(small_config):
 
 def traffic_after(sim: Simulation, warm_state: int, seed: int, seconds: float = 20.0) -> dict[str, tuple]:
     sim.reset(warm_state=warm_state, sumo_seed=seed, ego_lane=2, ego_position_m=400.0)
-    sim.advance(round(seconds / sim.scenario.step_length_s))
+    sim.advance_egos(round(seconds / sim.scenario.step_length_s), [EGO_ID])
     return {v: libsumo.vehicle.getPosition(v) for v in libsumo.vehicle.getIDList()}
 
 
@@ -65,31 +65,28 @@ def test_forced_rear_end_collision_is_reported(sim):
     libsumo.vehicle.setSpeedMode(EGO_ID, 0)
     libsumo.vehicle.setSpeed(EGO_ID, 50.0)
     for _ in range(20):
-        report = sim.advance(5)
+        report, = sim.advance_egos(5, [EGO_ID])
         if report.ego_collided:
             break
     assert report.ego_collided and not report.ego_left_network
     assert EGO_ID not in libsumo.vehicle.getIDList()
 
 
-def test_advance_reports_as_advance_egos_does_for_the_single_ego(sim):
-    """The single ego's own stepping loop gives `advance_egos`' reports, period after period with two watched
-    vehicles, up to the collision that ends the ego's episode."""
-    reports = {}
-    for way in ("advance", "advance_egos"):
-        sim.reset(warm_state=0, sumo_seed=5, ego_lane=0, ego_position_m=400.0)
-        libsumo.vehicle.add("blocker", "highway_route", typeID="truck", depart="now", departLane="0",
-                            departPos="460", departSpeed="0")
-        libsumo.vehicle.setSpeedMode(EGO_ID, 0)
-        libsumo.vehicle.setSpeed(EGO_ID, 50.0)
-        watch = [next(vehicle for vehicle in libsumo.vehicle.getIDList() if vehicle != EGO_ID), "blocker"]
-        reports[way] = []
-        while not (reports[way] and reports[way][-1].ego_collided) and len(reports[way]) < 20:
-            reports[way].append(sim.advance(5, watch) if way == "advance"
-                                else sim.advance_egos(5, [EGO_ID], watch)[0])
-    assert reports["advance"] == reports["advance_egos"]
-    assert reports["advance"][-1].ego_collided and reports["advance"][-1].left_at_s is not None
-    assert len(reports["advance"][0].watched_min_acceleration_mps2) == 2
+def test_a_period_report_reads_watched_vehicles_until_the_collision_that_ends_the_ego(sim):
+    """Period after period with two watched vehicles, up to the collision that ends the ego's episode: the report says
+    when the ego went, and the watched vehicles' lowest accelerations."""
+    sim.reset(warm_state=0, sumo_seed=5, ego_lane=0, ego_position_m=400.0)
+    libsumo.vehicle.add("blocker", "highway_route", typeID="truck", depart="now", departLane="0", departPos="460",
+                        departSpeed="0")
+    libsumo.vehicle.setSpeedMode(EGO_ID, 0)
+    libsumo.vehicle.setSpeed(EGO_ID, 50.0)
+    watch = [next(vehicle for vehicle in libsumo.vehicle.getIDList() if vehicle != EGO_ID), "blocker"]
+    reports = []
+    while not (reports and reports[-1].ego_collided) and len(reports) < 20:
+        reports.extend(sim.advance_egos(5, [EGO_ID], watch))
+    assert reports[-1].ego_collided and reports[-1].left_at_s is not None
+    assert all(report.left_at_s is None for report in reports[:-1])
+    assert set(reports[0].watched_min_acceleration_mps2) == set(watch)
 
 
 def test_road_edges_bound_all_lanes(sim):
