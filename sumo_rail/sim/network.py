@@ -81,8 +81,7 @@ def build(scenario: ScenarioConfig, source_dir: Path | None = None) -> BuiltNetw
     road = scenarios.road_sources(scenario, {name: scenarios.read_source(source_dir / name) for name in names})
     key = _cache_key(scenario, road)
     directory = cache_dir() / "networks" / key
-    stem = "highway" if scenario.kind == "straight" else scenario.kind
-    route_id = scenarios.KIND_SOURCES[scenario.kind].ego_route_id
+    stem, route_id = scenarios.KIND_SOURCES[scenario.kind].net_stem, scenarios.KIND_SOURCES[scenario.kind].ego_route_id
     built = BuiltNetwork(directory / f"{stem}.net.xml", directory / "traffic.rou.xml", directory, road.ego_route,
                          route_id=route_id)
     problem = _cache_problem(built, road.routes)

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import copy
 import xml.etree.ElementTree as ElementTree
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -31,21 +32,21 @@ EXIT_RAMP_M = 400.0
 """Length of the off-ramp along x [m]."""
 
 
+Shape = Callable[[ScenarioConfig, ElementTree.Element, ElementTree.Element, ElementTree.Element], dict[str, float]]
+"""A road's feature: applies the scenario to the nodes and edges, adds the connections; the flows of its routes
+[veh/h]."""
+
+
 @dataclass(frozen=True)
 class KindSources:
-    """What a road kind is built from: its source files' stem and the ego's route in its routes file."""
+    """What a road kind is built from: its source files' stem, the ego's route in its routes file, its network file's
+    stem, and the `Shape` of its feature (None: a road of one edge with netconvert's own connections and the traffic
+    file's flow, no routes file of its own)."""
 
     stem: str
     ego_route_id: str
-
-
-KIND_SOURCES = {
-    "straight": KindSources("highway", "highway_route"),
-    "merge": KindSources("merge", "main"),
-    "merge_from_ramp": KindSources("merge", "ramp"),
-    "lane_drop": KindSources("lane_drop", "main"),
-    "exit": KindSources("exit", "exit"),
-}
+    net_stem: str
+    shape: Shape | None
 
 
 @dataclass(frozen=True)
@@ -70,10 +71,9 @@ class RoadSources:
 
 def source_names(kind: str) -> tuple[str, ...]:
     """The shipped files a generated road kind reads."""
-    stem = KIND_SOURCES[kind].stem
-    if kind == "straight":
-        return ("highway.nod.xml", "highway.edg.xml", VEHICLE_TYPES_FILE)
-    return (f"{stem}.nod.xml", f"{stem}.edg.xml", f"{stem}.rou.xml", VEHICLE_TYPES_FILE)
+    sources = KIND_SOURCES[kind]
+    routes = (f"{sources.stem}.rou.xml",) if sources.shape is not None else ()
+    return (f"{sources.stem}.nod.xml", f"{sources.stem}.edg.xml", *routes, VEHICLE_TYPES_FILE)
 
 
 def road_sources(scenario: ScenarioConfig, sources: dict[str, bytes]) -> RoadSources:
@@ -87,16 +87,17 @@ def road_sources(scenario: ScenarioConfig, sources: dict[str, bytes]) -> RoadSou
         edge.set("speed", repr(scenario.speed_limit_mps))
         edge.set("width", repr(scenario.lane_width_m))
     _find(nodes, "node", "end", kind.stem).set("x", repr(scenario.length_m))
-    if scenario.kind == "straight":
+    if kind.shape is None:
+        connections, routes_file = None, VEHICLE_TYPES_FILE
         routes = _traffic_routes(sources[VEHICLE_TYPES_FILE], scenario)
-        return RoadSources(ElementTree.tostring(nodes), ElementTree.tostring(edges), None, routes, ("highway",))
-    connections = ElementTree.Element("connections")
-    shape = {"merge": _merge, "lane_drop": _lane_drop, "exit": _exit}[kind.stem]
-    flows = shape(scenario, nodes, edges, connections)
-    routes = _kind_routes(sources[VEHICLE_TYPES_FILE], sources[f"{kind.stem}.rou.xml"], flows)
-    ego_route = _find(ElementTree.fromstring(routes), "route", kind.ego_route_id, f"{kind.stem}.rou.xml")
-    return RoadSources(ElementTree.tostring(nodes), ElementTree.tostring(edges), ElementTree.tostring(connections),
-                       routes, tuple(ego_route.get("edges", "").split()))
+    else:
+        connections, routes_file = ElementTree.Element("connections"), f"{kind.stem}.rou.xml"
+        flows = kind.shape(scenario, nodes, edges, connections)
+        routes = _kind_routes(sources[VEHICLE_TYPES_FILE], sources[routes_file], flows)
+    ego_route = _find(ElementTree.fromstring(routes), "route", kind.ego_route_id, routes_file)
+    return RoadSources(ElementTree.tostring(nodes), ElementTree.tostring(edges),
+                       None if connections is None else ElementTree.tostring(connections), routes,
+                       tuple(ego_route.get("edges", "").split()))
 
 
 def network_routes(scenario: ScenarioConfig, vehicle_types: bytes, ego_route: tuple[str, ...],
@@ -198,7 +199,6 @@ def _traffic_routes(data: bytes, scenario: ScenarioConfig) -> bytes:
     """The straight road's routes file: the shipped one with the flow's period set."""
     root = ElementTree.fromstring(data)
     _find(root, "vType", EGO_TYPE, VEHICLE_TYPES_FILE)
-    _find(root, "route", "highway_route", VEHICLE_TYPES_FILE)
     _find(root, "flow", "traffic", VEHICLE_TYPES_FILE).set("period", _period(scenario.flow_veh_per_h))
     return ElementTree.tostring(root)
 
@@ -230,6 +230,15 @@ def _find(root: ElementTree.Element, tag: str, element_id: str, source: str) -> 
     if element is None:
         raise ConfigError(f"network source {source} has no <{tag} id=\"{element_id}\">")
     return element
+
+
+KIND_SOURCES = {
+    "straight": KindSources("highway", "highway_route", "highway", None),
+    "merge": KindSources("merge", "main", "merge", _merge),
+    "merge_from_ramp": KindSources("merge", "ramp", "merge_from_ramp", _merge),
+    "lane_drop": KindSources("lane_drop", "main", "lane_drop", _lane_drop),
+    "exit": KindSources("exit", "exit", "exit", _exit),
+}
 
 
 def read_source(path: Path) -> bytes:
