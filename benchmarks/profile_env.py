@@ -1,8 +1,8 @@
 """Profile: where a decision's time goes in the environment, by part, in microseconds per decision.
 
 Runs 'keep' episodes (the ego keeps its lane and set-point, as in bench_env's ratio) with timers wrapped around
-the parts of a decision: SUMO's steps (`simulationStep`), the per-step ego checks (the rest of
-`Simulation.advance`), the context query and its parsing (`Simulation.observe`), LIDAR + observation
+the parts of a decision: SUMO's steps (the step of `sumo_api.decision_calls`), the per-step ego checks (the rest of
+`Simulation.advance_egos`), the context query and its parsing (`Simulation.observe`), LIDAR + observation
 (`Ego.observation`), the rest of `HighwayEnv.step` (bookkeeping) and resets (amortised). The timers add
 about 0.1 us per wrapped call. Prints a Markdown table; the environment's own cost is everything but SUMO's
 steps and resets. Usage: `python benchmarks/profile_env.py [--flow 3000] [--episodes 6] [--rounds 3]`.
@@ -16,8 +16,6 @@ import time
 from collections import defaultdict
 from collections.abc import Callable
 from typing import Any
-
-import libsumo
 
 from sumo_rail.config import Config
 from sumo_rail.sim import simulation
@@ -49,12 +47,18 @@ class Timers:
 def profile_round(config: Config, seeds: list[int]) -> dict[str, float]:
     """One round of episodes; microseconds per decision for each part."""
     timers = Timers()
-    patches = [(libsumo, "simulationStep", "steps"), (simulation.Simulation, "advance", "advance"),
+    calls = simulation.decision_calls  # SUMO's step is one of the calls found once per connection
+
+    def timed_calls(api: Any) -> Any:
+        found = calls(api)
+        return found._replace(step=timers.wrap("steps", found.step))
+
+    patches = [(simulation, "decision_calls", None), (simulation.Simulation, "advance_egos", "advance"),
                (simulation.Simulation, "observe", "observe"), (Ego, "observation", "lidar"),
                (HighwayEnv, "step", "step"), (HighwayEnv, "reset", "reset")]
     originals = [(owner, name, getattr(owner, name)) for owner, name, _ in patches]
     for owner, name, label in patches:
-        setattr(owner, name, timers.wrap(label, getattr(owner, name)))
+        setattr(owner, name, timed_calls if label is None else timers.wrap(label, getattr(owner, name)))
     env = HighwayEnv(config)
     env.reset(seed=seeds[0])  # warm states and first-use costs outside the timing
     timers.total.clear()
