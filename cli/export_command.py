@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import click
+from sumo_rail_cli.output_lock import lock_output
 from sumo_rail_cli.progress import progress
 from sumo_rail_cli.running import library_errors
 
@@ -27,7 +28,8 @@ def export_minari_command(demos: Path, dataset_id: str, root: Path | None, overw
         episodes = len(read_episodes(demos)[1])
         try:
             with progress(episodes, "replaying") as bar:
-                summary = export_minari(demos, dataset_id, root, overwrite, on_episode=lambda index: bar.update())
+                summary = export_minari(demos, dataset_id, root, overwrite, on_episode=lambda index: bar.update(),
+                                        hold=lock_output)
         except ExportError as error:
             raise click.ClickException(str(error)) from error
     click.echo(f"wrote Minari dataset {summary.dataset_id} to {summary.path}: {summary.episodes} episodes, "

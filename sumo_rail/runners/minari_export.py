@@ -113,8 +113,10 @@ def final_observations(config: Config, episodes: list[RecordedEpisode],
 
 
 def export_minari(demos: Path, dataset_id: str, root: Path | None = None, overwrite: bool = False,
-                  on_episode: Callable[[int], None] | None = None) -> ExportSummary:
-    """Write the demonstrations at `demos` as the Minari dataset `dataset_id` ("[namespace/]name-vN")."""
+                  on_episode: Callable[[int], None] | None = None,
+                  hold: Callable[[Path], None] | None = None) -> ExportSummary:
+    """Write the demonstrations at `demos` as the Minari dataset `dataset_id` ("[namespace/]name-vN"); `hold` is
+    called with the dataset's folder before anything is read or written (the command's output lock)."""
     minari = _import_minari()
     from minari.data_collector import EpisodeBuffer
     from minari.dataset.minari_dataset import parse_dataset_id
@@ -126,6 +128,8 @@ def export_minari(demos: Path, dataset_id: str, root: Path | None = None, overwr
             from error
     with _datasets_root(root) as target_root:
         target = target_root / dataset_id
+        if hold is not None:
+            hold(target)
         if target.exists() and not overwrite:
             raise ExportError(f"the Minari dataset {dataset_id} already exists in {target_root}; pass --overwrite to "
                               f"replace it")

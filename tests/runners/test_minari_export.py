@@ -1,10 +1,13 @@
 """export-minari: a Minari dataset with the demonstrations' observations, actions and episode boundaries."""
 
+import subprocess
+
 import numpy as np
 import pyarrow.parquet as pq
 import pytest
 from click.testing import CliRunner
 from sumo_rail_cli.main import cli
+from sumo_rail_cli.output_lock import lock_path
 
 SMALL = ["--set", "scenario.length_m=1500", "--set", "scenario.warmup_s=120", "--set", "scenario.snapshots=3",
          "--set", "scenario.snapshot_interval_s=10", "--set", "env.ego_start_max_m=500"]
@@ -77,3 +80,23 @@ def test_missing_minari_names_the_extra_to_install(demos, tmp_path, monkeypatch)
     monkeypatch.setitem(__import__("sys").modules, "minari", None)
     result = CliRunner().invoke(cli, ["export-minari", str(demos), "--name", "a-v0", "--root", str(tmp_path)])
     assert result.exit_code == 1 and "pip install 'sumo-rail[minari]'" in result.output
+
+
+def test_a_dataset_another_command_writes_is_one_sentence_and_left_alone(demos, tmp_path):
+    """Two exports of one dataset id at once: the second says who holds it (exit 1) and writes nothing."""
+    pytest.importorskip("minari", reason="the Minari export is the package's optional extra [minari]")
+    target = tmp_path / "sumo-rail" / "expert-v0"
+    target.parent.mkdir()
+    holder = subprocess.Popen(["sleep", "600"])
+    try:
+        lock_path(target).write_text(f"{holder.pid}\n")
+        result = CliRunner().invoke(cli, ["export-minari", str(demos), "--name", "sumo-rail/expert-v0", "--root",
+                                          str(tmp_path)])
+        assert result.exit_code == 1 and f"pid {holder.pid}" in result.output and "Traceback" not in result.output
+        assert not target.exists() and lock_path(target).read_text() == f"{holder.pid}\n"
+    finally:
+        holder.kill()
+        holder.wait()
+    result = CliRunner().invoke(cli, ["export-minari", str(demos), "--name", "sumo-rail/expert-v0", "--root",
+                                      str(tmp_path)])
+    assert result.exit_code == 0 and target.is_dir() and not lock_path(target).exists(), result.output
