@@ -167,8 +167,12 @@ class SeatStart:
             raise ValueError("SceneEnv.reset needs options={'vehicle': ID}: the recorded vehicle whose seat the ego "
                              "takes")
         assert isinstance(sim, SceneSimulation) and tuple(agents) == (EGO_ID,)
-        vehicle = str(options["vehicle"])
-        start_s = float(options.get("start_s", self.scene.track(vehicle)["time_s"].iloc[0]))
+        vehicle, step_s = str(options["vehicle"]), config.scenario.step_length_s
+        # SUMO's run begins one step before the seat: a track from the scene's first instant is taken one step in
+        start_s = float(options.get("start_s", max(self.scene.track(vehicle)["time_s"].iloc[0], step_s)))
+        if start_s < step_s:
+            raise ValueError(f"reset option 'start_s' must be at least one SUMO step ({step_s:g} s) into the scene, "
+                             f"got {start_s:g}")
         sim.seat(vehicle, start_s, int(rng.integers(2**31 - 1)))
         return []
 
@@ -184,7 +188,8 @@ class SeatStart:
 class SceneEnv(HighwayEnv):
     """`HighwayEnv` in a recorded scene (`scene`: a scene folder) with its vehicles replayed (`reactive` False) or
     driven by SUMO from their recorded state (True). `reset(options={"vehicle": ID, "start_s": T})` seats the ego
-    in vehicle ID at T [s] (default: where its track begins); `"sumo_driver": True` lets SUMO drive it (the actions
+    in vehicle ID at T [s] (default: where its track begins, or one SUMO step into the scene for a vehicle there
+    from its first instant); `"sumo_driver": True` lets SUMO drive it (the actions
     passed to `step` are then checked, not used)."""
 
     def __init__(self, config: Config | Mapping[str, Any] | str | Path | None, scene: Path | Scene,

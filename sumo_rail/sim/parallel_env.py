@@ -26,9 +26,9 @@ end margin drives on under SUMO's control as traffic for those behind it, until 
 start together, so the time limit truncates every ego still driving at the same decision; the episode ends when
 `agents` is empty.
 
-Rendering: `render_mode="rgb_array"` makes `render()` the bird's-eye frame of the first ego's last decision
-(`frame(agent)` draws any ego's); `"human"` drives SUMO in sumo-gui (traci), following the first ego, with
-`gui_delay_ms` [ms] of wall time per SUMO step.
+Rendering: `render_mode="rgb_array"` makes `render()` the bird's-eye frame of the first ego's last decision (of
+the first that entered, when ego_0 sat the episode out; `frame(agent)` draws any ego's); `"human"` drives SUMO in
+sumo-gui (traci), following the first ego, with `gui_delay_ms` [ms] of wall time per SUMO step.
 
 Respawns: `respawn(agent)` starts a new episode of an ego that has left while the others drive on (a new vehicle
 placed at once in the start window), for runners and learners that keep every ego busy
@@ -244,9 +244,12 @@ class ParallelHighwayEnv(ParallelEnv[str, np.ndarray, np.int64]):
         return ego.start(sim)
 
     def render(self) -> np.ndarray | None:
-        """With render_mode "rgb_array", the frame of the first ego's last decision (`frame`); with "human",
-        sumo-gui draws by itself and this returns None."""
-        return self.frame() if self.render_mode == "rgb_array" else None
+        """With render_mode "rgb_array", the frame of the first ego's last decision (`frame`; of the first ego that
+        entered the road, when ego_0 sat the episode out); with "human", sumo-gui draws by itself and this returns
+        None."""
+        if self.render_mode != "rgb_array":
+            return None
+        return self.frame(next((agent for agent, ego in self._egos.items() if ego.traffic is not None), None))
 
     def frame(self, agent: str | None = None) -> np.ndarray:
         """A bird's-eye RGB frame (H, W, 3) uint8 of `agent`'s last decision (default: the first ego), whatever the
@@ -255,9 +258,12 @@ class ParallelHighwayEnv(ParallelEnv[str, np.ndarray, np.int64]):
 
         if self._sim is None or not self._egos:
             raise RuntimeError("call reset() before render()")
+        agent = agent or self.possible_agents[0]
+        if self._ego(agent).traffic is None:
+            raise RuntimeError(f"{agent} could not enter the road in this episode (see `reset`)")
         if self._frames is None:
             self._frames = EgoFrames(self.config)
-        return self._frames.draw(self._sim, self._ego(agent or self.possible_agents[0]))
+        return self._frames.draw(self._sim, self._ego(agent))
 
     def gui_screenshot(self, path: str | Path, width_px: int = 1280, height_px: int = 800) -> None:
         """With render_mode "human": save sumo-gui's view as a PNG at `path` when the next step is drawn."""

@@ -192,6 +192,38 @@ def test_sumo_drives_the_seat_when_asked(replay):
     assert replay.metrics.invalid_actions == 0 and info["position_m"] > start + 20.0
 
 
+def test_a_sumo_driven_seat_ignores_the_actions(replay):
+    """With "sumo_driver" the episode is SUMO's whatever the actions: braking or accelerating, the same states."""
+    vehicle, start_s = long_track(replay.scene.tracks)
+    runs = []
+    for action in (Action.DECELERATE, Action.ACCELERATE):
+        replay.reset(seed=0, options={"vehicle": vehicle, "start_s": start_s, "sumo_driver": True})
+        runs.append([replay.step(int(action))[0] for _ in range(4)])
+    np.testing.assert_array_equal(runs[0], runs[1])
+    replay.reset(seed=0, options={"vehicle": vehicle, "start_s": start_s, "sumo_driver": False})
+    assert replay.simulation._api.vehicle.getTypeID(EGO_ID).split("@")[0] != IDM_TYPE
+
+
+def test_the_seat_is_taken_where_the_track_begins_by_default(replay):
+    """By default the ego takes the seat where the vehicle's track begins, or one SUMO step into the scene for a
+    vehicle on the road from its first instant (SUMO's run begins a step before the seat); before that is an error."""
+    tracks = replay.scene.tracks
+    step_s = replay.config.scenario.step_length_s
+    begins = tracks.groupby("vehicle_id")["time_s"].min()
+    late = begins[begins > begins.min() + 1.0].index[0]
+    replay.reset(seed=0, options={"vehicle": late})
+    first = replay.scene.track(late).iloc[0]
+    assert replay.simulation.time_s == pytest.approx(first["time_s"])
+    assert replay.traffic.ego.lane_position_m == pytest.approx(first["lane_position_m"], abs=1e-6)
+    vehicle, _ = long_track(tracks)
+    if begins[vehicle] < step_s:
+        replay.reset(seed=0, options={"vehicle": vehicle})
+        assert replay.simulation.time_s == pytest.approx(step_s) and replay.traffic.ego.lane == recorded(
+            tracks, 0.0).at[vehicle, "lane"]
+        with pytest.raises(ValueError, match="'start_s' must be at least one SUMO step"):
+            replay.reset(seed=0, options={"vehicle": vehicle, "start_s": 0.0})
+
+
 def test_a_reset_needs_a_vehicle(replay):
     with pytest.raises(ValueError, match="vehicle"):
         replay.reset(seed=0)

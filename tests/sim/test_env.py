@@ -212,3 +212,28 @@ def test_a_second_env_in_one_process_runs_over_traci_unless_libsumo_is_asked_for
         assert second.simulation.transport == "traci" and env.simulation.transport == "libsumo"
     finally:
         second.close()
+
+
+def test_unknown_reset_options_are_refused_and_known_ones_reach_the_start_rule(env):
+    """A Gymnasium user's misspelt option is an error (the core only warns, for PettingZoo's API test); the known
+    ones are the start rule's."""
+    with pytest.raises(ValueError, match=r"unknown reset options \['warmstate'\]; known: 'pool', 'warm_state'"):
+        env.reset(seed=0, options={"warmstate": 1})
+    with pytest.raises(ValueError, match="reset option 'warm_state'"):
+        env.reset(seed=0, options={"warm_state": 99})
+
+
+def test_metrics_before_the_first_reset_are_an_empty_episodes(small_config):
+    from sumo_rail.sim.rewards import EpisodeMetrics
+
+    env = HighwayEnv(small_config)
+    assert env.metrics == EpisodeMetrics() and env.simulation is None
+
+
+def test_a_reset_without_a_seed_draws_on_from_the_seeded_generator(env):
+    """One generator, Gymnasium's: a reset without a seed (a vector env's autoreset) starts a new episode drawn on
+    from the last seed's, not that episode again."""
+    first = env.reset(seed=3)[0]
+    second = env.reset()[0]
+    assert not np.array_equal(first, second)
+    assert np.array_equal(env.reset(seed=3)[0], first) and np.array_equal(env.reset()[0], second)

@@ -165,6 +165,15 @@ def test_start_slots_share_the_single_egos_window_and_widen_when_it_is_too_narro
             start_slots(small_config, egos)
 
 
+def test_two_egos_whose_slots_pass_the_roads_end_margin_are_refused_at_once(small_config):
+    """One ego always fits its start window; two that need slots past the end margin are a ValueError before SUMO
+    starts."""
+    near_the_end = small_config.with_overrides({"env": {"ego_start_min_m": 1350.0, "ego_start_max_m": 1390.0}})
+    assert ParallelHighwayEnv(1, near_the_end).slots == [(1350.0, 1390.0)]
+    with pytest.raises(ValueError, match="2 egos need start slots of 40 m from 1350 m to 1430 m"):
+        ParallelHighwayEnv(2, near_the_end)
+
+
 def test_egos_enter_where_the_rule_draws_them(make_env, small_config):
     env = make_env(4)
     for seed in (0, 1):
@@ -196,6 +205,76 @@ def test_an_ego_that_finds_no_room_sits_the_episode_out(make_env, monkeypatch):
         env.traffic("ego_1")
     _, rewards, *_ = env.step({"ego_0": Action.KEEP})
     assert set(rewards) == {"ego_0"} and env.metrics("ego_1").decisions == 0
+
+
+def test_an_ego_that_finds_no_room_has_no_episode_of_a_rollout_but_respawns_within_a_budget(make_env, monkeypatch):
+    """`drive_egos` without a budget: whole episodes, none for the ego that sat out (it is not respawned); with a
+    budget, it respawns at once and drives its decisions."""
+    from sumo_rail.runners.rollout import drive_egos, run_shared_episode
+
+    class BothAtOnePlace:
+        @staticmethod
+        def draw(rng, config, snapshots, egos, start_lanes):
+            return EpisodeStarts(0, 1, (1, 1), (400.0, 400.0))
+    monkeypatch.setattr(simulation, "ENTRY_WAIT_S", 0.1)
+    monkeypatch.setattr(starts, "EpisodeStarts", BothAtOnePlace)
+    env = make_env(2)
+    keep = [lambda observation, traffic: int(Action.KEEP)] * 2
+    first, second = run_shared_episode(env, keep, 0)
+    assert second is None and first is not None and first.metrics["steps"] > 10
+    lives = drive_egos(env, keep, 0, 5)
+    assert [sum(life.metrics["steps"] for life in ego_lives) for ego_lives in lives] == [5, 5]
+
+
+def test_each_egos_probe_watches_that_egos_decisions(make_env):
+    """`drive_egos`'s probes[j] sees exactly what ego_j's driver saw and did, decision by decision."""
+    from sumo_rail.runners.rollout import drive_egos
+
+    env = make_env(2)
+    seen: list[list] = [[], []]
+    probed: list[list] = [[], []]
+
+    def driver(j: int):
+        def act(observation, traffic):
+            seen[j].append((observation, traffic.ego.lane_position_m, j + 1, traffic.set_point_mps))
+            return j + 1  # ego_0 accelerates, ego_1 decelerates
+        return act
+
+    def probe(j: int):
+        return lambda observation, traffic, action, info: probed[j].append(
+            (observation, traffic.ego.lane_position_m, action))
+
+    lives = drive_egos(env, [driver(0), driver(1)], 3, 6, probes=[probe(0), probe(1)])
+    # and each ego's car executes its own driver's actions
+    assert lives[0][0].metrics["action_accelerate"] == lives[1][0].metrics["action_decelerate"] == 6
+    assert env.traffic("ego_0").set_point_mps >= seen[0][0][3] and env.traffic("ego_1").set_point_mps < seen[1][0][3]
+    for j in (0, 1):
+        assert len(probed[j]) == len(seen[j]) == 6
+        for (observation, position_m, action), (want_observation, want_m, want_action, _) in zip(
+                probed[j], seen[j], strict=True):
+            assert np.array_equal(observation, want_observation) and (position_m, action) == (want_m, want_action)
+
+
+def test_render_draws_the_first_ego_on_the_road_when_ego_0_sat_out(small_config):
+    """A video of the core must not break when ego_0 found no room: render() is then the first entered ego's frame,
+    and ego_0's frame is a clear error."""
+
+    @dataclasses.dataclass(frozen=True)
+    class SecondOnly(starts.WarmStateStart):  # ego_0 sits the episode out
+        def enter(self, sim, rng, config, agents, options):
+            super().enter(sim, rng, config, agents[1:], options)
+            return [agents[0]]
+
+    env = ParallelHighwayEnv(2, small_config, render_mode="rgb_array", start=SecondOnly())
+    try:
+        env.reset(seed=0)
+        assert env.agents == ["ego_1"]
+        env.step({"ego_1": Action.KEEP})
+        assert np.array_equal(env.render(), env.frame("ego_1"))
+        with pytest.raises(RuntimeError, match="ego_0 could not enter the road"):
+            env.frame("ego_0")
+    finally:
+        env.close()
 
 
 def test_each_ego_sees_the_others_as_traffic(make_env):
@@ -236,6 +315,19 @@ def test_bad_use_is_a_clear_error(make_env, small_config):
         HighwayEnv(small_config, transport="libsumo").reset(seed=0)
 
 
+def test_close_ends_the_episode_and_a_reset_after_it_starts_a_new_simulation(make_env):
+    env = make_env(2)
+    env.reset(seed=0)
+    env.close()
+    assert env.agents == [] and env.simulation is None
+    with pytest.raises(RuntimeError, match="reset"):
+        env.step({"ego_0": 0, "ego_1": 0})
+    observations, _ = env.reset(seed=0)
+    assert set(observations) == {"ego_0", "ego_1"} and env.simulation is not None
+    _, rewards, *_ = env.step(dict.fromkeys(env.agents, Action.KEEP))
+    assert set(rewards) == {"ego_0", "ego_1"}
+
+
 def test_an_ended_ego_respawns_at_once_in_the_start_window_while_the_others_drive_on(make_env, small_config):
     env = make_env(3)
     with pytest.raises(RuntimeError, match="reset"):
@@ -257,6 +349,23 @@ def test_an_ended_ego_respawns_at_once_in_the_start_window_while_the_others_driv
     assert env.traffic(ended[0]).ego.lane_position_m == info["position_m"]
     _, rewards, *_ = env.step(dict.fromkeys(env.agents, Action.KEEP))
     assert set(rewards) == set(env.agents) | {ended[0]} and env.metrics(ended[0]).decisions == 1
+
+
+def test_respawned_egos_keep_the_agents_order(small_config):
+    """`agents` stays in `possible_agents`' order whatever the order of the respawns (drivers are asked, and the
+    outcomes given, in ego order)."""
+    env = ParallelHighwayEnv(3, small_config.with_overrides({"env": {"max_episode_s": 2.0}}))
+    try:
+        env.reset(seed=0)
+        while env.agents:  # the time limit ends every ego's episode at once
+            env.step(dict.fromkeys(env.agents, Action.KEEP))
+        for agent in ("ego_2", "ego_0"):
+            env.respawn(agent)
+        assert env.agents == ["ego_0", "ego_2"]
+        observations, rewards, *_ = env.step(dict.fromkeys(env.agents, Action.KEEP))
+        assert list(observations) == list(rewards) == ["ego_0", "ego_2"]
+    finally:
+        env.close()
 
 
 def test_a_jammed_start_window_sends_a_respawn_upstream_and_a_full_road_is_an_error(make_env, small_config,

@@ -22,6 +22,7 @@ from sumo_rail.sim import parallel_env
 from sumo_rail.sim.actions import Action
 from sumo_rail.sim.env import HighwayEnv
 from sumo_rail.sim.parallel_env import ParallelHighwayEnv
+from sumo_rail.sim.respawning import RespawningEgos
 
 
 def drive(road: RespawningRoad, steps: int, seed: int):
@@ -193,6 +194,44 @@ def test_rail_lives_go_on_after_a_jam_within_each_egos_budget(monkeypatch, small
     cut = [life.metrics for ego_lives in lives for life in ego_lives
            if life.metrics["truncated"] and life.metrics["termination"] not in ("end_of_road", "time_limit")]
     assert len(cut) >= 2, "the jam cut the lives of the egos still driving"
+
+
+def test_a_jam_cuts_only_the_episodes_the_step_did_not_end(monkeypatch, small_config):
+    """At a jam, the egos still driving are cut (`RespawnStep.cut`); those whose episode the step itself ended are
+    not, so a collision stays a termination only."""
+    env = ParallelHighwayEnv(3, small_config, transport="libsumo")
+    try:
+        road = RespawningEgos(env, 5, reset_when_empty=False)
+        road.start()
+        jam_next_respawn(monkeypatch, env)
+        for _ in range(400):
+            step = road.step(dict.fromkeys(env.agents, int(Action.ACCELERATE)))
+            if step.ended:
+                break
+    finally:
+        env.close()
+    by_step = {agent for agent in step.terminations if step.terminations[agent] or step.truncations[agent]}
+    assert by_step and step.cut and by_step.isdisjoint(step.cut)
+    assert set(step.ended) == by_step | set(step.cut) == set(env.possible_agents)
+    assert all(step.truncated(agent) == step.truncations[agent] for agent in by_step)
+
+
+def test_a_lone_egos_lives_respawn_on_the_same_road_without_a_reset(small_config):
+    """`drive_egos` with a budget: when every ego's episode ends at one step (here the one ego's), each respawns in
+    the traffic as it is (a new vehicle, the road's clock running on), the road is not reset."""
+    import libsumo
+
+    env = ParallelHighwayEnv(1, small_config.with_overrides({"env": {"max_episode_s": 1.0}}), transport="libsumo")
+    try:
+        env.reset(seed=5)
+        start_s = env.simulation.time_s
+        lives = drive_egos(env, [lambda observation, traffic: int(Action.KEEP)], 5, 6)
+        period_s = small_config.env.decision_period_s
+        assert [life.metrics["steps"] for life in lives[0]] == [2, 2, 2]
+        assert env.simulation.time_s == pytest.approx(start_s + 6 * period_s)
+        assert "ego_0.2" in libsumo.vehicle.getIDList()
+    finally:
+        env.close()
 
 
 def _closes(close, processes) -> bool:
