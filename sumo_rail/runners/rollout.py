@@ -155,8 +155,8 @@ def run_shared_episode(env: ParallelHighwayEnv | _OneEgo, drivers: Sequence[Driv
 
 
 def drive_egos(env: ParallelHighwayEnv | _OneEgo, drivers: Sequence[Driver], seed: int, decisions: int | None = None,
-          record: bool = False, perturbs: Sequence[Callable[[int], int]] | None = None,
-          probes: Sequence[DecisionProbe] | None = None) -> list[list[EpisodeResult]]:
+               record: bool = False, perturbs: Sequence[Callable[[int], int]] | None = None,
+               probes: Sequence[DecisionProbe] | None = None) -> list[list[EpisodeResult]]:
     """The one episode loop. Reset `env` with `seed` and drive ego_j with drivers[j] (asked in ego order at each
     decision): with `decisions` None, one whole episode each (an ego leaves when its episode ends; one that found no
     room has none); with a number, that many decisions each across as many lives as it takes (an ego whose episode
