@@ -80,7 +80,7 @@ BREAKAGES = {
     "nan": (lambda rows: [bad_value("xVelocity", "nan")(row) for row in rows],
             "column xVelocity of vehicle 3 at frame 70 is missing or not a number"),
     "too fast": (lambda rows: [bad_value("xVelocity", 120.0)(row) for row in rows],
-                 "vehicle 3 has xVelocity 120.0 m/s at frame 70, outside (0, 100] m/s"),
+                 "vehicle 3 has xVelocity 120.0 m/s at frame 70, outside [0, 100] m/s"),
     "too long": (lambda rows: [bad_value("width", 31.0)(row) for row in rows],
                  "vehicle 3 has width 31.0 m at frame 70, outside (0, 30] m"),
     "gap": (lambda rows: [row for row in rows if not (row["id"] == 3 and row["frame"] == 70)],
