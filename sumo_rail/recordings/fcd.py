@@ -184,7 +184,7 @@ def _check_on_lanes(tracks: pd.DataFrame, network: NetworkLanes, network_path: P
         if off.any():
             first = int(np.argmax(off))
             row = tracks.iloc[int(rows[first])]
-            where = (f"{lateral[first]:.1f} m from the centre of lane {edge}_{index} ({width:.2f} m wide)"
+            where = (f"{lateral[first]:.4g} m from the centre of lane {edge}_{index} ({width:.2f} m wide)"
                      if aside[first] else f"at pos {row['lane_position_m']:g} m of lane {edge}_{index} ({length:.1f} m "
                                           f"long)")
             raise RecordingDataError(f"{path}: vehicle {row['source_id']} at {row['time_s']:g} s lies {where} on the "
