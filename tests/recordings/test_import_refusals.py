@@ -93,7 +93,7 @@ def test_a_highd_frame_rate_that_is_not_positive_is_refused(tmp_path, rate):
 def test_a_highd_road_longer_than_100_km_is_refused_naming_the_farthest_vehicle(tmp_path):
     far = highd_vehicle(1, range(1, 40), -60_000.0, 6, upper=False) + highd_vehicle(2, range(1, 40), 60_000.0, 6,
                                                                                     upper=False)
-    with pytest.raises(RecordingDataError, match="vehicle 2 at frame 39 is 120.+ m along the road, which would be "
+    with pytest.raises(RecordingDataError, match=r"vehicle 2 at frame 39 is 120\d+ m along the road, which would be "
                                                  "longer than 100 km"):
         highd.read([write_highd(tmp_path, far)], "lower")
 
