@@ -62,7 +62,7 @@ def split_options(command: Callable[..., None]) -> Callable[..., None]:
 @config_options
 @click.option("--format", "format_", type=click.Choice(["highd", "ngsim", "fcd"]), required=True,
               help="highd: XX_tracks.csv (its tracksMeta and recordingMeta beside it); ngsim: US-101 / I-80 trajectory "
-                   "CSV or text files; fcd: SUMO --fcd-output XML (.xml or .xml.gz).")
+                   "CSV or text files (gzip-compressed too); fcd: SUMO --fcd-output XML (.xml or .xml.gz).")
 @click.argument("files", nargs=-1, required=True, type=click.Path(path_type=Path, dir_okay=False))
 @click.option("--out", type=click.Path(path_type=Path, file_okay=False), required=True,
               help="The scene folder to write (tracks.parquet, scene.json, road.net.xml, split.parquet).")

@@ -6,7 +6,9 @@ per vehicle: id, x, y (the front bumper's centre [m]), angle (navigational [deg]
 lane [m]) and lane (SUMO's lane id, edge_index); acceleration, length and width are read where present (SUMO writes
 acceleration with --fcd-output.acceleration; this module's writer writes all three). Without them the acceleration is
 the change of speed per step and the size is the vehicle type's (the package's own types, else SUMO's default
-5 m x 1.8 m). It is parsed as a stream; persons and containers are skipped. Every lane must be in the network.
+5 m x 1.8 m). It is parsed as a stream; persons and containers are skipped. Every lane must be in the network and
+every vehicle on the lane it names (its front within half the lane's width + LANE_TOLERANCE_M of the lane's centre
+line, its pos within the edge's length), or the recording was made on another network; speeds lie in [0, 100] m/s.
 """
 
 from __future__ import annotations

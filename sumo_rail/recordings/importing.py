@@ -1,8 +1,9 @@
 """`sumo-rail import-recording`: a highD, NGSIM or FCD recording -> a scene folder (`scene` documents the layout).
 
-Everything a user can get wrong in the command (files, options, columns, the network) is checked by
-`check_import` before any work (`RecordingUsageError`); what is wrong in the data is found while reading
-(`RecordingDataError`). The folder's files are written together: on any error none of them is.
+Everything a user can get wrong in the command (files, options, columns, the network: for FCD one straight edge along
++x, as `recorded-demos` and `evaluate-scene` take) is checked by `check_import` before any work
+(`RecordingUsageError`); what is wrong in the data is found while reading (`RecordingDataError`). The folder's files
+are written together: on any error none of them is. scene.json pins every file read by its sha256.
 """
 
 from __future__ import annotations

@@ -2,14 +2,14 @@
 
 A file is the trajectory CSV with a header of `COLUMNS` (the extra columns of the data.transportation.gov edition,
 Location among them, are allowed), or the original whitespace-separated text file of those 18 columns without a
-header; either may be gzip-compressed. Units are feet, ft/s and ft/s^2 at 10 Hz (Frame_ID counts tenths of a second from 1). Local_Y is the front of
-the vehicle along the road from the section's entry, Local_X the lateral position of its front centre from the
-section's left edge. Lane_ID 1 is the leftmost lane: US-101 has main lanes 1 to 5, an auxiliary lane 6, an on-ramp 7
-and an off-ramp 8; I-80 main lanes 1 to 6 and an on-ramp 7. Tracks that use the auxiliary lane or a ramp are left
-out (said so). A Vehicle_ID is reused for another vehicle after the first one left: a track is split where the
-vehicle's Total_Frames, v_Length, v_Width or v_Class change ("17", "17#2"); a gap with none of them changing is a gap
-in frames and the track is dropped. A vehicle drives toward growing Local_Y: a track that falls back more than 1 m
-is refused.
+header; either may be gzip-compressed. Units are feet, ft/s and ft/s^2 at 10 Hz (Frame_ID counts tenths of a second
+from 1). Local_Y is the front of the vehicle along the road from the section's entry, Local_X the lateral position of
+its front centre from the section's left edge. Lane_ID 1 is the leftmost lane: US-101 has main lanes 1 to 5, an
+auxiliary lane 6, an on-ramp 7 and an off-ramp 8; I-80 main lanes 1 to 6 and an on-ramp 7. Tracks that use the
+auxiliary lane or a ramp are left out (said so). A Vehicle_ID is reused for another vehicle after the first one left:
+a track is split where the vehicle's Total_Frames, v_Length, v_Width or v_Class change ("17", "17#2"); a gap with
+none of them changing is a gap in frames and the track is dropped. A vehicle drives toward growing Local_Y: a track
+that falls back more than BACKWARD_TOLERANCE_M is refused.
 
 The scene's road is a straight edge along +x with the site's main lanes, 12 ft (3.6576 m) each; x is Local_Y and y
 minus Local_X, in metres.
