@@ -111,8 +111,9 @@ def check_import(settings: ImportSettings) -> NetworkLanes | None:
     else:
         fcd.check_headers(files)
         try:
+            lanes = read_lanes(settings.network)  # type: ignore[arg-type]
             scene_road(settings.network)  # type: ignore[arg-type]  # what recorded-demos and evaluate-scene take
-            return read_lanes(settings.network)  # type: ignore[arg-type]
+            return lanes
         except DatasetError as error:
             raise RecordingUsageError(str(error)) from error
     return None

@@ -81,8 +81,9 @@ def read_lanes(net_file: Path) -> NetworkLanes:
     """Each edge's lane widths, centre lines and length in a SUMO .net.xml (or .net.xml.gz), internal (junction)
     edges included; DatasetError naming the file when it is not a SUMO network."""
     lanes: dict[str, list[tuple[int, float, float, np.ndarray]]] = {}
+    root = network_root(net_file)
     try:
-        for edge in network_root(net_file).iter("edge"):
+        for edge in root.iter("edge"):
             for lane in edge.iter("lane"):
                 shape = np.array([[float(value) for value in point.split(",")[:2]]
                                   for point in lane.get("shape", "").split()]).reshape(-1, 2)

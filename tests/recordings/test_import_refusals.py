@@ -229,6 +229,9 @@ def test_a_gzip_network_is_taken_as_scenario_network_takes_it(tmp_path):
                     "--out", str(tmp_path / "scene"))
     assert result.exit_code == 0 and "kept 2 tracks" in result.output, result.output
     assert json.loads((tmp_path / "scene" / "scene.json").read_text())["network"] == str(packed.resolve())
+    packed.write_bytes(packed.read_bytes()[:200])  # cut short
+    output = refused(tmp_path / "scene", 2, "--format", "fcd", str(tmp_path / "fcd.xml"), "--network", str(packed))
+    assert f"cannot read network {packed}: it is a damaged gzip file" in output
 
 
 def test_an_import_into_an_out_another_command_writes_is_one_sentence_and_nothing_written(tmp_path):
