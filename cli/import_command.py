@@ -7,6 +7,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 import click
+from sumo_rail_cli.output_lock import lock_output
 from sumo_rail_cli.param_types import FiniteFloat
 from sumo_rail_cli.settings import config_options
 
@@ -26,15 +27,21 @@ def _section(value: str | None) -> tuple[float, float] | None:
 
 
 def _vehicles(value: str | None) -> tuple[str, ...]:
-    """Comma-separated ids; A-B (whole numbers) is every id from A to B."""
+    """Comma-separated ids; A-B (whole numbers, A <= B) is every id from A to B; None is every vehicle (())."""
     found: list[str] = []
     for part in (value or "").split(","):
         part = part.strip()
         low, dash, high = part.partition("-")
         if dash and low.isdigit() and high.isdigit():
+            if int(low) > int(high):
+                raise click.BadParameter(f"the range {part} is empty: write it from the lower id to the higher, "
+                                         f"{high}-{low}", param_hint="--vehicles")
             found += [str(number) for number in range(int(low), int(high) + 1)]
         elif part:
             found.append(part)
+    if value is not None and not found:
+        raise click.BadParameter(f"{value!r} names no vehicle; leave --vehicles out to keep every vehicle",
+                                 param_hint="--vehicles")
     return tuple(found)
 
 
@@ -55,7 +62,7 @@ def split_options(command: Callable[..., None]) -> Callable[..., None]:
 @config_options
 @click.option("--format", "format_", type=click.Choice(["highd", "ngsim", "fcd"]), required=True,
               help="highd: XX_tracks.csv (its tracksMeta and recordingMeta beside it); ngsim: US-101 / I-80 trajectory "
-                   "CSV or text files; fcd: SUMO --fcd-output XML (.xml or .xml.gz).")
+                   "CSV or text files (gzip-compressed too); fcd: SUMO --fcd-output XML (.xml or .xml.gz).")
 @click.argument("files", nargs=-1, required=True, type=click.Path(path_type=Path, dir_okay=False))
 @click.option("--out", type=click.Path(path_type=Path, file_okay=False), required=True,
               help="The scene folder to write (tracks.parquet, scene.json, road.net.xml, split.parquet).")
@@ -64,7 +71,7 @@ def split_options(command: Callable[..., None]) -> Callable[..., None]:
 @click.option("--site", type=click.Choice(["us-101", "i-80"]), default=None,
               help="NGSIM: the site, which fixes the main lanes (US-101: 1-5, I-80: 1-6)  [default: us-101].")
 @click.option("--network", type=click.Path(path_type=Path, dir_okay=False), default=None,
-              help="FCD: the SUMO .net.xml the recording was driven on.")
+              help="FCD: the SUMO .net.xml (or .net.xml.gz) the recording was driven on: one straight edge along +x.")
 @click.option("--vehicles", default=None, metavar="IDS", help="Keep only these source ids: 3,17,20-40.")
 @click.option("--section", default=None, metavar="START:END", help="Keep only the rows whose front x lies in "
               "START..END m (scene coordinates: along the road in the driving direction for highD and NGSIM).")
@@ -82,7 +89,7 @@ def import_recording_command(config: Config, format_: str, files: tuple[Path, ..
     command prints how many tracks it kept and why any were dropped (too short for one decision of
     env.decision_period_s, off the modelled lanes, a gap in frames); docs/recordings.md has the details."""
     from sumo_rail.datasets import DatasetError
-    from sumo_rail.recordings.importing import ImportSettings, check_import, import_recording
+    from sumo_rail.recordings.importing import ImportSettings, check_import, check_scene_output, import_recording
     from sumo_rail.recordings.tracks import RecordingUsageError
 
     for name, value, needed in (("--direction", direction, "highd"), ("--site", site, "ngsim")):
@@ -93,6 +100,8 @@ def import_recording_command(config: Config, format_: str, files: tuple[Path, ..
                               hold_out_after_s, overwrite)
     try:
         lanes = check_import(settings)
+        lock_output(out)  # held until the command ends: a second import into --out meanwhile is one sentence
+        check_scene_output(out, overwrite)  # again, now that it is held: another import may have ended meanwhile
     except RecordingUsageError as error:
         raise click.UsageError(str(error)) from error
     try:

@@ -6,7 +6,9 @@ per vehicle: id, x, y (the front bumper's centre [m]), angle (navigational [deg]
 lane [m]) and lane (SUMO's lane id, edge_index); acceleration, length and width are read where present (SUMO writes
 acceleration with --fcd-output.acceleration; this module's writer writes all three). Without them the acceleration is
 the change of speed per step and the size is the vehicle type's (the package's own types, else SUMO's default
-5 m x 1.8 m). It is parsed as a stream; persons and containers are skipped. Every lane must be in the network.
+5 m x 1.8 m). It is parsed as a stream; persons and containers are skipped. Every lane must be in the network and
+every vehicle on the lane it names (its front within half the lane's width + LANE_TOLERANCE_M of the lane's centre
+line, its pos within the edge's length), or the recording was made on another network; speeds lie in [0, 100] m/s.
 """
 
 from __future__ import annotations
@@ -21,7 +23,13 @@ import numpy as np
 import pandas as pd
 
 from sumo_rail.recordings.road import NetworkLanes
-from sumo_rail.recordings.tracks import Recording, RecordingDataError, RecordingUsageError
+from sumo_rail.recordings.tracks import (
+    LANE_TOLERANCE_M,
+    Recording,
+    RecordingDataError,
+    RecordingUsageError,
+    check_limits,
+)
 from sumo_rail.sim.network import sources_dir
 from sumo_rail.sim.scenarios import VEHICLE_TYPES_FILE
 
@@ -89,6 +97,8 @@ def read(files: list[Path], network: NetworkLanes, network_path: Path) -> Record
         "acceleration_mps2": np.array([np.nan if value is None else value for value in columns["acceleration"]]),
         "edge": edge, "lane": lane.astype(np.int16), "lane_position_m": columns["pos"],
         "length_m": length.astype(np.float32), "width_m": width.astype(np.float32), "vehicle_class": vehicle_class})
+    check_limits(tracks, files[0], "speed", "length", by_time=True)
+    _check_on_lanes(tracks, network, network_path, files[0])
     missing = tracks["acceleration_mps2"].isna().to_numpy()
     if missing.any():
         tracks = tracks.sort_values(["vehicle_id", "frame"], kind="stable", ignore_index=True)
@@ -160,6 +170,37 @@ def _lanes(columns: dict[str, list], network: NetworkLanes, network_path: Path) 
         edges.append(edge)
         indices.append(int(index))
     return np.asarray(edges, dtype=object)[inverse], np.asarray(indices)[inverse]
+
+
+def _check_on_lanes(tracks: pd.DataFrame, network: NetworkLanes, network_path: Path, path: Path) -> None:
+    """RecordingDataError naming the first vehicle whose front lies off the lane it names on the network: farther than
+    half the lane's width plus LANE_TOLERANCE_M from its centre line, or a position along it (pos) outside its edge's
+    length by more than that."""
+    points = tracks[["x_m", "y_m"]].to_numpy(float)
+    position = tracks["lane_position_m"].to_numpy(float)
+    for (edge, index), rows in tracks.groupby(["edge", "lane"], sort=True).indices.items():
+        lateral = _distance_m(points[rows], network.shapes_m[edge][index])
+        width, length = network.widths_m[edge][index], network.lengths_m[edge]
+        aside = lateral > width / 2 + LANE_TOLERANCE_M
+        off = aside | (position[rows] < -LANE_TOLERANCE_M) | (position[rows] > length + LANE_TOLERANCE_M)
+        if off.any():
+            first = int(np.argmax(off))
+            row = tracks.iloc[int(rows[first])]
+            where = (f"{lateral[first]:.4g} m from the centre of lane {edge}_{index} ({width:.2f} m wide)"
+                     if aside[first] else f"at pos {row['lane_position_m']:g} m of lane {edge}_{index} ({length:.1f} m "
+                                          f"long)")
+            raise RecordingDataError(f"{path}: vehicle {row['source_id']} at {row['time_s']:g} s lies {where} on the "
+                                     f"network {network_path}: the recording was not made on this network")
+
+
+def _distance_m(points: np.ndarray, shape: np.ndarray) -> np.ndarray:
+    """Each point's distance [m] to the polyline `shape` ((P, 2) points [m]; infinite without a segment)."""
+    if len(shape) < 2:
+        return np.full(len(points), np.inf)
+    start, along = shape[:-1], np.diff(shape, axis=0)
+    relative = points[:, None, :] - start[None, :, :]
+    share = np.clip(np.sum(relative * along, axis=2) / np.maximum(np.sum(along**2, axis=1), 1e-12), 0.0, 1.0)
+    return np.min(np.hypot(*np.moveaxis(relative - share[:, :, None] * along[None, :, :], 2, 0)), axis=1)
 
 
 def write(tracks: pd.DataFrame, path: Path, decimals: int = 2) -> Path:

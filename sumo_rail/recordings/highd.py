@@ -23,14 +23,19 @@ import pandas as pd
 
 from sumo_rail.recordings.road import ROAD_EDGE
 from sumo_rail.recordings.tracks import (
+    LANE_TOLERANCE_M,
     Recording,
     RecordingDataError,
     RecordingUsageError,
     check_columns,
     check_limits,
     check_numbers,
+    check_positions,
     heading_deg,
     plain,
+    read_csv,
+    road_length_m,
+    text_head,
 )
 from sumo_rail.recordings.writing import NO_VEHICLE, headways, neighbours, resampled
 
@@ -47,8 +52,6 @@ RECORDING_META_COLUMNS = ("id", "frameRate", "locationId", "speedLimit", "month"
 DIRECTIONS = {"upper": 1, "lower": 2}
 """--direction -> highD's drivingDirection."""
 FRAME_RATE_HZ = 25.0
-LANE_TOLERANCE_M = 1.0
-"""A box centre this far [m] outside the markings of its laneId is a lane that does not match the markings."""
 MEDIAN_M = 1.0
 """The strip between the carriageways a written recording has [m]."""
 _READ = ("frame", "id", "x", "y", "width", "height", "xVelocity", "yVelocity", "xAcceleration", "yAcceleration",
@@ -79,8 +82,7 @@ def check_headers(files: list[Path]) -> None:
     """RecordingUsageError when a file lacks a column of highD's published set (before any work)."""
     for path, expected in zip(recording_files(files), (TRACKS_COLUMNS, TRACKS_META_COLUMNS, RECORDING_META_COLUMNS),
                               strict=True):
-        with open(path, newline="") as file:
-            header = next(csv.reader(file), [])
+        header = next(csv.reader([text_head(path)[0]]), [])
         check_columns([name.strip() for name in header], expected, path, "highD " + path.name.split("_", 1)[1])
 
 
@@ -98,22 +100,26 @@ def _markings(meta: pd.Series, column: str, path: Path) -> np.ndarray:
 def read(files: list[Path], direction: str) -> Recording:
     """The vehicles of one driving direction ("upper" or "lower") of a highD recording."""
     tracks_path, tracks_meta_path, recording_meta_path = recording_files(files)
-    recording = pd.read_csv(recording_meta_path)
+    recording = read_csv(recording_meta_path, "highD recordingMeta")
     if recording.empty:
         raise RecordingDataError(f"{recording_meta_path} has no row")
     meta_row = recording.iloc[0]
     upper = _markings(meta_row, "upperLaneMarkings", recording_meta_path)
     lower = _markings(meta_row, "lowerLaneMarkings", recording_meta_path)
     check_numbers(recording, ("frameRate",), recording_meta_path, "id", "frameRate")
-    rate = float(meta_row["frameRate"])
-    meta = pd.read_csv(tracks_meta_path, usecols=["id", "class", "drivingDirection"])
+    rate = float(recording["frameRate"].iat[0])
+    if not 0 < rate < np.inf:
+        raise RecordingDataError(f"{recording_meta_path}: frameRate {plain(rate)} is not a positive number of frames "
+                                 f"per second")
+    meta = read_csv(tracks_meta_path, "highD tracksMeta", usecols=["id", "class", "drivingDirection"])
     check_numbers(meta, ("id", "drivingDirection"), tracks_meta_path, "id", "drivingDirection")
     reused = meta["id"].duplicated()
     if reused.any():
         raise RecordingDataError(f"{tracks_meta_path}: vehicle id {meta['id'][reused].iloc[0]} is used twice; "
                                  f"highD ids are unique")
-    raw = pd.read_csv(tracks_path, usecols=list(_READ), dtype={"laneId": "Int64"}, engine="c")
+    raw = read_csv(tracks_path, "highD tracks", usecols=list(_READ), dtype={"laneId": "Int64"}, engine="c")
     check_numbers(raw, _READ, tracks_path, "id", "frame")
+    check_positions(raw, ("x", "y"), tracks_path, "id", "frame")
     known = raw["id"].isin(meta["id"])
     if not known.all():
         raise RecordingDataError(f"{tracks_path}: vehicle {raw['id'][~known].iloc[0]} is not in "
@@ -130,10 +136,8 @@ def read(files: list[Path], direction: str) -> Recording:
     other = "lower" if direction == "upper" else "upper"
     notes = [f"the {other} driving direction ({len(meta) - len(wanted)} vehicles) is left out; import it with "
              f"--direction {other}"]
-    longest_m = float(np.max(tracks["length_m"].to_numpy(), initial=0.0))
-    road_m = float(np.max(tracks["x_m"].to_numpy(), initial=0.0)) + 2 * longest_m
-    return Recording(tracks, rate, len(widths), tuple(float(width) for width in widths), road_m, notes)
-
+    return Recording(tracks, rate, len(widths), tuple(float(width) for width in widths),
+                     road_length_m(tracks, tracks_path), notes)
 
 
 def _scene_rows(raw: pd.DataFrame, direction: str, upper: np.ndarray, lower: np.ndarray, rate: float,
@@ -156,17 +160,24 @@ def _scene_rows(raw: pd.DataFrame, direction: str, upper: np.ndarray, lower: np.
     strip = raw["laneId"].to_numpy(np.int64) - first_lane  # strip between markings, from the top
     outside = (strip < 0) | (strip >= lanes)
     if outside.any():
-        row = {key: plain(value) for key, value in raw.iloc[int(np.argmax(outside))].items()}
+        row = _first(raw, outside)
         raise RecordingDataError(f"{path}: lane {row['laneId']} of vehicle {row['id']} at frame {row['frame']} is not "
                                  f"a lane of the {direction} direction's markings")
     strip_index = np.clip(strip, 0, lanes - 1)
     off = (centre_y < markings[strip_index] - LANE_TOLERANCE_M) | (centre_y > markings[strip_index + 1]
                                                                    + LANE_TOLERANCE_M)
     if off.any():
-        row = {key: plain(value) for key, value in raw.iloc[int(np.argmax(off))].items()}
+        row = _first(raw, off)
         raise RecordingDataError(f"{path}: vehicle {row['id']} at frame {row['frame']} is in lane {row['laneId']} but "
                                  f"its centre y {centre_y[int(np.argmax(off))]:.2f} m lies outside that lane's "
                                  f"markings")
+    against = vx * forward < 0
+    if against.any():
+        row = _first(raw, against)
+        toward = "falling" if forward < 0 else "growing"
+        raise RecordingDataError(f"{path}: vehicle {row['id']} has xVelocity {row['xVelocity']} m/s at frame "
+                                 f"{row['frame']}, against the {direction} direction (drivingDirection "
+                                 f"{DIRECTIONS[direction]}), which is driven toward {toward} x")
     speed = np.hypot(vx, vy)
     along = np.where(speed > 0, (ax * vx + ay * vy) / np.maximum(speed, 1e-9), ax * forward)
     lane = strip if direction == "upper" else lanes - 1 - strip
@@ -178,6 +189,11 @@ def _scene_rows(raw: pd.DataFrame, direction: str, upper: np.ndarray, lower: np.
         "speed_mps": speed, "acceleration_mps2": along, "edge": ROAD_EDGE,
         "lane": lane.astype(np.int16), "lane_position_m": front,
         "length_m": length.astype(np.float32), "width_m": width.astype(np.float32)})
+
+
+def _first(raw: pd.DataFrame, mask: np.ndarray) -> dict[str, object]:
+    """The first row of `raw` where `mask` holds, its numbers as a user wrote them (for messages)."""
+    return {key: plain(value) for key, value in raw.iloc[int(np.argmax(mask))].items()}
 
 
 def write(tracks: pd.DataFrame, lane_widths_m: tuple[float, ...], road_length_m: float, stem: Path) -> list[Path]:

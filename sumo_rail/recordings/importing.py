@@ -1,8 +1,9 @@
 """`sumo-rail import-recording`: a highD, NGSIM or FCD recording -> a scene folder (`scene` documents the layout).
 
-Everything a user can get wrong in the command (files, options, columns, the network) is checked by
-`check_import` before any work (`RecordingUsageError`); what is wrong in the data is found while reading
-(`RecordingDataError`). The folder's files are written together: on any error none of them is.
+Everything a user can get wrong in the command (files, options, columns, the network: for FCD one straight edge along
++x, as `recorded-demos` and `evaluate-scene` take) is checked by `check_import` before any work
+(`RecordingUsageError`); what is wrong in the data is found while reading (`RecordingDataError`). The folder's files
+are written together: on any error none of them is. scene.json pins every file read by its sha256.
 """
 
 from __future__ import annotations
@@ -28,6 +29,7 @@ from sumo_rail.datasets import (
 from sumo_rail.recordings import fcd, highd, ngsim
 from sumo_rail.recordings.road import NetworkLanes, build_road, read_lanes
 from sumo_rail.recordings.scene import SceneMeta
+from sumo_rail.recordings.scene_observations import scene_road
 from sumo_rail.recordings.tracks import Recording, RecordingDataError, RecordingUsageError, kept_tracks, track_table
 from sumo_rail.runners.tables import provenance
 
@@ -109,10 +111,17 @@ def check_import(settings: ImportSettings) -> NetworkLanes | None:
     else:
         fcd.check_headers(files)
         try:
-            return read_lanes(settings.network)  # type: ignore[arg-type]
+            lanes = read_lanes(settings.network)  # type: ignore[arg-type]
+            scene_road(settings.network)  # type: ignore[arg-type]  # what recorded-demos and evaluate-scene take
+            return lanes
         except DatasetError as error:
             raise RecordingUsageError(str(error)) from error
     return None
+
+
+def source_files(settings: ImportSettings) -> list[Path]:
+    """Every file the import reads: the files given, and for highD the rest of the recording's three."""
+    return list(highd.recording_files(list(settings.files))) if settings.format == "highd" else list(settings.files)
 
 
 def read_recording(settings: ImportSettings, network: NetworkLanes | None) -> Recording:
@@ -175,9 +184,8 @@ def import_recording(settings: ImportSettings, config: Config, network: NetworkL
                                  f"{'; '.join(reasons) or 'none in the section or the vehicles chosen'})")
     split = split_table(tracks, settings.split_seed, settings.test_share, settings.validation_share,
                         settings.hold_out_after_s)
-    sources = {str(path.resolve()): file_sha256(path) for path in settings.files}
-    if settings.network is not None:
-        sources[str(settings.network.resolve())] = file_sha256(settings.network)
+    sources = {str(path.resolve()): file_sha256(path)
+               for path in source_files(settings) + ([settings.network] if settings.network else [])}
     recorded = {key: (str(value) if isinstance(value, Path) else value)
                 for key, value in dataclasses.asdict(settings).items() if key not in ("out", "overwrite", "files")}
     recorded |= {"decision_period_s": period_s, "vehicles": list(settings.vehicles),

@@ -2,13 +2,14 @@
 
 A file is the trajectory CSV with a header of `COLUMNS` (the extra columns of the data.transportation.gov edition,
 Location among them, are allowed), or the original whitespace-separated text file of those 18 columns without a
-header. Units are feet, ft/s and ft/s^2 at 10 Hz (Frame_ID counts tenths of a second from 1). Local_Y is the front of
-the vehicle along the road from the section's entry, Local_X the lateral position of its front centre from the
-section's left edge. Lane_ID 1 is the leftmost lane: US-101 has main lanes 1 to 5, an auxiliary lane 6, an on-ramp 7
-and an off-ramp 8; I-80 main lanes 1 to 6 and an on-ramp 7. Tracks that use the auxiliary lane or a ramp are left
-out (said so). A Vehicle_ID is reused for another vehicle after the first one left: a track is split where the
-vehicle's Total_Frames, v_Length, v_Width or v_Class change ("17", "17#2"); a gap with none of them changing is a gap
-in frames and the track is dropped.
+header; either may be gzip-compressed. Units are feet, ft/s and ft/s^2 at 10 Hz (Frame_ID counts tenths of a second
+from 1). Local_Y is the front of the vehicle along the road from the section's entry, Local_X the lateral position of
+its front centre from the section's left edge. Lane_ID 1 is the leftmost lane: US-101 has main lanes 1 to 5, an
+auxiliary lane 6, an on-ramp 7 and an off-ramp 8; I-80 main lanes 1 to 6 and an on-ramp 7. Tracks that use the
+auxiliary lane or a ramp are left out (said so). A Vehicle_ID is reused for another vehicle after the first one left:
+a track is split where the vehicle's Total_Frames, v_Length, v_Width or v_Class change ("17", "17#2"); a gap with
+none of them changing is a gap in frames and the track is dropped. A vehicle drives toward growing Local_Y: a track
+that falls back more than BACKWARD_TOLERANCE_M is refused.
 
 The scene's road is a straight edge along +x with the site's main lanes, 12 ft (3.6576 m) each; x is Local_Y and y
 minus Local_X, in metres.
@@ -26,10 +27,15 @@ from sumo_rail.recordings.tracks import (
     OFF_ROAD_LANE,
     Recording,
     RecordingDataError,
+    RecordingUsageError,
     check_columns,
     check_limits,
     check_numbers,
+    check_positions,
     heading_deg,
+    read_csv,
+    road_length_m,
+    text_head,
 )
 from sumo_rail.recordings.writing import NO_VEHICLE, headways, neighbours, resampled
 
@@ -44,24 +50,37 @@ MAIN_LANES = {"us-101": 5, "i-80": 6}
 HIGHEST_LANE_ID = 8
 TRUCK_CLASS = 3
 """v_Class: 1 motorcycle, 2 automobile, 3 truck."""
+BACKWARD_TOLERANCE_M = 1.0
+"""A track whose front falls back this far [m] behind where it was (its frames running backwards along the road) is
+broken; less is the positions' noise."""
 _IDENTITY = ("Total_Frames", "v_Length", "v_Width", "v_Class")
 _READ = ("Vehicle_ID", "Frame_ID", *_IDENTITY, "Local_X", "Local_Y", "v_Vel", "v_Acc", "Lane_ID")
 
 
 def _header(path: Path) -> tuple[list[str], bool]:
-    """The file's column names and whether it has a header line (else the 18 columns of the original text file)."""
-    with open(path, errors="replace") as file:
-        first = file.readline()
-    fields = [name.strip() for name in first.replace(",", " ").split()]
-    if "Vehicle_ID" in fields or "Frame_ID" in fields:
-        return [name.strip() for name in first.strip().split(",")], True
-    try:
-        if len(fields) == len(COLUMNS):
-            [float(value) for value in fields]
-            return list(COLUMNS), False
-    except ValueError:
-        pass
+    """The file's column names and whether it has a header line (else the 18 columns of the original text file);
+    RecordingUsageError for a file of numbers that is neither."""
+    first = text_head(path)[0]
+    fields = first.replace(",", " ").split()
+    numbers = bool(fields) and all(_is_number(value) for value in fields)
+    if numbers and "," in first:
+        raise RecordingUsageError(f"{path} has no header line: an NGSIM CSV begins with its column names "
+                                  f"({','.join(COLUMNS[:3])},...); only the original text files, whitespace-separated, "
+                                  f"come without one")
+    if numbers and len(fields) != len(COLUMNS):
+        raise RecordingUsageError(f"{path} has no header line and {len(fields)} columns, not the {len(COLUMNS)} of "
+                                  f"NGSIM's original text files")
+    if numbers:
+        return list(COLUMNS), False
     return [name.strip() for name in first.strip().split(",")], True
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
 
 
 def check_headers(files: list[Path]) -> None:
@@ -81,6 +100,8 @@ def read(files: list[Path], site: str) -> Recording:
                                  f"they overlap in time")
     raw = raw.sort_values(["Vehicle_ID", "Frame_ID"], kind="stable", ignore_index=True)
     vehicle_ids = _split_reused_ids(raw)
+    x = raw["Local_Y"].to_numpy(float) * FEET_M
+    _check_forward(vehicle_ids, raw["Frame_ID"].to_numpy(np.int64), x, files[0])
     lanes = MAIN_LANES[site]
     lane_id = raw["Lane_ID"].to_numpy(np.int64)
     bad = (lane_id < 1) | (lane_id > HIGHEST_LANE_ID)
@@ -88,7 +109,6 @@ def read(files: list[Path], site: str) -> Recording:
         row = raw.iloc[int(np.argmax(bad))]
         raise RecordingDataError(f"{files[0]}: lane {row['Lane_ID']} of vehicle {row['Vehicle_ID']} at frame "
                                  f"{row['Frame_ID']} is not an NGSIM lane (1 to {HIGHEST_LANE_ID})")
-    x = raw["Local_Y"].to_numpy(float) * FEET_M
     y = -raw["Local_X"].to_numpy(float) * FEET_M
     dx, dy = _slopes(vehicle_ids, x), _slopes(vehicle_ids, y)
     tracks = pd.DataFrame({
@@ -103,18 +123,18 @@ def read(files: list[Path], site: str) -> Recording:
     check_limits(tracks, files[0], "v_Vel", "v_Length")
     notes = [f"NGSIM site {site}: main lanes 1 to {lanes} modelled; tracks on the "
              f"{'auxiliary lane 6, ' if lanes == 5 else ''}ramps (lanes 7, 8) are left out"]
-    road_m = float(np.max(x, initial=0.0)) + 2 * float(np.max(tracks["length_m"].to_numpy(), initial=0.0))
-    return Recording(tracks, FRAME_RATE_HZ, lanes, (LANE_WIDTH_M,) * lanes, road_m, notes)
+    return Recording(tracks, FRAME_RATE_HZ, lanes, (LANE_WIDTH_M,) * lanes, road_length_m(tracks, files[0]), notes)
 
 
 def _read_file(path: Path, site: str) -> pd.DataFrame:
     names, has_header = _header(path)
     wanted = [*_READ, "Location"] if "Location" in names else list(_READ)
     if has_header:
-        raw = pd.read_csv(path, usecols=wanted, low_memory=False)
+        raw = read_csv(path, "NGSIM trajectory", usecols=wanted, low_memory=False)
     else:
-        raw = pd.read_csv(path, sep=r"\s+", header=None, names=list(COLUMNS), usecols=list(_READ))
+        raw = read_csv(path, "NGSIM trajectory", sep=r"\s+", header=None, names=list(COLUMNS), usecols=list(_READ))
     check_numbers(raw, _READ, path, "Vehicle_ID", "Frame_ID")
+    check_positions(raw, ("Local_X", "Local_Y"), path, "Vehicle_ID", "Frame_ID", FEET_M)
     if "Location" in raw:
         here = raw["Location"].astype(str).str.lower().to_numpy() == site
         if not here.any():
@@ -136,6 +156,19 @@ def _split_reused_ids(raw: pd.DataFrame) -> np.ndarray:
     reuse = pd.Series(new_vehicle).groupby(raw["Vehicle_ID"].to_numpy()).cumsum().to_numpy()
     base = raw["Vehicle_ID"].astype(np.int64).astype(str).to_numpy()
     return np.where(reuse > 0, np.char.add(np.char.add(base, "#"), (reuse + 1).astype(str)), base)
+
+
+def _check_forward(track: np.ndarray, frame: np.ndarray, x: np.ndarray, path: Path) -> None:
+    """RecordingDataError naming the first track whose front `x` [m] falls more than BACKWARD_TOLERANCE_M behind the
+    farthest it reached over consecutive frames (rows sorted by track and frame; a gap starts afresh)."""
+    start = np.concatenate([[True], (track[1:] != track[:-1]) | (np.diff(frame) != 1)])
+    back = pd.Series(x).groupby(np.cumsum(start)).cummax().to_numpy() - x
+    behind = back > BACKWARD_TOLERANCE_M
+    if behind.any():
+        first = int(np.argmax(behind))
+        raise RecordingDataError(f"{path}: vehicle {track[first]} runs backwards: by frame {frame[first]} its Local_Y "
+                                 f"has fallen {back[first] / FEET_M:.1f} ft behind where it was (NGSIM's vehicles "
+                                 f"drive toward growing Local_Y as their frames count on)")
 
 
 def _slopes(track: np.ndarray, values: np.ndarray) -> np.ndarray:

@@ -12,9 +12,12 @@ import xml.etree.ElementTree as ElementTree
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
+
 from sumo_rail.config import ConfigError
 from sumo_rail.datasets import DatasetError
 from sumo_rail.sim.network import _netconvert
+from sumo_rail.sim.user_traffic import read_xml
 
 ROAD_EDGE = "road"
 """The built road's one edge."""
@@ -24,10 +27,12 @@ ROAD_SPEED_MPS = 44.44
 
 @dataclass(frozen=True)
 class NetworkLanes:
-    """What a scene needs of a SUMO network: each edge's lane widths [m], rightmost first, and lane lengths [m]."""
+    """What a scene needs of a SUMO network: each edge's lane widths [m] and centre lines ((P, 2) x, y points [m]),
+    rightmost first, and its length (its longest lane's) [m]."""
 
     widths_m: dict[str, tuple[float, ...]]
     lengths_m: dict[str, float]
+    shapes_m: dict[str, tuple[np.ndarray, ...]]
 
     def lanes(self, edge: str) -> int:
         """Number of lanes of `edge`."""
@@ -63,25 +68,36 @@ def build_road(lane_widths_m: list[float], length_m: float, out: Path) -> None:
     out.write_text(head + rest.partition("-->")[2].lstrip("\n") if rest else text)
 
 
-def read_lanes(net_file: Path) -> NetworkLanes:
-    """Each edge's lane widths and lengths in a SUMO .net.xml, internal (junction) edges included; DatasetError
-    naming the file when it is not a SUMO network."""
-    widths: dict[str, list[tuple[int, float]]] = {}
-    lengths: dict[str, float] = {}
+def network_root(net_file: Path) -> ElementTree.Element:
+    """The root element of a SUMO network file, plain or gzip-compressed (`.gz`), read as `scenario.network` is;
+    DatasetError naming the file when it cannot be read or is not XML."""
     try:
-        for _, element in ElementTree.iterparse(net_file):
-            if element.tag == "edge":
-                edge = element.get("id", "")
-                for lane in element.iter("lane"):
-                    widths.setdefault(edge, []).append((int(lane.get("index", "0")),
-                                                        float(lane.get("width", "3.2"))))
-                    lengths[edge] = max(lengths.get(edge, 0.0), float(lane.get("length", "0")))
-                element.clear()
-    except (ElementTree.ParseError, OSError, ValueError) as error:
+        return read_xml(net_file, "network")
+    except ConfigError as error:
+        raise DatasetError(str(error)) from error
+
+
+def read_lanes(net_file: Path) -> NetworkLanes:
+    """Each edge's lane widths, centre lines and length in a SUMO .net.xml (or .net.xml.gz), internal (junction)
+    edges included; DatasetError naming the file when it is not a SUMO network."""
+    lanes: dict[str, list[tuple[int, float, float, np.ndarray]]] = {}
+    root = network_root(net_file)
+    try:
+        for edge in root.iter("edge"):
+            for lane in edge.iter("lane"):
+                shape = np.array([[float(value) for value in point.split(",")[:2]]
+                                  for point in lane.get("shape", "").split()]).reshape(-1, 2)
+                lanes.setdefault(edge.get("id", ""), []).append((int(lane.get("index", "0")),
+                                                                 float(lane.get("width", "3.2")),
+                                                                 float(lane.get("length", "0")), shape))
+    except ValueError as error:
         raise DatasetError(f"network {net_file} is not a readable SUMO network ({error})") from error
-    if not widths:
+    if not lanes:
         raise DatasetError(f"network {net_file} has no edges with lanes; it is not a SUMO network")
-    return NetworkLanes({edge: tuple(width for _, width in sorted(lanes)) for edge, lanes in widths.items()}, lengths)
+    ordered = {edge: sorted(found, key=lambda lane: lane[0]) for edge, found in lanes.items()}
+    return NetworkLanes({edge: tuple(lane[1] for lane in found) for edge, found in ordered.items()},
+                        {edge: max(lane[2] for lane in found) for edge, found in ordered.items()},
+                        {edge: tuple(lane[3] for lane in found) for edge, found in ordered.items()})
 
 
 def straight_road(net_file: Path) -> tuple[float, ...]:

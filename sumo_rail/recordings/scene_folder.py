@@ -35,7 +35,8 @@ class Scene:
 
 
 def read_scene(folder: Path) -> Scene:
-    """The scene folder `folder`; RecordingUsageError naming the missing or unreadable file."""
+    """The scene folder `folder`; RecordingUsageError naming the missing or unreadable file, or the network (the
+    user's, for FCD) whose content has changed since the scene was imported on it (scene.json holds its sha256)."""
     try:
         for name in SCENE_FILES:
             check_file(folder / name, "scene file")
@@ -46,6 +47,11 @@ def read_scene(folder: Path) -> Scene:
         split = read_table(folder / "split.parquet", columns=["vehicle_id", "split"]).to_pandas()
     except (DatasetError, json.JSONDecodeError, TypeError, KeyError, UnicodeDecodeError) as error:
         raise RecordingUsageError(f"{folder} is not a readable scene folder ({error})") from error
+    recorded = meta.sources.get(meta.network)
+    if recorded is not None and recorded != file_sha256(network):
+        raise RecordingUsageError(f"the network {network} has changed since the scene {folder} was imported on it "
+                                  f"(its content hash differs); use the scene with the network it was imported on, "
+                                  f"or import the recording again")
     return Scene(folder, meta, tracks, split, network)
 
 

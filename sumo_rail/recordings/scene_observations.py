@@ -12,7 +12,6 @@ track cannot give, the ego's cruise set-point, is an input (`actions.speed_readi
 from __future__ import annotations
 
 import math
-import xml.etree.ElementTree as ElementTree
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -21,6 +20,7 @@ import pandas as pd
 
 from sumo_rail.config import Config
 from sumo_rail.datasets import DatasetError
+from sumo_rail.recordings.road import network_root
 from sumo_rail.sim import kernels, lidar
 from sumo_rail.sim.ego import CONTEXT_MARGIN_M
 from sumo_rail.sim.network import offset_polyline, segments
@@ -49,21 +49,25 @@ class SceneRoad:
         return len(self.lane_y_m)
 
 
+STRAIGHT_ROAD = ("scenes are replayed and read as demonstrations on one straight edge whose lanes run along +x (x "
+                 "growing in the driving direction, y constant), as highD, NGSIM and record-sumo-drivers give them")
+"""What `scene_road` takes, said in its refusals."""
+
+
 def scene_road(net_file: Path) -> SceneRoad:
-    """The road of a scene's network; DatasetError naming the file when it is not one straight edge along +x."""
-    try:
-        root = ElementTree.parse(net_file).getroot()
-    except (ElementTree.ParseError, OSError) as error:
-        raise DatasetError(f"network {net_file} is not a readable SUMO network ({error})") from error
+    """The road of a scene's network; DatasetError naming the file when it is not one straight edge along +x
+    (`STRAIGHT_ROAD`)."""
+    root = network_root(net_file)
     edges = [edge for edge in root.iter("edge") if not edge.get("id", "").startswith(":")]
     if len(edges) != 1:
-        raise DatasetError(f"network {net_file} has {len(edges)} edges; observations are computed from scenes on one "
-                           f"straight edge (highD, NGSIM, record-sumo-drivers, the package's straight road)")
+        raise DatasetError(f"network {net_file} has {len(edges)} edges; {STRAIGHT_ROAD}")
     lanes = sorted(edges[0].iter("lane"), key=lambda lane: int(lane.get("index", "0")))
     shapes = [np.array([[float(value) for value in point.split(",")] for point in lane.get("shape", "").split()])
               for lane in lanes]
-    if any(len(shape) < 2 or np.ptp(shape[:, 1]) > 1e-6 or shape[-1, 0] <= shape[0, 0] for shape in shapes):
-        raise DatasetError(f"network {net_file}: the lanes of edge {edges[0].get('id')} do not run straight along +x")
+    if not lanes or any(len(shape) < 2 or np.ptp(shape[:, 1]) > 1e-6 or shape[-1, 0] <= shape[0, 0]
+                        for shape in shapes):
+        raise DatasetError(f"network {net_file}: the lanes of edge {edges[0].get('id')} do not run straight along +x; "
+                           f"{STRAIGHT_ROAD}")
     widths = [float(lane.get("width", "3.2")) for lane in lanes]
     right = offset_polyline(shapes[0], -widths[0] / 2)
     left = offset_polyline(shapes[-1], widths[-1] / 2)

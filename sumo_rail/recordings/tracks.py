@@ -7,23 +7,32 @@ recording of the format can hold (a vehicle twice in one frame, NaNs, impossible
 
 from __future__ import annotations
 
+import gzip
 import math
+import zlib
 from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
 import pyarrow as pa
 
-from sumo_rail.datasets import DatasetError
+from sumo_rail.datasets import DatasetError, describe
 from sumo_rail.recordings.scene import TRACK_COLUMNS, TRACK_SCHEMA
 
 MAX_SPEED_MPS = 100.0
-"""A speed above this [m/s] (360 km/h) is a broken recording, not driving."""
+"""A speed above this [m/s] (360 km/h) is a broken recording, not driving; below 0 is one too."""
 MAX_LENGTH_M = 30.0
 """A vehicle longer than this [m] is a broken recording (a long road train is 25.25 m)."""
-TOO_SHORT, OFF_LANES, GAP = "too short for one decision", "off the modelled lanes", "gap in frames"
-DROP_REASONS = (TOO_SHORT, OFF_LANES, GAP)
-"""Why a track is left out of a scene, in one phrase each."""
+MAX_ROAD_M = 100_000.0
+"""The longest road a recording may span [m] (100 km; highD's sections are about 420 m, NGSIM's 500-640 m): a
+position farther than this from the recording's origin, or a built road longer than this, is a broken recording."""
+LANE_TOLERANCE_M = 1.0
+"""A vehicle's centre this far [m] beyond the sides of the lane a recording names is on another lane (or road)."""
+OFF_LANES, GAP, TOO_SHORT = "off the modelled lanes", "gap in frames", "too short for one decision"
+DROP_REASONS = (OFF_LANES, GAP, TOO_SHORT)
+"""Why a track is left out of a scene, in one phrase each; a track with several is left out for the first."""
 OFF_ROAD_LANE = -1
 """The `lane` a reader gives a row outside the modelled lanes (a ramp, the other driving direction's lanes)."""
 
@@ -55,8 +64,41 @@ def check_columns(found: list[str], expected: tuple[str, ...], path: object, wha
     """RecordingUsageError naming the first of `expected` columns missing from the header `found` of `path`."""
     missing = [column for column in expected if column not in found]
     if missing:
+        shown = ", ".join(printable(name) for name in found[:6])
         raise RecordingUsageError(f"{path} is not a {what} file: it lacks the column {missing[0]!r} "
-                                  f"(found {', '.join(found[:6])}{', ...' if len(found) > 6 else ''})")
+                                  f"(found {shown}{', ...' if len(found) > 6 else ''})")
+
+
+def printable(text: str) -> str:
+    """`text` with every character a terminal would not print as itself replaced by "?"."""
+    return "".join(char if char.isprintable() else "?" for char in text)
+
+
+def text_head(path: Path) -> tuple[str, str | None]:
+    """The first line of the CSV or text file `path` (UTF-8, a byte-order mark dropped; a gzip-compressed file read
+    as such, whatever its name) and the compression pandas must read it with ("gzip" or None);
+    RecordingUsageError when it is not text."""
+    with open(path, "rb") as file:
+        compression = "gzip" if file.read(2) == b"\x1f\x8b" else None
+    try:
+        with (gzip.open(path, "rt", encoding="utf-8-sig", newline="") if compression
+              else open(path, encoding="utf-8-sig", newline="")) as file:
+            line = file.readline(1 << 16)
+    except (UnicodeDecodeError, OSError, EOFError, zlib.error):
+        line = "\x00"
+    if any(not (char.isprintable() or char in "\t\r\n") for char in line):
+        raise RecordingUsageError(f"{path} is not a text file: it holds binary bytes (a gzip-compressed file is read "
+                                  f"as such; unpack other archives first)")
+    return line, compression
+
+
+def read_csv(path: Path, what: str, **options: Any) -> pd.DataFrame:
+    """`pd.read_csv` of `path` (UTF-8, a byte-order mark dropped, gzip-compressed as `text_head` finds);
+    RecordingDataError naming the file when pandas cannot read it as a `what` file."""
+    try:
+        return pd.read_csv(path, encoding="utf-8-sig", compression=text_head(path)[1], **options)
+    except (ValueError, OSError, EOFError, zlib.error) as error:  # pandas' parser errors are ValueErrors
+        raise RecordingDataError(f"{path} is not a readable {what} file: {printable(describe(error))}") from error
 
 
 def check_numbers(table: pd.DataFrame, columns: tuple[str, ...], path: object, id_column: str,
@@ -78,17 +120,53 @@ def plain(value: object) -> object:
     return int(value) if isinstance(value, float) and value.is_integer() else value
 
 
-def check_limits(tracks: pd.DataFrame, path: object, speed_column: str, length_column: str) -> None:
-    """RecordingDataError naming the vehicle whose speed exceeds MAX_SPEED_MPS or length exceeds MAX_LENGTH_M (the
-    source's columns named)."""
-    for values, limit, column, unit in ((tracks["speed_mps"], MAX_SPEED_MPS, speed_column, "m/s"),
-                                        (tracks["length_m"], MAX_LENGTH_M, length_column, "m")):
-        over = (values.to_numpy() > limit) | (values.to_numpy() <= 0 if column == length_column else False)
-        if over.any():
-            first = int(np.argmax(over))
+def at(row: pd.Series, by_time: bool) -> str:
+    """Where in the recording a row of scene tracks is, for messages: its frame, or its time [s] (`by_time`)."""
+    return f"at {row['time_s']:g} s" if by_time else f"at frame {row['frame']}"
+
+
+def check_limits(tracks: pd.DataFrame, path: object, speed_column: str, length_column: str,
+                 by_time: bool = False) -> None:
+    """RecordingDataError naming the vehicle (and its frame, or time with `by_time`) whose speed lies outside
+    [0, MAX_SPEED_MPS] or length outside (0, MAX_LENGTH_M] (the source's columns named)."""
+    for values, column, unit, low, high in ((tracks["speed_mps"], speed_column, "m/s", "[0", f"{MAX_SPEED_MPS:g}]"),
+                                            (tracks["length_m"], length_column, "m", "(0", f"{MAX_LENGTH_M:g}]")):
+        number = values.to_numpy()
+        limit = MAX_SPEED_MPS if column == speed_column else MAX_LENGTH_M
+        outside = (number > limit) | ((number < 0) if column == speed_column else (number <= 0))
+        if outside.any():
+            first = int(np.argmax(outside))
             row = tracks.iloc[first]
-            raise RecordingDataError(f"{path}: vehicle {row['source_id']} has {column} {values.iloc[first]:.1f} {unit} "
-                                     f"at frame {row['frame']}, outside (0, {limit:g}] {unit}")
+            raise RecordingDataError(f"{path}: vehicle {row['source_id']} has {column} {number[first]:.1f} {unit} "
+                                     f"{at(row, by_time)}, outside {low}, {high} {unit}")
+
+
+def check_positions(table: pd.DataFrame, columns: tuple[str, ...], path: object, id_column: str, frame_column: str,
+                    metres_per_unit: float = 1.0) -> None:
+    """RecordingDataError naming the column, vehicle and frame of the first position in `columns` (in units of
+    `metres_per_unit` [m]) that is not finite or lies farther than MAX_ROAD_M from the recording's origin."""
+    for column in columns:
+        metres = table[column].to_numpy(float) * metres_per_unit
+        bad = ~(np.abs(metres) <= MAX_ROAD_M)
+        if bad.any():
+            first = int(np.argmax(bad))
+            raise RecordingDataError(f"{path}: column {column} of vehicle {plain(table[id_column].iat[first])} at "
+                                     f"frame {plain(table[frame_column].iat[first])} is {table[column].iat[first]:g}, "
+                                     f"not a position within {MAX_ROAD_M / 1000:g} km of the recording's origin (the "
+                                     f"longest road a recording may span)")
+
+
+def road_length_m(tracks: pd.DataFrame, path: object) -> float:
+    """The length [m] of the straight road a highD or NGSIM recording's tracks need: the farthest front bumper plus
+    twice the longest vehicle; RecordingDataError naming the farthest vehicle when it exceeds MAX_ROAD_M."""
+    front = tracks["x_m"].to_numpy(float)
+    length_m = float(np.max(front, initial=0.0)) + 2 * float(np.max(tracks["length_m"].to_numpy(), initial=0.0))
+    if length_m > MAX_ROAD_M:
+        row = tracks.iloc[int(np.argmax(front))]
+        raise RecordingDataError(f"{path}: vehicle {row['source_id']} at frame {row['frame']} is {row['x_m']:.0f} m "
+                                 f"along the road, which would be longer than {MAX_ROAD_M / 1000:g} km (the longest "
+                                 f"road a recording may span)")
+    return length_m
 
 
 def heading_deg(dx: np.ndarray, dy: np.ndarray) -> np.ndarray:
@@ -124,10 +202,11 @@ def kept_tracks(tracks: pd.DataFrame, frame_rate_hz: float, decision_period_s: f
     by_vehicle = pd.DataFrame({"vehicle_id": tracks["vehicle_id"], "gap": gap,
                                "off": tracks["lane"].to_numpy() == OFF_ROAD_LANE}).groupby("vehicle_id", sort=True)
     summary = by_vehicle.agg(gap=("gap", "any"), off=("off", "any"), frames=("gap", "size"))
+    failed = {OFF_LANES: summary["off"], GAP: summary["gap"],
+              TOO_SHORT: summary["frames"] < decision_frames(frame_rate_hz, decision_period_s)}
     reasons = pd.Series("", index=summary.index)
-    reasons[summary["frames"] < decision_frames(frame_rate_hz, decision_period_s)] = TOO_SHORT
-    reasons[summary["gap"]] = GAP
-    reasons[summary["off"]] = OFF_LANES
+    for reason in reversed(DROP_REASONS):  # the first of DROP_REASONS a track fails is written last
+        reasons[failed[reason]] = reason
     dropped_ids = reasons[reasons != ""]
     source = tracks.drop_duplicates("vehicle_id").set_index("vehicle_id")["source_id"]
     dropped = {str(source[vehicle]): reason for vehicle, reason in dropped_ids.items()}

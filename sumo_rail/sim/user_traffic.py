@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import gzip
 import xml.etree.ElementTree as ElementTree
+import zlib
 from pathlib import Path
 
 from sumo_rail.config import ConfigError, ScenarioConfig
@@ -22,6 +23,8 @@ def read_xml(path: Path, setting: str) -> ElementTree.Element:
         return ElementTree.fromstring(gzip.decompress(data) if path.suffix == ".gz" else data)
     except OSError as error:
         raise ConfigError(f"cannot read {setting} {path}: {error.strerror or error}") from error
+    except (EOFError, zlib.error) as error:  # a gzip file cut short or damaged
+        raise ConfigError(f"cannot read {setting} {path}: it is a damaged gzip file ({error})") from error
     except ElementTree.ParseError as error:
         raise ConfigError(f"{setting} {path} is not well-formed XML: {error}") from error
 

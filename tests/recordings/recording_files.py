@@ -78,3 +78,27 @@ def write_ngsim(path: Path, rows: list[dict]) -> Path:
     """Write an NGSIM trajectory CSV of `rows` with the published header."""
     pd.DataFrame(rows, columns=list(NGSIM_COLUMNS)).to_csv(path, index=False)
     return path
+
+
+def fcd_vehicle(vehicle: str, steps: range, front_m: float, y_m: float, lane: str, speed: float = 20.0,
+                step_s: float = 0.1) -> list[dict]:
+    """FCD rows of one vehicle at constant speed [m/s] along +x (pos equals x, as on a built road)."""
+    return [{"time": k * step_s, "id": vehicle, "x": front_m + speed * (k - steps[0]) * step_s, "y": y_m,
+             "speed": speed, "lane": lane} for k in steps]
+
+
+def write_fcd(path: Path, rows: list[dict]) -> Path:
+    """Write SUMO FCD output of `rows` (time, id, x, y, speed, lane; pos = x unless given, angle 90, type car)."""
+    steps: dict[float, list[str]] = {}
+    for row in rows:
+        steps.setdefault(round(row["time"], 6), []).append(
+            f'<vehicle id="{row["id"]}" x="{row["x"]:.2f}" y="{row["y"]:.2f}" angle="90.00" type="car" '
+            f'speed="{row["speed"]:.2f}" pos="{row.get("pos", row["x"]):.2f}" lane="{row["lane"]}"/>')
+    path.write_text("<fcd-export>" + "".join(f'<timestep time="{time:.2f}">{"".join(vehicles)}</timestep>'
+                                             for time, vehicles in sorted(steps.items())) + "</fcd-export>")
+    return path
+
+
+def lane_y(lanes: int, lane: int, width: float = 3.2) -> float:
+    """The centre y [m] of lane `lane` (0 the rightmost) of `build_road`'s road of `lanes` lanes of `width`."""
+    return -(lanes - lane - 0.5) * width

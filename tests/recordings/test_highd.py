@@ -7,6 +7,7 @@ import pytest
 from recording_files import LOWER_MARKINGS, UPPER_MARKINGS, highd_vehicle, write_highd
 
 from sumo_rail.recordings import highd
+from sumo_rail.recordings.scene_observations import SceneFrames
 from sumo_rail.recordings.tracks import RecordingDataError, RecordingUsageError
 
 
@@ -68,3 +69,39 @@ def test_the_three_files_of_one_recording_are_needed(recording):
     (recording.parent / "01_recordingMeta.csv").unlink()
     with pytest.raises(RecordingUsageError, match=r"01_recordingMeta\.csv does not exist"):
         highd.check_headers([recording])
+
+
+def sideways(rows: list[dict], speed_y: float) -> list[dict]:
+    """`rows` of one vehicle moving down the image at `speed_y` [m/s] (highD's y points down), frame by frame."""
+    return [dict(row, y=row["y"] + speed_y * k / 25.0, yVelocity=speed_y) for k, row in enumerate(rows)]
+
+
+def test_a_sideways_speed_moves_and_turns_each_direction_toward_its_own_side(tmp_path):
+    """Down the image is the upper direction's left (driven leftwards) and the lower direction's right."""
+    recording = write_highd(tmp_path, sideways(highd_vehicle(1, range(1, 30), 300.0, 2, upper=True), 1.0)
+                            + sideways(highd_vehicle(2, range(1, 30), 20.0, 6, upper=False), 1.0))
+    turn = np.degrees(np.arctan2(1.0, 30.0))
+    for direction, side in (("upper", 1.0), ("lower", -1.0)):  # to the left: +y, heading below 90 deg
+        track = highd.read([recording], direction).tracks.sort_values("frame")
+        assert np.diff(track["y_m"].to_numpy()) == pytest.approx(np.full(28, side / 25.0)), direction
+        assert track["heading_deg"].to_numpy() == pytest.approx(np.full(29, 90.0 - side * turn)), direction
+
+
+def test_at_25_hz_an_instant_between_frames_is_interpolated_toward_the_next(tmp_path):
+    """Decision instants and SUMO steps fall between highD's frames (0.5 s is 12.5 frames): the scene's vehicles
+    there are interpolated linearly between the frames around it, the heading too."""
+    rows = sideways(highd_vehicle(1, range(1, 40), 20.0, 6, upper=False), 1.0)
+    for k, row in enumerate(rows):
+        t = k / 25.0
+        row.update(x=20.0 + 20.0 * t + t**2, xVelocity=20.0 + 2.0 * t, yVelocity=1.0 + t)
+    read = highd.read([write_highd(tmp_path, rows)], "lower")
+    track = read.tracks.sort_values("time_s")
+    frames = SceneFrames(read.tracks, read.frame_rate_hz)
+    for instant in (0.49, 0.5, 0.51, 0.52):  # 12.25, 12.5, 12.75 frames (between two), 13 (a frame)
+        _, values, _ = frames.at(instant)
+        for column in ("x_m", "y_m", "speed_mps", "heading_deg"):
+            expected = np.interp(instant, track["time_s"], track[column])
+            assert values[column][0] == pytest.approx(expected, abs=1e-9), (instant, column)
+    _, values, _ = frames.at(0.49)
+    assert values["x_m"][0] != pytest.approx(track["x_m"].iloc[12]) and values["x_m"][0] != pytest.approx(
+        track["x_m"].iloc[13])

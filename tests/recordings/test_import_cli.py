@@ -11,7 +11,7 @@ from click.testing import CliRunner
 from recording_files import highd_vehicle, ngsim_vehicle, write_highd, write_ngsim
 from sumo_rail_cli.main import cli
 
-from sumo_rail.datasets import read_metadata
+from sumo_rail.datasets import file_sha256, read_metadata
 from sumo_rail.recordings.scene import TRACK_SCHEMA
 
 
@@ -39,6 +39,8 @@ def test_a_highd_recording_becomes_a_scene_folder(tmp_path):
     assert tracks.schema.remove_metadata() == TRACK_SCHEMA and tracks.num_rows == 10 * 59
     scene = json.loads((tmp_path / "scene" / "scene.json").read_text())
     assert scene["dropped"] == {"30": "too short for one decision"} and scene["lanes"] == 2
+    read = [recording, tmp_path / "01_tracksMeta.csv", tmp_path / "01_recordingMeta.csv"]  # every file the reader read
+    assert scene["sources"] == {str(path.resolve()): file_sha256(path) for path in read}
     assert scene["sources"][str(recording.resolve())] == read_metadata(tmp_path / "scene" / "tracks.parquet")[
         "scene"]["sources"][str(recording.resolve())]
     split = pq.read_table(tmp_path / "scene" / "split.parquet").to_pydict()
@@ -80,7 +82,7 @@ BREAKAGES = {
     "nan": (lambda rows: [bad_value("xVelocity", "nan")(row) for row in rows],
             "column xVelocity of vehicle 3 at frame 70 is missing or not a number"),
     "too fast": (lambda rows: [bad_value("xVelocity", 120.0)(row) for row in rows],
-                 "vehicle 3 has xVelocity 120.0 m/s at frame 70, outside (0, 100] m/s"),
+                 "vehicle 3 has xVelocity 120.0 m/s at frame 70, outside [0, 100] m/s"),
     "too long": (lambda rows: [bad_value("width", 31.0)(row) for row in rows],
                  "vehicle 3 has width 31.0 m at frame 70, outside (0, 30] m"),
     "gap": (lambda rows: [row for row in rows if not (row["id"] == 3 and row["frame"] == 70)],

@@ -9,6 +9,7 @@ from recording_files import ngsim_vehicle, write_ngsim
 from sumo_rail.recordings import ngsim
 from sumo_rail.recordings.ngsim import FEET_M
 from sumo_rail.recordings.tracks import (
+    DROP_REASONS,
     GAP,
     OFF_LANES,
     TOO_SHORT,
@@ -26,6 +27,8 @@ def test_feet_and_lanes_from_the_left_become_metres_and_sumo_lanes(tmp_path):
     assert first.loc["1", "x_m"] == pytest.approx(100.0 * FEET_M)
     assert first.loc["1", "y_m"] == pytest.approx(-6.0 * FEET_M)  # Local_X 6 ft from the left edge
     assert first.loc["1", "speed_mps"] == pytest.approx(60.0 * FEET_M)
+    assert first.loc["1", "length_m"] == pytest.approx(15.0 * FEET_M) and first.loc["1", "width_m"] == pytest.approx(
+        6.0 * FEET_M)
     assert first.loc["1", "lane"] == 4 and first.loc["2", "lane"] == 0  # lane 1 is the leftmost of five
     assert first.loc["1", "vehicle_class"] == "truck" and first.loc["1", "time_s"] == pytest.approx(0.4)
     assert first.loc["1", "heading_deg"] == pytest.approx(90.0)
@@ -74,3 +77,22 @@ def test_only_the_sites_rows_of_a_file_with_locations_are_read(tmp_path):
     assert ngsim.read([tmp_path / "ngsim.csv"], "us-101").tracks["vehicle_id"].unique().tolist() == ["1"]
     with pytest.raises(RecordingDataError, match="has no rows of i-80"):
         ngsim.read([tmp_path / "ngsim.csv"], "i-80")
+
+
+def test_a_track_of_exactly_one_decisions_frames_is_kept_and_one_frame_less_is_too_short(tmp_path):
+    """At 10 Hz a 0.5 s decision needs 6 frames: its period's 5 and the one after it."""
+    rows = ngsim_vehicle(1, range(1, 7), 0.0, 2) + ngsim_vehicle(2, range(1, 6), 50.0, 2)
+    read = ngsim.read([write_ngsim(tmp_path / "t.csv", rows)], "us-101")
+    kept, dropped = kept_tracks(read.tracks, read.frame_rate_hz, 0.5, "t.csv", gaps_fail=False)
+    assert kept["vehicle_id"].unique().tolist() == ["1"] and dropped == {"2": TOO_SHORT}
+
+
+def test_a_track_that_fails_several_checks_is_dropped_for_the_first_documented_reason(tmp_path):
+    assert DROP_REASONS == (OFF_LANES, GAP, TOO_SHORT)
+    rows = (ngsim_vehicle(1, [1, 2, 5], 0.0, 7)             # the on-ramp, a gap, 3 frames
+            + ngsim_vehicle(2, [1, 2, 3, 9, 10], 100.0, 2)  # a gap, 5 frames
+            + ngsim_vehicle(3, range(1, 4), 200.0, 8)       # the off-ramp, 3 frames
+            + ngsim_vehicle(4, range(1, 30), 300.0, 2))
+    read = ngsim.read([write_ngsim(tmp_path / "t.csv", rows)], "us-101")
+    kept, dropped = kept_tracks(read.tracks, read.frame_rate_hz, 0.5, "t.csv", gaps_fail=False)
+    assert dropped == {"1": OFF_LANES, "2": GAP, "3": OFF_LANES} and kept["vehicle_id"].unique().tolist() == ["4"]
