@@ -26,7 +26,7 @@ logger = logging.getLogger(__name__)
 
 @dataclass(frozen=True)
 class BcSettings:
-    epochs: int = bounded(0, 100_000, default=20)
+    epochs: int = bounded(0, 10_000, default=20)
     """Passes over the demonstrations (0: no behaviour cloning; DAgger clones at least one)."""
     batch_size: int = bounded(1, 1_000_000, default=256)
     """Decisions per gradient step."""
