@@ -362,6 +362,10 @@ def read_config_file(path: str | Path) -> dict[str, Any]:
             data = tomllib.load(handle)
     except OSError as error:
         raise ConfigError(f"cannot read config file {path}: {error.strerror or error}") from error
+    except UnicodeDecodeError as error:
+        byte = error.object[error.start]
+        raise ConfigError(f"config file {path} is not UTF-8 text, as TOML must be (byte 0x{byte:02x} at offset "
+                          f"{error.start})") from error
     except tomllib.TOMLDecodeError as error:
         raise ConfigError(f"config file {path} is not valid TOML: {error}") from error
     scenario = data.get("scenario")
