@@ -3,9 +3,11 @@ and the optional ones) has a range a run can use, declared once with its field (
 and --help-settings show and enforce it. The fields are found by walking the sections, so a new one cannot escape."""
 
 import dataclasses
+import itertools
 import math
 import typing
 
+import click
 import pytest
 from click.testing import CliRunner
 from sumo_rail_cli.main import cli
@@ -109,3 +111,50 @@ def test_the_issue_s_values_are_refused_in_one_sentence_before_any_work(tmp_path
         errors = [line for line in result.output.splitlines() if line.startswith("Error:")]
         assert errors == [f"Error: {sentence}"], result.output
         assert "Traceback" not in result.output and not (tmp_path / "run").exists()
+
+
+def after(flag: str, words: list[str]) -> tuple[str, ...]:
+    """The words that follow `flag` in `words`."""
+    return tuple(value for word, value in itertools.pairwise(words) if word == flag)
+
+
+def committed_spec_commands() -> list[tuple[str, str, str, tuple[str, ...]]]:
+    """(spec, command, preset, --set words) of every sumo-rail step of every committed experiment spec as it runs by
+    default (words holding a value read when the step runs left out), and of each axis value kept out by default,
+    its --set words alone (the specs say which values they combine with)."""
+    from test_grid import ROOT, grid
+
+    found = []
+    for path in sorted((ROOT / "experiments" / "specs").glob("*.toml")):
+        spec = grid.read_spec(path)
+        for step in grid.expand(spec, path, {}):
+            if step.command[:1] == ("sumo-rail",):
+                words = list(step.command)
+                found.append((path.name, words[1], (*after("--preset", words), "paper")[0],
+                              tuple(word for word in after("--set", words) if "{" not in word)))
+        for step in spec.get("step", []):
+            command = step.get("command", [])
+            for axis in grid.named_axes(command) if command[:1] == ["sumo-rail"] else ():
+                for value in spec.get("axes", {}).get(axis, []):
+                    if isinstance(value, dict) and value.get("default") is False:
+                        words = [str(word) for word in value.get("args", [])]
+                        found.append((path.name, command[1], "paper", after("--set", words)))
+    return found
+
+
+def test_every_committed_spec_s_settings_are_in_range():
+    from sumo_rail_cli.settings import resolve_settings
+
+    commands = committed_spec_commands()
+    assert any("rail.directions=512" in sets for _, _, _, sets in commands)
+    for spec, command, preset, sets in commands:
+        learners = [param.callback.keywords["learners"] for param in cli.commands[command].params
+                    if param.name == "help_settings"]
+        if not learners:
+            continue
+        try:
+            _, settings = resolve_settings(preset, None, sets, learners[0])
+            if command == "dagger":  # what the command adds to its [dagger] section
+                dataclasses.replace(settings.dagger, bc=settings.bc)
+        except (click.UsageError, ValueError) as error:
+            raise AssertionError(f"{spec}: {command} {' '.join(sets)}: {error}") from error
