@@ -240,8 +240,8 @@ def expand(spec: dict, spec_path: Path, axes_override: dict[str, list[str]], roo
             optional = {key: Path(fill(step[key], values, where)) for key in ("stdout", "copy") if key in step}
             chosen = [f"{axis}={value['name'] if isinstance(value, dict) else value}"
                       for axis, value in zip(names, combination, strict=True)]
-            name = where + (f" ({', '.join(chosen)})" if chosen else "")
-            steps.append(Step(Path(values["out"]), tuple(command), name, bool(step.get("resume", False)), **optional,
+            label = where + (f" ({', '.join(chosen)})" if chosen else "")
+            steps.append(Step(Path(values["out"]), tuple(command), label, bool(step.get("resume", False)), **optional,
                               reads={name: Path(fill(path, values, where)) for name, path in reads.items()},
                               always=bool(step.get("always", False))))
     check_outs_differ(steps)
@@ -317,6 +317,7 @@ def run_steps(steps: list[Step], dry_run: bool) -> None:
         if code != 0:
             raise click.ClickException(f"step {step.out} failed (exit {code}); fix it and run the grid again: "
                                        f"finished steps are skipped")
+
 
 if __name__ == "__main__":
     main()
