@@ -158,3 +158,15 @@ def test_every_committed_spec_s_settings_are_in_range():
                 dataclasses.replace(settings.dagger, bc=settings.bc)
         except (click.UsageError, ValueError) as error:
             raise AssertionError(f"{spec}: {command} {' '.join(sets)}: {error}") from error
+
+
+@pytest.mark.parametrize("section", ["gail", "ppo"])
+def test_a_ppo_update_that_would_not_fit_in_memory_is_refused(section):
+    """Each of n_steps, envs and egos in range can still make an update of 2 billion decisions, which PPO keeps in
+    memory at once."""
+    with pytest.raises(ConfigError) as caught:
+        LearnerSettings.defaults((section,)).with_tables(read_assignments(
+            [f"{section}.n_steps=1000000", f"{section}.envs=2"]))
+    assert str(caught.value) == (f"an update must hold at most 1000000 decisions ({section}.n_steps x {section}.envs x "
+                                 f"{section}.egos), got 2000000")
+    with_value(f"{section}.n_steps", 500_000)  # with the default 2 envs: 1000000, taken
