@@ -50,17 +50,20 @@ def dagger_command(config: Config, settings: LearnerSettings, demos: Path, inclu
     Writes run.json, dataset.parquet, policy_bc.npz, policy_latest.npz (evaluate it with evaluate --policy),
     log.parquet (one row per round) and checkpoint.json. Ctrl-C or SIGTERM keeps the last complete round;
     --resume continues it with the same result. Its settings are the [network], [bc] and [dagger] sections of --config
-    and --set (--help-settings lists them); BC clones at least one epoch."""
+    and --set (--help-settings lists them); every round is behaviour cloning, so bc.epochs is at least 1."""
     from sumo_rail.learning.dagger import train_dagger
     from sumo_rail.learning.run_folder import RunError
     from sumo_rail.learning.validation import Validation
 
     if expert is not None:
         expert, _ = resolve_expert_option(expert, config)
-    bc = dataclasses.replace(settings.bc, epochs=max(settings.bc.epochs, 1), seed=seed)
-    run = dataclasses.replace(settings.dagger, demos=str(demos), kind=settings.network.shape,
-                              hidden=settings.network.hidden, bc=bc, seed=seed, expert=expert,
-                              roads=checked_roads(config, roads), include_failed_demos=include_failed)
+    try:
+        run = dataclasses.replace(settings.dagger, demos=str(demos), kind=settings.network.shape,
+                                  hidden=settings.network.hidden, bc=dataclasses.replace(settings.bc, seed=seed),
+                                  seed=seed, expert=expert, roads=checked_roads(config, roads),
+                                  include_failed_demos=include_failed)
+    except ValueError as error:
+        raise click.UsageError(str(error)) from error
     check_egos(config, run.egos, "dagger.egos")
     check_run_folder(out)
     check_demos(demos, config, include_failed, other_road)

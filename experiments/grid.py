@@ -21,12 +21,14 @@ name; {axis.key} a table value's key; "{axis.key}" alone in a command, for a lis
 `{each = AXIS, args = [...]}` in a command repeats its args for every value of AXIS. `read = {name = "FILE"}`
 makes {name} the last line of FILE, written by an earlier step; `copy = "FILE"` copies FILE to the output instead of
 running a command; `always = true` runs a step every time (the tables made from the outputs before them). A table
-value with `default = false` runs only when --axis names it.
+value with `default = false` runs only when --axis names it. A command is a list of words; each step has its own
+output (two steps with one `out` are refused before anything runs).
 
 Run state is the outputs themselves, as the commands write them: a step whose output exists is finished (every
 command writes its files atomically), except a `resume` step, whose existing, non-empty run folder is handed back to
 the command with `--resume` (the command continues an interrupted run and returns at once from a finished one). So
-the grid can be stopped (Ctrl-C) and started again at any point, with no marker files and no environment variables.
+the grid can be stopped (Ctrl-C or SIGTERM, which it passes on to the running step's command and waits for) and
+started again at any point, with no marker files and no environment variables.
 "sumo-rail" and "python" at the head of a command run in this interpreter's environment.
 
     python experiments/grid.py experiments/specs/SPEC.toml [--dry-run] [--root DIR] [--only TEXT] [--axis seed=0,1]
@@ -34,22 +36,74 @@ the grid can be stopped (Ctrl-C) and started again at any point, with no marker 
 
 from __future__ import annotations
 
+import contextlib
 import itertools
 import os
 import re
 import shlex
 import shutil
+import signal
 import subprocess
 import sys
 import tomllib
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from types import FrameType
+from typing import IO, Any
 
 import click
 
 PLACEHOLDER = re.compile(r"\{(\w+)(?:\.(\w+))?\}")
 RUNNERS = {"sumo-rail": [sys.executable, "-m", "sumo_rail_cli"], "python": [sys.executable]}
+STOP_WAIT_S = 60.0
+"""How long a step's command may take to stop once the grid has passed it a Ctrl-C or SIGTERM [s]; then it is
+killed."""
+
+
+class Stopped(Exception):
+    """The grid was asked to stop by the signal `number` (SIGINT: Ctrl-C, or SIGTERM)."""
+
+    def __init__(self, number: int) -> None:
+        super().__init__(signal.Signals(number).name)
+        self.number = number
+
+
+@contextlib.contextmanager
+def stopped_by_signals() -> Iterator[None]:
+    """Within it, Ctrl-C and SIGTERM raise `Stopped`: the first one stops the grid, those after it are ignored while
+    the running step stops; the handlers before it are back after it."""
+    previous = {number: signal.getsignal(number) for number in (signal.SIGINT, signal.SIGTERM)}
+
+    def stop(number: int, frame: FrameType | None) -> None:
+        for each in previous:
+            signal.signal(each, signal.SIG_IGN)
+        raise Stopped(number)
+    for number in previous:
+        signal.signal(number, stop)
+    try:
+        yield
+    finally:
+        for number, handler in previous.items():
+            signal.signal(number, handler)
+
+
+def run_command(argv: list[str], stdout: IO[str] | None = None) -> int:
+    """Run `argv` to its end and return its exit code. When the grid is stopped meanwhile (`Stopped`), the command is
+    sent the same signal (a sumo-rail command stops as on Ctrl-C, keeping what it can) and waited for, killed after
+    STOP_WAIT_S, so that it is never left running (holding its output) after the grid is gone."""
+    process = subprocess.Popen(argv, stdout=stdout)
+    try:
+        return process.wait()
+    except Stopped as stopped:
+        if process.poll() is None:
+            process.send_signal(stopped.number)
+        try:
+            process.wait(timeout=STOP_WAIT_S)
+        except subprocess.TimeoutExpired:
+            process.kill()
+            process.wait()
+        raise
 
 
 @dataclass(frozen=True)
@@ -58,6 +112,8 @@ class Step:
 
     out: Path
     command: tuple[str, ...]
+    name: str = ""
+    """Where the spec defines it, with its axes' values: "SPEC step 2 (seed=0)"."""
     resume: bool = False
     stdout: Path | None = None
     copy: Path | None = None
@@ -87,9 +143,9 @@ class Step:
             os.replace(aside(self.out), self.out)
             return 0
         if self.stdout is None:
-            return subprocess.run(self.argv(), check=False).returncode
+            return run_command(self.argv())
         with aside(self.stdout).open("w") as printed:
-            code = subprocess.run(self.argv(), stdout=printed, check=False).returncode
+            code = run_command(self.argv(), printed)
         if code == 0:
             os.replace(aside(self.stdout), self.stdout)
         return code
@@ -168,6 +224,9 @@ def expand(spec: dict, spec_path: Path, axes_override: dict[str, list[str]], roo
         where = f"{spec_path} step {number}"
         if "out" not in step or not (step.get("command") or step.get("copy")):
             raise click.UsageError(f"{where} needs an out and a command (or a copy)")
+        if not isinstance(step.get("command", []), list):
+            raise click.UsageError(f"{where}: command must be a list of words, e.g. [\"sumo-rail\", \"train\", "
+                                   f"\"--seed\", \"{{seed}}\"], got {step['command']!r}")
         reads = step.get("read", {})
         templates = [step["out"], step.get("stdout", ""), step.get("copy", ""), *reads.values(),
                      *step.get("command", [])]
@@ -179,10 +238,25 @@ def expand(spec: dict, spec_path: Path, axes_override: dict[str, list[str]], roo
             command = [argument for part in step.get("command", [])
                        for argument in command_parts(part, values | {"_reads": reads}, axes, where)]
             optional = {key: Path(fill(step[key], values, where)) for key in ("stdout", "copy") if key in step}
-            steps.append(Step(Path(values["out"]), tuple(command), bool(step.get("resume", False)), **optional,
+            chosen = [f"{axis}={value['name'] if isinstance(value, dict) else value}"
+                      for axis, value in zip(names, combination, strict=True)]
+            label = where + (f" ({', '.join(chosen)})" if chosen else "")
+            steps.append(Step(Path(values["out"]), tuple(command), label, bool(step.get("resume", False)), **optional,
                               reads={name: Path(fill(path, values, where)) for name, path in reads.items()},
                               always=bool(step.get("always", False))))
+    check_outs_differ(steps)
     return steps
+
+
+def check_outs_differ(steps: list[Step]) -> None:
+    """A one-sentence error naming two steps that write one output: the second would never run (its output is
+    there) while the grid reported it done."""
+    writers: dict[Path, Step] = {}
+    for step in steps:
+        first = writers.setdefault(step.out.resolve(), step)
+        if first is not step:
+            raise click.UsageError(f"{first.name} and {step.name} both write {step.out}: give each step its own out "
+                                   f"(naming every axis its command names)")
 
 
 def read_spec(path: Path) -> dict:
@@ -214,6 +288,16 @@ def parse_axes(pairs: tuple[str, ...]) -> dict[str, list[str]]:
 def main(spec_path: Path, dry_run: bool, root: str, only: str, axes: tuple[str, ...]) -> None:
     steps = [step for step in expand(read_spec(spec_path), spec_path, parse_axes(axes), root)
              if only in str(step.out)]
+    with stopped_by_signals():
+        try:
+            run_steps(steps, dry_run)
+        except Stopped as stopped:  # between two steps: none was running
+            raise click.ClickException(f"interrupted by {stopped}; run the same command again to go on") from None
+    click.echo(f"{len(steps)} steps done", err=True)
+
+
+def run_steps(steps: list[Step], dry_run: bool) -> None:
+    """Run (or with `dry_run` list) each step not finished, in order; a failed or stopped step is one sentence."""
     for number, step in enumerate(steps, start=1):
         state = step.state()
         click.echo(f"[{number}/{len(steps)}] {state}: {step.out}", err=True)
@@ -225,12 +309,14 @@ def main(spec_path: Path, dry_run: bool, root: str, only: str, axes: tuple[str, 
             continue
         try:
             code = step.run()
-        except KeyboardInterrupt:
-            raise click.ClickException(f"interrupted at {step.out}; run the same command again to go on") from None
+        except Stopped as stopped:
+            raise click.ClickException(f"interrupted by {stopped} at {step.out}, whose command was stopped; run the "
+                                       f"same command again to go on") from None
+        except OSError as error:  # a program that is not there, a copy of a file that is not there
+            raise click.ClickException(f"step {step.out} cannot run: {error.filename}: {error.strerror}") from None
         if code != 0:
             raise click.ClickException(f"step {step.out} failed (exit {code}); fix it and run the grid again: "
                                        f"finished steps are skipped")
-    click.echo(f"{len(steps)} steps done", err=True)
 
 
 if __name__ == "__main__":

@@ -46,12 +46,12 @@ class Bounds:
                 f"{'below' if self.high_open else 'at most'} {high}{unit}")
 
 
-def bounded(low: float, high: float, unit: str = "", *, default: float, low_open: bool = False,
-            high_open: bool = False, **field_options: Any) -> Any:
+def bounded(low: float, high: float, unit: str = "", *, default: float | None, low_open: bool = False,
+            high_open: bool = False, integer: bool | None = None, **field_options: Any) -> Any:
     """A numeric setting's dataclass field with its default and its range as metadata, e.g.
-    `speed_limit_mps: float = bounded(0, 70, "m/s", default=33.33, low_open=True)`."""
-    integer = isinstance(default, int)
-    bounds = Bounds(low, high, unit, low_open, high_open, integer)
+    `speed_limit_mps: float = bounded(0, 70, "m/s", default=33.33, low_open=True)`. An optional setting (default
+    None: unset, never checked) says with `integer` whether it takes whole numbers; otherwise its default says it."""
+    bounds = Bounds(low, high, unit, low_open, high_open, isinstance(default, int) if integer is None else integer)
     return dataclasses.field(default=default, metadata={"bounds": bounds}, **field_options)
 
 
@@ -62,12 +62,13 @@ def bounds_of(field: dataclasses.Field[Any]) -> Bounds | None:
 
 def check_fields(settings: Any, prefix: str = "") -> None:
     """Raise ConfigError for the first field of the dataclass `settings` outside its range ("scenario.lanes must be
-    between 1 and 10, got 0"); a field that is itself a dataclass is checked with its name as the prefix."""
+    between 1 and 10, got 0"; an unset optional one, None, is in range); a field that is itself a dataclass is
+    checked with its name as the prefix."""
     for field in dataclasses.fields(settings):
         value, key = getattr(settings, field.name), f"{prefix}{field.name}"
         if dataclasses.is_dataclass(value):
             check_fields(value, f"{key}.")
-        elif (bounds := bounds_of(field)) is not None and not bounds.holds(value):
+        elif (bounds := bounds_of(field)) is not None and value is not None and not bounds.holds(value):
             finite = "" if math.isfinite(value) else "a finite number "
             raise ConfigError(f"{key} must be {finite}{bounds.describe()}, got {_number(value)}")
 

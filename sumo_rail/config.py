@@ -34,6 +34,10 @@ EXIT_CAPACITY_VEH_PER_H = 1400.0
 road jams (14 m/s; experiments/road_capacity.py)."""
 START_CLEARANCE_M = 200.0
 """Least distance from the ego's start window to the road's feature [m]: room to see it coming."""
+WARM_UP_LIMIT_S = 200_000.0
+"""The most simulated time a pool of warm states may take to build [s] (scenario.warmup_s + (scenario.snapshots - 1)
+x scenario.snapshot_interval_s): about half an hour of SUMO on the default road (~120 simulated s a second), and room
+for the largest pool at the default interval after the longest warm-up."""
 
 
 PRESETS: dict[str, dict[str, dict[str, Any]]] = {
@@ -87,7 +91,8 @@ class ScenarioConfig:
     """Warm states in each pool (train, validation, test; see `sumo_rail.sim.simulation`): SUMO snapshots of the
     warmed-up traffic, between 1 and 10000; each episode starts from one (the code calls them warm states, the
     setting keeps SUMO's word). Evaluation gives episode k state k mod snapshots, so up to this many evaluation
-    episodes never share a state."""
+    episodes never share a state. A pool's simulated time, warmup_s + (snapshots - 1) x snapshot_interval_s, is at
+    most 200000 s (`WARM_UP_LIMIT_S`)."""
     snapshot_interval_s: float = bounded(0, 600, "s", default=10.0, low_open=True)
     """Simulated time between two saved warm states [s], above 0 and at most 600 s."""
     traffic_seed: int = bounded(0, 2**31 - 1, default=0)
@@ -131,6 +136,11 @@ class ScenarioConfig:
         self._validate_bottleneck()
         _require(self.teleport_time_s == -1 or self.teleport_time_s > 0,
                  f"scenario.teleport_time_s must be positive or -1, got {self.teleport_time_s}")
+        warm_up_s = self.warmup_s + (self.snapshots - 1) * self.snapshot_interval_s
+        _require(warm_up_s <= WARM_UP_LIMIT_S,
+                 f"scenario.warmup_s + (scenario.snapshots - 1) x scenario.snapshot_interval_s ({warm_up_s:.0f} s) "
+                 f"must be at most {WARM_UP_LIMIT_S:.0f} s, the simulated time of a pool of warm states (about half "
+                 f"an hour of SUMO)")
 
     def _validate_bottleneck(self) -> None:
         """The traffic fits the road's narrowest part: the work zone's lanes, the exit's off-ramp, or the main road
@@ -362,6 +372,10 @@ def read_config_file(path: str | Path) -> dict[str, Any]:
             data = tomllib.load(handle)
     except OSError as error:
         raise ConfigError(f"cannot read config file {path}: {error.strerror or error}") from error
+    except UnicodeDecodeError as error:
+        byte = error.object[error.start]
+        raise ConfigError(f"config file {path} is not UTF-8 text, as TOML must be (byte 0x{byte:02x} at offset "
+                          f"{error.start})") from error
     except tomllib.TOMLDecodeError as error:
         raise ConfigError(f"config file {path} is not valid TOML: {error}") from error
     scenario = data.get("scenario")

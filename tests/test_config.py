@@ -57,6 +57,25 @@ def test_unreadable_or_malformed_toml_is_a_config_error(tmp_path: Path):
         Config.from_toml(bad)
 
 
+@pytest.mark.parametrize("command", [["evaluate", "--policy", "expert"], ["train", "--demos", "demos.parquet"]])
+def test_a_config_file_that_is_not_utf8_is_one_sentence_naming_it(tmp_path: Path, command: list[str]):
+    """TOML is UTF-8: a Latin-1 file (a comment saying "café") is refused in one sentence naming the file and the
+    byte, exit 2, before any work, not a UnicodeDecodeError traceback."""
+    from click.testing import CliRunner
+    from sumo_rail_cli.main import cli
+
+    latin1 = tmp_path / "latin1.toml"
+    latin1.write_bytes("# café\n[scenario]\nlanes = 4\n".encode("latin-1"))
+    sentence = f"config file {latin1} is not UTF-8 text, as TOML must be (byte 0xe9 at offset 5)"
+    with pytest.raises(ConfigError) as caught:
+        Config.from_toml(latin1)
+    assert str(caught.value) == sentence
+    result = CliRunner().invoke(cli, [*command, "--config", str(latin1), "--out", str(tmp_path / "out")])
+    assert result.exit_code == 2 and "Traceback" not in result.output, result.output
+    assert [line for line in result.output.splitlines() if line.startswith("Error:")] == [f"Error: {sentence}"]
+    assert sorted(tmp_path.iterdir()) == [latin1]
+
+
 def test_presets_are_named_changes_to_the_paper_setting():
     assert Config.preset("paper") == Config()
     assert Config.preset("recommended") == Config().with_overrides({"observation": {"lane_block": 1,

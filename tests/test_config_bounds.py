@@ -130,3 +130,16 @@ def test_an_episode_lasts_at_least_one_decision_period():
     with pytest.raises(ConfigError, match=re.escape("env.max_episode_s must be at least one decision period, "
                                                     "got 0.4")):
         Config.from_dict({"env": {"max_episode_s": 0.4, "decision_period_s": 0.5}})
+
+
+def test_a_warm_up_of_days_is_refused_though_each_of_its_settings_is_in_range():
+    """scenario.snapshots and scenario.snapshot_interval_s each in range can still ask for a warm-up of 69 simulated
+    days a pool (about 14 hours of SUMO each); the largest pool at the default interval and the longest warm-up is
+    taken."""
+    sentence = ("scenario.warmup_s + (scenario.snapshots - 1) x scenario.snapshot_interval_s (5999700 s) must be "
+                "at most 200000 s, the simulated time of a pool of warm states (about half an hour of SUMO)")
+    with pytest.raises(click.UsageError) as caught:
+        resolve_settings("paper", None, ("scenario.snapshots=10000", "scenario.snapshot_interval_s=600"))
+    assert caught.value.message == sentence
+    config = Config.from_dict({"scenario": {"snapshots": 10_000, "warmup_s": 3600}})
+    assert config.scenario.snapshots == 10_000

@@ -3,9 +3,14 @@
 from __future__ import annotations
 
 import importlib.util
+import os
+import signal
+import subprocess
 import sys
+import time
 from pathlib import Path
 
+import pytest
 from click.testing import CliRunner
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -150,3 +155,93 @@ def test_a_value_kept_out_by_default_runs_when_named_and_root_can_move(tmp_path)
     assert sorted(path.name for path in moved.iterdir()) == ["extra.txt"]
     result = CliRunner().invoke(grid.main, [str(spec), "--axis", "option=other"])
     assert result.exit_code == 2 and "other is not one of plain, extra" in result.output
+
+
+SLEEPER = ("import os, pathlib, signal, sys, time; folder = pathlib.Path(sys.argv[1]); "
+           "signal.signal(signal.SIGTERM, lambda number, frame: sys.exit((folder / 'got').write_text('SIGTERM'))); "
+           "signal.signal(signal.SIGINT, lambda number, frame: sys.exit((folder / 'got').write_text('SIGINT'))); "
+           "(folder / 'pid').write_text(str(os.getpid())); time.sleep(60)")
+
+
+def alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    return True
+
+
+@pytest.mark.parametrize("stop", [signal.SIGTERM, signal.SIGINT])
+def test_a_stopped_grid_stops_its_step_as_the_step_stops_and_says_so(tmp_path, stop):
+    """SIGTERM (a scheduler, `kill`) or Ctrl-C sent to the grid alone reaches the step's command, which stops as it
+    does on its own (a sumo-rail command keeps what it can); the grid waits for it, so no step is left running
+    (holding its output for a rerun), and ends in one sentence naming the step (exit 1)."""
+    spec = tmp_path / "spec.toml"
+    spec.write_text(f'root = "{tmp_path}"\n[[step]]\nout = "{{root}}/sleep.txt"\n'
+                    f'command = ["python", "-c", "{SLEEPER}", "{{root}}"]\n')
+    grid_process = subprocess.Popen([sys.executable, str(ROOT / "experiments" / "grid.py"), str(spec)],
+                                    stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    pid = None
+    try:
+        for _ in range(400):
+            if (tmp_path / "pid").is_file() and (tmp_path / "pid").read_text():
+                pid = int((tmp_path / "pid").read_text())
+                break
+            time.sleep(0.05)
+        assert pid is not None, grid_process.communicate(timeout=5)
+        grid_process.send_signal(stop)
+        _, printed = grid_process.communicate(timeout=30)
+        assert grid_process.returncode == 1, printed
+        assert (tmp_path / "got").read_text() == stop.name  # the step was told, as Ctrl-C tells it
+        assert not alive(pid)
+        errors = [line for line in printed.splitlines() if line.startswith("Error:")]
+        assert errors == [f"Error: interrupted by {stop.name} at {tmp_path / 'sleep.txt'}, whose command was "
+                          f"stopped; run the same command again to go on"], printed
+        assert "Traceback" not in printed
+    finally:
+        if grid_process.poll() is None:
+            grid_process.kill()
+        if pid is not None and alive(pid):
+            os.kill(pid, signal.SIGKILL)
+
+
+def test_a_command_that_is_a_string_is_refused_naming_the_step(tmp_path):
+    spec = tmp_path / "spec.toml"
+    spec.write_text(f'root = "{tmp_path}"\n[[step]]\nout = "{{root}}/a.txt"\ncommand = ["python", "-c", "print(1)"]\n'
+                    f'[[step]]\nout = "{{root}}/b.txt"\ncommand = "python -c print(2)"\n')
+    result = CliRunner().invoke(grid.main, [str(spec)])
+    assert result.exit_code == 2, result.output
+    assert f"{spec} step 2: command must be a list of words" in result.output, result.output
+    assert not (tmp_path / "a.txt").exists()
+
+
+def test_two_steps_with_one_out_are_refused_before_anything_runs(tmp_path):
+    """A second step writing the first's output would never run while the grid reported both done; so would the
+    expansions of one step whose out does not name an axis its command does."""
+    spec = tmp_path / "spec.toml"
+    printing = 'stdout = "{out}"\ncommand = ["python", "-c", "print(1)"]\n'
+    spec.write_text(f'root = "{tmp_path}"\n[axes]\nseed = [0, 1]\n[[step]]\nout = "{{root}}/first.txt"\n{printing}'
+                    f'[[step]]\nout = "{{root}}/table.txt"\n{printing}[[step]]\nout = "{{root}}/table.txt"\n{printing}')
+    result = CliRunner().invoke(grid.main, [str(spec)])
+    assert result.exit_code == 2, result.output
+    assert (f"{spec} step 2 and {spec} step 3 both write {tmp_path / 'table.txt'}" in result.output), result.output
+    assert sorted(path.name for path in tmp_path.iterdir()) == ["spec.toml"]
+    spec.write_text(f'root = "{tmp_path}"\n[axes]\nseed = [0, 1]\n'
+                    f'[[step]]\nout = "{{root}}/run.txt"\ncommand = ["python", "-c", "print(1)", "{{seed}}"]\n')
+    result = CliRunner().invoke(grid.main, [str(spec)])
+    assert result.exit_code == 2, result.output
+    assert f"{spec} step 1 (seed=0) and {spec} step 1 (seed=1) both write {tmp_path / 'run.txt'}" in result.output
+    assert sorted(path.name for path in tmp_path.iterdir()) == ["spec.toml"]
+
+
+def test_a_step_that_cannot_start_is_one_sentence_naming_it(tmp_path):
+    """A program that is not there, a copy of a file that is not there."""
+    spec = tmp_path / "spec.toml"
+    spec.write_text(f'root = "{tmp_path}"\n[[step]]\nout = "{{root}}/a.txt"\ncommand = ["sumo-rial", "train"]\n'
+                    f'[[step]]\nout = "{{root}}/b.txt"\ncopy = "{{root}}/missing.txt"\n')
+    for only, sentence in [("a.txt", f"step {tmp_path / 'a.txt'} cannot run: sumo-rial: No such file or directory"),
+                           ("b.txt", f"step {tmp_path / 'b.txt'} cannot run: {tmp_path / 'missing.txt'}: No such file "
+                                     f"or directory")]:
+        result = CliRunner().invoke(grid.main, [str(spec), "--only", only])
+        assert result.exit_code == 1, result.output
+        assert [line for line in result.output.splitlines() if line.startswith("Error:")] == [f"Error: {sentence}"]

@@ -26,8 +26,9 @@ logger = logging.getLogger(__name__)
 
 @dataclass(frozen=True)
 class BcSettings:
-    epochs: int = bounded(0, 100_000, default=20)
-    """Passes over the demonstrations (0: no behaviour cloning; DAgger clones at least one)."""
+    epochs: int = bounded(0, 10_000, default=20)
+    """Passes over the demonstrations (0: no behaviour cloning before train and gail; dagger, whose every round is
+    behaviour cloning, needs at least 1)."""
     batch_size: int = bounded(1, 1_000_000, default=256)
     """Decisions per gradient step."""
     learning_rate: float = bounded(0, 1, default=1e-3, low_open=True)

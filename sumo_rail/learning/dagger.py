@@ -26,7 +26,7 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from sumo_rail.bounds import bounded, check_fields, given
+from sumo_rail.bounds import ConfigError, bounded, check_fields, given
 from sumo_rail.config import Config
 from sumo_rail.datasets import read_metadata, write_bytes_atomically, write_parquet
 from sumo_rail.drivers.policies import Policy, PolicyShape, save_policy
@@ -80,6 +80,9 @@ class DaggerSettings:
 
     def __post_init__(self) -> None:
         check_fields(self, "dagger.")
+        if self.bc.epochs < 1:
+            raise ConfigError(f"dagger learns by behaviour cloning in every round, so bc.epochs must be at least 1 "
+                              f"for it, got {self.bc.epochs}")
 
     def beta_of(self, round_: int) -> float:
         return self.beta * self.beta_decay ** (round_ - 1)

@@ -209,15 +209,23 @@ def test_an_unknown_road_in_the_mix_is_a_usage_error(tmp_path, demos):
     assert not (tmp_path / "run").exists()
 
 
-def test_dagger_takes_the_network_settings_and_clones_at_least_one_epoch(tmp_path, demos):
-    """network.hidden shapes DAgger's policies; bc.epochs=0 means no behaviour cloning for train and gail, but
-    DAgger's first policy is BC's, so it clones one epoch: its first policy is no untrained one, and run.json says
-    so."""
+def test_dagger_takes_the_network_settings_and_refuses_bc_without_epochs(tmp_path, demos):
+    """network.hidden shapes DAgger's policies. bc.epochs=0 means no behaviour cloning for train and gail, but every
+    DAgger policy is BC's (the first and each round's): dagger refuses it in one sentence, before any work, rather
+    than training an epoch nobody asked for; the library refuses it too."""
     out = tmp_path / "run"
-    result = invoke("dagger", *SMALL, "--demos", str(demos), "--rounds", "0", "--set", "bc.epochs=0", "--set",
+    refused = invoke("dagger", *SMALL, "--demos", str(demos), "--rounds", "0", "--set", "bc.epochs=0", "--out",
+                     str(out))
+    assert refused.exit_code == 2 and "Traceback" not in refused.output, refused.output
+    errors = [line for line in refused.output.splitlines() if line.startswith("Error:")]
+    assert errors == ["Error: dagger learns by behaviour cloning in every round, so bc.epochs must be at least 1 "
+                      "for it, got 0"], refused.output
+    assert not out.exists()
+    with pytest.raises(ValueError, match=r"bc\.epochs must be at least 1"):
+        DaggerSettings(str(demos), bc=BcSettings(epochs=0))
+    result = invoke("dagger", *SMALL, "--demos", str(demos), "--rounds", "0", "--set", "bc.epochs=1", "--set",
                     "network.hidden=7", "--eval-every", "0", "--out", str(out))
     assert result.exit_code == 0, result.output
-    settings = json.loads((out / "run.json").read_text())["settings"]
-    assert settings["bc"]["epochs"] == 1 and settings["hidden"] == 7
-    policy = load_policy(out / "policy_bc.npz")[0]
-    assert policy.shape.hidden == 7 and np.any(policy.parameters != 0)
+    stored = json.loads((out / "run.json").read_text())["settings"]
+    assert stored["bc"]["epochs"] == 1 and stored["hidden"] == 7
+    assert load_policy(out / "policy_bc.npz")[0].shape.hidden == 7

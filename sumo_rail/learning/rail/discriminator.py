@@ -36,7 +36,7 @@ class DiscriminatorSettings:
     """Units of each of the two hidden layers."""
     learning_rate: float = bounded(0, 1, default=3e-4, low_open=True)
     """Adam step size."""
-    steps_per_iteration: int = bounded(1, 100_000, default=10)
+    steps_per_iteration: int = bounded(1, 10_000, default=10)
     """Gradient steps per `train` call."""
     batch_size: int = bounded(1, 1_000_000, default=512)
     """Expert pairs and policy pairs per step (each sampled with replacement)."""

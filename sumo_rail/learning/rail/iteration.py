@@ -27,7 +27,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from sumo_rail.bounds import given
+from sumo_rail.bounds import bounded, check_fields, given
 from sumo_rail.config import Config
 from sumo_rail.drivers.expert import DEFAULT_STYLE
 from sumo_rail.drivers.policies import Policy, PolicyShape
@@ -55,17 +55,20 @@ if TYPE_CHECKING:
 
 REWARDS = ("discriminator", "agreement")
 """What scores a rollout (`RailSettings.reward`)."""
+MAX_DIRECTIONS = 4096
+"""The most directions an iteration may have (`RailSettings.directions`): 8 times the paper's largest, 8192 rollouts
+an iteration."""
 
 
 @dataclass(frozen=True)
 class RailSettings:
     """ARS hyper-parameters (defaults from the paper where it gives them)."""
 
-    directions: int = 32
+    directions: int = bounded(1, MAX_DIRECTIONS, default=32)
     """N, directions per iteration (the paper uses 8 to 512)."""
-    top: int | None = None
-    """b, directions kept for the update; None: N / 2 (rounded up)."""
-    step_size: float = 0.02
+    top: int | None = bounded(1, MAX_DIRECTIONS, default=None, integer=True)
+    """b, directions kept for the update, at most N; None: N / 2 (rounded up)."""
+    step_size: float = bounded(0, 1, default=0.02, low_open=True)
     """alpha. The paper's 0.001 changes no decision of a BC-initialised policy in several iterations at N = 32
     (docs/results.md, "RAIL ablations"), so the default deviates from it."""
     noise: NoiseAdaptation = field(default_factory=NoiseAdaptation)
@@ -75,7 +78,7 @@ class RailSettings:
     """All directions and signs of an iteration drive the same episode seeds (common random numbers); the default,
     each direction its own (both signs share them), imitates better on validation episodes (docs/results.md, "RAIL
     ablations")."""
-    episodes_per_rollout: int = 1
+    episodes_per_rollout: int = bounded(1, 100, default=1)
     """Episodes each rollout drives; its return is their mean."""
     freeze_normalizer: bool = True
     """Keep the observation statistics the run started with (BC's, or the demonstrations' without BC); False merges
@@ -89,14 +92,14 @@ class RailSettings:
     at every decision of every rollout (as DAgger asks it) and a rollout's return is the share of its decisions the
     expert would have made alike, the reward every discriminator stands in for; what the search reaches with it
     bounds what it can reach with any reward at the same budget."""
-    egos: int = 1
+    egos: int = bounded(1, 1000, default=1)
     """Rollouts that share one road, each on its own ego (`RolloutTask`); 1: one rollout per simulation, as the
     paper."""
-    rollout_decisions: int | None = None
+    rollout_decisions: int | None = bounded(1, 100_000, default=None, integer=True)
     """None: a rollout drives `episodes_per_rollout` whole episodes (the paper's). D: a rollout is D decisions of
     its ego, respawning whenever an episode ends, so the egos of a road never wait for each other; its return is
     the mean reward per decision."""
-    flip_rate: float | None = None
+    flip_rate: float | None = bounded(0, 1, default=None, low_open=True, high_open=True)
     """When set, nu is chosen at every iteration so that the iteration's perturbations change this share of the
     policy's decisions on CALIBRATION_STATES of the expert's states (`noise.noise_for_flip_rate`), in place of the
     paper's nu schedule (`noise`)."""
@@ -105,25 +108,16 @@ class RailSettings:
     of roads (`runners.road_mix`). Empty: every rollout on the configured road."""
 
     def __post_init__(self) -> None:
-        if self.directions < 1:
-            raise ValueError(f"rail.directions must be at least 1, got {self.directions}")
-        if not 1 <= self.kept <= self.directions:
+        check_fields(self, "rail.")
+        if self.kept > self.directions:
             raise ValueError(f"rail.top must be between 1 and rail.directions ({self.directions}), got {self.top}")
-        if self.step_size <= 0:
-            raise ValueError(f"rail.step_size must be positive, got {self.step_size}")
-        if self.episodes_per_rollout < 1:
-            raise ValueError(f"rail.episodes_per_rollout must be at least 1, got {self.episodes_per_rollout}")
         if self.fitness not in FITNESS_SHAPINGS:
             raise ValueError(f"rail.fitness must be one of {', '.join(FITNESS_SHAPINGS)}, got {self.fitness!r}")
-        if self.egos < 1:
-            raise ValueError(f"rail.egos must be at least 1, got {self.egos}")
-        if self.rollout_decisions is not None and (self.rollout_decisions < 1 or self.episodes_per_rollout > 1):
-            raise ValueError(f"rail.rollout_decisions must be at least 1 and replaces rail.episodes_per_rollout, got "
+        if self.rollout_decisions is not None and self.episodes_per_rollout > 1:
+            raise ValueError(f"rail.rollout_decisions replaces rail.episodes_per_rollout, got "
                              f"{self.rollout_decisions} with {self.episodes_per_rollout} episodes per rollout")
         if self.reward not in REWARDS:
             raise ValueError(f"rail.reward must be one of {', '.join(REWARDS)}, got {self.reward!r}")
-        if self.flip_rate is not None and not 0.0 < self.flip_rate < 1.0:
-            raise ValueError(f"rail.flip_rate must be between 0 and 1, got {self.flip_rate}")
 
     @property
     def kept(self) -> int:

@@ -29,6 +29,8 @@ if TYPE_CHECKING:
 
 DEFAULT_BATCH = 64
 """PPO's minibatch size [decisions] when none is given, or an update's decisions if fewer."""
+MAX_UPDATE_DECISIONS = 1_000_000
+"""The most decisions an update may hold (n_steps x envs x egos): PPO keeps them all in memory."""
 
 
 class BaselineError(RuntimeError):
@@ -48,11 +50,11 @@ class PpoSchedule:
     """Environment processes, each running one SUMO; the result depends on it."""
     egos: int = bounded(1, 1000, default=1)
     """Egos per environment process (`shared_road`): PPO's envs are envs x egos; the result depends on it."""
-    n_steps: int = bounded(1, 1_000_000, default=512)
-    """Decisions per env (ego) and update."""
+    n_steps: int = bounded(1, MAX_UPDATE_DECISIONS, default=512)
+    """Decisions per env (ego) and update; an update (n_steps x envs x egos) holds at most 1000000."""
     learning_rate: float = bounded(0, 1, default=3e-4, low_open=True)
     """PPO's Adam step size."""
-    batch_size: int | None = None
+    batch_size: int | None = bounded(2, MAX_UPDATE_DECISIONS, default=None, integer=True)
     """PPO minibatch size [decisions], at least 2 and at most an update's decisions; unset: DEFAULT_BATCH, or an
     update's decisions when fewer (one minibatch of the whole update, what Stable-Baselines3 does then)."""
     ppo_epochs: int = bounded(1, 1000, default=10)
@@ -74,6 +76,9 @@ class PpoSchedule:
         update = f"{section}.n_steps x {section}.envs x {section}.egos"
         if self.steps_per_update < 2:
             raise ConfigError(f"an update must hold at least 2 decisions ({update}), got {self.steps_per_update}")
+        if self.steps_per_update > MAX_UPDATE_DECISIONS:
+            raise ConfigError(f"an update must hold at most {MAX_UPDATE_DECISIONS} decisions ({update}), got "
+                              f"{self.steps_per_update}")
         if not 2 <= self.minibatch <= self.steps_per_update:
             raise ConfigError(f"{section}.batch_size must be at least 2 and at most an update's "
                               f"{self.steps_per_update} decisions ({update}), got {self.minibatch}")
