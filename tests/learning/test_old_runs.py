@@ -30,24 +30,35 @@ def old_run(tmp_path: Path, command: str) -> tuple[Path, list[str]]:
                  "bc.class_balance=0.5", "--seed", "3", *SETTINGS[command]]
 
 
+FLOAT_TOLERANCE = 1e-5
+"""How far [relative] the old run's numbers may lie from today's: its files were written by the old code on another
+machine with other library builds, whose float rounding differs (its BC weights differ from today's by 1e-9 on a
+machine of 2026-12-07 with the same torch); a run with other settings differs by orders of magnitude more. That a
+resume continues a run bit for bit on one machine is tested on today's runs (tests/learning/rail)."""
+
+
 def same_run(folder: Path, policy: Path, log: Path) -> None:
-    """The run in `folder` ended with the policy file `policy` and the log `log` (timing columns aside)."""
-    assert np.array_equal(load_policy(folder / "policy_latest.npz")[0].parameters, load_policy(policy)[0].parameters)
+    """The run in `folder` ended with the policy file `policy` and the log `log` (timing columns aside), up to
+    `FLOAT_TOLERANCE`."""
+    np.testing.assert_allclose(load_policy(folder / "policy_latest.npz")[0].parameters,
+                               load_policy(policy)[0].parameters, rtol=FLOAT_TOLERANCE, atol=FLOAT_TOLERANCE)
     timing = ["wall_time_s", "seconds"]
     pd.testing.assert_frame_equal(pd.read_parquet(folder / "log.parquet").drop(columns=timing, errors="ignore"),
-                                  pd.read_parquet(log).drop(columns=timing, errors="ignore"))
+                                  pd.read_parquet(log).drop(columns=timing, errors="ignore"), check_exact=False,
+                                  rtol=FLOAT_TOLERANCE, atol=FLOAT_TOLERANCE)
 
 
 def test_an_old_train_run_resumes_and_goes_on_as_a_run_started_today(tmp_path):
-    """A resumed RAIL run is the uninterrupted run, bit for bit, so the old run's second iteration is today's."""
+    """A resumed RAIL run is the uninterrupted run, so the old run's second iteration is today's (`same_run`)."""
     run, args = old_run(tmp_path, "train")
     resumed = invoke(*args, "--out", str(run), "--resume")
     assert resumed.exit_code == 0 and "trained 2 iterations" in resumed.output, resumed.output
     fresh = invoke(*args, "--out", str(tmp_path / "fresh"))
     assert fresh.exit_code == 0, fresh.output
     same_run(run, tmp_path / "fresh" / "policy_latest.npz", tmp_path / "fresh" / "log.parquet")
-    assert np.array_equal(load_policy(run / "policy_bc.npz")[0].parameters,
-                          load_policy(tmp_path / "fresh" / "policy_bc.npz")[0].parameters)
+    np.testing.assert_allclose(load_policy(run / "policy_bc.npz")[0].parameters,
+                               load_policy(tmp_path / "fresh" / "policy_bc.npz")[0].parameters,
+                               rtol=FLOAT_TOLERANCE, atol=FLOAT_TOLERANCE)
 
 
 def test_an_old_gail_run_resumes_as_the_old_code_resumed_it(tmp_path):
