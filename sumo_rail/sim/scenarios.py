@@ -26,6 +26,8 @@ from sumo_rail.config import ConfigError, ScenarioConfig
 VEHICLE_TYPES_FILE = "traffic.rou.xml"
 """The straight road's routes file, whose vehicle types every road uses."""
 EGO_TYPE = "ego"
+ACCELERATION_EGO_TYPE = "ego_acceleration"
+"""The ego's vehicle type under the acceleration interface (networks/traffic.rou.xml: Krauss without dawdling)."""
 RAMP_OFFSET_M = 60.0
 """How far right of the main road's right edge the on-ramp starts and the off-ramp ends [m]."""
 EXIT_RAMP_M = 400.0
