@@ -58,7 +58,7 @@ def _lane_change(direction: int, lane: int, lanes: int, lowest_lane: int) -> tup
 
 
 class Lateral(IntEnum):
-    """The acceleration interface's lane decision, the second entry of its action."""
+    """The acceleration interface's lane decision (`acceleration_action`)."""
 
     KEEP = 0
     LEFT = 1
@@ -78,12 +78,25 @@ class AccelerationCommand:
     """The lane change was impossible (off the road) and does nothing."""
 
 
-def action_space_of(actions: ActionConfig) -> spaces.Discrete | spaces.MultiDiscrete:
-    """The action space of an interface: Discrete(5) (the paper's `Action`) or MultiDiscrete([bins, 3]) (an
-    acceleration bin, 0 the lowest, and a `Lateral`)."""
+def action_space_of(actions: ActionConfig) -> spaces.Discrete:
+    """The action space of an interface: Discrete(5), the paper's `Action`, or Discrete(3 x bins), an acceleration
+    bin and a `Lateral` in one integer (`acceleration_action`), so that every learner, dataset and driver of the
+    paper's integer actions takes the acceleration interface's unchanged."""
     if actions.interface == "acceleration":
-        return spaces.MultiDiscrete([actions.acceleration_bins, len(Lateral)])
+        return spaces.Discrete(len(Lateral) * actions.acceleration_bins)
     return spaces.Discrete(len(Action))
+
+
+def acceleration_action(acceleration_bin: int, lateral: Lateral, actions: ActionConfig) -> int:
+    """The acceleration interface's action of an acceleration bin (0 the lowest) and a lane decision: lateral x bins
+    + bin, so the actions below `bins` keep the lane and are the bins themselves."""
+    return int(lateral) * actions.acceleration_bins + acceleration_bin
+
+
+def split_acceleration_action(action: int, actions: ActionConfig) -> tuple[int, Lateral]:
+    """(acceleration bin, lane decision) of an acceleration-interface action (the inverse of `acceleration_action`)."""
+    lateral, acceleration_bin = divmod(action, actions.acceleration_bins)
+    return acceleration_bin, Lateral(lateral)
 
 
 def acceleration_command(acceleration_bin: int, lateral: Lateral, actions: ActionConfig, lane: int, lanes: int,

@@ -17,7 +17,13 @@ from gymnasium import spaces
 
 from sumo_rail.config import Config
 from sumo_rail.sim import kernels, lidar
-from sumo_rail.sim.actions import Action, Lateral, acceleration_command, command_for, paper_equivalent
+from sumo_rail.sim.actions import (
+    Action,
+    acceleration_command,
+    command_for,
+    paper_equivalent,
+    split_acceleration_action,
+)
 from sumo_rail.sim.observation import acceleration_slot, control_slot
 from sumo_rail.sim.period_safety import NO_READINGS, PeriodSafety
 from sumo_rail.sim.rewards import EpisodeMetrics, OvertakeCounter, lateral_reward, longitudinal_reward, relations
@@ -36,20 +42,13 @@ StepResult = tuple[np.ndarray, float, bool, bool, dict[str, Any]]
 """(observation, reward, terminated, truncated, info) of one decision, as Gymnasium's `step` returns them."""
 
 
-def checked_action(action: Any, space: spaces.Discrete | spaces.MultiDiscrete) -> Action | tuple[int, Lateral]:
-    """`action` as an `Action` (the paper's interface, `space` Discrete) or as (acceleration bin, `Lateral`) (the
-    acceleration interface, `space` MultiDiscrete); ValueError when it is not in `space`."""
-    if isinstance(space, spaces.MultiDiscrete):
-        pair = np.asarray(action)
-        if not (pair.shape == space.shape and np.issubdtype(pair.dtype, np.integer) and space.contains(
-                pair.astype(space.dtype))):
-            raise ValueError(f"action must be a pair of integers (an acceleration bin in [0, {space.nvec[0]}) and a "
-                             f"lane decision in [0, {space.nvec[1]})), got {action!r}")
-        return int(pair[0]), Lateral(int(pair[1]))
-    fast_path_valid = isinstance(action, _INTEGERS) and 0 <= action < len(_ACTIONS)
+def checked_action(action: Any, space: spaces.Discrete) -> int:
+    """`action` as an int; ValueError when it is not in `space` (Discrete(5), or the acceleration interface's
+    Discrete(3 x bins))."""
+    fast_path_valid = isinstance(action, _INTEGERS) and 0 <= action < space.n
     if not (fast_path_valid or space.contains(action)):
         raise ValueError(f"action must be an integer in [0, {space.n}), got {action!r}")
-    return _ACTIONS[int(action)]
+    return int(action)
 
 
 def edge_rows(sim: Simulation) -> np.ndarray:
@@ -120,7 +119,7 @@ class Ego:
         speed limit when lower (the ego keeps to it)."""
         return min(self.config.env.v_max_mps, sim.speed_limit_mps)
 
-    def command(self, sim: Simulation, action: Action | tuple[int, Lateral]) -> None:
+    def command(self, sim: Simulation, action: int) -> None:
         """Give SUMO the command of this decision's `action` (`checked_action`; before the period's steps); none when
         SUMO drives. An acceleration-interface action is counted among the paper's five (`paper_equivalent`)."""
         cfg, metrics = self.config, self.metrics
@@ -129,12 +128,14 @@ class Ego:
             return
         route = self.traffic.ego.route if self.traffic is not None else None
         lowest, highest = (0, cfg.scenario.lanes - 1) if route is None else (route.lowest_lane, route.highest_lane)
-        if isinstance(action, tuple):
-            command = acceleration_command(*action, cfg.actions, self.lane, highest + 1, lowest)
+        if self.accelerating:
+            acceleration_bin, lateral = split_acceleration_action(action, cfg.actions)
+            command = acceleration_command(acceleration_bin, lateral, cfg.actions, self.lane, highest + 1, lowest)
             self.acceleration_mps2 = command.acceleration_mps2
             sim.set_acceleration(command.acceleration_mps2, cfg.env.decision_period_s, self.vehicle)
-            action = paper_equivalent(command.acceleration_mps2, action[1])
+            action = paper_equivalent(command.acceleration_mps2, lateral)
         else:
+            action = _ACTIONS[action]
             command = command_for(action, self.set_point_mps, self.lane, highest + 1, cfg.env.speed_step_mps,
                                   cfg.env.v_min_mps, self.top_speed_mps(sim), lowest)
             if command.set_point_mps != self.set_point_mps:

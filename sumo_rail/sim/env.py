@@ -83,7 +83,7 @@ class HighwayEnv(gymnasium.Env[np.ndarray, np.int64]):
         self._started = True
         return observations[EGO_ID], infos[EGO_ID]
 
-    def step(self, action: int | np.integer | np.ndarray) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+    def step(self, action: int | np.integer) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         if not self._started:
             raise RuntimeError("call reset() before step()")
         observations, rewards, terminations, truncations, infos = self.core.step({EGO_ID: action})

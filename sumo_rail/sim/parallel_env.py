@@ -126,7 +126,7 @@ class ParallelHighwayEnv(ParallelEnv[str, np.ndarray, np.int64]):
     def observation_space(self, agent: str) -> spaces.Box:
         return self.observation_spaces[agent]
 
-    def action_space(self, agent: str) -> spaces.Discrete | spaces.MultiDiscrete:
+    def action_space(self, agent: str) -> spaces.Discrete:
         return self.action_spaces[agent]
 
     @property
