@@ -117,3 +117,19 @@ def paper_equivalent(acceleration_mps2: float, lateral: Lateral) -> Action:
     if acceleration_mps2 == 0.0:
         return Action.KEEP
     return Action.ACCELERATE if acceleration_mps2 > 0.0 else Action.DECELERATE
+
+
+def keep_action(actions: ActionConfig) -> int:
+    """The action that changes nothing: the paper's keep, or an acceleration of 0 in the lane (holding the speed)."""
+    if actions.interface == "acceleration":
+        return acceleration_action(actions.nearest_bin(0.0), Lateral.KEEP, actions)
+    return int(Action.KEEP)
+
+
+def paper_action(action: int, actions: ActionConfig) -> Action:
+    """The paper action an action of the interface `actions` counts as: itself, or an acceleration-interface action's
+    `paper_equivalent`."""
+    if actions.interface == "acceleration":
+        acceleration_bin, lateral = split_acceleration_action(action, actions)
+        return paper_equivalent(actions.acceleration_mps2(acceleration_bin), lateral)
+    return Action(action)
