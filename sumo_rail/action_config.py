@@ -25,13 +25,13 @@ class ActionConfig:
     """The action interface: "paper" (five actions on the ACC's set-point) or "acceleration" (an acceleration bin
     and keep / lane left / lane right, the action space MultiDiscrete([bins, 3]))."""
     acceleration_min_mps2: float = bounded(-9, 0, "m/s^2", default=-6.0, high_open=True)
-    """The lowest acceleration of the acceleration interface [m/s^2], at least -9 (SUMO's emergency deceleration)
-    and below 0. The default covers the hardest braking of highD's and NGSIM's drivers (about -6 m/s^2)."""
+    """The lowest acceleration of the acceleration interface [m/s^2], at least -9 and below 0 m/s^2 (-9: SUMO's
+    emergency deceleration). The default covers the hardest braking of highD's and NGSIM's drivers (about -6)."""
     acceleration_max_mps2: float = bounded(0, 5, "m/s^2", default=3.0, low_open=True)
-    """The highest acceleration of the acceleration interface [m/s^2], above 0 and at most 5. The default covers
-    highD's and NGSIM's drivers (about +3 m/s^2)."""
+    """The highest acceleration of the acceleration interface [m/s^2], above 0 and at most 5 m/s^2. The default
+    covers highD's and NGSIM's drivers (about +3 m/s^2)."""
     acceleration_bin_mps2: float = bounded(0.05, 0.25, "m/s^2", default=0.25)
-    """The width of the acceleration interface's bins [m/s^2], between 0.05 and 0.25; it divides the range from
+    """The width of the acceleration interface's bins [m/s^2], between 0.05 and 0.25 m/s^2; it divides the range from
     acceleration_min_mps2 to acceleration_max_mps2 into whole bins (37 at the defaults)."""
 
     def validate(self) -> None:
