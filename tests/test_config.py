@@ -81,3 +81,12 @@ def test_the_main_road_and_the_ramp_together_are_held_to_what_the_lanes_past_the
     with pytest.raises(ConfigError, match=r"flow_veh_per_h plus scenario.ramp_flow_veh_per_h \(15500 veh/h\) is more "
                                           r"than the 5 lanes past the merge can carry"):
         Config.from_dict({"scenario": {"kind": kind, "flow_veh_per_h": 14000.0, "ramp_flow_veh_per_h": 1500.0}})
+
+
+@pytest.mark.parametrize("lanes", [1, 3])
+def test_the_road_takes_up_to_its_lanes_times_a_lanes_capacity(lanes):
+    """On the straight road, exactly `lanes` x 3000 veh/h is accepted and a vehicle an hour more refused."""
+    full = 3000.0 * lanes
+    assert Config.from_dict({"scenario": {"lanes": lanes, "flow_veh_per_h": full}}).scenario.flow_veh_per_h == full
+    with pytest.raises(ConfigError, match=rf"\({full + 1:g} veh/h\) is more than {lanes} lanes can carry"):
+        Config.from_dict({"scenario": {"lanes": lanes, "flow_veh_per_h": full + 1.0}})

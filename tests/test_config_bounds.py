@@ -117,3 +117,18 @@ def test_the_issue_s_values_are_usage_errors(tmp_path, setting, message):
     with pytest.raises(click.UsageError) as caught:
         resolve_settings("paper", toml, ())[0]
     assert caught.value.message == message
+
+
+def test_the_set_point_range_must_be_a_range():
+    """v_min < v_max: equal ends would leave the longitudinal reward and the set-point's feature 0 / 0."""
+    assert Config.from_dict({"env": {"v_min_mps": 29.9, "v_max_mps": 30.0}}).env.v_min_mps == 29.9
+    with pytest.raises(ConfigError, match=re.escape("env.v_min_mps and env.v_max_mps must satisfy 0 <= v_min < v_max, "
+                                                    "got 30.0 and 30.0")):
+        Config.from_dict({"env": {"v_min_mps": 30.0, "v_max_mps": 30.0}})
+
+
+def test_an_episode_lasts_at_least_one_decision_period():
+    assert Config.from_dict({"env": {"max_episode_s": 0.5, "decision_period_s": 0.5}}).env.max_episode_s == 0.5
+    with pytest.raises(ConfigError, match=re.escape("env.max_episode_s must be at least one decision period, "
+                                                    "got 0.4")):
+        Config.from_dict({"env": {"max_episode_s": 0.4, "decision_period_s": 0.5}})

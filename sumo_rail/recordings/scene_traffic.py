@@ -12,9 +12,10 @@
 The vehicle whose seat the ego takes is never placed. Positions between two frames are interpolated
 (`SceneFrames.at`), so a scene of any frame rate plays at the simulation's step. Non-reactive vehicles farther than
 `REPLAY_RADIUS_M` from the ego along the road are not in SUMO at all: their recorded path does not depend on
-anything, and from there they reach neither the ego's perception (LIDAR range + context margin, 70 m) nor its car
-following (SUMO's leader search reaches its braking distance, 330 m at 44 m/s with the ACC's 3 m/s^2); they enter
-at their recorded place when they come within it (a test shows the same observations with every vehicle in SUMO).
+anything, and from there they reach neither the ego's perception (LIDAR range + context margin, 120 m by default)
+nor its car following (SUMO's leader search reaches its braking distance, 330 m at 44 m/s with the ACC's 3 m/s^2);
+they enter at their recorded place when they come within it (tests show the same observations, and a SUMO-driven
+seat the same speeds, with every vehicle in SUMO).
 """
 
 from __future__ import annotations

@@ -2,8 +2,10 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from sumo_rail.config import EnvConfig
 from sumo_rail.evaluation.driving_score import (
     MAX_OVERSPEED_MPS,
+    MIN_LON_ACCEL_MPS2,
     SCORE_COLUMNS,
     driving_scores,
     mean_overspeed,
@@ -11,6 +13,7 @@ from sumo_rail.evaluation.driving_score import (
 )
 from sumo_rail.evaluation.evaluate import evaluate
 from sumo_rail.evaluation.summary import intervals
+from sumo_rail.recordings.actions import ego_limits
 from sumo_rail.runners.backends import SerialBackend
 from sumo_rail.runners.rollout import ExpertDriver, KeepDriver
 from sumo_rail.seeding import Purpose, episode_seeds
@@ -54,6 +57,15 @@ def test_weighted_terms_count_with_nuplans_weights():
     assert half_over["driving_score"].item() == pytest.approx((5 + 5 + 4 * 0.5 + 2) / 16)
     assert _scores([_episode()], reference_m=0.0)["progress"].item() == 1.0  # a reference that did not move
 
+
+
+def test_the_default_hard_braking_threshold_is_nuplans_comfort_limit():
+    """`comfortable` reads nuPlan's min_lon_accel through the env's hard-braking count: by default that count's
+    threshold is nuPlan's limit (within 0.05 m/s^2), beyond the ego's full ACC deceleration, so that a set-point step
+    down closed by the ACC is not hard braking."""
+    threshold_mps2 = EnvConfig().hard_brake_mps2
+    assert threshold_mps2 == pytest.approx(-MIN_LON_ACCEL_MPS2, abs=0.05)
+    assert threshold_mps2 > ego_limits()[1]
 
 def test_reference_is_the_named_expert_on_the_same_seed_else_the_best():
     metrics = pd.DataFrame([_episode(policy="expert", seed=1, distance_m=800.0, reference="expert"),

@@ -7,7 +7,7 @@ import pandas as pd
 import pytest
 
 from sumo_rail.config import EnvConfig
-from sumo_rail.recordings.actions import ActionRule, ego_limits, read_actions, read_track
+from sumo_rail.recordings.actions import ActionRule, ego_limits, read_actions, read_track, speed_actions
 from sumo_rail.sim.actions import Action
 
 RULE = ActionRule.for_env(EnvConfig())
@@ -127,3 +127,46 @@ def test_in_a_sweep_over_two_lanes_the_second_change_begins_midway_between_the_c
     actions = read(np.full(len(TIME), 25.0), lane, lateral)
     assert actions[2] == Action.LANE_RIGHT and actions[6] == Action.LANE_RIGHT  # 1.0 .. 1.5 s and 3.0 .. 3.5 s
     assert (np.delete(actions, [2, 6]) == Action.KEEP).all()
+
+
+def left_change(time: np.ndarray, sideways_mps: float, begin_s: float) -> np.ndarray:
+    """The actions read off a change from lane 1 to lane 2 (3.2 m lanes) at 25 m/s, moving sideways at
+    `sideways_mps` from `begin_s` on (crossing the marking 1.6 m later)."""
+    lateral = np.clip(sideways_mps * (time - begin_s), 0.0, 3.2) - 4.8
+    lane = np.where(lateral > -3.2 - 1e-9, 2, 1)
+    return read_track(time, np.full(len(time), 25.0), lane, np.full(len(time), "road"), lateral, RULE)[1]
+
+
+def test_a_slow_sideways_drift_is_a_change_under_way_from_where_it_began():
+    # 0.6 m/s sideways (above the 0.2 m/s of lane keeping) from 1.2 s: the marking is crossed 2.7 s later, at 3.9 s
+    actions = left_change(TIME, 0.6, 1.2)
+    assert actions[2] == Action.LANE_LEFT and (np.delete(actions, 2) == Action.KEEP).all()
+
+
+def test_a_change_is_looked_for_up_to_three_seconds_before_its_crossing():
+    # 1.2 m/s sideways from 1.2 s crosses 1.3 s later: the change is the period 1.0 .. 1.5 s's, not 2.5 .. 3.0 s's
+    assert left_change(TIME, 1.2, 1.2).tolist().index(Action.LANE_LEFT) == 2
+    # a drift of 0.4 m/s from 0 s crosses at 4 s: read 3 s back, at 1.0 .. 1.5 s, not where the drift began
+    drift = left_change(np.arange(0.0, 8.0 + 1e-9, STEP_S), 0.4, 0.0)
+    assert drift.tolist().index(Action.LANE_LEFT) == 2 and (np.delete(drift, 2) == Action.KEEP).all()
+
+
+def speeds_at_instants(accelerations_mps2: list[float]) -> np.ndarray:
+    """The speeds [m/s] at the decision instants of a car cruising at its set-point of 25 m/s whose mean
+    acceleration over each 0.5 s period is the given one [m/s^2]."""
+    return 25.0 + np.concatenate([[0.0], np.cumsum(np.array(accelerations_mps2) * RULE.decision_period_s)])
+
+
+@pytest.mark.parametrize(("sign", "action"), [(1.0, Action.ACCELERATE), (-1.0, Action.DECELERATE)])
+def test_a_phase_lasts_while_its_acceleration_stays_above_the_floor(sign, action):
+    # 2.6 m/s^2 for a period, then 0.9 m/s^2 (above the 0.5 m/s^2 floor, within the dead band) for five: 3.55 m/s in
+    # one phase, two set-point steps
+    speeds = speeds_at_instants([0.0, 0.0, *(sign * np.array([2.6, 0.9, 0.9, 0.9, 0.9, 0.9])), 0.0, 0.0])
+    assert speed_actions(speeds, RULE).tolist() == [Action.KEEP] * 2 + [action] * 2 + [Action.KEEP] * 6
+
+
+@pytest.mark.parametrize(("sign", "action"), [(1.0, Action.ACCELERATE), (-1.0, Action.DECELERATE)])
+def test_a_phase_begun_at_the_set_point_is_at_least_one_step(sign, action):
+    # 1.6 m/s^2 for one period from the set-point: 0.8 m/s, less than half a 2 m/s step, is still one action
+    speeds = speeds_at_instants([0.0, 0.0, sign * 1.6] + [0.0] * 7)
+    assert speed_actions(speeds, RULE).tolist() == [Action.KEEP] * 2 + [action] + [Action.KEEP] * 7

@@ -132,8 +132,9 @@ def test_reactive_followers_brake_for_a_slowing_ego_and_replayed_ones_do_not(dri
 
 
 def test_reactive_vehicles_are_handed_to_sumos_models_after_their_first_step(drivers_scene):
-    """Placed at their recorded state, then SUMO's: its lane changing and a desired speed of the fastest speed their
-    track records; replayed vehicles keep both off."""
+    """Placed at their recorded state, then SUMO's: its safety checks on speed (SUMO's default speed mode 31), its lane
+    changing and a desired speed of the fastest speed their track records; replayed vehicles keep the checks and lane
+    changing off."""
     for reactive in (False, True):
         env = SceneEnv(CONFIG, drivers_scene, reactive=reactive)
         try:
@@ -143,8 +144,8 @@ def test_reactive_vehicles_are_handed_to_sumos_models_after_their_first_step(dri
             env.step(int(Action.KEEP))
             api, top = env.simulation._api, tracks.groupby("vehicle_id")["speed_mps"].max()
             others = set(api.vehicle.getIDList()) - {EGO_ID}
-            modes = {api.vehicle.getLaneChangeMode(other) for other in others}
-            assert modes == ({1621} if reactive else {0})
+            modes = {(api.vehicle.getSpeedMode(other), api.vehicle.getLaneChangeMode(other)) for other in others}
+            assert modes == ({(31, 1621)} if reactive else {(0, 0)})
             if reactive:
                 for other in others:
                     limit_mps = env.simulation.speed_limit_mps

@@ -391,9 +391,28 @@ def test_a_jammed_start_window_sends_a_respawn_upstream_and_a_full_road_is_an_er
     while len(env.agents) == 2:
         env.step(dict.fromkeys(env.agents, Action.ACCELERATE))
     ended = next(agent for agent in env.possible_agents if agent not in env.agents)
+    env.np_random = windows = DrawnWindows(env.np_random)
     with pytest.raises(SimulationError, match=rf"no safe place for {ended} to respawn in 200 draws up to 500 m: "
                                               r"traffic is too dense there \(scenario\.flow_veh_per_h is 4000"):
         env.respawn(ended)
+    # the start window, then from one ego length in (its rear on the road) to the window's end
+    upstream_m = (env.simulation.ego_length_m, window_m[1])
+    assert windows.bounds == [window_m] * parallel_env.RESPAWN_DRAWS + [upstream_m] * parallel_env.RESPAWN_DRAWS
+
+
+class DrawnWindows:
+    """A generator that draws as `generator` does and keeps the bounds of every uniform draw."""
+
+    def __init__(self, generator: np.random.Generator) -> None:
+        self.generator = generator
+        self.bounds: list[tuple[float, float]] = []
+
+    def integers(self, *args, **kwargs):
+        return self.generator.integers(*args, **kwargs)
+
+    def uniform(self, low: float, high: float) -> float:
+        self.bounds.append((low, high))
+        return self.generator.uniform(low, high)
 
 
 def test_a_respawn_is_placed_only_where_it_is_safe(make_env):

@@ -1,0 +1,54 @@
+"""The closed-loop human-likeness tables: methods and their differences paired seat by seat, distributions against
+the humans of the same mode."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from sumo_rail.evaluation.scene_evaluation import HUMAN
+from sumo_rail.evaluation.scene_summary import SEAT_KEYS, distribution_table, track_table
+
+
+def seat_rows(errors_m: np.ndarray, policy: str) -> pd.DataFrame:
+    """Metrics rows of 16 seats: vehicles v0 .. v3 of scenes a and b, each taken at 1 s and at 2 s, in that order."""
+    seats = pd.MultiIndex.from_product([["a", "b"], [f"v{k}" for k in range(4)], [1.0, 2.0]],
+                                       names=["scene", "vehicle", "start_s"]).to_frame(index=False)
+    return seats.assign(policy=policy, mode="reactive", collisions=0, at_fault_collisions=0, stopped=False,
+                        progress_ratio=1.0, lane_changes=0, distance_m=400.0, hard_braking=0,
+                        ttc_below_1_5s_share=0.0, steps=30, driving_score=1.0, position_error_1s_m=1.0,
+                        position_error_5s_m=5.0, position_error_10s_m=errors_m)
+
+
+def test_runs_are_paired_on_the_whole_seat_not_on_the_vehicle_alone():
+    """One vehicle id is four seats (two scenes, two start times) with very different errors: pairing the two methods'
+    rows by vehicle only would mix them; paired on (mode, scene, vehicle, start_s), the spread cancels."""
+    errors = np.random.default_rng(0).uniform(10.0, 60.0, 16)
+    bc, rail = seat_rows(errors, "bc"), seat_rows(errors + 3.0, "rail")
+    metrics = pd.concat([bc, rail.iloc[::-1]], ignore_index=True)  # the two runs' rows in opposite orders
+    assert rail.duplicated("vehicle").any() and not rail.duplicated(SEAT_KEYS).any()
+    table = track_table(metrics, {"BC": ["bc"], "RAIL": ["rail"]}, [("RAIL", "BC")])
+    row = next(line for line in table.splitlines() if line.startswith("| RAIL - BC"))
+    assert "+3.00 [+3.00, +3.00] *" in row
+
+
+def decision_rows(policy: str, mode: str, seat: int, speeds_mps: np.ndarray) -> pd.DataFrame:
+    return pd.DataFrame({"policy": policy, "mode": mode, "scene": "a", "vehicle": f"v{seat}", "start_s": 1.0,
+                         "speed_mps": speeds_mps, "lane": 1, "gap_m": 30.0 + speeds_mps})
+
+
+def test_each_mode_is_measured_against_its_own_episodes_only():
+    """The driver drives as the humans in the non-reactive mode and 10 m/s faster in the reactive one: the distances
+    are 0 and 10 m/s, and each mode's row is the one its own tracks alone give (nothing pooled over the modes)."""
+    rng = np.random.default_rng(1)
+    humans = [20.0 + 10.0 * rng.random(12) for _ in range(6)]
+    rows = []
+    for mode, faster_mps in (("non-reactive", 0.0), ("reactive", 10.0)):
+        for seat, human in enumerate(humans):  # the humans' rows once per seat and mode, as evaluate_seats gives
+            rows += [decision_rows(HUMAN, mode, seat, human), decision_rows("bc", mode, seat, human + faster_mps)]
+    tracks = pd.concat(rows, ignore_index=True)
+    table = distribution_table(tracks, {"BC": ["bc"]}, 0.5).splitlines()
+    assert table[2].startswith("| BC | non-reactive | 0.00 [") and table[3].startswith("| BC | reactive | 10.00 [")
+    for mode, line in (("non-reactive", table[2]), ("reactive", table[3])):
+        alone = distribution_table(tracks[tracks["mode"] == mode], {"BC": ["bc"]}, 0.5).splitlines()
+        assert alone[2] == line
