@@ -254,10 +254,14 @@ class Simulation(EgoPlacement, Stepping, Sensing):
         acceleration interface's (`ACCELERATION_EGO_TYPE`: Krauss without dawdling, whose safe speed is the
         emergency brake), its desired speed its type's top speed, whatever the road's limit, its acceleration
         capability `max_acceleration_mps2` [m/s^2]; the speed mode keeps the safe speed and drops the bound on
-        deceleration, so a commanded braking is followed as given."""
+        deceleration, so a commanded braking is followed as given. The vehicle keeps its length and width (a recorded
+        seat's)."""
         vehicle_api = self._api.vehicle
+        length_m, width_m = vehicle_api.getLength(vehicle), vehicle_api.getWidth(vehicle)
         vehicle_api.setType(vehicle, network.ACCELERATION_EGO_TYPE)
         vehicle_api.setAccel(vehicle, max_acceleration_mps2)  # a type of the vehicle's own: set before its speed factor
+        vehicle_api.setLength(vehicle, length_m)
+        vehicle_api.setWidth(vehicle, width_m)
         vehicle_api.setSpeedFactor(vehicle, vehicle_api.getMaxSpeed(vehicle) / self.speed_limit_mps)
         vehicle_api.setSpeedMode(vehicle, SPEED_MODE_COMMANDED_ACCELERATION)
 
