@@ -7,6 +7,7 @@ import pytest
 from sumo_rail.config import Config
 from sumo_rail.recordings.seat import SceneEnv
 from sumo_rail.sim.actions import Lateral, acceleration_action
+from sumo_rail.sim.simulation import EGO_ID
 
 CONFIG = Config.from_dict({"observation": {"lane_block": 1}, "env": {"max_episode_s": 10.0},
                            "actions": {"interface": "acceleration"}})
@@ -31,8 +32,10 @@ def test_a_seated_truck_keeps_its_size_under_the_acceleration_interface(replay):
     vehicle, start_s = longest_track(tracks, "truck")
     replay.reset(seed=0, options={"vehicle": vehicle, "start_s": start_s})
     recorded = tracks[tracks["vehicle_id"] == vehicle].iloc[0]
+    sumo = replay.simulation._api.vehicle  # what SUMO itself drives (the env's view caches sizes)
+    assert sumo.getLength(EGO_ID) == pytest.approx(recorded["length_m"])
+    assert sumo.getWidth(EGO_ID) == pytest.approx(recorded["width_m"])
     assert replay.traffic.ego.length_m == pytest.approx(recorded["length_m"])
-    assert replay.traffic.ego.width_m == pytest.approx(recorded["width_m"])
     assert recorded["length_m"] > 6.0  # a truck's, not the acceleration type's 4.5 m
 
 
