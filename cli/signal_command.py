@@ -73,7 +73,7 @@ def step_signal_command(config: Config, settings: LearnerSettings, demos: Path, 
     from sumo_rail.sim.observation import observation_space
 
     with library_errors():
-        demonstrations = read_demonstrations(demos, observation_space(config).shape[0])
+        demonstrations = read_demonstrations(demos, observation_space(config).shape[0], interface=config.actions)
         policy, _ = load_policy(policy_path)
     if expert is not None:
         expert, asked = resolve_expert_option(expert, config)

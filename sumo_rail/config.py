@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from sumo_rail.action_config import ActionConfig
 from sumo_rail.bounds import ConfigError, bounded, check_fields, replace_settings
 
 SCENARIO_KINDS = ("straight", "merge", "merge_from_ramp", "lane_drop", "exit", "network")
@@ -300,12 +301,14 @@ class Config:
     env: EnvConfig = field(default_factory=EnvConfig)
     observation: ObservationConfig = field(default_factory=ObservationConfig)
     expert: ExpertConfig = field(default_factory=ExpertConfig)
+    actions: ActionConfig = field(default_factory=ActionConfig)
 
     def __post_init__(self) -> None:
         check_fields(self)
         self.scenario.validate()
         self.lidar.validate()
         self.env.validate(self.scenario)
+        self.actions.validate()
 
     def to_dict(self) -> dict[str, dict[str, Any]]:
         """Plain nested dict of every setting, as stored with outputs."""
@@ -318,7 +321,7 @@ class Config:
 
     @classmethod
     def from_toml(cls, path: str | Path) -> Config:
-        """Read a TOML file with optional [scenario], [lidar], [env], [observation] and [expert] tables."""
+        """Read a TOML file with optional [scenario], [lidar], [env], [observation], [expert] and [actions] tables."""
         return cls().with_toml(path)
 
     @classmethod

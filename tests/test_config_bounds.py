@@ -4,6 +4,7 @@ sentence naming the setting and its range. The fields are found by walking Confi
 
 import ast
 import dataclasses
+import inspect
 import math
 import re
 from pathlib import Path
@@ -75,9 +76,10 @@ def test_the_range_s_ends_are_as_stated(section, field):
 
 def test_every_docstring_states_its_range():
     """The range a user reads in the field's docstring is the one checked."""
-    tree = ast.parse(Path(sumo_rail.config.__file__).read_text())
+    modules = {inspect.getsourcefile(type(getattr(Config(), section))) for section, _ in FIELDS}
+    trees = [ast.parse(Path(module).read_text()) for module in sorted(modules)]
     docstrings = {}
-    for node in [node for node in tree.body if isinstance(node, ast.ClassDef)]:
+    for node in [node for tree in trees for node in tree.body if isinstance(node, ast.ClassDef)]:
         for annotated, following in zip(node.body, node.body[1:], strict=False):
             if isinstance(annotated, ast.AnnAssign) and isinstance(following, ast.Expr):
                 docstrings[(node.name, annotated.target.id)] = " ".join(following.value.value.split())

@@ -83,7 +83,8 @@ class EvaluationTask:
     """Also record the episode as an MP4 of bird's-eye frames."""
 
     def run(self, context: WorkerContext) -> EvaluatedEpisode:
-        probe = DecisionProbe(self.reference.create(self.episode.config, self.episode.seed))
+        config = self.episode.config
+        probe = DecisionProbe(self.reference.create(config, self.episode.seed), config.actions)
         safety = SafetyProbe()
         recorder: FrameRecorder | None = None
 

@@ -17,9 +17,10 @@ from typing import Any
 
 import numpy as np
 
+from sumo_rail.action_config import ActionConfig
 from sumo_rail.evaluation.safety import HEADWAY_CAP_S, time_headway
 from sumo_rail.runners.rollout import Driver
-from sumo_rail.sim.actions import Action
+from sumo_rail.sim.actions import Action, paper_action
 from sumo_rail.sim.traffic import TrafficView, lane_gaps
 
 ACTION_NAMES = tuple(action.name.lower() for action in Action)
@@ -77,15 +78,21 @@ def rates(confusion: np.ndarray) -> dict[str, float]:
 
 class DecisionProbe:
     """Watches one episode's decisions (a `sumo_rail.runners.rollout.DecisionProbe`) and asks `reference` (the expert:
-    any driver) at each what it would have done."""
+    any driver) at each what it would have done. Under the acceleration interface (`actions`) the driver's action is
+    compared as the paper action it counts as (`sim.actions.paper_action`): its lane change, else the sign of its
+    acceleration, against the expert's."""
 
-    def __init__(self, reference: Driver) -> None:
+    def __init__(self, reference: Driver, actions: ActionConfig | None = None) -> None:
         self.reference = reference
+        self.actions = actions or ActionConfig()
+        self._accelerating = self.actions.interface == "acceleration"
         self.confusion = np.zeros((len(Action), len(Action)), dtype=np.int64)
         self._rows: list[tuple[Any, ...]] = []
 
     def __call__(self, observation: np.ndarray, traffic: TrafficView, action: int, info: dict[str, Any]) -> None:
         expert_action = int(self.reference(observation, traffic))
+        if self._accelerating:
+            action = int(paper_action(action, self.actions))
         self.confusion[action, expert_action] += 1
         ego = traffic.ego
         leader = lane_gaps(traffic, ego.lane)

@@ -46,6 +46,7 @@ from sumo_rail.runners.road_mix import road_configs
 from sumo_rail.runners.rollout import Driver, DriverSpec, run_shared_episode, shared_groups
 from sumo_rail.runners.tables import Demonstrations, provenance, read_demonstrations
 from sumo_rail.seeding import Purpose, episode_seeds
+from sumo_rail.sim.actions import action_space_of
 from sumo_rail.sim.observation import observation_space
 from sumo_rail.sim.traffic import TrafficView
 
@@ -154,13 +155,13 @@ def train_dagger(folder: Path, settings: DaggerSettings, config: Config, rounds:
     """Run DAgger until `rounds` rounds after BC are done; returns the last policy. Safe to interrupt."""
     folder, validation = Path(folder), validation or Validation()
     observation_size = observation_space(config).shape[0]
-    demos = read_demonstrations(Path(settings.demos), observation_size, settings.include_failed_demos)
+    demos = read_demonstrations(Path(settings.demos), observation_size, settings.include_failed_demos, config.actions)
     demos_path, demos_hash = demos_record(settings.demos)
     settings = dataclasses.replace(settings, demos=demos_path)
     recorded = demonstrations_expert(demos.metadata)  # NotQueryable for recorded drivers, --expert or not
     style = settings.expert or recorded
     expert = resolve_expert(style, config, recorded_by=None if settings.expert else settings.demos)
-    shape = PolicyShape(settings.kind, observation_size, settings.hidden)
+    shape = PolicyShape(settings.kind, observation_size, settings.hidden, action_space_of(config.actions).n)
     run_record = {"settings": settings.to_dict(), "expert": style, **demos_hash,
                   **provenance("dagger_run", config, settings.seed)}
     if resume:

@@ -23,7 +23,8 @@ class NetworkSettings:
     """The policy network every learner trains (`drivers.policies.PolicyShape`)."""
 
     shape: str = "mlp"
-    """linear: observation -> 5 action logits; mlp: observation -> network.hidden tanh units -> 5 logits."""
+    """linear: observation -> one logit per action (5, or 3 x bins under the acceleration interface); mlp:
+    observation -> network.hidden tanh units -> the logits."""
     hidden: int = bounded(1, 4096, default=10)
     """Hidden units of the mlp shape, between 1 and 4096."""
 

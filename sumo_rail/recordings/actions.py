@@ -94,23 +94,40 @@ def read_track(time_s: np.ndarray, speed_mps: np.ndarray, lane: np.ndarray, edge
     """The decision instants [s] of one track (sorted rows: times [s], speeds [m/s], lane indices, edges and, where
     known, the sideways position [m], left positive) and the action (an `Action` value) read at each. Lane indices
     are compared on one edge only: onto the next edge the index may shift with the lane count."""
-    period = rule.decision_period_s
-    count = math.floor((time_s[-1] - time_s[0]) / period + 1e-6)
-    instants = time_s[0] + period * np.arange(count)
-    if count == 0:
+    instants = decision_instants(time_s, rule.decision_period_s)
+    if len(instants) == 0:
         return instants, np.zeros(0, dtype=np.int64)
-    actions = speed_actions(np.interp(time_s[0] + period * np.arange(count + 1), time_s, speed_mps), rule)
+    actions = speed_actions(np.interp(time_s[0] + rule.decision_period_s * np.arange(len(instants) + 1), time_s,
+                                      speed_mps), rule)
+    for decision, left in lane_changes(time_s, lane, edge, lateral_m, rule, len(instants)):
+        actions[decision] = Action.LANE_LEFT if left else Action.LANE_RIGHT
+    return instants, actions
+
+
+def decision_instants(time_s: np.ndarray, period_s: float) -> np.ndarray:
+    """The decision instants [s] of a track whose rows are at `time_s` (sorted): every `period_s` from its first row
+    while the track lasts one more period."""
+    count = math.floor((time_s[-1] - time_s[0]) / period_s + 1e-6)
+    return time_s[0] + period_s * np.arange(count)
+
+
+def lane_changes(time_s: np.ndarray, lane: np.ndarray, edge: np.ndarray, lateral_m: np.ndarray | None,
+                 rule: ActionRule, decisions: int) -> list[tuple[int, bool]]:
+    """(decision, to the left) of each lane change of a track (rule 1 of the module docstring), the decisions counted
+    from its first row in periods of the rule's."""
+    period = rule.decision_period_s
+    changes = []
     crossings = np.flatnonzero((np.diff(lane) != 0) & (edge[1:] == edge[:-1])) + 1
     previous_s = -math.inf  # the previous crossing [s]
     for row in crossings:
-        left = lane[row] > lane[row - 1]
+        left = bool(lane[row] > lane[row - 1])
         start_s = _onset(time_s, lateral_m, row, left, previous_s, rule) if lateral_m is not None else time_s[row]
         previous_s = time_s[row]
         # the row is the first one that shows it: it happened after the row before, so a row on a decision
         # instant belongs to the period before
-        decision = min(math.floor((start_s - time_s[0]) / period - 1e-6), count - 1)
-        actions[max(decision, 0)] = Action.LANE_LEFT if left else Action.LANE_RIGHT
-    return instants, actions
+        decision = min(math.floor((start_s - time_s[0]) / period - 1e-6), decisions - 1)
+        changes.append((max(decision, 0), left))
+    return changes
 
 
 def speed_actions(speeds_mps: np.ndarray, rule: ActionRule) -> np.ndarray:

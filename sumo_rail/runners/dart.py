@@ -32,13 +32,13 @@ class ActionNoise:
         if not 0.0 <= self.epsilon < 1.0:
             raise ValueError(f"the DART noise level must be in [0, 1), got {self.epsilon}")
 
-    def perturbation(self, seed: int) -> Callable[[int], int]:
-        """The executed action for each decided one, in the episode with reset seed `seed` (one uniform draw a
-        decision, a second for the random action when it is taken)."""
+    def perturbation(self, seed: int, actions: int = len(Action)) -> Callable[[int], int]:
+        """The executed action for each decided one of `actions`, in the episode with reset seed `seed` (one uniform
+        draw a decision, a second for the random action when it is taken)."""
         rng, epsilon = noise_generator(seed), self.epsilon
 
         def perturb(action: int) -> int:
-            return int(rng.integers(len(Action))) if rng.random() < epsilon else action
+            return int(rng.integers(actions)) if rng.random() < epsilon else action
 
         return perturb
 

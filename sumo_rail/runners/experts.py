@@ -20,6 +20,7 @@ from sumo_rail.datasets import DatasetError, file_sha256
 from sumo_rail.drivers.expert import DEFAULT_STYLE, STYLES
 from sumo_rail.drivers.policies import PolicyFileError, load_policy
 from sumo_rail.runners.rollout import DriverSpec, ExpertDriver, PolicyDriver
+from sumo_rail.sim.actions import action_space_of
 from sumo_rail.sim.observation import observation_names
 
 SAMPLED_SUFFIX = " (sampled)"
@@ -27,6 +28,9 @@ SAMPLED_SUFFIX = " (sampled)"
 
 LAYOUT_SETTINGS = (("lidar", "beams"), ("scenario", "lanes"), ("observation", "lane_block"))
 """The settings that shape the observation layout (`observation_names`)."""
+INTERFACE_SETTINGS = (("actions", "interface"), ("actions", "acceleration_min_mps2"),
+                      ("actions", "acceleration_max_mps2"), ("actions", "acceleration_bin_mps2"))
+"""The settings that shape the action space (`action_space_of`)."""
 SCALE_SETTINGS = (("lidar", "range_m"), ("env", "v_max_mps"), ("env", "v_min_mps"))
 """The settings that scale the observation's values (`build_observation`): the same layout with other values of them
 means other inputs to a policy."""
@@ -56,6 +60,10 @@ def parse_policy(path: Path, config: Config, sampled: bool = False, name: str | 
                               f"{differing_settings(metadata, config)}")
     if scales := differing_settings(metadata, config, SCALE_SETTINGS):
         raise PolicyFileError(f"policy {path} reads observations scaled otherwise than this configuration's{scales}")
+    if policy.shape.actions != (count := action_space_of(config.actions).n):
+        raise PolicyFileError(f"policy {path} chooses among {policy.shape.actions} actions but this configuration's "
+                              f"action interface has {count} (actions.interface={config.actions.interface})"
+                              f"{differing_settings(metadata, config, INTERFACE_SETTINGS)}")
     name = (name or policy_name(path)) + (SAMPLED_SUFFIX if sampled else "")
     return PolicyDriver(policy, name, expert=recorded_expert(metadata), sampled=sampled)
 
@@ -99,6 +107,10 @@ def resolve_expert(expert: str, config: Config, recorded_by: Path | str | None =
     listing the styles; a recorded policy file that is gone or whose content changed is a PolicyFileError naming
     `recorded_by`."""
     if expert in STYLES:
+        if config.actions.interface != "paper":
+            raise ValueError(f"the rule-based expert ({expert!r}) drives the paper's five actions only; with "
+                             f"actions.interface={config.actions.interface} the expert must be a policy file of "
+                             f"that interface")
         return ExpertDriver(expert)
     text, _, digest = expert.partition(PINNED)
     try:

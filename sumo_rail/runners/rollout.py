@@ -17,7 +17,7 @@ from sumo_rail.drivers.expert import DEFAULT_STYLE, make_expert
 from sumo_rail.drivers.policies import Policy
 from sumo_rail.runners.dart import ActionNoise
 from sumo_rail.seeding import driver_generator
-from sumo_rail.sim.actions import Action
+from sumo_rail.sim.actions import Action, action_space_of, keep_action
 from sumo_rail.sim.env import HighwayEnv
 from sumo_rail.sim.parallel_env import ParallelHighwayEnv
 from sumo_rail.sim.respawning import RespawningEgos
@@ -47,12 +47,14 @@ class DriverSpec(Protocol):
 
 @dataclass(frozen=True)
 class KeepDriver:
-    """Never acts: keeps its lane and set-point."""
+    """Never acts: keeps its lane and set-point (under the acceleration interface: its lane and speed, an
+    acceleration of 0, the constant-speed baseline)."""
 
     name: str = "keep"
 
     def create(self, config: Config, seed: int) -> Driver:
-        return lambda observation, traffic: int(Action.KEEP)
+        keep = keep_action(config.actions)
+        return lambda observation, traffic: keep
 
 
 @dataclass(frozen=True)
@@ -62,8 +64,8 @@ class RandomDriver:
     name: str = "random"
 
     def create(self, config: Config, seed: int) -> Driver:
-        rng = np.random.default_rng(seed)
-        return lambda observation, traffic: int(rng.integers(len(Action)))
+        rng, count = np.random.default_rng(seed), action_space_of(config.actions).n
+        return lambda observation, traffic: int(rng.integers(count))
 
 
 @dataclass(frozen=True)
@@ -129,7 +131,8 @@ class EpisodeGroupTask:
     def run(self, context: WorkerContext) -> list[EpisodeResult | None]:
         """Each ego's episode (its metrics' seed: its own seed), in ego order; None for an ego that found no room."""
         drivers = [self.driver.create(self.config, seed) for seed in self.seeds]
-        perturbs = None if self.noise is None else [self.noise.perturbation(seed) for seed in self.seeds]
+        count = action_space_of(self.config.actions).n
+        perturbs = None if self.noise is None else [self.noise.perturbation(seed, count) for seed in self.seeds]
         results = run_shared_episode(context.parallel_env(self.config, len(self.seeds)), drivers, self.seeds[0],
                                      self.record, perturbs)
         return [None if result is None else EpisodeResult({**result.metrics, "seed": seed}, result.steps)

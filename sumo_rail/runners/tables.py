@@ -12,10 +12,13 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 
+from sumo_rail.action_config import ActionConfig
+from sumo_rail.bounds import ConfigError
 from sumo_rail.config import Config
 from sumo_rail.datasets import FORMAT_VERSION, DatasetError, describe, read_metadata, read_table, versions
 from sumo_rail.runners.rollout import ACTION_COLUMNS, EpisodeResult
 from sumo_rail.sim import user_network
+from sumo_rail.sim.actions import action_space_of
 from sumo_rail.sim.observation import observation_names
 
 DEMONSTRATIONS = "demonstrations"
@@ -30,6 +33,14 @@ def provenance(kind: str, config: Config, seed: int, **extra: Any) -> dict[str, 
     return {"kind": kind, "format_version": FORMAT_VERSION, "seed": seed, "config": config.to_dict(),
             "observation_names": observation_names(config), "versions": versions(),
             **({ROAD_FILES: road} if road else {}), **extra}
+
+
+def _interface_words(actions: ActionConfig) -> str:
+    """An action interface in words: "paper interface" or "acceleration interface (-6 to 3 m/s^2 in 0.25 bins)"."""
+    if actions.interface == "paper":
+        return "paper interface"
+    return (f"acceleration interface ({actions.acceleration_min_mps2:g} to {actions.acceleration_max_mps2:g} m/s^2 in "
+            f"{actions.acceleration_bin_mps2:g} bins)")
 
 
 def demonstrations_table(results: Sequence[EpisodeResult], seeds: Sequence[int], observation_size: int) -> pa.Table:
@@ -105,15 +116,30 @@ FAILURES = ("collision", "missed_exit", "lane_end")
 """The `termination` of a failed episode: a collision, a missed exit, a stop at a lane's end."""
 
 
-def read_demonstrations(path: Path, observation_size: int | None = None, include_failed: bool = True
-                        ) -> Demonstrations:
-    """Read and validate a demonstrations file; `observation_size` checks it against an environment. Without
-    `include_failed`, the episodes whose `termination` is a failure (`FAILURES`) are left out (a file written before
-    that column counts as not failed); a DatasetError when that leaves none."""
+def demonstrations_interface(metadata: dict[str, Any]) -> ActionConfig:
+    """The action interface demonstrations were recorded with (their config's [actions]; the paper's in files written
+    before the section existed); a DatasetError when it is not one."""
+    section = (metadata.get("config") or {}).get("actions", {})
+    try:
+        return Config.from_dict({"actions": section}).actions
+    except ConfigError as error:
+        raise DatasetError(f"demonstrations with an impossible action interface: {error}") from error
+
+
+def read_demonstrations(path: Path, observation_size: int | None = None, include_failed: bool = True,
+                        interface: ActionConfig | None = None) -> Demonstrations:
+    """Read and validate a demonstrations file; `observation_size` checks it against an environment, `interface`
+    against a run's action interface (a file of the other interface is a DatasetError; without it, the file's own
+    bounds its actions). Without `include_failed`, the episodes whose `termination` is a failure (`FAILURES`) are
+    left out (a file written before that column counts as not failed); a DatasetError when that leaves none."""
     path = Path(path)
     metadata = read_metadata(path)
     if metadata.get("kind") != DEMONSTRATIONS:
         raise DatasetError(f"{path} holds {metadata.get('kind')!r} data, not demonstrations")
+    recorded = demonstrations_interface(metadata)
+    if interface is not None and recorded != interface:
+        raise DatasetError(f"{path} holds demonstrations of the {_interface_words(recorded)}, this run uses the "
+                           f"{_interface_words(interface)}: record them again, or set [actions] as they were")
     needed = ["episode", "observation", "action"]
     missing = [name for name in needed if name not in pq.read_schema(path).names]
     if missing:
@@ -137,8 +163,9 @@ def read_demonstrations(path: Path, observation_size: int | None = None, include
         raise DatasetError(f"{path} has missing or misshapen observations or actions ({describe(error)})") from error
     if not np.isfinite(observations).all():
         raise DatasetError(f"{path} has non-finite observations")
-    if actions.min() < 0 or actions.max() >= len(ACTION_COLUMNS):
-        raise DatasetError(f"{path} has actions outside 0..{len(ACTION_COLUMNS) - 1}")
+    count = action_space_of(recorded).n
+    if actions.min() < 0 or actions.max() >= count:
+        raise DatasetError(f"{path} has actions outside 0..{count - 1}")
     episodes = table.column("episode").to_numpy()
     failed = np.isin(episodes, failed_episodes(path)) if not include_failed else np.zeros(len(episodes), bool)
     if failed.all():

@@ -17,7 +17,14 @@ from gymnasium import spaces
 
 from sumo_rail.config import Config
 from sumo_rail.sim import kernels, lidar
-from sumo_rail.sim.actions import Action, command_for
+from sumo_rail.sim.actions import (
+    Action,
+    acceleration_command,
+    command_for,
+    paper_equivalent,
+    split_acceleration_action,
+)
+from sumo_rail.sim.observation import acceleration_slot, control_slot
 from sumo_rail.sim.period_safety import NO_READINGS, PeriodSafety
 from sumo_rail.sim.rewards import EpisodeMetrics, OvertakeCounter, lateral_reward, longitudinal_reward, relations
 from sumo_rail.sim.route_progress import RouteProgress, route_values, zip_merge_change
@@ -35,12 +42,13 @@ StepResult = tuple[np.ndarray, float, bool, bool, dict[str, Any]]
 """(observation, reward, terminated, truncated, info) of one decision, as Gymnasium's `step` returns them."""
 
 
-def checked_action(action: Any, space: spaces.Discrete) -> Action:
-    """`action` as an `Action`; ValueError when it is not in `space`."""
-    fast_path_valid = isinstance(action, _INTEGERS) and 0 <= action < len(_ACTIONS)
+def checked_action(action: Any, space: spaces.Discrete) -> int:
+    """`action` as an int; ValueError when it is not in `space` (Discrete(5), or the acceleration interface's
+    Discrete(3 x bins))."""
+    fast_path_valid = isinstance(action, _INTEGERS) and 0 <= action < space.n
     if not (fast_path_valid or space.contains(action)):
         raise ValueError(f"action must be an integer in [0, {space.n}), got {action!r}")
-    return _ACTIONS[int(action)]
+    return int(action)
 
 
 def edge_rows(sim: Simulation) -> np.ndarray:
@@ -58,7 +66,12 @@ class Ego:
         self.vehicle = vehicle
         self.edges = edges
         self.set_point_mps = config.env.v_min_mps
-        """Cruise set-point [m/s]."""
+        """Cruise set-point [m/s]; under the acceleration interface, which has none, the speed that an acceleration of
+        0 holds: the ego's speed at the decision."""
+        self.accelerating = config.actions.interface == "acceleration"
+        """Driven through the acceleration interface."""
+        self.acceleration_mps2 = 0.0
+        """The last commanded acceleration [m/s^2] (the acceleration interface; 0 before the first decision)."""
         self.lane = 0
         self.changing_lane = False
         self.start_time_s = self.start_position_m = 0.0
@@ -86,8 +99,12 @@ class Ego:
         returns the first observation and info."""
         cfg = self.config
         ego, neighbours = sim.observe(self.vehicle)
-        self.set_point_mps = min(max(ego.speed_mps, cfg.env.v_min_mps), self.top_speed_mps(sim))
-        sim.set_cruise_speed(self.set_point_mps, self.vehicle)
+        if self.accelerating:
+            self.set_point_mps, self.acceleration_mps2 = ego.speed_mps, 0.0
+            sim.take_acceleration_control(self.vehicle, cfg.actions.acceleration_max_mps2)
+        else:
+            self.set_point_mps = min(max(ego.speed_mps, cfg.env.v_min_mps), self.top_speed_mps(sim))
+            sim.set_cruise_speed(self.set_point_mps, self.vehicle)
         self.lane = ego.lane
         self.changing_lane = ego.changing_lane
         self.start_time_s, self.start_position_m = sim.time_s, ego.lane_position_m
@@ -102,20 +119,29 @@ class Ego:
         speed limit when lower (the ego keeps to it)."""
         return min(self.config.env.v_max_mps, sim.speed_limit_mps)
 
-    def command(self, sim: Simulation, action: Action) -> None:
-        """Give SUMO the command of this decision's `action` (before the period's steps); none when SUMO drives."""
+    def command(self, sim: Simulation, action: int) -> None:
+        """Give SUMO the command of this decision's `action` (`checked_action`; before the period's steps); none when
+        SUMO drives. An acceleration-interface action is counted among the paper's five (`paper_equivalent`)."""
         cfg, metrics = self.config, self.metrics
         if self.sumo_driven:
             metrics.decisions += 1
             return
-        self.last_action = action
         route = self.traffic.ego.route if self.traffic is not None else None
         lowest, highest = (0, cfg.scenario.lanes - 1) if route is None else (route.lowest_lane, route.highest_lane)
-        command = command_for(action, self.set_point_mps, self.lane, highest + 1, cfg.env.speed_step_mps,
-                              cfg.env.v_min_mps, self.top_speed_mps(sim), lowest)
-        if command.set_point_mps != self.set_point_mps:
-            self.set_point_mps = command.set_point_mps
-            sim.set_cruise_speed(self.set_point_mps, self.vehicle)
+        if self.accelerating:
+            acceleration_bin, lateral = split_acceleration_action(action, cfg.actions)
+            command = acceleration_command(acceleration_bin, lateral, cfg.actions, self.lane, highest + 1, lowest)
+            self.acceleration_mps2 = command.acceleration_mps2
+            sim.set_acceleration(command.acceleration_mps2, cfg.env.decision_period_s, self.vehicle)
+            action = paper_equivalent(command.acceleration_mps2, lateral)
+        else:
+            action = _ACTIONS[action]
+            command = command_for(action, self.set_point_mps, self.lane, highest + 1, cfg.env.speed_step_mps,
+                                  cfg.env.v_min_mps, self.top_speed_mps(sim), lowest)
+            if command.set_point_mps != self.set_point_mps:
+                self.set_point_mps = command.set_point_mps
+                sim.set_cruise_speed(self.set_point_mps, self.vehicle)
+        self.last_action = action
         self.requested_lane = command.target_lane
         if command.target_lane is not None:
             zip_merge = route is not None and zip_merge_change(route, self.lane, command.target_lane,
@@ -160,6 +186,8 @@ class Ego:
             reason = "end_of_road"
         elif metrics.simulated_s >= cfg.env.max_episode_s - 1e-9:
             reason = "time_limit"
+        if self.accelerating:
+            self.set_point_mps = ego.speed_mps
         self.last_observation = self.observation(ego, neighbours, ego.changing_lane)
         self.traffic = TrafficView(ego, neighbours, self.set_point_mps, cfg.scenario.lanes)
         if failure:
@@ -188,6 +216,16 @@ class Ego:
                                  "termination": reason, **self.period_safety.update(report, None, None, None, True)}
         return self.last_observation, reward, report.ego_collided, not report.ego_collided, info
 
+    def action_label(self) -> str:
+        """The last decision in words for a frame: the paper's action, or the commanded acceleration [m/s^2] and the
+        lane decision; "-" before the first."""
+        if self.last_action is None:
+            return "-"
+        if not self.accelerating:
+            return self.last_action.name
+        lane = {Action.LANE_LEFT: " LEFT", Action.LANE_RIGHT: " RIGHT"}.get(self.last_action, "")
+        return f"{self.acceleration_mps2:+.2f} m/s^2{lane}"
+
     def _relations(self, ego: EgoState, neighbours: Neighbours) -> list[int]:
         return relations(ego.lane_position_m, ego.length_m, neighbours.lane_position_m, neighbours.length_m)
 
@@ -197,11 +235,14 @@ class Ego:
         cfg = self.config
         route = (route_values(ego, cfg.observation.route_range_m, cfg.scenario.lanes) if cfg.observation.route_block
                  else _NO_ROUTE)
-        return kernels.observation_vector(
+        observation = kernels.observation_vector(
             neighbours.front_xy, neighbours.heading_rad, neighbours.length_m, neighbours.width_m,
             neighbours.speed_mps, neighbours.lane_position_m, neighbours.lane, self.edges, ego.front_x, ego.front_y,
             ego.heading_rad, ego.length_m, ego.speed_mps, self.set_point_mps, ego.lane_position_m, ego.lane,
             lane_change_in_progress, *self._kernel_settings, *route)
+        if self.accelerating:
+            observation[control_slot(cfg)] = acceleration_slot(self.acceleration_mps2, cfg.actions)
+        return observation
 
     def _totals(self) -> dict[str, Any]:
         m = self.metrics

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from sumo_rail.config import Config
@@ -30,8 +32,9 @@ class EgoFrames:
                               else MapRenderer(sim.lane_shapes(), cfg.scenario.lanes))
         # the observation holds distance / r_max, clipped to 1: exactly what the policy saw
         distances = ego.last_observation[:cfg.lidar.beams].astype(np.float64) * cfg.lidar.range_m
-        text = FrameText(sim.time_s, traffic.ego.speed_mps, traffic.set_point_mps, traffic.ego.lane,
-                         cfg.scenario.lanes, "-" if ego.last_action is None else ego.last_action.name,
+        set_point_mps = math.nan if ego.accelerating else traffic.set_point_mps  # the interface has none
+        text = FrameText(sim.time_s, traffic.ego.speed_mps, set_point_mps, traffic.ego.lane,
+                         cfg.scenario.lanes, ego.action_label(),
                          ego.metrics.decisions)
         return self._renderer.draw(traffic.ego, traffic.neighbours, sim.vehicle_types(traffic.neighbours.ids),
                                    distances, cfg.lidar.range_m, text)

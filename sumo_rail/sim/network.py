@@ -33,6 +33,7 @@ log = logging.getLogger(__name__)
 EDGE_ID = "highway"
 """The straight road's one edge."""
 EGO_TYPE = scenarios.EGO_TYPE
+ACCELERATION_EGO_TYPE = scenarios.ACCELERATION_EGO_TYPE
 
 
 def sources_dir() -> Path:

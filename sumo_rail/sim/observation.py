@@ -21,6 +21,7 @@ from __future__ import annotations
 import numpy as np
 from gymnasium import spaces
 
+from sumo_rail.action_config import ActionConfig
 from sumo_rail.config import Config
 from sumo_rail.sim.route_progress import ROUTE_BLOCK_FIELDS
 from sumo_rail.sim.traffic import LANE_BLOCK_FIELDS, LANE_BLOCK_LANES
@@ -31,12 +32,25 @@ def observation_names(config: Config) -> list[str]:
     beams = config.lidar.beams
     return ([f"lidar_distance_{i:02d}" for i in range(beams)]
             + [f"lidar_relative_speed_{i:02d}" for i in range(beams)]
-            + ["ego_speed", "cruise_set_point"]
+            + ["ego_speed", "last_acceleration" if config.actions.interface == "acceleration" else "cruise_set_point"]
             + [f"lane_{k}" for k in range(config.scenario.lanes)]
             + ["lane_change_in_progress"]
             + ([f"{lane}_lane_{name}" for lane in LANE_BLOCK_LANES for name in LANE_BLOCK_FIELDS]
                if config.observation.lane_block else [])
             + (list(ROUTE_BLOCK_FIELDS) if config.observation.route_block else []))
+
+
+def control_slot(config: Config) -> int:
+    """The index of the entry that shows the ego's own control: the cruise set-point (the paper's interface) or the
+    last commanded acceleration (the acceleration interface, `acceleration_slot`)."""
+    return 2 * config.lidar.beams + 1
+
+
+def acceleration_slot(acceleration_mps2: float, actions: ActionConfig) -> float:
+    """The last commanded acceleration [m/s^2] as its observation entry: 0 at the interface's lowest, 1 at its
+    highest."""
+    low, high = actions.acceleration_min_mps2, actions.acceleration_max_mps2
+    return (acceleration_mps2 - low) / (high - low)
 
 
 def observation_space(config: Config) -> spaces.Box:

@@ -53,7 +53,7 @@ from pettingzoo import ParallelEnv
 
 from sumo_rail.config import Config
 from sumo_rail.sim import network
-from sumo_rail.sim.actions import Action
+from sumo_rail.sim.actions import action_space_of
 from sumo_rail.sim.ego import Ego, checked_action, edge_rows
 from sumo_rail.sim.observation import observation_space
 from sumo_rail.sim.rewards import EpisodeMetrics
@@ -114,7 +114,7 @@ class ParallelHighwayEnv(ParallelEnv[str, np.ndarray, np.int64]):
         self.possible_agents = list(names)
         self.agents: list[str] = []
         self.observation_spaces = {agent: observation_space(self.config) for agent in self.possible_agents}
-        self.action_spaces = {agent: spaces.Discrete(len(Action)) for agent in self.possible_agents}
+        self.action_spaces = {agent: action_space_of(self.config.actions) for agent in self.possible_agents}
         self._steps_per_decision = self.config.env.steps_per_decision(self.config.scenario.step_length_s)
         self._np_random: np.random.Generator | None = None
         self._sim: Simulation | None = None

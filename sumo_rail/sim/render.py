@@ -45,6 +45,8 @@ class FrameText:
     time_s: float
     speed_mps: float
     set_point_mps: float
+    """The cruise set-point [m/s]; NaN (not shown) under the acceleration interface, whose `action` says the
+    acceleration."""
     lane: int
     lanes: int
     action: str
@@ -52,8 +54,9 @@ class FrameText:
 
     def line(self) -> str:
         """The band's one line, speeds in km/h, lanes counted from 0 = rightmost."""
+        set_point = "" if math.isnan(self.set_point_mps) else f"set-point {self.set_point_mps * 3.6:5.1f} km/h   "
         return (f"t {self.time_s:6.1f} s   speed {self.speed_mps * 3.6:5.1f} km/h   "
-                f"set-point {self.set_point_mps * 3.6:5.1f} km/h   lane {self.lane} (0 = rightmost of {self.lanes})   "
+                f"{set_point}lane {self.lane} (0 = rightmost of {self.lanes})   "
                 f"action {self.action}   decision {self.decision}")
 
 

@@ -26,6 +26,8 @@ from sumo_rail.config import ConfigError, ScenarioConfig
 VEHICLE_TYPES_FILE = "traffic.rou.xml"
 """The straight road's routes file, whose vehicle types every road uses."""
 EGO_TYPE = "ego"
+ACCELERATION_EGO_TYPE = "ego_acceleration"
+"""The ego's vehicle type under the acceleration interface (networks/traffic.rou.xml: Krauss without dawdling)."""
 RAMP_OFFSET_M = 60.0
 """How far right of the main road's right edge the on-ramp starts and the off-ramp ends [m]."""
 EXIT_RAMP_M = 400.0
@@ -109,9 +111,10 @@ def network_routes(scenario: ScenarioConfig, vehicle_types: bytes, ego_route: tu
     along the main road, as on the generated exit road (all of it along the ego's route would queue every vehicle
     into the exit, leaving the ego no gap to take it). Types a user's traffic file defines (`their_types`) are left
     out, as is a distribution of them: the user's win; the ego's type is the project's own."""
-    if EGO_TYPE in their_types:
-        raise ConfigError(f"scenario.traffic_file defines a vehicle type {EGO_TYPE!r}, the project's name for the "
-                          f"ego's type: rename it")
+    for ego_type in (EGO_TYPE, ACCELERATION_EGO_TYPE):
+        if ego_type in their_types:
+            raise ConfigError(f"scenario.traffic_file defines a vehicle type {ego_type!r}, the project's name for an "
+                              f"ego's type: rename it")
     root = ElementTree.fromstring(vehicle_types)
     _find(root, "vType", EGO_TYPE, VEHICLE_TYPES_FILE)
     flow = _find(root, "flow", "traffic", VEHICLE_TYPES_FILE)

@@ -33,6 +33,7 @@ from sumo_rail.sim.sumo_api import EGO_ID as EGO_ID  # importable from here, as 
 from sumo_rail.sim.sumo_api import (
     LANE_CHANGE_MODE_TRACI_ONLY_SAFE,
     LANE_CHANGE_MODE_ZIP_MERGE,
+    SPEED_MODE_COMMANDED_ACCELERATION,
     decision_calls,
     load_api,
     load_constants,
@@ -247,6 +248,28 @@ class Simulation(EgoPlacement, Stepping, Sensing):
         factor is reached at the ego type's comfortable deceleration.)
         """
         self._api.vehicle.setSpeedFactor(vehicle, speed_mps / self.speed_limit_mps)
+
+    def take_acceleration_control(self, vehicle: str, max_acceleration_mps2: float) -> None:
+        """Drive an ego by commanded accelerations (`set_acceleration`) from now on: its type becomes the
+        acceleration interface's (`ACCELERATION_EGO_TYPE`: Krauss without dawdling, whose safe speed is the
+        emergency brake), its desired speed its type's top speed, whatever the road's limit, its acceleration
+        capability `max_acceleration_mps2` [m/s^2]; the speed mode keeps the safe speed and drops the bound on
+        deceleration, so a commanded braking is followed as given. The vehicle keeps its length and width (a recorded
+        seat's)."""
+        vehicle_api = self._api.vehicle
+        length_m, width_m = vehicle_api.getLength(vehicle), vehicle_api.getWidth(vehicle)
+        vehicle_api.setType(vehicle, network.ACCELERATION_EGO_TYPE)
+        vehicle_api.setAccel(vehicle, max_acceleration_mps2)  # a type of the vehicle's own: set before its speed factor
+        vehicle_api.setLength(vehicle, length_m)
+        vehicle_api.setWidth(vehicle, width_m)
+        vehicle_api.setSpeedFactor(vehicle, vehicle_api.getMaxSpeed(vehicle) / self.speed_limit_mps)
+        vehicle_api.setSpeedMode(vehicle, SPEED_MODE_COMMANDED_ACCELERATION)
+
+    def set_acceleration(self, acceleration_mps2: float, duration_s: float, vehicle: str = EGO_ID) -> None:
+        """Hold an ego's acceleration at `acceleration_mps2` [m/s^2] for `duration_s` [s] (a vehicle under
+        `take_acceleration_control`); SUMO's safe speed brakes harder where the leader demands it, and the speed stays
+        between 0 and the ego's top speed."""
+        self._api.vehicle.setAcceleration(vehicle, acceleration_mps2, duration_s)
 
     @property
     def speed_limit_mps(self) -> float:

@@ -14,6 +14,10 @@ LANE_CHANGE_MODE_TRACI_ONLY_SAFE = 0b1100000000
 """No autonomous lane changes; TraCI requests respect other drivers' gaps, without speed adaptation."""
 LANE_CHANGE_MODE_ZIP_MERGE = 0b0100000000
 """No autonomous lane changes; TraCI requests only avoid immediate collisions (others brake for the ego)."""
+SPEED_MODE_COMMANDED_ACCELERATION = 0b11001
+"""An ego driven by commanded accelerations: SUMO regards the safe speed (its emergency brake), right of way and red
+lights, not the bound on deceleration (the interface's range bounds it; the ego's acceleration capability is set
+to the range's highest)."""
 TRANSPORTS = ("auto", "libsumo", "traci")
 """How SUMO is driven: libsumo (SUMO linked into this process), traci (a SUMO process, over a socket; the same
 episodes, slower), or auto: libsumo unless another simulation of this process holds it, then traci."""

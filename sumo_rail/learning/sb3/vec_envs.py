@@ -18,7 +18,7 @@ from sumo_rail.learning.sb3.actor import FixedNormalisation
 from sumo_rail.learning.sb3.envs import LOST_ENV
 from sumo_rail.learning.sb3.shared_road import _road_process, env_seeds
 from sumo_rail.runners.spawning import start_shielded
-from sumo_rail.sim.actions import Action
+from sumo_rail.sim.actions import action_space_of
 from sumo_rail.sim.observation import observation_space
 
 Rewards = Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray, list[dict[str, Any]]], np.ndarray]
@@ -30,7 +30,7 @@ class SharedRoadVecEnv(VecEnv):
     processes (for lost-env reports)."""
 
     def __init__(self, config: Config, processes: int, egos: int, seed: int, error_dir: Path) -> None:
-        super().__init__(processes * egos, observation_space(config), spaces.Discrete(len(Action)))
+        super().__init__(processes * egos, observation_space(config), action_space_of(config.actions))
         self.egos = egos
         context = multiprocessing.get_context("spawn")
         self.remotes, self.processes = [], []

@@ -1,0 +1,58 @@
+"""The `[actions]` settings: which action interface the ego is driven through, and the acceleration interface's
+range and bins (`sumo_rail.sim.actions` turns an action into SUMO's commands)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from sumo_rail.bounds import ConfigError, bounded
+
+INTERFACES = ("paper", "acceleration")
+"""paper: the paper's five actions (keep, accelerate, decelerate: the ACC's set-point moved by env.speed_step_mps;
+lane left, lane right). acceleration: a longitudinal acceleration bin and a lane keep / left / right."""
+
+
+@dataclass(frozen=True)
+class ActionConfig:
+    """How the ego is driven. The default is the paper's interface; "acceleration" is the interface that can say
+    what a human driver does: the ego's longitudinal acceleration for the next decision period [m/s^2], in bins of
+    `acceleration_bin_mps2` from `acceleration_min_mps2` to `acceleration_max_mps2`, and a lane change (keep, left,
+    right). Under it SUMO's Krauss safe speed remains the emergency brake: a commanded acceleration never drives the
+    ego into its leader, and the ego's speed is capped only by its vehicle type's top speed (55 m/s), not the road's
+    limit."""
+
+    interface: str = "paper"
+    """The action interface: "paper" (five actions on the ACC's set-point) or "acceleration" (an acceleration bin
+    and keep / lane left / lane right, the action space MultiDiscrete([bins, 3]))."""
+    acceleration_min_mps2: float = bounded(-9, 0, "m/s^2", default=-6.0, high_open=True)
+    """The lowest acceleration of the acceleration interface [m/s^2], at least -9 and below 0 m/s^2 (-9: SUMO's
+    emergency deceleration). The default covers the hardest braking of highD's and NGSIM's drivers (about -6)."""
+    acceleration_max_mps2: float = bounded(0, 5, "m/s^2", default=3.0, low_open=True)
+    """The highest acceleration of the acceleration interface [m/s^2], above 0 and at most 5 m/s^2. The default
+    covers highD's and NGSIM's drivers (about +3 m/s^2)."""
+    acceleration_bin_mps2: float = bounded(0.05, 0.25, "m/s^2", default=0.25)
+    """The width of the acceleration interface's bins [m/s^2], between 0.05 and 0.25 m/s^2; it divides the range from
+    acceleration_min_mps2 to acceleration_max_mps2 into whole bins (37 at the defaults)."""
+
+    def validate(self) -> None:
+        if self.interface not in INTERFACES:
+            raise ConfigError(f"unknown actions.interface {self.interface!r}; known: {', '.join(INTERFACES)}")
+        bins = (self.acceleration_max_mps2 - self.acceleration_min_mps2) / self.acceleration_bin_mps2
+        if abs(bins - round(bins)) > 1e-6:
+            raise ConfigError(f"actions.acceleration_bin_mps2 ({self.acceleration_bin_mps2:g} m/s^2) must divide the "
+                              f"range from {self.acceleration_min_mps2:g} to {self.acceleration_max_mps2:g} m/s^2 "
+                              f"into whole bins")
+
+    @property
+    def acceleration_bins(self) -> int:
+        """The number of acceleration values of the acceleration interface (the range's ends included)."""
+        return round((self.acceleration_max_mps2 - self.acceleration_min_mps2) / self.acceleration_bin_mps2) + 1
+
+    def acceleration_mps2(self, index: int) -> float:
+        """The acceleration [m/s^2] of bin `index` (0 the lowest)."""
+        return self.acceleration_min_mps2 + index * self.acceleration_bin_mps2
+
+    def nearest_bin(self, acceleration_mps2: float) -> int:
+        """The bin whose acceleration is nearest `acceleration_mps2` [m/s^2], clipped to the range."""
+        index = round((acceleration_mps2 - self.acceleration_min_mps2) / self.acceleration_bin_mps2)
+        return min(max(index, 0), self.acceleration_bins - 1)

@@ -1,0 +1,48 @@
+"""The acceleration interface in a recorded seat: the ego keeps the seated vehicle's size and follows its commands."""
+
+from __future__ import annotations
+
+import pytest
+
+from sumo_rail.config import Config
+from sumo_rail.recordings.seat import SceneEnv
+from sumo_rail.sim.actions import Lateral, acceleration_action
+from sumo_rail.sim.simulation import EGO_ID
+
+CONFIG = Config.from_dict({"observation": {"lane_block": 1}, "env": {"max_episode_s": 10.0},
+                           "actions": {"interface": "acceleration"}})
+
+
+def longest_track(tracks, vehicle_class):
+    """The longest-lasting track of `vehicle_class` and the instant 1 s into it."""
+    spans = tracks[tracks["vehicle_class"] == vehicle_class].groupby("vehicle_id")["time_s"].agg(["min", "max"])
+    vehicle = (spans["max"] - spans["min"]).idxmax()
+    return str(vehicle), float(spans.at[vehicle, "min"] + 1.0)
+
+
+@pytest.fixture(scope="module")
+def replay(drivers_scene):
+    env = SceneEnv(CONFIG, drivers_scene, reactive=False)
+    yield env
+    env.close()
+
+
+def test_a_seated_truck_keeps_its_size_under_the_acceleration_interface(replay):
+    tracks = replay.scene.tracks
+    vehicle, start_s = longest_track(tracks, "truck")
+    replay.reset(seed=0, options={"vehicle": vehicle, "start_s": start_s})
+    recorded = tracks[tracks["vehicle_id"] == vehicle].iloc[0]
+    sumo = replay.simulation._api.vehicle  # what SUMO itself drives (the env's view caches sizes)
+    assert sumo.getLength(EGO_ID) == pytest.approx(recorded["length_m"])
+    assert sumo.getWidth(EGO_ID) == pytest.approx(recorded["width_m"])
+    assert replay.traffic.ego.length_m == pytest.approx(recorded["length_m"])
+    assert recorded["length_m"] > 6.0  # a truck's, not the acceleration type's 4.5 m
+
+
+def test_the_seat_follows_a_commanded_braking(replay):
+    vehicle, start_s = longest_track(replay.scene.tracks, "passenger")
+    _, info = replay.reset(seed=0, options={"vehicle": vehicle, "start_s": start_s})
+    actions = replay.unwrapped.config.actions
+    speed = info["speed_mps"]
+    _, _, _, _, info = replay.step(acceleration_action(actions.nearest_bin(-2.0), Lateral.KEEP, actions))
+    assert info["speed_mps"] == pytest.approx(speed - 1.0, abs=1e-6)
