@@ -5,11 +5,13 @@ from __future__ import annotations
 
 import json
 import shutil
+import signal
 
 import numpy as np
 import pandas as pd
 import pytest
 from click.testing import CliRunner
+from reliability import stopped_after
 from sumo_rail_cli.main import cli
 
 from sumo_rail.config import Config
@@ -223,3 +225,19 @@ def test_running_into_a_vehicle_that_cut_in_is_the_egos_fault(drivers_scene, tmp
     row = metrics.iloc[0]
     assert row["termination"] == "collision" and row["at_fault_collisions"] == 1
     assert row["driving_score"] == 0.0 and row["no_collision"] == 0.0
+
+
+@pytest.mark.parametrize(("after", "when"), [("sumo_rail.evaluation.scene_evaluation:write_scene_evaluation", ""),
+                                             ("sumo_rail.evaluation.scene_summary:track_table",
+                                              " after the work was done")])
+def test_a_sigterm_after_both_outputs_were_written_names_them(drivers_scene, tmp_path, after, when):
+    """SIGTERM once both tables are written, in the work or after it (as the summary is printed): the sentence names
+    them, not "nothing was written"."""
+    out = tmp_path / "scene_eval.parquet"
+    result = stopped_after(after, signal.SIGTERM, ["evaluate-scene", str(drivers_scene), "--set", "scenario.lanes=3",
+                                                   "--set", "observation.lane_block=1", "--policy", "keep", "--seats",
+                                                   "1", "--horizon-s", "10", "--lead-s", "2", "--mode", "reactive",
+                                                   "--out", str(out)], tmp_path)
+    assert result.returncode == 1 and "Traceback" not in result.stderr, result.stderr
+    assert result.stderr.splitlines()[-1] == f"Error: interrupted{when}; {out} and {tracks_path(out)} were written"
+    assert len(pd.read_parquet(out)) == 1 and len(pd.read_parquet(tracks_path(out))) > 0
