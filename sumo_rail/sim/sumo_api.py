@@ -14,6 +14,9 @@ LANE_CHANGE_MODE_TRACI_ONLY_SAFE = 0b1100000000
 """No autonomous lane changes; TraCI requests respect other drivers' gaps, without speed adaptation."""
 LANE_CHANGE_MODE_ZIP_MERGE = 0b0100000000
 """No autonomous lane changes; TraCI requests only avoid immediate collisions (others brake for the ego)."""
+INVALID_VALUE = -1073741824.0
+"""What SUMO answers for a value it does not have (libsumo.INVALID_DOUBLE_VALUE): the acceleration of a vehicle still
+waiting to be inserted, for one."""
 TRANSPORTS = ("auto", "libsumo", "traci")
 """How SUMO is driven: libsumo (SUMO linked into this process), traci (a SUMO process, over a socket; the same
 episodes, slower), or auto: libsumo unless another simulation of this process holds it, then traci."""
