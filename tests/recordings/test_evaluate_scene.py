@@ -101,6 +101,31 @@ def test_a_difference_row_is_paired_seat_by_seat_and_starred_when_detectable():
     assert "+3.00 [+3.00, +3.00] *" in row  # the seat-to-seat spread cancels out of the paired difference
 
 
+def test_a_share_pooled_over_training_runs_has_no_interval_below_0():
+    """Three training runs in 100 seats, one of them at fault in 3: the "at fault" and "collisions" cells (shares)
+    keep their intervals within [0, 1] where Student's t about 0.01 would reach below 0 (issue 51)."""
+    seats = pd.DataFrame({"mode": "reactive", "scene": "s", "vehicle": [f"v{k}" for k in range(100)],
+                          "start_s": 1.0, "stopped": False, "progress_ratio": 1.0, "lane_changes": 0,
+                          "distance_m": 400.0, "hard_braking": 0, "ttc_below_1_5s_share": 0.0, "steps": 30,
+                          "driving_score": 1.0, "position_error_1s_m": 1.0, "position_error_5s_m": 5.0,
+                          "position_error_10s_m": 10.0})
+    runs = [seats.assign(policy=f"bc_s{seed}", collisions=hits, at_fault_collisions=hits)
+            for seed, hits in enumerate(([1] * 3 + [0] * 97, 0, 0))]
+    table = track_table(pd.concat(runs), {"BC": [f"bc_s{seed}" for seed in range(3)]})
+    header, _, row = table.splitlines()
+    cells = dict(zip(header.strip("|").split(" | "), row.strip("|").split(" | "), strict=True))
+    for measure in ("collisions", "at fault"):
+        estimate, low, high = _numbers(cells[measure])
+        assert estimate == pytest.approx(0.01) and low == 0.0 < high <= 1.0, cells[measure]
+
+
+def _numbers(cell: str) -> tuple[float, float, float]:
+    """(estimate, low, high) of a cell "0.01 [0.00, 0.03]"."""
+    estimate, bounds = cell.strip().split(" [")
+    low, high = bounds.rstrip("]").split(", ")
+    return float(estimate), float(low), float(high)
+
+
 def test_the_same_seed_gives_the_same_episodes_whatever_the_workers(drivers_scene):
     scene = read_scene(drivers_scene)
     seats = choose_seats(scene, "test", 10.0, 2.0, 3, 0)
