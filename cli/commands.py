@@ -32,6 +32,7 @@ from sumo_rail_cli.running import (
     failures_summary,
     interruptible_run,
     kept_until_resume,
+    note_output,
     tensorboard_logger,
     validation_summary,
 )
@@ -67,7 +68,7 @@ def record_expert(config: Config, episodes: int, seed: int, workers: int, backen
 
     backend = build_backend(backend_name, workers, address)
     bar = progress(episodes, "recording")
-    with interruptible_run(bar, f"interrupted; nothing was written to {out}", backend):
+    with interruptible_run(bar, backend=backend):
         metrics = record_demonstrations(config, driver, expert, seed, episodes, backend, out,
                                         on_episode=lambda index, result: bar.update(
                                             len(result) if isinstance(result, list) else 1), egos=egos,
@@ -165,6 +166,8 @@ def evaluate_command(config: Config, policies: tuple[str, ...],
         drivers, references, episodes = drivers[:1], references[:1], 1
     names = unique_names(drivers)
     _check_video_dir(video_dir, names, overwrite)
+    if video_dir is not None:
+        note_output(video_dir)  # a stop names it: written or not
     if reference is not None and reference not in names:
         raise click.BadParameter(f"{reference!r} is not one of the drivers ({', '.join(names)})",
                                  param_hint="'--reference'")
@@ -174,7 +177,7 @@ def evaluate_command(config: Config, policies: tuple[str, ...],
                              gui_delay_ms=100.0 if gui_delay_ms is None else gui_delay_ms)
                if in_process else build_backend(backend_name, workers, address))
     bar = progress(len(drivers) * episodes, "evaluating")
-    with interruptible_run(bar, "interrupted; nothing was written" if out is not None else "interrupted", backend):
+    with interruptible_run(bar, backend=backend):
         evaluation = evaluate(drivers, config, seeds, backend, references, pool,
                               on_episode=lambda index, result: bar.update(),
                               video_episodes=(video_episodes or 1) if video_dir is not None else 0)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import logging
 
 import click
-from sumo_rail_cli.running import STARTING_INTERRUPTED, end_quietly_while_starting, make_interruptible
+from sumo_rail_cli.running import begin_command, end_quietly_while_starting, make_interruptible, stopped
 
 end_quietly_while_starting()  # first: Ctrl-C and SIGTERM in the slow imports below (libsumo, scipy) and click's parsing
 from sumo_rail_cli.commands import evaluate_command, record_expert, train_command
@@ -21,15 +21,16 @@ from sumo_rail_cli.signal_command import step_signal_command
 
 
 class _Commands(click.Group):
-    """The command group: a Ctrl-C or SIGTERM before a command's work began (its imports, its checks) is one
-    sentence, exit 1, as one during the work is."""
+    """The command group: a Ctrl-C or SIGTERM outside a command's work (in its checks, after the work) is one
+    sentence saying which of its outputs were written (`stopped`), exit 1, as one during the work is."""
 
     def invoke(self, ctx: click.Context) -> object:
         try:
+            begin_command()
             make_interruptible()  # the command's own: its work turns a stop into its own sentence
             return super().invoke(ctx)
         except KeyboardInterrupt:
-            raise click.ClickException(STARTING_INTERRUPTED) from None
+            raise click.ClickException(stopped()) from None
 
 
 @click.group(cls=_Commands, context_settings={"help_option_names": ["-h", "--help"]})

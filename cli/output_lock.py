@@ -7,6 +7,7 @@ import os
 from pathlib import Path
 
 import click
+from sumo_rail_cli.running import note_output
 
 
 def lock_path(out: Path) -> Path:
@@ -38,6 +39,7 @@ def lock_output(out: Path) -> None:
         context = click.get_current_context(silent=True)
         if context is not None:
             context.call_on_close(lambda: _release(lock))
+        note_output(out)  # a stop names it: written or not
         return
     raise click.ClickException(f"{out} is being written by another sumo-rail command; choose another --out")
 

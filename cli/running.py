@@ -4,6 +4,7 @@ progress bar, the backend and TensorBoard closed on the way out, and the lines t
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import math
 import signal
 from collections.abc import Callable, Iterator
@@ -40,12 +41,12 @@ def library_errors() -> Iterator[None]:
 
 
 @contextlib.contextmanager
-def interruptible_run(bar: AbstractContextManager[Any], interrupted: str | Callable[[], str],
+def interruptible_run(bar: AbstractContextManager[Any], interrupted: str | Callable[[], str] | None = None,
                       backend: AbstractContextManager[Any] | None = None,
                       board: AbstractContextManager[Any] | None = None,
                       errors: tuple[type[Exception], ...] = ()) -> Iterator[Any]:
     """A long command's work: Ctrl-C or SIGTERM end it with the one sentence `interrupted` (or what it returns when it
-    is called then) (exit 1), even when it was
+    is called then; without it, `stopped`: which of the command's outputs were written) (exit 1), even when it was
     started with SIGINT ignored; errors a user can cause (`library_errors`, and `errors`) are one sentence too. The
     TensorBoard logger `board` (`tensorboard_logger`), the `backend` and the progress `bar` are entered in that
     order and closed on the way out; yields what `board` yields (None without it)."""
@@ -57,7 +58,10 @@ def interruptible_run(bar: AbstractContextManager[Any], interrupted: str | Calla
             raise click.ClickException(str(error)) from error
         except KeyboardInterrupt:
             ignore_stop_signals()  # more Ctrl-Cs must not break the closing of the backend and the bar
-            raise click.ClickException(interrupted if isinstance(interrupted, str) else interrupted()) from None
+            sentence = stopped() if interrupted is None else interrupted if isinstance(interrupted, str) else \
+                interrupted()
+            raise click.ClickException(sentence) from None
+        _OUTPUTS.done = True  # a stop from here on (closing, the summary) comes after the work
 
 
 def kept_until_resume(out: Path, step: str, checkpoint: str = "checkpoint.pt") -> str:
@@ -140,7 +144,64 @@ def make_interruptible() -> None:
 
 
 STARTING_INTERRUPTED = "interrupted before any work began; nothing was written"
-"""What a command stopped while it starts (its imports, click's parsing, its checks) says."""
+"""What `sumo-rail` stopped while it starts (its imports, click's parsing), before a command began, says."""
+
+
+@dataclasses.dataclass
+class _Outputs:
+    """The outputs of the command running in this process, each as it was before the command wrote it, and whether
+    the command's work (`interruptible_run`) ended: what a stop says was written."""
+
+    before: dict[Path, object] = dataclasses.field(default_factory=dict)
+    done: bool = False
+
+
+_OUTPUTS = _Outputs()
+
+
+def begin_command() -> None:
+    """A command begins: no output of it is known yet (a process may run several, as tests do)."""
+    _OUTPUTS.before.clear()
+    _OUTPUTS.done = False
+
+
+def note_output(out: Path) -> None:
+    """Count `out` (a file or a folder) among the command's outputs, as it is now, before the command writes it."""
+    _OUTPUTS.before.setdefault(out, _version(out))
+
+
+def _version(path: Path) -> object:
+    """What tells one version of `path` from another: inode, modification time [ns] and size of the file, or of each
+    file in the folder (None when it does not exist). A file replaced atomically has a new inode."""
+    if path.is_dir():
+        return frozenset((str(file), _version(file)) for file in path.rglob("*") if file.is_file())
+    try:
+        status = path.stat()
+    except OSError:
+        return None
+    return status.st_ino, status.st_mtime_ns, status.st_size
+
+
+def stopped() -> str:
+    """The sentence of a command stopped by Ctrl-C or SIGTERM once it began: whether its work was done, which of its
+    outputs were written (a file is written whole or not at all; a folder written in part may be incomplete before
+    the work is done) and which were not."""
+    written = [out for out, before in _OUTPUTS.before.items() if _version(out) != before]
+    files = [out for out in written if _OUTPUTS.done or not out.is_dir()]
+    begun = [out for out in written if out not in files]
+    untouched = [out for out in _OUTPUTS.before if out not in written]
+    parts = [f"{_listed(files)} {'was' if len(files) == 1 else 'were'} written"] if files else []
+    if begun:
+        parts.append(f"{_listed(begun)} {'was' if len(begun) == 1 else 'were'} begun and may be incomplete")
+    if untouched or not written:
+        parts.append("nothing was written" + (f" to {_listed(untouched, 'or')}" if untouched else ""))
+    return f"interrupted{' after the work was done' * _OUTPUTS.done}; {'; '.join(parts)}"
+
+
+def _listed(paths: list[Path], conjunction: str = "and") -> str:
+    """`paths` as words: "a", "a and b", "a, b and c"."""
+    names = [str(path) for path in paths]
+    return names[0] if len(names) == 1 else f"{', '.join(names[:-1])} {conjunction} {names[-1]}"
 
 
 def end_quietly_while_starting() -> None:

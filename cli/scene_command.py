@@ -89,7 +89,7 @@ def evaluate_scene_command(config: Config, scenes: tuple[Path, ...], policies: t
     in_process = workers == 1 and backend_name == "process" and address is None  # no worker for one
     backend = SerialBackend() if in_process else build_backend(backend_name, workers, address)
     bar = progress(len(drivers) * len(seats) * len(modes), "driving in recorded seats")
-    with interruptible_run(bar, "interrupted; nothing was written" if out is not None else "interrupted", backend):
+    with interruptible_run(bar, backend=backend):
         metrics, tracks = evaluate_seats(drivers, names, config, seats, modes, backend, seed,
                                          on_episode=lambda index, result: bar.update())
         if out is not None:

@@ -94,7 +94,7 @@ def step_signal_command(config: Config, settings: LearnerSettings, demos: Path, 
     discriminators = variants(discriminator_settings, rewards, demonstrations.observations)
     backend = build_backend(backend_name, workers, address)
     bar = progress(meter.rollouts(rail), "step signal", unit="rollout")
-    with interruptible_run(bar, "interrupted; nothing was written", backend):
+    with interruptible_run(bar, backend=backend):
         report = measure(policy, config, rail, nu, asked, discriminators,
                          (demonstrations.observations, demonstrations.actions), calibration, backend, meter,
                          on_rollout=lambda index, result: bar.update(_rollouts_in(result)))

@@ -15,7 +15,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from sumo_rail.evaluation.statistics import ratio, seeded_interval
-from sumo_rail.evaluation.summary import measure_samples
+from sumo_rail.evaluation.summary import SHARES, measure_samples
 
 PANELS = {"agreement": "on-policy agreement with the expert", "lane_change_recall": "lane-change recall",
           "lane_changes": "lane changes per episode", "overtakes": "overtakes per episode"}
@@ -31,7 +31,7 @@ def main(out: Path, figure_path: Path) -> None:
     for index, (axes, (measure, title)) in enumerate(zip(figure.subplots(1, len(PANELS), sharey=True),
                                                          PANELS.items(), strict=True)):
         for row, (_, (_, samples)) in enumerate(found.items()):
-            pooled = seeded_interval([run[measure] for run in samples])
+            pooled = seeded_interval([run[measure] for run in samples], share=measure in SHARES)
             axes.errorbar(pooled.estimate, row, xerr=[[pooled.estimate - pooled.low], [pooled.high - pooled.estimate]],
                           fmt="s", color="tab:blue", capsize=3)
             axes.plot([ratio(run[measure]) for run in samples], [row] * len(samples), "o", color="tab:orange",

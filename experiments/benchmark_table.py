@@ -13,12 +13,12 @@ import sys
 from pathlib import Path
 
 import pandas as pd
-from seeded import difference_cell, digits_of, seed_samples, training_seeds, value_cell
+from seeded import difference_cell, digits_of, pooled, seed_samples, training_seeds, value_cell
 
 from sumo_rail.datasets import read_metadata
 from sumo_rail.evaluation.distributions import decision_summary, summary_distances
 from sumo_rail.evaluation.evaluate import decisions_path
-from sumo_rail.evaluation.statistics import Sample, interval, seeded_interval
+from sumo_rail.evaluation.statistics import Sample, interval
 from sumo_rail.evaluation.summary import distance_text, measure_samples
 from sumo_rail.runners.experts import SAMPLED_SUFFIX
 
@@ -125,7 +125,7 @@ def print_headline(expert: dict[str, Sample], found: Found, headline: tuple[str,
     print("| expert | - | " + " | ".join(interval(expert[measure]).format(digits_of(measure))
                                         for measure in headline) + " |")
     for key, (seeds, samples) in found.items():
-        cells = [seeded_interval([run[measure] for run in samples]).format(digits_of(measure)) for measure in headline]
+        cells = [pooled(samples, measure).format(digits_of(measure)) for measure in headline]
         print(f"| {methods[key][0]} | {len(seeds)} | " + " | ".join(cells) + " |")
 
 

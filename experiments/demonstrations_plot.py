@@ -17,9 +17,9 @@ import pandas as pd
 from benchmark_table import expert_driver
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
-from seeded import difference_cell, digits_of, seed_samples, training_seeds
+from seeded import difference_cell, digits_of, pooled, seed_samples, training_seeds
 
-from sumo_rail.evaluation.statistics import Sample, ratio, seeded_interval
+from sumo_rail.evaluation.statistics import Sample, ratio
 from sumo_rail.evaluation.summary import measure_samples
 
 METHODS = {"bc": "BC", "rail": "RAIL", "dagger": "DAgger"}
@@ -51,7 +51,7 @@ def plot(found: dict[int, dict[str, PerSeed]], expert_lane_changes: float) -> Fi
     for axes, (measure, label) in zip(figure.subplots(1, len(MEASURES)), MEASURES.items(), strict=True):
         for offset, (method, name) in enumerate(METHODS.items()):
             shifted = [count * DODGE ** (offset - 1) for count in counts]  # side by side, not on top of each other
-            intervals = [seeded_interval([samples[measure] for samples in found[count][method]]) for count in counts]
+            intervals = [pooled(found[count][method], measure) for count in counts]
             errors = [[interval.estimate - interval.low for interval in intervals],
                       [interval.high - interval.estimate for interval in intervals]]
             bars = axes.errorbar(shifted, [interval.estimate for interval in intervals], yerr=errors, marker="o",
@@ -80,7 +80,7 @@ def main(out: Path, counts: list[int]) -> None:
                                                       for label in MEASURES.values()) + " |")
     print("|---:|---:|" + "---|" * len(METHODS) * len(MEASURES))
     for count in counts:
-        cells = [seeded_interval([samples[measure] for samples in found[count][method]]).format(digits_of(measure))
+        cells = [pooled(found[count][method], measure).format(digits_of(measure))
                  if count in found else "-" for method in METHODS for measure in MEASURES]
         seeds = len(found[count]["bc"]) if count in found else 0
         print(f"| {count} | {seeds} | " + " | ".join(cells) + " |")

@@ -21,9 +21,9 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
-from seeded import difference_cell, training_seeds, value_cell
+from seeded import difference_cell, pooled, training_seeds, value_cell
 
-from sumo_rail.evaluation.statistics import Sample, interval, mean_sample, seeded_interval
+from sumo_rail.evaluation.statistics import Sample, interval, mean_sample
 from sumo_rail.evaluation.summary import measure_samples
 
 KINDS = ("straight", "merge", "merge_from_ramp", "lane_drop", "exit")
@@ -152,7 +152,7 @@ def method_rows(metrics: pd.DataFrame, reference: pd.DataFrame | None, road: str
                 difference = " / ".join(difference_cell(mine, theirs, name, 3 if name == "agreement" else 2)
                                         for name in ("agreement", "failures"))
         for measure in PLOTTED:
-            found = seeded_interval([seed[measure] for seed in mine])
+            found = pooled(mine, measure)
             figure[(road, f"{label}, {trained_on.split(' ', 1)[0]}", measure)] = (found.estimate, found.low, found.high)
         rows.append(f"| {road} | {label} | {trained_on} | " + " | ".join(cells) + f" | {difference or '-'} |")
     return rows

@@ -75,11 +75,11 @@ def table(path: Path) -> None:
     print("| driver | agreement with the held-out drivers' read actions | lane-change recall |")
     print("|---|---|---|")
     for label, runs in (("always keep", [keep] * len(SEEDS)), ("BC", bc)):
-        cells = [seeded_interval([sample(run, num, den) for run in runs]).format(3)
+        cells = [seeded_interval([sample(run, num, den) for run in runs], share=True).format(3)
                  for num, den in (("agreed", "decisions"), ("lane_changes_agreed", "lane_changes"))]
         print(f"| {label} | {cells[0]} | {cells[1]} |")
     cells = [seeded_interval([sample(run, num, den) for run in bc],
-                             [sample(keep, num, den)] * len(SEEDS)).format(3, signed=True)
+                             [sample(keep, num, den)] * len(SEEDS), share=True).format(3, signed=True)
              for num, den in (("agreed", "decisions"), ("lane_changes_agreed", "lane_changes"))]
     print(f"| BC minus always keep (paired by vehicle) | {cells[0]} | {cells[1]} |")
 

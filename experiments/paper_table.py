@@ -13,9 +13,9 @@ from pathlib import Path
 
 import pandas as pd
 from benchmark_table import expert_driver, read_evaluations
-from seeded import difference_cell, digits_of, seed_samples, training_seeds
+from seeded import difference_cell, digits_of, pooled, seed_samples, training_seeds
 
-from sumo_rail.evaluation.statistics import interval, seeded_interval
+from sumo_rail.evaluation.statistics import interval
 from sumo_rail.evaluation.summary import measure_samples
 
 ROWS = ("average_speed_kmh", "overtakes", "lane_changes", "longitudinal_reward", "lateral_reward", "agreement")
@@ -55,7 +55,7 @@ def main(bench: Path, paper_scale: Path | None) -> None:
     for row, measure in enumerate(ROWS):
         paper = [f"{values[row]:g}" if row < len(values) else "-" for values in PAPER.values()]
         ours = [interval(samples[0][measure]).format(digits_of(measure)) if len(samples) == 1
-                else seeded_interval([seed[measure] for seed in samples]).format(digits_of(measure))
+                else pooled(samples, measure).format(digits_of(measure))
                 for samples in columns.values()]
         print(f"| {measure} | " + " | ".join(paper + ours) + " |")
     for label, mine, start in pairs:

@@ -1,7 +1,7 @@
 """The recovery test's table and figure (experiments/recovery.py): per start condition and method, the share of
 episodes in which the driver returned to the expert's behaviour within the horizon and the decisions it took
-(censored at the horizon), pooled over training seeds with 95% intervals (`statistics.seeded_interval`), and each
-method's paired difference to the expert and DART's to BC, on the same episodes.
+(censored at the horizon), pooled over training seeds with 95% intervals (`statistics.seeded_interval`; a share's
+within [0, 1]), and each method's paired difference to the expert and DART's to BC, on the same episodes.
 
 Usage: python experiments/recovery_table.py RECOVERY_DIR FIGURE.png   (prints Markdown)
 """
@@ -26,6 +26,8 @@ from sumo_rail.evaluation.statistics import Sample, mean_sample, seeded_interval
 LABELS = {"expert": "expert", "bc_mlp": "BC", "rail_mlp": "RAIL", "dagger": "DAgger", "dart": "DART"}
 MEASURES = {"recovered": ("recovered within the horizon", 3), "decisions_to_recover": ("decisions to recover", 1),
             "agreement": ("agreement while driving", 3)}
+SHARES = {"recovered", "agreement"}
+"""The measures that are shares, whose intervals stay within [0, 1] (`statistics.seeded_interval`'s `share`)."""
 CONDITION_NAMES = {"low": "set-point too low", "high": "set-point too high", "left": "in a lane the expert would leave"}
 
 
@@ -56,7 +58,8 @@ def main(folder: Path, figure: Path) -> None:
                                             for m in methods) + " |")
         print("|---|" + "---|" * len(methods))
         for condition in CONDITIONS:
-            cells = [seeded_interval(samples(frame, method, condition, measure)).format(digits) for method in methods]
+            cells = [seeded_interval(samples(frame, method, condition, measure), share=measure in SHARES).format(digits)
+                     for method in methods]
             print(f"| {CONDITION_NAMES[condition]} | " + " | ".join(cells) + " |")
         print()
     print("| condition | comparison | recovered within the horizon | decisions to recover |")
@@ -72,14 +75,15 @@ def main(folder: Path, figure: Path) -> None:
                 mine = samples(frame, method, condition, measure)
                 theirs = (samples(frame, reference, condition, measure) if reference != "expert"
                           else [expert[measure]] * len(mine))
-                found = seeded_interval(mine[:len(theirs)], theirs[:len(mine)])
+                found = seeded_interval(mine[:len(theirs)], theirs[:len(mine)], share=measure in SHARES)
                 cells.append(f"{found.format(MEASURES[measure][1], signed=True)} {verdict(found)}")
             print(f"| {CONDITION_NAMES[condition]} | {LABELS[method]} - {LABELS[reference]} | " + " | ".join(cells)
                   + " |")
     width = 0.8 / len(methods)
     for axis, measure in zip(axes, ("recovered", "decisions_to_recover"), strict=True):
         for index, method in enumerate(methods):
-            found = [seeded_interval(samples(frame, method, condition, measure)) for condition in CONDITIONS]
+            found = [seeded_interval(samples(frame, method, condition, measure), share=measure in SHARES)
+                     for condition in CONDITIONS]
             x = np.arange(len(CONDITIONS)) + (index - (len(methods) - 1) / 2) * width
             axis.bar(x, [f.estimate for f in found], width, label=LABELS[method],
                      yerr=np.array([[f.estimate - f.low for f in found], [f.high - f.estimate for f in found]]),

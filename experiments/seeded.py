@@ -1,7 +1,8 @@
 """Methods trained with several seeds, for the experiment tables: drivers are named METHOD_sSEED/POLICY.
 
 A method's estimate pools its training runs' episodes; its interval (`statistics.seeded_interval`) adds the
-spread between training runs to the episodes' noise, with Student's t over the runs. A difference pairs runs seed
+spread between training runs to the episodes' noise, with Student's t over the runs (a share's kept within [0, 1],
+`summary.SHARES`). A difference pairs runs seed
 by seed (RAIL seed s started from BC seed s; between independently trained methods the seed label is an arbitrary
 pairing) and episodes by their seed and warm state, which every driver shares. Each run's own estimate is shown
 next to it.
@@ -14,7 +15,7 @@ import re
 import pandas as pd
 
 from sumo_rail.evaluation.statistics import Interval, Sample, ratio, seeded_interval
-from sumo_rail.evaluation.summary import measure_samples
+from sumo_rail.evaluation.summary import SHARES, measure_samples
 
 
 def training_seeds(metrics: pd.DataFrame, method: str) -> list[int]:
@@ -38,10 +39,19 @@ def seed_samples(metrics: pd.DataFrame, method: str, seeds: list[int], policy: s
     return found
 
 
+def pooled(per_seed: list[dict[str, Sample]], measure: str,
+           references: list[dict[str, Sample]] | None = None) -> Interval:
+    """`measure` over the training runs `per_seed` (minus `references`, paired seed by seed) with its interval
+    (`statistics.seeded_interval`; a share's within its range)."""
+    return seeded_interval([samples[measure] for samples in per_seed],
+                           None if references is None else [samples[measure] for samples in references],
+                           share=measure in SHARES)
+
+
 def value_cell(per_seed: list[dict[str, Sample]], measure: str, digits: int) -> str:
     """'0.52 [0.40, 0.61] (per seed 0.50, 0.55, 0.51)'."""
     seeds = ", ".join(f"{ratio(samples[measure]):.{digits}f}" for samples in per_seed)
-    found = seeded_interval([samples[measure] for samples in per_seed])
+    found = pooled(per_seed, measure)
     return f"{found.format(digits)} (per seed {seeds})"
 
 
@@ -55,7 +65,7 @@ def per_seed_differences(per_seed: list[dict[str, Sample]], references: list[dic
 def difference_cell(per_seed: list[dict[str, Sample]], references: list[dict[str, Sample]], measure: str,
                     digits: int) -> str:
     """'+0.12 [+0.05, +0.20] higher (per seed +0.10, +0.15, +0.11)'."""
-    found = seeded_interval([samples[measure] for samples in per_seed], [samples[measure] for samples in references])
+    found = pooled(per_seed, measure, references)
     seeds = ", ".join(f"{value:+.{digits}f}" for value in per_seed_differences(per_seed, references, measure))
     return f"{found.format(digits, signed=True)} {verdict(found)} (per seed {seeds})"
 

@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import hashlib
 import os
+import subprocess
+import sys
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -100,3 +102,19 @@ def assert_one_sentence(result: Result, name: str) -> str:
     assert " ()" not in message and len(message.replace(name, "").split()) >= 3, message  # says what is wrong
     return message
 
+
+
+def stopped_after(target: str, number: int, args: list[str], cwd: Path) -> subprocess.CompletedProcess[str]:
+    """Run `sumo-rail ARGS` in its own process (in `cwd`), which sends itself signal `number` as soon as `target`
+    ("module:attribute", the attribute perhaps dotted: a class's method) returns, as a Ctrl-C or SIGTERM arriving at
+    that moment of the command would; its exit code and output."""
+    module, attribute = target.split(":")
+    owner, _, name = attribute.rpartition(".")
+    script = (f"import functools, importlib, os\nfrom sumo_rail_cli.main import cli\n"
+              f"owner = importlib.import_module({module!r})\n"
+              f"for part in {owner!r}.split('.') if {owner!r} else []:\n    owner = getattr(owner, part)\n"
+              f"original = getattr(owner, {name!r})\n\n"
+              f"@functools.wraps(original)\ndef stopping(*args, **kwargs):\n"
+              f"    result = original(*args, **kwargs)\n    os.kill(os.getpid(), {int(number)})\n    return result\n\n"
+              f"setattr(owner, {name!r}, stopping)\ncli({args!r}, prog_name='sumo-rail')\n")
+    return subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=600, cwd=cwd)

@@ -9,6 +9,7 @@ import time
 from pathlib import Path
 
 from click.testing import CliRunner
+from reliability import stopped_after
 from sumo_rail_cli.main import cli
 from sumo_rail_cli.output_lock import lock_path
 
@@ -151,6 +152,20 @@ def test_a_stop_in_a_commands_checks_is_one_sentence(tmp_path, monkeypatch):
         raise KeyboardInterrupt  # what the handlers raise on Ctrl-C or SIGTERM
 
     monkeypatch.setattr(commands, "check_egos", stopped)
-    result = CliRunner().invoke(cli, ["record-expert", *SMALL, "--out", str(tmp_path / "d.parquet")])
-    assert result.exit_code == 1 and "interrupted before any work began" in result.output, result.output
+    out = tmp_path / "d.parquet"
+    result = CliRunner().invoke(cli, ["record-expert", *SMALL, "--out", str(out)])
+    assert result.exit_code == 1, result.output
+    assert result.output == f"Error: interrupted; nothing was written to {out}\n", result.output
     assert list(tmp_path.iterdir()) == []  # the output's lock released too
+
+
+def test_a_stop_after_daggers_last_round_says_its_run_folder_was_written_not_that_no_work_began(tmp_path, demos_path):
+    """A Ctrl-C as the backend closes after the last round: the run folder is complete, and the sentence says so."""
+    run = tmp_path / "run"
+    result = stopped_after("sumo_rail.runners.backends:ProcessPoolBackend.close", signal.SIGINT,
+                           ["dagger", *SMALL, "--demos", str(demos_path), "--rounds", "1", "--set",
+                            "dagger.episodes_per_round=1", "--set", "bc.epochs=1", "--eval-every", "0", "--out",
+                            str(run)], tmp_path)
+    assert result.returncode == 1 and "Traceback" not in result.stderr, result.stderr
+    assert result.stderr.splitlines()[-1] == f"Error: interrupted after the work was done; {run} was written"
+    assert (run / "policy_latest.npz").is_file() and (run / "checkpoint.json").is_file()

@@ -1,11 +1,11 @@
 """The closed-loop human-likeness tables of drivers in recorded drivers' seats (`scene_evaluation`'s outputs).
 
 A method is one driver or several training runs of one (one policy per training seed, every run in the same seats);
-each cell is the method's estimate with its 95% interval (`statistics.seeded_interval`: over training runs and seats),
-each difference row the paired difference of two methods, seat by seat and training seed by training seed. The
-distributions table gives the Wasserstein-1 distance between a method's and the humans' samples of speed,
-acceleration, gap to the leader and the gap to the new leader taken at lane changes, with an interval from resampling
-whole episodes (`human_likeness.wasserstein_interval`; a method's training runs' episodes pooled).
+each cell is the method's estimate with its 95% interval (`statistics.seeded_interval`: over training runs and seats;
+a share's within [0, 1]), each difference row the paired difference of two methods, seat by seat and training seed by
+training seed. The distributions table gives the Wasserstein-1 distance between a method's and the humans' samples of
+speed, acceleration, gap to the leader and the gap to the new leader taken at lane changes, with an interval from
+resampling whole episodes (`human_likeness.wasserstein_interval`; a method's training runs' episodes pooled).
 """
 
 from __future__ import annotations
@@ -27,6 +27,8 @@ MEASURES: dict[str, str] = {
     "TTC < 1.5 s share": "ttc_below_1_5s_share", "driving score": "driving_score",
 }
 """Table heading -> the measure (`samples`)."""
+SHARES = frozenset({"collided", "at_fault", "stopped", "ttc_below_1_5s_share", "driving_score"})
+"""The measures that are shares, in [0, 1], whose intervals stay there (`statistics.seeded_interval`'s `share`)."""
 DISTRIBUTIONS = {"speed [m/s]": "speed", "acceleration [m/s^2]": "acceleration", "gap to leader [m]": "gap",
                  "lane-change gap [m]": "lane_change_gap"}
 
@@ -62,13 +64,13 @@ def track_table(metrics: pd.DataFrame, methods: Mapping[str, Sequence[str]],
     for mode in modes:
         for method, names in methods.items():
             runs = _runs(metrics, names, mode)
-            cells = [seeded_interval([samples(run, measure) for run in runs]).format(2)
+            cells = [seeded_interval([samples(run, measure) for run in runs], share=measure in SHARES).format(2)
                      for measure in MEASURES.values()]
             lines.append(f"| {method} | {mode} | " + " | ".join(cells) + " |")
         for method, reference in differences:
             runs, others = _runs(metrics, methods[method], mode), _runs(metrics, methods[reference], mode)
             cells = [_starred(seeded_interval([samples(run, measure) for run in runs],
-                                              [samples(run, measure) for run in others]))
+                                              [samples(run, measure) for run in others], share=measure in SHARES))
                      for measure in MEASURES.values()]
             lines.append(f"| {method} - {reference} | {mode} | " + " | ".join(cells) + " |")
     return "\n".join(lines)

@@ -88,17 +88,40 @@ def closeness_difference(sample: Sample, other: Sample, target: Sample, seed: in
 
 
 def seeded_interval(sample: Sequence[Sample], reference: Sequence[Sample] | None = None,
-                    seed: int = 0) -> Interval:
+                    seed: int = 0, share: bool = False) -> Interval:
     """A method's pooled ratio over its training runs (`sample`, one Sample per training seed, every run on the
     same episodes), or its difference to `reference` (paired run by run, e.g. RAIL seed s against the BC it started
     from, and episode by episode). One run: the episode bootstrap (`interval`, `paired_difference`). Several runs:
     the pooled estimate +- t(runs - 1) x sqrt(s^2 / runs + se^2), where s is the standard deviation of the runs' own
     estimates (the spread between training runs) and se the standard error over episodes of the pooled estimate
     (from its episode bootstrap: half the 95% width / 1.96), as every run meets the same episodes. Student's t
-    keeps the coverage with as few as three runs, which a percentile bootstrap over runs does not (about 78%)."""
+    keeps the coverage with as few as three runs, which a percentile bootstrap over runs does not (about 78%).
+
+    A share (`share`: every numerator a part of its denominator, so the ratio lies in [0, 1], a difference of two in
+    [-1, 1]) has its interval cut to that range: the t interval is symmetric and knows no bounds, and the part of it
+    outside the range holds no value a share can take, so the cut interval holds the true share whenever the whole
+    one did (the same coverage) and says nothing impossible (no collision share below 0). An interval inside the range
+    is left as it is (the bootstrap's never leaves it)."""
     shapes = {np.shape(part) for group in (sample, reference or sample) for pair in group for part in pair}
     if len(sample) != len(reference or sample) or len(shapes) != 1 or len(shapes.pop()) != 1:
         raise ValueError("paired training runs must have the same numbers of runs and episodes")
+    if share and not all(_is_share(run) for run in [*sample, *(reference or [])]):
+        raise ValueError("a share's numerators must lie between 0 and their denominators")
+    found = _seeded(sample, reference, seed)
+    if not share:
+        return found
+    least = 0.0 if reference is None else -1.0
+    return Interval(found.estimate, float(np.clip(found.low, least, 1.0)), float(np.clip(found.high, least, 1.0)))
+
+
+def _is_share(run: Sample) -> bool:
+    """Whether every numerator of `run` lies between 0 and its denominator."""
+    numerators, denominators = (np.asarray(part, dtype=float) for part in run)
+    return bool(np.all((numerators >= 0) & (numerators <= denominators)))
+
+
+def _seeded(sample: Sequence[Sample], reference: Sequence[Sample] | None, seed: int) -> Interval:
+    """`seeded_interval` of any ratio (no range known)."""
     pooled = [_sum_runs(group) for group in ([sample] if reference is None else [sample, reference])]
     episodes = interval(pooled[0], seed) if reference is None else paired_difference(*pooled, seed)
     own = np.array([ratio(run) for run in sample]) - (0.0 if reference is None else

@@ -31,6 +31,10 @@ collisions, which have their own row)."""
 MEASURES = (*RATES, *EPISODE_MEASURES, *ROUTE_MEASURES, *SAFETY_MEASURES, *SCORE_COLUMNS)
 """Rows of the summary: the agreement rates (pooled over decisions) first, then the episode means (the safety
 measures and the driving score with its parts where a metrics file has them: files written before them do not)."""
+SHARES = frozenset({*RATES, "failures", *(name for name in SAFETY_MEASURES if name.endswith("_share")),
+                    *SCORE_COLUMNS})
+"""The measures that are shares, in [0, 1] (`statistics.seeded_interval`'s `share`): the agreement rates, the share of
+episodes that failed, the shares of decisions, and the driving score with its parts."""
 DETECTABLE = "*"
 
 

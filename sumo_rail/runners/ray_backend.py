@@ -3,20 +3,26 @@
 Each actor owns one `WorkerContext` (so one SUMO: libsumo allows one simulation per process) for its whole life,
 reserves one CPU and runs one task at a time. An actor that dies (process killed, node removed) or exceeds the task
 timeout is replaced and only its unfinished task is resubmitted, at most `max_attempts` times in all. Ray is
-imported only when a `RayBackend` is made, so it stays an optional dependency.
+imported only when a `RayBackend` is made, so it stays an optional dependency. A private local Ray ends with this
+process however it ends, SIGKILL included (`ray_reaper`); a cluster's Ray ends a driver's actors with its job.
 """
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import os
+import secrets
 import socket
+import subprocess
+import sys
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from types import ModuleType
 from typing import Any
 
+from sumo_rail.runners import ray_reaper
 from sumo_rail.runners.backends import RolloutBackend, Task, WorkerContext, check_pool_settings
 from sumo_rail.runners.task_queue import BackendError, TaskError, TaskQueue
 
@@ -77,6 +83,8 @@ class RayBackend(RolloutBackend):
         self._actor_class = self._ray.remote(num_cpus=1, max_restarts=0)(_Actor)
         self._slots: list[_Slot] = []
         self._owns_ray = False
+        self._reaper: subprocess.Popen[bytes] | None = None
+        """`ray_reaper` beside a private local Ray this backend started (on Linux)."""
         self._start_failures = 0
         """Actors that died before starting since one last started."""
         self._closed = False
@@ -139,6 +147,7 @@ class RayBackend(RolloutBackend):
                 self._retire(slot)
             if self._owns_ray:
                 self._ray.shutdown()
+        self._end_reaper()
         self._slots.clear()
 
     def _connect(self) -> None:
@@ -148,12 +157,14 @@ class RayBackend(RolloutBackend):
             return
         try:
             if self.address is None:
-                ray.init(address="local", num_cpus=self.workers, include_dashboard=False, log_to_driver=False,
-                         logging_level=logging.WARNING)
+                with self._reaped():
+                    ray.init(address="local", num_cpus=self.workers, include_dashboard=False, log_to_driver=False,
+                             logging_level=logging.WARNING)
             else:
                 _check_reachable(self.address)
                 ray.init(address=self.address, log_to_driver=False, logging_level=logging.WARNING)
         except Exception as error:
+            self._end_reaper()  # and with it what the failed start left behind
             where = "start a local Ray" if self.address is None else f"connect to the Ray cluster at {self.address}"
             raise BackendError(f"could not {where}: {_describe(error)}") from error
         self._owns_ray = True
@@ -161,6 +172,39 @@ class RayBackend(RolloutBackend):
         if cpus < self.workers:
             log.warning("the Ray cluster has %g CPUs for %d workers; the other workers wait for free CPUs", cpus,
                         self.workers)
+
+    @contextlib.contextmanager
+    def _reaped(self) -> Iterator[None]:
+        """On Linux, start `ray_reaper` and mark the processes started in the block (a local Ray's) for it: they end
+        when this process does, however it ends, or when the backend closes."""
+        if not sys.platform.startswith("linux"):
+            yield
+            return
+        token = f"{os.getpid()}-{secrets.token_hex(8)}"
+        self._reaper = subprocess.Popen([sys.executable, "-I", ray_reaper.__file__, token], stdin=subprocess.PIPE,
+                                        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
+        previous = os.environ.get(ray_reaper.MARK)
+        os.environ[ray_reaper.MARK] = token  # inherited by Ray's processes, and by theirs (the workers)
+        try:
+            yield
+        finally:
+            if previous is None:
+                del os.environ[ray_reaper.MARK]
+            else:
+                os.environ[ray_reaper.MARK] = previous
+
+    def _end_reaper(self) -> None:
+        """Let `ray_reaper` kill what is left of the local Ray (nothing after a clean shutdown) and wait for it."""
+        if self._reaper is None:
+            return
+        reaper, self._reaper = self._reaper, None
+        if reaper.stdin is not None:
+            reaper.stdin.close()
+        try:
+            reaper.wait(timeout=30)
+        except subprocess.TimeoutExpired:
+            reaper.kill()
+            reaper.wait()
 
     def _started(self, slot: _Slot) -> None:
         """Record that `slot`'s actor has started, or drop it (to be replaced) if it died first; gives up when its

@@ -7,7 +7,7 @@ import math
 from collections.abc import Sequence
 from typing import Any
 
-from sumo_rail.sim.sumo_api import DecisionCalls, SimulationError
+from sumo_rail.sim.sumo_api import INVALID_VALUE, DecisionCalls, SimulationError
 from sumo_rail.sim.vehicles import PeriodReport
 
 
@@ -25,7 +25,8 @@ class Stepping:
         teleports until then. The other vehicles of `watch` have their lowest acceleration read while on the road
         (in every ego's report).
 
-        Per step: the step, the teleport count, each ego's acceleration and each watched vehicle's. An ego is gone
+        Per step: the step, the teleport count, each ego's acceleration and each watched vehicle's (none, not SUMO's
+        `INVALID_VALUE`, for one still waiting to be inserted). An ego is gone
         (collided, and so removed, or arrived) exactly when asking for its acceleration fails; only then are the
         step's collision and arrival lists read, collision first.
         """
@@ -55,10 +56,13 @@ class Stepping:
                                                  tuple(accelerations[vehicle]), watched)
                     left = True
                     continue
-                accelerations[vehicle].append(accel)
+                if accel != INVALID_VALUE:  # none while it waits to be inserted
+                    accelerations[vehicle].append(accel)
             for vehicle in watch:
                 with contextlib.suppress(error):  # a watched vehicle that has left is read no more
-                    watched[vehicle] = min(watched.get(vehicle, math.inf), acceleration(vehicle))
+                    accel = acceleration(vehicle)
+                    if accel != INVALID_VALUE:
+                        watched[vehicle] = min(watched.get(vehicle, math.inf), accel)
             if left:
                 on_road = [vehicle for vehicle in on_road if vehicle not in gone]
                 if not on_road:

@@ -18,6 +18,9 @@ SPEED_MODE_COMMANDED_ACCELERATION = 0b11001
 """An ego driven by commanded accelerations: SUMO regards the safe speed (its emergency brake), right of way and red
 lights, not the bound on deceleration (the interface's range bounds it; the ego's acceleration capability is set
 to the range's highest)."""
+INVALID_VALUE = -1073741824.0
+"""What SUMO answers for a value it does not have (libsumo.INVALID_DOUBLE_VALUE): the acceleration of a vehicle still
+waiting to be inserted, for one."""
 TRANSPORTS = ("auto", "libsumo", "traci")
 """How SUMO is driven: libsumo (SUMO linked into this process), traci (a SUMO process, over a socket; the same
 episodes, slower), or auto: libsumo unless another simulation of this process holds it, then traci."""

@@ -70,6 +70,26 @@ def test_seeded_interval_holds_the_spread_between_training_runs():
         seeded_interval(runs, reference[:2])
 
 
+def shares(*hits: int, episodes: int = 200) -> list[tuple[np.ndarray, np.ndarray]]:
+    """One run per count in `hits`: that many of its `episodes` episodes had the event (a collision, say)."""
+    return [mean_sample((np.arange(episodes) < count).astype(float)) for count in hits]
+
+
+def test_a_shares_interval_over_training_runs_stays_within_0_and_1():
+    """A rare event seen in one run of three: the t interval about the pooled 0.005 reaches below 0, where no share
+    lies; a share's is cut at 0 (and at 1 for one seen almost always), the estimate kept; one inside is the same."""
+    rare, plain = shares(3, 0, 0), seeded_interval(shares(3, 0, 0))
+    assert plain.low < 0.0  # what the bounds are for
+    assert seeded_interval(rare, share=True) == Interval(plain.estimate, 0.0, plain.high)
+    usual = seeded_interval(shares(197, 200, 200), share=True)
+    assert usual.estimate == pytest.approx(0.995) and usual.high == 1.0 < seeded_interval(shares(197, 200, 200)).high
+    assert seeded_interval(shares(90, 100, 110), share=True) == seeded_interval(shares(90, 100, 110))
+    difference = seeded_interval(shares(197, 200, 200), shares(3, 0, 0), share=True)  # a difference: in [-1, 1]
+    assert difference.high == 1.0 < seeded_interval(shares(197, 200, 200), shares(3, 0, 0)).high
+    with pytest.raises(ValueError, match="between 0 and their denominators"):
+        seeded_interval([mean_sample(np.array([0.5, 2.0]))] * 3, share=True)
+
+
 def test_seeded_interval_covers_the_method_mean_with_three_runs():
     rng = np.random.default_rng(7)
     covered, trials = 0, 200

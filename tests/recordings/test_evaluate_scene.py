@@ -5,11 +5,13 @@ from __future__ import annotations
 
 import json
 import shutil
+import signal
 
 import numpy as np
 import pandas as pd
 import pytest
 from click.testing import CliRunner
+from reliability import stopped_after
 from sumo_rail_cli.main import cli
 
 from sumo_rail.config import Config
@@ -97,6 +99,31 @@ def test_a_difference_row_is_paired_seat_by_seat_and_starred_when_detectable():
     table = track_table(shuffled, {"BC": ["bc"], "RAIL": ["rail"]}, [("RAIL", "BC")])
     row = next(line for line in table.splitlines() if line.startswith("| RAIL - BC"))
     assert "+3.00 [+3.00, +3.00] *" in row  # the seat-to-seat spread cancels out of the paired difference
+
+
+def test_a_share_pooled_over_training_runs_has_no_interval_below_0():
+    """Three training runs in 100 seats, one of them at fault in 3: the "at fault" and "collisions" cells (shares)
+    keep their intervals within [0, 1] where Student's t about 0.01 would reach below 0 (issue 51)."""
+    seats = pd.DataFrame({"mode": "reactive", "scene": "s", "vehicle": [f"v{k}" for k in range(100)],
+                          "start_s": 1.0, "stopped": False, "progress_ratio": 1.0, "lane_changes": 0,
+                          "distance_m": 400.0, "hard_braking": 0, "ttc_below_1_5s_share": 0.0, "steps": 30,
+                          "driving_score": 1.0, "position_error_1s_m": 1.0, "position_error_5s_m": 5.0,
+                          "position_error_10s_m": 10.0})
+    runs = [seats.assign(policy=f"bc_s{seed}", collisions=hits, at_fault_collisions=hits)
+            for seed, hits in enumerate(([1] * 3 + [0] * 97, 0, 0))]
+    table = track_table(pd.concat(runs), {"BC": [f"bc_s{seed}" for seed in range(3)]})
+    header, _, row = table.splitlines()
+    cells = dict(zip(header.strip("|").split(" | "), row.strip("|").split(" | "), strict=True))
+    for measure in ("collisions", "at fault"):
+        estimate, low, high = _numbers(cells[measure])
+        assert estimate == pytest.approx(0.01) and low == 0.0 < high <= 1.0, cells[measure]
+
+
+def _numbers(cell: str) -> tuple[float, float, float]:
+    """(estimate, low, high) of a cell "0.01 [0.00, 0.03]"."""
+    estimate, bounds = cell.strip().split(" [")
+    low, high = bounds.rstrip("]").split(", ")
+    return float(estimate), float(low), float(high)
 
 
 def test_the_same_seed_gives_the_same_episodes_whatever_the_workers(drivers_scene):
@@ -223,3 +250,19 @@ def test_running_into_a_vehicle_that_cut_in_is_the_egos_fault(drivers_scene, tmp
     row = metrics.iloc[0]
     assert row["termination"] == "collision" and row["at_fault_collisions"] == 1
     assert row["driving_score"] == 0.0 and row["no_collision"] == 0.0
+
+
+@pytest.mark.parametrize(("after", "when"), [("sumo_rail.evaluation.scene_evaluation:write_scene_evaluation", ""),
+                                             ("sumo_rail.evaluation.scene_summary:track_table",
+                                              " after the work was done")])
+def test_a_sigterm_after_both_outputs_were_written_names_them(drivers_scene, tmp_path, after, when):
+    """SIGTERM once both tables are written, in the work or after it (as the summary is printed): the sentence names
+    them, not "nothing was written"."""
+    out = tmp_path / "scene_eval.parquet"
+    result = stopped_after(after, signal.SIGTERM, ["evaluate-scene", str(drivers_scene), "--set", "scenario.lanes=3",
+                                                   "--set", "observation.lane_block=1", "--policy", "keep", "--seats",
+                                                   "1", "--horizon-s", "10", "--lead-s", "2", "--mode", "reactive",
+                                                   "--out", str(out)], tmp_path)
+    assert result.returncode == 1 and "Traceback" not in result.stderr, result.stderr
+    assert result.stderr.splitlines()[-1] == f"Error: interrupted{when}; {out} and {tracks_path(out)} were written"
+    assert len(pd.read_parquet(out)) == 1 and len(pd.read_parquet(tracks_path(out))) > 0

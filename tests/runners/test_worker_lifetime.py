@@ -69,3 +69,52 @@ def test_no_worker_outlives_a_sigterm_to_its_parent_whatever_it_is_doing(tmp_pat
     for pid in left:
         os.kill(pid, signal.SIGKILL)
     assert left == []
+
+
+def descendants(pid: int) -> list[int]:
+    """Every process below `pid` (Linux's /proc children lists)."""
+    found, waiting = [], [pid]
+    while waiting:
+        for task in Path(f"/proc/{waiting.pop()}/task").glob("*"):
+            try:
+                children = [int(child) for child in (task / "children").read_text().split()]
+            except FileNotFoundError:
+                continue
+            found += children
+            waiting += children
+    return found
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="the kernel's parent-death signal is Linux's")
+def test_no_process_of_a_local_ray_outlives_a_sigkill_to_its_driver(tmp_path):
+    """--backend ray without --address starts a private Ray: all of it ends with its driver, even a driver SIGKILLed
+    while its actor holds the interpreter: the actors (each with its SUMO), the raylet, the GCS, and Ray's agents,
+    which by themselves linger a minute."""
+    pytest.importorskip("ray")
+    started = tmp_path / "started"
+    started.mkdir()
+    script = textwrap.dedent(f"""
+        from pathlib import Path
+        from test_worker_lifetime import HoldsTheInterpreter
+        from sumo_rail.runners.ray_backend import RayBackend
+        RayBackend(1).run([HoldsTheInterpreter(Path({str(started)!r}))])
+    """)
+    environment = {**os.environ, "PYTHONPATH": str(Path(__file__).parent), "RAY_USAGE_STATS_ENABLED": "0"}
+    driver = subprocess.Popen([sys.executable, "-c", script], env=environment, stderr=subprocess.DEVNULL)
+    try:
+        deadline = time.monotonic() + 120.0  # a bound on a hang, not on speed
+        while not any(started.iterdir()) and driver.poll() is None and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert any(started.iterdir()), "the actor did not start its task"
+        ray_processes = descendants(driver.pid)
+        assert {int(path.name) for path in started.iterdir()} <= set(ray_processes)
+    finally:
+        driver.kill()
+        driver.wait()
+    deadline = time.monotonic() + 20.0  # they go within a second or two
+    while not all(exited(pid) for pid in ray_processes) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    left = {pid: Path(f"/proc/{pid}/cmdline").read_bytes()[:40] for pid in ray_processes if not exited(pid)}
+    for pid in left:
+        os.kill(pid, signal.SIGKILL)
+    assert left == {}
