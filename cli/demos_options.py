@@ -24,10 +24,13 @@ def demos_selection_options(command: Callable[..., Any]) -> Callable[..., Any]:
 
 
 def check_demos(demos: Path, config: Config, include_failed: bool, other_road: bool) -> None:
-    """Refuse (exit 2, one sentence) demonstrations recorded on another road without `other_road`, or whose
-    observations have another size because their road has another lane count; say how many failed episodes are
-    left out. A file that cannot be read is left to the learner to report."""
+    """Refuse (exit 2, one sentence) demonstrations recorded on another road without `other_road`, whose
+    observations have another size because their road has another lane count, or read from a recorded scene whose
+    road's speed limit this configuration does not keep; say how many failed episodes are left out. A file that
+    cannot be read is left to the learner to report."""
     from sumo_rail.datasets import DatasetError, read_metadata
+    from sumo_rail.recordings.scene_folder import check_speed_limit
+    from sumo_rail.runners.experts import RECORDED_SCENE
     from sumo_rail.runners.tables import failed_episodes
     from sumo_rail.sim.observation import observation_space
 
@@ -47,6 +50,12 @@ def check_demos(demos: Path, config: Config, include_failed: bool, other_road: b
         raise click.BadParameter(f"{demos} were recorded on a road of {lanes} lanes, this run's has "
                                  f"{config.scenario.lanes}, so their observations have {len(names)} values, not "
                                  f"{size}: record demonstrations with this lane count", param_hint="'--demos'")
+    scene = metadata.get(RECORDED_SCENE)
+    if isinstance(scene, dict) and isinstance(scene.get("speed_limit_mps"), float):
+        try:
+            check_speed_limit(scene["speed_limit_mps"], config, f"the road of the scene {demos} were read from")
+        except DatasetError as error:
+            raise click.BadParameter(str(error), param_hint="'--demos'") from error
     if left_out:
         click.echo(f"left out {left_out} failed demonstration episode{'s' * (left_out != 1)} (a collision or a "
                    f"route failure); pass --include-failed-demos to learn from them")

@@ -78,3 +78,8 @@ def write_ngsim(path: Path, rows: list[dict]) -> Path:
     """Write an NGSIM trajectory CSV of `rows` with the published header."""
     pd.DataFrame(rows, columns=list(NGSIM_COLUMNS)).to_csv(path, index=False)
     return path
+
+SCENE_SPEED = ("--set", "scenario.speed_limit_mps=44.44", "--set", "env.v_max_mps=44.44")
+"""The settings of a scene whose road is built from a recording (its limit `road.ROAD_SPEED_MPS`), which commands on
+the scene require."""
+SCENE_SPEED_CONFIG = {"scenario": {"speed_limit_mps": 44.44}, "env": {"v_max_mps": 44.44}}

@@ -10,6 +10,7 @@ import numpy as np
 import pandas as pd
 import pytest
 from click.testing import CliRunner
+from recording_files import SCENE_SPEED
 from sumo_rail_cli.main import cli
 
 from sumo_rail.config import Config
@@ -118,7 +119,8 @@ def test_the_same_seed_gives_the_same_episodes_whatever_the_workers(drivers_scen
 
 
 def invoke(*args: str):
-    return CliRunner().invoke(cli, ["evaluate-scene", *args])
+    """sumo-rail evaluate-scene ARGS, with the scene road's speed settings (`SCENE_SPEED`)."""
+    return CliRunner().invoke(cli, ["evaluate-scene", *args, *SCENE_SPEED])
 
 
 def test_evaluate_scene_writes_both_tables_with_provenance(drivers_scene, tmp_path):
@@ -223,3 +225,13 @@ def test_running_into_a_vehicle_that_cut_in_is_the_egos_fault(drivers_scene, tmp
     row = metrics.iloc[0]
     assert row["termination"] == "collision" and row["at_fault_collisions"] == 1
     assert row["driving_score"] == 0.0 and row["no_collision"] == 0.0
+
+
+def test_a_configuration_below_the_scenes_speed_limit_is_refused(drivers_scene, tmp_path):
+    """The seats would cap the ego at 33.33 m/s on a road whose drivers go up to 44.44 m/s and beyond."""
+    out = tmp_path / "out.parquet"
+    result = CliRunner().invoke(cli, ["evaluate-scene", str(drivers_scene), "--set", "scenario.lanes=3", "--policy",
+                                      "keep", "--out", str(out)])
+    assert result.exit_code == 2 and "speed limit of 44.44 m/s" in result.output
+    assert "--set scenario.speed_limit_mps=44.44 --set env.v_max_mps=44.44" in result.output
+    assert "Traceback" not in result.output and not out.exists()
