@@ -244,8 +244,9 @@ def _write_videos(videos: dict[str, bytes], video_dir: Path | None) -> list[str]
 @run_folder_options("iteration", eval_every=10)
 @tensorboard_option
 def train_command(config: Config, settings: LearnerSettings, demos: Path, include_failed: bool, other_road: bool,
-                  iterations: int, roads: str, workers: int, backend_name: str, address: str | None, seed: int,
-                  eval_every: int, eval_episodes: int, out: Path, resume: bool, tensorboard_dir: Path | None) -> None:
+                  iterations: int, roads: tuple[str, ...] | None, workers: int, backend_name: str, address: str | None,
+                  seed: int, eval_every: int, eval_episodes: int, out: Path, resume: bool,
+                  tensorboard_dir: Path | None) -> None:
     """Learn a driving policy from demonstrations with RAIL (BC initialisation, then ARS with an LS-GAN reward).
 
     Its settings are the sections [network], [bc], [rail] and [discriminator] of --config and --set (e.g. --set

@@ -34,3 +34,20 @@ def setting_range(settings: type, name: str) -> click.ParamType:
     if bounds.integer:
         return click.IntRange(int(bounds.low), int(bounds.high), min_open=bounds.low_open, max_open=bounds.high_open)
     return FiniteFloat(bounds.low, bounds.high, min_open=bounds.low_open, max_open=bounds.high_open)
+
+
+class RoadList(click.ParamType):
+    """--roads' type: road names (scenario kinds) separated by commas, blanks around them dropped, as a tuple; a list
+    that names no road ("", ",") is a usage error (exit 2) naming the option, as leaving --roads out is the way to
+    keep the configured road."""
+
+    name = "roads"
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
+        if isinstance(value, tuple):
+            return value
+        roads = tuple(road.strip() for road in str(value).split(",") if road.strip())
+        if not roads:
+            self.fail(f"{value!r} names no road; give scenario kinds separated by commas, e.g. straight,merge, or "
+                      f"leave the option out for the configured road", param, ctx)
+        return roads

@@ -169,3 +169,24 @@ def test_a_learner_below_the_speed_limit_of_the_demonstrations_scene_is_refused(
         assert result.exit_code == 2 and "speed limit of 44.44 m/s" in result.output, result.output
         assert "--set scenario.speed_limit_mps=44.44 --set env.v_max_mps=44.44" in result.output
         assert not (tmp_path / command).exists()
+
+
+def test_export_minari_and_step_signal_refuse_recorded_demonstrations_in_one_sentence(tmp_path):
+    """Neither can use them (no seed to replay; no expert to ask): one sentence each, nothing made."""
+    from sumo_rail.drivers.policies import Policy, PolicyShape, save_policy
+
+    two_car_scene(tmp_path / "scene")
+    demos = tmp_path / "demos.parquet"
+    assert invoke("recorded-demos", str(tmp_path / "scene"), "--out", str(demos)).exit_code == 0
+    before = sorted(tmp_path.iterdir())
+    result = CliRunner().invoke(cli, ["export-minari", str(demos), "--name", "sumo-rail/recorded-v0", "--root",
+                                      str(tmp_path / "minari")])
+    assert result.exit_code == 1 and "read from the recorded scene" in result.output, result.output
+    assert "Traceback" not in result.output and result.output.count("\n") == 1
+    shape = PolicyShape("linear", observation_space(Config()).shape[0])
+    policy = tmp_path.parent / f"{tmp_path.name}_policy.npz"
+    save_policy(Policy(shape, np.zeros(shape.parameter_count)), policy, {})
+    result = invoke("step-signal", "--demos", str(demos), "--policy", str(policy), "--out", str(tmp_path / "s.json"))
+    assert result.exit_code == 1 and "a recorded driver cannot be asked" in result.output, result.output
+    assert "Traceback" not in result.output and result.output.count("\n") == 1
+    assert sorted(tmp_path.iterdir()) == before
