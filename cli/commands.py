@@ -7,7 +7,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import click
-from sumo_rail_cli.demos_options import check_demos
+from sumo_rail_cli.demos_options import RECORDED_NOTE, check_demos
 from sumo_rail_cli.options import (
     backend_options,
     build_backend,
@@ -261,7 +261,10 @@ def train_command(config: Config, settings: LearnerSettings, demos: Path, includ
     discriminator = dataclasses.replace(settings.discriminator, seed=seed)
     run = RunSettings(str(demos), settings.network.shape, settings.network.hidden, rail, discriminator,
                       dataclasses.replace(settings.bc, seed=seed), include_failed_demos=include_failed)
-    check_demos(demos, config, include_failed, other_road)
+    recorded = check_demos(demos, config, include_failed, other_road)
+    if recorded:
+        click.echo(RECORDED_NOTE)
+    asked = "with the rule-based normal style, not the recorded drivers: " if recorded else ""
     backend = build_backend(backend_name, workers, address)
     bar = progress(iterations, "training", unit="iteration")
 
@@ -275,7 +278,7 @@ def train_command(config: Config, settings: LearnerSettings, demos: Path, includ
         bar.set_postfix(D_return=f"{row['return_mean']:+.3f}", steps_per_s=f"{steps_per_s:.0f}")
         advance_to(bar, row["iteration"] + 1)
         if row["eval_average_speed_kmh"] is not None:
-            bar.write(f"iteration {row['iteration'] + 1}: {validation_summary(row, eval_episodes)}")
+            bar.write(f"iteration {row['iteration'] + 1}: {asked}{validation_summary(row, eval_episodes)}")
 
     with interruptible_run(bar, lambda: kept_until_resume(out, "iteration"), backend,
                            tensorboard_logger(tensorboard_dir, "rail", out), errors=(RunError,)) as board:

@@ -11,6 +11,7 @@ import pyarrow.parquet as pq
 import pytest
 from click.testing import CliRunner
 from recording_files import SCENE_SPEED, SCENE_SPEED_CONFIG
+from sumo_rail_cli.demos_options import RECORDED_NOTE
 from sumo_rail_cli.main import cli
 from sumo_rail_cli.output_lock import lock_path
 
@@ -115,9 +116,13 @@ def test_train_and_gail_take_recorded_demos_and_dagger_refuses_them(tmp_path):
     assert invoke("recorded-demos", str(tmp_path / "scene"), "--out", demos).exit_code == 0
     result = invoke("train", *SMALL, "--demos", demos, "--iterations", "1", "--set", "rail.directions=2", "--set",
                     "rail.top=1",
-                    "--set", "bc.epochs=1", "--eval-every", "0", "--out", str(tmp_path / "rail"))
+                    "--set", "bc.epochs=1", "--eval-every", "1", "--eval-episodes", "1", "--out", str(tmp_path / "rail"))
     assert result.exit_code == 0, result.output
     assert (tmp_path / "rail" / "policy_latest.npz").is_file()
+    # what each printed number measures: BC's accuracy the recorded drivers', the validation agreement the rule's
+    assert RECORDED_NOTE in result.output
+    assert "iteration 1: with the rule-based normal style, not the recorded drivers: validation agreement" in \
+        result.output
     result = invoke("dagger", *SMALL, "--demos", demos, "--rounds", "1", "--set", "dagger.episodes_per_round=1",
                     "--set", "bc.epochs=1", "--eval-every", "0", "--out", str(tmp_path / "dagger"))
     assert result.exit_code == 1 and "a recorded driver cannot be asked what it would do" in result.output
@@ -127,6 +132,7 @@ def test_train_and_gail_take_recorded_demos_and_dagger_refuses_them(tmp_path):
                     "gail.envs=1",
                     "--set", "bc.epochs=1", "--out", str(tmp_path / "gail"))
     assert result.exit_code == 0, result.output
+    assert RECORDED_NOTE in result.output
 
 
 def test_demonstrations_another_command_writes_are_one_sentence_and_left_alone(tmp_path):
