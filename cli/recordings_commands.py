@@ -35,8 +35,8 @@ def record_sumo_drivers_command(config: Config, out: Path, seed: int, duration_s
     motorway as a scene folder: drivers whose rules no one here wrote.
 
     The road has scenario.lanes lanes of scenario.lane_width_m over scenario.length_m, and a speed limit of 44.44 m/s
-    (160 km/h) as every scene road built from a recording (scenario.speed_limit_mps does not apply: commands on the
-    scene are asked for it). The traffic arrives at scenario.flow_veh_per_h and is recorded after scenario.warmup_s
+    (160 km/h) as every scene road built from a recording (scenario.speed_limit_mps does not change it; the commands
+    on the scene require it). The traffic arrives at scenario.flow_veh_per_h and is recorded after scenario.warmup_s
     (set with --set); every vehicle is captured at every SUMO step. The default 600 s at the default flow gives over
     500 tracks (about 700 per seed). The same seed and settings give the same files, byte for byte."""
     from sumo_rail.datasets import DatasetError

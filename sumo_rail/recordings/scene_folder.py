@@ -81,7 +81,7 @@ def check_speed_limit(road_limit_mps: float, config: Config, what: str) -> None:
     fixes = ([] if abs(limit - road) <= SPEED_TOLERANCE_MPS else [f"scenario.speed_limit_mps={road:g}"]) + (
         [] if top >= road - SPEED_TOLERANCE_MPS else [f"env.v_max_mps={road:g}"])
     if fixes:
-        raise RecordingUsageError(f"{what} has a speed limit of {road:g} m/s and this configuration "
+        raise RecordingUsageError(f"{what} has a speed limit of {road:g} m/s and this configuration has "
                                   f"scenario.speed_limit_mps={limit:g} and env.v_max_mps={top:g} (the highest "
                                   f"set-point, which may not be below the limit); pass --set {' --set '.join(fixes)}")
 
