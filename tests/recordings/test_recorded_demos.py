@@ -115,8 +115,8 @@ def test_train_and_gail_take_recorded_demos_and_dagger_refuses_them(tmp_path):
     demos = str(tmp_path / "demos.parquet")
     assert invoke("recorded-demos", str(tmp_path / "scene"), "--out", demos).exit_code == 0
     result = invoke("train", *SMALL, "--demos", demos, "--iterations", "1", "--set", "rail.directions=2", "--set",
-                    "rail.top=1",
-                    "--set", "bc.epochs=1", "--eval-every", "1", "--eval-episodes", "1", "--out", str(tmp_path / "rail"))
+                    "rail.top=1", "--set", "bc.epochs=1", "--eval-every", "1", "--eval-episodes", "1",
+                    "--out", str(tmp_path / "rail"))
     assert result.exit_code == 0, result.output
     assert (tmp_path / "rail" / "policy_latest.npz").is_file()
     # what each printed number measures: BC's accuracy the recorded drivers', the validation agreement the rule's

@@ -110,7 +110,7 @@ def test_written_as_fcd_or_highd_it_reads_back_through_import_recording(short_sc
 
 
 def test_the_warm_up_and_flow_are_the_scenarios_settings(short_scene):
-    """scenario.warmup_s and scenario.flow_veh_per_h are the recording's (no option shadows them), as scene.json says."""
+    """scenario.warmup_s and scenario.flow_veh_per_h are the recording's (no option shadows them): scene.json says."""
     settings = json.loads((short_scene / "scene.json").read_text())["settings"]
     assert settings["warmup_s"] == 100.0 and settings["flow_veh_per_h"] == 4000.0
 
