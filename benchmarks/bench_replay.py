@@ -98,7 +98,8 @@ def main() -> None:
         highd = ImportSettings("highd", (tracks,), Path(folder) / "highd")
         import_recording(highd, Config(), check_import(highd))
         drivers = Path(folder) / "drivers"
-        record_sumo_drivers(SumoDriversSettings(out=drivers, seed=1), Config())
+        record_sumo_drivers(SumoDriversSettings(out=drivers, seed=1),
+                            Config.from_dict({"scenario": {"warmup_s": 120.0}}))
         scenes = (("synthetic highD (3 lanes, 420 m, 25 Hz)", highd.out, 3, 10.0),
                   ("record-sumo-drivers (5 lanes, 3 km, 10 Hz)", drivers, 5, 15.0))
         for label, path, lanes, horizon_s in scenes:

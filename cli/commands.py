@@ -7,7 +7,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import click
-from sumo_rail_cli.demos_options import check_demos
+from sumo_rail_cli.demos_options import RECORDED_NOTE, check_demos
 from sumo_rail_cli.options import (
     backend_options,
     build_backend,
@@ -247,8 +247,9 @@ def _write_videos(videos: dict[str, bytes], video_dir: Path | None) -> list[str]
 @run_folder_options("iteration", eval_every=10)
 @tensorboard_option
 def train_command(config: Config, settings: LearnerSettings, demos: Path, include_failed: bool, other_road: bool,
-                  iterations: int, roads: str, workers: int, backend_name: str, address: str | None, seed: int,
-                  eval_every: int, eval_episodes: int, out: Path, resume: bool, tensorboard_dir: Path | None) -> None:
+                  iterations: int, roads: tuple[str, ...] | None, workers: int, backend_name: str, address: str | None,
+                  seed: int, eval_every: int, eval_episodes: int, out: Path, resume: bool,
+                  tensorboard_dir: Path | None) -> None:
     """Learn a driving policy from demonstrations with RAIL (BC initialisation, then ARS with an LS-GAN reward).
 
     Its settings are the sections [network], [bc], [rail] and [discriminator] of --config and --set (e.g. --set
@@ -263,7 +264,10 @@ def train_command(config: Config, settings: LearnerSettings, demos: Path, includ
     discriminator = dataclasses.replace(settings.discriminator, seed=seed)
     run = RunSettings(str(demos), settings.network.shape, settings.network.hidden, rail, discriminator,
                       dataclasses.replace(settings.bc, seed=seed), include_failed_demos=include_failed)
-    check_demos(demos, config, include_failed, other_road)
+    recorded = check_demos(demos, config, include_failed, other_road)
+    if recorded:
+        click.echo(RECORDED_NOTE)
+    asked = "with the rule-based normal style, not the recorded drivers: " if recorded else ""
     backend = build_backend(backend_name, workers, address)
     bar = progress(iterations, "training", unit="iteration")
 
@@ -277,7 +281,7 @@ def train_command(config: Config, settings: LearnerSettings, demos: Path, includ
         bar.set_postfix(D_return=f"{row['return_mean']:+.3f}", steps_per_s=f"{steps_per_s:.0f}")
         advance_to(bar, row["iteration"] + 1)
         if row["eval_average_speed_kmh"] is not None:
-            bar.write(f"iteration {row['iteration'] + 1}: {validation_summary(row, eval_episodes)}")
+            bar.write(f"iteration {row['iteration'] + 1}: {asked}{validation_summary(row, eval_episodes)}")
 
     with interruptible_run(bar, lambda: kept_until_resume(out, "iteration"), backend,
                            tensorboard_logger(tensorboard_dir, "rail", out), errors=(RunError,)) as board:

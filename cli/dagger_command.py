@@ -41,7 +41,7 @@ DAGGER = "sumo_rail.learning.dagger"
 @run_folder_options("round", eval_every=1)
 @tensorboard_option
 def dagger_command(config: Config, settings: LearnerSettings, demos: Path, include_failed: bool, other_road: bool,
-                   rounds: int, roads: str, expert: str | None, workers: int, backend_name: str,
+                   rounds: int, roads: tuple[str, ...] | None, expert: str | None, workers: int, backend_name: str,
                    address: str | None, seed: int, eval_every: int, eval_episodes: int, out: Path, resume: bool,
                    tensorboard_dir: Path | None) -> None:
     """Learn a driving policy with DAgger: BC on the demonstrations, then rounds in which the expert labels every

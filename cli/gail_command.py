@@ -7,7 +7,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import click
-from sumo_rail_cli.demos_options import check_demos
+from sumo_rail_cli.demos_options import RECORDED_NOTE, check_demos
 from sumo_rail_cli.options import (
     check_egos,
     check_run_folder,
@@ -67,7 +67,8 @@ def gail_command(config: Config, settings: LearnerSettings, demos: Path, include
         raise click.UsageError(str(error)) from error
     check_egos(config, run.egos, "gail.egos")
     check_run_folder(out)
-    check_demos(demos, config, include_failed, other_road)
+    if check_demos(demos, config, include_failed, other_road):
+        click.echo(RECORDED_NOTE)
     bar = progress(run.updates * run.steps_per_update, "GAIL", unit="timestep")
 
     def show_bc(report: BcReport) -> None:

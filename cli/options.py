@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING, Any
 import click
 from sumo_rail_cli.demos_options import demos_selection_options
 from sumo_rail_cli.output_lock import lock_output
+from sumo_rail_cli.param_types import RoadList
 from sumo_rail_cli.running import library_errors
 
 from sumo_rail.config import Config
@@ -80,25 +81,24 @@ def egos_option(shared: str, note: str = "") -> Callable[[Callable[..., Any]], C
 
 def roads_option(shared: str) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
     """--roads KIND[,KIND...]: `shared` (e.g. "a round's episodes") take these roads in turn; the command receives
-    them checked (`checked_roads`) as a tuple of road names."""
-    return click.option("--roads", default="", metavar="KIND[,KIND...]",
+    them as a tuple of road names (`RoadList`; None without the option) and checks them (`checked_roads`)."""
+    return click.option("--roads", type=RoadList(), default=None, metavar="KIND[,KIND...]",
                         help=f"Spread {shared} over these roads (scenario kinds) in turn: learning on a mix of roads, "
                              f"e.g. straight,merge,exit; each is the configured road with only scenario.kind "
                              f"replaced [default: the configured road].")
 
 
-def checked_roads(config: Config, roads: str) -> tuple[str, ...]:
-    """The road names of --roads; a usage error (exit 2) for an unknown road or one whose observation is not the
-    configured road's size."""
+def checked_roads(config: Config, roads: tuple[str, ...] | None) -> tuple[str, ...]:
+    """The road names of --roads (none without it: the configured road); a usage error (exit 2) for an unknown road
+    or one whose observation is not the configured road's size."""
     from sumo_rail.config import ConfigError
-    from sumo_rail.runners.road_mix import parse_roads, road_configs
+    from sumo_rail.runners.road_mix import road_configs
 
-    names = parse_roads(roads)
     try:
-        road_configs(config, names)
+        road_configs(config, roads or ())
     except ConfigError as error:
         raise click.BadParameter(str(error), param_hint="'--roads'") from error
-    return names
+    return roads or ()
 
 
 def check_egos(config: Config, egos: int, setting: str = "--egos") -> None:

@@ -8,8 +8,12 @@ from typing import TYPE_CHECKING
 
 import click
 from sumo_rail_cli.import_command import split_options
-from sumo_rail_cli.param_types import FiniteFloat
+from sumo_rail_cli.options import check_output
+from sumo_rail_cli.output_lock import lock_output
+from sumo_rail_cli.param_types import FiniteFloat, setting_range
 from sumo_rail_cli.settings import config_options
+
+from sumo_rail.config import ScenarioConfig
 
 if TYPE_CHECKING:
     from sumo_rail.config import Config
@@ -19,33 +23,32 @@ if TYPE_CHECKING:
 @config_options
 @click.option("--out", type=click.Path(path_type=Path, file_okay=False), required=True,
               help="The scene folder to write (tracks.parquet, scene.json, road.net.xml, split.parquet).")
-@click.option("--seed", type=click.IntRange(min=0), required=True, help="SUMO's traffic seed.")
+@click.option("--seed", type=setting_range(ScenarioConfig, "traffic_seed"), required=True,
+              help="SUMO's traffic seed (the range of scenario.traffic_seed).")
 @click.option("--duration-s", type=FiniteFloat(1, 3600), default=600.0, show_default=True,
-              help="Recorded time after the warm-up [s].")
-@click.option("--warmup-s", type=FiniteFloat(0, 3600), default=120.0, show_default=True,
-              help="Time simulated before recording [s].")
-@click.option("--flow-veh-per-h", type=FiniteFloat(1, 30_000), default=None,
-              help="Arrivals [veh/h]  [default: scenario.flow_veh_per_h].")
+              help="Recorded time after the warm-up (scenario.warmup_s) [s].")
 @split_options
 @click.option("--overwrite", is_flag=True, help="Replace a scene already in --out.")
-def record_sumo_drivers_command(config: Config, out: Path, seed: int, duration_s: float, warmup_s: float,
-                                flow_veh_per_h: float | None, split_seed: int, test_share: float,
-                                validation_share: float, overwrite: bool) -> None:
+def record_sumo_drivers_command(config: Config, out: Path, seed: int, duration_s: float, split_seed: int,
+                                test_share: float, validation_share: float, overwrite: bool) -> None:
     """Record SUMO's own drivers (Krauss and IDM, LC2013 with several temperaments, cars and trucks) on a straight
-    motorway of the scenario's lanes as a scene folder: drivers whose rules no one here wrote.
+    motorway as a scene folder: drivers whose rules no one here wrote.
 
-    Every vehicle is captured at every SUMO step after the warm-up; the default 600 s at the default flow gives
-    over 500 tracks (about 700 per seed). The same seed gives the same files, byte for byte."""
+    The road has scenario.lanes lanes of scenario.lane_width_m over scenario.length_m, and a speed limit of 44.44 m/s
+    (160 km/h) as every scene road built from a recording (scenario.speed_limit_mps does not change it; the commands
+    on the scene require it). The traffic arrives at scenario.flow_veh_per_h and is recorded after scenario.warmup_s
+    (set with --set); every vehicle is captured at every SUMO step. The default 600 s at the default flow gives over
+    500 tracks (about 700 per seed). The same seed and settings give the same files, byte for byte."""
     from sumo_rail.datasets import DatasetError
     from sumo_rail.recordings.sumo_drivers import SumoDriversSettings, check_recording, record_sumo_drivers
     from sumo_rail.recordings.tracks import RecordingUsageError
 
-    settings = SumoDriversSettings(out, seed, duration_s, warmup_s, flow_veh_per_h, split_seed, test_share,
-                                   validation_share, overwrite)
+    settings = SumoDriversSettings(out, seed, duration_s, split_seed, test_share, validation_share, overwrite)
     try:
-        check_recording(settings)
+        check_recording(settings, config)
     except RecordingUsageError as error:
         raise click.UsageError(str(error)) from error
+    lock_output(out)
     try:
         summary = record_sumo_drivers(settings, config)
     except DatasetError as error:
@@ -70,15 +73,12 @@ def recorded_demos_command(config: Config, scene: Path, out: Path, split: str, o
     observation the env would give that vehicle there (computed from the scene's vehicles at that instant) and the
     action the reading rule reads (docs/recordings.md). train (BC, RAIL) and gail take the file as it is; DAgger
     refuses it, as a recorded driver cannot be asked what it would do elsewhere."""
-    from sumo_rail.datasets import DatasetError, check_output_path
+    from sumo_rail.datasets import DatasetError
     from sumo_rail.recordings.recorded_demos import write_recorded_demos
     from sumo_rail.recordings.tracks import RecordingUsageError
     from sumo_rail.sim.actions import Action
 
-    try:
-        check_output_path(out, overwrite)
-    except DatasetError as error:
-        raise click.UsageError(str(error)) from error
+    check_output(out, overwrite)
     try:
         summary = write_recorded_demos(scene, config, split, out)
     except RecordingUsageError as error:

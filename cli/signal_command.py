@@ -78,8 +78,8 @@ def step_signal_command(config: Config, settings: LearnerSettings, demos: Path, 
     if expert is not None:
         expert, asked = resolve_expert_option(expert, config)
     else:
-        expert = demonstrations_expert(demonstrations.metadata)
-        with library_errors():
+        with library_errors():  # demonstrations of recorded drivers have no expert to ask: one sentence
+            expert = demonstrations_expert(demonstrations.metadata)
             asked = resolve_expert(expert, config, recorded_by=demos)
     if policy.shape.observation_size != demonstrations.observations.shape[1]:
         raise click.UsageError(f"policy {policy_path} sees {policy.shape.observation_size} observation values but "

@@ -64,3 +64,13 @@ def test_a_road_too_dense_for_every_ego_is_one_sentence_without_warnings_before(
     assert result.stderr.splitlines() == [result.stderr.strip()], result.stderr  # one line, nothing before it
     assert result.stderr.startswith("Error: none of the 8 egos found room at 20 places of their start window ")
     assert "traffic is too dense there" in result.stderr and not (tmp_path / "d.parquet").exists()
+
+
+@pytest.mark.parametrize("roads", ["", ",", " , "])
+@pytest.mark.parametrize("command", ["train", "dagger"])
+def test_roads_that_name_no_road_are_a_usage_error(tmp_path, command, roads):
+    """An empty --roads is not the configured road by accident (run.json said roads: []): leave the option out."""
+    result = invoke(command, *SMALL, "--demos", str(tmp_path / "d.parquet"), "--roads", roads, "--out",
+                    str(tmp_path / "run"))
+    assert result.exit_code == 2 and "--roads" in result.output and "names no road" in result.output, result.output
+    assert "Traceback" not in result.output and not (tmp_path / "run").exists()

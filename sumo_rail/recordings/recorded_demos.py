@@ -7,7 +7,8 @@ the cruise set-point estimated by the action rule, `actions.speed_reading`, with
 `ActionRule.for_env` reads; the columns after the action are the env's for the period's end (its speed, lane,
 position along the road, the estimated set-point, whether a lane change was under way in the period, and the
 rewards the env's formulas give them; no collision). The metadata names the scene (`RECORDED_SCENE`: its files
-with their sha256, the source recording's files, the vehicles, the split and the rule's settings): a recorded driver
+with their sha256, the source recording's files, the vehicles, the split, the rule's settings and the road's speed
+limit, which a learner's configuration must keep, `scene_folder.check_speed_limit`): a recorded driver
 cannot be asked what it would do elsewhere, so DAgger refuses such a file (`experts.demonstrations_expert`).
 """
 
@@ -122,6 +123,7 @@ def write_recorded_demos(folder: Path, config: Config, split: str, out: Path) ->
     record = {"folder": str(folder.resolve()), "format": scene.meta.format, "files": scene_sources(scene),
               "recording_sources": scene.meta.sources, "split": split,
               "vehicles": [decided.vehicle for decided in kept], "action_rule": dataclasses.asdict(rule),
+              "speed_limit_mps": road.speed_limit_mps,
               "set_point": "estimated by the action rule, within [env.v_min_mps, env.v_max_mps]"}
     seed = int(scene.meta.settings.get("split_seed", 0))  # type: ignore[call-overload]
     write_parquet(table, out, provenance(DEMONSTRATIONS, config, seed, driver="recorded drivers",

@@ -57,7 +57,8 @@ def read_scene(folder: Path) -> Scene:
 
 def check_scene(scene: Scene, config: Config, split: str) -> SceneRoad:
     """The scene's road; RecordingUsageError when the scene cannot give this configuration's observation (another
-    lane count, a road that is not one straight edge) or `split` names no vehicle."""
+    lane count, a road that is not one straight edge), its road's speed limit is not this configuration's
+    (`check_speed_limit`) or `split` names no vehicle."""
     if split not in SPLITS:
         raise RecordingUsageError(f"unknown split {split!r}; known: {', '.join(SPLITS)}")
     try:
@@ -67,9 +68,28 @@ def check_scene(scene: Scene, config: Config, split: str) -> SceneRoad:
     if road.lanes != config.scenario.lanes:
         raise RecordingUsageError(f"the scene {scene.folder} has {road.lanes} lanes and the observation "
                                   f"scenario.lanes={config.scenario.lanes}; pass --set scenario.lanes={road.lanes}")
+    check_speed_limit(road.speed_limit_mps, config, f"the road of the scene {scene.folder}")
     if not (scene.split["split"] == split).any():
         raise RecordingUsageError(f"the scene {scene.folder} has no vehicle in the {split} split")
     return road
+
+
+SPEED_TOLERANCE_MPS = 0.005
+"""Speeds this close are one (a network file writes speeds to 0.01 m/s)."""
+
+
+def check_speed_limit(road_limit_mps: float, config: Config, what: str) -> None:
+    """RecordingUsageError unless `config` drives at the speed limit `road_limit_mps` [m/s] of the road `what` (a
+    scene's, named in the sentence): scenario.speed_limit_mps is that limit (the generated roads' and the driving
+    score's), and env.v_max_mps (the highest set-point, the observation's speed scale) is not below it, so that the
+    set-points and the ego can reach the recorded drivers' speeds."""
+    limit, top, road = config.scenario.speed_limit_mps, config.env.v_max_mps, road_limit_mps
+    fixes = ([] if abs(limit - road) <= SPEED_TOLERANCE_MPS else [f"scenario.speed_limit_mps={road:g}"]) + (
+        [] if top >= road - SPEED_TOLERANCE_MPS else [f"env.v_max_mps={road:g}"])
+    if fixes:
+        raise RecordingUsageError(f"{what} has a speed limit of {road:g} m/s and this configuration has "
+                                  f"scenario.speed_limit_mps={limit:g} and env.v_max_mps={top:g} (the highest "
+                                  f"set-point, which may not be below the limit); pass --set {' --set '.join(fixes)}")
 
 
 def scene_sources(scene: Scene) -> dict[str, str]:

@@ -35,13 +35,15 @@ _CONTINUOUS = ("x_m", "y_m", "speed_mps", "lane_position_m")
 
 @dataclass(frozen=True)
 class SceneRoad:
-    """A straight one-edge road: its edge, lane centre lines' y [m] (rightmost first), length [m] and the edge boxes
-    the LIDAR sees ((S, 6) rows of centre x, y, axis x, y, half length, half width, as `ego.edge_rows`)."""
+    """A straight one-edge road: its edge, lane centre lines' y [m] (rightmost first), length [m], the edge boxes
+    the LIDAR sees ((S, 6) rows of centre x, y, axis x, y, half length, half width, as `ego.edge_rows`) and its speed
+    limit [m/s] (its fastest lane's)."""
 
     edge: str
     lane_y_m: tuple[float, ...]
     length_m: float
     edge_rows: np.ndarray
+    speed_limit_mps: float
 
     @property
     def lanes(self) -> int:
@@ -74,7 +76,8 @@ def scene_road(net_file: Path) -> SceneRoad:
     boxes = lidar.edge_boxes(np.concatenate([segments(right), segments(left)]))
     return SceneRoad(edges[0].get("id", ""), tuple(float(shape[0, 1]) for shape in shapes),
                      float(lanes[0].get("length", "0")), np.hstack([boxes.centre_xy, boxes.axis_xy,
-                                                                     boxes.half_size_m]))
+                                                                     boxes.half_size_m]),
+                     max(float(lane.get("speed", "13.89")) for lane in lanes))
 
 
 class SceneFrames:

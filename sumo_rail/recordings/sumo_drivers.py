@@ -2,12 +2,12 @@
 motorway, captured from libsumo at every step and written as a scene folder (format "sumo").
 
 The road is `road.build_road`'s straight edge (the scenario's lanes, lane width and length, as the package's own
-straight highway). The traffic is a Poisson flow (scenario.flow_veh_per_h unless given) of `DRIVER_TYPES`: cars and
-trucks, Krauss and IDM car following, LC2013 lane changing with calm, eager and cooperative temperaments (lcSpeedGain,
-lcCooperative, lcAssertive), driver imperfection sigma > 0 and a spread of desired speeds (a normal speedFactor per
-vehicle). After `warmup_s` [s] every vehicle on the road is captured at every step for `duration_s` [s]: its front
-bumper's centre, heading, speed, acceleration, edge, lane and position along it, size and class. The same seed gives
-the same bytes (SUMO's --seed; nothing else is random).
+straight highway; its speed limit `road.ROAD_SPEED_MPS`, as every built scene road's). The traffic is a Poisson flow of
+scenario.flow_veh_per_h of `DRIVER_TYPES`: cars and trucks, Krauss and IDM car following, LC2013 lane changing with
+calm, eager and cooperative temperaments (lcSpeedGain, lcCooperative, lcAssertive), driver imperfection sigma > 0 and a
+spread of desired speeds (a normal speedFactor per vehicle). After scenario.warmup_s [s] every vehicle on the road is
+captured at every step for `duration_s` [s]: its front bumper's centre, heading, speed, acceleration, edge, lane and
+position along it, size and class. The same seed gives the same bytes (SUMO's --seed; nothing else is random).
 """
 
 from __future__ import annotations
@@ -67,11 +67,7 @@ class SumoDriversSettings:
     seed: int
     """SUMO's --seed: arrivals, types, desired speeds, dawdling."""
     duration_s: float = 600.0
-    """Recorded time after the warm-up [s]."""
-    warmup_s: float = 120.0
-    """Time before recording [s]: long enough for the first vehicles to cross the road."""
-    flow_veh_per_h: float | None = None
-    """Arrivals [veh/h]; None: scenario.flow_veh_per_h."""
+    """Recorded time after the warm-up (scenario.warmup_s) [s]."""
     split_seed: int = 0
     test_share: float = 0.2
     validation_share: float = 0.1
@@ -108,13 +104,13 @@ def _capture(config: Config, settings: SumoDriversSettings, net_file: Path, scra
     """Run SUMO on `net_file` and return every vehicle's rows (TRACK_COLUMNS, frame, source_id, type)."""
     scenario = config.scenario
     routes = scratch / "drivers.rou.xml"
-    routes.write_bytes(routes_xml(settings.flow_veh_per_h or scenario.flow_veh_per_h))
+    routes.write_bytes(routes_xml(scenario.flow_veh_per_h))
     built = BuiltNetwork(net_file, routes, scratch, (ROAD_EDGE,))
     api, constants = load_api("libsumo"), load_constants()
     variables = (constants.VAR_POSITION, constants.VAR_ANGLE, constants.VAR_SPEED, constants.VAR_ACCELERATION,
                  constants.VAR_ROAD_ID, constants.VAR_LANE_INDEX, constants.VAR_LANEPOSITION)
     step_s = scenario.step_length_s
-    warmup_steps, steps = round(settings.warmup_s / step_s), round(settings.duration_s / step_s)
+    warmup_steps, steps = round(scenario.warmup_s / step_s), round(settings.duration_s / step_s)
     columns: dict[str, list] = {name: [] for name in ("frame", "id", "x", "y", "angle", "speed", "accel", "edge",
                                                       "lane", "pos")}
     kinds: dict[str, tuple[float, float, str, str]] = {}
@@ -157,8 +153,17 @@ def _capture(config: Config, settings: SumoDriversSettings, net_file: Path, scra
         "vehicle_class": [kinds[v][2] for v in ids], "type": [kinds[v][3] for v in ids]})
 
 
-def check_recording(settings: SumoDriversSettings) -> None:
-    """RecordingUsageError for anything wrong before work starts: the folder, a scene already in it, the shares."""
+def check_recording(settings: SumoDriversSettings, config: Config) -> None:
+    """RecordingUsageError for anything wrong before work starts: the folder, a scene already in it, the shares, a
+    road other than the straight one, a duration too short for one decision."""
+    if config.scenario.kind != "straight":
+        raise RecordingUsageError(f"record-sumo-drivers records on a straight road of scenario.lanes lanes, not on "
+                                  f"scenario.kind {config.scenario.kind}; drop that setting")
+    decision_s = config.env.decision_period_s + config.scenario.step_length_s
+    if settings.duration_s < decision_s:
+        raise RecordingUsageError(f"--duration-s {settings.duration_s:g} is shorter than one decision and the step "
+                                  f"after it ({decision_s:g} s, env.decision_period_s + scenario.step_length_s), so no "
+                                  f"track could be kept")
     check_scene_output(settings.out, settings.overwrite)
     if settings.test_share + settings.validation_share >= 1:
         raise RecordingUsageError("--test-share and --validation-share must leave vehicles to train")
@@ -172,15 +177,20 @@ def record_sumo_drivers(settings: SumoDriversSettings, config: Config) -> SumoDr
         net_file = Path(scratch) / "road.net.xml"
         build_road(widths, scenario.length_m, net_file)
         rows = _capture(config, settings, net_file, Path(scratch))
+    raise_more = "raise --duration-s, scenario.warmup_s or scenario.flow_veh_per_h"
     if rows.empty:
-        raise RecordingDataError(f"no vehicle drove in the {settings.duration_s:g} s recorded; raise --flow-veh-per-h "
-                                 f"or --duration-s")
+        raise RecordingDataError(f"no vehicle drove in the {settings.duration_s:g} s recorded; {raise_more}")
     rate_hz = 1.0 / scenario.step_length_s
     tracks, dropped = kept_tracks(rows, rate_hz, config.env.decision_period_s, "the SUMO run", gaps_fail=False)
+    if tracks.empty:
+        raise RecordingDataError(f"no vehicle of the {settings.duration_s:g} s recorded stayed on the road for one "
+                                 f"decision (env.decision_period_s {config.env.decision_period_s:g} s) and the step "
+                                 f"after it ({len(dropped)} too short); {raise_more}")
     split = split_table(tracks, settings.split_seed, settings.test_share, settings.validation_share)
     recorded = {key: (str(value) if isinstance(value, Path) else value)
                 for key, value in dataclasses.asdict(settings).items() if key not in ("out", "overwrite")}
-    recorded |= {"decision_period_s": config.env.decision_period_s, "step_length_s": scenario.step_length_s,
+    recorded |= {"warmup_s": scenario.warmup_s, "flow_veh_per_h": scenario.flow_veh_per_h,
+                 "decision_period_s": config.env.decision_period_s, "step_length_s": scenario.step_length_s,
                  "road_speed_mps": ROAD_SPEED_MPS, "driver_types": DRIVER_TYPES}
     meta = SceneMeta(format="sumo", frame_rate_hz=rate_hz, network="road.net.xml", lanes=scenario.lanes,
                      sources={}, dropped=dropped, settings=recorded)

@@ -32,6 +32,7 @@ import pyarrow.parquet as pq
 from sumo_rail import ENV_ID
 from sumo_rail.config import Config
 from sumo_rail.datasets import DatasetError, read_metadata, sumo_version
+from sumo_rail.runners.experts import RECORDED_SCENE
 from sumo_rail.runners.tables import DEMONSTRATIONS
 
 INSTALL_HINT = "pip install 'sumo-rail[minari]'"
@@ -65,10 +66,16 @@ class RecordedEpisode:
 
 
 def read_episodes(path: Path) -> tuple[Config, list[RecordedEpisode]]:
-    """The recording's config and its episodes (DatasetError if the file is not a demonstrations file)."""
+    """The recording's config and its episodes (DatasetError if the file is not a demonstrations file, or holds
+    demonstrations read from a recorded scene, whose episodes the env cannot replay)."""
     metadata = read_metadata(path)
     if metadata.get("kind") != DEMONSTRATIONS:
         raise DatasetError(f"{path} holds {metadata.get('kind')!r} data, not demonstrations")
+    scene = metadata.get(RECORDED_SCENE)
+    if isinstance(scene, dict):
+        raise DatasetError(f"{path} were read from the recorded scene {scene.get('folder')}: its episodes have no "
+                           f"seed the env could replay to recover each one's last observation, which a Minari "
+                           f"dataset holds, so only record-expert's demonstrations can be exported")
     try:
         table = pq.read_table(path, columns=["episode", "step", "episode_seed", "observation", "action", "reward",
                                              "terminated", "truncated"]).sort_by([("episode", "ascending"),
@@ -116,7 +123,8 @@ def export_minari(demos: Path, dataset_id: str, root: Path | None = None, overwr
                   on_episode: Callable[[int], None] | None = None,
                   hold: Callable[[Path], None] | None = None) -> ExportSummary:
     """Write the demonstrations at `demos` as the Minari dataset `dataset_id` ("[namespace/]name-vN"); `hold` is
-    called with the dataset's folder before anything is read or written (the command's output lock)."""
+    called with the dataset's folder before anything is written (the command's output lock). ExportError for a
+    datasets folder that cannot be written, DatasetError for demonstrations that cannot be exported."""
     minari = _import_minari()
     from minari.data_collector import EpisodeBuffer
     from minari.dataset.minari_dataset import parse_dataset_id
@@ -126,6 +134,7 @@ def export_minari(demos: Path, dataset_id: str, root: Path | None = None, overwr
     except ValueError as error:
         raise ExportError(f"{dataset_id!r} is not a Minari dataset id such as 'sumo-rail/expert-v0' ({error})") \
             from error
+    config, episodes = read_episodes(demos)
     with _datasets_root(root) as target_root:
         target = target_root / dataset_id
         if hold is not None:
@@ -133,18 +142,21 @@ def export_minari(demos: Path, dataset_id: str, root: Path | None = None, overwr
         if target.exists() and not overwrite:
             raise ExportError(f"the Minari dataset {dataset_id} already exists in {target_root}; pass --overwrite to "
                               f"replace it")
-        config, episodes = read_episodes(demos)
-        finals = final_observations(config, episodes, on_episode)
-        buffers = [EpisodeBuffer(id=k, seed=e.seed, observations=np.concatenate([e.observations, final[None]]),
-                                 actions=e.actions, rewards=list(e.rewards),
-                                 terminations=[False] * (len(e.actions) - 1) + [e.terminated],
-                                 truncations=[False] * (len(e.actions) - 1) + [e.truncated])
-                   for k, (e, final) in enumerate(zip(episodes, finals, strict=True))]
-        import gymnasium
-
-        spec = dataclasses.replace(gymnasium.spec(ENV_ID), kwargs={"config": config.to_dict()})
-        scratch = Path(tempfile.mkdtemp(prefix=".sumo-rail-minari-", dir=target_root))
         try:
+            scratch = Path(tempfile.mkdtemp(prefix=".sumo-rail-minari-", dir=target_root))
+        except OSError as error:
+            raise ExportError(f"cannot write into the Minari datasets folder {target_root}: "
+                              f"{error.strerror or error}") from error
+        try:
+            finals = final_observations(config, episodes, on_episode)
+            buffers = [EpisodeBuffer(id=k, seed=e.seed, observations=np.concatenate([e.observations, final[None]]),
+                                     actions=e.actions, rewards=list(e.rewards),
+                                     terminations=[False] * (len(e.actions) - 1) + [e.terminated],
+                                     truncations=[False] * (len(e.actions) - 1) + [e.truncated])
+                       for k, (e, final) in enumerate(zip(episodes, finals, strict=True))]
+            import gymnasium
+
+            spec = dataclasses.replace(gymnasium.spec(ENV_ID), kwargs={"config": config.to_dict()})
             with _environment("MINARI_DATASETS_PATH", str(scratch)), warnings.catch_warnings():
                 warnings.simplefilter("ignore", UserWarning)  # advice on unset authors, permalinks, eval envs
                 minari.create_dataset_from_buffers(
@@ -159,6 +171,9 @@ def export_minari(demos: Path, dataset_id: str, root: Path | None = None, overwr
                 if not destination.exists():
                     os.replace(metadata, destination)
             os.replace(scratch / dataset_id, target)
+        except OSError as error:
+            raise ExportError(f"cannot write the Minari dataset {dataset_id} into {target_root}: "
+                              f"{error.strerror or error}") from error
         finally:
             shutil.rmtree(scratch, ignore_errors=True)
     return ExportSummary(dataset_id, len(episodes), int(sum(len(e.actions) for e in episodes)), target)

@@ -25,7 +25,3 @@ def road_configs(config: Config, roads: Sequence[str]) -> list[Config]:
         configs.append(road_config)
     return configs
 
-
-def parse_roads(text: str) -> tuple[str, ...]:
-    """`--roads` "straight,merge,exit" as its road names, in order (blank entries dropped)."""
-    return tuple(road.strip() for road in text.split(",") if road.strip())

@@ -102,3 +102,9 @@ def write_fcd(path: Path, rows: list[dict]) -> Path:
 def lane_y(lanes: int, lane: int, width: float = 3.2) -> float:
     """The centre y [m] of lane `lane` (0 the rightmost) of `build_road`'s road of `lanes` lanes of `width`."""
     return -(lanes - lane - 0.5) * width
+
+
+SCENE_SPEED = ("--set", "scenario.speed_limit_mps=44.44", "--set", "env.v_max_mps=44.44")
+"""The settings of a scene whose road is built from a recording (its limit `road.ROAD_SPEED_MPS`), which commands on
+the scene require."""
+SCENE_SPEED_CONFIG = {"scenario": {"speed_limit_mps": 44.44}, "env": {"v_max_mps": 44.44}}

@@ -11,6 +11,7 @@ import numpy as np
 import pandas as pd
 import pytest
 from click.testing import CliRunner
+from recording_files import SCENE_SPEED
 from reliability import stopped_after
 from sumo_rail_cli.main import cli
 
@@ -145,7 +146,8 @@ def test_the_same_seed_gives_the_same_episodes_whatever_the_workers(drivers_scen
 
 
 def invoke(*args: str):
-    return CliRunner().invoke(cli, ["evaluate-scene", *args])
+    """sumo-rail evaluate-scene ARGS, with the scene road's speed settings (`SCENE_SPEED`)."""
+    return CliRunner().invoke(cli, ["evaluate-scene", *args, *SCENE_SPEED])
 
 
 def test_evaluate_scene_writes_both_tables_with_provenance(drivers_scene, tmp_path):
@@ -259,10 +261,20 @@ def test_a_sigterm_after_both_outputs_were_written_names_them(drivers_scene, tmp
     """SIGTERM once both tables are written, in the work or after it (as the summary is printed): the sentence names
     them, not "nothing was written"."""
     out = tmp_path / "scene_eval.parquet"
-    result = stopped_after(after, signal.SIGTERM, ["evaluate-scene", str(drivers_scene), "--set", "scenario.lanes=3",
-                                                   "--set", "observation.lane_block=1", "--policy", "keep", "--seats",
-                                                   "1", "--horizon-s", "10", "--lead-s", "2", "--mode", "reactive",
-                                                   "--out", str(out)], tmp_path)
+    result = stopped_after(after, signal.SIGTERM, ["evaluate-scene", str(drivers_scene), *SCENE_SPEED, "--set",
+                                                   "scenario.lanes=3", "--set", "observation.lane_block=1", "--policy",
+                                                   "keep", "--seats", "1", "--horizon-s", "10", "--lead-s", "2",
+                                                   "--mode", "reactive", "--out", str(out)], tmp_path)
     assert result.returncode == 1 and "Traceback" not in result.stderr, result.stderr
     assert result.stderr.splitlines()[-1] == f"Error: interrupted{when}; {out} and {tracks_path(out)} were written"
     assert len(pd.read_parquet(out)) == 1 and len(pd.read_parquet(tracks_path(out))) > 0
+
+
+def test_a_configuration_below_the_scenes_speed_limit_is_refused(drivers_scene, tmp_path):
+    """The seats would cap the ego at 33.33 m/s on a road whose drivers go up to 44.44 m/s and beyond."""
+    out = tmp_path / "out.parquet"
+    result = CliRunner().invoke(cli, ["evaluate-scene", str(drivers_scene), "--set", "scenario.lanes=3", "--policy",
+                                      "keep", "--out", str(out)])
+    assert result.exit_code == 2 and "speed limit of 44.44 m/s" in result.output
+    assert "--set scenario.speed_limit_mps=44.44 --set env.v_max_mps=44.44" in result.output
+    assert "Traceback" not in result.output and not out.exists()

@@ -3,12 +3,17 @@ observation computed from the scene, provenance naming the scene; train and gail
 
 from __future__ import annotations
 
+import subprocess
+
 import numpy as np
 import pandas as pd
 import pyarrow.parquet as pq
 import pytest
 from click.testing import CliRunner
+from recording_files import SCENE_SPEED, SCENE_SPEED_CONFIG
+from sumo_rail_cli.demos_options import RECORDED_NOTE
 from sumo_rail_cli.main import cli
+from sumo_rail_cli.output_lock import lock_path
 
 from sumo_rail.config import Config
 from sumo_rail.datasets import file_sha256, read_metadata
@@ -48,7 +53,8 @@ def two_car_scene(folder, lanes: int = 5) -> None:
 
 
 def invoke(*args: str):
-    return CliRunner().invoke(cli, list(args))
+    """sumo-rail ARGS, with the scene road's speed settings (`SCENE_SPEED`)."""
+    return CliRunner().invoke(cli, [*args, *SCENE_SPEED])
 
 
 def test_the_observation_is_the_envs_seen_from_the_recorded_car(tmp_path):
@@ -57,7 +63,7 @@ def test_the_observation_is_the_envs_seen_from_the_recorded_car(tmp_path):
                     "--set", "observation.lane_block=1")
     assert result.exit_code == 0, result.output
     assert "read 16 decisions of 2 tracks (train)" in result.output  # 4 s: 8 periods each
-    config = Config.from_dict({"observation": {"lane_block": 1}})
+    config = Config.from_dict({"observation": {"lane_block": 1}, **SCENE_SPEED_CONFIG})
     table = pq.read_table(tmp_path / "demos.parquet")
     assert table.column_names == list(DEMONSTRATION_COLUMNS)
     frame = table.to_pandas()
@@ -109,10 +115,14 @@ def test_train_and_gail_take_recorded_demos_and_dagger_refuses_them(tmp_path):
     demos = str(tmp_path / "demos.parquet")
     assert invoke("recorded-demos", str(tmp_path / "scene"), "--out", demos).exit_code == 0
     result = invoke("train", *SMALL, "--demos", demos, "--iterations", "1", "--set", "rail.directions=2", "--set",
-                    "rail.top=1",
-                    "--set", "bc.epochs=1", "--eval-every", "0", "--out", str(tmp_path / "rail"))
+                    "rail.top=1", "--set", "bc.epochs=1", "--eval-every", "1", "--eval-episodes", "1",
+                    "--out", str(tmp_path / "rail"))
     assert result.exit_code == 0, result.output
     assert (tmp_path / "rail" / "policy_latest.npz").is_file()
+    # what each printed number measures: BC's accuracy the recorded drivers', the validation agreement the rule's
+    assert RECORDED_NOTE in result.output
+    assert "iteration 1: with the rule-based normal style, not the recorded drivers: validation agreement" in \
+        result.output
     result = invoke("dagger", *SMALL, "--demos", demos, "--rounds", "1", "--set", "dagger.episodes_per_round=1",
                     "--set", "bc.epochs=1", "--eval-every", "0", "--out", str(tmp_path / "dagger"))
     assert result.exit_code == 1 and "a recorded driver cannot be asked what it would do" in result.output
@@ -122,3 +132,67 @@ def test_train_and_gail_take_recorded_demos_and_dagger_refuses_them(tmp_path):
                     "gail.envs=1",
                     "--set", "bc.epochs=1", "--out", str(tmp_path / "gail"))
     assert result.exit_code == 0, result.output
+    assert RECORDED_NOTE in result.output
+
+
+def test_demonstrations_another_command_writes_are_one_sentence_and_left_alone(tmp_path):
+    two_car_scene(tmp_path / "scene")
+    out = tmp_path / "demos.parquet"
+    holder = subprocess.Popen(["sleep", "600"])
+    try:
+        lock_path(out).write_text(f"{holder.pid}\n")
+        result = invoke("recorded-demos", str(tmp_path / "scene"), "--out", str(out))
+        assert result.exit_code == 1 and f"pid {holder.pid}" in result.output and "Traceback" not in result.output
+        assert not out.exists() and lock_path(out).read_text() == f"{holder.pid}\n"
+    finally:
+        holder.kill()
+        holder.wait()
+    assert invoke("recorded-demos", str(tmp_path / "scene"), "--out", str(out)).exit_code == 0
+    assert out.is_file() and not lock_path(out).exists()
+
+
+@pytest.mark.parametrize(("settings", "fixes"), [
+    ((), "--set scenario.speed_limit_mps=44.44 --set env.v_max_mps=44.44"),  # the defaults: 33.33 m/s
+    (("--set", "scenario.speed_limit_mps=44.44"), "--set env.v_max_mps=44.44"),
+    (("--set", "env.v_max_mps=50"), "--set scenario.speed_limit_mps=44.44"),
+])
+def test_a_configuration_below_the_scenes_speed_limit_is_refused(tmp_path, settings, fixes):
+    """The scene's road allows 44.44 m/s: set-points clipped at the default 33.33 m/s would misread its drivers."""
+    two_car_scene(tmp_path / "scene")
+    out = tmp_path / "d.parquet"
+    result = CliRunner().invoke(cli, ["recorded-demos", str(tmp_path / "scene"), "--out", str(out), *settings])
+    assert result.exit_code == 2 and "speed limit of 44.44 m/s" in result.output and fixes in result.output
+    assert "Traceback" not in result.output and not out.exists()
+
+
+def test_a_learner_below_the_speed_limit_of_the_demonstrations_scene_is_refused(tmp_path):
+    two_car_scene(tmp_path / "scene")
+    demos = tmp_path / "demos.parquet"
+    assert invoke("recorded-demos", str(tmp_path / "scene"), "--out", str(demos)).exit_code == 0
+    assert read_metadata(demos)[RECORDED_SCENE]["speed_limit_mps"] == 44.44
+    for command in ("train", "gail"):
+        result = CliRunner().invoke(cli, [command, *SMALL, "--demos", str(demos), "--out", str(tmp_path / command)])
+        assert result.exit_code == 2 and "speed limit of 44.44 m/s" in result.output, result.output
+        assert "--set scenario.speed_limit_mps=44.44 --set env.v_max_mps=44.44" in result.output
+        assert not (tmp_path / command).exists()
+
+
+def test_export_minari_and_step_signal_refuse_recorded_demonstrations_in_one_sentence(tmp_path):
+    """Neither can use them (no seed to replay; no expert to ask): one sentence each, nothing made."""
+    from sumo_rail.drivers.policies import Policy, PolicyShape, save_policy
+
+    two_car_scene(tmp_path / "scene")
+    demos = tmp_path / "demos.parquet"
+    assert invoke("recorded-demos", str(tmp_path / "scene"), "--out", str(demos)).exit_code == 0
+    before = sorted(tmp_path.iterdir())
+    result = CliRunner().invoke(cli, ["export-minari", str(demos), "--name", "sumo-rail/recorded-v0", "--root",
+                                      str(tmp_path / "minari")])
+    assert result.exit_code == 1 and "read from the recorded scene" in result.output, result.output
+    assert "Traceback" not in result.output and result.output.count("\n") == 1
+    shape = PolicyShape("linear", observation_space(Config()).shape[0])
+    policy = tmp_path.parent / f"{tmp_path.name}_policy.npz"
+    save_policy(Policy(shape, np.zeros(shape.parameter_count)), policy, {})
+    result = invoke("step-signal", "--demos", str(demos), "--policy", str(policy), "--out", str(tmp_path / "s.json"))
+    assert result.exit_code == 1 and "a recorded driver cannot be asked" in result.output, result.output
+    assert "Traceback" not in result.output and result.output.count("\n") == 1
+    assert sorted(tmp_path.iterdir()) == before

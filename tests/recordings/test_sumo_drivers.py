@@ -4,12 +4,14 @@ tracks in the default duration, and the scene written as FCD and highD read back
 from __future__ import annotations
 
 import json
+import subprocess
 
 import pandas as pd
 import pyarrow.parquet as pq
 import pytest
 from click.testing import CliRunner
 from sumo_rail_cli.main import cli
+from sumo_rail_cli.output_lock import lock_path
 
 from sumo_rail.recordings import fcd, highd
 from sumo_rail.recordings.scene import TRACK_SCHEMA
@@ -28,15 +30,15 @@ def record(folder, *extra: str):
 def short_scene(tmp_path_factory):
     """60 s of seed 3 after a 100 s warm-up."""
     folder = tmp_path_factory.mktemp("drivers") / "scene"
-    record(folder, "--seed", "3", "--duration-s", "60", "--warmup-s", "100")
+    record(folder, "--seed", "3", "--duration-s", "60", "--set", "scenario.warmup_s=100")
     return folder
 
 
 def test_the_same_seed_gives_the_same_bytes_and_another_seed_other_traffic(short_scene, tmp_path):
-    record(tmp_path / "again", "--seed", "3", "--duration-s", "60", "--warmup-s", "100")
+    record(tmp_path / "again", "--seed", "3", "--duration-s", "60", "--set", "scenario.warmup_s=100")
     for name in FILES:
         assert (short_scene / name).read_bytes() == (tmp_path / "again" / name).read_bytes(), name
-    record(tmp_path / "other", "--seed", "4", "--duration-s", "60", "--warmup-s", "100")
+    record(tmp_path / "other", "--seed", "4", "--duration-s", "60", "--set", "scenario.warmup_s=100")
     ours, theirs = (pq.read_table(folder / "tracks.parquet").to_pandas()
                     for folder in (short_scene, tmp_path / "other"))
     assert len(ours) != len(theirs) or not ours["x_m"].equals(theirs["x_m"])  # the traffic, not only the metadata
@@ -105,3 +107,60 @@ def test_written_as_fcd_or_highd_it_reads_back_through_import_recording(short_sc
         assert (merged[column] - merged[f"{column}_scene"]).abs().max() < 0.01, column
     assert (merged["lane"] == merged["lane_scene"]).all()
     assert pd.Series(merged["vehicle_class"] == merged["vehicle_class_scene"]).all()
+
+
+def test_the_warm_up_and_flow_are_the_scenarios_settings(short_scene):
+    """scenario.warmup_s and scenario.flow_veh_per_h are the recording's (no option shadows them): scene.json says."""
+    settings = json.loads((short_scene / "scene.json").read_text())["settings"]
+    assert settings["warmup_s"] == 100.0 and settings["flow_veh_per_h"] == 4000.0
+
+
+def refused(tmp_path, *extra: str, code: int = 2) -> str:
+    """Run record-sumo-drivers into tmp_path/scene expecting a one-sentence refusal with exit `code` and nothing
+    written; its output."""
+    result = CliRunner().invoke(cli, ["record-sumo-drivers", "--out", str(tmp_path / "scene"), *extra])
+    assert result.exit_code == code, result.output
+    assert "Traceback" not in result.output and len(result.output.strip().splitlines()[-1]) < 300
+    assert not (tmp_path / "scene").exists() and sorted(tmp_path.iterdir()) == []
+    return result.output
+
+
+@pytest.mark.parametrize(("extra", "named"), [
+    (["--seed", "2147483648"], "2147483647"),  # SUMO's seed range, as scenario.traffic_seed's
+    (["--seed", "1", "--flow-veh-per-h", "29000"], "--flow-veh-per-h"),  # the setting is the one word for the flow
+    (["--seed", "1", "--warmup-s", "0"], "--warmup-s"),
+    (["--seed", "1", "--set", "scenario.lanes=2", "--set", "scenario.flow_veh_per_h=6500"], "scenario.flow_veh_per_h"),
+    (["--seed", "1", "--duration-s", "1", "--set", "scenario.kind=merge"], "scenario.kind merge"),
+    (["--seed", "1", "--duration-s", "1", "--set", "env.decision_period_s=2"], "--duration-s 1"),
+])
+def test_what_cannot_be_recorded_is_one_sentence_and_nothing_written(tmp_path, extra, named):
+    assert named in refused(tmp_path, *extra)
+
+
+def test_a_user_network_is_refused_not_ignored(tmp_path):
+    from sumo_rail.recordings.road import build_road
+
+    network = tmp_path.parent / f"{tmp_path.name}.net.xml"
+    build_road([3.2] * 5, 3000.0, network)
+    output = refused(tmp_path, "--seed", "1", "--duration-s", "1", "--set", "scenario.kind=network", "--set",
+                     f"scenario.network={network}", "--set", "scenario.route=road")
+    assert "scenario.kind network" in output
+
+
+def test_a_recording_that_keeps_no_track_is_refused_and_nothing_written(tmp_path):
+    output = refused(tmp_path, "--seed", "1", "--duration-s", "1", "--set", "scenario.warmup_s=0", code=1)
+    assert "no vehicle" in output and "--duration-s" in output
+
+
+def test_a_scene_another_command_writes_is_one_sentence_and_left_alone(tmp_path):
+    out = tmp_path / "scene"
+    holder = subprocess.Popen(["sleep", "600"])
+    try:
+        lock_path(out).write_text(f"{holder.pid}\n")
+        result = CliRunner().invoke(cli, ["record-sumo-drivers", "--out", str(out), "--seed", "1", "--duration-s",
+                                          "1", "--set", "scenario.warmup_s=0"])
+        assert result.exit_code == 1 and f"pid {holder.pid}" in result.output and "Traceback" not in result.output
+        assert not out.exists() and lock_path(out).read_text() == f"{holder.pid}\n"
+    finally:
+        holder.kill()
+        holder.wait()

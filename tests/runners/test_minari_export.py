@@ -1,6 +1,8 @@
 """export-minari: a Minari dataset with the demonstrations' observations, actions and episode boundaries."""
 
+import os
 import subprocess
+from pathlib import Path
 
 import numpy as np
 import pyarrow.parquet as pq
@@ -100,3 +102,17 @@ def test_a_dataset_another_command_writes_is_one_sentence_and_left_alone(demos, 
     result = CliRunner().invoke(cli, ["export-minari", str(demos), "--name", "sumo-rail/expert-v0", "--root",
                                       str(tmp_path)])
     assert result.exit_code == 0 and target.is_dir() and not lock_path(target).exists(), result.output
+
+
+def test_a_datasets_folder_that_cannot_be_written_is_one_sentence(demos, tmp_path):
+    """A read-only --root (for root, which writes anywhere else, sysfs) is said before any episode is replayed."""
+    pytest.importorskip("minari", reason="the Minari export is the package's optional extra [minari]")
+    root = Path("/sys") if os.geteuid() == 0 else tmp_path / "read_only"
+    if root != Path("/sys"):
+        root.mkdir()
+        root.chmod(0o555)
+    result = CliRunner().invoke(cli, ["export-minari", str(demos), "--name", "sumo-rail/expert-v0", "--root",
+                                      str(root)])
+    assert result.exit_code == 1 and f"cannot write into the Minari datasets folder {root}" in result.output, \
+        result.output
+    assert "Traceback" not in result.output and not (root / "sumo-rail").exists()
