@@ -219,6 +219,10 @@ class ObservationConfig:
     route_range_m: float = bounded(0, 5000, "m", default=500.0, low_open=True)
     """How far ahead the route block looks [m], above 0 and at most 5000 m: lanes to cross before a lane's end need
     a few hundred metres."""
+    history: int = bounded(0, 10, default=0)
+    """Seconds of the ego's own past the observation shows, between 0 and 10: 1 to 10 append, for each second back,
+    the ego's speed, acceleration and the lanes it has moved since (`sumo_rail.sim.ego_past`), from which a learner
+    can tell a recorded driver's desired speed and style; 0: none (the paper's)."""
 
 
 @dataclass(frozen=True)

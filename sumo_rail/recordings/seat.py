@@ -29,6 +29,7 @@ from sumo_rail.recordings.scene_folder import Scene, read_scene
 from sumo_rail.recordings.scene_observations import SceneFrames, SceneRoad, scene_road
 from sumo_rail.recordings.scene_traffic import LANE_CHANGE_MODE_SUMO, REPLAY_ROUTE, SceneTraffic
 from sumo_rail.sim.ego import CONTEXT_MARGIN_M, Ego
+from sumo_rail.sim.ego_past import EgoPast
 from sumo_rail.sim.env import HighwayEnv
 from sumo_rail.sim.simulation import EGO_ID, Simulation, SimulationError, sumo_options
 from sumo_rail.sim.vehicles import PeriodReport
@@ -57,6 +58,8 @@ class SceneSimulation(Simulation):
         """The ego is on the road (seated, not yet gone)."""
         self._seat_size_m = (0.0, 0.0)
         """The seat's recorded length and width [m]."""
+        self.seated: tuple[str, float] = ("", 0.0)
+        """The recorded vehicle whose seat the ego took and when [s]."""
         super().__init__(config.scenario, config.lidar.range_m + CONTEXT_MARGIN_M, gui=gui, transport=transport)
         self.traffic = SceneTraffic(frames, tracks, road.edge, reactive, self.speed_limit_mps)
         self.traffic.api = self._api
@@ -116,6 +119,7 @@ class SceneSimulation(Simulation):
         self._zip_merging.clear()
         self.ego_collisions.clear()
         self._ego_in = False
+        self.seated = (vehicle, start_s)
         self.traffic.begin(vehicle)
         self._calls.step()
         ids, values, lanes = self.frames.at(start_s)
@@ -175,6 +179,15 @@ class SeatStart:
                              f"got {start_s:g}")
         sim.seat(vehicle, start_s, int(rng.integers(2**31 - 1)))
         return []
+
+    def past(self, sim: Simulation, agent: str) -> EgoPast:
+        """The seated vehicle's recorded lead-in: its track before the seat's instant."""
+        assert isinstance(sim, SceneSimulation)
+        vehicle, start_s = sim.seated
+        track = self.scene.track(vehicle)
+        before = track[track["time_s"] < start_s - 1e-9]
+        return EgoPast(before["time_s"].to_numpy(), before["speed_mps"].to_numpy(),
+                       before["acceleration_mps2"].to_numpy(), before["lane"].to_numpy())
 
     def started(self, sim: Simulation, egos: Mapping[str, Ego], options: dict[str, Any]) -> None:
         """With "sumo_driver", SUMO's IDM and LC2013 take the seat, desired speed the ego's top set-point."""

@@ -24,6 +24,7 @@ from sumo_rail.sim.actions import (
     paper_equivalent,
     split_acceleration_action,
 )
+from sumo_rail.sim.ego_past import EgoPast
 from sumo_rail.sim.observation import acceleration_slot, control_slot
 from sumo_rail.sim.period_safety import NO_READINGS, PeriodSafety
 from sumo_rail.sim.rewards import EpisodeMetrics, OvertakeCounter, lateral_reward, longitudinal_reward, relations
@@ -59,9 +60,10 @@ def edge_rows(sim: Simulation) -> np.ndarray:
 
 
 class Ego:
-    """The decision loop of one ego (SUMO vehicle `vehicle`) over one episode; `edges` are `edge_rows(sim)`."""
+    """The decision loop of one ego (SUMO vehicle `vehicle`) over one episode; `edges` are `edge_rows(sim)`, `past`
+    what is known of it before its first decision (a recorded seat's lead-in)."""
 
-    def __init__(self, config: Config, vehicle: str, edges: np.ndarray) -> None:
+    def __init__(self, config: Config, vehicle: str, edges: np.ndarray, past: EgoPast | None = None) -> None:
         self.config = config
         self.vehicle = vehicle
         self.edges = edges
@@ -82,6 +84,8 @@ class Ego:
         self.last_observation = np.zeros(0, dtype=np.float32)
         self.last_action: Action | None = None
         self.route_progress = RouteProgress(config.observation.route_range_m)
+        self.past = past or EgoPast()
+        """The ego's own past (the observation's history block, `observation.history`)."""
         self.period_safety = PeriodSafety(config.scenario.step_length_s, config.env.decision_period_s)
         self.safety_readings: dict[str, float] = NO_READINGS
         """The last period's safety readings (`period_safety.READINGS`, in `info`)."""
@@ -110,7 +114,8 @@ class Ego:
         self.start_time_s, self.start_position_m = sim.time_s, ego.lane_position_m
         self.route_progress.update(ego, sim.time_s, self.metrics)
         self.overtakes.update(neighbours.ids, self._relations(ego, neighbours))
-        self.last_observation = self.observation(ego, neighbours, ego.changing_lane)
+        self.past.record(sim.time_s, ego.speed_mps, 0.0, ego.lane)
+        self.last_observation = self.observation(ego, neighbours, ego.changing_lane, sim.time_s)
         self.traffic = TrafficView(ego, neighbours, self.set_point_mps, cfg.scenario.lanes)
         return self.last_observation, self._info(ego, 0.0, 0.0, 0.0, False, "")
 
@@ -188,7 +193,9 @@ class Ego:
             reason = "time_limit"
         if self.accelerating:
             self.set_point_mps = ego.speed_mps
-        self.last_observation = self.observation(ego, neighbours, ego.changing_lane)
+        self.past.record(now_s, ego.speed_mps, report.accelerations_mps2[-1] if report.accelerations_mps2 else 0.0,
+                         ego.lane)
+        self.last_observation = self.observation(ego, neighbours, ego.changing_lane, now_s)
         self.traffic = TrafficView(ego, neighbours, self.set_point_mps, cfg.scenario.lanes)
         if failure:
             sim.remove_ego(self.vehicle)  # standing at the lane's end, it would block it for the egos that drive on
@@ -229,9 +236,10 @@ class Ego:
     def _relations(self, ego: EgoState, neighbours: Neighbours) -> list[int]:
         return relations(ego.lane_position_m, ego.length_m, neighbours.lane_position_m, neighbours.length_m)
 
-    def observation(self, ego: EgoState, neighbours: Neighbours, lane_change_in_progress: bool) -> np.ndarray:
-        """The observation, from the compiled kernel (the numpy `lidar.scan` + `build_observation`, `lane_block` and
-        `route_block` are its reference)."""
+    def observation(self, ego: EgoState, neighbours: Neighbours, lane_change_in_progress: bool,
+                    now_s: float) -> np.ndarray:
+        """The observation at `now_s` [s], from the compiled kernel (the numpy `lidar.scan` + `build_observation`,
+        `lane_block` and `route_block` are its reference), then the history block (`ego_past`)."""
         cfg = self.config
         route = (route_values(ego, cfg.observation.route_range_m, cfg.scenario.lanes) if cfg.observation.route_block
                  else _NO_ROUTE)
@@ -242,6 +250,9 @@ class Ego:
             lane_change_in_progress, *self._kernel_settings, *route)
         if self.accelerating:
             observation[control_slot(cfg)] = acceleration_slot(self.acceleration_mps2, cfg.actions)
+        if cfg.observation.history:
+            observation = np.concatenate([observation, self.past.block(now_s, ego.lane, cfg.observation.history,
+                                                                       cfg.env.v_max_mps)])
         return observation
 
     def _totals(self) -> dict[str, Any]:

@@ -4,7 +4,8 @@ Layout (float32), with B LIDAR beams and L lanes:
 - [0, B): LIDAR distance of beam i / r_max, in [0, 1] (1 = nothing within range);
 - [B, 2B): relative speed along beam i / v_max, clipped to [-1, 1] (positive = moving away);
 - 2B: ego speed / v_max, clipped to [0, 2];
-- 2B + 1: cruise set-point, (v_set - v_min) / (v_max - v_min), in [0, 1] (the driver knows its own setting);
+- 2B + 1: cruise set-point, (v_set - v_min) / (v_max - v_min), in [0, 1] (the driver knows its own setting); under
+  the acceleration interface the last commanded acceleration instead, 0 at its range's lowest, 1 at its highest;
 - [2B + 2, 2B + 2 + L): current lane, one-hot (index 0 = the main road's rightmost lane; an acceleration lane or
   ramp right of it reads as lane 0);
 - 2B + 2 + L: 1 while the ego is between lanes (a lane change under way), else 0;
@@ -13,7 +14,9 @@ Layout (float32), with B LIDAR beams and L lanes:
   (`sumo_rail.sim.traffic.lane_block`);
 - with `observation.route_block = 1`, 4 more: how far the ego's lane leads along its route, the lanes to move to
   the nearest lane that leads farthest, the distances to the next merge and diverge
-  (`sumo_rail.sim.route_progress.route_block`).
+  (`sumo_rail.sim.route_progress.route_block`);
+- with `observation.history = H`, 3 H more: for each second back, the ego's speed, acceleration and lanes moved
+  since (`sumo_rail.sim.ego_past`).
 """
 
 from __future__ import annotations
@@ -23,6 +26,7 @@ from gymnasium import spaces
 
 from sumo_rail.action_config import ActionConfig
 from sumo_rail.config import Config
+from sumo_rail.sim.ego_past import HISTORY_FIELDS
 from sumo_rail.sim.route_progress import ROUTE_BLOCK_FIELDS
 from sumo_rail.sim.traffic import LANE_BLOCK_FIELDS, LANE_BLOCK_LANES
 
@@ -37,7 +41,8 @@ def observation_names(config: Config) -> list[str]:
             + ["lane_change_in_progress"]
             + ([f"{lane}_lane_{name}" for lane in LANE_BLOCK_LANES for name in LANE_BLOCK_FIELDS]
                if config.observation.lane_block else [])
-            + (list(ROUTE_BLOCK_FIELDS) if config.observation.route_block else []))
+            + (list(ROUTE_BLOCK_FIELDS) if config.observation.route_block else [])
+            + [f"history_{name}_{k}s" for k in range(1, config.observation.history + 1) for name in HISTORY_FIELDS])
 
 
 def control_slot(config: Config) -> int:
@@ -57,10 +62,11 @@ def observation_space(config: Config) -> spaces.Box:
     """Bounds of every entry, matching the layout above."""
     beams, lanes = config.lidar.beams, config.scenario.lanes
     block, route = 3 * config.observation.lane_block, config.observation.route_block
+    history = config.observation.history
     low = np.concatenate([np.zeros(beams), -np.ones(beams), [0.0, 0.0], np.zeros(lanes), [0.0], [0, -1, 0, -1] * block,
-                          [0, -1, 0, 0] * route])
+                          [0, -1, 0, 0] * route, [0, -1, -1] * history])
     high = np.concatenate([np.ones(beams), np.ones(beams), [2.0, 1.0], np.ones(lanes), [1.0], [1, 1, 1, 1] * block,
-                           [1, 1, 1, 1] * route])
+                           [1, 1, 1, 1] * route, [2, 1, 1] * history])
     return spaces.Box(low.astype(np.float32), high.astype(np.float32), dtype=np.float32)
 
 

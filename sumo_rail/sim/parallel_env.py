@@ -179,7 +179,7 @@ class ParallelHighwayEnv(ParallelEnv[str, np.ndarray, np.int64]):
                             {key: options[key] for key in rule.options if key in options})
         if self._edges is None:
             self._edges = edge_rows(sim)
-        self._egos = {agent: Ego(cfg, agent, self._edges) for agent in self.possible_agents}
+        self._egos = {agent: Ego(cfg, agent, self._edges, rule.past(sim, agent)) for agent in self.possible_agents}
         self._respawns = dict.fromkeys(self.possible_agents, 0)
         self.agents = [agent for agent in self.possible_agents if agent not in absent]
         observations, infos = {}, {}

@@ -28,6 +28,7 @@ import numpy as np
 from sumo_rail.config import Config
 from sumo_rail.sim import network
 from sumo_rail.sim.ego import CONTEXT_MARGIN_M, Ego
+from sumo_rail.sim.ego_past import EgoPast
 from sumo_rail.sim.simulation import EGO_ID, EgoCouldNotEnter, Simulation
 from sumo_rail.sim.warm_states import WARM_STATE_POOLS
 
@@ -184,6 +185,10 @@ class StartRule(Protocol):
         """After each ego's first observation."""
         ...
 
+    def past(self, sim: Simulation, agent: str) -> EgoPast | None:
+        """What is known of the ego `agent` before its first decision (its observation's history block), or None."""
+        ...
+
 
 @dataclass(frozen=True)
 class WarmStateStart:
@@ -204,3 +209,6 @@ class WarmStateStart:
 
     def started(self, sim: Simulation, egos: Mapping[str, Ego], options: dict[str, Any]) -> None:
         return None
+
+    def past(self, sim: Simulation, agent: str) -> EgoPast | None:
+        return None  # an ego placed from a warm state has no past before it

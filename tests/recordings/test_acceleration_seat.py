@@ -46,3 +46,22 @@ def test_the_seat_follows_a_commanded_braking(replay):
     speed = info["speed_mps"]
     _, _, _, _, info = replay.step(acceleration_action(actions.nearest_bin(-2.0), Lateral.KEEP, actions))
     assert info["speed_mps"] == pytest.approx(speed - 1.0, abs=1e-6)
+
+
+def test_the_seats_history_is_the_recorded_lead_in(drivers_scene):
+    """With observation.history, the first observation in a seat shows the human's speed 1, 2 and 3 s before it."""
+    config = CONFIG.with_overrides({"observation": {"history": 3}})
+    env = SceneEnv(config, drivers_scene, reactive=False)
+    try:
+        tracks = env.scene.tracks
+        vehicle, start_s = longest_track(tracks, "passenger")
+        start_s += 4.0
+        observation, _ = env.reset(seed=0, options={"vehicle": vehicle, "start_s": start_s})
+        track = tracks[tracks["vehicle_id"] == vehicle].set_index("time_s")
+        block = observation[-9:]
+        for k in (1, 2, 3):
+            row = track.loc[min(track.index, key=lambda t: abs(t - (start_s - k)))]
+            assert block[3 * (k - 1)] == pytest.approx(row["speed_mps"] / config.env.v_max_mps, abs=1e-5)
+            assert block[3 * (k - 1) + 1] == pytest.approx(row["acceleration_mps2"] / 9.0, abs=1e-5)
+    finally:
+        env.close()
