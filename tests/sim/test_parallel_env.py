@@ -288,7 +288,7 @@ def test_each_ego_sees_the_others_as_traffic(make_env):
             kept = np.array([vehicle not in env.possible_agents for vehicle in view.neighbours.ids])
             others_gone = Neighbours(*(np.asarray(getattr(view.neighbours, f.name))[kept]
                                        for f in dataclasses.fields(Neighbours)))
-            without = env._egos[agent].observation(view.ego, others_gone, view.ego.changing_lane)
+            without = env._egos[agent].observation(view.ego, others_gone, view.ego.changing_lane, env.simulation.time_s)
             hits += not np.array_equal(without, observations[agent])  # its LIDAR hits another ego
         observations, *_ = env.step(dict.fromkeys(env.agents, Action.KEEP))
     assert hits > 0, hits
