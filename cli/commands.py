@@ -62,7 +62,7 @@ def record_expert(config: Config, episodes: int, seed: int, workers: int, backen
     decision."""
     check_output(out, overwrite)
     check_egos(config, egos)
-    expert, driver = resolve_expert_option(expert, config)
+    expert, driver = resolve_expert_option(expert, config, drives=True)
     from sumo_rail.runners.dart import ActionNoise
     from sumo_rail.runners.record import record_demonstrations
 

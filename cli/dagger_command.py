@@ -56,7 +56,7 @@ def dagger_command(config: Config, settings: LearnerSettings, demos: Path, inclu
     from sumo_rail.learning.validation import Validation
 
     if expert is not None:
-        expert, _ = resolve_expert_option(expert, config)
+        expert, _ = resolve_expert_option(expert, config, drives=True)
     try:
         run = dataclasses.replace(settings.dagger, demos=str(demos), kind=settings.network.shape,
                                   hidden=settings.network.hidden, bc=dataclasses.replace(settings.bc, seed=seed),

@@ -30,7 +30,8 @@ RECORDED_NOTE = ("note: these demonstrations are recorded drivers': behaviour cl
 
 
 def check_demos(demos: Path, config: Config, include_failed: bool, other_road: bool) -> bool:
-    """Refuse (exit 2, one sentence) demonstrations recorded on another road without `other_road`, whose
+    """Refuse (exit 2, one sentence) demonstrations of another action interface, recorded on another road without
+    `other_road`, whose
     observations have another size because their road has another lane count, or read from a recorded scene whose
     road's speed limit this configuration does not keep; say how many failed episodes are left out. Whether they
     were read from a recorded scene (`RECORDED_NOTE` says what that means for the printed numbers). A file that
@@ -38,7 +39,7 @@ def check_demos(demos: Path, config: Config, include_failed: bool, other_road: b
     from sumo_rail.datasets import DatasetError, read_metadata
     from sumo_rail.recordings.scene_folder import check_speed_limit
     from sumo_rail.runners.experts import RECORDED_SCENE
-    from sumo_rail.runners.tables import failed_episodes
+    from sumo_rail.runners.tables import failed_episodes, interface_mismatch
     from sumo_rail.sim.observation import observation_space
 
     try:
@@ -57,6 +58,10 @@ def check_demos(demos: Path, config: Config, include_failed: bool, other_road: b
         raise click.BadParameter(f"{demos} were recorded on a road of {lanes} lanes, this run's has "
                                  f"{config.scenario.lanes}, so their observations have {len(names)} values, not "
                                  f"{size}: record demonstrations with this lane count", param_hint="'--demos'")
+    try:
+        interface_mismatch(demos, metadata, config.actions)
+    except DatasetError as error:
+        raise click.BadParameter(str(error), param_hint="'--demos'") from error
     scene = metadata.get(RECORDED_SCENE)
     if isinstance(scene, dict) and isinstance(scene.get("speed_limit_mps"), float):
         try:

@@ -225,16 +225,20 @@ def expert_option(help_text: str, default: str | None = "normal") -> Callable[[C
                         "policy file whose observation layout is this configuration's.")
 
 
-def resolve_expert_option(expert: str, config: Config) -> tuple[str, Any]:
+def resolve_expert_option(expert: str, config: Config, drives: bool = False) -> tuple[str, Any]:
     """How outputs record the expert of --expert (`experts.expert_reference`: a policy file by absolute path and
-    content hash) and its driver; an unknown name is a usage error (exit 2), an unusable policy file a one-sentence
-    error (exit 1)."""
+    content hash) and its driver (with `drives`, one that can drive or label under the configuration's action
+    interface, `experts.check_drives`); an unknown name or an expert of the other interface is a usage error (exit
+    2), an unusable policy file a one-sentence error (exit 1)."""
     from sumo_rail.drivers.policies import PolicyFileError
-    from sumo_rail.runners.experts import expert_reference, resolve_expert
+    from sumo_rail.runners.experts import check_drives, expert_reference, resolve_expert
 
     try:
         reference = expert_reference(expert)
-        return reference, resolve_expert(reference, config)
+        driver = resolve_expert(reference, config)
+        if drives:
+            check_drives(driver, config)
+        return reference, driver
     except PolicyFileError as error:
         raise click.ClickException(str(error)) from error
     except ValueError as error:

@@ -19,7 +19,7 @@ from sumo_rail.evaluation.driving_score import SCORE_COLUMNS, driving_scores, me
 from sumo_rail.evaluation.fidelity import CONFUSION_COLUMNS, DECISION_FIELDS, RATE_COLUMNS, DecisionProbe
 from sumo_rail.evaluation.safety import SAFETY_DECISION_FIELDS, SAFETY_MEASURES, SafetyProbe
 from sumo_rail.runners.backends import RolloutBackend, WorkerContext
-from sumo_rail.runners.experts import parse_policy, resolve_expert
+from sumo_rail.runners.experts import check_drives, parse_policy, resolve_expert
 from sumo_rail.runners.rollout import DriverSpec, EpisodeTask, ExpertDriver, KeepDriver, RandomDriver
 from sumo_rail.runners.tables import EPISODE_METRICS, METRIC_COLUMNS, metrics_table, provenance
 from sumo_rail.runners.video import FrameRecorder, encode_mp4, video_name
@@ -33,11 +33,11 @@ def parse_driver(text: str, config: Config, expert: DriverSpec) -> DriverSpec:
     if name == "sampled" and colon:
         return parse_policy(Path(style), config, sampled=True)
     if name == "expert":
-        if not colon:
-            return expert
-        if style not in STYLES:
+        if colon and style not in STYLES:
             raise ValueError(f"unknown expert style {style!r}; known styles: {', '.join(sorted(STYLES))}")
-        return ExpertDriver(style)
+        driver = ExpertDriver(style) if colon else expert
+        check_drives(driver, config)
+        return driver
     if text == "keep":
         return KeepDriver()
     if text == "random":

@@ -41,7 +41,7 @@ from sumo_rail.learning.run_folder import (
 )
 from sumo_rail.learning.validation import Validation, validate, validation_columns, with_validation_columns
 from sumo_rail.runners.backends import RolloutBackend, WorkerContext
-from sumo_rail.runners.experts import demonstrations_expert, resolve_expert
+from sumo_rail.runners.experts import check_drives, demonstrations_expert, resolve_expert
 from sumo_rail.runners.road_mix import road_configs
 from sumo_rail.runners.rollout import Driver, DriverSpec, run_shared_episode, shared_groups
 from sumo_rail.runners.tables import Demonstrations, provenance, read_demonstrations
@@ -161,6 +161,7 @@ def train_dagger(folder: Path, settings: DaggerSettings, config: Config, rounds:
     recorded = demonstrations_expert(demos.metadata)  # NotQueryable for recorded drivers, --expert or not
     style = settings.expert or recorded
     expert = resolve_expert(style, config, recorded_by=None if settings.expert else settings.demos)
+    check_drives(expert, config)
     shape = PolicyShape(settings.kind, observation_size, settings.hidden, action_space_of(config.actions).n)
     run_record = {"settings": settings.to_dict(), "expert": style, **demos_hash,
                   **provenance("dagger_run", config, settings.seed)}

@@ -10,6 +10,12 @@ rewards the env's formulas give them; no collision). The metadata names the scen
 with their sha256, the source recording's files, the vehicles, the split, the rule's settings and the road's speed
 limit, which a learner's configuration must keep, `scene_folder.check_speed_limit`): a recorded driver
 cannot be asked what it would do elsewhere, so DAgger refuses such a file (`experts.demonstrations_expert`).
+
+Under the acceleration interface (`actions.interface = "acceleration"`) the action is the acceleration interface's
+reading (`acceleration_reading`, NGSIM's speeds smoothed), the set-point's entry of the observation the last
+commanded acceleration (0 before the first decision, as in the env) and the set-point column the speed. With
+`observation.history` the observation ends with the track's own past up to the instant (`sumo_rail.sim.ego_past`),
+as the env's seat shows the recorded lead-in.
 """
 
 from __future__ import annotations
@@ -23,36 +29,69 @@ import pandas as pd
 
 from sumo_rail.config import Config
 from sumo_rail.datasets import DatasetError, write_parquet
+from sumo_rail.recordings.acceleration_reading import read_acceleration_track, smoothing_for
 from sumo_rail.recordings.actions import ActionRule, read_track, speed_reading
 from sumo_rail.recordings.scene_folder import Scene, check_scene, read_scene, scene_sources
 from sumo_rail.recordings.scene_observations import SceneFrames, SceneRoad, observe
 from sumo_rail.runners.experts import RECORDED_SCENE
 from sumo_rail.runners.tables import DEMONSTRATIONS, demonstrations_from_columns, provenance
-from sumo_rail.sim.observation import observation_space
+from sumo_rail.sim.actions import split_acceleration_action
+from sumo_rail.sim.ego_past import EgoPast
+from sumo_rail.sim.observation import acceleration_slot, control_slot, observation_space
 from sumo_rail.sim.rewards import lateral_reward, longitudinal_reward
 
 
 @dataclass(frozen=True)
 class TrackDecisions:
-    """One track's decisions: instants [s], actions, set-points before each action and after the last [m/s]."""
+    """One track's decisions: instants [s], actions, set-points before each action and after the last [m/s] (under
+    the acceleration interface the speeds there, what an acceleration of 0 holds), the commanded acceleration each
+    decision's observation shows [m/s^2] (the acceleration interface: the previous action's, 0 before the first),
+    and the track itself (`past`, for the observation's history block)."""
 
     vehicle: str
     instants_s: np.ndarray
     actions: np.ndarray
     set_points_mps: np.ndarray
+    shown_accelerations_mps2: np.ndarray
+    past: pd.DataFrame
 
 
-def track_decisions(vehicle: str, track: pd.DataFrame, rule: ActionRule, config: Config) -> TrackDecisions:
-    """The decisions `rule` reads off one track (rows sorted by time), with the set-point it estimates."""
-    time_s = track["time_s"].to_numpy()
-    instants, actions = read_track(time_s, track["speed_mps"].to_numpy(), track["lane"].to_numpy(),
-                                   track["edge"].to_numpy(), track["y_m"].to_numpy(), rule)
-    speeds = np.interp(np.append(instants, time_s[0] + rule.decision_period_s * len(instants)), time_s,
-                       track["speed_mps"].to_numpy())
+def track_decisions(vehicle: str, track: pd.DataFrame, rule: ActionRule, config: Config,
+                    smoothing_s: float = 0.0) -> TrackDecisions:
+    """The decisions read off one track (rows sorted by time): the paper's actions by `rule`, with the set-point it
+    estimates, or the acceleration interface's (`acceleration_reading`, speeds smoothed over `smoothing_s` [s])."""
+    time_s, speed = track["time_s"].to_numpy(), track["speed_mps"].to_numpy()
+    lane, edge, lateral = track["lane"].to_numpy(), track["edge"].to_numpy(), track["y_m"].to_numpy()
+    interface = config.actions
+    if interface.interface == "acceleration":
+        instants, actions, _ = read_acceleration_track(time_s, speed, lane, edge, lateral, rule, interface,
+                                                       smoothing_s)
+        commanded = [interface.acceleration_mps2(split_acceleration_action(int(a), interface)[0]) for a in actions]
+        shown = np.array([0.0, *commanded[:-1]]) if len(actions) else np.zeros(0)
+        speeds = np.interp(time_s[0] + rule.decision_period_s * np.arange(len(instants) + 1), time_s, speed)
+        return TrackDecisions(vehicle, instants, actions, speeds, shown, track)
+    instants, actions = read_track(time_s, speed, lane, edge, lateral, rule)
+    speeds = np.interp(np.append(instants, time_s[0] + rule.decision_period_s * len(instants)), time_s, speed)
     set_points = speed_reading(speeds, rule)[1]
     after = set_points[-1] if len(set_points) else speeds[0]
     set_points = np.clip(np.append(set_points, after), config.env.v_min_mps, config.env.v_max_mps)
-    return TrackDecisions(vehicle, instants, actions, set_points)
+    return TrackDecisions(vehicle, instants, actions, set_points, np.zeros(len(actions)), track)
+
+
+def seat_observation(config: Config, observation: np.ndarray, decided: TrackDecisions, step: int, instant_s: float,
+                     lane: int) -> np.ndarray:
+    """`observe`'s observation at a decision completed as the env's ego sees it: the acceleration interface's
+    last commanded acceleration in the set-point's entry, then the history block from the track up to the instant
+    (`sumo_rail.sim.ego_past`)."""
+    if config.actions.interface == "acceleration" and step < len(decided.shown_accelerations_mps2):
+        observation[control_slot(config)] = acceleration_slot(float(decided.shown_accelerations_mps2[step]),
+                                                              config.actions)
+    if not config.observation.history:
+        return observation
+    past = decided.past[decided.past["time_s"] <= instant_s + 1e-9]
+    block = EgoPast(past["time_s"].to_numpy(), past["speed_mps"].to_numpy(), past["acceleration_mps2"].to_numpy(),
+                    past["lane"].to_numpy()).block(instant_s, lane, config.observation.history, config.env.v_max_mps)
+    return np.concatenate([observation, block])
 
 
 def decisions_table(scene: Scene, road: SceneRoad, config: Config, decisions: list[TrackDecisions],
@@ -71,8 +110,9 @@ def decisions_table(scene: Scene, road: SceneRoad, config: Config, decisions: li
         for episode, step in wanted[instant]:
             decided = decisions[episode]
             row = int(np.flatnonzero(ids == decided.vehicle)[0])
-            observation = observe(config, road, ids, values, lanes, decided.vehicle,
-                                  float(decided.set_points_mps[step]))
+            observation = seat_observation(config, observe(config, road, ids, values, lanes, decided.vehicle,
+                                                           float(decided.set_points_mps[step])),
+                                           decided, step, instant, int(lanes[row]))
             states[episode][step] = (observation, float(values["speed_mps"][row]), int(lanes[row]),
                                      float(values["lane_position_m"][row]), bool(observation[flag]))
     env, observations, rows = config.env, [], []
@@ -112,7 +152,8 @@ def write_recorded_demos(folder: Path, config: Config, split: str, out: Path) ->
     vehicles = sorted(scene.split.loc[scene.split["split"] == split, "vehicle_id"].astype(str))
     chosen = scene.tracks[scene.tracks["vehicle_id"].isin(vehicles)].sort_values(["vehicle_id", "time_s"],
                                                                                    kind="stable")
-    decisions = [track_decisions(str(vehicle), track, rule, config)
+    smoothing_s = smoothing_for(scene.meta.format)
+    decisions = [track_decisions(str(vehicle), track, rule, config, smoothing_s)
                  for vehicle, track in chosen.groupby("vehicle_id", sort=True)]
     kept = [decided for decided in decisions if len(decided.actions)]
     if not kept:
@@ -124,7 +165,10 @@ def write_recorded_demos(folder: Path, config: Config, split: str, out: Path) ->
               "recording_sources": scene.meta.sources, "split": split,
               "vehicles": [decided.vehicle for decided in kept], "action_rule": dataclasses.asdict(rule),
               "speed_limit_mps": road.speed_limit_mps,
-              "set_point": "estimated by the action rule, within [env.v_min_mps, env.v_max_mps]"}
+              **({"set_point": "estimated by the action rule, within [env.v_min_mps, env.v_max_mps]"}
+                 if config.actions.interface == "paper" else
+                 {"acceleration_reading": {"smoothing_s": smoothing_s},
+                  "set_point": "the speed at the instant (what an acceleration of 0 holds)"})}
     seed = int(scene.meta.settings.get("split_seed", 0))  # type: ignore[call-overload]
     write_parquet(table, out, provenance(DEMONSTRATIONS, config, seed, driver="recorded drivers",
                                          episodes=len(kept), episode_seeds=[], **{RECORDED_SCENE: record}))

@@ -107,10 +107,6 @@ def resolve_expert(expert: str, config: Config, recorded_by: Path | str | None =
     listing the styles; a recorded policy file that is gone or whose content changed is a PolicyFileError naming
     `recorded_by`."""
     if expert in STYLES:
-        if config.actions.interface != "paper":
-            raise ValueError(f"the rule-based expert ({expert!r}) drives the paper's five actions only; with "
-                             f"actions.interface={config.actions.interface} the expert must be a policy file of "
-                             f"that interface")
         return ExpertDriver(expert)
     text, _, digest = expert.partition(PINNED)
     try:
@@ -128,6 +124,16 @@ def resolve_expert(expert: str, config: Config, recorded_by: Path | str | None =
                               f"recorded (its content hash differs)")
     # its reference is itself (it is the expert), not the expert its file records it learned from
     return dataclasses.replace(parse_policy(path, config, name=f"expert-{policy_name(path)}"), expert=expert)
+
+
+def check_drives(expert: DriverSpec, config: Config) -> None:
+    """A ValueError when `expert` cannot drive or label under `config`'s action interface: the rule-based expert
+    decides the paper's five actions only (asked for agreement it may be under any interface: a driver's action then
+    counts as the paper action it amounts to, `evaluation.fidelity.DecisionProbe`)."""
+    if isinstance(expert, ExpertDriver) and config.actions.interface != "paper":
+        raise ValueError(f"the rule-based expert ({expert.style!r}) decides the paper's five actions only; with "
+                         f"actions.interface={config.actions.interface} the expert that drives or labels must be a "
+                         f"policy file of that interface")
 
 
 def _expert_path(expert: str) -> Path:

@@ -35,6 +35,15 @@ def provenance(kind: str, config: Config, seed: int, **extra: Any) -> dict[str, 
             **({ROAD_FILES: road} if road else {}), **extra}
 
 
+def interface_mismatch(path: Path, metadata: dict[str, Any], interface: ActionConfig) -> None:
+    """A DatasetError when the demonstrations at `path` (their `metadata`) were recorded with another action interface
+    than `interface`."""
+    recorded = demonstrations_interface(metadata)
+    if recorded != interface:
+        raise DatasetError(f"{path} holds demonstrations of the {_interface_words(recorded)}, this run uses the "
+                           f"{_interface_words(interface)}: record them again, or set [actions] as they were")
+
+
 def _interface_words(actions: ActionConfig) -> str:
     """An action interface in words: "paper interface" or "acceleration interface (-6 to 3 m/s^2 in 0.25 bins)"."""
     if actions.interface == "paper":
@@ -136,10 +145,9 @@ def read_demonstrations(path: Path, observation_size: int | None = None, include
     metadata = read_metadata(path)
     if metadata.get("kind") != DEMONSTRATIONS:
         raise DatasetError(f"{path} holds {metadata.get('kind')!r} data, not demonstrations")
+    if interface is not None:
+        interface_mismatch(path, metadata, interface)
     recorded = demonstrations_interface(metadata)
-    if interface is not None and recorded != interface:
-        raise DatasetError(f"{path} holds demonstrations of the {_interface_words(recorded)}, this run uses the "
-                           f"{_interface_words(interface)}: record them again, or set [actions] as they were")
     needed = ["episode", "observation", "action"]
     missing = [name for name in needed if name not in pq.read_schema(path).names]
     if missing:

@@ -92,7 +92,7 @@ def train(folder: Path, settings: RunSettings, config: Config, iterations: int, 
                   **provenance("training_run", config, settings.rail.seed)}
     expert_stats = RunningStats.of(demos.observations)
     discriminator = Discriminator(observation_size, expert_stats.mean.copy(), expert_stats.std.copy(),
-                                  settings.discriminator)
+                                  settings.discriminator, shape.actions)
     asked = resolve_expert(expert, config, recorded_by=settings.demos)  # checked before any work
     if resume:
         state, logs = _resume(folder, run_record, shape, discriminator)

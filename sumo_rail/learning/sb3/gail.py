@@ -137,7 +137,7 @@ def train_gail(folder: Path, settings: GailSettings, config: Config,
             initial, normalisation, logs = None, checkpoint["normalisation"], checkpoint["log"]
         expert_stats = RunningStats.of(demos.observations)
         discriminator = Discriminator(observation_size, expert_stats.mean.copy(), expert_stats.std.copy(),
-                                      settings.discriminator)
+                                      settings.discriminator, shape.actions)
         horizon = round(config.env.max_episode_s / config.env.decision_period_s)
         labeller = RewardLabeller(discriminator, settings.vec_envs, horizon)
         with env_processes(folder, "GAIL", lambda: len(logs)) as processes:
