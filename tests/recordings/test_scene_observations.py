@@ -11,7 +11,7 @@ from sumo_rail.sim.ego import CONTEXT_MARGIN_M
 from sumo_rail.sim.observation import observation_names
 
 CONFIG = Config.from_dict({"scenario": {"lanes": 3}, "observation": {"lane_block": 1}})
-ROAD = SceneRoad("road", (-8.0, -4.8, -1.6), 2000.0, np.zeros((0, 6)))
+ROAD = SceneRoad("road", (-8.0, -4.8, -1.6), 2000.0, np.zeros((0, 6)), 44.44)
 """Three 3.2 m lanes; no road edges (the LIDAR sees only the vehicles)."""
 
 
