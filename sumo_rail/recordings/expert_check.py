@@ -115,7 +115,7 @@ def check_observations(config: Config, seed: int, folder: Path, decimals: int = 
                       * (config.env.v_max_mps - config.env.v_min_mps))
     instants = track["time_s"].to_numpy()[:decisions]
     decided = TrackDecisions(EGO_ID, instants, result.steps["action"][:decisions],
-                             np.append(env_set_points, env_set_points[-1]))
+                             np.append(env_set_points, env_set_points[-1]), np.zeros(decisions), track)
     _, observations = decisions_table(scene, road, config, [decided], len(names))
     difference = np.abs(observations.astype(np.float64) - env_observations[:decisions].astype(np.float64))
     worst = difference.max(axis=0)
