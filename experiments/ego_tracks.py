@@ -79,9 +79,10 @@ def drive(config: Config, seeds: list[int], pool: str, drivers: DriverFactory
 
 
 def round_trips(tracks: pd.DataFrame, net_file: Path, lanes: int, folder: Path) -> dict[str, pd.DataFrame]:
-    """The tracks as read back from each format (and as driven)."""
-    widths = read_lanes(net_file).widths_m["highway"]
-    length = read_lanes(net_file).lengths_m["highway"]
+    """The tracks (on one straight edge of `net_file` along +x whose left edge is y = 0) as read back from each
+    format (and as driven)."""
+    edge = str(tracks["edge"].iloc[0])
+    widths, length = read_lanes(net_file).widths_m[edge], read_lanes(net_file).lengths_m[edge]
     paths = highd.write(tracks, widths, length, folder / "01")
     ngsim_path = ngsim.write(tracks, lanes, folder / "trajectories.csv")
     fcd_path = fcd.write(tracks, folder / "fcd.xml.gz")
