@@ -18,7 +18,7 @@ Two parts kept apart (action_rule_validation.POOLS): validation, on which any ch
 Prints Markdown; --out writes it too.
 
 Usage: python experiments/acceleration_reading_validation.py [--validation-episodes 30] [--test-episodes 60]
-       [--validation-sumo-s 120] [--test-sumo-s 240] [--out FILE.md]
+       [--validation-sumo-s 120] [--test-sumo-s 240] [--out FILE.md]   (--test-episodes 0: the validation part only)
 """
 
 from __future__ import annotations
@@ -32,11 +32,10 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 from action_rule_validation import POOLS, expert_driver
-from ego_tracks import DriverFactory, drive, original_ids, round_trips, took_effect
+from ego_tracks import DriverFactory, drive, original_ids, publish, round_trips, took_effect
 
 from sumo_rail.action_config import ActionConfig
 from sumo_rail.config import Config
-from sumo_rail.datasets import write_bytes_atomically
 from sumo_rail.recordings.acceleration_reading import read_acceleration_track, smoothing_for
 from sumo_rail.recordings.actions import ActionRule, lane_changes
 from sumo_rail.recordings.scene_folder import read_scene
@@ -57,6 +56,11 @@ SPEED_BAND_MPS = (15.0, 35.0)
 """Below this speed [m/s] the random driver draws only bins of 0 and above, above it only bins of 0 and below."""
 FOLLOWED_MPS2 = 0.01
 """A period's command was followed when SUMO's mean acceleration over it is within this of the command [m/s^2]."""
+ALIGNED_S = 0.2
+"""Every SUMO driver's track is moved to start at a multiple of this [s], where SUMO's 0.1 s steps and highD's 0.04 s
+frames meet, as the egos' tracks start (a track started between two frames puts every period's boundary within a
+frame of a step: a lane change SUMO began in the step just before a boundary is then, on the frames, as near the
+period after it, and the truth ambiguous)."""
 SUMO_WARMUP_S = 120.0
 """The SUMO drivers' recordings start after this warm-up [s] (record_sumo_drivers' default)."""
 NGSIM_SMOOTHINGS_S = (0.0, 0.3, 0.5, 1.0, 1.5)
@@ -146,9 +150,12 @@ def sumo_truth(config: Config, pool: str, duration_s: float, rule: ActionRule, f
     changes where SUMO's own positions began to move sideways (`onsets`)."""
     record_sumo_drivers(SumoDriversSettings(out=folder / "scene", seed=POOLS[pool], duration_s=duration_s,
                                             warmup_s=SUMO_WARMUP_S), config)
-    scene = read_scene(folder / "scene")
+    scene, step_s = read_scene(folder / "scene"), config.scenario.step_length_s
     tracks = scene.tracks.sort_values(["vehicle_id", "time_s"], kind="stable", ignore_index=True)
-    changes = onsets(tracks, rule, config.scenario.step_length_s)
+    steps = np.rint(tracks.groupby("vehicle_id")["time_s"].transform("min").to_numpy() / step_s).astype(np.int64)
+    shift_s = np.where(steps % round(ALIGNED_S / step_s) != 0, step_s, 0.0)
+    tracks = tracks.assign(time_s=np.round(tracks["time_s"].to_numpy() - shift_s, 6))
+    changes = onsets(tracks, rule, step_s)
     return Truth(tracks, changes, None, scene.network,
                  f"{duration_s:g} s of SUMO's drivers (record-sumo-drivers, SUMO seed {POOLS[pool]}, after "
                  f"{SUMO_WARMUP_S:g} s): {tracks['vehicle_id'].nunique()} vehicles, "
@@ -286,11 +293,8 @@ def main() -> None:
              f"{ActionConfig().acceleration_bin_mps2} m/s^2); NGSIM's speeds smoothed over "
              f"{smoothing_for('ngsim'):g} s (sumo_rail/recordings/acceleration_reading.py).\n"]
     lines += report(config, "validation", args.validation_episodes, args.validation_sumo_s)
-    lines += report(config, "test", args.test_episodes, args.test_sumo_s)
-    text = "\n".join(lines)
-    print(text)
-    if args.out is not None:
-        write_bytes_atomically(args.out, text.encode())
+    publish(lines + (report(config, "test", args.test_episodes, args.test_sumo_s) if args.test_episodes else []),
+            args.out)
 
 
 if __name__ == "__main__":

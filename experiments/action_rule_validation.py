@@ -21,10 +21,9 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-from ego_tracks import DriverFactory, drive, original_ids, round_trips, took_effect
+from ego_tracks import DriverFactory, drive, original_ids, publish, round_trips, took_effect
 
 from sumo_rail.config import Config
-from sumo_rail.datasets import write_bytes_atomically
 from sumo_rail.drivers.expert import DEFAULT_STYLE, make_expert
 from sumo_rail.recordings.actions import ActionRule, read_actions
 from sumo_rail.seeding import Purpose, episode_seeds
@@ -164,12 +163,8 @@ def main() -> None:
              f"{rule.dead_band_mps2:.3f} m/s^2, phase floor {rule.phase_floor_mps2} m/s^2, set-point step "
              f"{rule.speed_step_mps} m/s and tolerance {rule.set_point_tolerance_mps} m/s, lane-change onset "
              f"{rule.onset_speed_mps} m/s sideways.\n"]
-    lines += report(config, "validation", args.validation_episodes, rule)
-    lines += report(config, "test", args.test_episodes, rule)
-    text = "\n".join(lines)
-    print(text)
-    if args.out is not None:
-        write_bytes_atomically(args.out, text.encode())
+    publish([*lines, *report(config, "validation", args.validation_episodes, rule),
+             *report(config, "test", args.test_episodes, rule)], args.out)
 
 
 if __name__ == "__main__":

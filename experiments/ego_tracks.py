@@ -16,6 +16,7 @@ import numpy as np
 import pandas as pd
 
 from sumo_rail.config import Config
+from sumo_rail.datasets import write_bytes_atomically
 from sumo_rail.recordings import fcd, highd, ngsim
 from sumo_rail.recordings.road import read_lanes
 from sumo_rail.sim.env import HighwayEnv
@@ -118,3 +119,11 @@ def took_effect(tracks: pd.DataFrame, decisions: pd.DataFrame, period_s: float) 
             if len(candidates):
                 effective[candidates[-1]] = True
     return effective
+
+
+def publish(lines: list[str], out: Path | None) -> None:
+    """Print a table's Markdown lines and, given `out`, write them there too."""
+    text = "\n".join(lines)
+    print(text)
+    if out is not None:
+        write_bytes_atomically(out, text.encode())
