@@ -235,30 +235,73 @@ def table(results: dict[str, dict[str, float]]) -> list[str]:
                     for name, found in results.items()]
 
 
+def hermite_speeds(time_s: np.ndarray, speed_mps: np.ndarray, acceleration_mps2: np.ndarray,
+                   at_s: np.ndarray) -> np.ndarray:
+    """A track's speeds [m/s] at `at_s` [s] by cubic Hermite interpolation between its rows, with the recorded
+    accelerations as the speeds' slopes (exact where the speed is quadratic between two rows)."""
+    row = np.clip(np.searchsorted(time_s, at_s, side="right") - 1, 0, len(time_s) - 2)
+    width = time_s[row + 1] - time_s[row]
+    s = np.clip((at_s - time_s[row]) / width, 0.0, 1.0)
+    return ((2 * s ** 3 - 3 * s ** 2 + 1) * speed_mps[row] + (s ** 3 - 2 * s ** 2 + s) * width * acceleration_mps2[row]
+            + (3 * s ** 2 - 2 * s ** 3) * speed_mps[row + 1] + (s ** 3 - s ** 2) * width * acceleration_mps2[row + 1])
+
+
+def recorded_accelerations(read: pd.DataFrame, scene: pd.DataFrame, period_s: float, how: str) -> np.ndarray:
+    """Each read period's mean acceleration [m/s^2] from the scene's recorded accelerations instead of its speeds:
+    "hermite", the speeds at the period's ends by `hermite_speeds`; "mean", the mean of the accelerations of the rows
+    in the period (SUMO's acceleration of a row is its step's, so at every step they add up to the period's)."""
+    found = []
+    tracks = scene.sort_values(["vehicle_id", "time_s"], kind="stable").groupby("vehicle_id", sort=False)
+    for vehicle, rows in read.groupby("vehicle_id", sort=False):
+        track = tracks.get_group(vehicle)
+        time_s, acceleration = track["time_s"].to_numpy(), track["acceleration_mps2"].to_numpy()
+        starts = rows["time_s"].to_numpy()
+        if how == "hermite":
+            speed = track["speed_mps"].to_numpy()
+            found.append((hermite_speeds(time_s, speed, acceleration, starts + period_s)
+                          - hermite_speeds(time_s, speed, acceleration, starts)) / period_s)
+        else:
+            within = (time_s[None, :] > starts[:, None] + 1e-6) & (time_s[None, :] <= starts[:, None] + period_s + 1e-6)
+            found.append((within * acceleration[None, :]).sum(axis=1) / np.maximum(within.sum(axis=1), 1))
+    return np.concatenate(found)
+
+
+def alternatives(scenes: dict[str, pd.DataFrame], truth: Truth, rule: ActionRule,
+                 interface: ActionConfig) -> list[str]:
+    """The table of readings the module could have made instead (the validation part's): NGSIM's speeds smoothed
+    otherwise, and highD's and FCD's recorded accelerations."""
+    period_s, results = rule.decision_period_s, {}
+    for smoothing_s in NGSIM_SMOOTHINGS_S:
+        results[f"NGSIM, speeds smoothed over {smoothing_s:g} s"] = with_truth(
+            read_scene_accelerations(scenes["ngsim"], rule, interface, smoothing_s), truth, period_s)
+    for format_name, how, label in (("highd", "hermite", "highD, speeds at the instants by Hermite interpolation "
+                                     "with the recorded accelerations"),
+                                    ("fcd", "mean", "FCD, the mean of the period's recorded accelerations")):
+        read = with_truth(read_scene_accelerations(scenes[format_name], rule, interface, 0.0), truth, period_s)
+        accelerations = recorded_accelerations(read, scenes[format_name], period_s, how)
+        results[label] = read.assign(acceleration_mps2=accelerations,
+                                     bin=[interface.nearest_bin(float(value)) for value in accelerations])
+    shown = {}
+    for label, both in results.items():
+        found = measures(both, truth, interface)
+        shown[label] = {key: value for key, value in found.items() if not key.startswith(("left", "right"))}
+    return [f"Other readings (the module's: NGSIM's speeds smoothed over {smoothing_for('ngsim'):g} s, every "
+            "format's speeds interpolated linearly at the instants):", "", *table(shown), ""]
+
+
 def driver_section(truth: Truth, config: Config, rule: ActionRule, interface: ActionConfig, name: str,
                    validation: bool) -> list[str]:
-    """One driver's table over the four tracks (and, on validation, NGSIM's smoothings)."""
+    """One driver's table over the four tracks (and, on validation, the `alternatives`)."""
     with tempfile.TemporaryDirectory() as folder:
         read_back = round_trips(truth.tracks, truth.net_file, config.scenario.lanes, Path(folder))
     results, scenes = {}, {}
     for source, scene in read_back.items():
         scene = scene.assign(vehicle_id=scene["vehicle_id"].map(original_ids(scene, truth.tracks)))
-        scenes[source] = scene
+        scenes[FORMATS[source]] = scene
         read = read_scene_accelerations(scene, rule, interface, smoothing_for(FORMATS[source]))
         results[source] = measures(with_truth(read, truth, rule.decision_period_s), truth, interface)
     lines = [f"### {name}: {truth.note}\n", *table(results), ""]
-    if validation:
-        ngsim = next(source for source, format_name in FORMATS.items() if format_name == "ngsim")
-        smoothed = {}
-        for smoothing_s in NGSIM_SMOOTHINGS_S:
-            read = read_scene_accelerations(scenes[ngsim], rule, interface, smoothing_s)
-            found = measures(with_truth(read, truth, rule.decision_period_s), truth, interface)
-            smoothed[f"NGSIM, smoothed over {smoothing_s:g} s"] = {
-                key: found[key] for key in found if "changes" not in key and "recall" not in key
-                and "precision" not in key}
-        lines += ["NGSIM's speeds read with other smoothings (the reading's own: "
-                  f"{smoothing_for('ngsim'):g} s):", "", *table(smoothed), ""]
-    return lines
+    return lines + (alternatives(scenes, truth, rule, interface) if validation else [])
 
 
 def report(config: Config, pool: str, episodes: int, sumo_s: float) -> list[str]:

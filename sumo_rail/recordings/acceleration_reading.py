@@ -46,8 +46,11 @@ def read_acceleration_track(time_s: np.ndarray, speed_mps: np.ndarray, lane: np.
                             lateral_m: np.ndarray | None, rule: ActionRule, interface: ActionConfig,
                             smoothing_s: float = 0.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The decision instants [s] of one track (rows as `actions.read_track` takes them), the acceleration-interface
-    action read at each and the period's mean acceleration [m/s^2] before it was put in a bin."""
+    action read at each and the period's mean acceleration [m/s^2] before it was put in a bin (none for a track shorter
+    than one period)."""
     instants = decision_instants(time_s, rule.decision_period_s)
+    if len(instants) == 0:
+        return instants, np.zeros(0, dtype=np.int64), np.zeros(0)
     accelerations = period_accelerations(time_s, speed_mps, instants, rule.decision_period_s, smoothing_s)
     laterals = np.full(len(instants), int(Lateral.KEEP))
     for decision, left in lane_changes(time_s, lane, edge, lateral_m, rule, len(instants)):
