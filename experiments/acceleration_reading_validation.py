@@ -2,23 +2,24 @@
 truth is known: drivers in SUMO whose every 0.1 s step is kept, written as highD (25 Hz), NGSIM (10 Hz, feet) and FCD,
 read back, and each decision period's acceleration and lane change read off them, against what the driver did.
 
-The drivers (`DRIVERS`):
-- expert: the rule-based expert on the paper's interface (its ego's track at every SUMO step, ego_tracks.drive).
-- random: a seeded driver on the acceleration interface that holds a random bin for 1 to 6 periods and sometimes asks
-  for a lane change (`RandomDriver`); its commanded accelerations are known.
-- sumo: every vehicle of `record_sumo_drivers` (SUMO's own car-following and lane-changing models, captured from
-  libsumo at every step).
-The truth of a period's acceleration is its mean from SUMO's speeds, (v(t + T) - v(t)) / T, at the instants the
-reading uses (on the 0.1 s steps for the egos; SUMO's speeds interpolated linearly where a format's track starts
-between two steps); for the random driver also its command, over the periods SUMO followed it. The truth of a lane
-change: the egos' requests that took effect (ego_tracks.took_effect), in the period they were made; for SUMO's
-drivers, where SUMO's own 0.1 s positions began to move sideways (the reading of the track as driven).
+The drivers:
+- the rule-based expert on the paper's interface (its ego's track at every SUMO step, ego_tracks.drive);
+- a seeded random driver on the acceleration interface that holds a random bin for 1 to 6 periods and sometimes asks
+  for a lane change (`RandomDriver`): its commanded accelerations are known;
+- SUMO's own drivers, every vehicle of `record_sumo_drivers` (car following and lane changing by SUMO's models,
+  captured from libsumo at every step).
+The truth of a period's acceleration is its mean from SUMO's speeds at the period's ends, (v(t + T) - v(t)) / T, on
+SUMO's 0.1 s steps (every track starts where SUMO's steps and highD's frames meet, `ALIGNED_S`, so the instants the
+reading uses are steps); for the random driver also its command, over the periods SUMO followed it. The truth of a
+lane change: the egos' requests that took effect (ego_tracks.took_effect), in the period they were made; for SUMO's
+drivers, the step in which SUMO's own positions began to move sideways toward the new lane (`onsets`). On the
+validation part also the readings the module could have made instead (`alternatives`).
 
 Two parts kept apart (action_rule_validation.POOLS): validation, on which any choice is made, and test, reported once.
 Prints Markdown; --out writes it too.
 
-Usage: python experiments/acceleration_reading_validation.py [--validation-episodes 30] [--test-episodes 60]
-       [--validation-sumo-s 120] [--test-sumo-s 240] [--out FILE.md]   (--test-episodes 0: the validation part only)
+Usage: python experiments/acceleration_reading_validation.py [--validation-episodes 30] [--test-episodes 100]
+       [--validation-sumo-s 120] [--test-sumo-s 300] [--out FILE.md]   (--test-episodes 0: the validation part only)
 """
 
 from __future__ import annotations
@@ -44,7 +45,6 @@ from sumo_rail.seeding import Purpose, episode_seeds
 from sumo_rail.sim.actions import Lateral, acceleration_action, split_acceleration_action
 from sumo_rail.sim.env import HighwayEnv
 
-DRIVERS = ("expert", "random", "sumo")
 FORMATS = {"SUMO steps (0.1 s, no file)": "sumo", "highD (25 Hz)": "highd", "NGSIM (10 Hz, feet)": "ngsim",
            "FCD": "fcd"}
 """Each round trip's name (ego_tracks.round_trips) -> its format's name (`smoothing_for`)."""
@@ -324,9 +324,9 @@ def report(config: Config, pool: str, episodes: int, sumo_s: float) -> list[str]
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--validation-episodes", type=int, default=30)
-    parser.add_argument("--test-episodes", type=int, default=60)
+    parser.add_argument("--test-episodes", type=int, default=100)
     parser.add_argument("--validation-sumo-s", type=float, default=120.0)
-    parser.add_argument("--test-sumo-s", type=float, default=240.0)
+    parser.add_argument("--test-sumo-s", type=float, default=300.0)
     parser.add_argument("--out", type=Path, default=None)
     args = parser.parse_args()
     config = Config()
