@@ -21,6 +21,7 @@ from typing import Any
 
 import torch
 
+from sumo_rail.config import Config
 from sumo_rail.datasets import (
     DatasetError,
     describe,
@@ -106,7 +107,7 @@ def check_resumable(folder: Path, checkpoint: str, run_record: dict[str, Any], d
         raise RunError(f"{changed[0]} has changed since run {folder} was started on it (its content hash differs); "
                        f"resume it on the file it was started with")
     difference = (first_difference(fixed(settings), fixed(run_record["settings"]))
-                  or first_difference(stored["config"], run_record["config"]))
+                  or first_difference(with_defaults(stored["config"], Config().to_dict()), run_record["config"]))
     if difference is not None or stored.get("kind") != run_record.get("kind"):
         said = f" ({difference})" if difference is not None else ""
         raise RunError(f"run {folder} was started with other settings{said}; resume it with the settings of its "
