@@ -129,7 +129,7 @@ def closeness(metrics: pd.DataFrame, candidate: str, baseline: str, expert: str,
                for name in (candidate, baseline, expert)]
     rows = []
     for measure in [name for name in MEASURES if all(name in sample for sample in samples)]:
-        found = closeness_difference(*(sample[measure] for sample in samples), seed=seed)
+        found = closeness_difference(samples[0][measure], samples[1][measure], samples[2][measure], seed=seed)
         verdict = ("closer" if found.high < 0 else "further" if found.low > 0 else "no detectable difference")
         rows.append({"measure": measure, **vars(found), "verdict": verdict})
     return pd.DataFrame(rows, columns=["measure", "estimate", "low", "high", "verdict"])

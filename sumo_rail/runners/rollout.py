@@ -17,7 +17,7 @@ from sumo_rail.drivers.expert import DEFAULT_STYLE, make_expert
 from sumo_rail.drivers.policies import Policy
 from sumo_rail.runners.dart import ActionNoise
 from sumo_rail.seeding import driver_generator
-from sumo_rail.sim.actions import Action, action_space_of, keep_action
+from sumo_rail.sim.actions import Action, action_count, keep_action
 from sumo_rail.sim.env import HighwayEnv
 from sumo_rail.sim.parallel_env import ParallelHighwayEnv
 from sumo_rail.sim.respawning import RespawningEgos
@@ -64,7 +64,7 @@ class RandomDriver:
     name: str = "random"
 
     def create(self, config: Config, seed: int) -> Driver:
-        rng, count = np.random.default_rng(seed), action_space_of(config.actions).n
+        rng, count = np.random.default_rng(seed), action_count(config.actions)
         return lambda observation, traffic: int(rng.integers(count))
 
 
@@ -131,7 +131,7 @@ class EpisodeGroupTask:
     def run(self, context: WorkerContext) -> list[EpisodeResult | None]:
         """Each ego's episode (its metrics' seed: its own seed), in ego order; None for an ego that found no room."""
         drivers = [self.driver.create(self.config, seed) for seed in self.seeds]
-        count = action_space_of(self.config.actions).n
+        count = action_count(self.config.actions)
         perturbs = None if self.noise is None else [self.noise.perturbation(seed, count) for seed in self.seeds]
         results = run_shared_episode(context.parallel_env(self.config, len(self.seeds)), drivers, self.seeds[0],
                                      self.record, perturbs)
