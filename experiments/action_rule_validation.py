@@ -21,26 +21,20 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from ego_tracks import DriverFactory, drive, original_ids, publish, round_trips, took_effect
 
 from sumo_rail.config import Config
-from sumo_rail.datasets import write_bytes_atomically
 from sumo_rail.drivers.expert import DEFAULT_STYLE, make_expert
-from sumo_rail.recordings import fcd, highd, ngsim
 from sumo_rail.recordings.actions import ActionRule, read_actions
-from sumo_rail.recordings.road import read_lanes
 from sumo_rail.seeding import Purpose, episode_seeds
 from sumo_rail.sim.actions import Action
 from sumo_rail.sim.env import HighwayEnv
 from sumo_rail.sim.sumo_api import EGO_ID
 
-EPISODE_GAP_S = 1000.0
-"""Each episode's track is shifted by this much times its index [s], so that the episodes never share a frame."""
 LEADER_RANGE_M = 150.0
 """A leader within this distance [m] counts as one the ACC follows (in the shares of invisible set-point steps)."""
-TOOK_EFFECT_S = 2.0
-"""A lane-change request took effect when the ego's lane index changed that way within this time [s] after it (the
-marking is crossed about halfway through scenario.lane_change_duration_s, 2 s) and it was the last such request
-before the crossing (a request repeated at the next decision is the one SUMO carried out)."""
+LATERAL = {Action.LANE_LEFT: 1, Action.LANE_RIGHT: -1}
+"""The lane-change requests among the expert's actions (`ego_tracks.took_effect`)."""
 DEAD_BANDS_MPS2 = (1.0, 1.3, 1.6, 2.0, 2.4)
 """Dead bands [m/s^2] whose readings of the validation episodes are shown beside the rule's (the trade-off)."""
 POOLS = {"validation": 2000, "test": 1000}
@@ -48,63 +42,19 @@ POOLS = {"validation": 2000, "test": 1000}
 validation; test is reported once)."""
 
 
-def ego_state(api, time_s: float) -> dict:
-    vehicle = api.vehicle
-    x, y = vehicle.getPosition(EGO_ID)
-    return {"time_s": round(time_s, 6), "x_m": x, "y_m": y, "heading_deg": vehicle.getAngle(EGO_ID),
-            "speed_mps": vehicle.getSpeed(EGO_ID), "acceleration_mps2": vehicle.getAcceleration(EGO_ID),
-            "edge": vehicle.getRoadID(EGO_ID), "lane": vehicle.getLaneIndex(EGO_ID),
-            "lane_position_m": vehicle.getLanePosition(EGO_ID), "length_m": vehicle.getLength(EGO_ID),
-            "width_m": vehicle.getWidth(EGO_ID), "vehicle_class": "passenger"}
-
-
-def drive(config: Config, seeds: list[int], pool: str) -> tuple[pd.DataFrame, pd.DataFrame, Path]:
-    """The expert's tracks (one vehicle per episode, every SUMO step) and its actions (one row per decision), from
-    the warm states of `pool`."""
-    env = HighwayEnv(config)
+def expert_driver(config: Config) -> DriverFactory:
+    """The expert, keeping its action and what the shares of invisible set-point steps need."""
     expert = make_expert(DEFAULT_STYLE, config.env.speed_step_mps, config.expert.view_range_m)
-    tracks, actions = [], []
-    for index, seed in enumerate(seeds):
-        observation, _ = env.reset(seed=seed, options={"pool": pool})
-        sim = env.simulation
-        api, start_s = sim._api, sim.time_s
-        vehicle, shift_s = f"ep{index:03d}", index * EPISODE_GAP_S - start_s
-        rows = [ego_state(api, start_s + shift_s)]
-        step = sim._calls.step.__wrapped__ if hasattr(sim._calls.step, "__wrapped__") else sim._calls.step
 
-        def recording_step(step=step, rows=rows, shift_s=shift_s, api=api):
-            step()
-            if EGO_ID in api.vehicle.getIDList():
-                rows.append(ego_state(api, api.simulation.getTime() + shift_s))
+    def choose(observation: np.ndarray, env: HighwayEnv) -> tuple[int, dict]:
+        action = expert(observation, env.traffic)
+        api = env.simulation._api
+        leader = api.vehicle.getLeader(EGO_ID, LEADER_RANGE_M)
+        return action, {"expert": action, "lateral": LATERAL.get(action, 0), "speed_mps": env.traffic.ego.speed_mps,
+                        "set_point_mps": env.traffic.set_point_mps,
+                        "leader_speed_mps": api.vehicle.getSpeed(leader[0]) if leader else np.inf}
 
-        recording_step.__wrapped__ = step
-        sim._calls = sim._calls._replace(step=recording_step)
-        decision, done = 0, False
-        while not done:
-            action = expert(observation, env.traffic)
-            leader = api.vehicle.getLeader(EGO_ID, LEADER_RANGE_M)
-            actions.append({"vehicle_id": vehicle, "decision": decision, "expert": action,
-                            "speed_mps": env.traffic.ego.speed_mps, "set_point_mps": env.traffic.set_point_mps,
-                            "leader_speed_mps": api.vehicle.getSpeed(leader[0]) if leader else np.inf})
-            observation, _, terminated, truncated, _ = env.step(action)
-            decision, done = decision + 1, terminated or truncated
-        tracks.append(pd.DataFrame(rows).assign(vehicle_id=vehicle))
-    net_file = sim._built.net_file
-    env.close()
-    return pd.concat(tracks, ignore_index=True), pd.DataFrame(actions), net_file
-
-
-def round_trips(tracks: pd.DataFrame, net_file: Path, lanes: int, folder: Path) -> dict[str, pd.DataFrame]:
-    """The tracks as read back from each format (and as driven)."""
-    widths = read_lanes(net_file).widths_m["highway"]
-    length = read_lanes(net_file).lengths_m["highway"]
-    paths = highd.write(tracks, widths, length, folder / "01")
-    ngsim_path = ngsim.write(tracks, lanes, folder / "trajectories.csv")
-    fcd_path = fcd.write(tracks, folder / "fcd.xml.gz")
-    read_ngsim = ngsim.read([ngsim_path], "us-101" if lanes == 5 else "i-80").tracks
-    return {"SUMO steps (0.1 s, no file)": tracks, "highD (25 Hz)": highd.read([paths[0]], "lower").tracks,
-            "NGSIM (10 Hz, feet)": read_ngsim.assign(lane=read_ngsim["lane"] - (5 - lanes if lanes < 5 else 0)),
-            "FCD": fcd.read([fcd_path], read_lanes(net_file), net_file).tracks}
+    return lambda seed: choose
 
 
 def period_speeds(tracks: pd.DataFrame, expert: pd.DataFrame, period_s: float) -> pd.DataFrame:
@@ -117,23 +67,6 @@ def period_speeds(tracks: pd.DataFrame, expert: pd.DataFrame, period_s: float) -
         parts.append(rows.assign(v_start=np.interp(instants, time_s, speed),
                                  v_end=np.interp(instants + period_s, time_s, speed)))
     return pd.concat(parts)
-
-
-def took_effect(tracks: pd.DataFrame, expert: pd.DataFrame, period_s: float) -> pd.Series:
-    """Per expert row: a lane-change request that SUMO carried out (`TOOK_EFFECT_S`); False for the others."""
-    effective = pd.Series(False, index=expert.index)
-    for vehicle, rows in expert.groupby("vehicle_id", sort=False):
-        track = tracks[tracks["vehicle_id"] == vehicle]
-        time_s, lane = track["time_s"].to_numpy(), track["lane"].to_numpy()
-        requests = rows[rows["expert"].isin([Action.LANE_LEFT, Action.LANE_RIGHT])]
-        instants = time_s[0] + period_s * requests["decision"].to_numpy()
-        for row in np.flatnonzero(np.diff(lane) != 0) + 1:
-            wanted = Action.LANE_LEFT if lane[row] > lane[row - 1] else Action.LANE_RIGHT
-            before = (instants < time_s[row]) & (instants >= time_s[row] - TOOK_EFFECT_S)
-            candidates = requests.index[before & (requests["expert"] == wanted).to_numpy()]
-            if len(candidates):
-                effective[candidates[-1]] = True
-    return effective
 
 
 def invisible_shares(speeds: pd.DataFrame, read: pd.DataFrame, rule: ActionRule) -> str:
@@ -177,7 +110,7 @@ def compare(expert: pd.DataFrame, read: pd.DataFrame, names: dict[str, str]) -> 
 def report(config: Config, pool: str, episodes: int, rule: ActionRule) -> list[str]:
     """The Markdown section of one pool: its table over the four tracks, its confusion matrix and shares."""
     seeds = [int(seed) for seed in episode_seeds(Purpose.EVALUATE, POOLS[pool], episodes)]
-    tracks, expert, net_file = drive(config, seeds, pool)
+    tracks, expert, net_file = drive(config, seeds, pool, expert_driver(config))
     expert = expert.assign(took_effect=took_effect(tracks, expert, rule.decision_period_s))
     requested = expert["expert"].isin([Action.LANE_LEFT, Action.LANE_RIGHT])
     lines = [f"## {pool.capitalize()}: {episodes} episodes from the {pool} pool's warm states (evaluation seeds from "
@@ -189,9 +122,7 @@ def report(config: Config, pool: str, episodes: int, rule: ActionRule) -> list[s
         read_back = round_trips(tracks, net_file, config.scenario.lanes, Path(folder))
     header = None
     for source, scene in read_back.items():
-        names = dict(zip(sorted(scene["vehicle_id"].unique(), key=lambda v: (len(v), v)),
-                         sorted(tracks["vehicle_id"].unique()), strict=True))
-        summary, matrix = compare(expert, read_actions(scene, rule, lateral=True), names)
+        summary, matrix = compare(expert, read_actions(scene, rule, lateral=True), original_ids(scene, tracks))
         if header is None:
             header = list(summary)
             lines += ["| track | " + " | ".join(header) + " |", "|---|" + "---:|" * len(header)]
@@ -232,12 +163,8 @@ def main() -> None:
              f"{rule.dead_band_mps2:.3f} m/s^2, phase floor {rule.phase_floor_mps2} m/s^2, set-point step "
              f"{rule.speed_step_mps} m/s and tolerance {rule.set_point_tolerance_mps} m/s, lane-change onset "
              f"{rule.onset_speed_mps} m/s sideways.\n"]
-    lines += report(config, "validation", args.validation_episodes, rule)
-    lines += report(config, "test", args.test_episodes, rule)
-    text = "\n".join(lines)
-    print(text)
-    if args.out is not None:
-        write_bytes_atomically(args.out, text.encode())
+    publish([*lines, *report(config, "validation", args.validation_episodes, rule),
+             *report(config, "test", args.test_episodes, rule)], args.out)
 
 
 if __name__ == "__main__":

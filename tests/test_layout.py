@@ -53,8 +53,9 @@ def test_every_module_belongs_to_a_stage():
     assert folders == set(STAGES) - {""}
     packages = {path.parent for path in PACKAGE.rglob("*.py")}
     assert sorted(str(folder.relative_to(ROOT)) for folder in packages if not (folder / "__init__.py").is_file()) == []
-    assert sorted(path.name for path in PACKAGE.glob("*.py")) == ["__init__.py", "bounds.py", "config.py",
-                                                                     "datasets.py", "seeding.py", "setting_tables.py"]
+    assert sorted(path.name for path in PACKAGE.glob("*.py")) == ["__init__.py", "action_config.py", "bounds.py",
+                                                                     "config.py", "datasets.py", "seeding.py",
+                                                                     "setting_tables.py"]
 
 
 def test_no_module_imports_a_later_stage():

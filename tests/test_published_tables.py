@@ -81,6 +81,9 @@ NOT_REGENERABLE: dict[str, str] = {
                                   "evaluate's printouts DESIGN/validation.txt",
     "action_rule/expert.md": "a simulation, not a table of committed data: experiments/action_rule_validation.py "
                              "drives the expert in SUMO for about 4 min",
+    "acceleration_reading/table.md": "a simulation, not a table of committed data: "
+                                     "experiments/acceleration_reading_validation.py drives the expert, a random "
+                                     "driver and SUMO's drivers in SUMO for about 13 min on a busy 2-core machine",
     "road_capacity/table.md": "a simulation, not a table of committed data: experiments/road_capacity.py runs SUMO "
                               "for about 21 min",
     "road_capacity/ramp_flows.md": "a simulation, not a table of committed data (experiments/road_capacity.py "

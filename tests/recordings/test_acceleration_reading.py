@@ -63,6 +63,13 @@ def test_a_lane_change_is_read_at_its_onset_with_the_periods_acceleration():
     assert decoded[2][0] == INTERFACE.nearest_bin(0.0)
 
 
+def test_a_track_shorter_than_one_period_reads_no_decision_even_with_a_lane_change():
+    time_s = np.arange(4) * 0.1  # 0.3 s: no decision instant with a whole period after it
+    instants, actions, accelerations = read_acceleration_track(time_s, np.full(4, 20.0), np.array([0, 0, 1, 1]),
+                                                               np.full(4, "e"), None, RULE, INTERFACE)
+    assert len(instants) == len(actions) == len(accelerations) == 0
+
+
 def test_smoothing_takes_most_of_ngsims_noise_out_of_the_reading():
     """A driver whose acceleration swings as a sine of 8 s, its speeds with NGSIM-like noise at 10 Hz."""
     rng = np.random.default_rng(0)
