@@ -32,6 +32,16 @@ Driver = Callable[[np.ndarray, TrafficView], int]
 DecisionProbe = Callable[[np.ndarray, TrafficView, int, dict[str, Any]], None]
 """Called after each decision with the observation and traffic the driver saw, its action and the step's info; it
 only watches (it cannot change what the driver does)."""
+
+
+def probes_in_turn(*probes: DecisionProbe) -> DecisionProbe:
+    """One probe that hands each decision to `probes` in order."""
+
+    def watch(observation: np.ndarray, traffic: TrafficView, action: int, info: dict[str, Any]) -> None:
+        for probe in probes:
+            probe(observation, traffic, action, info)
+
+    return watch
 ACTION_COLUMNS = tuple(f"action_{action.name.lower()}" for action in Action)
 """Metrics columns counting each action, in action order."""
 
@@ -168,7 +178,7 @@ def drive_egos(env: ParallelHighwayEnv | _OneEgo, drivers: Sequence[Driver], see
     neither terminated nor truncated. Each ego's episodes in order (metrics' seed `seed`). With `perturbs` ego_j's
     car executes perturbs[j](action) while the records keep the driver's (DART); `probes[j]` watches ego_j's
     decisions."""
-    road = RespawningEgos(env, seed, reset_when_empty=False, respawn=decisions is not None)  # type: ignore[arg-type]
+    road = RespawningEgos(env, seed, reset_when_empty=False, respawn=decisions is not None)  # type: ignore[arg-type]  # _OneEgo: a duck-typed road of one ego
     observations, infos = road.start()
     agents = list(env.possible_agents)
     logs = {agent: _EpisodeLog(record) for agent in agents}
