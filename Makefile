@@ -4,7 +4,7 @@ VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 
-.PHONY: install test demo bench lint clean
+.PHONY: install test demo bench lint typecheck clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -16,7 +16,8 @@ $(STAMP): pyproject.toml
 
 install: $(STAMP)
 
-test: $(STAMP)
+# lint and type check first: a finding stops the run before the (long) test suite
+test: lint typecheck
 	$(PY) -m pytest -q
 
 demo: $(STAMP)
@@ -41,7 +42,11 @@ bench: $(STAMP)
 	$(PY) benchmarks/bench_compare.py --out docs/benchmarks.md
 
 lint: $(STAMP)
-	$(VENV)/bin/ruff check sumo_rail cli tests benchmarks
+	$(VENV)/bin/ruff check sumo_rail cli tests benchmarks experiments
+
+# mypy on sumo_rail and cli, as [tool.mypy] in pyproject.toml configures it
+typecheck: $(STAMP)
+	$(PY) -m mypy
 
 clean:
 	rm -rf $(VENV) build *.egg-info

@@ -1,5 +1,5 @@
 """`python -m sumo_rail_cli`: the same as the `sumo-rail` command."""
 
-from sumo_rail_cli.main import cli
+from .main import cli
 
 cli(prog_name="sumo-rail")

@@ -7,8 +7,11 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import click
-from sumo_rail_cli.demos_options import RECORDED_NOTE, check_demos
-from sumo_rail_cli.options import (
+
+from sumo_rail.seeding import EVALUATION_EPISODES
+
+from .demos_options import RECORDED_NOTE, check_demos
+from .options import (
     backend_options,
     build_backend,
     check_egos,
@@ -25,9 +28,9 @@ from sumo_rail_cli.options import (
     run_folder_options,
     tensorboard_option,
 )
-from sumo_rail_cli.param_types import FiniteFloat
-from sumo_rail_cli.progress import advance_to, complete, progress, start_at
-from sumo_rail_cli.running import (
+from .param_types import FiniteFloat
+from .progress import advance_to, complete, progress, start_at
+from .running import (
     bc_summary,
     failures_summary,
     interruptible_run,
@@ -36,9 +39,7 @@ from sumo_rail_cli.running import (
     tensorboard_logger,
     validation_summary,
 )
-from sumo_rail_cli.settings import config_options
-
-from sumo_rail.seeding import EVALUATION_EPISODES
+from .settings import config_options
 
 if TYPE_CHECKING:
     from sumo_rail.config import Config

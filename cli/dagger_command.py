@@ -7,8 +7,9 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import click
-from sumo_rail_cli.demos_options import check_demos
-from sumo_rail_cli.options import (
+
+from .demos_options import check_demos
+from .options import (
     build_backend,
     check_egos,
     check_run_folder,
@@ -20,9 +21,9 @@ from sumo_rail_cli.options import (
     run_folder_options,
     tensorboard_option,
 )
-from sumo_rail_cli.progress import advance_to, complete, progress
-from sumo_rail_cli.running import interruptible_run, kept_until_resume, tensorboard_logger, validation_summary
-from sumo_rail_cli.settings import config_options
+from .progress import advance_to, complete, progress
+from .running import interruptible_run, kept_until_resume, tensorboard_logger, validation_summary
+from .settings import config_options
 
 if TYPE_CHECKING:
     from sumo_rail.config import Config

@@ -5,9 +5,10 @@ from __future__ import annotations
 from pathlib import Path
 
 import click
-from sumo_rail_cli.output_lock import lock_output
-from sumo_rail_cli.progress import progress
-from sumo_rail_cli.running import library_errors
+
+from .output_lock import lock_output
+from .progress import progress
+from .running import library_errors
 
 
 @click.command("export-minari")

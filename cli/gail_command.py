@@ -7,8 +7,9 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import click
-from sumo_rail_cli.demos_options import RECORDED_NOTE, check_demos
-from sumo_rail_cli.options import (
+
+from .demos_options import RECORDED_NOTE, check_demos
+from .options import (
     check_egos,
     check_run_folder,
     imitation_options,
@@ -16,8 +17,8 @@ from sumo_rail_cli.options import (
     tensorboard_option,
     timesteps_options,
 )
-from sumo_rail_cli.progress import complete, progress
-from sumo_rail_cli.running import (
+from .progress import complete, progress
+from .running import (
     bc_summary,
     interruptible_run,
     sb3_interrupted,
@@ -25,7 +26,7 @@ from sumo_rail_cli.running import (
     sb3_progress,
     tensorboard_logger,
 )
-from sumo_rail_cli.settings import config_options
+from .settings import config_options
 
 if TYPE_CHECKING:
     from sumo_rail.config import Config

@@ -7,9 +7,10 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 import click
-from sumo_rail_cli.output_lock import lock_output
-from sumo_rail_cli.param_types import FiniteFloat
-from sumo_rail_cli.settings import config_options
+
+from .output_lock import lock_output
+from .param_types import FiniteFloat
+from .settings import config_options
 
 if TYPE_CHECKING:
     from sumo_rail.config import Config

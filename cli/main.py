@@ -5,19 +5,20 @@ from __future__ import annotations
 import logging
 
 import click
-from sumo_rail_cli.running import begin_command, end_quietly_while_starting, make_interruptible, stopped
+
+from .running import begin_command, end_quietly_while_starting, make_interruptible, stopped
 
 end_quietly_while_starting()  # first: Ctrl-C and SIGTERM in the slow imports below (libsumo, scipy) and click's parsing
-from sumo_rail_cli.commands import evaluate_command, record_expert, train_command
-from sumo_rail_cli.dagger_command import dagger_command
-from sumo_rail_cli.export_command import export_minari_command
-from sumo_rail_cli.gail_command import gail_command
-from sumo_rail_cli.import_command import import_recording_command
-from sumo_rail_cli.ppo_command import ppo_command
-from sumo_rail_cli.recordings_commands import record_sumo_drivers_command, recorded_demos_command
-from sumo_rail_cli.report_command import report_command
-from sumo_rail_cli.scene_command import evaluate_scene_command
-from sumo_rail_cli.signal_command import step_signal_command
+from .commands import evaluate_command, record_expert, train_command
+from .dagger_command import dagger_command
+from .export_command import export_minari_command
+from .gail_command import gail_command
+from .import_command import import_recording_command
+from .ppo_command import ppo_command
+from .recordings_commands import record_sumo_drivers_command, recorded_demos_command
+from .report_command import report_command
+from .scene_command import evaluate_scene_command
+from .signal_command import step_signal_command
 
 
 class _Commands(click.Group):

@@ -11,12 +11,13 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import click
-from sumo_rail_cli.demos_options import demos_selection_options
-from sumo_rail_cli.output_lock import lock_output
-from sumo_rail_cli.param_types import RoadList
-from sumo_rail_cli.running import library_errors
 
 from sumo_rail.config import Config
+
+from .demos_options import demos_selection_options
+from .output_lock import lock_output
+from .param_types import RoadList
+from .running import library_errors
 
 if TYPE_CHECKING:
     from sumo_rail.runners.backends import RolloutBackend

@@ -7,7 +7,8 @@ import os
 from pathlib import Path
 
 import click
-from sumo_rail_cli.running import note_output
+
+from .running import note_output
 
 
 def lock_path(out: Path) -> Path:

@@ -7,10 +7,11 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import click
-from sumo_rail_cli.options import check_egos, check_run_folder, seed_option, tensorboard_option, timesteps_options
-from sumo_rail_cli.progress import complete, progress
-from sumo_rail_cli.running import interruptible_run, sb3_interrupted, sb3_outcome, sb3_progress, tensorboard_logger
-from sumo_rail_cli.settings import config_options
+
+from .options import check_egos, check_run_folder, seed_option, tensorboard_option, timesteps_options
+from .progress import complete, progress
+from .running import interruptible_run, sb3_interrupted, sb3_outcome, sb3_progress, tensorboard_logger
+from .settings import config_options
 
 if TYPE_CHECKING:
     from sumo_rail.config import Config

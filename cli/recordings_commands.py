@@ -7,13 +7,14 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 import click
-from sumo_rail_cli.import_command import split_options
-from sumo_rail_cli.options import check_output
-from sumo_rail_cli.output_lock import lock_output
-from sumo_rail_cli.param_types import FiniteFloat, setting_range
-from sumo_rail_cli.settings import config_options
 
 from sumo_rail.config import ScenarioConfig
+
+from .import_command import split_options
+from .options import check_output
+from .output_lock import lock_output
+from .param_types import FiniteFloat, setting_range
+from .settings import config_options
 
 if TYPE_CHECKING:
     from sumo_rail.config import Config

@@ -5,8 +5,9 @@ from __future__ import annotations
 from pathlib import Path
 
 import click
-from sumo_rail_cli.output_lock import lock_output
-from sumo_rail_cli.running import library_errors
+
+from .output_lock import lock_output
+from .running import library_errors
 
 
 @click.command("report")

@@ -79,7 +79,7 @@ def sb3_progress(bar: Any, row: dict[str, Any], steps_per_update: int) -> None:
     """Move a gail or ppo progress bar (in timesteps) to the end of the update of log `row`; a resumed run's bar
     starts from the updates done before at its first new row, and its rate counts this run's timesteps alone (as
     `train`'s counts its own iterations)."""
-    from sumo_rail_cli.progress import advance_to, start_at
+    from .progress import advance_to, start_at
 
     if bar.n == 0 and row["iteration"] > 0:
         start_at(bar, row["iteration"] * steps_per_update, restart_clock=False)

@@ -6,11 +6,12 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 import click
-from sumo_rail_cli.options import backend_options, build_backend, check_output, output_options, seed_option
-from sumo_rail_cli.param_types import FiniteFloat
-from sumo_rail_cli.progress import complete, progress
-from sumo_rail_cli.running import interruptible_run
-from sumo_rail_cli.settings import config_options
+
+from .options import backend_options, build_backend, check_output, output_options, seed_option
+from .param_types import FiniteFloat
+from .progress import complete, progress
+from .running import interruptible_run
+from .settings import config_options
 
 if TYPE_CHECKING:
     from sumo_rail.config import Config

@@ -8,7 +8,10 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import click
-from sumo_rail_cli.options import (
+
+from sumo_rail.learning.rail.step_signal import REWARD_VARIANTS
+
+from .options import (
     backend_options,
     build_backend,
     check_egos,
@@ -17,11 +20,9 @@ from sumo_rail_cli.options import (
     resolve_expert_option,
     seed_option,
 )
-from sumo_rail_cli.progress import complete, progress
-from sumo_rail_cli.running import interruptible_run, library_errors
-from sumo_rail_cli.settings import config_options
-
-from sumo_rail.learning.rail.step_signal import REWARD_VARIANTS
+from .progress import complete, progress
+from .running import interruptible_run, library_errors
+from .settings import config_options
 
 if TYPE_CHECKING:
     from sumo_rail.config import Config

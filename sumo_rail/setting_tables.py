@@ -64,11 +64,12 @@ def field_docs(cls: type) -> dict[str, str]:
 @cache
 def _own_field_docs(cls: type) -> dict[str, str]:
     try:
-        body = ast.parse(textwrap.dedent(inspect.getsource(cls))).body[0].body  # type: ignore[attr-defined]
+        definition = ast.parse(textwrap.dedent(inspect.getsource(cls))).body[0]
     except (OSError, TypeError):
         return {}
+    assert isinstance(definition, ast.ClassDef)  # the source of a class is its class statement
     docs = {}
-    for field, after in itertools.pairwise(body):
+    for field, after in itertools.pairwise(definition.body):
         if (isinstance(field, ast.AnnAssign) and isinstance(field.target, ast.Name) and isinstance(after, ast.Expr)
                 and isinstance(after.value, ast.Constant) and isinstance(after.value.value, str)):
             docs[field.target.id] = " ".join(after.value.value.split())

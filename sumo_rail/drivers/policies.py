@@ -107,7 +107,7 @@ class Policy:
                 "std": self.observation_std}
 
     def __setstate__(self, state: dict[str, Any]) -> None:
-        self.__init__(state["shape"], state["parameters"], state["mean"], state["std"])  # type: ignore[misc]
+        type(self).__init__(self, state["shape"], state["parameters"], state["mean"], state["std"])
 
 
 def _unflatten(shape: PolicyShape, parameters: np.ndarray) -> tuple[np.ndarray, ...]:

@@ -68,7 +68,7 @@ HEADWAY_BINS = 21
 """Edges of the time-headway histogram, from 0 to HEADWAY_CAP_S (decisions with a leader)."""
 
 
-def summary_path(metrics_path) -> Path:
+def summary_path(metrics_path: Path) -> Path:
     """Where the decision summary of a metrics file goes: NAME.distributions.parquet beside NAME.parquet."""
     return Path(metrics_path).with_suffix(".distributions.parquet")
 

@@ -20,7 +20,7 @@ from sumo_rail.evaluation.fidelity import CONFUSION_COLUMNS, DECISION_FIELDS, RA
 from sumo_rail.evaluation.safety import SAFETY_DECISION_FIELDS, SAFETY_MEASURES, SafetyProbe
 from sumo_rail.runners.backends import RolloutBackend, WorkerContext
 from sumo_rail.runners.experts import check_drives, parse_policy, resolve_expert
-from sumo_rail.runners.rollout import DriverSpec, EpisodeTask, ExpertDriver, KeepDriver, RandomDriver
+from sumo_rail.runners.rollout import DriverSpec, EpisodeTask, ExpertDriver, KeepDriver, RandomDriver, probes_in_turn
 from sumo_rail.runners.tables import EPISODE_METRICS, METRIC_COLUMNS, metrics_table, provenance
 from sumo_rail.runners.video import FrameRecorder, encode_mp4, video_name
 from sumo_rail.sim.env import HighwayEnv
@@ -57,7 +57,7 @@ score with its parts (`sumo_rail.evaluation.driving_score`)."""
 DECISIONS = "decisions"
 _DECISION_KEYS: dict[str, pa.DataType] = {"policy": pa.string(), "episode": pa.int32(), "seed": pa.int64(),
                                           "step": pa.int32()}
-_NUMPY_TO_ARROW = {np.int8: pa.int8(), np.float64: pa.float64()}
+_NUMPY_TO_ARROW: dict[type, pa.DataType] = {np.int8: pa.int8(), np.float64: pa.float64()}
 DECISION_TYPES: dict[str, pa.DataType] = {**_DECISION_KEYS,
                                           **{name: _NUMPY_TO_ARROW[kind] for name, kind in DECISION_FIELDS.items()},
                                           **{name: pa.float64() for name in SAFETY_DECISION_FIELDS}}
@@ -93,8 +93,7 @@ class EvaluationTask:
             recorder = FrameRecorder(env)
             return recorder
 
-        result = self.episode.run(context, lambda *decision: (probe(*decision), safety(*decision)),
-                                  wrap=record if self.video else None)
+        result = self.episode.run(context, probes_in_turn(probe, safety), wrap=record if self.video else None)
         video = None
         if recorder is not None:
             video = encode_mp4(recorder.frames, 1.0 / self.episode.config.env.decision_period_s)

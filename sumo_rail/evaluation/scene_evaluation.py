@@ -32,7 +32,7 @@ from sumo_rail.recordings.scene_folder import Scene, read_scene
 from sumo_rail.recordings.scene_observations import SceneFrames
 from sumo_rail.recordings.seat import SceneEnv
 from sumo_rail.runners.backends import RolloutBackend, WorkerContext
-from sumo_rail.runners.rollout import DriverSpec, KeepDriver, run_episode
+from sumo_rail.runners.rollout import DriverSpec, KeepDriver, probes_in_turn, run_episode
 from sumo_rail.runners.tables import provenance
 from sumo_rail.sim.traffic import TrafficView, lane_gaps
 
@@ -134,7 +134,7 @@ class SeatTask:
         options = {"vehicle": self.seat.vehicle, "start_s": self.seat.start_s,
                    "sumo_driver": isinstance(self.driver, SumoDriver)}
         result = run_episode(env, self.driver.create(env.config, self.seed), self.seed, options=options,
-                             probe=lambda *decision: (track(*decision), safety(*decision)))
+                             probe=probes_in_turn(track, safety))
         if result.metrics["termination"] != "collision":
             track.add(env.traffic)
         period = env.config.env.decision_period_s

@@ -123,7 +123,7 @@ def _is_share(run: Sample) -> bool:
 def _seeded(sample: Sequence[Sample], reference: Sequence[Sample] | None, seed: int) -> Interval:
     """`seeded_interval` of any ratio (no range known)."""
     pooled = [_sum_runs(group) for group in ([sample] if reference is None else [sample, reference])]
-    episodes = interval(pooled[0], seed) if reference is None else paired_difference(*pooled, seed)
+    episodes = interval(pooled[0], seed) if reference is None else paired_difference(pooled[0], pooled[1], seed)
     own = np.array([ratio(run) for run in sample]) - (0.0 if reference is None else
                                                       np.array([ratio(run) for run in reference]))
     own = own[~np.isnan(own)]

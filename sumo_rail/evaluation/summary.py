@@ -3,6 +3,9 @@ of every driver to a reference driver, and the distribution distances to the ref
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from typing import Any
+
 import pandas as pd
 
 from sumo_rail.evaluation.distributions import distance_table
@@ -129,7 +132,7 @@ def closeness(metrics: pd.DataFrame, candidate: str, baseline: str, expert: str,
                for name in (candidate, baseline, expert)]
     rows = []
     for measure in [name for name in MEASURES if all(name in sample for sample in samples)]:
-        found = closeness_difference(*(sample[measure] for sample in samples), seed=seed)
+        found = closeness_difference(samples[0][measure], samples[1][measure], samples[2][measure], seed=seed)
         verdict = ("closer" if found.high < 0 else "further" if found.low > 0 else "no detectable difference")
         rows.append({"measure": measure, **vars(found), "verdict": verdict})
     return pd.DataFrame(rows, columns=["measure", "estimate", "low", "high", "verdict"])
@@ -174,7 +177,7 @@ def distance_text(table: pd.DataFrame, reference: str) -> str:
             f"variation for lanes and actions; no-leader share: difference):\n{table.round(3).to_string()}")
 
 
-def _grid(rows: pd.DataFrame, drivers: list[str], cell) -> pd.DataFrame:
+def _grid(rows: pd.DataFrame, drivers: list[str], cell: Callable[[Any], str]) -> pd.DataFrame:
     measures = [measure for measure in MEASURES if measure in set(rows["measure"])]
     grid = pd.DataFrame("", index=measures, columns=drivers)
     for row in rows.itertuples():
@@ -182,6 +185,6 @@ def _grid(rows: pd.DataFrame, drivers: list[str], cell) -> pd.DataFrame:
     return grid
 
 
-def _format(row, signed: bool) -> str:
+def _format(row: Any, signed: bool) -> str:
     digits = 3 if row.measure in RATES or row.measure.endswith("_share") else 2
     return Interval(row.estimate, row.low, row.high).format(digits, signed)

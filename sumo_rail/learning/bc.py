@@ -70,6 +70,11 @@ class PolicyNetwork(nn.Module):
 
     The weights start uninitialised: build it with `policy_to_torch` or initialise them."""
 
+    mean: torch.Tensor
+    """The observation means (float64 buffer)."""
+    scale: torch.Tensor
+    """1 / the floored observation stds (float64 buffer)."""
+
     def __init__(self, shape: PolicyShape, observation_mean: np.ndarray, observation_std: np.ndarray) -> None:
         super().__init__()
         self.shape = shape

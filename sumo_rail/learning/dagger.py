@@ -46,7 +46,7 @@ from sumo_rail.runners.road_mix import road_configs
 from sumo_rail.runners.rollout import Driver, DriverSpec, run_shared_episode, shared_groups
 from sumo_rail.runners.tables import Demonstrations, provenance, read_demonstrations
 from sumo_rail.seeding import Purpose, episode_seeds
-from sumo_rail.sim.actions import action_space_of
+from sumo_rail.sim.actions import action_count
 from sumo_rail.sim.observation import observation_space
 from sumo_rail.sim.traffic import TrafficView
 
@@ -162,7 +162,7 @@ def train_dagger(folder: Path, settings: DaggerSettings, config: Config, rounds:
     style = settings.expert or recorded
     expert = resolve_expert(style, config, recorded_by=None if settings.expert else settings.demos)
     check_drives(expert, config)
-    shape = PolicyShape(settings.kind, observation_size, settings.hidden, action_space_of(config.actions).n)
+    shape = PolicyShape(settings.kind, observation_size, settings.hidden, action_count(config.actions))
     run_record = {"settings": settings.to_dict(), "expert": style, **demos_hash,
                   **provenance("dagger_run", config, settings.seed)}
     if resume:

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import partial
 from pathlib import Path
 
 import pandas as pd
@@ -65,12 +66,12 @@ def write_report(inputs: Inputs, out: Path, videos: Path | None = None) -> Path:
                  "Speed, overtakes, lane changes and collisions of the policy on validation seeds during training."),
             lambda: validation_curves(runs))
     if inputs.metrics is not None:
-        _evaluation_plots(inputs, add)
+        _evaluation_plots(inputs, inputs.metrics, add)
     for run in runs:
         if run.policies:
             add(Plot(f"weights_{run.name}.png", f"Policy weights of {run.name}",
                      f"Weights of {' and '.join(run.policies)} per layer as heat maps (one colour scale per layer) "
-                     f"and histograms."), lambda run=run: weight_maps(run))
+                     f"and histograms."), partial(weight_maps, run))
     if videos is not None:
         from sumo_rail.report.videos import GIF_FRAMES, GIF_SPEED_UP, comparison_gifs
 
@@ -84,8 +85,7 @@ def write_report(inputs: Inputs, out: Path, videos: Path | None = None) -> Path:
     return path
 
 
-def _evaluation_plots(inputs: Inputs, add: Callable[[Plot, Callable[[], Figure]], None]) -> None:
-    metrics = inputs.metrics
+def _evaluation_plots(inputs: Inputs, metrics: pd.DataFrame, add: Callable[[Plot, Callable[[], Figure]], None]) -> None:
     estimates = intervals(metrics, route=inputs.route)
     drivers = list(dict.fromkeys(metrics["policy"]))
     add(Plot("metrics.png", "Evaluation metrics",
@@ -114,13 +114,14 @@ def _evaluation_plots(inputs: Inputs, add: Callable[[Plot, Callable[[], Figure]]
             lambda: forest_plot(differences, drivers[0]))
 
 
-def reference_expert(metrics) -> str:
+def reference_expert(metrics: pd.DataFrame) -> str:
     """The driver name of the reference expert the metrics were compared with (expert-normal by default; files
     written before any driver could be the expert hold its style in `reference_style`)."""
     if "reference" in metrics and len(metrics["reference"].dropna()):
         return str(metrics["reference"].dropna().iloc[0])
-    styles = metrics["reference_style"].dropna() if "reference_style" in metrics else []
-    return f"expert-{styles.iloc[0] if len(styles) else 'normal'}"
+    if "reference_style" in metrics and len(styles := metrics["reference_style"].dropna()):
+        return f"expert-{styles.iloc[0]}"
+    return "expert-normal"
 
 
 def decisions_summary(inputs: Inputs, expert: str) -> pd.DataFrame | None:

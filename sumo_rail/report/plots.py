@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Literal
+
 import numpy as np
 import pandas as pd
 from matplotlib.axes import Axes
@@ -134,7 +136,7 @@ def weight_maps(run: Run) -> Figure:
         matrices = [weights[label][layer] for label in labels]
         limit = max(float(np.abs(matrix).max()) for matrix in matrices) or 1.0
         inputs, outputs = _layer_axes(shape, run.observation_names, layer)
-        column_axes = []
+        column_axes: list[Axes] = []
         for row, (label, matrix) in enumerate(zip(labels, matrices, strict=True)):
             axes = figure.add_subplot(heat[row, layer], sharex=column_axes[0] if column_axes else None)
             image = axes.imshow(matrix, cmap=WEIGHT_COLOURMAP, vmin=-limit, vmax=limit, aspect="auto",
@@ -188,7 +190,7 @@ def _label_matrix(axes: Axes, inputs: tuple[str, list[str]], outputs: tuple[str,
 def _weight_histogram(axes: Axes, labels: list[str], matrices: list[np.ndarray], layer: int) -> None:
     values = [matrix.ravel() for matrix in matrices]
     bins = np.histogram_bin_edges(np.concatenate(values), bins=int(np.clip(values[0].size // 5, 10, 40)))
-    axes.hist(values, bins=bins, label=labels, color=[POLICY_COLOURS[label] for label in labels])
+    axes.hist(values, bins=bins.tolist(), label=labels, color=[POLICY_COLOURS[label] for label in labels])
     axes.set(xlabel="weight (dimensionless)", ylabel="number of weights",
              title=f"layer {layer + 1}: distribution of its {values[0].size} weights")
     axes.legend(fontsize=9)
@@ -211,5 +213,5 @@ def _marker(log: pd.DataFrame) -> str:
     return "o" if len(log) <= 40 else ""
 
 
-def _grid(axes: Axes, axis: str = "both") -> None:
+def _grid(axes: Axes, axis: Literal["both", "x", "y"] = "both") -> None:
     axes.grid(True, axis=axis, linewidth=0.5, alpha=0.5)

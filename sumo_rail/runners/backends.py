@@ -220,13 +220,14 @@ class ProcessPoolBackend(RolloutBackend):
                     elif not worker.ready:
                         worker.ready = True
                     else:
-                        index, worker.task, worker.deadline = worker.task, None, None
+                        finished, worker.task, worker.deadline = worker.task, None, None
+                        assert finished is not None  # a ready worker answers only the task it was given
                         ok, payload = message
                         if not ok:
                             type_name, text, trace = payload
-                            log.debug("task %d raised in worker %d:\n%s", index, worker.process.pid, trace)
-                            raise TaskError(index, type_name, text)
-                        queue.done(index, payload)
+                            log.debug("task %d raised in worker %d:\n%s", finished, worker.process.pid, trace)
+                            raise TaskError(finished, type_name, text)
+                        queue.done(finished, payload)
         finally:
             # Only after an exception: tasks still running must not deliver their results to the next run.
             for worker in [worker for worker in self._pool if worker.task is not None]:

@@ -20,7 +20,7 @@ from sumo_rail.datasets import DatasetError, file_sha256
 from sumo_rail.drivers.expert import DEFAULT_STYLE, STYLES
 from sumo_rail.drivers.policies import PolicyFileError, load_policy
 from sumo_rail.runners.rollout import DriverSpec, ExpertDriver, PolicyDriver
-from sumo_rail.sim.actions import action_space_of
+from sumo_rail.sim.actions import action_count
 from sumo_rail.sim.observation import observation_names
 
 SAMPLED_SUFFIX = " (sampled)"
@@ -60,7 +60,7 @@ def parse_policy(path: Path, config: Config, sampled: bool = False, name: str | 
                               f"{differing_settings(metadata, config)}")
     if scales := differing_settings(metadata, config, SCALE_SETTINGS):
         raise PolicyFileError(f"policy {path} reads observations scaled otherwise than this configuration's{scales}")
-    if policy.shape.actions != (count := action_space_of(config.actions).n):
+    if policy.shape.actions != (count := action_count(config.actions)):
         raise PolicyFileError(f"policy {path} chooses among {policy.shape.actions} actions but this configuration's "
                               f"action interface has {count} (actions.interface={config.actions.interface})"
                               f"{differing_settings(metadata, config, INTERFACE_SETTINGS)}")

@@ -116,22 +116,23 @@ class RayBackend(RolloutBackend):
                     if slot.pid is None:
                         self._started(slot)
                         continue
-                    index, slot.task, slot.ref, slot.deadline = slot.task, None, None, None
+                    finished, slot.task, slot.ref, slot.deadline = slot.task, None, None, None
+                    assert finished is not None  # a started actor's awaited ref is its task's result
                     try:
                         result = ray.get(ref)
                     except ray.exceptions.RayTaskError as error:
                         raised, _, detail = _describe(error).partition(": ")
-                        raise TaskError(index, raised, detail) from error
+                        raise TaskError(finished, raised, detail) from error
                     except ray.exceptions.RayError as error:
                         self._retire(slot)
-                        queue.retry(index, f"Ray worker {slot.pid} was lost ({_describe(error)})")
+                        queue.retry(finished, f"Ray worker {slot.pid} was lost ({_describe(error)})")
                         continue
-                    queue.done(index, result)
+                    queue.done(finished, result)
                 now = time.monotonic()
                 for slot in [s for s in self._slots if s.deadline is not None and s.deadline < now]:
-                    index = slot.task
+                    timed_out = slot.task
                     self._retire(slot)
-                    queue.retry(index, f"timed out after {self.task_timeout_s} s")
+                    queue.retry(timed_out, f"timed out after {self.task_timeout_s} s")
         finally:
             # Only after an exception: tasks still running must not hold up or leak into the next run.
             for slot in [slot for slot in self._slots if slot.task is not None]:

@@ -17,7 +17,7 @@ from sumo_rail.drivers.expert import DEFAULT_STYLE, make_expert
 from sumo_rail.drivers.policies import Policy
 from sumo_rail.runners.dart import ActionNoise
 from sumo_rail.seeding import driver_generator
-from sumo_rail.sim.actions import Action, action_space_of, keep_action
+from sumo_rail.sim.actions import Action, action_count, keep_action
 from sumo_rail.sim.env import HighwayEnv
 from sumo_rail.sim.parallel_env import ParallelHighwayEnv
 from sumo_rail.sim.respawning import RespawningEgos
@@ -32,6 +32,16 @@ Driver = Callable[[np.ndarray, TrafficView], int]
 DecisionProbe = Callable[[np.ndarray, TrafficView, int, dict[str, Any]], None]
 """Called after each decision with the observation and traffic the driver saw, its action and the step's info; it
 only watches (it cannot change what the driver does)."""
+
+
+def probes_in_turn(*probes: DecisionProbe) -> DecisionProbe:
+    """One probe that hands each decision to `probes` in order."""
+
+    def watch(observation: np.ndarray, traffic: TrafficView, action: int, info: dict[str, Any]) -> None:
+        for probe in probes:
+            probe(observation, traffic, action, info)
+
+    return watch
 ACTION_COLUMNS = tuple(f"action_{action.name.lower()}" for action in Action)
 """Metrics columns counting each action, in action order."""
 
@@ -64,7 +74,7 @@ class RandomDriver:
     name: str = "random"
 
     def create(self, config: Config, seed: int) -> Driver:
-        rng, count = np.random.default_rng(seed), action_space_of(config.actions).n
+        rng, count = np.random.default_rng(seed), action_count(config.actions)
         return lambda observation, traffic: int(rng.integers(count))
 
 
@@ -131,7 +141,7 @@ class EpisodeGroupTask:
     def run(self, context: WorkerContext) -> list[EpisodeResult | None]:
         """Each ego's episode (its metrics' seed: its own seed), in ego order; None for an ego that found no room."""
         drivers = [self.driver.create(self.config, seed) for seed in self.seeds]
-        count = action_space_of(self.config.actions).n
+        count = action_count(self.config.actions)
         perturbs = None if self.noise is None else [self.noise.perturbation(seed, count) for seed in self.seeds]
         results = run_shared_episode(context.parallel_env(self.config, len(self.seeds)), drivers, self.seeds[0],
                                      self.record, perturbs)
@@ -168,7 +178,7 @@ def drive_egos(env: ParallelHighwayEnv | _OneEgo, drivers: Sequence[Driver], see
     neither terminated nor truncated. Each ego's episodes in order (metrics' seed `seed`). With `perturbs` ego_j's
     car executes perturbs[j](action) while the records keep the driver's (DART); `probes[j]` watches ego_j's
     decisions."""
-    road = RespawningEgos(env, seed, reset_when_empty=False, respawn=decisions is not None)  # type: ignore[arg-type]
+    road = RespawningEgos(env, seed, reset_when_empty=False, respawn=decisions is not None)  # type: ignore[arg-type]  # _OneEgo: a duck-typed road of one ego
     observations, infos = road.start()
     agents = list(env.possible_agents)
     logs = {agent: _EpisodeLog(record) for agent in agents}

@@ -18,7 +18,7 @@ from sumo_rail.config import Config
 from sumo_rail.datasets import FORMAT_VERSION, DatasetError, describe, read_metadata, read_table, versions
 from sumo_rail.runners.rollout import ACTION_COLUMNS, EpisodeResult
 from sumo_rail.sim import user_network
-from sumo_rail.sim.actions import action_space_of
+from sumo_rail.sim.actions import action_count
 from sumo_rail.sim.observation import observation_names
 
 DEMONSTRATIONS = "demonstrations"
@@ -171,7 +171,7 @@ def read_demonstrations(path: Path, observation_size: int | None = None, include
         raise DatasetError(f"{path} has missing or misshapen observations or actions ({describe(error)})") from error
     if not np.isfinite(observations).all():
         raise DatasetError(f"{path} has non-finite observations")
-    count = action_space_of(recorded).n
+    count = action_count(recorded)
     if actions.min() < 0 or actions.max() >= count:
         raise DatasetError(f"{path} has actions outside 0..{count - 1}")
     episodes = table.column("episode").to_numpy()

@@ -10,9 +10,9 @@ from __future__ import annotations
 
 import re
 import tempfile
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -67,8 +67,9 @@ def encode_mp4(frames: Sequence[np.ndarray], fps: float) -> bytes:
     with tempfile.TemporaryDirectory(prefix="sumo-rail-video-") as scratch:
         path = Path(scratch) / "episode.mp4"
         # veryfast: a third of the default preset's time per frame, for slightly larger files
-        with imageio.get_writer(path, format="FFMPEG", fps=fps, codec="libx264", quality=7, pixelformat="yuv420p",
-                                macro_block_size=16, ffmpeg_params=["-preset", "veryfast"]) as writer:
+        writer = imageio.get_writer(path, format="FFMPEG", fps=fps, codec="libx264", quality=7, pixelformat="yuv420p",
+                                    macro_block_size=16, ffmpeg_params=["-preset", "veryfast"])
+        with writer:  # not `as`: imageio's stub types __enter__ as the base class, without append_data
             for frame in frames:
                 writer.append_data(frame)
         return path.read_bytes()
@@ -80,9 +81,11 @@ def read_frames(path: Path, count: int | None = None) -> list[np.ndarray]:
     import imageio.v2 as imageio
 
     try:
-        with imageio.get_reader(path, format="FFMPEG") as reader:
+        reader = imageio.get_reader(path, format="FFMPEG")
+        with reader:
             frames = []
-            for frame in reader:
+            # imageio's stub types the reader's __iter__ as returning one array; it yields the frames
+            for frame in cast(Iterable[np.ndarray], reader):
                 frames.append(np.asarray(frame))
                 if count is not None and len(frames) >= count:
                     break
@@ -97,7 +100,8 @@ def video_fps(path: Path) -> float:
     import imageio.v2 as imageio
 
     try:
-        with imageio.get_reader(path, format="FFMPEG") as reader:
+        reader = imageio.get_reader(path, format="FFMPEG")
+        with reader:  # not `as`: imageio's stub types __enter__ as the base class, without get_meta_data
             return float(reader.get_meta_data()["fps"])
     except (OSError, RuntimeError, KeyError) as error:
         raise VideoError(f"cannot read video {path}: {error}") from error

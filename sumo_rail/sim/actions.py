@@ -87,6 +87,11 @@ def action_space_of(actions: ActionConfig) -> spaces.Discrete:
     return spaces.Discrete(len(Action))
 
 
+def action_count(actions: ActionConfig) -> int:
+    """How many actions the interface `actions` has (`action_space_of`'s n)."""
+    return int(action_space_of(actions).n)
+
+
 def acceleration_action(acceleration_bin: int, lateral: Lateral, actions: ActionConfig) -> int:
     """The acceleration interface's action of an acceleration bin (0 the lowest) and a lane decision: lateral x bins
     + bin, so the actions below `bins` keep the lane and are the bins themselves."""

@@ -185,15 +185,16 @@ class RolloutTask(Perturbations):
             labels: list[list[int]] = [[] for _ in policies]
             drivers = [_asking(policy, None if self.expert is None else self.expert.create(self.config, seed), asked)
                        for policy, asked in zip(policies, labels, strict=True)]
-            results = ([[result] for result in run_shared_episode(env, drivers, seed, record=True)]
-                       if self.decisions is None else drive_egos(env, drivers, seed, self.decisions, record=True))
+            results: Sequence[Sequence[EpisodeResult | None]] = (
+                [[result] for result in run_shared_episode(env, drivers, seed, record=True)]
+                if self.decisions is None else drive_egos(env, drivers, seed, self.decisions, record=True))
             for member, (lives, asked) in enumerate(zip(results, labels, strict=True)):
                 trajectories[member].extend(_trajectories(lives, asked if self.expert is not None else None,
                                                           env.observation_space(env.possible_agents[0]).shape[0]))
         return trajectories
 
 
-def _trajectories(lives: list[EpisodeResult | None], labels: list[int] | None, size: int) -> list[Trajectory]:
+def _trajectories(lives: Sequence[EpisodeResult | None], labels: list[int] | None, size: int) -> list[Trajectory]:
     """One ego's episodes as trajectories (an ego that found no room: none of its decisions), `labels` the expert's
     answers at all of them in order."""
     trajectories, done = [], 0

@@ -44,7 +44,7 @@ from sumo_rail.learning.validation import Validation, validate, validation_colum
 from sumo_rail.runners.backends import RolloutBackend
 from sumo_rail.runners.experts import demonstrations_expert, resolve_expert
 from sumo_rail.runners.tables import provenance, read_demonstrations
-from sumo_rail.sim.actions import action_space_of
+from sumo_rail.sim.actions import action_count
 from sumo_rail.sim.observation import observation_space
 
 CHECKPOINT_FORMAT = "sumo-rail checkpoint 1"
@@ -86,7 +86,7 @@ def train(folder: Path, settings: RunSettings, config: Config, iterations: int, 
     demos = read_demonstrations(Path(settings.demos), observation_size, settings.include_failed_demos, config.actions)
     demos_path, demos_hash = demos_record(settings.demos)
     settings = dataclasses.replace(settings, demos=demos_path)
-    shape = PolicyShape(settings.kind, observation_size, settings.hidden, action_space_of(config.actions).n)
+    shape = PolicyShape(settings.kind, observation_size, settings.hidden, action_count(config.actions))
     expert = demonstrations_expert(demos.metadata, recorded_stand_in=DEFAULT_STYLE)  # recorded: agreement asks it
     run_record = {"settings": settings.to_dict(), "expert": expert, **demos_hash,
                   **provenance("training_run", config, settings.rail.seed)}

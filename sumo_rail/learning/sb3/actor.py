@@ -49,8 +49,8 @@ def policy_kwargs(shape: PolicyShape) -> dict[str, Any]:
 
 def _actor_linears(ppo_policy: ActorCriticPolicy) -> list[nn.Linear]:
     """The actor's linear layers in `sumo_rail.drivers.policies` parameter-layout order."""
-    hidden = [layer for layer in ppo_policy.mlp_extractor.policy_net if isinstance(layer, nn.Linear)]
-    return [*hidden, ppo_policy.action_net]
+    layers = [*ppo_policy.mlp_extractor.policy_net, ppo_policy.action_net]
+    return [layer for layer in layers if isinstance(layer, nn.Linear)]
 
 
 def load_into_ppo(policy: Policy, ppo_policy: ActorCriticPolicy) -> None:

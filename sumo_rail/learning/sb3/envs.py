@@ -5,8 +5,10 @@ from __future__ import annotations
 
 import os
 import time
+from multiprocessing.connection import Connection
+from multiprocessing.process import BaseProcess
 from pathlib import Path
-from typing import TYPE_CHECKING, NoReturn
+from typing import TYPE_CHECKING, NoReturn, Protocol, runtime_checkable
 
 from sumo_rail.datasets import describe
 
@@ -24,6 +26,15 @@ def exit_reporting(error_file: str | None, error: Exception) -> NoReturn:
 
 LOST_ENV = (EOFError, BrokenPipeError, ConnectionResetError)
 """What Stable-Baselines3's SubprocVecEnv raises when an environment process is gone."""
+
+
+@runtime_checkable
+class _EnvProcesses(Protocol):
+    """A VecEnv whose envs run in processes it talks to through pipes (`vec_envs.SharedRoadVecEnv`, SubprocVecEnv)."""
+
+    processes: list[BaseProcess]
+    remotes: list[Connection]
+    closed: bool
 
 
 def lost_env_message(venv: VecEnv | None, error_dir: Path, folder: Path, updates: int, run: str = "GAIL") -> str:
@@ -55,10 +66,12 @@ def close_envs(venv: VecEnv, lost: bool) -> None:
         venv.close()
         return
     inner = venv.unwrapped
-    for process in getattr(inner, "processes", []):
+    if not isinstance(inner, _EnvProcesses):
+        return
+    for process in inner.processes:
         if process.is_alive():
             process.kill()  # not terminate(): env processes ignore SIGTERM (`spawning.ignore_stop_signals`)
         process.join()
-    for remote in getattr(inner, "remotes", []):
+    for remote in inner.remotes:
         remote.close()
     inner.closed = True

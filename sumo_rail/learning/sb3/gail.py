@@ -76,7 +76,7 @@ from sumo_rail.learning.sb3.runs import (
 from sumo_rail.learning.torch_threads import single_thread
 from sumo_rail.runners.experts import demonstrations_expert
 from sumo_rail.runners.tables import Demonstrations, provenance, read_demonstrations
-from sumo_rail.sim.actions import action_space_of
+from sumo_rail.sim.actions import action_count
 from sumo_rail.sim.observation import observation_space
 
 if TYPE_CHECKING:
@@ -122,7 +122,7 @@ def train_gail(folder: Path, settings: GailSettings, config: Config,
     demos = read_demonstrations(Path(settings.demos), observation_size, settings.include_failed_demos, config.actions)
     demos_path, demos_hash = demos_record(settings.demos)
     settings = dataclasses.replace(settings, demos=demos_path)
-    shape = PolicyShape(settings.kind, observation_size, settings.hidden, action_space_of(config.actions).n)
+    shape = PolicyShape(settings.kind, observation_size, settings.hidden, action_count(config.actions))
     expert = demonstrations_expert(demos.metadata, DEFAULT_STYLE)  # recorded drivers: the rule-based stands in
     run_record = {"settings": settings.to_dict(), "expert": expert, **demos_hash,
                   **provenance("gail_run", config, settings.seed)}

@@ -57,7 +57,7 @@ from sumo_rail.learning.sb3.runs import (
 from sumo_rail.learning.torch_threads import single_thread
 from sumo_rail.runners.experts import parse_policy
 from sumo_rail.runners.tables import provenance
-from sumo_rail.sim.actions import action_space_of
+from sumo_rail.sim.actions import action_count
 from sumo_rail.sim.observation import observation_space
 
 if TYPE_CHECKING:
@@ -97,7 +97,7 @@ class PpoSettings(PpoSchedule):
     def shape(self, config: Config) -> PolicyShape:
         """The actor's layout on `config`'s observation."""
         return PolicyShape(self.kind, observation_space(config).shape[0], self.hidden,
-                           action_space_of(config.actions).n)
+                           action_count(config.actions))
 
 
 @dataclass(frozen=True)

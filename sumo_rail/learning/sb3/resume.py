@@ -41,7 +41,9 @@ def learner_checkpoint(model: PPO, normalisation: FixedNormalisation, rows: list
                        **extra: Any) -> dict[str, Any]:
     """What `restore_learner` needs after the update of the last of `rows`, as tensors and plain values (loadable
     with weights_only); `extra` adds entries (e.g. GAIL's discriminator)."""
-    keys, position, has_gauss, cached = np.random.get_state()[1:]
+    state = np.random.get_state(legacy=True)
+    assert isinstance(state, tuple)  # the global RandomState's bit generator is an MT19937
+    keys, position, has_gauss, cached = state[1:]
     normaliser = model.get_vec_normalize_env()
     return {"format": CHECKPOINT_FORMAT, "updates": len(rows), "log": rows,
             "policy": model.policy.state_dict(), "optimizer": model.policy.optimizer.state_dict(),

@@ -103,7 +103,7 @@ class PpoSchedule:
         return math.ceil(self.timesteps / self.steps_per_update)
 
     def to_dict(self) -> dict[str, Any]:
-        return dataclasses.asdict(self)  # type: ignore[call-overload]
+        return dataclasses.asdict(self)
 
 
 def require_stable_baselines3(hint: str) -> None:

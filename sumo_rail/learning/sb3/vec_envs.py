@@ -12,6 +12,7 @@ from typing import Any
 import numpy as np
 from gymnasium import spaces
 from stable_baselines3.common.vec_env import VecEnv, VecEnvWrapper
+from stable_baselines3.common.vec_env.base_vec_env import VecEnvObs
 
 from sumo_rail.config import Config
 from sumo_rail.learning.sb3.actor import FixedNormalisation
@@ -80,7 +81,7 @@ class SharedRoadVecEnv(VecEnv):
 
     def get_attr(self, attr_name: str, indices: Any = None) -> list[Any]:
         if attr_name == "render_mode":  # SB3 asks; the egos do not render
-            return [None] * len(self._get_indices(indices))
+            return [None for _ in self._get_indices(indices)]
         raise AttributeError(f"a shared-road VecEnv does not expose its envs' {attr_name!r}")
 
     def set_attr(self, attr_name: str, value: Any, indices: Any = None) -> None:
@@ -99,17 +100,18 @@ class NormalisedVecEnv(VecEnvWrapper):
     the raw observations the actions were taken on; `seed` is a no-op: the env factories seed the envs."""
 
     def __init__(self, venv: VecEnv, normalisation: FixedNormalisation, rewards: Rewards) -> None:
+        assert isinstance(venv.observation_space, spaces.Box)  # the egos' (SB3 types a VecEnv's as any space)
         shape = venv.observation_space.shape
         super().__init__(venv, observation_space=spaces.Box(-np.inf, np.inf, shape, np.float32))
         self.normalisation, self.rewards = normalisation, rewards
-        self._raw = np.zeros((venv.num_envs, *shape), dtype=np.float32)
+        self._raw: np.ndarray = np.zeros((venv.num_envs, *shape), dtype=np.float32)
         self._actions = np.zeros(venv.num_envs, dtype=np.int64)
 
     def seed(self, seed: int | None = None) -> list[int | None]:
         return [None] * self.num_envs
 
     def reset(self) -> np.ndarray:
-        self._raw = self.venv.reset()
+        self._raw = _array(self.venv.reset())
         return self.normalisation(self._raw)
 
     def step_async(self, actions: np.ndarray) -> None:
@@ -117,10 +119,17 @@ class NormalisedVecEnv(VecEnvWrapper):
         self.venv.step_async(actions)
 
     def step_wait(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[dict[str, Any]]]:
-        raw, env_rewards, dones, infos = self.venv.step_wait()
+        observations, env_rewards, dones, infos = self.venv.step_wait()
+        raw = _array(observations)
         rewards = self.rewards(self._raw, self._actions, env_rewards, dones, infos)
         for info in infos:
             if "terminal_observation" in info:
                 info["terminal_observation"] = self.normalisation(info["terminal_observation"])
         self._raw = raw
         return self.normalisation(raw), rewards, dones, infos
+
+
+def _array(observations: VecEnvObs) -> np.ndarray:
+    """The egos' observations, one array (SB3 types a VecEnv's as those of any space: dicts, tuples)."""
+    assert isinstance(observations, np.ndarray)
+    return observations
