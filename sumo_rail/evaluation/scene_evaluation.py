@@ -28,7 +28,7 @@ from sumo_rail.datasets import write_parquet
 from sumo_rail.evaluation.driving_score import SCORE_COLUMNS, driving_scores
 from sumo_rail.evaluation.human_likeness import HORIZONS_S, position_errors
 from sumo_rail.evaluation.safety import SafetyProbe
-from sumo_rail.recordings.scene_folder import Scene, read_scene
+from sumo_rail.recordings.scene import Scene, read_scene
 from sumo_rail.recordings.scene_observations import SceneFrames
 from sumo_rail.recordings.seat import SceneEnv
 from sumo_rail.runners.backends import RolloutBackend, WorkerContext

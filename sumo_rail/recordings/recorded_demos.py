@@ -8,7 +8,7 @@ the cruise set-point estimated by the action rule, `actions.speed_reading`, with
 position along the road, the estimated set-point, whether a lane change was under way in the period, and the
 rewards the env's formulas give them; no collision). The metadata names the scene (`RECORDED_SCENE`: its files
 with their sha256, the source recording's files, the vehicles, the split, the rule's settings and the road's speed
-limit, which a learner's configuration must keep, `scene_folder.check_speed_limit`): a recorded driver
+limit, which a learner's configuration must keep, `scene.check_speed_limit`): a recorded driver
 cannot be asked what it would do elsewhere, so DAgger refuses such a file (`experts.demonstrations_expert`).
 
 Under the acceleration interface (`actions.interface = "acceleration"`) the action is the acceleration interface's
@@ -31,7 +31,7 @@ from sumo_rail.config import Config
 from sumo_rail.datasets import DatasetError, write_parquet
 from sumo_rail.recordings.acceleration_reading import read_acceleration_track, smoothing_for
 from sumo_rail.recordings.actions import ActionRule, read_track, speed_reading
-from sumo_rail.recordings.scene_folder import Scene, check_scene, read_scene, scene_sources
+from sumo_rail.recordings.scene import Scene, check_scene, read_scene, scene_sources
 from sumo_rail.recordings.scene_observations import SceneFrames, SceneRoad, observe
 from sumo_rail.runners.experts import RECORDED_SCENE
 from sumo_rail.runners.tables import DEMONSTRATIONS, demonstrations_from_columns, provenance

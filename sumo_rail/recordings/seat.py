@@ -25,7 +25,7 @@ import pandas as pd
 
 from sumo_rail.config import Config
 from sumo_rail.datasets import DatasetError, write_bytes_atomically
-from sumo_rail.recordings.scene_folder import Scene, read_scene
+from sumo_rail.recordings.scene import Scene, read_scene
 from sumo_rail.recordings.scene_observations import SceneFrames, SceneRoad, scene_road
 from sumo_rail.recordings.scene_traffic import LANE_CHANGE_MODE_SUMO, REPLAY_ROUTE, SceneTraffic
 from sumo_rail.sim.ego import CONTEXT_MARGIN_M, Ego
