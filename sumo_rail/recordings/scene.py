@@ -63,7 +63,7 @@ class SceneMeta:
     """What a scene is and where it came from (stored as scene.json)."""
 
     format: str
-    """Source format: "highd", "ngsim", "fcd" or "sumo" (tracks taken from a SUMO run directly)."""
+    """Source format: a name of `formats.FORMATS` ("highd", "ngsim", "fcd"; "sumo": SUMO's drivers, from a run)."""
     frame_rate_hz: float
     """Frames per second of the tracks [Hz] (highD 25, NGSIM 10, FCD 1 / --step-length)."""
     network: str
