@@ -27,7 +27,7 @@ from doc_section import write_section
 from sumo_rail.config import Config
 from sumo_rail.datasets import sumo_version
 from sumo_rail.recordings.importing import ImportSettings, check_import, import_recording
-from sumo_rail.recordings.scene_folder import Scene, read_scene
+from sumo_rail.recordings.scene import Scene, read_scene
 from sumo_rail.recordings.seat import SceneEnv
 from sumo_rail.recordings.sumo_drivers import SumoDriversSettings, record_sumo_drivers
 from sumo_rail.sim import network

@@ -37,7 +37,7 @@ def check_demos(demos: Path, config: Config, include_failed: bool, other_road: b
     were read from a recorded scene (`RECORDED_NOTE` says what that means for the printed numbers). A file that
     cannot be read is left to the learner to report."""
     from sumo_rail.datasets import DatasetError, read_metadata
-    from sumo_rail.recordings.scene_folder import check_speed_limit
+    from sumo_rail.recordings.scene import check_speed_limit
     from sumo_rail.runners.experts import RECORDED_SCENE
     from sumo_rail.runners.tables import failed_episodes, interface_mismatch
     from sumo_rail.sim.observation import observation_space

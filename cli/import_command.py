@@ -1,4 +1,5 @@
-"""The command `import-recording`: a highD, NGSIM or SUMO FCD recording -> a scene folder."""
+"""The command `import-recording`: a recording of a format of the registry (`sumo_rail.recordings.formats`: highD,
+NGSIM, SUMO FCD) -> a scene folder."""
 
 from __future__ import annotations
 
@@ -7,6 +8,8 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 import click
+
+from sumo_rail.recordings.formats import importable, taking, values
 
 from .output_lock import lock_output
 from .param_types import FiniteFloat
@@ -61,15 +64,14 @@ def split_options(command: Callable[..., None]) -> Callable[..., None]:
 
 @click.command("import-recording")
 @config_options
-@click.option("--format", "format_", type=click.Choice(["highd", "ngsim", "fcd"]), required=True,
-              help="highd: XX_tracks.csv (its tracksMeta and recordingMeta beside it); ngsim: US-101 / I-80 trajectory "
-                   "CSV or text files (gzip-compressed too); fcd: SUMO --fcd-output XML (.xml or .xml.gz).")
+@click.option("--format", "format_", type=click.Choice([form.name for form in importable()]), required=True,
+              help="; ".join(f"{form.name}: {form.files}" for form in importable()) + ".")
 @click.argument("files", nargs=-1, required=True, type=click.Path(path_type=Path, dir_okay=False))
 @click.option("--out", type=click.Path(path_type=Path, file_okay=False), required=True,
               help="The scene folder to write (tracks.parquet, scene.json, road.net.xml, split.parquet).")
-@click.option("--direction", type=click.Choice(["upper", "lower"]), default=None,
+@click.option("--direction", type=click.Choice(values("direction")), default=None,
               help="highD: the driving direction to keep (the other is left out)  [default: lower].")
-@click.option("--site", type=click.Choice(["us-101", "i-80"]), default=None,
+@click.option("--site", type=click.Choice(values("site")), default=None,
               help="NGSIM: the site, which fixes the main lanes (US-101: 1-5, I-80: 1-6)  [default: us-101].")
 @click.option("--network", type=click.Path(path_type=Path, dir_okay=False), default=None,
               help="FCD: the SUMO .net.xml (or .net.xml.gz) the recording was driven on: one straight edge along +x.")
@@ -90,23 +92,25 @@ def import_recording_command(config: Config, format_: str, files: tuple[Path, ..
     command prints how many tracks it kept and why any were dropped (too short for one decision of
     env.decision_period_s, off the modelled lanes, a gap in frames); docs/recordings.md has the details."""
     from sumo_rail.datasets import DatasetError
-    from sumo_rail.recordings.importing import ImportSettings, check_import, check_scene_output, import_recording
+    from sumo_rail.recordings.importing import ImportSettings, check_import, import_recording
+    from sumo_rail.recordings.scene import check_scene_output
     from sumo_rail.recordings.tracks import RecordingUsageError
 
-    for name, value, needed in (("--direction", direction, "highd"), ("--site", site, "ngsim")):
-        if value is not None and format_ != needed:
-            raise click.UsageError(f"{name} applies to --format {needed} only")
+    for option, value in (("direction", direction), ("site", site)):
+        takers = [form.name for form in taking(option)]
+        if value is not None and format_ not in takers:
+            raise click.UsageError(f"--{option} applies to --format {' or '.join(takers)} only")
     settings = ImportSettings(format_, files, out, direction or "lower", site or "us-101", network,
                               _vehicles(vehicles), _section(section), split_seed, test_share, validation_share,
                               hold_out_after_s, overwrite)
     try:
-        lanes = check_import(settings)
+        options = check_import(settings)
         lock_output(out)  # held until the command ends: a second import into --out meanwhile is one sentence
         check_scene_output(out, overwrite)  # again, now that it is held: another import may have ended meanwhile
     except RecordingUsageError as error:
         raise click.UsageError(str(error)) from error
     try:
-        summary = import_recording(settings, config, lanes)
+        summary = import_recording(settings, config, options)
     except DatasetError as error:
         raise click.ClickException(str(error)) from error
     for note in summary.notes:

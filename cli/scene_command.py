@@ -60,7 +60,7 @@ def evaluate_scene_command(config: Config, scenes: tuple[Path, ...], policies: t
         write_scene_evaluation,
     )
     from sumo_rail.evaluation.scene_summary import distribution_table, track_table
-    from sumo_rail.recordings.scene_folder import check_scene, read_scene, scene_sources
+    from sumo_rail.recordings.scene import check_scene, read_scene, scene_sources
     from sumo_rail.recordings.tracks import RecordingUsageError
     from sumo_rail.runners.backends import SerialBackend
 

@@ -39,7 +39,7 @@ from sumo_rail.action_config import ActionConfig
 from sumo_rail.config import Config
 from sumo_rail.recordings.acceleration_reading import read_acceleration_track, smoothing_for
 from sumo_rail.recordings.actions import ActionRule, lane_changes
-from sumo_rail.recordings.scene_folder import read_scene
+from sumo_rail.recordings.scene import read_scene
 from sumo_rail.recordings.sumo_drivers import SumoDriversSettings, record_sumo_drivers
 from sumo_rail.seeding import Purpose, episode_seeds
 from sumo_rail.sim.actions import Lateral, acceleration_action, split_acceleration_action

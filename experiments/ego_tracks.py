@@ -18,6 +18,7 @@ import pandas as pd
 from sumo_rail.config import Config
 from sumo_rail.datasets import write_bytes_atomically
 from sumo_rail.recordings import fcd, highd, ngsim
+from sumo_rail.recordings.formats import ReadOptions
 from sumo_rail.recordings.road import read_lanes
 from sumo_rail.sim.env import HighwayEnv
 from sumo_rail.sim.sumo_api import EGO_ID
@@ -87,10 +88,11 @@ def round_trips(tracks: pd.DataFrame, net_file: Path, lanes: int, folder: Path) 
     paths = highd.write(tracks, widths, length, folder / "01")
     ngsim_path = ngsim.write(tracks, lanes, folder / "trajectories.csv")
     fcd_path = fcd.write(tracks, folder / "fcd.xml.gz")
-    read_ngsim = ngsim.read([ngsim_path], "us-101" if lanes == 5 else "i-80").tracks
-    return {"SUMO steps (0.1 s, no file)": tracks, "highD (25 Hz)": highd.read([paths[0]], "lower").tracks,
+    read_ngsim = ngsim.read([ngsim_path], ReadOptions(site="us-101" if lanes == 5 else "i-80")).tracks
+    return {"SUMO steps (0.1 s, no file)": tracks,
+            "highD (25 Hz)": highd.read([paths[0]], ReadOptions(direction="lower")).tracks,
             "NGSIM (10 Hz, feet)": read_ngsim.assign(lane=read_ngsim["lane"] - (5 - lanes if lanes < 5 else 0)),
-            "FCD": fcd.read([fcd_path], read_lanes(net_file), net_file).tracks}
+            "FCD": fcd.read([fcd_path], ReadOptions(network=net_file)).tracks}
 
 
 def original_ids(scene: pd.DataFrame, tracks: pd.DataFrame) -> dict[str, str]:

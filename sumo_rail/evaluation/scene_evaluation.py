@@ -28,9 +28,10 @@ from sumo_rail.datasets import write_parquet
 from sumo_rail.evaluation.driving_score import SCORE_COLUMNS, driving_scores
 from sumo_rail.evaluation.human_likeness import HORIZONS_S, position_errors
 from sumo_rail.evaluation.safety import SafetyProbe
-from sumo_rail.recordings.scene_folder import Scene, read_scene
+from sumo_rail.recordings.scene import Scene, read_scene
 from sumo_rail.recordings.scene_observations import SceneFrames
 from sumo_rail.recordings.seat import SceneEnv
+from sumo_rail.recordings.trajectory import TrajectoryPoint, trajectory_frame
 from sumo_rail.runners.backends import RolloutBackend, WorkerContext
 from sumo_rail.runners.rollout import DriverSpec, KeepDriver, probes_in_turn, run_episode
 from sumo_rail.runners.tables import provenance
@@ -45,7 +46,6 @@ HUMAN = "human"
 MODES = {"non-reactive": False, "reactive": True}
 SCENE_EPISODES, SCENE_TRACKS = "scene_episodes", "scene_tracks"
 """The `kind` in the provenance of evaluate-scene's two tables."""
-TRACK_COLUMNS = ("time_s", "x_m", "y_m", "speed_mps", "lane", "lane_position_m", "gap_m")
 
 
 @dataclass(frozen=True)
@@ -82,37 +82,34 @@ def choose_seats(scene: Scene, split: str, horizon_s: float, lead_s: float, limi
 
 
 class _TrackProbe:
-    """The ego's state at every decision (a `DecisionProbe`)."""
+    """The ego's state at every decision, the first at `start_s` [s], one every `period_s` [s] (a `DecisionProbe`)."""
 
-    def __init__(self) -> None:
-        self.rows: list[tuple[float, ...]] = []
+    def __init__(self, start_s: float, period_s: float) -> None:
+        self.start_s, self.period_s = start_s, period_s
+        self.points: list[TrajectoryPoint] = []
 
     def __call__(self, observation: np.ndarray, traffic: TrafficView, action: int, info: dict[str, Any]) -> None:
         self.add(traffic)
 
     def add(self, traffic: TrafficView) -> None:
         ego, gap = traffic.ego, lane_gaps(traffic, traffic.ego.lane).front_gap_m
-        self.rows.append((ego.front_x, ego.front_y, ego.speed_mps, ego.lane, ego.lane_position_m,
-                          gap if gap <= GAP_RANGE_M else np.nan))
+        self.points.append(TrajectoryPoint(self.start_s + len(self.points) * self.period_s, ego.front_x, ego.front_y,
+                                           ego.speed_mps, ego.lane, ego.lane_position_m,
+                                           gap if gap <= GAP_RANGE_M else np.nan))
 
 
 def human_track(frames: SceneFrames, seat: Seat, period_s: float, decisions: int) -> pd.DataFrame:
-    """The seat's recorded vehicle at the episode's decision instants (`TRACK_COLUMNS`)."""
-    rows = []
+    """The seat's recorded vehicle at the episode's decision instants (`TRAJECTORY_COLUMNS`)."""
+    points = []
     for k in range(decisions + 1):
         time_s = seat.start_s + k * period_s
-        ids, values, lanes = frames.at(time_s)
-        row = np.flatnonzero(ids == seat.vehicle)
-        if not len(row):
+        snapshot = frames.at(time_s)
+        row = snapshot.row(seat.vehicle)
+        if row is None:
             break
-        i = int(row[0])
-        same = (lanes == lanes[i]) & (np.arange(len(ids)) != i)
-        rears = values["lane_position_m"][same] - values["length_m"][same]
-        ahead = rears[rears > values["lane_position_m"][i]] - values["lane_position_m"][i]
-        gap = float(ahead.min()) if len(ahead) and ahead.min() <= GAP_RANGE_M else np.nan
-        rows.append((time_s, values["x_m"][i], values["y_m"][i], values["speed_mps"][i], int(lanes[i]),
-                     values["lane_position_m"][i], gap))
-    return pd.DataFrame(rows, columns=list(TRACK_COLUMNS))
+        gap = snapshot.leader_gap_m(row)
+        points.append(snapshot.point(row, time_s)._replace(gap_m=gap if gap <= GAP_RANGE_M else np.nan))
+    return trajectory_frame(points)
 
 
 @dataclass(frozen=True)
@@ -130,16 +127,14 @@ class SeatTask:
                                  lambda: SceneEnv(self.config, Path(self.seat.scene), self.reactive,
                                                   transport="libsumo"))
         assert isinstance(env, SceneEnv)
-        track, safety = _TrackProbe(), SafetyProbe()
+        track, safety = _TrackProbe(self.seat.start_s, env.config.env.decision_period_s), SafetyProbe()
         options = {"vehicle": self.seat.vehicle, "start_s": self.seat.start_s,
                    "sumo_driver": isinstance(self.driver, SumoDriver)}
         result = run_episode(env, self.driver.create(env.config, self.seed), self.seed, options=options,
                              probe=probes_in_turn(track, safety))
         if result.metrics["termination"] != "collision":
             track.add(env.traffic)
-        period = env.config.env.decision_period_s
-        driven = pd.DataFrame([(self.seat.start_s + k * period, *row) for k, row in enumerate(track.rows)],
-                              columns=list(TRACK_COLUMNS))
+        driven = trajectory_frame(track.points)
         return {**result.metrics, **safety.episode_columns(),
                 "at_fault_collisions": sum(collider == "ego" for collider, _ in env.ego_collisions),
                 "limit_mps": env.config.scenario.speed_limit_mps}, driven

@@ -24,16 +24,15 @@ from scipy.ndimage import uniform_filter1d
 
 from sumo_rail.action_config import ActionConfig
 from sumo_rail.recordings.actions import ActionRule, decision_instants, lane_changes
+from sumo_rail.recordings.formats import FORMATS
 from sumo_rail.sim.actions import Lateral, acceleration_action
-
-NGSIM_SMOOTHING_S = 1.0
-"""The moving average NGSIM's speeds are smoothed by before they are read [s] (`smoothing_for`)."""
 
 
 def smoothing_for(format_name: str) -> float:
-    """The smoothing [s] the speeds of a scene of `format_name` need: NGSIM's (positions in feet, speeds derived
-    from them) `NGSIM_SMOOTHING_S`, none for the others (highD's, FCD's and SUMO's speeds are measured or exact)."""
-    return NGSIM_SMOOTHING_S if format_name == "ngsim" else 0.0
+    """The smoothing [s] the speeds of a scene of `format_name` need: its format's `speed_smoothing_s` (NGSIM's, whose
+    speeds are derived from positions in feet; none for highD's, FCD's and SUMO's, measured or exact)."""
+    form = FORMATS.get(format_name)
+    return form.speed_smoothing_s if form is not None else 0.0
 
 
 def period_accelerations(time_s: np.ndarray, speed_mps: np.ndarray, instants_s: np.ndarray, period_s: float,

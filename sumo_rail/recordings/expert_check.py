@@ -23,7 +23,7 @@ from sumo_rail.recordings import fcd
 from sumo_rail.recordings.actions import ActionRule
 from sumo_rail.recordings.importing import ImportSettings, check_import, import_recording
 from sumo_rail.recordings.recorded_demos import TrackDecisions, decisions_table, track_decisions
-from sumo_rail.recordings.scene_folder import check_scene, read_scene
+from sumo_rail.recordings.scene import check_scene, read_scene
 from sumo_rail.runners.rollout import EpisodeResult, ExpertDriver, run_episode
 from sumo_rail.sim import network
 from sumo_rail.sim.env import HighwayEnv

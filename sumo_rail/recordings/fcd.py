@@ -22,7 +22,8 @@ from xml.sax.saxutils import quoteattr
 import numpy as np
 import pandas as pd
 
-from sumo_rail.recordings.road import NetworkLanes
+from sumo_rail.recordings.formats import ReadOptions
+from sumo_rail.recordings.road import NetworkLanes, read_lanes
 from sumo_rail.recordings.tracks import (
     LANE_TOLERANCE_M,
     Recording,
@@ -65,8 +66,12 @@ def _vehicle_types() -> dict[str, tuple[float, float, str]]:
             for vtype in root.iter("vType")}
 
 
-def read(files: list[Path], network: NetworkLanes, network_path: Path) -> Recording:
-    """The vehicles of FCD `files` (one run, in time order across files) on the user's network `network`."""
+def read(files: list[Path], options: ReadOptions) -> Recording:
+    """The vehicles of FCD `files` (one run, in time order across files) on the user's network `options.network`;
+    DatasetError naming it when it is not a SUMO network."""
+    if options.network is None:
+        raise RecordingUsageError("FCD positions lie on the network they were recorded on; give it (--network)")
+    network_path, network = options.network, read_lanes(options.network)
     columns: dict[str, list] = {name: [] for name in ("time", "id", "x", "y", "angle", "type", "speed", "pos", "lane",
                                                       "acceleration", "length", "width")}
     for path in files:
@@ -107,7 +112,7 @@ def read(files: list[Path], network: NetworkLanes, network_path: Path) -> Record
     used = sorted(set(edge) - {name for name in set(edge) if name.startswith(":")})
     lanes = max((network.lanes(name) for name in used), default=1)
     notes = [f"positions on the network {network_path}; {len(used)} edges used"]
-    return Recording(tracks, 1.0 / step_s, lanes, (), 0.0, notes)
+    return Recording(tracks, 1.0 / step_s, lanes, (), 0.0, notes, tuple(files))
 
 
 def _parse(path: Path, columns: dict[str, list]) -> None:

@@ -15,19 +15,18 @@ image x of the front bumper (lower) or the image's right end minus it (upper).
 
 from __future__ import annotations
 
-import csv
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
+from sumo_rail.recordings.formats import ReadOptions
+from sumo_rail.recordings.levelx import SUFFIXES, LevelXLayout
 from sumo_rail.recordings.road import ROAD_EDGE
 from sumo_rail.recordings.tracks import (
     LANE_TOLERANCE_M,
     Recording,
     RecordingDataError,
-    RecordingUsageError,
-    check_columns,
     check_limits,
     check_numbers,
     check_positions,
@@ -35,7 +34,6 @@ from sumo_rail.recordings.tracks import (
     plain,
     read_csv,
     road_length_m,
-    text_head,
 )
 from sumo_rail.recordings.writing import NO_VEHICLE, headways, neighbours, resampled
 
@@ -56,34 +54,12 @@ MEDIAN_M = 1.0
 """The strip between the carriageways a written recording has [m]."""
 _READ = ("frame", "id", "x", "y", "width", "height", "xVelocity", "yVelocity", "xAcceleration", "yAcceleration",
          "laneId")
-_SUFFIXES = ("_tracks.csv", "_tracksMeta.csv", "_recordingMeta.csv")
 
 
-def recording_files(files: list[Path]) -> tuple[Path, Path, Path]:
-    """The tracks, tracksMeta and recordingMeta files of the one recording `files` name (any of the three, or all);
-    RecordingUsageError when they name several recordings or one of the three is missing."""
-    stems = {str(path)[: -len(suffix)] for path in files for suffix in _SUFFIXES if str(path).endswith(suffix)}
-    strays = [path for path in files if not any(str(path).endswith(suffix) for suffix in _SUFFIXES)]
-    if strays:
-        raise RecordingUsageError(f"{strays[0]} is not a highD file (XX_tracks.csv, XX_tracksMeta.csv or "
-                                  f"XX_recordingMeta.csv)")
-    if len(stems) != 1:
-        raise RecordingUsageError(f"the files name {len(stems)} highD recordings; import one recording at a time")
-    stem = stems.pop()
-    paths = tuple(Path(stem + suffix) for suffix in _SUFFIXES)
-    for path in paths:
-        if not path.is_file():
-            raise RecordingUsageError(f"highD file {path} does not exist (a recording is its tracks, tracksMeta and "
-                                      f"recordingMeta files)")
-    return paths[0], paths[1], paths[2]
-
-
-def check_headers(files: list[Path]) -> None:
-    """RecordingUsageError when a file lacks a column of highD's published set (before any work)."""
-    for path, expected in zip(recording_files(files), (TRACKS_COLUMNS, TRACKS_META_COLUMNS, RECORDING_META_COLUMNS),
-                              strict=True):
-        header = next(csv.reader([text_head(path)[0]]), [])
-        check_columns([name.strip() for name in header], expected, path, "highD " + path.name.split("_", 1)[1])
+LAYOUT = LevelXLayout("highD", TRACKS_COLUMNS, TRACKS_META_COLUMNS, RECORDING_META_COLUMNS)
+"""highD's three files and their columns."""
+check_headers = LAYOUT.check_headers
+"""RecordingUsageError when a file lacks a column of highD's published set (before any work)."""
 
 
 def _markings(meta: pd.Series, column: str, path: Path) -> np.ndarray:
@@ -97,20 +73,18 @@ def _markings(meta: pd.Series, column: str, path: Path) -> np.ndarray:
     return values
 
 
-def read(files: list[Path], direction: str) -> Recording:
-    """The vehicles of one driving direction ("upper" or "lower") of a highD recording."""
-    tracks_path, tracks_meta_path, recording_meta_path = recording_files(files)
+def read(files: list[Path], options: ReadOptions) -> Recording:
+    """The vehicles of one driving direction (`options.direction`, "upper" or "lower") of a highD recording."""
+    direction = options.direction
+    sources = LAYOUT.recording_files(files)
+    tracks_path, tracks_meta_path, recording_meta_path = sources
     recording = read_csv(recording_meta_path, "highD recordingMeta")
     if recording.empty:
         raise RecordingDataError(f"{recording_meta_path} has no row")
     meta_row = recording.iloc[0]
     upper = _markings(meta_row, "upperLaneMarkings", recording_meta_path)
     lower = _markings(meta_row, "lowerLaneMarkings", recording_meta_path)
-    check_numbers(recording, ("frameRate",), recording_meta_path, "id", "frameRate")
-    rate = float(recording["frameRate"].iat[0])
-    if not 0 < rate < np.inf:
-        raise RecordingDataError(f"{recording_meta_path}: frameRate {plain(rate)} is not a positive number of frames "
-                                 f"per second")
+    rate = LAYOUT.frame_rate_hz(recording, recording_meta_path)
     meta = read_csv(tracks_meta_path, "highD tracksMeta", usecols=["id", "class", "drivingDirection"])
     check_numbers(meta, ("id", "drivingDirection"), tracks_meta_path, "id", "drivingDirection")
     reused = meta["id"].duplicated()
@@ -137,7 +111,7 @@ def read(files: list[Path], direction: str) -> Recording:
     notes = [f"the {other} driving direction ({len(meta) - len(wanted)} vehicles) is left out; import it with "
              f"--direction {other}"]
     return Recording(tracks, rate, len(widths), tuple(float(width) for width in widths),
-                     road_length_m(tracks, tracks_path), notes)
+                     road_length_m(tracks, tracks_path), notes, sources)
 
 
 def _scene_rows(raw: pd.DataFrame, direction: str, upper: np.ndarray, lower: np.ndarray, rate: float,
@@ -239,7 +213,7 @@ def write(tracks: pd.DataFrame, lane_widths_m: tuple[float, ...], road_length_m:
         "numCars": int((meta["class"] == "Car").sum()), "numTrucks": int((meta["class"] == "Truck").sum()),
         "upperLaneMarkings": ";".join(f"{value:.2f}" for value in upper),
         "lowerLaneMarkings": ";".join(f"{value:.2f}" for value in lower)}])
-    paths = [Path(f"{stem}{suffix}") for suffix in _SUFFIXES]
+    paths = [Path(f"{stem}{suffix}") for suffix in SUFFIXES]
     for table, path in zip((out, meta, recording), paths, strict=True):
         table.to_csv(path, index=False, float_format="%.3f")
     return paths

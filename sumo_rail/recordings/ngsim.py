@@ -22,6 +22,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from sumo_rail.recordings.formats import ReadOptions
 from sumo_rail.recordings.road import ROAD_EDGE
 from sumo_rail.recordings.tracks import (
     OFF_ROAD_LANE,
@@ -89,9 +90,10 @@ def check_headers(files: list[Path]) -> None:
         check_columns(_header(path)[0], COLUMNS, path, "NGSIM trajectory")
 
 
-def read(files: list[Path], site: str) -> Recording:
-    """The vehicles on the main lanes of an NGSIM recording of `site` ("us-101" or "i-80"; where a Location column
-    is present, only its rows of `site` are read)."""
+def read(files: list[Path], options: ReadOptions) -> Recording:
+    """The vehicles on the main lanes of an NGSIM recording of `options.site` ("us-101" or "i-80"; where a Location
+    column is present, only its rows of the site are read)."""
+    site = options.site
     parts = [_read_file(path, site) for path in files]
     raw = pd.concat(parts, ignore_index=True) if len(parts) > 1 else parts[0]
     if len(files) > 1 and raw.duplicated(["Vehicle_ID", "Frame_ID"]).any():
@@ -123,7 +125,8 @@ def read(files: list[Path], site: str) -> Recording:
     check_limits(tracks, files[0], "v_Vel", "v_Length")
     notes = [f"NGSIM site {site}: main lanes 1 to {lanes} modelled; tracks on the "
              f"{'auxiliary lane 6, ' if lanes == 5 else ''}ramps (lanes 7, 8) are left out"]
-    return Recording(tracks, FRAME_RATE_HZ, lanes, (LANE_WIDTH_M,) * lanes, road_length_m(tracks, files[0]), notes)
+    return Recording(tracks, FRAME_RATE_HZ, lanes, (LANE_WIDTH_M,) * lanes, road_length_m(tracks, files[0]), notes,
+                     tuple(files))
 
 
 def _read_file(path: Path, site: str) -> pd.DataFrame:

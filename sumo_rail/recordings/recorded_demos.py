@@ -8,7 +8,7 @@ the cruise set-point estimated by the action rule, `actions.speed_reading`, with
 position along the road, the estimated set-point, whether a lane change was under way in the period, and the
 rewards the env's formulas give them; no collision). The metadata names the scene (`RECORDED_SCENE`: its files
 with their sha256, the source recording's files, the vehicles, the split, the rule's settings and the road's speed
-limit, which a learner's configuration must keep, `scene_folder.check_speed_limit`): a recorded driver
+limit, which a learner's configuration must keep, `scene.check_speed_limit`): a recorded driver
 cannot be asked what it would do elsewhere, so DAgger refuses such a file (`experts.demonstrations_expert`).
 
 Under the acceleration interface (`actions.interface = "acceleration"`) the action is the acceleration interface's
@@ -31,12 +31,12 @@ from sumo_rail.config import Config
 from sumo_rail.datasets import DatasetError, write_parquet
 from sumo_rail.recordings.acceleration_reading import read_acceleration_track, smoothing_for
 from sumo_rail.recordings.actions import ActionRule, read_track, speed_reading
-from sumo_rail.recordings.scene_folder import Scene, check_scene, read_scene, scene_sources
+from sumo_rail.recordings.scene import Scene, check_scene, read_scene, scene_sources
 from sumo_rail.recordings.scene_observations import SceneFrames, SceneRoad, observe
+from sumo_rail.recordings.trajectory import TrajectoryPoint, track_past
 from sumo_rail.runners.experts import RECORDED_SCENE
 from sumo_rail.runners.tables import DEMONSTRATIONS, demonstrations_from_columns, provenance
 from sumo_rail.sim.actions import split_acceleration_action
-from sumo_rail.sim.ego_past import EgoPast
 from sumo_rail.sim.observation import acceleration_slot, control_slot, observation_space
 from sumo_rail.sim.rewards import lateral_reward, longitudinal_reward
 
@@ -88,9 +88,8 @@ def seat_observation(config: Config, observation: np.ndarray, decided: TrackDeci
                                                               config.actions)
     if not config.observation.history:
         return observation
-    past = decided.past[decided.past["time_s"] <= instant_s + 1e-9]
-    block = EgoPast(past["time_s"].to_numpy(), past["speed_mps"].to_numpy(), past["acceleration_mps2"].to_numpy(),
-                    past["lane"].to_numpy()).block(instant_s, lane, config.observation.history, config.env.v_max_mps)
+    past = track_past(decided.past[decided.past["time_s"] <= instant_s + 1e-9])
+    block = past.block(instant_s, lane, config.observation.history, config.env.v_max_mps)
     return np.concatenate([observation, block])
 
 
@@ -104,32 +103,34 @@ def decisions_table(scene: Scene, road: SceneRoad, config: Config, decisions: li
         for step, instant in enumerate(np.append(decided.instants_s, decided.instants_s[-1]
                                                  + config.env.decision_period_s)):
             wanted.setdefault(round(float(instant), 6), []).append((episode, step))
-    states: list[dict[int, tuple]] = [{} for _ in decisions]  # step -> (observation, speed, lane, position, changing)
+    points: list[dict[int, TrajectoryPoint]] = [{} for _ in decisions]  # the track at each decision, by step
+    seen: list[dict[int, np.ndarray]] = [{} for _ in decisions]  # and the observation there
     for instant in sorted(wanted):
-        ids, values, lanes = frames.at(instant)
+        snapshot = frames.at(instant)
         for episode, step in wanted[instant]:
             decided = decisions[episode]
-            row = int(np.flatnonzero(ids == decided.vehicle)[0])
-            observation = seat_observation(config, observe(config, road, ids, values, lanes, decided.vehicle,
-                                                           float(decided.set_points_mps[step])),
-                                           decided, step, instant, int(lanes[row]))
-            states[episode][step] = (observation, float(values["speed_mps"][row]), int(lanes[row]),
-                                     float(values["lane_position_m"][row]), bool(observation[flag]))
+            row = snapshot.row(decided.vehicle)
+            assert row is not None  # a decision instant lies within its track
+            point = snapshot.point(row, instant)
+            seen[episode][step] = seat_observation(config, observe(config, road, *snapshot, decided.vehicle,
+                                                                   float(decided.set_points_mps[step])),
+                                                   decided, step, instant, point.lane)
+            points[episode][step] = point
     env, observations, rows = config.env, [], []
     for episode, decided in enumerate(decisions):
         for step, action in enumerate(decided.actions):
-            now, after = states[episode][step], states[episode][step + 1]
-            changing = now[4] or after[4] or now[2] != after[2]
-            r_long = longitudinal_reward(after[1], env.v_min_mps, env.v_max_mps)
+            now, after = points[episode][step], points[episode][step + 1]
+            changing = bool(seen[episode][step][flag]) or bool(seen[episode][step + 1][flag]) or now.lane != after.lane
+            r_long = longitudinal_reward(after.speed_mps, env.v_min_mps, env.v_max_mps)
             r_lat = lateral_reward(changing, env.lane_change_reward)
-            observations.append(now[0])
-            rows.append((episode, step, -1, int(action), r_long + r_lat, r_long, r_lat, 0.0, after[1], after[2],
-                         after[3], float(decided.set_points_mps[step + 1]), changing, False,
-                         step == len(decided.actions) - 1, "end_of_track"))  # a recorded track never fails
-    names = ("episode", "step", "episode_seed", "action", "reward", "reward_longitudinal", "reward_lateral",
-             "reward_collision", "speed_mps", "lane", "position_m", "set_point_mps", "lane_change_in_progress",
-             "terminated", "truncated", "termination")
-    columns = {name: np.array(values) for name, values in zip(names, zip(*rows, strict=True), strict=True)}
+            observations.append(seen[episode][step])
+            rows.append({"episode": episode, "step": step, "episode_seed": -1, "action": int(action),
+                         "reward": r_long + r_lat, "reward_longitudinal": r_long, "reward_lateral": r_lat,
+                         "reward_collision": 0.0, "speed_mps": after.speed_mps, "lane": after.lane,
+                         "position_m": after.lane_position_m, "set_point_mps": float(decided.set_points_mps[step + 1]),
+                         "lane_change_in_progress": changing, "terminated": False,  # a recorded track never fails
+                         "truncated": step == len(decided.actions) - 1, "termination": "end_of_track"})
+    columns = {name: np.array([row[name] for row in rows]) for name in rows[0]}
     return columns, np.stack(observations).reshape(-1, observation_size)
 
 

@@ -1,19 +1,41 @@
-"""The scene: the contract between the recording readers/writers and everything that replays or learns from them.
+"""The scene: the contract between the recording readers/writers and everything that replays or learns from them,
+whole: the track schema, the meta, the folder's files and how they are written, read back and checked.
 
 A scene is one driving direction of a recording on one road: every vehicle's track as rows of `TRACK_COLUMNS`
 (one row per vehicle per frame, SI units) and a `SceneMeta`. Positions are in the coordinates of the scene's SUMO
 network (`road.net.xml` in the scene folder, or the user's network for FCD), at the centre of the vehicle's front
 bumper (SUMO's own convention, so `moveToXY` takes them as they are); `lane` is SUMO's lane index on the vehicle's
-edge (0 = the rightmost lane in the driving direction). A scene folder holds `tracks.parquet`, `scene.json`
-(the `SceneMeta`), `road.net.xml` when the road was built from the recording, and `split.parquet`
-(vehicle_id -> "train" | "validation" | "test").
+edge (0 = the rightmost lane in the driving direction). A scene folder holds `SCENE_FILES`: `tracks.parquet`,
+`split.parquet` (vehicle_id -> one of `SPLITS`) and `scene.json` (the `SceneMeta`), and `road.net.xml` when the road
+was built from the recording. `write_scene_folder` writes them together (`import-recording`, `record-sumo-drivers`);
+`read_scene` reads them back and `check_scene` says whether a configuration can drive and observe on it.
 """
 
 from __future__ import annotations
 
+import dataclasses
+import json
 from dataclasses import dataclass, field
+from pathlib import Path
 
+import numpy as np
+import pandas as pd
 import pyarrow as pa
+
+from sumo_rail.config import Config
+from sumo_rail.datasets import (
+    DatasetError,
+    check_file,
+    check_output_folder,
+    file_sha256,
+    read_table,
+    write_parquet,
+    written_together,
+)
+from sumo_rail.recordings.road import build_road
+from sumo_rail.recordings.scene_observations import SceneRoad, scene_road
+from sumo_rail.recordings.tracks import Recording, RecordingUsageError
+from sumo_rail.runners.tables import provenance
 
 TRACK_SCHEMA = pa.schema([
     ("vehicle_id", pa.string()),        # unique in the scene (a reused id in the source is split: "17", "17#2")
@@ -31,6 +53,9 @@ TRACK_SCHEMA = pa.schema([
     ("vehicle_class", pa.string()),     # SUMO vehicle class: "passenger" or "truck" (buses read as truck)
 ])
 TRACK_COLUMNS = tuple(TRACK_SCHEMA.names)
+SPLITS = ("train", "validation", "test")
+SCENE_FILES = ("tracks.parquet", "split.parquet", "scene.json")
+"""The files every scene folder holds (and `road.net.xml` when its road was built from the recording)."""
 
 
 @dataclass(frozen=True)
@@ -38,7 +63,7 @@ class SceneMeta:
     """What a scene is and where it came from (stored as scene.json)."""
 
     format: str
-    """Source format: "highd", "ngsim", "fcd" or "sumo" (tracks taken from a SUMO run directly)."""
+    """Source format: a name of `formats.FORMATS` ("highd", "ngsim", "fcd"; "sumo": SUMO's drivers, from a run)."""
     frame_rate_hz: float
     """Frames per second of the tracks [Hz] (highD 25, NGSIM 10, FCD 1 / --step-length)."""
     network: str
@@ -53,3 +78,145 @@ class SceneMeta:
     """Each dropped track's source id -> the one-phrase reason (too short, off the modelled lanes, gap in frames)."""
     settings: dict[str, object] = field(default_factory=dict)
     """The import's settings (section, vehicles, minimum track length ...), for provenance."""
+
+
+def track_table(tracks: pd.DataFrame) -> pa.Table:
+    """The kept tracks as a table of `TRACK_SCHEMA`."""
+    return pa.Table.from_pandas(tracks[list(TRACK_COLUMNS)], schema=TRACK_SCHEMA, preserve_index=False)
+
+
+def split_table(tracks: pd.DataFrame, split_seed: int, test_share: float, validation_share: float,
+                hold_out_after_s: float | None = None) -> pa.Table:
+    """vehicle_id -> "train" | "validation" | "test": by time (the vehicles entering at or after `hold_out_after_s`
+    [s] are the test set, the others shared out by `validation_share`) or by vehicle (a permutation seeded by
+    `split_seed` shared out by `test_share` and `validation_share`)."""
+    first_s = tracks.groupby("vehicle_id", sort=True)["time_s"].min()
+    vehicles = first_s.index.to_numpy()
+    split = np.full(len(vehicles), "train", dtype=object)
+    rng = np.random.default_rng(split_seed)
+    if hold_out_after_s is not None:
+        later = first_s.to_numpy() >= hold_out_after_s
+        split[later] = "test"
+        earlier = np.flatnonzero(~later)
+        order = earlier[rng.permutation(len(earlier))]
+        split[order[: round(len(earlier) * validation_share)]] = "validation"
+    else:
+        order = rng.permutation(len(vehicles))
+        tests = round(len(vehicles) * test_share)
+        validations = round(len(vehicles) * validation_share)
+        split[order[:tests]] = "test"
+        split[order[tests:tests + validations]] = "validation"
+    return pa.table({"vehicle_id": pa.array(vehicles.astype(str)), "split": pa.array(split.astype(str))})
+
+
+def check_scene_output(out: Path, overwrite: bool) -> None:
+    """RecordingUsageError unless a scene folder can be written to `out` (without `overwrite`: holding no scene)."""
+    try:
+        check_output_folder(out)
+    except DatasetError as error:
+        raise RecordingUsageError(str(error)) from error
+    existing = [name for name in (*SCENE_FILES, "road.net.xml") if (out / name).exists()]
+    if existing and not overwrite:
+        raise RecordingUsageError(f"{out} already holds a scene ({existing[0]}); pass --overwrite to replace it")
+
+
+def write_scene_folder(out: Path, recording: Recording, tracks: pd.DataFrame, split: pa.Table, meta: SceneMeta,
+                       config: Config) -> None:
+    """Write the scene's files together (scene.json last); a folder this call made is removed again on failure."""
+    made = not out.exists()
+    out.mkdir(parents=True, exist_ok=True)
+    record = provenance("recording_tracks", config, meta.settings["split_seed"], scene=dataclasses.asdict(meta))
+    try:
+        with written_together(out) as staged:
+            if recording.lane_widths_m:
+                build_road(list(recording.lane_widths_m), recording.road_length_m, staged.path(out / "road.net.xml"))
+            write_parquet(track_table(tracks), staged.path(out / "tracks.parquet"), record)
+            write_parquet(split, staged.path(out / "split.parquet"), {**record, "kind": "recording_split"})
+            scene_json = json.dumps(dataclasses.asdict(meta), indent=1, sort_keys=True) + "\n"
+            staged.path(out / "scene.json").write_text(scene_json)
+    except BaseException:
+        if made and not any(out.iterdir()):
+            out.rmdir()
+        raise
+
+
+@dataclass(frozen=True)
+class Scene:
+    """A scene folder read back: its meta, tracks (`TRACK_COLUMNS`), split and network file."""
+
+    folder: Path
+    meta: SceneMeta
+    tracks: pd.DataFrame
+    split: pd.DataFrame
+    network: Path
+
+    def track(self, vehicle: str) -> pd.DataFrame:
+        """One vehicle's rows in time order; DatasetError when the scene has no such vehicle."""
+        rows = self.tracks[self.tracks["vehicle_id"] == vehicle]
+        if rows.empty:
+            raise DatasetError(f"scene {self.folder} has no vehicle {vehicle!r}")
+        return rows.sort_values("time_s")
+
+
+def read_scene(folder: Path) -> Scene:
+    """The scene folder `folder`; RecordingUsageError naming the missing or unreadable file, or the network (the
+    user's, for FCD) whose content has changed since the scene was imported on it (scene.json holds its sha256)."""
+    try:
+        for name in SCENE_FILES:
+            check_file(folder / name, "scene file")
+        meta = SceneMeta(**json.loads((folder / "scene.json").read_text()))
+        network = Path(meta.network) if Path(meta.network).is_absolute() else folder / meta.network
+        check_file(network, "scene network")
+        tracks = read_table(folder / "tracks.parquet", columns=list(TRACK_COLUMNS)).to_pandas()
+        split = read_table(folder / "split.parquet", columns=["vehicle_id", "split"]).to_pandas()
+    except (DatasetError, json.JSONDecodeError, TypeError, KeyError, UnicodeDecodeError) as error:
+        raise RecordingUsageError(f"{folder} is not a readable scene folder ({error})") from error
+    recorded = meta.sources.get(meta.network)
+    if recorded is not None and recorded != file_sha256(network):
+        raise RecordingUsageError(f"the network {network} has changed since the scene {folder} was imported on it "
+                                  f"(its content hash differs); use the scene with the network it was imported on, "
+                                  f"or import the recording again")
+    return Scene(folder, meta, tracks, split, network)
+
+
+def check_scene(scene: Scene, config: Config, split: str) -> SceneRoad:
+    """The scene's road; RecordingUsageError when the scene cannot give this configuration's observation (another
+    lane count, a road that is not one straight edge), its road's speed limit is not this configuration's
+    (`check_speed_limit`) or `split` names no vehicle."""
+    if split not in SPLITS:
+        raise RecordingUsageError(f"unknown split {split!r}; known: {', '.join(SPLITS)}")
+    try:
+        road = scene_road(scene.network)
+    except DatasetError as error:
+        raise RecordingUsageError(str(error)) from error
+    if road.lanes != config.scenario.lanes:
+        raise RecordingUsageError(f"the scene {scene.folder} has {road.lanes} lanes and the observation "
+                                  f"scenario.lanes={config.scenario.lanes}; pass --set scenario.lanes={road.lanes}")
+    check_speed_limit(road.speed_limit_mps, config, f"the road of the scene {scene.folder}")
+    if not (scene.split["split"] == split).any():
+        raise RecordingUsageError(f"the scene {scene.folder} has no vehicle in the {split} split")
+    return road
+
+
+SPEED_TOLERANCE_MPS = 0.005
+"""Speeds this close are one (a network file writes speeds to 0.01 m/s)."""
+
+
+def check_speed_limit(road_limit_mps: float, config: Config, what: str) -> None:
+    """RecordingUsageError unless `config` drives at the speed limit `road_limit_mps` [m/s] of the road `what` (a
+    scene's, named in the sentence): scenario.speed_limit_mps is that limit (the generated roads' and the driving
+    score's), and env.v_max_mps (the highest set-point, the observation's speed scale) is not below it, so that the
+    set-points and the ego can reach the recorded drivers' speeds."""
+    limit, top, road = config.scenario.speed_limit_mps, config.env.v_max_mps, road_limit_mps
+    fixes = ([] if abs(limit - road) <= SPEED_TOLERANCE_MPS else [f"scenario.speed_limit_mps={road:g}"]) + (
+        [] if top >= road - SPEED_TOLERANCE_MPS else [f"env.v_max_mps={road:g}"])
+    if fixes:
+        raise RecordingUsageError(f"{what} has a speed limit of {road:g} m/s and this configuration has "
+                                  f"scenario.speed_limit_mps={limit:g} and env.v_max_mps={top:g} (the highest "
+                                  f"set-point, which may not be below the limit); pass --set {' --set '.join(fixes)}")
+
+
+def scene_sources(scene: Scene) -> dict[str, str]:
+    """The scene's own files (and its network) -> sha256 of their bytes."""
+    paths = [scene.folder / name for name in SCENE_FILES] + [scene.network]
+    return {str(path.resolve()): file_sha256(path) for path in paths}

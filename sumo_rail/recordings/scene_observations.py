@@ -21,6 +21,7 @@ import pandas as pd
 from sumo_rail.config import Config
 from sumo_rail.datasets import DatasetError
 from sumo_rail.recordings.road import network_root
+from sumo_rail.recordings.trajectory import SceneSnapshot
 from sumo_rail.sim import kernels, lidar
 from sumo_rail.sim.ego import CONTEXT_MARGIN_M
 from sumo_rail.sim.network import offset_polyline, segments
@@ -99,10 +100,10 @@ class SceneFrames:
     def _rows(self, frame: int) -> slice:
         return slice(int(np.searchsorted(self.frame, frame, "left")), int(np.searchsorted(self.frame, frame, "right")))
 
-    def at(self, time_s: float) -> tuple[np.ndarray, dict[str, np.ndarray], np.ndarray]:
-        """Ids, values (x_m, y_m, speed_mps, lane_position_m, heading_deg, length_m, width_m) and lanes of the
-        vehicles at `time_s` [s]: a frame's rows, or between two frames the earlier one's vehicles with their
-        continuous values and heading interpolated toward the later frame (where they are in it)."""
+    def at(self, time_s: float) -> SceneSnapshot:
+        """The vehicles at `time_s` [s] (ids, values x_m, y_m, speed_mps, lane_position_m, heading_deg, length_m,
+        width_m, and lanes): a frame's rows, or between two frames the earlier one's vehicles with their continuous
+        values and heading interpolated toward the later frame (where they are in it)."""
         position = (time_s - self.origin_s) * self.rate_hz
         low = math.floor(position + _FRAME_TOLERANCE)
         share = position - low
@@ -118,7 +119,7 @@ class SceneFrames:
                 values[name][present] += share * (self.values[name][source] - values[name][present])
             turn = (self.values["heading_deg"][source] - values["heading_deg"][present] + 180.0) % 360.0 - 180.0
             values["heading_deg"][present] = (values["heading_deg"][present] + share * turn) % 360.0
-        return ids, values, lane
+        return SceneSnapshot(ids, values, lane)
 
 
 def observe(config: Config, road: SceneRoad, ids: np.ndarray, values: dict[str, np.ndarray], lane: np.ndarray,

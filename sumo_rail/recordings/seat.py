@@ -25,9 +25,10 @@ import pandas as pd
 
 from sumo_rail.config import Config
 from sumo_rail.datasets import DatasetError, write_bytes_atomically
-from sumo_rail.recordings.scene_folder import Scene, read_scene
+from sumo_rail.recordings.scene import Scene, read_scene
 from sumo_rail.recordings.scene_observations import SceneFrames, SceneRoad, scene_road
 from sumo_rail.recordings.scene_traffic import LANE_CHANGE_MODE_SUMO, REPLAY_ROUTE, SceneTraffic
+from sumo_rail.recordings.trajectory import track_past
 from sumo_rail.sim.ego import CONTEXT_MARGIN_M, Ego
 from sumo_rail.sim.ego_past import EgoPast
 from sumo_rail.sim.env import HighwayEnv
@@ -185,9 +186,7 @@ class SeatStart:
         assert isinstance(sim, SceneSimulation)
         vehicle, start_s = sim.seated
         track = self.scene.track(vehicle)
-        before = track[track["time_s"] < start_s - 1e-9]
-        return EgoPast(before["time_s"].to_numpy(), before["speed_mps"].to_numpy(),
-                       before["acceleration_mps2"].to_numpy(), before["lane"].to_numpy())
+        return track_past(track[track["time_s"] < start_s - 1e-9])
 
     def started(self, sim: Simulation, egos: Mapping[str, Ego], options: dict[str, Any]) -> None:
         """With "sumo_driver", SUMO's IDM and LC2013 take the seat, desired speed the ego's top set-point."""

@@ -22,9 +22,9 @@ import numpy as np
 import pandas as pd
 
 from sumo_rail.config import Config
-from sumo_rail.recordings.importing import SPLITS, check_scene_output, split_table, write_scene_folder
+from sumo_rail.recordings.formats import SUMO_DRIVERS
 from sumo_rail.recordings.road import ROAD_EDGE, ROAD_SPEED_MPS, build_road
-from sumo_rail.recordings.scene import SceneMeta
+from sumo_rail.recordings.scene import SPLITS, SceneMeta, check_scene_output, split_table, write_scene_folder
 from sumo_rail.recordings.tracks import Recording, RecordingDataError, RecordingUsageError, kept_tracks
 from sumo_rail.sim.built_network import BuiltNetwork, sumo_binary
 from sumo_rail.sim.simulation import sumo_options
@@ -192,7 +192,7 @@ def record_sumo_drivers(settings: SumoDriversSettings, config: Config) -> SumoDr
     recorded |= {"warmup_s": scenario.warmup_s, "flow_veh_per_h": scenario.flow_veh_per_h,
                  "decision_period_s": config.env.decision_period_s, "step_length_s": scenario.step_length_s,
                  "road_speed_mps": ROAD_SPEED_MPS, "driver_types": DRIVER_TYPES}
-    meta = SceneMeta(format="sumo", frame_rate_hz=rate_hz, network="road.net.xml", lanes=scenario.lanes,
+    meta = SceneMeta(format=SUMO_DRIVERS.name, frame_rate_hz=rate_hz, network="road.net.xml", lanes=scenario.lanes,
                      sources={}, dropped=dropped, settings=recorded)
     recording = Recording(tracks, rate_hz, scenario.lanes, tuple(widths), scenario.length_m)
     write_scene_folder(settings.out, recording, tracks, split, meta, config)

@@ -1,8 +1,9 @@
 """What every reader shares: its errors, the checks of a recording's values and the tracks it keeps or drops.
 
-A reader turns its files into rows of `scene.TRACK_COLUMNS` plus `frame` (the recording's frame number) and hands
-them to `kept_tracks`, which drops whole tracks, each with its reason (`DROP_REASONS`), and refuses what no
-recording of the format can hold (a vehicle twice in one frame, NaNs, impossible values) in one sentence.
+A reader (`formats.FormatReader`) turns its files into rows of `scene.TRACK_COLUMNS` plus `frame` (the recording's
+frame number), a `Recording`, whose tracks `kept_tracks` then keeps or drops whole, each with its reason
+(`DROP_REASONS`), refusing what no recording of the format can hold (a vehicle twice in one frame, NaNs, impossible
+values) in one sentence.
 """
 
 from __future__ import annotations
@@ -16,10 +17,8 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
-import pyarrow as pa
 
 from sumo_rail.datasets import DatasetError, describe
-from sumo_rail.recordings.scene import TRACK_COLUMNS, TRACK_SCHEMA
 
 MAX_SPEED_MPS = 100.0
 """A speed above this [m/s] (360 km/h) is a broken recording, not driving; below 0 is one too."""
@@ -58,6 +57,8 @@ class Recording:
     """Length of the road to build [m]."""
     notes: list[str] = field(default_factory=list)
     """What the reader left out of the recording, one sentence each (the other driving direction, ramps)."""
+    sources: tuple[Path, ...] = ()
+    """Every file read: the files given and any companion the format reads beside them (highD's meta files)."""
 
 
 def check_columns(found: list[str], expected: tuple[str, ...], path: object, what: str) -> None:
@@ -212,8 +213,3 @@ def kept_tracks(tracks: pd.DataFrame, frame_rate_hz: float, decision_period_s: f
     dropped = {str(source[vehicle]): reason for vehicle, reason in dropped_ids.items()}
     kept = tracks[~tracks["vehicle_id"].isin(dropped_ids.index)].reset_index(drop=True)
     return kept, dropped
-
-
-def track_table(tracks: pd.DataFrame) -> pa.Table:
-    """The kept tracks as a table of `TRACK_SCHEMA`."""
-    return pa.Table.from_pandas(tracks[list(TRACK_COLUMNS)], schema=TRACK_SCHEMA, preserve_index=False)

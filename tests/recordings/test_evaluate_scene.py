@@ -28,7 +28,7 @@ from sumo_rail.evaluation.scene_evaluation import (
     tracks_path,
 )
 from sumo_rail.evaluation.scene_summary import distribution_samples, track_table
-from sumo_rail.recordings.scene_folder import read_scene
+from sumo_rail.recordings.scene import read_scene
 from sumo_rail.recordings.scene_observations import SceneFrames, scene_road
 from sumo_rail.runners.backends import SerialBackend
 from sumo_rail.runners.factory import make_backend

@@ -7,6 +7,7 @@ import pytest
 from recording_files import LOWER_MARKINGS, UPPER_MARKINGS, highd_vehicle, write_highd
 
 from sumo_rail.recordings import highd
+from sumo_rail.recordings.formats import ReadOptions
 from sumo_rail.recordings.scene_observations import SceneFrames
 from sumo_rail.recordings.tracks import RecordingDataError, RecordingUsageError
 
@@ -20,7 +21,7 @@ def recording(tmp_path):
 
 
 def test_the_lower_direction_is_read_at_the_front_bumper_in_sumo_lanes(recording):
-    read = highd.read([recording], "lower")
+    read = highd.read([recording], ReadOptions(direction="lower"))
     tracks = read.tracks.set_index(["vehicle_id", "frame"])
     assert sorted(read.tracks["vehicle_id"].unique()) == ["2", "3"]
     car = tracks.loc[("2", 1)]
@@ -35,7 +36,7 @@ def test_the_lower_direction_is_read_at_the_front_bumper_in_sumo_lanes(recording
 
 
 def test_the_upper_direction_runs_along_x_from_the_image_right(recording):
-    read = highd.read([recording], "upper")
+    read = highd.read([recording], ReadOptions(direction="upper"))
     car = read.tracks.sort_values("frame")
     assert list(car["vehicle_id"].unique()) == ["1"]
     # driven leftwards: the front is the box's left side, and the scene's x grows as the image x falls
@@ -50,12 +51,12 @@ def test_a_lane_off_its_markings_or_of_no_marking_is_refused(tmp_path):
     for offset_m in (-3.0, 3.0):  # above, below the lane
         shifted = write_highd(tmp_path, highd_vehicle(4, range(1, 30), 20.0, 6, upper=False, y_offset=offset_m))
         with pytest.raises(RecordingDataError, match="vehicle 4 at frame 1 is in lane 6 but its centre y"):
-            highd.read([shifted], "lower")
+            highd.read([shifted], ReadOptions(direction="lower"))
     unknown = write_highd(tmp_path, highd_vehicle(5, range(1, 30), 20.0, 6, upper=False), stem="02")
     text = unknown.read_text().replace(",6\n", ",7\n")
     unknown.write_text(text)
     with pytest.raises(RecordingDataError, match="lane 7 of vehicle 5 at frame 1 is not a lane of the lower"):
-        highd.read([unknown], "lower")
+        highd.read([unknown], ReadOptions(direction="lower"))
 
 
 def test_headers_other_than_highds_are_refused_naming_the_column(recording):
@@ -82,7 +83,7 @@ def test_a_sideways_speed_moves_and_turns_each_direction_toward_its_own_side(tmp
                             + sideways(highd_vehicle(2, range(1, 30), 20.0, 6, upper=False), 1.0))
     turn = np.degrees(np.arctan2(1.0, 30.0))
     for direction, side in (("upper", 1.0), ("lower", -1.0)):  # to the left: +y, heading below 90 deg
-        track = highd.read([recording], direction).tracks.sort_values("frame")
+        track = highd.read([recording], ReadOptions(direction=direction)).tracks.sort_values("frame")
         assert np.diff(track["y_m"].to_numpy()) == pytest.approx(np.full(28, side / 25.0)), direction
         assert track["heading_deg"].to_numpy() == pytest.approx(np.full(29, 90.0 - side * turn)), direction
 
@@ -94,7 +95,7 @@ def test_at_25_hz_an_instant_between_frames_is_interpolated_toward_the_next(tmp_
     for k, row in enumerate(rows):
         t = k / 25.0
         row.update(x=20.0 + 20.0 * t + t**2, xVelocity=20.0 + 2.0 * t, yVelocity=1.0 + t)
-    read = highd.read([write_highd(tmp_path, rows)], "lower")
+    read = highd.read([write_highd(tmp_path, rows)], ReadOptions(direction="lower"))
     track = read.tracks.sort_values("time_s")
     frames = SceneFrames(read.tracks, read.frame_rate_hz)
     for instant in (0.49, 0.5, 0.51, 0.52):  # 12.25, 12.5, 12.75 frames (between two), 13 (a frame)

@@ -24,6 +24,7 @@ from sumo_rail_cli.main import cli
 from sumo_rail_cli.output_lock import lock_path
 
 from sumo_rail.recordings import highd
+from sumo_rail.recordings.formats import ReadOptions
 from sumo_rail.recordings.road import build_road
 from sumo_rail.recordings.tracks import RecordingDataError
 from sumo_rail.sim.network import _netconvert
@@ -95,7 +96,7 @@ def test_a_highd_road_longer_than_100_km_is_refused_naming_the_farthest_vehicle(
                                                                                     upper=False)
     with pytest.raises(RecordingDataError, match=r"vehicle 2 at frame 39 is 120\d+ m along the road, which would be "
                                                  "longer than 100 km"):
-        highd.read([write_highd(tmp_path, far)], "lower")
+        highd.read([write_highd(tmp_path, far)], ReadOptions(direction="lower"))
 
 
 NGSIM = {

@@ -7,6 +7,7 @@ import pytest
 from recording_files import ngsim_vehicle, write_ngsim
 
 from sumo_rail.recordings import ngsim
+from sumo_rail.recordings.formats import ReadOptions
 from sumo_rail.recordings.ngsim import FEET_M
 from sumo_rail.recordings.tracks import (
     DROP_REASONS,
@@ -22,7 +23,7 @@ from sumo_rail.recordings.tracks import (
 def test_feet_and_lanes_from_the_left_become_metres_and_sumo_lanes(tmp_path):
     path = write_ngsim(tmp_path / "us101.csv", ngsim_vehicle(1, range(5, 25), 100.0, 1, speed_ftps=60.0, v_class=3)
                        + ngsim_vehicle(2, range(5, 25), 200.0, 5))
-    read = ngsim.read([path], "us-101")
+    read = ngsim.read([path], ReadOptions(site="us-101"))
     first = read.tracks.sort_values(["vehicle_id", "frame"]).groupby("vehicle_id").first()
     assert first.loc["1", "x_m"] == pytest.approx(100.0 * FEET_M)
     assert first.loc["1", "y_m"] == pytest.approx(-6.0 * FEET_M)  # Local_X 6 ft from the left edge
@@ -41,7 +42,7 @@ def test_a_reused_id_is_split_and_a_gap_or_a_ramp_drops_the_track(tmp_path):
             + ngsim_vehicle(8, [*range(1, 20), *range(25, 40)], 0.0, 2)                   # same vehicle, 5 frames lost
             + ngsim_vehicle(9, range(1, 40), 0.0, 7)                                      # the on-ramp
             + ngsim_vehicle(10, range(1, 5), 0.0, 2))                                     # 0.3 s
-    read = ngsim.read([write_ngsim(tmp_path / "t.csv", rows)], "us-101")
+    read = ngsim.read([write_ngsim(tmp_path / "t.csv", rows)], ReadOptions(site="us-101"))
     kept, dropped = kept_tracks(read.tracks, read.frame_rate_hz, 0.5, "t.csv", gaps_fail=False)
     assert sorted(kept["vehicle_id"].unique()) == ["7", "7#2"]
     assert kept.groupby("vehicle_id")["length_m"].first().to_dict() == pytest.approx(
@@ -51,15 +52,15 @@ def test_a_reused_id_is_split_and_a_gap_or_a_ramp_drops_the_track(tmp_path):
 
 def test_lane_six_is_a_main_lane_on_i80_and_auxiliary_on_us101(tmp_path):
     path = write_ngsim(tmp_path / "t.csv", ngsim_vehicle(1, range(1, 20), 0.0, 6))
-    assert ngsim.read([path], "i-80").tracks["lane"].iloc[0] == 0
-    assert ngsim.read([path], "us-101").tracks["lane"].iloc[0] == -1
+    assert ngsim.read([path], ReadOptions(site="i-80")).tracks["lane"].iloc[0] == 0
+    assert ngsim.read([path], ReadOptions(site="us-101")).tracks["lane"].iloc[0] == -1
 
 
 def test_the_original_text_file_without_a_header_is_read(tmp_path):
     rows = ngsim_vehicle(3, range(1, 20), 50.0, 2)
     text = "\n".join("   ".join(str(value) for value in row.values()) for row in rows) + "\n"
     (tmp_path / "trajectories-0750am-0805am.txt").write_text(text)
-    read = ngsim.read([tmp_path / "trajectories-0750am-0805am.txt"], "us-101")
+    read = ngsim.read([tmp_path / "trajectories-0750am-0805am.txt"], ReadOptions(site="us-101"))
     assert len(read.tracks) == 19 and read.tracks["lane"].iloc[0] == 3
 
 
@@ -74,15 +75,16 @@ def test_only_the_sites_rows_of_a_file_with_locations_are_read(tmp_path):
     rows = [dict(row, Location="us-101") for row in ngsim_vehicle(1, range(1, 20), 0.0, 2)]
     rows += [dict(row, Location="lankershim") for row in ngsim_vehicle(2, range(1, 20), 0.0, 2)]
     pd.DataFrame(rows).to_csv(tmp_path / "ngsim.csv", index=False)
-    assert ngsim.read([tmp_path / "ngsim.csv"], "us-101").tracks["vehicle_id"].unique().tolist() == ["1"]
+    read = ngsim.read([tmp_path / "ngsim.csv"], ReadOptions(site="us-101"))
+    assert read.tracks["vehicle_id"].unique().tolist() == ["1"]
     with pytest.raises(RecordingDataError, match="has no rows of i-80"):
-        ngsim.read([tmp_path / "ngsim.csv"], "i-80")
+        ngsim.read([tmp_path / "ngsim.csv"], ReadOptions(site="i-80"))
 
 
 def test_a_track_of_exactly_one_decisions_frames_is_kept_and_one_frame_less_is_too_short(tmp_path):
     """At 10 Hz a 0.5 s decision needs 6 frames: its period's 5 and the one after it."""
     rows = ngsim_vehicle(1, range(1, 7), 0.0, 2) + ngsim_vehicle(2, range(1, 6), 50.0, 2)
-    read = ngsim.read([write_ngsim(tmp_path / "t.csv", rows)], "us-101")
+    read = ngsim.read([write_ngsim(tmp_path / "t.csv", rows)], ReadOptions(site="us-101"))
     kept, dropped = kept_tracks(read.tracks, read.frame_rate_hz, 0.5, "t.csv", gaps_fail=False)
     assert kept["vehicle_id"].unique().tolist() == ["1"] and dropped == {"2": TOO_SHORT}
 
@@ -93,6 +95,6 @@ def test_a_track_that_fails_several_checks_is_dropped_for_the_first_documented_r
             + ngsim_vehicle(2, [1, 2, 3, 9, 10], 100.0, 2)  # a gap, 5 frames
             + ngsim_vehicle(3, range(1, 4), 200.0, 8)       # the off-ramp, 3 frames
             + ngsim_vehicle(4, range(1, 30), 300.0, 2))
-    read = ngsim.read([write_ngsim(tmp_path / "t.csv", rows)], "us-101")
+    read = ngsim.read([write_ngsim(tmp_path / "t.csv", rows)], ReadOptions(site="us-101"))
     kept, dropped = kept_tracks(read.tracks, read.frame_rate_hz, 0.5, "t.csv", gaps_fail=False)
     assert dropped == {"1": OFF_LANES, "2": GAP, "3": OFF_LANES} and kept["vehicle_id"].unique().tolist() == ["4"]

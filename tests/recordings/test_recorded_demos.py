@@ -17,9 +17,8 @@ from sumo_rail_cli.output_lock import lock_path
 
 from sumo_rail.config import Config
 from sumo_rail.datasets import file_sha256, read_metadata
-from sumo_rail.recordings.importing import split_table, write_scene_folder
 from sumo_rail.recordings.road import ROAD_EDGE
-from sumo_rail.recordings.scene import SceneMeta
+from sumo_rail.recordings.scene import SceneMeta, split_table, write_scene_folder
 from sumo_rail.recordings.tracks import Recording
 from sumo_rail.runners.experts import RECORDED_SCENE
 from sumo_rail.runners.tables import DEMONSTRATION_COLUMNS, read_demonstrations

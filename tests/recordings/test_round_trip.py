@@ -10,7 +10,8 @@ import pandas as pd
 import pytest
 
 from sumo_rail.recordings import fcd, highd, ngsim
-from sumo_rail.recordings.road import ROAD_EDGE, build_road, read_lanes, straight_road
+from sumo_rail.recordings.formats import ReadOptions
+from sumo_rail.recordings.road import ROAD_EDGE, build_road, straight_road
 from sumo_rail.recordings.tracks import RecordingDataError, RecordingUsageError
 
 WIDTHS = (3.2, 3.2, 3.2)
@@ -68,7 +69,7 @@ def test_highd_round_trip_at_25_hz_with_box_corners(tmp_path):
     original = scene()
     paths = highd.write(original, WIDTHS, 400.0, tmp_path / "05")
     highd.check_headers(paths)
-    read = highd.read([paths[0]], "lower")
+    read = highd.read([paths[0]], ReadOptions(direction="lower"))
     assert read.frame_rate_hz == 25.0 and read.lane_widths_m == pytest.approx(WIDTHS, abs=0.01)
     written = pd.read_csv(paths[0])
     first = written[written["id"] == 1].iloc[0]
@@ -82,7 +83,7 @@ def test_ngsim_round_trip_at_10_hz_in_feet(tmp_path):
     ngsim.check_headers([path])
     written = pd.read_csv(path)
     assert written["Lane_ID"].min() == 1 and written["Local_Y"].iloc[0] == pytest.approx(60.0 / 0.3048, abs=1e-3)
-    read = ngsim.read([path], "us-101")
+    read = ngsim.read([path], ReadOptions(site="us-101"))
     tracks = read.tracks.assign(lane=read.tracks["lane"] - 2)  # 3 lanes written, US-101's 5 read: lane 1 is leftmost
     assert_same_tracks(original, tracks, heading_deg=2.0)  # NGSIM has no heading: read from the positions
 
@@ -94,7 +95,7 @@ def test_fcd_round_trip_against_the_network(tmp_path, name):
     original = scene()
     path = fcd.write(original, tmp_path / name)
     fcd.check_headers([path])
-    read = fcd.read([path], read_lanes(tmp_path / "road.net.xml"), tmp_path / "road.net.xml")
+    read = fcd.read([path], ReadOptions(network=tmp_path / "road.net.xml"))
     assert read.frame_rate_hz == pytest.approx(10.0) and read.lanes == 3
     assert_same_tracks(original, read.tracks)
 
@@ -103,7 +104,7 @@ def test_fcd_edges_not_in_the_network_and_other_xml_are_refused(tmp_path):
     build_road(list(WIDTHS), 400.0, tmp_path / "road.net.xml")
     path = fcd.write(scene().assign(edge="elsewhere"), tmp_path / "fcd.xml")
     with pytest.raises(RecordingDataError, match="vehicle a at 0 s is on lane 'elsewhere_0', which the network"):
-        fcd.read([path], read_lanes(tmp_path / "road.net.xml"), tmp_path / "road.net.xml")
+        fcd.read([path], ReadOptions(network=tmp_path / "road.net.xml"))
     with gzip.open(tmp_path / "routes.xml.gz", "wt") as file:
         file.write('<routes><vehicle id="x" depart="0"/></routes>')
     with pytest.raises(RecordingUsageError, match="its root element is <routes>, not <fcd-export>"):
@@ -117,6 +118,6 @@ def test_sumos_own_fcd_output_is_read_with_sizes_from_the_vehicle_types(tmp_path
                     f'type="truck" speed="{20 + 0.1 * t:.2f}" pos="{50 + 2 * t:.2f}" lane="road_0" slope="0.00"/>'
                     f'</timestep>' for t in range(12))
     (tmp_path / "fcd.xml").write_text(f'<?xml version="1.0"?>\n<fcd-export>{steps}</fcd-export>')
-    read = fcd.read([tmp_path / "fcd.xml"], read_lanes(tmp_path / "road.net.xml"), tmp_path / "road.net.xml")
+    read = fcd.read([tmp_path / "fcd.xml"], ReadOptions(network=tmp_path / "road.net.xml"))
     assert read.tracks["length_m"].iloc[0] == 12.0 and read.tracks["vehicle_class"].iloc[0] == "truck"
     assert read.tracks["acceleration_mps2"].iloc[:-1].to_numpy() == pytest.approx(np.full(11, 1.0))

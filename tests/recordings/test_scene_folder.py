@@ -9,7 +9,7 @@ from recording_files import fcd_vehicle, lane_y, write_fcd
 from sumo_rail_cli.main import cli
 
 from sumo_rail.recordings.road import build_road
-from sumo_rail.recordings.scene_folder import read_scene
+from sumo_rail.recordings.scene import read_scene
 from sumo_rail.recordings.tracks import RecordingUsageError
 
 

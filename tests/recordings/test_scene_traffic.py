@@ -8,9 +8,8 @@ import pytest
 
 from sumo_rail.config import Config
 from sumo_rail.recordings import scene_traffic
-from sumo_rail.recordings.importing import split_table, write_scene_folder
 from sumo_rail.recordings.road import ROAD_EDGE
-from sumo_rail.recordings.scene import SceneMeta
+from sumo_rail.recordings.scene import SceneMeta, split_table, write_scene_folder
 from sumo_rail.recordings.scene_traffic import REPLAY_RADIUS_M
 from sumo_rail.recordings.seat import SceneEnv
 from sumo_rail.recordings.tracks import Recording

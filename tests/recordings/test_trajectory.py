@@ -1,0 +1,60 @@
+"""The one trajectory record: a scene at an instant (`SceneSnapshot`), a vehicle's point in it with its gap to its
+leader, and the tables and pasts demonstrations, seats and evaluations make of such points."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from sumo_rail.evaluation.scene_evaluation import Seat, human_track
+from sumo_rail.recordings.scene_observations import SceneFrames
+from sumo_rail.recordings.trajectory import TRAJECTORY_COLUMNS, track_past, trajectory_frame
+
+
+def tracks() -> pd.DataFrame:
+    """At 10 Hz for 1 s: "a" behind "b" in lane 0 (b's rear 15.5 m ahead of a's front), "c" alone in lane 1."""
+    rows = []
+    for k in range(11):
+        for vehicle, lane, front in (("a", 0, 10.0), ("b", 0, 30.0), ("c", 1, 20.0)):
+            x = front + 20.0 * k / 10
+            rows.append({"vehicle_id": vehicle, "time_s": k / 10, "x_m": x, "y_m": -1.6 - 3.2 * (1 - lane),
+                         "heading_deg": 90.0, "speed_mps": 20.0, "acceleration_mps2": 0.1 * k, "edge": "road",
+                         "lane": lane, "lane_position_m": x, "length_m": 4.5, "width_m": 1.8,
+                         "vehicle_class": "passenger"})
+    return pd.DataFrame(rows)
+
+
+def test_a_snapshot_gives_each_vehicle_as_a_named_point_with_its_leader_gap():
+    snapshot = SceneFrames(tracks(), 10.0).at(0.25)  # between two frames: interpolated
+    row = snapshot.row("a")
+    assert row is not None and snapshot.row("nobody") is None
+    point = snapshot.point(row, 0.25)
+    assert point._fields == TRAJECTORY_COLUMNS and point.lane == 0 and point.time_s == 0.25
+    assert point[1:6] == pytest.approx((15.0, -4.8, 20.0, 0, 15.0))
+    assert math.isnan(point.gap_m)  # not measured unless asked
+    assert snapshot.leader_gap_m(row) == pytest.approx(30.0 - 4.5 - 10.0)
+    c_row = snapshot.row("c")
+    assert c_row is not None and snapshot.leader_gap_m(c_row) == math.inf
+
+
+def test_a_seats_human_track_is_its_points_with_the_gaps_in_range():
+    frames = SceneFrames(tracks(), 10.0)
+    human = human_track(frames, Seat("scene", "a", 0.2), 0.3, 5)  # the track ends at 1.0 s: three instants
+    assert tuple(human.columns) == TRAJECTORY_COLUMNS == ("time_s", "x_m", "y_m", "speed_mps", "lane",
+                                                         "lane_position_m", "gap_m")
+    assert human["time_s"].tolist() == pytest.approx([0.2, 0.5, 0.8])
+    assert human["gap_m"].tolist() == pytest.approx([15.5] * 3)
+    alone = human_track(frames, Seat("scene", "c", 0.2), 0.3, 5)
+    assert alone["gap_m"].isna().all()
+    assert trajectory_frame([]).columns.tolist() == list(TRAJECTORY_COLUMNS)
+
+
+def test_a_tracks_rows_are_its_past():
+    rows = tracks()
+    past = track_past(rows[rows["vehicle_id"] == "b"])
+    assert past.time_s == pytest.approx([k / 10 for k in range(11)])
+    assert past.acceleration_mps2 == pytest.approx([0.1 * k for k in range(11)])
+    assert past.lane == [0.0] * 11 and np.allclose(past.speed_mps, 20.0)
