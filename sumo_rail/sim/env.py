@@ -19,6 +19,7 @@ Unknown reset options are refused (ValueError).
 from __future__ import annotations
 
 from collections.abc import Mapping
+from contextlib import AbstractContextManager
 from pathlib import Path
 from typing import Any
 
@@ -26,6 +27,7 @@ import gymnasium
 import numpy as np
 
 from sumo_rail.config import Config
+from sumo_rail.sim.observers import Observer
 from sumo_rail.sim.parallel_env import RENDER_MODES, ParallelHighwayEnv
 from sumo_rail.sim.rewards import EpisodeMetrics
 from sumo_rail.sim.simulation import EGO_ID, Simulation
@@ -74,7 +76,7 @@ class HighwayEnv(gymnasium.Env[np.ndarray, np.int64]):
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None,
               ) -> tuple[np.ndarray, dict[str, Any]]:
         super().reset(seed=seed)
-        known = self.core.start.options
+        known = self.core.options
         unknown = sorted(set(options or {}) - set(known))
         if unknown:  # the core ignores them (PettingZoo's API test passes one); a Gymnasium user meant something
             raise ValueError(f"unknown reset options {unknown}; known: {', '.join(map(repr, known))}")
@@ -89,6 +91,10 @@ class HighwayEnv(gymnasium.Env[np.ndarray, np.int64]):
         observations, rewards, terminations, truncations, infos = self.core.step({EGO_ID: action})
         return (observations[EGO_ID], rewards[EGO_ID], terminations[EGO_ID], truncations[EGO_ID],
                 infos[EGO_ID])
+
+    def watching(self, observer: Observer) -> AbstractContextManager[Observer]:
+        """The core's `watching`: `observer` is shown every SUMO step or each reset and decision within the block."""
+        return self.core.watching(observer)
 
     def render(self) -> np.ndarray | None:
         """With render_mode "rgb_array", the bird's-eye frame of the last decision (`frame()`); with "human",

@@ -1,0 +1,70 @@
+"""Who drives an ego: a part the env core takes (reset option "controller", `CONTROLLERS`), as it takes its traffic
+and start rule. "actions" (the default): the env's actions, whoever chooses them (a learner, the expert, a policy);
+"sumo": SUMO's own models (IDM car following, LC2013 lane changing), the actions passed to `step` checked and counted,
+not used: the baseline of a recorded seat (`evaluate-scene`'s sumo-idm).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Protocol
+
+from sumo_rail.sim.ego import Ego
+from sumo_rail.sim.simulation import Simulation
+
+SUMO_DRIVER_TYPE = "scene_idm"
+"""The vehicle type of an ego SUMO drives: IDM car following, LC2013 lane changing, SUMO's default parameters (a type
+of a recorded scene's routes, `sumo_rail.sim.replay`)."""
+
+
+class Controller(Protocol):
+    """Drives one ego of the env core over an episode."""
+
+    name: str
+
+    def take(self, sim: Simulation, ego: Ego) -> None:
+        """Take the ego's vehicle, after its first observation."""
+        ...
+
+    def command(self, sim: Simulation, ego: Ego, action: int) -> None:
+        """This decision's command (`action` checked by the env), before the period's steps."""
+        ...
+
+
+@dataclass(frozen=True)
+class ActionController:
+    """The env's actions drive the ego (`Ego.command`: set-point or acceleration, lane-change requests)."""
+
+    name: str = "actions"
+
+    def take(self, sim: Simulation, ego: Ego) -> None:
+        return None
+
+    def command(self, sim: Simulation, ego: Ego, action: int) -> None:
+        ego.command(sim, action)
+
+
+@dataclass(frozen=True)
+class SumoController:
+    """SUMO's own models drive the ego (`SUMO_DRIVER_TYPE`, desired speed the ego's top set-point); the decisions
+    are counted, the actions not used."""
+
+    name: str = "sumo"
+
+    def take(self, sim: Simulation, ego: Ego) -> None:
+        sim.hand_to_sumo(ego.vehicle, SUMO_DRIVER_TYPE, ego.top_speed_mps(sim))
+
+    def command(self, sim: Simulation, ego: Ego, action: int) -> None:
+        ego.metrics.decisions += 1
+
+
+CONTROLLERS: dict[str, Controller] = {controller.name: controller for controller in (ActionController(),
+                                                                                     SumoController())}
+"""The controllers by the name reset's option "controller" takes."""
+
+
+def controller_named(name: object) -> Controller:
+    """The controller called `name`; ValueError naming the known ones otherwise."""
+    if not (isinstance(name, str) and name in CONTROLLERS):
+        raise ValueError(f"reset option 'controller' must be one of {', '.join(map(repr, CONTROLLERS))}, got {name!r}")
+    return CONTROLLERS[name]
