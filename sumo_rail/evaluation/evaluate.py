@@ -94,7 +94,7 @@ class EvaluationTask:
             return recorder
 
         result = self.episode.run(context, lambda *decision: (probe(*decision), safety(*decision)),
-                                  wrap=record if self.video else None)
+                                  observer=record if self.video else None)
         video = None
         if recorder is not None:
             video = encode_mp4(recorder.frames, 1.0 / self.episode.config.env.decision_period_s)

@@ -19,6 +19,7 @@ from sumo_rail.runners.dart import ActionNoise
 from sumo_rail.seeding import driver_generator
 from sumo_rail.sim.actions import Action, action_space_of, keep_action
 from sumo_rail.sim.env import HighwayEnv
+from sumo_rail.sim.observers import Observer
 from sumo_rail.sim.parallel_env import ParallelHighwayEnv
 from sumo_rail.sim.respawning import RespawningEgos
 from sumo_rail.sim.rewards import EpisodeMetrics
@@ -196,7 +197,7 @@ def drive_egos(env: ParallelHighwayEnv | _OneEgo, drivers: Sequence[Driver], see
 
 
 class _OneEgo:
-    """The single-ego `HighwayEnv` (or a wrapper of it, e.g. a frame recorder) seen as a road of one ego, as
+    """The single-ego `HighwayEnv` seen as a road of one ego, as
     `run_shared_episode` drives a `ParallelHighwayEnv`; `options` go to every reset."""
 
     possible_agents = ("ego",)
@@ -283,12 +284,14 @@ class EpisodeTask:
     """Index of the warm state in the pool; None: drawn from the seed."""
 
     def run(self, context: WorkerContext, probe: DecisionProbe | None = None,
-            wrap: Callable[[HighwayEnv], Any] | None = None) -> EpisodeResult:
-        """Run the episode on the context's env, seen through `wrap(env)` when given (e.g. a frame recorder)."""
+            observer: Callable[[HighwayEnv], Observer] | None = None) -> EpisodeResult:
+        """Run the episode on the context's env, watched by `observer(env)` when given (e.g. a frame recorder)."""
         env = context.env(self.config)
-        if wrap is not None:
-            env = wrap(env)
         options: dict[str, Any] = {"pool": self.pool}
         if self.warm_state is not None:
             options["warm_state"] = self.warm_state
-        return run_episode(env, self.driver.create(self.config, self.seed), self.seed, self.record, options, probe)
+        driver = self.driver.create(self.config, self.seed)
+        if observer is None:
+            return run_episode(env, driver, self.seed, self.record, options, probe)
+        with env.watching(observer(env)):
+            return run_episode(env, driver, self.seed, self.record, options, probe)
