@@ -180,7 +180,7 @@ def test_the_circle_check_finds_a_circle_through_a_function_level_import(tmp_pat
 
 
 SUMO_API = ("libsumo", "traci", "sumolib")
-"""SUMO's Python APIs: spoken to only from sumo_rail/sim/ (docs/design.md, "The SUMO boundary")."""
+"""SUMO's Python APIs: spoken to only from sumo_rail/sim/ (docs/design.md, "Where to find it": the SUMO boundary)."""
 SUMO_LOADERS = ("load_api", "load_constants", "decision_calls")
 """What `sumo_rail.sim.sumo_api` hands out of SUMO's API itself (its constants and errors may be imported anywhere)."""
 BOUNDARY_EXEMPT = {

@@ -156,6 +156,11 @@ class ParallelHighwayEnv(ParallelEnv[str, np.ndarray, np.int64]):
         self._np_random = generator
 
     @property
+    def started(self) -> bool:
+        """An episode has begun (a reset since the env was made; its egos stay readable after `close`)."""
+        return bool(self._egos)
+
+    @property
     def simulation(self) -> Simulation | None:
         """The SUMO simulation (None before the first reset and after `close`)."""
         return self._sim
