@@ -5,7 +5,8 @@ Each reset draws, from the env's `np_random`, the warm traffic state, SUMO's see
 position (drawn again where that place has no room, `sumo_rail.sim.starts`), so `reset(seed=s)` followed by the
 same actions reproduces the same episode. `reset(options=...)`
 may choose the warm-state pool (`"pool"`: "train", the default, "validation" or "test"; see
-`sumo_rail.sim.simulation`) and fix the warm state (`"warm_state"`: its index in the pool) instead of drawing it.
+`sumo_rail.sim.simulation`) and fix the warm state (`"warm_state"`: its index in the pool) instead of drawing it, and
+say who drives the ego (`"controller"`: `sumo_rail.sim.controllers`).
 One decision lasts `env.decision_period_s`; the reward of a decision is longitudinal + lateral, or
 `collision_reward` when the ego collides (the episode then terminates).
 Reaching the end of the road or the time limit truncates it.

@@ -71,7 +71,7 @@ class Moment:
     read: Callable[[], Rows] = field(repr=False)
     actions: Mapping[str, int] = field(default_factory=dict)
     infos: Mapping[str, dict[str, Any]] = field(default_factory=dict)
-    _rows: Rows | None = field(default=None, repr=False)
+    _rows: Rows | None = field(default=None, init=False, repr=False)
 
     def vehicles(self) -> Rows:
         """Every vehicle on the road now (`ROW_FIELDS`), read from SUMO once per moment."""
