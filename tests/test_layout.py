@@ -186,8 +186,10 @@ SUMO_LOADERS = ("load_api", "load_constants", "decision_calls")
 BOUNDARY_EXEMPT = {
     "experiments/action_rule_validation.py": "its ego track at every SUMO step moves to experiments/ego_tracks.py (a "
                                              "branch in progress), then onto the step observer (sim/observers.py)",
+    "experiments/ego_tracks.py": "that ego track, once moved here, until it is on the step observer",
 }
-"""Files outside sim/ that still cross the boundary, with why; each must still cross it (the list only shrinks)."""
+"""Files outside sim/ that still cross the boundary, with why; each that exists must still cross it (the list only
+shrinks)."""
 
 
 def boundary_scope(root: Path = ROOT) -> list[Path]:
@@ -260,7 +262,7 @@ def test_sumo_is_spoken_to_only_from_sim():
     exempt = {str(path.relative_to(ROOT)) for path in breaches} & set(BOUNDARY_EXEMPT)
     assert [line for path, lines in breaches.items() if str(path.relative_to(ROOT)) not in exempt
             for line in lines] == []
-    assert all(breaches[ROOT / name] for name in exempt)
+    assert [name for name in sorted(exempt) if not breaches[ROOT / name]] == []  # no longer crosses: take it off
 
 
 def test_the_boundary_check_finds_each_crossing(tmp_path):

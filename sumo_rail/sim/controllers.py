@@ -1,11 +1,12 @@
-"""Who drives an ego: a part the env core takes (reset option "controller", `CONTROLLERS`), as it takes its traffic
-and start rule. "actions" (the default): the env's actions, whoever chooses them (a learner, the expert, a policy);
-"sumo": SUMO's own models (IDM car following, LC2013 lane changing), the actions passed to `step` checked and counted,
-not used: the baseline of a recorded seat (`evaluate-scene`'s sumo-idm).
+"""Who drives each ego: a part the env core takes (reset option "controller", `CONTROLLERS`, for every ego or ego by
+ego), as it takes its traffic and start rule. "actions" (the default): the env's actions, whoever chooses them (a
+learner, the expert, a policy); "sumo": SUMO's own models (IDM car following, LC2013 lane changing), the actions
+passed to `step` checked and counted, not used: the baseline of a recorded seat (`evaluate-scene`'s sumo-idm).
 """
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Protocol
 
@@ -63,8 +64,15 @@ CONTROLLERS: dict[str, Controller] = {controller.name: controller for controller
 """The controllers by the name reset's option "controller" takes."""
 
 
-def controller_named(name: object) -> Controller:
-    """The controller called `name`; ValueError naming the known ones otherwise."""
-    if not (isinstance(name, str) and name in CONTROLLERS):
-        raise ValueError(f"reset option 'controller' must be one of {', '.join(map(repr, CONTROLLERS))}, got {name!r}")
-    return CONTROLLERS[name]
+def controllers_of(option: object, agents: Sequence[str]) -> dict[str, Controller]:
+    """Each of `agents`' controller as reset's option "controller" says: one name for every agent, or a mapping of
+    agents to names ("actions" for those it leaves out); ValueError naming the known ones, or the agents, otherwise."""
+    names = option if isinstance(option, Mapping) else dict.fromkeys(agents, option)
+    strangers = sorted(map(str, set(names) - set(agents)))
+    if strangers:
+        raise ValueError(f"reset option 'controller' names no agent {strangers[0]!r}; agents are {', '.join(agents)}")
+    wrong = [name for name in names.values() if not (isinstance(name, str) and name in CONTROLLERS)]
+    if wrong:
+        raise ValueError(f"reset option 'controller' must be one of {', '.join(map(repr, CONTROLLERS))} (or a "
+                         f"mapping of agents to them), got {wrong[0]!r}")
+    return {agent: CONTROLLERS[names.get(agent, ActionController.name)] for agent in agents}

@@ -19,8 +19,9 @@ scenario) sits the episode out: `agents` after `reset` lacks it and it makes no 
 When no ego enters (always so for a single ego that finds no room), every ego's place is drawn again
 (`EpisodeStarts.redraw`). `reset(options=...)` takes the start rule's options (by default "pool" and "warm_state")
 and "controller", who drives the egos in the episode (`sumo_rail.sim.controllers`: "actions", the default, or "sumo",
-SUMO's own models); others are ignored with a warning (PettingZoo's API test passes one). The traffic is the start
-rule's simulation's (`sumo_rail.sim.traffic_source`).
+SUMO's own models; one name for every ego, or a mapping of agents to names, "actions" for those it leaves out);
+others are ignored with a warning (PettingZoo's API test passes one). The traffic is the start rule's simulation's
+(`sumo_rail.sim.traffic_source`).
 
 Ends: an ego that collides (terminated; SUMO removes the vehicles of a collision, two egos that collide both end)
 or reaches the end of the road (truncated) leaves `agents` while the others drive on; an ego truncated within the
@@ -58,7 +59,7 @@ from pettingzoo import ParallelEnv
 from sumo_rail.config import Config
 from sumo_rail.sim import network
 from sumo_rail.sim.actions import action_space_of
-from sumo_rail.sim.controllers import ActionController, Controller, controller_named
+from sumo_rail.sim.controllers import ActionController, Controller, controllers_of
 from sumo_rail.sim.ego import Ego, checked_action, edge_rows
 from sumo_rail.sim.observation import observation_space
 from sumo_rail.sim.observers import Moment, Observer
@@ -128,8 +129,8 @@ class ParallelHighwayEnv(ParallelEnv[str, np.ndarray, np.int64]):
         self._egos: dict[str, Ego] = {}
         self._respawns: dict[str, int] = {}
         self._frames: EgoFrames | None = None
-        self._controller: Controller = ActionController()
-        """Who drives the egos in this episode (reset's option "controller")."""
+        self._controllers: dict[str, Controller] = dict.fromkeys(self.possible_agents, ActionController())
+        """Who drives each ego in this episode (reset's option "controller")."""
         self._observers: list[Observer] = []
         """Reset and decision observers (`watching`)."""
 
@@ -192,7 +193,7 @@ class ParallelHighwayEnv(ParallelEnv[str, np.ndarray, np.int64]):
         if unknown:
             warnings.warn(f"ignored unknown reset options {unknown}; known: {', '.join(self.options)}",
                           stacklevel=2)
-        controller = controller_named(options.get("controller", ActionController.name))
+        controllers = controllers_of(options.get("controller", ActionController.name), self.possible_agents)
         if self._sim is None:
             self._sim = rule.simulation(cfg, self.transport, self.render_mode == "human", self.gui_delay_ms)
             for observer in self._observers:
@@ -209,9 +210,9 @@ class ParallelHighwayEnv(ParallelEnv[str, np.ndarray, np.int64]):
         observations, infos = {}, {}
         for agent in self.agents:
             observations[agent], infos[agent] = self._egos[agent].start(sim)
-        self._controller = controller
+        self._controllers = controllers
         for agent in self.agents:
-            controller.take(sim, self._egos[agent])
+            controllers[agent].take(sim, self._egos[agent])
         if self._observers:
             self._tell(Moment(sim.time_s, "reset", sim.vehicle_rows, infos=infos))
         return observations, infos
@@ -228,9 +229,9 @@ class ParallelHighwayEnv(ParallelEnv[str, np.ndarray, np.int64]):
             raise ValueError(f"actions must be given for exactly the agents still driving, {self.agents}; "
                              f"missing {missing}, not driving {extra}")
         chosen = {agent: checked_action(actions[agent], self.action_spaces[agent]) for agent in self.agents}
-        sim, egos, controller = self._sim, [self._egos[agent] for agent in self.agents], self._controller
+        sim, egos, controllers = self._sim, [self._egos[agent] for agent in self.agents], self._controllers
         for agent, ego in zip(self.agents, egos, strict=True):
-            controller.command(sim, ego, chosen[agent])
+            controllers[agent].command(sim, ego, chosen[agent])
         reports = sim.advance_egos(self._steps_per_decision, [ego.vehicle for ego in egos],
                                    [vehicle for ego in egos for vehicle in ego.period_safety.watched()])
         observations, rewards, terminations, truncations, infos = {}, {}, {}, {}, {}
@@ -292,7 +293,7 @@ class ParallelHighwayEnv(ParallelEnv[str, np.ndarray, np.int64]):
         ego = self._egos[agent] = Ego(cfg, vehicle, self._edges)
         self.agents = [name for name in self.possible_agents if name in self.agents or name == agent]
         started = ego.start(sim)
-        self._controller.take(sim, ego)
+        self._controllers[agent].take(sim, ego)
         return started
 
     def render(self) -> np.ndarray | None:

@@ -195,11 +195,12 @@ def test_sumo_drives_the_seat_when_asked(replay):
 
 
 def test_a_sumo_driven_seat_ignores_the_actions(replay):
-    """With SUMO's controller the episode is SUMO's whatever the actions: braking or accelerating, the same states."""
+    """With SUMO's controller the episode is SUMO's whatever the actions: braking or accelerating, the same states;
+    the controller named for the ego alone is the same."""
     vehicle, start_s = long_track(replay.scene.tracks)
     runs = []
-    for action in (Action.DECELERATE, Action.ACCELERATE):
-        replay.reset(seed=0, options={"vehicle": vehicle, "start_s": start_s, "controller": "sumo"})
+    for action, controller in ((Action.DECELERATE, "sumo"), (Action.ACCELERATE, {EGO_ID: "sumo"})):
+        replay.reset(seed=0, options={"vehicle": vehicle, "start_s": start_s, "controller": controller})
         runs.append([replay.step(int(action))[0] for _ in range(4)])
     np.testing.assert_array_equal(runs[0], runs[1])
     replay.reset(seed=0, options={"vehicle": vehicle, "start_s": start_s, "controller": "actions"})
