@@ -157,15 +157,18 @@ class Simulation(EgoPlacement, Stepping, Sensing, EgoCommands):
     def _compose_step(self) -> None:
         """The step of the egos' periods (`_calls.step`): the traffic's or SUMO's, then the every-step observers."""
         step, observers = self._sumo_step, tuple(self._observers)
-        if observers:
-            time_s, read = self._calls.time_s, self.vehicle_rows
+        if not observers:
+            self._calls = self._calls._replace(step=step)
+            return
+        time_s, read = self._calls.time_s, self.vehicle_rows
 
-            def observed_step() -> None:
-                step()
-                moment = Moment(time_s(), "step", read)
-                for observer in observers:
-                    observer(moment)
-        self._calls = self._calls._replace(step=observed_step if observers else step)
+        def observed_step() -> None:
+            step()
+            moment = Moment(time_s(), "step", read)
+            for observer in observers:
+                observer(moment)
+
+        self._calls = self._calls._replace(step=observed_step)
 
     def watch(self, observer: Observer) -> None:
         """Call `observer` (every_step) after each SUMO step of the egos' periods, of a seat and of `advance`, until
