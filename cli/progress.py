@@ -101,7 +101,7 @@ def start_at(bar: Any, done: int, restart_clock: bool = True) -> None:
         return
     bar.n = bar.last_print_n = bar.initial = done
     if restart_clock:
-        bar.start_t = bar.last_print_t = bar._time()
+        bar.start_t = bar.last_print_t = bar._time()  # noqa: SLF001 - tqdm keeps its clock private
     bar.refresh()
 
 

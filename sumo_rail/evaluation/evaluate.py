@@ -93,7 +93,7 @@ class EvaluationTask:
             recorder = FrameRecorder(env)
             return recorder
 
-        result = self.episode.run(context, probes_in_turn(probe, safety), wrap=record if self.video else None)
+        result = self.episode.run(context, probes_in_turn(probe, safety), observer=record if self.video else None)
         video = None
         if recorder is not None:
             video = encode_mp4(recorder.frames, 1.0 / self.episode.config.env.decision_period_s)

@@ -35,6 +35,7 @@ from sumo_rail.recordings.trajectory import TrajectoryPoint, trajectory_frame
 from sumo_rail.runners.backends import RolloutBackend, WorkerContext
 from sumo_rail.runners.rollout import DriverSpec, KeepDriver, probes_in_turn, run_episode
 from sumo_rail.runners.tables import provenance
+from sumo_rail.sim.controllers import ActionController, SumoController
 from sumo_rail.sim.traffic import TrafficView, lane_gaps
 
 STOP_MPS = 0.5
@@ -50,7 +51,8 @@ SCENE_EPISODES, SCENE_TRACKS = "scene_episodes", "scene_tracks"
 
 @dataclass(frozen=True)
 class SumoDriver:
-    """SUMO's IDM and LC2013 in the ego's seat (`SceneEnv`'s "sumo_driver"); the actions are not used."""
+    """SUMO's IDM and LC2013 in the ego's seat (the env core's "sumo" controller, `SumoController`); the actions are
+    not used."""
 
     name: str = "sumo-idm"
 
@@ -129,7 +131,7 @@ class SeatTask:
         assert isinstance(env, SceneEnv)
         track, safety = _TrackProbe(self.seat.start_s, env.config.env.decision_period_s), SafetyProbe()
         options = {"vehicle": self.seat.vehicle, "start_s": self.seat.start_s,
-                   "sumo_driver": isinstance(self.driver, SumoDriver)}
+                   "controller": (SumoController if isinstance(self.driver, SumoDriver) else ActionController).name}
         result = run_episode(env, self.driver.create(env.config, self.seed), self.seed, options=options,
                              probe=probes_in_turn(track, safety))
         if result.metrics["termination"] != "collision":

@@ -13,7 +13,6 @@ from __future__ import annotations
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -28,43 +27,8 @@ from sumo_rail.runners.rollout import EpisodeResult, ExpertDriver, run_episode
 from sumo_rail.sim import network
 from sumo_rail.sim.env import HighwayEnv
 from sumo_rail.sim.observation import observation_names
+from sumo_rail.sim.observers import VehicleCapture
 from sumo_rail.sim.sumo_api import EGO_ID
-
-
-class _CapturingEnv:
-    """The env, with every vehicle captured (`rows`) after reset and after each step: the decision instants."""
-
-    def __init__(self, env: HighwayEnv) -> None:
-        self.env = env
-        self.rows: list[dict[str, Any]] = []
-
-    def __getattr__(self, name: str) -> Any:
-        return getattr(self.env, name)
-
-    def reset(self, **kwargs: Any) -> Any:
-        result = self.env.reset(**kwargs)
-        self._capture()
-        return result
-
-    def step(self, action: Any) -> Any:
-        result = self.env.step(action)
-        self._capture()
-        return result
-
-    def _capture(self) -> None:
-        api = self.env.simulation._api  # read only: every vehicle of the simulation, as SUMO's FCD output sees them
-        time_s = api.simulation.getTime()
-        vehicle = api.vehicle
-        for vehicle_id in vehicle.getIDList():
-            x, y = vehicle.getPosition(vehicle_id)
-            road = vehicle.getRoadID(vehicle_id)
-            self.rows.append({
-                "vehicle_id": vehicle_id, "time_s": time_s, "x_m": x, "y_m": y,
-                "heading_deg": vehicle.getAngle(vehicle_id), "speed_mps": vehicle.getSpeed(vehicle_id),
-                "acceleration_mps2": vehicle.getAcceleration(vehicle_id), "edge": road,
-                "lane": vehicle.getLaneIndex(vehicle_id), "lane_position_m": vehicle.getLanePosition(vehicle_id),
-                "length_m": vehicle.getLength(vehicle_id), "width_m": vehicle.getWidth(vehicle_id),
-                "vehicle_class": "truck" if vehicle.getVehicleClass(vehicle_id) == "truck" else "passenger"})
 
 
 @dataclass(frozen=True)
@@ -84,14 +48,14 @@ class ObservationCheck:
 
 def expert_episode(config: Config, seed: int, style: str = "normal") -> tuple[EpisodeResult, pd.DataFrame]:
     """One recorded episode of the expert `style` (seed `seed`) and every vehicle at each of its decision instants
-    (`scene.TRACK_COLUMNS`)."""
+    (`scene.TRACK_COLUMNS`, as SUMO's FCD output sees them, and `observers.ROW_FIELDS`' type)."""
     env = HighwayEnv(config, transport="libsumo")
-    capturing = _CapturingEnv(env)
     try:
-        result = run_episode(capturing, ExpertDriver(style).create(config, seed), seed, record=True)  # type: ignore
+        with env.watching(VehicleCapture(every_step=False)) as capture:
+            result = run_episode(env, ExpertDriver(style).create(config, seed), seed, record=True)
     finally:
         env.close()
-    return result, pd.DataFrame(capturing.rows)
+    return result, pd.DataFrame(capture.columns).drop(columns="frame")
 
 
 def check_observations(config: Config, seed: int, folder: Path, decimals: int = 2) -> ObservationCheck:

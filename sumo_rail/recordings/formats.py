@@ -78,7 +78,7 @@ class RecordingFormat:
         """The reader module (imported on first use)."""
         if not self.reader:
             raise ValueError(f"format {self.name} is not read from files")
-        return importlib.import_module(self.reader)  # type: ignore[return-value]
+        return importlib.import_module(self.reader)
 
     def check_headers(self, files: Sequence[Path]) -> None:
         """The reader's check of `files` before any work."""

@@ -16,7 +16,7 @@ import numpy as np
 
 from sumo_rail.config import ConfigError
 from sumo_rail.datasets import DatasetError
-from sumo_rail.sim.network import _netconvert
+from sumo_rail.sim.network import netconvert
 from sumo_rail.sim.user_traffic import read_xml
 
 ROAD_EDGE = "road"
@@ -58,7 +58,7 @@ def build_road(lane_widths_m: list[float], length_m: float, out: Path) -> None:
         ElementTree.ElementTree(edges).write(inputs["edges"])
         built = Path(scratch) / "road.net.xml"
         try:
-            _netconvert(inputs, built)
+            netconvert(inputs, built)
         except ConfigError as error:
             raise DatasetError(str(error)) from error
         text = built.read_text()

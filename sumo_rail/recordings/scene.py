@@ -125,7 +125,9 @@ def write_scene_folder(out: Path, recording: Recording, tracks: pd.DataFrame, sp
     """Write the scene's files together (scene.json last); a folder this call made is removed again on failure."""
     made = not out.exists()
     out.mkdir(parents=True, exist_ok=True)
-    record = provenance("recording_tracks", config, meta.settings["split_seed"], scene=dataclasses.asdict(meta))
+    seed = meta.settings["split_seed"]
+    assert isinstance(seed, int)  # the split's seed, as every scene's settings hold it
+    record = provenance("recording_tracks", config, seed, scene=dataclasses.asdict(meta))
     try:
         with written_together(out) as staged:
             if recording.lane_widths_m:

@@ -1,5 +1,6 @@
 """A recording of drivers no one here wrote: SUMO's own car-following and lane-changing models on a straight
-motorway, captured from libsumo at every step and written as a scene folder (format "sumo").
+motorway, captured at every step (the simulation's observer, `sumo_rail.sim.observers.VehicleCapture`) and written as
+a scene folder (format "sumo").
 
 The road is `road.build_road`'s straight edge (the scenario's lanes, lane width and length, as the package's own
 straight highway; its speed limit `road.ROAD_SPEED_MPS`, as every built scene road's). The traffic is a Poisson flow of
@@ -26,9 +27,10 @@ from sumo_rail.recordings.formats import SUMO_DRIVERS
 from sumo_rail.recordings.road import ROAD_EDGE, ROAD_SPEED_MPS, build_road
 from sumo_rail.recordings.scene import SPLITS, SceneMeta, check_scene_output, split_table, write_scene_folder
 from sumo_rail.recordings.tracks import Recording, RecordingDataError, RecordingUsageError, kept_tracks
-from sumo_rail.sim.built_network import BuiltNetwork, sumo_binary
-from sumo_rail.sim.simulation import sumo_options
-from sumo_rail.sim.sumo_api import load_api, load_constants
+from sumo_rail.sim.built_network import BuiltNetwork
+from sumo_rail.sim.observers import VehicleCapture
+from sumo_rail.sim.simulation import Simulation
+from sumo_rail.sim.traffic_source import GeneratedTraffic
 
 _CAR = {"vClass": "passenger", "length": "4.5", "width": "1.8", "minGap": "2.5", "maxSpeed": "50.0", "accel": "2.6",
         "decel": "4.5", "emergencyDecel": "9.0"}
@@ -101,56 +103,30 @@ def routes_xml(flow_veh_per_h: float) -> bytes:
 
 
 def _capture(config: Config, settings: SumoDriversSettings, net_file: Path, scratch: Path) -> pd.DataFrame:
-    """Run SUMO on `net_file` and return every vehicle's rows (TRACK_COLUMNS, frame, source_id, type)."""
-    scenario = config.scenario
+    """Run SUMO on `net_file` with the drivers' routes and return every vehicle's rows after the warm-up (TRACK_COLUMNS,
+    frame, source_id, type): a simulation whose traffic is the routes' own, watched at every step."""
+    scenario = dataclasses.replace(config.scenario, traffic_seed=settings.seed)
     routes = scratch / "drivers.rou.xml"
     routes.write_bytes(routes_xml(scenario.flow_veh_per_h))
-    built = BuiltNetwork(net_file, routes, scratch, (ROAD_EDGE,))
-    api, constants = load_api("libsumo"), load_constants()
-    variables = (constants.VAR_POSITION, constants.VAR_ANGLE, constants.VAR_SPEED, constants.VAR_ACCELERATION,
-                 constants.VAR_ROAD_ID, constants.VAR_LANE_INDEX, constants.VAR_LANEPOSITION)
+    traffic = GeneratedTraffic(BuiltNetwork(net_file, routes, scratch, (ROAD_EDGE,)))
+    sim = Simulation(scenario, 0.0, transport="auto", traffic=traffic)
     step_s = scenario.step_length_s
-    warmup_steps, steps = round(scenario.warmup_s / step_s), round(settings.duration_s / step_s)
-    columns: dict[str, list] = {name: [] for name in ("frame", "id", "x", "y", "angle", "speed", "accel", "edge",
-                                                      "lane", "pos")}
-    kinds: dict[str, tuple[float, float, str, str]] = {}
-    api.start([sumo_binary("sumo"), *sumo_options(scenario, built), "--seed", str(settings.seed)])
     try:
-        for _ in range(warmup_steps):
-            api.simulationStep()
-        for vehicle in api.vehicle.getIDList():
-            api.vehicle.subscribe(vehicle, variables)
-        for frame in range(steps):
-            api.simulationStep()
-            for vehicle in api.simulation.getDepartedIDList():
-                api.vehicle.subscribe(vehicle, variables)
-            for vehicle, values in api.vehicle.getAllSubscriptionResults().items():
-                if vehicle not in kinds:
-                    type_id = api.vehicle.getTypeID(vehicle)
-                    kinds[vehicle] = (api.vehicle.getLength(vehicle), api.vehicle.getWidth(vehicle),
-                                      "truck" if api.vehicle.getVehicleClass(vehicle) == "truck" else "passenger",
-                                      type_id)
-                position = values[constants.VAR_POSITION]
-                columns["frame"].append(frame)
-                columns["id"].append(vehicle)
-                columns["x"].append(position[0])
-                columns["y"].append(position[1])
-                for name, variable in (("angle", constants.VAR_ANGLE), ("speed", constants.VAR_SPEED),
-                                       ("accel", constants.VAR_ACCELERATION), ("edge", constants.VAR_ROAD_ID),
-                                       ("lane", constants.VAR_LANE_INDEX), ("pos", constants.VAR_LANEPOSITION)):
-                    columns[name].append(values[variable])
+        sim.advance(round(scenario.warmup_s / step_s))
+        with sim.watching(VehicleCapture(every_step=True)) as capture:
+            sim.advance(round(settings.duration_s / step_s))
     finally:
-        api.close()
-    ids = columns["id"]
+        sim.close()
+    columns = capture.columns
+    ids, frame = columns["vehicle_id"], np.asarray(columns["frame"], dtype=np.int64)
     return pd.DataFrame({
-        "vehicle_id": ids, "source_id": ids, "frame": np.asarray(columns["frame"], dtype=np.int64),
-        "time_s": np.round(np.asarray(columns["frame"]) * step_s, 9), "x_m": columns["x"],
-        "y_m": columns["y"], "heading_deg": columns["angle"], "speed_mps": columns["speed"],
-        "acceleration_mps2": columns["accel"], "edge": columns["edge"],
+        "vehicle_id": ids, "source_id": ids, "frame": frame, "time_s": np.round(frame * step_s, 9),
+        "x_m": columns["x_m"], "y_m": columns["y_m"], "heading_deg": columns["heading_deg"],
+        "speed_mps": columns["speed_mps"], "acceleration_mps2": columns["acceleration_mps2"], "edge": columns["edge"],
         "lane": np.where(np.asarray(columns["edge"]) == ROAD_EDGE, columns["lane"], -1).astype(np.int16),
-        "lane_position_m": columns["pos"], "length_m": np.array([kinds[v][0] for v in ids], dtype=np.float32),
-        "width_m": np.array([kinds[v][1] for v in ids], dtype=np.float32),
-        "vehicle_class": [kinds[v][2] for v in ids], "type": [kinds[v][3] for v in ids]})
+        "lane_position_m": columns["lane_position_m"], "length_m": np.array(columns["length_m"], dtype=np.float32),
+        "width_m": np.array(columns["width_m"], dtype=np.float32), "vehicle_class": columns["vehicle_class"],
+        "type": columns["type"]})
 
 
 def check_recording(settings: SumoDriversSettings, config: Config) -> None:

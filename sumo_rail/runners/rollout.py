@@ -19,6 +19,7 @@ from sumo_rail.runners.dart import ActionNoise
 from sumo_rail.seeding import driver_generator
 from sumo_rail.sim.actions import Action, action_count, keep_action
 from sumo_rail.sim.env import HighwayEnv
+from sumo_rail.sim.observers import Observer
 from sumo_rail.sim.parallel_env import ParallelHighwayEnv
 from sumo_rail.sim.respawning import RespawningEgos
 from sumo_rail.sim.rewards import EpisodeMetrics
@@ -152,24 +153,29 @@ class EpisodeGroupTask:
 def run_episode(env: HighwayEnv, driver: Driver, seed: int, record: bool = False,
                 options: dict[str, Any] | None = None, probe: DecisionProbe | None = None) -> EpisodeResult:
     """Reset with `seed` (and the env's reset `options`) and drive until the episode ends; `record` keeps every
-    (state, action, reward); `probe` watches every decision. The one ego's episode of `run_shared_episode`."""
-    episode = run_shared_episode(_OneEgo(env, options), [driver], seed, record,
-                                 probes=None if probe is None else [probe])[0]
+    (state, action, reward); `probe` watches every decision. The one ego's episode of `run_shared_episode`, on the
+    Gymnasium env's core (its reset seeded as the Gymnasium env's own)."""
+    episode = run_shared_episode(env.core, [driver], seed, record, probes=None if probe is None else [probe],
+                                 options=options)[0]
     assert episode is not None  # HighwayEnv always places its ego (or raises)
     return episode
 
 
-def run_shared_episode(env: ParallelHighwayEnv | _OneEgo, drivers: Sequence[Driver], seed: int, record: bool = False,
+def run_shared_episode(env: ParallelHighwayEnv, drivers: Sequence[Driver], seed: int, record: bool = False,
                        perturbs: Sequence[Callable[[int], int]] | None = None,
-                       probes: Sequence[DecisionProbe] | None = None) -> list[EpisodeResult | None]:
-    """Reset `env` with `seed` and drive ego_j with drivers[j] until every ego has left (`drive_egos` without a budget):
-    each ego's episode (its metrics' seed is `seed`), in ego order, None for an ego that found no room on the road."""
-    return [lives[0] if lives else None for lives in drive_egos(env, drivers, seed, None, record, perturbs, probes)]
+                       probes: Sequence[DecisionProbe] | None = None,
+                       options: dict[str, Any] | None = None) -> list[EpisodeResult | None]:
+    """Reset `env` with `seed` (and reset `options`) and drive ego_j with drivers[j] until every ego has left
+    (`drive_egos` without a budget): each ego's episode (its metrics' seed is `seed`), in ego order, None for an ego
+    that found no room on the road."""
+    return [lives[0] if lives else None
+            for lives in drive_egos(env, drivers, seed, None, record, perturbs, probes, options)]
 
 
-def drive_egos(env: ParallelHighwayEnv | _OneEgo, drivers: Sequence[Driver], seed: int, decisions: int | None = None,
+def drive_egos(env: ParallelHighwayEnv, drivers: Sequence[Driver], seed: int, decisions: int | None = None,
                record: bool = False, perturbs: Sequence[Callable[[int], int]] | None = None,
-               probes: Sequence[DecisionProbe] | None = None) -> list[list[EpisodeResult]]:
+               probes: Sequence[DecisionProbe] | None = None,
+               options: dict[str, Any] | None = None) -> list[list[EpisodeResult]]:
     """The one episode loop. Reset `env` with `seed` and drive ego_j with drivers[j] (asked in ego order at each
     decision): with `decisions` None, one whole episode each (an ego leaves when its episode ends; one that found no
     room has none); with a number, that many decisions each across as many lives as it takes (an ego whose episode
@@ -177,8 +183,8 @@ def drive_egos(env: ParallelHighwayEnv | _OneEgo, drivers: Sequence[Driver], see
     road's start, every life is cut there, a truncation, and the road resets), the last life, cut by the budget,
     neither terminated nor truncated. Each ego's episodes in order (metrics' seed `seed`). With `perturbs` ego_j's
     car executes perturbs[j](action) while the records keep the driver's (DART); `probes[j]` watches ego_j's
-    decisions."""
-    road = RespawningEgos(env, seed, reset_when_empty=False, respawn=decisions is not None)  # type: ignore[arg-type]  # _OneEgo: a duck-typed road of one ego
+    decisions; every reset takes `options`."""
+    road = RespawningEgos(env, seed, reset_when_empty=False, respawn=decisions is not None, options=options)
     observations, infos = road.start()
     agents = list(env.possible_agents)
     logs = {agent: _EpisodeLog(record) for agent in agents}
@@ -203,34 +209,6 @@ def drive_egos(env: ParallelHighwayEnv | _OneEgo, drivers: Sequence[Driver], see
         done += 1
     return [[*lives[agent], *([logs[agent].result(env.metrics(agent), seed, infos[agent], False, False)]
                               if logs[agent].decisions else [])] for agent in agents]
-
-
-class _OneEgo:
-    """The single-ego `HighwayEnv` (or a wrapper of it, e.g. a frame recorder) seen as a road of one ego, as
-    `run_shared_episode` drives a `ParallelHighwayEnv`; `options` go to every reset."""
-
-    possible_agents = ("ego",)
-
-    def __init__(self, env: HighwayEnv, options: dict[str, Any] | None) -> None:
-        self.env, self.options = env, options
-        self.agents: list[str] = []
-
-    def reset(self, seed: int) -> tuple[dict[str, np.ndarray], dict[str, dict[str, Any]]]:
-        observation, info = self.env.reset(seed=seed, options=self.options)
-        self.agents = ["ego"]
-        return {"ego": observation}, {"ego": info}
-
-    def traffic(self, agent: str) -> TrafficView:
-        return self.env.traffic
-
-    def metrics(self, agent: str) -> EpisodeMetrics:
-        return self.env.metrics
-
-    def step(self, actions: dict[str, int]) -> tuple[dict[str, Any], ...]:
-        observation, reward, terminated, truncated, info = self.env.step(actions["ego"])
-        if terminated or truncated:
-            self.agents = []
-        return {"ego": observation}, {"ego": reward}, {"ego": terminated}, {"ego": truncated}, {"ego": info}
 
 
 class _EpisodeLog:
@@ -293,12 +271,14 @@ class EpisodeTask:
     """Index of the warm state in the pool; None: drawn from the seed."""
 
     def run(self, context: WorkerContext, probe: DecisionProbe | None = None,
-            wrap: Callable[[HighwayEnv], Any] | None = None) -> EpisodeResult:
-        """Run the episode on the context's env, seen through `wrap(env)` when given (e.g. a frame recorder)."""
+            observer: Callable[[HighwayEnv], Observer] | None = None) -> EpisodeResult:
+        """Run the episode on the context's env, watched by `observer(env)` when given (e.g. a frame recorder)."""
         env = context.env(self.config)
-        if wrap is not None:
-            env = wrap(env)
         options: dict[str, Any] = {"pool": self.pool}
         if self.warm_state is not None:
             options["warm_state"] = self.warm_state
-        return run_episode(env, self.driver.create(self.config, self.seed), self.seed, self.record, options, probe)
+        driver = self.driver.create(self.config, self.seed)
+        if observer is None:
+            return run_episode(env, driver, self.seed, self.record, options, probe)
+        with env.watching(observer(env)):
+            return run_episode(env, driver, self.seed, self.record, options, probe)

@@ -12,12 +12,13 @@ import re
 import tempfile
 from collections.abc import Iterable, Sequence
 from pathlib import Path
-from typing import Any, cast
+from typing import cast
 
 import numpy as np
 
 from sumo_rail.datasets import write_bytes_atomically, write_failures, written_atomically
 from sumo_rail.sim.env import HighwayEnv
+from sumo_rail.sim.observers import Moment
 
 INSTALL_HINT = "pip install 'sumo-rail[video]'"
 
@@ -39,24 +40,19 @@ def require_encoder() -> None:
 
 
 class FrameRecorder:
-    """Wraps a HighwayEnv for `run_episode`: every reset and step also keeps `env.frame()` in `frames`."""
+    """An observer of a HighwayEnv's episode (`HighwayEnv.watching`): after its reset and each decision it keeps
+    `env.frame()` in `frames` (a reset starts them again)."""
+
+    every_step = False
 
     def __init__(self, env: HighwayEnv) -> None:
         self.env = env
         self.frames: list[np.ndarray] = []
 
-    def reset(self, **kwargs: Any) -> tuple[np.ndarray, dict[str, Any]]:
-        result = self.env.reset(**kwargs)
-        self.frames = [self.env.frame()]
-        return result
-
-    def step(self, action: int) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
-        result = self.env.step(action)
+    def __call__(self, moment: Moment) -> None:
+        if moment.kind == "reset":
+            self.frames = []
         self.frames.append(self.env.frame())
-        return result
-
-    def __getattr__(self, name: str) -> Any:
-        return getattr(self.env, name)
 
 
 def encode_mp4(frames: Sequence[np.ndarray], fps: float) -> bytes:

@@ -90,9 +90,6 @@ class Ego:
         self.safety_readings: dict[str, float] = NO_READINGS
         """The last period's safety readings (`period_safety.READINGS`, in `info`)."""
         self.requested_lane: int | None = None
-        self.sumo_driven = False
-        """SUMO's own models drive the vehicle (a recorded seat's "sumo_driver"): decisions are counted, actions
-        ignored."""
         self._kernel_settings = (config.lidar.beams, config.lidar.range_m, config.env.v_min_mps, config.env.v_max_mps,
                                  config.scenario.lanes, config.observation.lane_block == 1,
                                  config.observation.route_block == 1)
@@ -125,12 +122,10 @@ class Ego:
         return min(self.config.env.v_max_mps, sim.speed_limit_mps)
 
     def command(self, sim: Simulation, action: int) -> None:
-        """Give SUMO the command of this decision's `action` (`checked_action`; before the period's steps); none when
-        SUMO drives. An acceleration-interface action is counted among the paper's five (`paper_equivalent`)."""
+        """Give SUMO the command of this decision's `action` (`checked_action`; before the period's steps: the env's
+        actions' controller, `sumo_rail.sim.controllers`). An acceleration-interface action is counted among the
+        paper's five (`paper_equivalent`)."""
         cfg, metrics = self.config, self.metrics
-        if self.sumo_driven:
-            metrics.decisions += 1
-            return
         route = self.traffic.ego.route if self.traffic is not None else None
         lowest, highest = (0, cfg.scenario.lanes - 1) if route is None else (route.lowest_lane, route.highest_lane)
         if self.accelerating:

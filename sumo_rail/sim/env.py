@@ -5,7 +5,8 @@ Each reset draws, from the env's `np_random`, the warm traffic state, SUMO's see
 position (drawn again where that place has no room, `sumo_rail.sim.starts`), so `reset(seed=s)` followed by the
 same actions reproduces the same episode. `reset(options=...)`
 may choose the warm-state pool (`"pool"`: "train", the default, "validation" or "test"; see
-`sumo_rail.sim.simulation`) and fix the warm state (`"warm_state"`: its index in the pool) instead of drawing it.
+`sumo_rail.sim.simulation`) and fix the warm state (`"warm_state"`: its index in the pool) instead of drawing it, and
+say who drives the ego (`"controller"`: `sumo_rail.sim.controllers`).
 One decision lasts `env.decision_period_s`; the reward of a decision is longitudinal + lateral, or
 `collision_reward` when the ego collides (the episode then terminates).
 Reaching the end of the road or the time limit truncates it.
@@ -19,6 +20,7 @@ Unknown reset options are refused (ValueError).
 from __future__ import annotations
 
 from collections.abc import Mapping
+from contextlib import AbstractContextManager
 from pathlib import Path
 from typing import Any
 
@@ -26,6 +28,7 @@ import gymnasium
 import numpy as np
 
 from sumo_rail.config import Config
+from sumo_rail.sim.observers import Observer
 from sumo_rail.sim.parallel_env import RENDER_MODES, ParallelHighwayEnv
 from sumo_rail.sim.rewards import EpisodeMetrics
 from sumo_rail.sim.simulation import EGO_ID, Simulation
@@ -52,7 +55,16 @@ class HighwayEnv(gymnasium.Env[np.ndarray, np.int64]):
         self.metadata = {**self.metadata, "render_fps": 1.0 / self.config.env.decision_period_s}
         self.observation_space = self.core.observation_space(EGO_ID)
         self.action_space = self.core.action_space(EGO_ID)
-        self._started = False
+
+    @property
+    def np_random(self) -> np.random.Generator:
+        """The generator every reset draws from: the core's (seeded by `reset(seed=...)`, Gymnasium's seeding), so an
+        episode the core runs itself (`sumo_rail.runners.rollout.run_episode`) draws as one reset here."""
+        return self.core.np_random
+
+    @np_random.setter
+    def np_random(self, generator: np.random.Generator) -> None:
+        self.core.np_random = generator
 
     @property
     def simulation(self) -> Simulation | None:
@@ -62,33 +74,35 @@ class HighwayEnv(gymnasium.Env[np.ndarray, np.int64]):
     @property
     def metrics(self) -> EpisodeMetrics:
         """Totals of the current episode."""
-        return self.core.metrics(EGO_ID) if self._started else EpisodeMetrics()
+        return self.core.metrics(EGO_ID) if self.core.started else EpisodeMetrics()
 
     @property
     def traffic(self) -> TrafficView:
         """The ego and its neighbours at the last decision (read directly from SUMO, not from the LIDAR)."""
-        if not self._started:
+        if not self.core.started:
             raise RuntimeError("call reset() before reading the traffic")
         return self.core.traffic(EGO_ID)
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None,
               ) -> tuple[np.ndarray, dict[str, Any]]:
-        super().reset(seed=seed)
-        known = self.core.start.options
+        super().reset(seed=seed)  # Gymnasium's seeding, for its own records (np_random_seed)
+        known = self.core.options
         unknown = sorted(set(options or {}) - set(known))
         if unknown:  # the core ignores them (PettingZoo's API test passes one); a Gymnasium user meant something
             raise ValueError(f"unknown reset options {unknown}; known: {', '.join(map(repr, known))}")
-        self.core.np_random = self.np_random  # one generator: Gymnasium's seeding, the core's draws
-        observations, infos = self.core.reset(options=options)
-        self._started = True
+        observations, infos = self.core.reset(seed=seed, options=options)  # the same seeding: one generator, the core's
         return observations[EGO_ID], infos[EGO_ID]
 
     def step(self, action: int | np.integer) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
-        if not self._started:
+        if not self.core.started:
             raise RuntimeError("call reset() before step()")
         observations, rewards, terminations, truncations, infos = self.core.step({EGO_ID: action})
         return (observations[EGO_ID], rewards[EGO_ID], terminations[EGO_ID], truncations[EGO_ID],
                 infos[EGO_ID])
+
+    def watching(self, observer: Observer) -> AbstractContextManager[Observer]:
+        """The core's `watching`: `observer` is shown every SUMO step or each reset and decision within the block."""
+        return self.core.watching(observer)
 
     def render(self) -> np.ndarray | None:
         """With render_mode "rgb_array", the bird's-eye frame of the last decision (`frame()`); with "human",

@@ -97,7 +97,7 @@ def build(scenario: ScenarioConfig, source_dir: Path | None = None) -> BuiltNetw
         scratch_dir = Path(scratch)
         inputs = {kind: _write(scratch_dir / f"{stem}.{kind[:3]}.xml", data) for kind, data in road.files.items()
                   if kind != "routes"}
-        _netconvert(inputs, net_tmp)
+        netconvert(inputs, net_tmp)
         _write(routes_tmp, road.routes)
     log.info("built network %s", directory)
     return built
@@ -146,7 +146,9 @@ def _write(path: Path, data: bytes) -> Path:
     return path
 
 
-def _netconvert(inputs: dict[str, Path], output: Path) -> None:
+def netconvert(inputs: dict[str, Path], output: Path) -> None:
+    """Build the network `output` from plain-XML `inputs` ("nodes", "edges", optionally "connections": their paths) with
+    SUMO's netconvert, as this project builds every road; ConfigError with netconvert's last line when it fails."""
     command = [
         sumo_binary("netconvert"),
         "--node-files", str(inputs["nodes"]),

@@ -17,8 +17,11 @@ starts once every ego is on the road (those that entered first drive on meanwhil
 place within 30 s of simulated time (a dense left lane; 2 of 2400 egos in 150 resets at K = 16 on the default
 scenario) sits the episode out: `agents` after `reset` lacks it and it makes no decision (`Simulation.reset_egos`).
 When no ego enters (always so for a single ego that finds no room), every ego's place is drawn again
-(`EpisodeStarts.redraw`). `reset(options=...)` takes the start rule's options (by default "pool" and "warm_state");
-others are ignored with a warning (PettingZoo's API test passes one).
+(`EpisodeStarts.redraw`). `reset(options=...)` takes the start rule's options (by default "pool" and "warm_state")
+and "controller", who drives the egos in the episode (`sumo_rail.sim.controllers`: "actions", the default, or "sumo",
+SUMO's own models; one name for every ego, or a mapping of agents to names, "actions" for those it leaves out);
+others are ignored with a warning (PettingZoo's API test passes one). The traffic is the start rule's simulation's
+(`sumo_rail.sim.traffic_source`).
 
 Ends: an ego that collides (terminated; SUMO removes the vehicles of a collision, two egos that collide both end)
 or reaches the end of the road (truncated) leaves `agents` while the others drive on; an ego truncated within the
@@ -36,13 +39,15 @@ placed at once in the start window), for runners and learners that keep every eg
 
 For a rollout runner: before each `step`, `traffic(agent)` is that ego's `TrafficView` (so an expert can be asked
 at every decision), and `metrics(agent)` its episode totals (`decisions` is its number of steps); `infos[agent]`
-carries `Ego`'s info keys.
+carries `Ego`'s info keys. Watching episodes: `watching(observer)` (`sumo_rail.sim.observers`) shows an observer
+every SUMO step of the egos' periods, or each reset and decision.
 """
 
 from __future__ import annotations
 
+import contextlib
 import warnings
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -54,8 +59,10 @@ from pettingzoo import ParallelEnv
 from sumo_rail.config import Config
 from sumo_rail.sim import network
 from sumo_rail.sim.actions import action_space_of
+from sumo_rail.sim.controllers import ActionController, Controller, controllers_of
 from sumo_rail.sim.ego import Ego, checked_action, edge_rows
 from sumo_rail.sim.observation import observation_space
+from sumo_rail.sim.observers import Moment, Observer
 from sumo_rail.sim.rewards import EpisodeMetrics
 from sumo_rail.sim.simulation import TRANSPORTS, Simulation, SimulationError
 from sumo_rail.sim.starts import StartRule, WarmStateStart, check_start_slots, start_slots
@@ -122,6 +129,15 @@ class ParallelHighwayEnv(ParallelEnv[str, np.ndarray, np.int64]):
         self._egos: dict[str, Ego] = {}
         self._respawns: dict[str, int] = {}
         self._frames: EgoFrames | None = None
+        self._controllers: dict[str, Controller] = dict.fromkeys(self.possible_agents, ActionController())
+        """Who drives each ego in this episode (reset's option "controller")."""
+        self._observers: list[Observer] = []
+        """Reset and decision observers (`watching`)."""
+
+    @property
+    def options(self) -> tuple[str, ...]:
+        """The reset options it reads: its start rule's and "controller"."""
+        return (*self.start.options, "controller")
 
     def observation_space(self, agent: str) -> spaces.Box:
         return self.observation_spaces[agent]
@@ -139,6 +155,11 @@ class ParallelHighwayEnv(ParallelEnv[str, np.ndarray, np.int64]):
     @np_random.setter
     def np_random(self, generator: np.random.Generator) -> None:
         self._np_random = generator
+
+    @property
+    def started(self) -> bool:
+        """An episode has begun (a reset since the env was made; its egos stay readable after `close`)."""
+        return bool(self._egos)
 
     @property
     def simulation(self) -> Simulation | None:
@@ -167,14 +188,18 @@ class ParallelHighwayEnv(ParallelEnv[str, np.ndarray, np.int64]):
         if seed is not None:
             self._np_random, _ = seeding.np_random(seed)
         cfg, rule = self.config, self.start
+        options = dict(options or {})
+        unknown = sorted(set(options) - set(self.options))
+        if unknown:
+            warnings.warn(f"ignored unknown reset options {unknown}; known: {', '.join(self.options)}",
+                          stacklevel=2)
+        controllers = controllers_of(options.get("controller", ActionController.name), self.possible_agents)
         if self._sim is None:
             self._sim = rule.simulation(cfg, self.transport, self.render_mode == "human", self.gui_delay_ms)
+            for observer in self._observers:
+                if observer.every_step:
+                    self._sim.watch(observer)
         sim = self._sim
-        options = dict(options or {})
-        unknown = sorted(set(options) - set(rule.options))
-        if unknown:
-            warnings.warn(f"ignored unknown reset options {unknown}; known: {', '.join(rule.options)}",
-                          stacklevel=2)
         absent = rule.enter(sim, self.np_random, cfg, self.possible_agents,
                             {key: options[key] for key in rule.options if key in options})
         if self._edges is None:
@@ -185,7 +210,11 @@ class ParallelHighwayEnv(ParallelEnv[str, np.ndarray, np.int64]):
         observations, infos = {}, {}
         for agent in self.agents:
             observations[agent], infos[agent] = self._egos[agent].start(sim)
-        rule.started(sim, self._egos, options)
+        self._controllers = controllers
+        for agent in self.agents:
+            controllers[agent].take(sim, self._egos[agent])
+        if self._observers:
+            self._tell(Moment(sim.time_s, "reset", sim.vehicle_rows, infos=infos))
         return observations, infos
 
     def step(self, actions: dict[str, Any]) -> tuple[Observations, dict[str, float], dict[str, bool],
@@ -200,9 +229,9 @@ class ParallelHighwayEnv(ParallelEnv[str, np.ndarray, np.int64]):
             raise ValueError(f"actions must be given for exactly the agents still driving, {self.agents}; "
                              f"missing {missing}, not driving {extra}")
         chosen = {agent: checked_action(actions[agent], self.action_spaces[agent]) for agent in self.agents}
-        sim, egos = self._sim, [self._egos[agent] for agent in self.agents]
+        sim, egos, controllers = self._sim, [self._egos[agent] for agent in self.agents], self._controllers
         for agent, ego in zip(self.agents, egos, strict=True):
-            ego.command(sim, chosen[agent])
+            controllers[agent].command(sim, ego, chosen[agent])
         reports = sim.advance_egos(self._steps_per_decision, [ego.vehicle for ego in egos],
                                    [vehicle for ego in egos for vehicle in ego.period_safety.watched()])
         observations, rewards, terminations, truncations, infos = {}, {}, {}, {}, {}
@@ -210,7 +239,29 @@ class ParallelHighwayEnv(ParallelEnv[str, np.ndarray, np.int64]):
             (observations[agent], rewards[agent], terminations[agent], truncations[agent],
              infos[agent]) = ego.finish(sim, report)
         self.agents = [agent for agent in self.agents if not (terminations[agent] or truncations[agent])]
+        if self._observers:
+            self._tell(Moment(sim.time_s, "decision", sim.vehicle_rows, chosen, infos))
         return observations, rewards, terminations, truncations, infos
+
+    @contextlib.contextmanager
+    def watching(self, observer: Observer) -> Iterator[Observer]:
+        """`observer` is shown every SUMO step of the egos' periods (every_step) or each reset and decision, within
+        the block (`sumo_rail.sim.observers`)."""
+        self._observers.append(observer)
+        if observer.every_step and self._sim is not None:
+            self._sim.watch(observer)
+        try:
+            yield observer
+        finally:
+            self._observers.remove(observer)
+            if observer.every_step and self._sim is not None:
+                self._sim.unwatch(observer)
+
+    def _tell(self, moment: Moment) -> None:
+        """Show the reset and decision observers `moment`."""
+        for observer in self._observers:
+            if not observer.every_step:
+                observer(moment)
 
     def respawn(self, agent: str) -> tuple[np.ndarray, dict[str, Any]]:
         """Start a new episode of `agent`, which is not driving (it ended, or sat the episode out), while the others
@@ -241,7 +292,9 @@ class ParallelHighwayEnv(ParallelEnv[str, np.ndarray, np.int64]):
                                   f"flow_veh_per_h is {cfg.scenario.flow_veh_per_h:g} veh/h)")
         ego = self._egos[agent] = Ego(cfg, vehicle, self._edges)
         self.agents = [name for name in self.possible_agents if name in self.agents or name == agent]
-        return ego.start(sim)
+        started = ego.start(sim)
+        self._controllers[agent].take(sim, ego)
+        return started
 
     def render(self) -> np.ndarray | None:
         """With render_mode "rgb_array", the frame of the first ego's last decision (`frame`; of the first ego that

@@ -54,7 +54,7 @@ class EgoPlacement:
         speed_mps = self._safe_speed(lane, position_m, max_speed_mps)
         if speed_mps is None:
             return False
-        self._force_in(vehicle, lane, position_m, speed_mps)
+        self.put_ego(vehicle, lane, position_m, speed_mps)
         return True
 
     def _safe_speed(self, lane: int, position_m: float, max_speed_mps: float) -> float | None:
@@ -95,8 +95,10 @@ class EgoPlacement:
                 return None
         return speed_mps
 
-    def _force_in(self, vehicle: str, lane: int, position_m: float, speed_mps: float) -> None:
-        """Add an ego and move it onto the road at once (SUMO's insertion checks skipped: made by `_safe_speed`)."""
+    def put_ego(self, vehicle: str, lane: int, position_m: float, speed_mps: float) -> None:
+        """Add an ego and move it onto the road at once, in `lane` of its start edge with its front at `position_m` [m]
+        and speed `speed_mps` [m/s], skipping SUMO's insertion checks (`place_ego` makes them first; a recorded seat
+        needs none)."""
         api = self._api.vehicle
         self.forget_sizes(vehicle)
         api.add(vehicle, self._built.route_id, typeID=network.EGO_TYPE, depart="now", departLane=str(lane),
@@ -144,7 +146,7 @@ class EgoPlacement:
                 waiting.append((vehicle, lane, position_m))
             else:
                 self._api.vehicle.remove(vehicle)  # out of the insertion queue
-                self._force_in(vehicle, lane, position_m, speed_mps)
+                self.put_ego(vehicle, lane, position_m, speed_mps)
         return waiting
 
     def _insert(self, vehicle: str, lane: int, position_m: float) -> None:

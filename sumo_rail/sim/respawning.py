@@ -12,6 +12,7 @@ and the road is never reset: one whole episode each, the same steps (`drive_egos
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 from sumo_rail.sim.parallel_env import Infos, NoRoomToRespawn, Observations, ParallelHighwayEnv
 from sumo_rail.sim.rewards import EpisodeMetrics
@@ -45,21 +46,22 @@ class RespawnStep:
 
 class RespawningEgos:
     """The egos of `env`, each respawning as soon as its episode ends, unless `respawn` is False (see the module's
-    docstring); the road's first reset is seeded with `seed`, later ones draw on from its generator. Without respawns
-    `env` may be any env of `ParallelHighwayEnv`'s reset/step API (the rollouts' one-ego view of a Gymnasium env)."""
+    docstring); the road's first reset is seeded with `seed`, later ones draw on from its generator; every reset
+    takes `options` (the env's reset options)."""
 
     def __init__(self, env: ParallelHighwayEnv, seed: int | None, reset_when_empty: bool,
-                 respawn: bool = True) -> None:
+                 respawn: bool = True, options: dict[str, Any] | None = None) -> None:
         self.env = env
         self.seed = seed
         """Seed of the next reset: the first one's, then None (later resets draw on from the road's generator)."""
         self.reset_when_empty = reset_when_empty
         self.respawn = respawn
+        self.options = options
 
     def start(self) -> tuple[Observations, Infos]:
         """Reset the road (the first time with `seed`); an ego that could not enter respawns. Every ego's first
         observation and info."""
-        observations, infos = self.env.reset(seed=self.seed)
+        observations, infos = self.env.reset(seed=self.seed, options=self.options)
         self.seed = None
         for agent in self.env.possible_agents if self.respawn else ():
             if agent not in observations:

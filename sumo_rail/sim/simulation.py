@@ -18,33 +18,32 @@ import logging
 import os
 import warnings
 import weakref
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from pathlib import Path
+from typing import TypeVar
 
 from sumo_rail.config import ScenarioConfig
 from sumo_rail.datasets import describe, written_atomically
 from sumo_rail.sim import gui as sumo_gui
 from sumo_rail.sim import network
+from sumo_rail.sim.commands import EgoCommands
+from sumo_rail.sim.observers import Moment, Observer, Rows, VehicleRows
 from sumo_rail.sim.placement import EgoPlacement
 from sumo_rail.sim.road import RouteMap
 from sumo_rail.sim.sensing import Sensing
 from sumo_rail.sim.stepping import Stepping
 from sumo_rail.sim.sumo_api import EGO_ID as EGO_ID  # importable from here, as before
-from sumo_rail.sim.sumo_api import (
-    LANE_CHANGE_MODE_TRACI_ONLY_SAFE,
-    LANE_CHANGE_MODE_ZIP_MERGE,
-    SPEED_MODE_COMMANDED_ACCELERATION,
-    decision_calls,
-    load_api,
-    load_constants,
-)
 from sumo_rail.sim.sumo_api import TRANSPORTS as TRANSPORTS
 from sumo_rail.sim.sumo_api import SimulationError as SimulationError
+from sumo_rail.sim.sumo_api import decision_calls, load_api, load_constants
+from sumo_rail.sim.traffic_source import GeneratedTraffic, Step, TrafficSource
 from sumo_rail.sim.vehicles import EgoState as EgoState
 from sumo_rail.sim.vehicles import Neighbours as Neighbours
 from sumo_rail.sim.warm_states import WARM_STATE_POOLS as WARM_STATE_POOLS
 from sumo_rail.sim.warm_states import WarmStates
 
+WatchedObserver = TypeVar("WatchedObserver", bound=Observer)
+"""The type of an observer `Simulation.watching` hands back."""
 log = logging.getLogger(__name__)
 
 _ACTIVE_LIBSUMO: Simulation | None = None
@@ -58,12 +57,14 @@ class EgoCouldNotEnter(SimulationError):
     """No ego of a reset found room at its start place (the place may be drawn again)."""
 
 
-class Simulation(EgoPlacement, Stepping, Sensing):
+class Simulation(EgoPlacement, Stepping, Sensing, EgoCommands):
     """One SUMO instance for the ego's episodes on one scenario, driven by `transport` (`TRANSPORTS`); `gui` implies
-    traci, and sumo-gui then follows the ego, waiting `gui_delay_ms` [ms] of wall time per step."""
+    traci, and sumo-gui then follows the ego, waiting `gui_delay_ms` [ms] of wall time per step. Its traffic is
+    `traffic`'s (default `GeneratedTraffic`: the road's own flows, from warm states)."""
 
     def __init__(self, scenario: ScenarioConfig, context_radius_m: float, gui: bool = False,
-                 transport: str = "libsumo", gui_delay_ms: float = 100.0) -> None:
+                 transport: str = "libsumo", gui_delay_ms: float = 100.0,
+                 traffic: TrafficSource | None = None) -> None:
         global _ACTIVE_LIBSUMO
         if transport not in TRANSPORTS:
             raise ValueError(f"transport must be one of {', '.join(TRANSPORTS)}, got {transport!r}")
@@ -81,7 +82,13 @@ class Simulation(EgoPlacement, Stepping, Sensing):
         self.context_radius_m = context_radius_m
         self.gui = gui
         self.gui_delay_ms = gui_delay_ms
-        self._built = network.build(scenario)
+        self.traffic = traffic or GeneratedTraffic()
+        """Where the simulation's traffic comes from (`sumo_rail.sim.traffic_source`)."""
+        self._built = self.traffic.network(scenario)
+        self._observers: list[Observer] = []
+        """Every-step observers (`watching`)."""
+        self._rows: VehicleRows | None = None
+        """The reader of every vehicle's rows since the last load (`vehicle_rows`)."""
         self._client = load_api(self.transport)
         self._label = f"sumo_rail_{next(_TRACI_LABELS)}"
         self._constants = load_constants()
@@ -142,12 +149,72 @@ class Simulation(EgoPlacement, Stepping, Sensing):
             raise SimulationError(f"sumo-gui did not start (is a display available?): {describe(error)}") from error
         self._api = sumo_gui.PacedApi(api, self.gui_delay_ms / 1000.0) if self.gui else api
         self._calls = decision_calls(self._api)
+        self._sumo_step: Step = self.traffic.connect(self._api, self.scenario.step_length_s,
+                                                     self.speed_limit_mps) or self._calls.step
+        """Each SUMO step of the egos' periods before the observers see it: SUMO's own or the traffic's."""
+        self._compose_step()
         # a SUMO process is closed at the latest when this simulation is collected or the process ends: dropped with
         # its socket, it would report "peer shutdown" and "Quitting (on error)" where no error happened
         self._closing = weakref.finalize(self, _close_quietly, api) if self.transport == "traci" else None
 
+    def _compose_step(self) -> None:
+        """The step of the egos' periods (`_calls.step`): the traffic's or SUMO's, then the every-step observers."""
+        step, observers = self._sumo_step, tuple(self._observers)
+        if not observers:
+            self._calls = self._calls._replace(step=step)
+            return
+        time_s, read = self._calls.time_s, self.vehicle_rows
+
+        def observed_step() -> None:
+            step()
+            moment = Moment(time_s(), "step", read)
+            for observer in observers:
+                observer(moment)
+
+        self._calls = self._calls._replace(step=observed_step)
+
+    def watch(self, observer: Observer) -> None:
+        """Call `observer` (every_step) after each SUMO step of the egos' periods, of a seat and of `advance`, until
+        `unwatch`."""
+        self._observers.append(observer)
+        self._compose_step()
+
+    def unwatch(self, observer: Observer) -> None:
+        """Stop calling `observer`."""
+        self._observers.remove(observer)
+        self._compose_step()
+
+    @contextlib.contextmanager
+    def watching(self, observer: WatchedObserver) -> Iterator[WatchedObserver]:
+        """`watch` `observer` within the block."""
+        self.watch(observer)
+        try:
+            yield observer
+        finally:
+            self.unwatch(observer)
+
+    def vehicle_rows(self) -> Rows:
+        """Every vehicle on the road now as rows (`sumo_rail.sim.observers.ROW_FIELDS`)."""
+        if self._rows is None:
+            self._rows = VehicleRows(self._api, self._constants)
+        return self._rows.read()
+
+    def advance(self, steps: int) -> None:
+        """Run `steps` SUMO steps, no ego watched (the observers see each)."""
+        step = self._calls.step
+        for _ in range(steps):
+            step()
+
+    def load_empty(self, begin_s: float, sumo_seed: int) -> None:
+        """Load the road afresh, no warm state, its clock at `begin_s` [s], with SUMO seed `sumo_seed` (a traffic that
+        places its vehicles itself: `sumo_rail.sim.replay`)."""
+        self._require_running()
+        self._load(["--begin", repr(begin_s), "--seed", str(sumo_seed)])
+        self._zip_merging.clear()
+
     def _load(self, extra: list[str]) -> None:
         self.forget_sizes()  # a loaded state may give known ids to other vehicles
+        self._rows = None
         try:
             self._api.load([*self._options(), *self._gui_options(), *extra])
         except self._client.TraCIException as error:  # type: ignore[attr-defined]
@@ -188,11 +255,12 @@ class Simulation(EgoPlacement, Stepping, Sensing):
         `ENTRY_WAIT_S` (no room at its place all along, or gone already) sits the episode out: returns those ids,
         in order (EgoCouldNotEnter when none of the egos is on the road)."""
         self._require_running()
+        self.traffic.check_warm_start()
         try:
             self._load(["--load-state", str(self._pool(pool)[warm_state]), "--seed", str(sumo_seed)])
         except SimulationError as error:  # a cached file damaged since the start: rebuild what is damaged, once
             log.warning("%s; checking the cached network and warm states", error)
-            network.build(self.scenario)
+            self.traffic.network(self.scenario)
             self._warm_states.forget()
             self._load(["--load-state", str(self._pool(pool)[warm_state]), "--seed", str(sumo_seed)])
         self._zip_merging.clear()
@@ -240,53 +308,10 @@ class Simulation(EgoPlacement, Stepping, Sensing):
             raise SimulationError("screenshots need sumo-gui (render_mode='human')")
         self._api.gui.screenshot(sumo_gui.VIEW, str(path), width_px, height_px)
 
-    def set_cruise_speed(self, speed_mps: float, vehicle: str = EGO_ID) -> None:
-        """Set an ego's cruise set-point [m/s]; SUMO's ACC model tracks it within safe gaps.
-
-        The set-point is the ego's desired speed, speed factor x speed limit. (Lowering the vehicle's maximum
-        speed instead would be a hard cap that SUMO enforces at emergency deceleration, 9 m/s^2; a lower speed
-        factor is reached at the ego type's comfortable deceleration.)
-        """
-        self._api.vehicle.setSpeedFactor(vehicle, speed_mps / self.speed_limit_mps)
-
-    def take_acceleration_control(self, vehicle: str, max_acceleration_mps2: float) -> None:
-        """Drive an ego by commanded accelerations (`set_acceleration`) from now on: its type becomes the
-        acceleration interface's (`ACCELERATION_EGO_TYPE`: Krauss without dawdling, whose safe speed is the
-        emergency brake), its desired speed its type's top speed, whatever the road's limit, its acceleration
-        capability `max_acceleration_mps2` [m/s^2]; the speed mode keeps the safe speed and drops the bound on
-        deceleration, so a commanded braking is followed as given. The vehicle keeps its length and width (a recorded
-        seat's)."""
-        vehicle_api = self._api.vehicle
-        length_m, width_m = vehicle_api.getLength(vehicle), vehicle_api.getWidth(vehicle)
-        vehicle_api.setType(vehicle, network.ACCELERATION_EGO_TYPE)
-        vehicle_api.setAccel(vehicle, max_acceleration_mps2)  # a type of the vehicle's own: set before its speed factor
-        vehicle_api.setLength(vehicle, length_m)
-        vehicle_api.setWidth(vehicle, width_m)
-        vehicle_api.setSpeedFactor(vehicle, vehicle_api.getMaxSpeed(vehicle) / self.speed_limit_mps)
-        vehicle_api.setSpeedMode(vehicle, SPEED_MODE_COMMANDED_ACCELERATION)
-
-    def set_acceleration(self, acceleration_mps2: float, duration_s: float, vehicle: str = EGO_ID) -> None:
-        """Hold an ego's acceleration at `acceleration_mps2` [m/s^2] for `duration_s` [s] (a vehicle under
-        `take_acceleration_control`); SUMO's safe speed brakes harder where the leader demands it, and the speed stays
-        between 0 and the ego's top speed."""
-        self._api.vehicle.setAcceleration(vehicle, acceleration_mps2, duration_s)
-
     @property
     def speed_limit_mps(self) -> float:
         """The road's speed limit [m/s]: scenario.speed_limit_mps, or the highest along a user's route."""
         return self._built.speed_limit_mps or self.scenario.speed_limit_mps
-
-    def request_lane_change(self, lane: int, duration_s: float, vehicle: str = EGO_ID, zip_merge: bool = False) -> None:
-        """Ask SUMO to move an ego to route lane `lane` when safe within `duration_s`; unsafe changes wait, never
-        forced. A `zip_merge` (out of a lane about to end, `route_progress.zip_merge_change`) needs only that no
-        collision is immediate, as SUMO's own drivers merge at a lane's end: the followers brake for it."""
-        if not self.route_map.single_edge:
-            lane = self.route_map.sumo_lane(self._api.vehicle.getLaneID(vehicle), lane)
-        if zip_merge != (vehicle in self._zip_merging):
-            self._zip_merging ^= {vehicle}
-            mode = LANE_CHANGE_MODE_ZIP_MERGE if zip_merge else LANE_CHANGE_MODE_TRACI_ONLY_SAFE
-            self._api.vehicle.setLaneChangeMode(vehicle, mode)
-        self._api.vehicle.changeLane(vehicle, lane, duration_s)
 
     def close(self) -> None:
         """End SUMO; calling it again is harmless."""

@@ -19,7 +19,7 @@ single ego and K egos alike (`WarmStateStart`, the env core's default `StartRule
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 from typing import Any, Protocol
 
@@ -27,7 +27,7 @@ import numpy as np
 
 from sumo_rail.config import Config
 from sumo_rail.sim import network
-from sumo_rail.sim.ego import CONTEXT_MARGIN_M, Ego
+from sumo_rail.sim.ego import CONTEXT_MARGIN_M
 from sumo_rail.sim.ego_past import EgoPast
 from sumo_rail.sim.simulation import EGO_ID, EgoCouldNotEnter, Simulation
 from sumo_rail.sim.warm_states import WARM_STATE_POOLS
@@ -164,9 +164,10 @@ def start_ego(sim: Simulation, rng: np.random.Generator, config: Config, options
 
 
 class StartRule(Protocol):
-    """How the env core (`ParallelHighwayEnv`) starts an episode: its simulation, the egos' entry, and what follows
-    their first observation. `WarmStateStart` for the generated roads and users' networks;
-    `sumo_rail.recordings.seat.SeatStart` puts the ego in a recorded vehicle's seat."""
+    """How the env core (`ParallelHighwayEnv`) starts an episode: its simulation (and so its traffic,
+    `sumo_rail.sim.traffic_source`), the egos' entry and what is known of them before it. `WarmStateStart` for the
+    generated roads and users' networks; `sumo_rail.recordings.seat.SeatStart` puts the ego in a recorded vehicle's
+    seat."""
 
     options: tuple[str, ...]
     """The reset options it reads (the env ignores others, with a warning)."""
@@ -179,10 +180,6 @@ class StartRule(Protocol):
               options: dict[str, Any]) -> list[str]:
         """Reset `sim` with the egos `agents` (their SUMO ids) on the road, drawing from `rng`; the agents that sit
         the episode out."""
-        ...
-
-    def started(self, sim: Simulation, egos: Mapping[str, Ego], options: dict[str, Any]) -> None:
-        """After each ego's first observation."""
         ...
 
     def past(self, sim: Simulation, agent: str) -> EgoPast | None:
@@ -206,9 +203,6 @@ class WarmStateStart:
         return start_egos(sim, rng, config, len(agents), options, lambda starts, pool: sim.reset_egos(
             starts.warm_state, starts.sumo_seed, list(zip(agents, starts.lanes, starts.positions_m, strict=True)),
             pool))
-
-    def started(self, sim: Simulation, egos: Mapping[str, Ego], options: dict[str, Any]) -> None:
-        return None
 
     def past(self, sim: Simulation, agent: str) -> EgoPast | None:
         return None  # an ego placed from a warm state has no past before it

@@ -27,7 +27,7 @@ from sumo_rail.recordings import highd
 from sumo_rail.recordings.formats import ReadOptions
 from sumo_rail.recordings.road import build_road
 from sumo_rail.recordings.tracks import RecordingDataError
-from sumo_rail.sim.network import _netconvert
+from sumo_rail.sim.network import netconvert
 
 
 def invoke(*args: str):
@@ -171,7 +171,7 @@ def one_edge_network(folder, to_xy: tuple[float, float]):
     (folder / "n.nod.xml").write_text(f'<nodes><node id="a" x="0" y="0"/><node id="b" x="{to_xy[0]}" '
                                       f'y="{to_xy[1]}"/></nodes>')
     (folder / "n.edg.xml").write_text('<edges><edge id="road" from="a" to="b" numLanes="3" speed="30"/></edges>')
-    _netconvert({"nodes": folder / "n.nod.xml", "edges": folder / "n.edg.xml"}, folder / "net.net.xml")
+    netconvert({"nodes": folder / "n.nod.xml", "edges": folder / "n.edg.xml"}, folder / "net.net.xml")
     return folder / "net.net.xml"
 
 

@@ -8,10 +8,11 @@ import pandas as pd
 import pytest
 
 from sumo_rail.config import Config
-from sumo_rail.recordings import scene_traffic
-from sumo_rail.recordings.scene_traffic import REPLAY_RADIUS_M
-from sumo_rail.recordings.seat import IDM_TYPE, SceneEnv
+from sumo_rail.recordings.seat import SceneEnv
+from sumo_rail.sim import replay as replayed_traffic
 from sumo_rail.sim.actions import Action
+from sumo_rail.sim.controllers import SUMO_DRIVER_TYPE
+from sumo_rail.sim.replay import REPLAY_RADIUS_M
 from sumo_rail.sim.simulation import EGO_ID
 
 CONFIG = Config.from_dict({"observation": {"lane_block": 1}, "env": {"max_episode_s": 10.0}})
@@ -87,7 +88,7 @@ def test_vehicles_out_of_the_replay_radius_change_nothing_for_the_ego(drivers_sc
     actions = [Action.DECELERATE] * 4 + [Action.LANE_LEFT] + [Action.ACCELERATE] * 10
     runs = []
     for radius_m in (REPLAY_RADIUS_M, 1e9):
-        monkeypatch.setattr(scene_traffic, "REPLAY_RADIUS_M", radius_m)
+        monkeypatch.setattr(replayed_traffic, "REPLAY_RADIUS_M", radius_m)
         runs.append(observations(replay, vehicle, start_s, actions, seed=0))
     np.testing.assert_array_equal(runs[0], runs[1])
 
@@ -181,9 +182,9 @@ def env_follower(env: SceneEnv) -> str:
 def test_sumo_drives_the_seat_when_asked(replay):
     tracks = replay.scene.tracks
     vehicle, start_s = long_track(tracks)
-    replay.reset(seed=0, options={"vehicle": vehicle, "start_s": start_s, "sumo_driver": True})
+    replay.reset(seed=0, options={"vehicle": vehicle, "start_s": start_s, "controller": "sumo"})
     api = replay.simulation._api
-    assert api.vehicle.getTypeID(EGO_ID).split("@")[0] == IDM_TYPE  # "@ego": its own copy, of the seat's size
+    assert api.vehicle.getTypeID(EGO_ID).split("@")[0] == SUMO_DRIVER_TYPE  # "@ego": its own copy, of the seat's size
     assert api.vehicle.getLength(EGO_ID) == pytest.approx(recorded(tracks, start_s).at[vehicle, "length_m"])
     start = replay.traffic.ego.lane_position_m
     for _ in range(4):
@@ -194,15 +195,16 @@ def test_sumo_drives_the_seat_when_asked(replay):
 
 
 def test_a_sumo_driven_seat_ignores_the_actions(replay):
-    """With "sumo_driver" the episode is SUMO's whatever the actions: braking or accelerating, the same states."""
+    """With SUMO's controller the episode is SUMO's whatever the actions: braking or accelerating, the same states;
+    the controller named for the ego alone is the same."""
     vehicle, start_s = long_track(replay.scene.tracks)
     runs = []
-    for action in (Action.DECELERATE, Action.ACCELERATE):
-        replay.reset(seed=0, options={"vehicle": vehicle, "start_s": start_s, "sumo_driver": True})
+    for action, controller in ((Action.DECELERATE, "sumo"), (Action.ACCELERATE, {EGO_ID: "sumo"})):
+        replay.reset(seed=0, options={"vehicle": vehicle, "start_s": start_s, "controller": controller})
         runs.append([replay.step(int(action))[0] for _ in range(4)])
     np.testing.assert_array_equal(runs[0], runs[1])
-    replay.reset(seed=0, options={"vehicle": vehicle, "start_s": start_s, "sumo_driver": False})
-    assert replay.simulation._api.vehicle.getTypeID(EGO_ID).split("@")[0] != IDM_TYPE
+    replay.reset(seed=0, options={"vehicle": vehicle, "start_s": start_s, "controller": "actions"})
+    assert replay.simulation._api.vehicle.getTypeID(EGO_ID).split("@")[0] != SUMO_DRIVER_TYPE
 
 
 def test_the_seat_is_taken_where_the_track_begins_by_default(replay):
@@ -241,30 +243,3 @@ def test_libsumo_and_traci_drive_the_same_seat_alike(drivers_scene, replay):
         if env is not replay:
             env.close()
     np.testing.assert_array_equal(states[0], states[1])
-
-
-def test_an_ego_gone_after_a_recorded_collision_collided():
-    """SUMO may drop an ego that ran into a replayed vehicle one step after naming the collision; the episode's own
-    record of the ego's collisions says why it is gone."""
-    from sumo_rail.recordings.seat import SceneSimulation
-
-    simulation = object.__new__(SceneSimulation)
-    simulation.ego_collisions = [(EGO_ID, "cutter")]
-    assert simulation._why_gone(EGO_ID) == (True, False)
-
-
-def test_a_collision_in_a_periods_last_step_ends_the_episode(monkeypatch):
-    """SUMO still answers for an ego that ran into a replayed vehicle in the period's last step (it leaves at the
-    next): the period's report says it collided, from the episode's record."""
-    from sumo_rail.recordings.seat import SceneSimulation
-    from sumo_rail.sim.stepping import Stepping
-    from sumo_rail.sim.vehicles import PeriodReport
-
-    monkeypatch.setattr(Stepping, "advance_egos",
-                        lambda self, steps, vehicles, watch=(): [PeriodReport(False, False, False, 0.0, 0)] * 2)
-    simulation = object.__new__(SceneSimulation)
-    simulation.ego_collisions = []
-    assert not any(report.ego_collided for report in simulation.advance_egos(5, [EGO_ID, "other"]))
-    simulation.ego_collisions = [(EGO_ID, "cutter")]
-    ego, other = simulation.advance_egos(5, [EGO_ID, "other"])
-    assert ego.ego_collided and not ego.ego_left_network and not other.ego_collided

@@ -10,10 +10,12 @@ import traci.constants
 
 from sumo_rail.sim.stepping import Stepping
 from sumo_rail.sim.sumo_api import INVALID_VALUE
+from sumo_rail.sim.traffic_source import GeneratedTraffic
 
 
-def stepping(readings: dict[str, list[float]]) -> Stepping:
-    """A `Stepping` whose SUMO answers each vehicle's acceleration at step k with `readings[vehicle][k]`."""
+def stepping(readings: dict[str, list[float]], traffic: object = GeneratedTraffic()) -> Stepping:
+    """A `Stepping` whose SUMO answers each vehicle's acceleration at step k with `readings[vehicle][k]`, its traffic
+    `traffic`."""
     steps = SimpleNamespace(done=0)
 
     def step() -> None:
@@ -23,6 +25,7 @@ def stepping(readings: dict[str, list[float]]) -> Stepping:
     stepper._api = SimpleNamespace(simulation=SimpleNamespace(getTime=lambda: steps.done * 0.1))
     stepper._client = SimpleNamespace(TraCIException=RuntimeError)
     stepper._calls = (step, lambda: 0, lambda vehicle: readings[vehicle][steps.done - 1])  # type: ignore[assignment]
+    stepper.traffic = traffic  # type: ignore[assignment]
     return stepper
 
 
@@ -41,3 +44,18 @@ def test_a_vehicle_waiting_to_be_inserted_has_no_acceleration_yet():
                                                                                                   ["follower"])
     assert waiting.accelerations_mps2 == () and waiting.min_acceleration_mps2 == pytest.approx(0.0)
     assert waiting.watched_min_acceleration_mps2 == {} and not waiting.ego_collided
+
+
+def test_an_ego_the_traffic_saw_collide_collided():
+    """SUMO still answers for an ego that ran into a replayed vehicle in the period's last step (it leaves at the
+    next): the period's report says it collided, from the traffic's record; the other egos' reports stay as they are."""
+    readings = {"ego": [0.0] * 5, "other": [0.0] * 5}
+    assert not any(report.ego_collided for report in stepping(readings).advance_egos(5, ["ego", "other"]))
+    ego, other = stepping(readings, SimpleNamespace(collided=("ego",))).advance_egos(5, ["ego", "other"])
+    assert ego.ego_collided and not ego.ego_left_network and not other.ego_collided
+
+
+def test_an_ego_gone_after_a_collision_the_traffic_saw_collided():
+    """SUMO may drop an ego that ran into a replayed vehicle one step after naming the collision; the traffic's own
+    record of the ego's collisions says why it is gone."""
+    assert stepping({}, SimpleNamespace(collided=("ego",)))._why_gone("ego") == (True, False)

@@ -47,7 +47,7 @@ def learner_checkpoint(model: PPO, normalisation: FixedNormalisation, rows: list
     normaliser = model.get_vec_normalize_env()
     return {"format": CHECKPOINT_FORMAT, "updates": len(rows), "log": rows,
             "policy": model.policy.state_dict(), "optimizer": model.policy.optimizer.state_dict(),
-            "num_timesteps": model.num_timesteps, "n_updates": model._n_updates,
+            "num_timesteps": model.num_timesteps, "n_updates": model._n_updates,  # noqa: SLF001 - SB3 keeps it private
             "torch_rng": torch.get_rng_state(),
             "numpy_rng": {"keys": torch.from_numpy(keys.astype(np.int64)), "position": int(position),
                           "has_gauss": int(has_gauss), "cached_gaussian": float(cached)},
@@ -67,7 +67,8 @@ def restore_learner(model: PPO, checkpoint: dict[str, Any], path: Path,
             discriminator.load_state(checkpoint["discriminator"])
         model.policy.load_state_dict(checkpoint["policy"])
         model.policy.optimizer.load_state_dict(checkpoint["optimizer"])
-        model.num_timesteps, model._n_updates = int(checkpoint["num_timesteps"]), int(checkpoint["n_updates"])
+        model.num_timesteps, model._n_updates = (  # noqa: SLF001 - SB3 keeps the update count private
+            int(checkpoint["num_timesteps"]), int(checkpoint["n_updates"]))
         torch.set_rng_state(checkpoint["torch_rng"])
         generator = checkpoint["numpy_rng"]
         np.random.set_state(("MT19937", generator["keys"].numpy().astype(np.uint32), generator["position"],

@@ -7,14 +7,14 @@ import pandas as pd
 import pytest
 
 from sumo_rail.config import Config
-from sumo_rail.recordings import scene_traffic
 from sumo_rail.recordings.road import ROAD_EDGE
 from sumo_rail.recordings.scene import SceneMeta, split_table, write_scene_folder
-from sumo_rail.recordings.scene_traffic import REPLAY_RADIUS_M
 from sumo_rail.recordings.seat import SceneEnv
 from sumo_rail.recordings.tracks import Recording
+from sumo_rail.sim import replay
 from sumo_rail.sim.actions import Action
 from sumo_rail.sim.ego import CONTEXT_MARGIN_M
+from sumo_rail.sim.replay import REPLAY_RADIUS_M
 from sumo_rail.sim.simulation import EGO_ID
 
 CONFIG = Config.from_dict({"scenario": {"lanes": 3}, "env": {"max_episode_s": 10.0}})
@@ -64,8 +64,8 @@ def test_sumos_car_following_in_the_seat_reacts_to_a_leader_beyond_the_lidar_as_
     with every recorded vehicle in SUMO (an unbounded radius)."""
     runs = []
     for radius_m in (REPLAY_RADIUS_M, 1e9):
-        monkeypatch.setattr(scene_traffic, "REPLAY_RADIUS_M", radius_m)
-        far_leader.reset(seed=0, options={"vehicle": "car", "start_s": 1.0, "sumo_driver": True})
+        monkeypatch.setattr(replay, "REPLAY_RADIUS_M", radius_m)
+        far_leader.reset(seed=0, options={"vehicle": "car", "start_s": 1.0, "controller": "sumo"})
         runs.append([far_leader.step(int(Action.KEEP))[4]["speed_mps"] for _ in range(8)])
     assert runs[0] == runs[1]
     assert max(runs[0]) < 30.0 + 0.5 and runs[0][-1] < runs[0][0]

@@ -1,0 +1,200 @@
+"""A recorded scene's vehicles as a simulation's traffic (`ReplayedTraffic`, a `TrafficSource`), in one of two modes:
+
+- non-reactive (nuPlan's and Waymax's log replay): before every SUMO step each vehicle of the recording is moved
+  (`moveToXY`, its recorded lane kept) to where the recording has it at the step's end; it enters when its track
+  begins and leaves when it ends, whatever anyone else does. SUMO gives it the speed its move implies, so the ego's
+  car following sees the recorded speeds.
+- reactive: each vehicle is placed once at its recorded state (position, lane, speed) where its track begins (or at
+  the ego's start, when it is on the road then) and from the next step on driven by SUMO's car following and lane
+  changing (SUMO's default Krauss type, its desired speed the fastest speed its track records), so it reacts to the
+  ego; it leaves at the end of the road.
+
+An episode seats the ego (`EGO_ID`) in one recorded vehicle (`ReplayedTraffic.seat`), which is then never placed.
+The scene comes in as plain data (`FramesAt`: every vehicle's ids, values and lanes at an instant, interpolated
+between frames, so a scene of any frame rate plays at the simulation's step), so this module knows no recording
+format. Non-reactive vehicles farther than `REPLAY_RADIUS_M` from the ego along the road are not in SUMO at all: their
+recorded path does not depend on anything, and from there they reach neither the ego's perception (LIDAR range +
+context margin, 120 m by default) nor its car following (SUMO's leader search reaches its braking distance, 330 m at
+44 m/s with the ACC's 3 m/s^2); they enter at their recorded place when they come within it (tests show the same
+observations, and a SUMO-driven seat the same speeds, with every vehicle in SUMO).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import xml.etree.ElementTree as ElementTree
+from collections.abc import Callable, Collection, Mapping
+from typing import Any
+
+import numpy as np
+
+from sumo_rail.config import ScenarioConfig
+from sumo_rail.datasets import DatasetError, write_bytes_atomically
+from sumo_rail.sim import network
+from sumo_rail.sim.built_network import BuiltNetwork
+from sumo_rail.sim.commands import LANE_CHANGE_MODE_SUMO
+from sumo_rail.sim.controllers import SUMO_DRIVER_TYPE
+from sumo_rail.sim.simulation import Simulation
+from sumo_rail.sim.sumo_api import EGO_ID, SimulationError
+from sumo_rail.sim.traffic_source import Step
+
+KEEP_ROUTE_ANY_EDGE = 2
+"""moveToXY's keepRoute: place the vehicle on the recorded edge and lane, off its route if need be."""
+SPEED_MODE_SUMO = 31
+"""SUMO's default speed mode: every safety check on (a released reactive vehicle)."""
+REPLAY_RADIUS_M = 500.0
+"""Non-reactive vehicles are in SUMO while within this distance of the ego along the road [m]."""
+REPLAY_ROUTE = "scene_replay"
+"""The route (the scene's one edge) every recorded vehicle is added on."""
+FramesAt = Callable[[float], tuple[np.ndarray, dict[str, np.ndarray], np.ndarray]]
+"""The scene at an instant [s]: the ids of the vehicles on the road, their values ("x_m", "y_m", "heading_deg",
+"speed_mps", "lane_position_m", "length_m", "width_m"; a scene's track columns) and lanes, one entry each."""
+
+
+class ReplayedTraffic:
+    """The vehicles of a scene on its one edge `edge`: `frames_at` the scene at any instant, `begins_s` each track's
+    first time [s] (sorted: the reactive mode looks for vehicles to place only when one begins), `top_speeds_mps` each
+    vehicle's fastest recorded speed [m/s] (its desired speed in the reactive mode); `reactive` chooses the mode."""
+
+    def __init__(self, frames_at: FramesAt, begins_s: np.ndarray, top_speeds_mps: Mapping[str, float], edge: str,
+                 reactive: bool) -> None:
+        self.frames_at = frames_at
+        self.edge = edge
+        self.reactive = reactive
+        self._begins_s = np.asarray(begins_s)
+        self._top_speeds_mps = top_speeds_mps
+        self._speed_factor: dict[str, float] = {}
+        """Each vehicle's desired speed in the reactive mode, as a share of the road's limit."""
+        self.api: Any = None
+        """The SUMO connection (`connect`)."""
+        self._step_s = 0.0
+        self.ego_collisions: list[tuple[str, str]] = []
+        """(collider, victim) of each collision of the ego in the episode (SUMO's collider: the follower)."""
+        self.seated: tuple[str, float] = ("", 0.0)
+        """The recorded vehicle whose seat the ego took and when [s]."""
+        self._ego_in = False
+        """The ego is on the road (seated, not yet gone)."""
+        self._skip = ""
+        """The seat's vehicle, never placed."""
+        self._placed: set[str] = set()
+        """Vehicles placed so far (reactive: they are SUMO's from the step after)."""
+        self._releasing: list[str] = []
+        self._last_s = -np.inf
+
+    def network(self, scenario: ScenarioConfig) -> BuiltNetwork:
+        """The scene's road with its routes file less the generated flows, with the replay's route and the type of
+        SUMO's own driver in the seat (`SUMO_DRIVER_TYPE`)."""
+        built = network.build(scenario)
+        root = ElementTree.parse(built.routes_file).getroot()
+        for flow in root.findall("flow"):
+            root.remove(flow)
+        ElementTree.SubElement(root, "route", id=REPLAY_ROUTE, edges=self.edge)
+        ElementTree.SubElement(root, "vType", id=SUMO_DRIVER_TYPE, carFollowModel="IDM", laneChangeModel="LC2013")
+        routes = built.directory / "scene.rou.xml"
+        write_bytes_atomically(routes, ElementTree.tostring(root))
+        return dataclasses.replace(built, routes_file=routes)
+
+    def connect(self, api: Any, step_s: float, speed_limit_mps: float) -> Step:
+        self.api, self._step_s = api, step_s
+        self._speed_factor = {str(name): float(top / speed_limit_mps) for name, top in self._top_speeds_mps.items()}
+        return self.step
+
+    @property
+    def collided(self) -> Collection[str]:
+        return (EGO_ID,) if self.ego_collisions else ()
+
+    def check_warm_start(self) -> None:
+        raise SimulationError("a scene's episodes start in a recorded vehicle's seat (seat), not from warm states")
+
+    def seat(self, sim: Simulation, vehicle: str, start_s: float, sumo_seed: int) -> None:
+        """Load `sim`'s road afresh at `start_s` [s] with SUMO seed `sumo_seed`, place the recorded vehicles there (but
+        `vehicle`) and put the ego in `vehicle`'s place, state and size; DatasetError when it is not on the road
+        then."""
+        sim.load_empty(start_s - self._step_s, sumo_seed)
+        self.ego_collisions.clear()
+        self._ego_in = False
+        self.seated = (vehicle, start_s)
+        self._skip = vehicle
+        self._placed.clear()
+        self._releasing.clear()
+        self._last_s = -np.inf
+        sim.advance(1)
+        ids, values, lanes = self.frames_at(start_s)
+        row = np.flatnonzero(ids == vehicle)
+        if not len(row):
+            raise DatasetError(f"vehicle {vehicle} of the scene is not on the road at {start_s:g} s")
+        k, vehicle_api = int(row[0]), self.api.vehicle
+        speed_mps = float(values["speed_mps"][k])
+        # placed standing, then given the recorded speed: SUMO refuses a departure above the type's limit on the lane
+        sim.put_ego(EGO_ID, int(lanes[k]), float(values["lane_position_m"][k]), 0.0)
+        vehicle_api.setSpeedFactor(EGO_ID, max(1.0, speed_mps / sim.speed_limit_mps))
+        vehicle_api.setPreviousSpeed(EGO_ID, speed_mps)
+        sim.resize(EGO_ID, float(values["length_m"][k]), float(values["width_m"][k]))
+        self._ego_in = True
+
+    def step(self) -> None:
+        """One SUMO step with the recorded vehicles placed for its end; the ego's collisions kept."""
+        api = self.api
+        end_s = api.simulation.getTime() + self._step_s
+        self._place(end_s, api.vehicle.getPosition(EGO_ID)[0] if self._ego_in else None)
+        api.simulationStep(end_s)  # to a time: over traci a plain step after a load may keep SUMO's clock
+        simulation = api.simulation
+        if simulation.getCollidingVehiclesNumber():
+            self.ego_collisions += [(collision.collider, collision.victim) for collision in simulation.getCollisions()
+                                    if EGO_ID in (collision.collider, collision.victim)]
+            self._ego_in = self._ego_in and not self.ego_collisions
+        if self._ego_in and simulation.getArrivedNumber() and EGO_ID in simulation.getArrivedIDList():
+            self._ego_in = False
+
+    def _place(self, time_s: float, ego_x_m: float | None) -> None:
+        """Put the recorded vehicles where the recording has them at `time_s` [s]; called before the SUMO step that
+        ends at `time_s`. `ego_x_m`: the ego's x [m] (None before it is on the road: the recorded x of its seat)."""
+        if self.reactive:
+            self._release()
+            begun = np.searchsorted(self._begins_s, [self._last_s, time_s], side="right")
+            first, self._last_s = not self._placed, time_s
+            if not first and begun[0] == begun[1]:
+                return  # no track begins in this step: nothing to place
+        ids, values, lanes = self.frames_at(time_s)
+        if not self.reactive:
+            if ego_x_m is None:
+                seat = np.flatnonzero(ids == self._skip)
+                ego_x_m = float(values["x_m"][seat[0]]) if len(seat) else None
+            if ego_x_m is not None:
+                near = np.abs(values["x_m"] - ego_x_m) <= REPLAY_RADIUS_M
+                ids, lanes, values = ids[near], lanes[near], {name: column[near] for name, column in values.items()}
+        vehicle = self.api.vehicle
+        on_road = set(vehicle.getIDList())
+        if not self.reactive:
+            for gone in self._placed.difference(ids.tolist()):
+                if gone in on_road:
+                    vehicle.remove(gone)
+            self._placed.intersection_update(ids.tolist())
+        x, y, heading, speed = values["x_m"], values["y_m"], values["heading_deg"], values["speed_mps"]
+        for k, name in enumerate(ids.tolist()):
+            if name == self._skip or (self.reactive and name in self._placed):
+                continue
+            if name not in on_road:  # new, or (non-reactive) removed by SUMO after a collision: placed again
+                vehicle.add(name, REPLAY_ROUTE, departLane=str(lanes[k]), departSpeed=repr(float(speed[k])))
+                vehicle.setLength(name, float(values["length_m"][k]))
+                vehicle.setWidth(name, float(values["width_m"][k]))
+                vehicle.setSpeedMode(name, 0)
+                vehicle.setLaneChangeMode(name, 0)
+                self._placed.add(name)
+                if self.reactive:
+                    self._releasing.append(name)
+            elif self.reactive:
+                continue
+            vehicle.moveToXY(name, self.edge, int(lanes[k]), float(x[k]), float(y[k]), float(heading[k]),
+                             KEEP_ROUTE_ANY_EDGE)
+
+    def _release(self) -> None:
+        """Hand the vehicles placed before the last step to SUMO's models (reactive mode)."""
+        vehicle = self.api.vehicle
+        on_road = set(vehicle.getIDList()) if self._releasing else set()
+        for name in self._releasing:
+            if name in on_road:
+                vehicle.setSpeedMode(name, SPEED_MODE_SUMO)
+                vehicle.setLaneChangeMode(name, LANE_CHANGE_MODE_SUMO)
+                vehicle.setSpeedFactor(name, self._speed_factor[name])
+        self._releasing.clear()
