@@ -2,12 +2,11 @@
 one sentence naming the option or setting, nothing written. Both are found by walking the command group and the
 settings dataclasses, so a new one cannot escape."""
 
-import dataclasses
-import typing
 
 import click
 import pytest
 from click.testing import CliRunner
+from learner_numbers import learner_numbers
 from sumo_rail_cli.main import cli
 
 
@@ -39,24 +38,7 @@ def test_a_float_option_refuses_what_is_no_number(tmp_path, monkeypatch, command
 
 def float_settings() -> list[tuple[str, str]]:
     """(learner section, dotted key) for every float setting of every learner section, nested tables too."""
-    from sumo_rail.bounds import given_by
-    from sumo_rail.learning.settings import SECTIONS, default_section
-
-    found = []
-
-    def walk(name: str, section) -> None:
-        hints = typing.get_type_hints(type(section))
-        for field in dataclasses.fields(section):
-            value = getattr(section, field.name)
-            if given_by(field) is not None:
-                continue
-            if dataclasses.is_dataclass(value):
-                walk(f"{name}.{field.name}", value)
-            elif float in (typing.get_args(hints[field.name]) or (hints[field.name],)):
-                found.append((name.split(".")[0], f"{name}.{field.name}"))
-    for name in SECTIONS:
-        walk(name, default_section(name))
-    return found
+    return [(key.split(".")[0], key) for key, _, kind in learner_numbers() if kind is float]
 
 
 def test_the_walk_finds_the_float_settings():
