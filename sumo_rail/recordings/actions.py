@@ -121,7 +121,7 @@ def lane_changes(time_s: np.ndarray, lane: np.ndarray, edge: np.ndarray, lateral
     previous_s = -math.inf  # the previous crossing [s]
     for row in crossings:
         left = bool(lane[row] > lane[row - 1])
-        start_s = _onset(time_s, lateral_m, row, left, previous_s, rule) if lateral_m is not None else time_s[row]
+        start_s = _onset(time_s, lateral_m, int(row), left, previous_s, rule) if lateral_m is not None else time_s[row]
         previous_s = time_s[row]
         # the row is the first one that shows it: it happened after the row before, so a row on a decision
         # instant belongs to the period before

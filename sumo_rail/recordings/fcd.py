@@ -16,7 +16,7 @@ from __future__ import annotations
 import gzip
 import xml.etree.ElementTree as ElementTree
 from pathlib import Path
-from typing import IO
+from typing import IO, cast
 from xml.sax.saxutils import quoteattr
 
 import numpy as np
@@ -42,7 +42,7 @@ _TIME_TOLERANCE_S = 1e-6
 
 
 def _open(path: Path) -> IO[bytes]:
-    return gzip.open(path, "rb") if str(path).endswith(".gz") else open(path, "rb")
+    return cast(IO[bytes], gzip.open(path, "rb")) if str(path).endswith(".gz") else open(path, "rb")
 
 
 def check_headers(files: list[Path]) -> None:

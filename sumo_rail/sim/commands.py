@@ -3,8 +3,7 @@ size, and handing a vehicle to SUMO's own models (`sumo_rail.sim.controllers`)."
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from sumo_rail.sim import network
 from sumo_rail.sim.road import RouteMap
@@ -28,8 +27,11 @@ class EgoCommands:
     _zip_merging: set[str]
     """Egos whose lane-change mode is `LANE_CHANGE_MODE_ZIP_MERGE`."""
     route_map: RouteMap
-    speed_limit_mps: float
-    forget_sizes: Callable[[str | None], None]
+    if TYPE_CHECKING:
+        @property
+        def speed_limit_mps(self) -> float: ...
+
+        def forget_sizes(self, vehicle: str | None = None) -> None: ...
 
     def set_cruise_speed(self, speed_mps: float, vehicle: str = EGO_ID) -> None:
         """Set an ego's cruise set-point [m/s]; SUMO's ACC model tracks it within safe gaps.

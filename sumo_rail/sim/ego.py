@@ -130,10 +130,12 @@ class Ego:
         lowest, highest = (0, cfg.scenario.lanes - 1) if route is None else (route.lowest_lane, route.highest_lane)
         if self.accelerating:
             acceleration_bin, lateral = split_acceleration_action(action, cfg.actions)
-            command = acceleration_command(acceleration_bin, lateral, cfg.actions, self.lane, highest + 1, lowest)
-            self.acceleration_mps2 = command.acceleration_mps2
-            sim.set_acceleration(command.acceleration_mps2, cfg.env.decision_period_s, self.vehicle)
-            action = paper_equivalent(command.acceleration_mps2, lateral)
+            accelerating = acceleration_command(acceleration_bin, lateral, cfg.actions, self.lane, highest + 1,
+                                                lowest)
+            self.acceleration_mps2 = accelerating.acceleration_mps2
+            sim.set_acceleration(accelerating.acceleration_mps2, cfg.env.decision_period_s, self.vehicle)
+            action = paper_equivalent(accelerating.acceleration_mps2, lateral)
+            target_lane, invalid = accelerating.target_lane, accelerating.invalid
         else:
             action = _ACTIONS[action]
             command = command_for(action, self.set_point_mps, self.lane, highest + 1, cfg.env.speed_step_mps,
@@ -141,15 +143,15 @@ class Ego:
             if command.set_point_mps != self.set_point_mps:
                 self.set_point_mps = command.set_point_mps
                 sim.set_cruise_speed(self.set_point_mps, self.vehicle)
+            target_lane, invalid = command.target_lane, command.invalid
         self.last_action = action
-        self.requested_lane = command.target_lane
-        if command.target_lane is not None:
-            zip_merge = route is not None and zip_merge_change(route, self.lane, command.target_lane,
-                                                               cfg.env.zip_merge_m)
-            sim.request_lane_change(command.target_lane, cfg.env.decision_period_s, self.vehicle, zip_merge)
+        self.requested_lane = target_lane
+        if target_lane is not None:
+            zip_merge = route is not None and zip_merge_change(route, self.lane, target_lane, cfg.env.zip_merge_m)
+            sim.request_lane_change(target_lane, cfg.env.decision_period_s, self.vehicle, zip_merge)
         metrics.decisions += 1
         metrics.action_counts[action] += 1
-        metrics.invalid_actions += command.invalid
+        metrics.invalid_actions += invalid
 
     def finish(self, sim: Simulation, report: PeriodReport) -> StepResult:
         """The decision's outcome after the period's steps, from the ego's period report."""

@@ -28,7 +28,7 @@ import gymnasium
 import numpy as np
 
 from sumo_rail.config import Config
-from sumo_rail.sim.observers import Observer
+from sumo_rail.sim.observers import WatchedObserver
 from sumo_rail.sim.parallel_env import RENDER_MODES, ParallelHighwayEnv
 from sumo_rail.sim.rewards import EpisodeMetrics
 from sumo_rail.sim.simulation import EGO_ID, Simulation
@@ -100,7 +100,7 @@ class HighwayEnv(gymnasium.Env[np.ndarray, np.int64]):
         return (observations[EGO_ID], rewards[EGO_ID], terminations[EGO_ID], truncations[EGO_ID],
                 infos[EGO_ID])
 
-    def watching(self, observer: Observer) -> AbstractContextManager[Observer]:
+    def watching(self, observer: WatchedObserver) -> AbstractContextManager[WatchedObserver]:
         """The core's `watching`: `observer` is shown every SUMO step or each reset and decision within the block."""
         return self.core.watching(observer)
 

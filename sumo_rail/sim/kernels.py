@@ -115,8 +115,10 @@ def _lidar(front_xy: np.ndarray, heading_rad: np.ndarray, length_m: np.ndarray, 
             nearest, best = 0, np.inf
             for j in range(boxes):
                 axis_x, axis_y = frame[j, 2], frame[j, 3]
-                entry = _slab_entry(frame[j, 0], frame[j, 1], _fma(ray_y, axis_y, ray_x * axis_x),
-                                    _fma(ray_y, axis_x, ray_x * -axis_y), frame[j, 4], frame[j, 5])
+                entry = _slab_entry(frame[j, 0], frame[j, 1],
+                                    _fma(ray_y, axis_y, ray_x * axis_x),  # type: ignore[call-arg]  # numba intrinsic
+                                    _fma(ray_y, axis_x, ray_x * -axis_y),  # type: ignore[call-arg]  # numba intrinsic
+                                    frame[j, 4], frame[j, 5])
                 if entry < best:
                     nearest, best = j, entry
             if not best > range_m:

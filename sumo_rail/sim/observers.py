@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
-from typing import Any, Literal, Protocol
+from typing import Any, Literal, Protocol, TypeVar
 
 ROW_FIELDS = ("vehicle_id", "x_m", "y_m", "heading_deg", "speed_mps", "acceleration_mps2", "edge", "lane",
               "lane_position_m", "length_m", "width_m", "vehicle_class", "type")
@@ -87,6 +87,10 @@ class Observer(Protocol):
     """Called after every SUMO step (True), or after each reset and decision of the egos (False)."""
 
     def __call__(self, moment: Moment) -> None: ...
+
+
+WatchedObserver = TypeVar("WatchedObserver", bound=Observer)
+"""An observer's own type, as `watching` hands it back."""
 
 
 @dataclass

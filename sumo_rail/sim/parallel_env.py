@@ -62,7 +62,7 @@ from sumo_rail.sim.actions import action_space_of
 from sumo_rail.sim.controllers import ActionController, Controller, controllers_of
 from sumo_rail.sim.ego import Ego, checked_action, edge_rows
 from sumo_rail.sim.observation import observation_space
-from sumo_rail.sim.observers import Moment, Observer
+from sumo_rail.sim.observers import Moment, Observer, WatchedObserver
 from sumo_rail.sim.rewards import EpisodeMetrics
 from sumo_rail.sim.simulation import TRANSPORTS, Simulation, SimulationError
 from sumo_rail.sim.starts import StartRule, WarmStateStart, check_start_slots, start_slots
@@ -244,7 +244,7 @@ class ParallelHighwayEnv(ParallelEnv[str, np.ndarray, np.int64]):
         return observations, rewards, terminations, truncations, infos
 
     @contextlib.contextmanager
-    def watching(self, observer: Observer) -> Iterator[Observer]:
+    def watching(self, observer: WatchedObserver) -> Iterator[WatchedObserver]:
         """`observer` is shown every SUMO step of the egos' periods (every_step) or each reset and decision, within
         the block (`sumo_rail.sim.observers`)."""
         self._observers.append(observer)
@@ -290,6 +290,7 @@ class ParallelHighwayEnv(ParallelEnv[str, np.ndarray, np.int64]):
             raise NoRoomToRespawn(f"no safe place for {agent} to respawn in {2 * RESPAWN_DRAWS} draws up to "
                                   f"{cfg.env.ego_start_max_m:g} m: traffic is too dense there (scenario."
                                   f"flow_veh_per_h is {cfg.scenario.flow_veh_per_h:g} veh/h)")
+        assert self._edges is not None  # read at the first reset
         ego = self._egos[agent] = Ego(cfg, vehicle, self._edges)
         self.agents = [name for name in self.possible_agents if name in self.agents or name == agent]
         started = ego.start(sim)

@@ -4,8 +4,7 @@ respawning ego). Egos start on the first edge of their route; lanes here are SUM
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from sumo_rail.sim import network
 from sumo_rail.sim.sumo_api import LANE_CHANGE_MODE_TRACI_ONLY_SAFE
@@ -21,7 +20,8 @@ class EgoPlacement:
 
     _api: Any
     _built: network.BuiltNetwork
-    forget_sizes: Callable[[str | None], None]
+    if TYPE_CHECKING:
+        def forget_sizes(self, vehicle: str | None = None) -> None: ...
 
     @property
     def start_edge(self) -> str:

@@ -129,7 +129,7 @@ def network_routes(scenario: ScenarioConfig, vehicle_types: bytes, ego_route: tu
         flow.set("route", "ego_route")
         flow.set("period", _period(scenario.flow_veh_per_h))
         root.append(flow)
-    elif with_flow:
+    elif with_flow and through_route is not None:
         ElementTree.SubElement(root, "route", id="main_road", edges=" ".join(through_route))
         leaving = copy.deepcopy(flow)
         for element, route, share in ((flow, "main_road", 1.0 - scenario.exit_share),

@@ -82,7 +82,7 @@ class Sensing:
             start_m, lane = lane_places(lane_id, UNPLACED)  # `place`, inlined: it runs for every neighbour
             extend((x, y, radians(90.0 - angle), speed, start_m + lane_position, length, width, lane))
         rows = np.empty((len(results), 8))
-        self._rows_packer(len(results)).pack_into(rows, 0, *flat)  # as np.array(flat) converts them, without its checks
+        self._rows_packer(len(results)).pack_into(rows, 0, *flat)  # type: ignore[arg-type]  # an ndarray is a buffer
         # ids, front_xy, heading_rad, speed_mps, lane_position_m, length_m, width_m, lane: positional arguments,
         # as for the ego's state, cost a third of keyword ones
         neighbours = Neighbours(tuple(results), rows[:, :2], rows[:, 2], rows[:, 3], rows[:, 4], rows[:, 5], rows[:, 6],

@@ -20,14 +20,13 @@ import warnings
 import weakref
 from collections.abc import Iterator, Sequence
 from pathlib import Path
-from typing import TypeVar
 
 from sumo_rail.config import ScenarioConfig
 from sumo_rail.datasets import describe, written_atomically
 from sumo_rail.sim import gui as sumo_gui
 from sumo_rail.sim import network
 from sumo_rail.sim.commands import EgoCommands
-from sumo_rail.sim.observers import Moment, Observer, Rows, VehicleRows
+from sumo_rail.sim.observers import Moment, Observer, Rows, VehicleRows, WatchedObserver
 from sumo_rail.sim.placement import EgoPlacement
 from sumo_rail.sim.road import RouteMap
 from sumo_rail.sim.sensing import Sensing
@@ -42,8 +41,6 @@ from sumo_rail.sim.vehicles import Neighbours as Neighbours
 from sumo_rail.sim.warm_states import WARM_STATE_POOLS as WARM_STATE_POOLS
 from sumo_rail.sim.warm_states import WarmStates
 
-WatchedObserver = TypeVar("WatchedObserver", bound=Observer)
-"""The type of an observer `Simulation.watching` hands back."""
 log = logging.getLogger(__name__)
 
 _ACTIVE_LIBSUMO: Simulation | None = None
@@ -143,9 +140,9 @@ class Simulation(EgoPlacement, Stepping, Sensing, EgoCommands):
             else:
                 self._client.start(command)
                 api = self._client
-        except self._client.TraCIException as error:  # type: ignore[attr-defined]
+        except self._client.TraCIException as error:
             raise SimulationError(f"SUMO failed to start: {describe(error)}") from error
-        except self._client.FatalTraCIError as error:  # type: ignore[attr-defined]
+        except self._client.FatalTraCIError as error:
             raise SimulationError(f"sumo-gui did not start (is a display available?): {describe(error)}") from error
         self._api = sumo_gui.PacedApi(api, self.gui_delay_ms / 1000.0) if self.gui else api
         self._calls = decision_calls(self._api)
@@ -217,7 +214,7 @@ class Simulation(EgoPlacement, Stepping, Sensing, EgoCommands):
         self._rows = None
         try:
             self._api.load([*self._options(), *self._gui_options(), *extra])
-        except self._client.TraCIException as error:  # type: ignore[attr-defined]
+        except self._client.TraCIException as error:
             where = next((line.strip() for line in str(error).splitlines() if "In file" in line), "")
             raise SimulationError(f"SUMO failed to load the warm state: {describe(error)}"
                                   + (f" ({where})" if where else "")) from error

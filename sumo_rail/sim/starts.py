@@ -169,8 +169,10 @@ class StartRule(Protocol):
     generated roads and users' networks; `sumo_rail.recordings.seat.SeatStart` puts the ego in a recorded vehicle's
     seat."""
 
-    options: tuple[str, ...]
-    """The reset options it reads (the env ignores others, with a warning)."""
+    @property
+    def options(self) -> tuple[str, ...]:
+        """The reset options it reads (the env ignores others, with a warning)."""
+        ...
 
     def simulation(self, config: Config, transport: str, gui: bool, gui_delay_ms: float) -> Simulation:
         """The env's simulation, made at its first reset."""
