@@ -106,8 +106,10 @@ def check_resumable(folder: Path, checkpoint: str, run_record: dict[str, Any], d
     if changed:
         raise RunError(f"{changed[0]} has changed since run {folder} was started on it (its content hash differs); "
                        f"resume it on the file it was started with")
+    defaults_now = Config().to_dict()  # a config section added since the run was started reads as its defaults
     difference = (first_difference(fixed(settings), fixed(run_record["settings"]))
-                  or first_difference(with_defaults(stored["config"], Config().to_dict()), run_record["config"]))
+                  or first_difference(with_defaults(stored["config"], defaults_now),
+                                      with_defaults(run_record["config"], defaults_now)))
     if difference is not None or stored.get("kind") != run_record.get("kind"):
         said = f" ({difference})" if difference is not None else ""
         raise RunError(f"run {folder} was started with other settings{said}; resume it with the settings of its "
