@@ -87,14 +87,17 @@ def test_the_bootstrap_distances_are_scipys_on_the_resampled_values():
 
 
 def test_the_paired_difference_resamples_seats_common_to_both_drivers_and_the_humans():
-    """Seats differ far more than the two drivers do within a seat (one is 0.5 m/s, the other 1.5 m/s off the human
-    in every seat): the difference of their distances is -1 m/s, and resampling the same seats for the three keeps it
-    at -1 m/s where resampling each side on its own (the unpaired intervals) spreads it by the seats' differences."""
+    """Seats differ far more than the two drivers do within a seat (one is u_i m/s off the human in seat i, u_i
+    between 0 and 1, the other u_i + 1): the difference of their distances is -1 m/s, and resampling the same seats
+    for the three keeps it at -1 m/s where resampling each driver's seats on its own (or each side, the unpaired
+    intervals) spreads it by the seats' differences."""
     from sumo_rail.evaluation.human_likeness import paired_wasserstein_interval
 
     rng = np.random.default_rng(2)
     humans = [np.full(10, mean) for mean in rng.normal(30.0, 5.0, 30)]
-    near, far = [seat + 0.5 for seat in humans], [seat + 1.5 for seat in humans]
+    offsets = rng.random(30)
+    near = [seat + u for seat, u in zip(humans, offsets, strict=True)]
+    far = [seat + 1.0 for seat in near]
     found = paired_wasserstein_interval(near, far, humans, seed=3, resamples=300)
     assert found.estimate == pytest.approx(-1.0)
     assert found.low == pytest.approx(-1.0) and found.high == pytest.approx(-1.0)
