@@ -6,8 +6,10 @@
 - the acceleration interface (`--study acceleration`, experiments/specs/human_likeness_acceleration.toml): each BC
   setting found in the episodes (runs named acceleration_hH_pP_sSEED: observation.history H s, bc.class_balance
   0.P), paired with SUMO's IDM and with the constant speed (keep) in the same seats, on the position errors and on
-  the distributions' distances. Several files (one evaluation per observation layout) are read as one; a driver
-  found in more than one (the baselines) is taken from the first.
+  the distributions' distances, and then by the seat's phase: the seats that begin within `ENTRY_M` of the road's
+  entry (the drivers still speeding up towards a desired speed the observation does not show) and the others, with
+  where the driver is along the road and how fast against the human at 10 s. Several files (one evaluation per
+  observation layout) are read as one; a driver found in more than one (the baselines) is taken from the first.
 
     python experiments/human_likeness_closed_loop.py CLOSED_LOOP.parquet
     python experiments/human_likeness_closed_loop.py --study acceleration EPISODES.parquet [EPISODES.parquet ...]
@@ -19,11 +21,12 @@ import re
 from pathlib import Path
 
 import click
+import numpy as np
 import pandas as pd
 
 from sumo_rail.datasets import read_metadata
 from sumo_rail.evaluation.scene_evaluation import HUMAN, tracks_path
-from sumo_rail.evaluation.scene_summary import distribution_table, track_table
+from sumo_rail.evaluation.scene_summary import SEAT_KEYS, distribution_table, track_table
 
 SEEDS = (0, 1, 2)
 KEEP, IDM = "constant set-point (keep)", "SUMO's IDM + LC2013"
@@ -34,6 +37,13 @@ METHODS = {KEEP: ["keep"], IDM: ["sumo-idm"],
 DIFFERENCES = [("RAIL", "BC"), ("GAIL", "BC")]
 ACCELERATION_RUN = re.compile(r"acceleration_h(\d+)_p(\d+)_s(\d+)/policy_bc")
 """The BC policies of the acceleration study: acceleration_hH_pP_sSEED/policy_bc."""
+ENTRY_M = 300.0
+"""A seat that begins within this distance of the road's entry [m] is in the entering phase."""
+HORIZON_S = 10.0
+"""Where the phase table reads the driver's place and speed against the human's [s after the seat's start]."""
+PHASE_MEASURES = {"position error 5 s [m]": "position_error_5s_m", "position error 10 s [m]": "position_error_10s_m",
+                  "ahead of the human at 10 s [m]": "ahead_10s_m", "faster than the human at 10 s [m/s]":
+                  "faster_10s_mps"}
 
 
 def acceleration_methods(policies: set[str]) -> dict[str, list[str]]:
@@ -61,6 +71,45 @@ def read_episodes(paths: tuple[Path, ...]) -> tuple[pd.DataFrame, pd.DataFrame]:
     return pd.concat(metrics, ignore_index=True), pd.concat(tracks, ignore_index=True)
 
 
+def at_horizon(track: pd.DataFrame, start_s: float) -> tuple[float, float]:
+    """A track's position along its lane [m] and speed [m/s] `HORIZON_S` after `start_s` [s]; NaN when it ends
+    earlier (a collision)."""
+    times = track["time_s"].to_numpy(float)
+    if len(times) == 0 or times[-1] < start_s + HORIZON_S - 1e-6:
+        return np.nan, np.nan
+    return tuple(float(np.interp(start_s + HORIZON_S, times, track[column].to_numpy(float)))
+                 for column in ("lane_position_m", "speed_mps"))
+
+
+def with_phase(metrics: pd.DataFrame, tracks: pd.DataFrame) -> pd.DataFrame:
+    """The episodes with their seat's phase (`entering`: the human's track there begins within `ENTRY_M` of the
+    road's entry) and how far ahead of the human and how much faster the driver is at `HORIZON_S`."""
+    humans = {key: track for key, track in tracks[tracks["policy"] == HUMAN].groupby(SEAT_KEYS)}
+    driven = {key: track for key, track in tracks[tracks["policy"] != HUMAN].groupby(["policy", *SEAT_KEYS])}
+    columns = []
+    for row in metrics[["policy", *SEAT_KEYS]].itertuples(index=False):
+        human = humans[tuple(row[1:])]
+        start_s = float(human["time_s"].iloc[0])
+        (ours_m, ours_mps), (theirs_m, theirs_mps) = (at_horizon(track, start_s) for track in (driven[tuple(row)],
+                                                                                             human))
+        columns.append((human["lane_position_m"].iloc[0] < ENTRY_M, ours_m - theirs_m, ours_mps - theirs_mps))
+    return metrics.assign(**dict(zip(("entering", "ahead_10s_m", "faster_10s_mps"), zip(*columns, strict=True),
+                                     strict=True)))
+
+
+def phase_tables(metrics: pd.DataFrame, tracks: pd.DataFrame, methods: dict[str, list[str]],
+                 differences: list[tuple[str, str]]) -> str:
+    """The phase measures of every method in the entering seats, then in the others."""
+    phased = with_phase(metrics, tracks)
+    seats = phased.drop_duplicates(["scene", "vehicle", "start_s"])["entering"]
+    parts = []
+    for entering, label in ((True, f"entering (the seat within {ENTRY_M:g} m of the road's entry)"),
+                            (False, "established (farther in)")):
+        parts.append(f"\n{label}: {int((seats == entering).sum())} of {len(seats)} seats\n")
+        parts.append(track_table(phased[phased["entering"] == entering], methods, differences, PHASE_MEASURES))
+    return "\n".join(parts)
+
+
 @click.command()
 @click.argument("paths", nargs=-1, required=True, type=click.Path(exists=True, dir_okay=False, path_type=Path))
 @click.option("--study", type=click.Choice(["closed-loop", "acceleration"]), default="closed-loop", show_default=True,
@@ -83,6 +132,10 @@ def main(paths: tuple[Path, ...], study: str) -> None:
     print("\nWasserstein-1 distance to the humans' distributions (same seats)"
           + ("; differences paired by seat:\n" if study == "acceleration" else ":\n"))
     print(distribution_table(tracks, methods, period, differences if study == "acceleration" else ()))
+    if study == "acceleration":
+        print(f"\nBy the seat's phase (ahead of / faster than the human: the driver's place along its lane and speed "
+              f"{HORIZON_S:g} s into the seat minus the human's):")
+        print(phase_tables(metrics, tracks, methods, differences))
 
 
 if __name__ == "__main__":

@@ -60,22 +60,23 @@ def _runs(metrics: pd.DataFrame, names: Sequence[str], mode: str) -> list[pd.Dat
 
 
 def track_table(metrics: pd.DataFrame, methods: Mapping[str, Sequence[str]],
-                differences: Sequence[tuple[str, str]] = ()) -> str:
-    """The measures of every method in every mode, then each (method, reference) difference."""
-    lines = ["| driver | mode | " + " | ".join(MEASURES) + " |", "|---|---|" + "---|" * len(MEASURES)]
+                differences: Sequence[tuple[str, str]] = (), measures: Mapping[str, str] = MEASURES) -> str:
+    """The `measures` (heading -> a column of `metrics`, or one `samples` makes) of every method in every mode, then
+    each (method, reference) difference."""
+    lines = ["| driver | mode | " + " | ".join(measures) + " |", "|---|---|" + "---|" * len(measures)]
     modes = sorted(metrics["mode"].unique())
     for mode in modes:
         for method, names in methods.items():
             runs = _runs(metrics, names, mode)
             cells = [seeded_interval([samples(run, measure) for run in runs], share=measure in SHARES).format(2)
-                     for measure in MEASURES.values()]
+                     for measure in measures.values()]
             lines.append(f"| {method} | {mode} | " + " | ".join(cells) + " |")
         for method, reference in differences:
             runs, others = _runs(metrics, methods[method], mode), _runs(metrics, methods[reference], mode)
             others = others * len(runs) if len(others) == 1 else others
             cells = [_starred(seeded_interval([samples(run, measure) for run in runs],
                                               [samples(run, measure) for run in others], share=measure in SHARES))
-                     for measure in MEASURES.values()]
+                     for measure in measures.values()]
             lines.append(f"| {method} - {reference} | {mode} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
 
