@@ -3,6 +3,7 @@ demonstrations)."""
 
 from __future__ import annotations
 
+from collections import Counter
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -77,7 +78,7 @@ def recorded_demos_command(config: Config, scene: Path, out: Path, split: str, o
     from sumo_rail.datasets import DatasetError
     from sumo_rail.recordings.recorded_demos import write_recorded_demos
     from sumo_rail.recordings.tracks import RecordingUsageError
-    from sumo_rail.sim.actions import Action
+    from sumo_rail.sim.actions import Action, paper_action
 
     check_output(out, overwrite)
     try:
@@ -86,7 +87,12 @@ def recorded_demos_command(config: Config, scene: Path, out: Path, split: str, o
         raise click.UsageError(str(error)) from error
     except DatasetError as error:
         raise click.ClickException(str(error)) from error
-    counts = ", ".join(f"{summary.action_counts.get(int(action), 0)} {action.name.lower()}" for action in Action)
+    as_paper: Counter[Action] = Counter()  # an acceleration-interface action counted as the paper action it amounts to
+    for action, count in summary.action_counts.items():
+        as_paper[paper_action(action, config.actions)] += count
+    counts = ", ".join(f"{as_paper[action]} {action.name.lower()}" for action in Action)
+    if config.actions.interface == "acceleration":
+        counts += " (a lane change, else the sign of the period's acceleration)"
     skipped = f", skipped {summary.skipped} shorter than one decision" if summary.skipped else ""
     click.echo(f"read {summary.decisions} decisions of {summary.tracks} tracks ({split}){skipped}")
     click.echo(f"actions: {counts}")

@@ -7,8 +7,10 @@ the records reads only these few numbers of them, and regenerates identically fr
 - NAME.distributions.parquet beside a metrics file the same of that file alone (`sumo-rail report`);
 - NAME.setpoints.parquet: each driver's decisions and agreements at each set-point (experiments/agreement_episodes.py);
 - NAME.lane_changes.parquet: each driver's lane changes and close leaders (experiments/lane_change_context.py);
-- and the closed-loop tracks of human_likeness thinned (experiments/plot_scene_tracks.py `thin_tracks`: positions
-  only in the seat the README's figure shows; the table reads none of them).
+- the closed-loop tracks of human_likeness thinned (experiments/plot_scene_tracks.py `thin_tracks`: positions
+  only in the seat the README's figure shows; the table reads none of them);
+- and the acceleration study's test tracks without their plane coordinates (x_m, y_m: its table reads the place
+  along the lane, the speed, lane and gap).
 
 The records themselves (NAME.decisions.parquet, written by `sumo-rail evaluate --out NAME.parquet`) come back with
 the evaluation's grid spec (docs/results.md, "What is committed"); with them beside the metrics files, the tables
@@ -41,6 +43,7 @@ REPORTED = [R / "imitation_table/data/test_s0.parquet", R / "fidelity_demo/evalu
 SETPOINTS = [R / f"imitation_table/data/test_s{seed}.parquet" for seed in range(5)]
 LANE_CHANGES = [(R / "ppo_expert/test_ppo_expert.decisions.parquet", 3.0)]
 TRACKS = [R / "human_likeness/closed_loop.tracks.parquet"]
+ALONG_LANE_TRACKS = [R / "human_likeness_acceleration/test.tracks.parquet"]
 
 
 def summaries() -> dict[Path, pd.DataFrame]:
@@ -61,6 +64,8 @@ def summaries() -> dict[Path, pd.DataFrame]:
         made[counts_path(str(path))] = lane_change_counts(pd.read_parquet(path), headway_s)
     for path in TRACKS:  # thinning thinned tracks changes nothing
         made[path] = thin_tracks(pd.read_parquet(path))
+    for path in ALONG_LANE_TRACKS:
+        made[path] = pd.read_parquet(path).assign(x_m=float("nan"), y_m=float("nan"))
     return made
 
 
@@ -71,7 +76,7 @@ def main(check: bool) -> None:
             committed = pd.read_parquet(path)
             pd.testing.assert_frame_equal(summary if index else summary.reset_index(drop=True), committed)
             print(f"{path}: the same")
-        elif path in TRACKS:  # the evaluation's own schema and metadata, its data thinned
+        elif path in TRACKS or path in ALONG_LANE_TRACKS:  # the evaluation's own schema and metadata, data thinned
             schema = pq.read_schema(path)
             pq.write_table(pa.Table.from_pandas(summary, schema=schema, preserve_index=False), path,
                            compression="zstd", compression_level=19)

@@ -1,40 +1,142 @@
 """Closed-loop human-likeness (docs/results.md, "Learning from recorded drivers"): the tables of
-`sumo-rail evaluate-scene`'s episodes of experiments/specs/human_likeness_closed_loop.toml, with BC, RAIL and GAIL
-pooled over their three training seeds and RAIL and GAIL each paired with the BC of the same seed, seat by seat.
+`sumo-rail evaluate-scene`'s episodes, each learner pooled over its three training seeds and paired seat by seat.
+
+- the closed loop of experiments/specs/human_likeness_closed_loop.toml (the paper's interface): BC, RAIL and GAIL,
+  RAIL and GAIL each paired with the BC of the same seed;
+- the acceleration interface (`--study acceleration`, experiments/specs/human_likeness_acceleration.toml): each BC
+  setting found in the episodes (runs named acceleration_hH_pP_sSEED: observation.history H s, bc.class_balance
+  0.P), paired with SUMO's IDM and with the constant speed (keep) in the same seats, on the position errors and on
+  the distributions' distances, and then by the seat's phase: the seats that begin within `ENTRY_M` of the road's
+  entry (the drivers still speeding up towards a desired speed the observation does not show) and the others, with
+  where the driver is along the road and how fast against the human at 10 s. Several files (one evaluation per
+  observation layout) are read as one; a driver found in more than one (the baselines) is taken from the first.
 
     python experiments/human_likeness_closed_loop.py CLOSED_LOOP.parquet
+    python experiments/human_likeness_closed_loop.py --study acceleration EPISODES.parquet [EPISODES.parquet ...]
 """
 
 from __future__ import annotations
 
-import sys
+import re
 from pathlib import Path
 
+import click
+import numpy as np
 import pandas as pd
 
 from sumo_rail.datasets import read_metadata
-from sumo_rail.evaluation.scene_evaluation import tracks_path
-from sumo_rail.evaluation.scene_summary import distribution_table, track_table
+from sumo_rail.evaluation.scene_evaluation import HUMAN, tracks_path
+from sumo_rail.evaluation.scene_summary import SEAT_KEYS, distribution_table, track_table
 
 SEEDS = (0, 1, 2)
-METHODS = {"constant set-point (keep)": ["keep"], "SUMO's IDM + LC2013": ["sumo-idm"],
+KEEP, IDM = "constant set-point (keep)", "SUMO's IDM + LC2013"
+METHODS = {KEEP: ["keep"], IDM: ["sumo-idm"],
            "rule-based expert": ["expert-normal"], "BC": [f"rail_s{seed}/policy_bc" for seed in SEEDS],
            "RAIL": [f"rail_s{seed}/policy_latest" for seed in SEEDS],
            "GAIL": [f"gail_s{seed}/policy_latest" for seed in SEEDS]}
 DIFFERENCES = [("RAIL", "BC"), ("GAIL", "BC")]
+ACCELERATION_RUN = re.compile(r"acceleration_h(\d+)_p(\d+)_s(\d+)/policy_bc")
+"""The BC policies of the acceleration study: acceleration_hH_pP_sSEED/policy_bc."""
+ENTRY_M = 300.0
+"""A seat that begins within this distance of the road's entry [m] is in the entering phase."""
+HORIZON_S = 10.0
+"""Where the phase table reads the driver's place and speed against the human's [s after the seat's start]."""
+PHASE_MEASURES = {"position error 5 s [m]": "position_error_5s_m", "position error 10 s [m]": "position_error_10s_m",
+                  "ahead of the human at 10 s [m]": "ahead_10s_m", "faster than the human at 10 s [m/s]":
+                  "faster_10s_mps"}
 
 
-def main(path: Path) -> None:
-    metrics, tracks = pd.read_parquet(path), pd.read_parquet(tracks_path(path))
-    period = read_metadata(path)["config"]["env"]["decision_period_s"]
+def acceleration_methods(policies: set[str]) -> dict[str, list[str]]:
+    """The constant speed, SUMO's IDM and each BC setting of `policies` with its training runs (seeds in order)."""
+    settings: dict[tuple[int, str], list[tuple[int, str]]] = {}
+    for policy in policies:
+        if found := ACCELERATION_RUN.fullmatch(policy):
+            settings.setdefault((int(found[1]), found[2]), []).append((int(found[3]), policy))
+    methods = {"constant speed (keep)": ["keep"], IDM: ["sumo-idm"]}
+    for (history, balance), runs in sorted(settings.items()):
+        methods[f"BC, history {history} s, balance {float('0.' + balance):g}"] = [name for _, name in sorted(runs)]
+    return methods
+
+
+def read_episodes(paths: tuple[Path, ...]) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """The episodes and tracks of every file as one: a driver found in several files (the humans too) taken from the
+    first."""
+    metrics, tracks, seen = [], [], set()
+    for path in paths:
+        episodes, driven = pd.read_parquet(path), pd.read_parquet(tracks_path(path))
+        new = sorted(set(episodes["policy"]) - seen)
+        metrics.append(episodes[episodes["policy"].isin(new)])
+        tracks.append(driven[driven["policy"].isin(new) | ((driven["policy"] == HUMAN) & (HUMAN not in seen))])
+        seen |= {*new, HUMAN}
+    return pd.concat(metrics, ignore_index=True), pd.concat(tracks, ignore_index=True)
+
+
+def at_horizon(track: pd.DataFrame, start_s: float) -> tuple[float, float]:
+    """A track's position along its lane [m] and speed [m/s] `HORIZON_S` after `start_s` [s]; NaN when it ends
+    earlier (a collision)."""
+    times = track["time_s"].to_numpy(float)
+    if len(times) == 0 or times[-1] < start_s + HORIZON_S - 1e-6:
+        return np.nan, np.nan
+    return tuple(float(np.interp(start_s + HORIZON_S, times, track[column].to_numpy(float)))
+                 for column in ("lane_position_m", "speed_mps"))
+
+
+def with_phase(metrics: pd.DataFrame, tracks: pd.DataFrame) -> pd.DataFrame:
+    """The episodes with their seat's phase (`entering`: the human's track there begins within `ENTRY_M` of the
+    road's entry) and how far ahead of the human and how much faster the driver is at `HORIZON_S`."""
+    humans = {key: track for key, track in tracks[tracks["policy"] == HUMAN].groupby(SEAT_KEYS)}
+    driven = {key: track for key, track in tracks[tracks["policy"] != HUMAN].groupby(["policy", *SEAT_KEYS])}
+    columns = []
+    for row in metrics[["policy", *SEAT_KEYS]].itertuples(index=False):
+        human = humans[tuple(row[1:])]
+        start_s = float(human["time_s"].iloc[0])
+        (ours_m, ours_mps), (theirs_m, theirs_mps) = (at_horizon(track, start_s) for track in (driven[tuple(row)],
+                                                                                             human))
+        columns.append((human["lane_position_m"].iloc[0] < ENTRY_M, ours_m - theirs_m, ours_mps - theirs_mps))
+    return metrics.assign(**dict(zip(("entering", "ahead_10s_m", "faster_10s_mps"), zip(*columns, strict=True),
+                                     strict=True)))
+
+
+def phase_tables(metrics: pd.DataFrame, tracks: pd.DataFrame, methods: dict[str, list[str]],
+                 differences: list[tuple[str, str]]) -> str:
+    """The phase measures of every method in the entering seats, then in the others."""
+    phased = with_phase(metrics, tracks)
+    seats = phased.drop_duplicates(["scene", "vehicle", "start_s"])["entering"]
+    parts = []
+    for entering, label in ((True, f"entering (the seat within {ENTRY_M:g} m of the road's entry)"),
+                            (False, "established (farther in)")):
+        parts.append(f"\n{label}: {int((seats == entering).sum())} of {len(seats)} seats\n")
+        parts.append(track_table(phased[phased["entering"] == entering], methods, differences, PHASE_MEASURES))
+    return "\n".join(parts)
+
+
+@click.command()
+@click.argument("paths", nargs=-1, required=True, type=click.Path(exists=True, dir_okay=False, path_type=Path))
+@click.option("--study", type=click.Choice(["closed-loop", "acceleration"]), default="closed-loop", show_default=True,
+              help="Whose drivers: the paper interface's learners, or BC on the acceleration interface.")
+def main(paths: tuple[Path, ...], study: str) -> None:
+    metrics, tracks = read_episodes(paths)
+    period = read_metadata(paths[0])["config"]["env"]["decision_period_s"]
     seats = metrics.groupby(["scene", "vehicle"]).ngroups
+    if study == "closed-loop":
+        methods, differences, pooled = METHODS, DIFFERENCES, "BC, RAIL and GAIL"
+    else:
+        methods = acceleration_methods(set(metrics["policy"]))
+        learners = [method for method in methods if method.startswith("BC")]
+        differences = [(learner, baseline) for learner in learners for baseline in (IDM, "constant speed (keep)")]
+        pooled = "BC (acceleration interface)"
     print(f"{seats} held-out cars' seats in {metrics['scene'].nunique()} scenes of SUMO's drivers, "
-          f"{metrics['simulated_s'].max():g} s each; BC, RAIL and GAIL pooled over training seeds "
+          f"{metrics['simulated_s'].max():g} s each; {pooled} pooled over training seeds "
           f"{', '.join(map(str, SEEDS))}; differences paired by seat and training seed (* : the interval excludes 0)\n")
-    print(track_table(metrics, METHODS, DIFFERENCES))
-    print("\nWasserstein-1 distance to the humans' distributions (same seats):\n")
-    print(distribution_table(tracks, METHODS, period))
+    print(track_table(metrics, methods, differences))
+    print("\nWasserstein-1 distance to the humans' distributions (same seats)"
+          + ("; differences paired by seat:\n" if study == "acceleration" else ":\n"))
+    print(distribution_table(tracks, methods, period, differences if study == "acceleration" else ()))
+    if study == "acceleration":
+        print(f"\nBy the seat's phase (ahead of / faster than the human: the driver's place along its lane and speed "
+              f"{HORIZON_S:g} s into the seat minus the human's):")
+        print(phase_tables(metrics, tracks, methods, differences))
 
 
 if __name__ == "__main__":
-    main(Path(sys.argv[1]))
+    main()

@@ -53,6 +53,10 @@ REGENERATED: dict[str, list[str]] = {
                                 f"{R}/human_likeness/open_loop.parquet"],
     "human_likeness/closed_loop.md": ["experiments/human_likeness_closed_loop.py",
                                       f"{R}/human_likeness/closed_loop.parquet"],
+    "human_likeness_acceleration/test.md": ["experiments/human_likeness_closed_loop.py", "--study", "acceleration",
+                                            f"{R}/human_likeness_acceleration/test.parquet"],
+    "human_likeness_acceleration/open_loop.md": ["experiments/acceleration_open_loop.py", "table",
+                                                 f"{R}/human_likeness_acceleration/open_loop.parquet"],
     "ppo_expert/lane_change_context.md": ["experiments/lane_change_context.py",
                                           f"{R}/ppo_expert/test_ppo_expert.decisions.parquet"],
     "ars_reference/table.md": ["experiments/ars_reference.py", "--seeds", "0", "1", "2", "3", "4",
@@ -88,6 +92,12 @@ NOT_REGENERABLE: dict[str, str] = {
                               "for about 21 min",
     "road_capacity/ramp_flows.md": "a simulation, not a table of committed data (experiments/road_capacity.py "
                                    "--ramp-flows runs SUMO), whose first line records its wall time",
+    "human_likeness_acceleration/validation.md": "its evaluations (results/human_likeness/acceleration_validation_h0 "
+                                                 "and _h3, 3.7 MB with their tracks) are not committed; the grid spec "
+                                                 "human_likeness_acceleration.toml makes them again",
+    "human_likeness_acceleration/validation_seat_showed_0.md": "its evaluations are not committed and no longer made: "
+                                                               "the seats then showed 0 m/s^2 as the last command "
+                                                               "before the first decision (before commit 1ae2b34)",
     "fidelity_demo/table.txt": "evaluate's printout of the simulated evaluation, not a table script's output",
     "generalisation/previous_5b09e52/table.md": "an earlier run's table as published then; its evaluations are not "
                                                 "committed",

@@ -76,14 +76,7 @@ def wasserstein_interval(ours: Sequence[np.ndarray], theirs: Sequence[np.ndarray
     estimate = wasserstein(_joined(ours), _joined(theirs))
     if min(len(ours), len(theirs)) < 2 or np.isnan(estimate):
         return Interval(estimate, np.nan, np.nan)
-    values = np.concatenate([_joined(ours), _joined(theirs)])
-    groups = np.concatenate([np.repeat(np.arange(len(side)), [len(group) for group in side])
-                             for side in (ours, theirs)])
-    side = np.repeat([0, 1], [sum(map(len, ours)), sum(map(len, theirs))])
-    keep = ~np.isnan(values)
-    order = np.argsort(values[keep], kind="stable")
-    values, groups, side = values[keep][order], groups[keep][order], side[keep][order]
-    is_ours = side == 0
+    values, groups, is_ours = _sorted_groups(ours, theirs)
     rng = np.random.default_rng(seed)
     draws = np.empty(resamples)
     for k in range(resamples):
@@ -91,6 +84,48 @@ def wasserstein_interval(ours: Sequence[np.ndarray], theirs: Sequence[np.ndarray
         for weight, members, count in ((weights[0], is_ours, len(ours)), (weights[1], ~is_ours, len(theirs))):
             weight[members] = np.bincount(rng.integers(count, size=count), minlength=count)[groups[members]]
         draws[k] = _weighted_w1(values, *weights)
+    return _percentile_interval(estimate, draws)
+
+
+def paired_wasserstein_interval(ours: Sequence[np.ndarray], others: Sequence[np.ndarray],
+                                theirs: Sequence[np.ndarray], seed: int = 0, resamples: int = RESAMPLES) -> Interval:
+    """W1(ours, theirs) - W1(others, theirs): how much farther one driver's distribution is from the humans' than
+    another's, the three samples given seat by seat (element i of each: that driver's values in seat i, a method's
+    training runs pooled), with a 95% percentile interval from resampling whole seats with replacement, the same
+    seats for the three (paired: the traffic of a seat is common to both drivers and the human). NaN bounds with
+    fewer than two seats."""
+    if not len(ours) == len(others) == len(theirs):
+        raise ValueError("paired samples must be given for the same seats")
+    ours, others, theirs = ([np.asarray(group, dtype=float) for group in side] for side in (ours, others, theirs))
+    estimate = (wasserstein(_joined(ours), _joined(theirs)) - wasserstein(_joined(others), _joined(theirs)))
+    if len(ours) < 2 or np.isnan(estimate):
+        return Interval(estimate, np.nan, np.nan)
+    pairs = [_sorted_groups(side, theirs) for side in (ours, others)]
+    rng = np.random.default_rng(seed)
+    draws = np.empty(resamples)
+    for k in range(resamples):
+        drawn = np.bincount(rng.integers(len(ours), size=len(ours)), minlength=len(ours))
+        distances = [_weighted_w1(values, np.where(is_ours, drawn[groups], 0), np.where(is_ours, 0, drawn[groups]))
+                     for values, groups, is_ours in pairs]
+        draws[k] = distances[0] - distances[1]
+    return _percentile_interval(estimate, draws)
+
+
+def _sorted_groups(ours: Sequence[np.ndarray], theirs: Sequence[np.ndarray]
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Both sides' values (NaNs left out) sorted, with each value's group (its index within its side) and whether it
+    is one of `ours`."""
+    values = np.concatenate([_joined(ours), _joined(theirs)])
+    groups = np.concatenate([np.repeat(np.arange(len(side)), [len(group) for group in side])
+                             for side in (ours, theirs)])
+    side = np.repeat([0, 1], [sum(map(len, ours)), sum(map(len, theirs))])
+    keep = ~np.isnan(values)
+    order = np.argsort(values[keep], kind="stable")
+    return values[keep][order], groups[keep][order], side[keep][order] == 0
+
+
+def _percentile_interval(estimate: float, draws: np.ndarray) -> Interval:
+    """The estimate with the 95% percentile interval of its bootstrap `draws` (NaN draws left out)."""
     tail = 50 * (1 - CONFIDENCE)
     low, high = np.nanpercentile(draws, [tail, 100 - tail])
     return Interval(estimate, float(low), float(high))

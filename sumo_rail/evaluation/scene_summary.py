@@ -3,9 +3,12 @@
 A method is one driver or several training runs of one (one policy per training seed, every run in the same seats);
 each cell is the method's estimate with its 95% interval (`statistics.seeded_interval`: over training runs and seats;
 a share's within [0, 1]), each difference row the paired difference of two methods, seat by seat and training seed by
-training seed. The distributions table gives the Wasserstein-1 distance between a method's and the humans' samples of
-speed, acceleration, gap to the leader and the gap to the new leader taken at lane changes, with an interval from
-resampling whole episodes (`human_likeness.wasserstein_interval`; a method's training runs' episodes pooled).
+training seed (a reference of one run, a baseline, paired with each of the method's runs). The distributions table
+gives the Wasserstein-1 distance between a method's and the humans' samples of speed, acceleration, gap to the leader
+and the gap to the new leader taken at lane changes, with an interval from resampling whole episodes
+(`human_likeness.wasserstein_interval`; a method's training runs' episodes pooled), and each difference row how much
+farther one method is from the humans than another, resampling whole seats
+(`human_likeness.paired_wasserstein_interval`).
 """
 
 from __future__ import annotations
@@ -15,7 +18,7 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 import pandas as pd
 
-from sumo_rail.evaluation.human_likeness import HORIZONS_S, wasserstein_interval
+from sumo_rail.evaluation.human_likeness import HORIZONS_S, paired_wasserstein_interval, wasserstein_interval
 from sumo_rail.evaluation.scene_evaluation import HUMAN
 from sumo_rail.evaluation.statistics import Interval, Sample, seeded_interval
 
@@ -57,21 +60,23 @@ def _runs(metrics: pd.DataFrame, names: Sequence[str], mode: str) -> list[pd.Dat
 
 
 def track_table(metrics: pd.DataFrame, methods: Mapping[str, Sequence[str]],
-                differences: Sequence[tuple[str, str]] = ()) -> str:
-    """The measures of every method in every mode, then each (method, reference) difference."""
-    lines = ["| driver | mode | " + " | ".join(MEASURES) + " |", "|---|---|" + "---|" * len(MEASURES)]
+                differences: Sequence[tuple[str, str]] = (), measures: Mapping[str, str] = MEASURES) -> str:
+    """The `measures` (heading -> a column of `metrics`, or one `samples` makes) of every method in every mode, then
+    each (method, reference) difference."""
+    lines = ["| driver | mode | " + " | ".join(measures) + " |", "|---|---|" + "---|" * len(measures)]
     modes = sorted(metrics["mode"].unique())
     for mode in modes:
         for method, names in methods.items():
             runs = _runs(metrics, names, mode)
             cells = [seeded_interval([samples(run, measure) for run in runs], share=measure in SHARES).format(2)
-                     for measure in MEASURES.values()]
+                     for measure in measures.values()]
             lines.append(f"| {method} | {mode} | " + " | ".join(cells) + " |")
         for method, reference in differences:
             runs, others = _runs(metrics, methods[method], mode), _runs(metrics, methods[reference], mode)
+            others = others * len(runs) if len(others) == 1 else others
             cells = [_starred(seeded_interval([samples(run, measure) for run in runs],
                                               [samples(run, measure) for run in others], share=measure in SHARES))
-                     for measure in MEASURES.values()]
+                     for measure in measures.values()]
             lines.append(f"| {method} - {reference} | {mode} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
 
@@ -90,17 +95,34 @@ def distribution_samples(track: pd.DataFrame, period_s: float) -> dict[str, np.n
     return {"speed": speed, "acceleration": np.diff(speed) / period_s, "gap": gap, "lane_change_gap": gap[changed]}
 
 
-def distribution_table(tracks: pd.DataFrame, methods: Mapping[str, Sequence[str]], period_s: float) -> str:
-    """The Wasserstein-1 distance of every method's samples to the humans' of the same seats and mode."""
+def distribution_table(tracks: pd.DataFrame, methods: Mapping[str, Sequence[str]], period_s: float,
+                       differences: Sequence[tuple[str, str]] = ()) -> str:
+    """The Wasserstein-1 distance of every method's samples to the humans' of the same seats and mode, then each
+    (method, reference) difference of those distances, paired by seat."""
     lines = ["| driver | mode | " + " | ".join(DISTRIBUTIONS) + " |", "|---|---|" + "---|" * len(DISTRIBUTIONS)]
     by_episode = {key: distribution_samples(group, period_s)
                   for key, group in tracks.groupby(["policy", *SEAT_KEYS], sort=True)}
     for mode in sorted(tracks["mode"].unique()):
-        humans = [values for key, values in by_episode.items() if key[0] == HUMAN and key[1] == mode]
+        humans = {key[1:]: values for key, values in by_episode.items() if key[0] == HUMAN and key[1] == mode}
         for method, names in methods.items():
             ours = [values for key, values in by_episode.items() if key[0] in names and key[1] == mode]
             cells = [wasserstein_interval([episode[name] for episode in ours],
-                                          [episode[name] for episode in humans]).format(2)
+                                          [episode[name] for episode in humans.values()]).format(2)
                      for name in DISTRIBUTIONS.values()]
             lines.append(f"| {method} | {mode} | " + " | ".join(cells) + " |")
+        for method, reference in differences:
+            seated = [[_seat_samples(by_episode, methods[driver], seat) for seat in humans]
+                      for driver in (method, reference)]
+            cells = [_starred(paired_wasserstein_interval(*([seat[name] for seat in driver] for driver in seated),
+                                                          [human[name] for human in humans.values()]))
+                     for name in DISTRIBUTIONS.values()]
+            lines.append(f"| {method} - {reference} | {mode} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
+
+
+def _seat_samples(by_episode: Mapping[tuple, dict[str, np.ndarray]], names: Sequence[str],
+                  seat: tuple) -> dict[str, np.ndarray]:
+    """A method's samples in one seat (a (mode, *SEAT_KEYS) key): its training runs' episodes there pooled."""
+    episodes = [by_episode[(name, *seat)] for name in names if (name, *seat) in by_episode]
+    return {name: np.concatenate([episode[name] for episode in episodes]) if episodes else np.empty(0)
+            for name in DISTRIBUTIONS.values()}

@@ -13,7 +13,8 @@ cannot be asked what it would do elsewhere, so DAgger refuses such a file (`expe
 
 Under the acceleration interface (`actions.interface = "acceleration"`) the action is the acceleration interface's
 reading (`acceleration_reading`, NGSIM's speeds smoothed), the set-point's entry of the observation the last
-commanded acceleration (0 before the first decision, as in the env) and the set-point column the speed. With
+commanded acceleration (0 before the track's first decision, as in the env; a seat taken later shows its lead-in's
+last period, as here) and the set-point column the speed. With
 `observation.history` the observation ends with the track's own past up to the instant (`sumo_rail.sim.ego_past`),
 as the env's seat shows the recorded lead-in.
 """

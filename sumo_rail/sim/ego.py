@@ -73,7 +73,9 @@ class Ego:
         self.accelerating = config.actions.interface == "acceleration"
         """Driven through the acceleration interface."""
         self.acceleration_mps2 = 0.0
-        """The last commanded acceleration [m/s^2] (the acceleration interface; 0 before the first decision)."""
+        """The last commanded acceleration [m/s^2] (the acceleration interface); before the first decision, the last
+        period's acceleration of a recorded seat's lead-in in its bin (what the seat's demonstrations show there), else
+        0."""
         self.lane = 0
         self.changing_lane = False
         self.start_time_s = self.start_position_m = 0.0
@@ -101,7 +103,7 @@ class Ego:
         cfg = self.config
         ego, neighbours = sim.observe(self.vehicle)
         if self.accelerating:
-            self.set_point_mps, self.acceleration_mps2 = ego.speed_mps, 0.0
+            self.set_point_mps = ego.speed_mps
             sim.take_acceleration_control(self.vehicle, cfg.actions.acceleration_max_mps2)
         else:
             self.set_point_mps = min(max(ego.speed_mps, cfg.env.v_min_mps), self.top_speed_mps(sim))
@@ -112,6 +114,9 @@ class Ego:
         self.route_progress.update(ego, sim.time_s, self.metrics)
         self.overtakes.update(neighbours.ids, self._relations(ego, neighbours))
         self.past.record(sim.time_s, ego.speed_mps, 0.0, ego.lane)
+        if self.accelerating:
+            lead_in = self.past.period_acceleration(sim.time_s, cfg.env.decision_period_s)
+            self.acceleration_mps2 = cfg.actions.acceleration_mps2(cfg.actions.nearest_bin(lead_in))
         self.last_observation = self.observation(ego, neighbours, ego.changing_lane, sim.time_s)
         self.traffic = TrafficView(ego, neighbours, self.set_point_mps, cfg.scenario.lanes)
         return self.last_observation, self._info(ego, 0.0, 0.0, 0.0, False, "")

@@ -42,6 +42,16 @@ class EgoPast:
         self.acceleration_mps2.append(acceleration_mps2)
         self.lane.append(float(lane))
 
+    def period_acceleration(self, now_s: float, period_s: float) -> float:
+        """The mean acceleration [m/s^2] of the period of `period_s` [s] that ends at `now_s` [s], (v(now) - v(now -
+        period)) / period from the known speeds (interpolated), as recorded-demos reads a period
+        (`acceleration_reading.period_accelerations`, unsmoothed); 0 when the past does not reach that far back (an
+        ego from a warm state)."""
+        if not self.time_s or self.time_s[0] > now_s - period_s + 1e-9:
+            return 0.0
+        before, now = np.interp([now_s - period_s, now_s], self.time_s, self.speed_mps)
+        return float((now - before) / period_s)
+
     def block(self, now_s: float, lane: int, seconds: int, v_max_mps: float) -> np.ndarray:
         """The history block at `now_s` [s] of an ego in `lane` now, `seconds` x 3 float32 values (module
         docstring)."""

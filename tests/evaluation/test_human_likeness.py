@@ -84,3 +84,26 @@ def test_the_bootstrap_distances_are_scipys_on_the_resampled_values():
         plain.append(wasserstein_distance(*(values[~np.isnan(values)] for values in picked)))
     tail = 50 * (1 - CONFIDENCE)
     assert (found.low, found.high) == pytest.approx(tuple(np.percentile(plain, [tail, 100 - tail])), rel=1e-9)
+
+
+def test_the_paired_difference_resamples_seats_common_to_both_drivers_and_the_humans():
+    """Seats differ far more than the two drivers do within a seat (one is u_i m/s off the human in seat i, u_i
+    between 0 and 1, the other u_i + 1): the difference of their distances is -1 m/s, and resampling the same seats
+    for the three keeps it at -1 m/s where resampling each driver's seats on its own (or each side, the unpaired
+    intervals) spreads it by the seats' differences."""
+    from sumo_rail.evaluation.human_likeness import paired_wasserstein_interval
+
+    rng = np.random.default_rng(2)
+    humans = [np.full(10, mean) for mean in rng.normal(30.0, 5.0, 30)]
+    offsets = rng.random(30)
+    near = [seat + u for seat, u in zip(humans, offsets, strict=True)]
+    far = [seat + 1.0 for seat in near]
+    found = paired_wasserstein_interval(near, far, humans, seed=3, resamples=300)
+    assert found.estimate == pytest.approx(-1.0)
+    assert found.low == pytest.approx(-1.0) and found.high == pytest.approx(-1.0)
+    alone = [wasserstein_interval(side, humans, seed=3, resamples=300) for side in (near, far)]
+    assert min(interval.high - interval.low for interval in alone) > 1.0
+    assert paired_wasserstein_interval(near, far, humans, seed=3, resamples=300) == found
+    assert np.isnan(paired_wasserstein_interval(near[:1], far[:1], humans[:1]).low)
+    with pytest.raises(ValueError, match="same seats"):
+        paired_wasserstein_interval(near, far[:-1], humans)

@@ -52,3 +52,32 @@ def test_each_mode_is_measured_against_its_own_episodes_only():
     for mode, line in (("non-reactive", table[2]), ("reactive", table[3])):
         alone = distribution_table(tracks[tracks["mode"] == mode], {"BC": ["bc"]}, 0.5).splitlines()
         assert alone[2] == line
+
+
+def test_a_baseline_of_one_run_is_paired_with_each_training_run_of_a_method():
+    """BC's three runs are 2, 3 and 4 m farther than IDM's one run in every seat: BC - IDM is their mean, +3 m, and
+    its interval spans the runs' spread (t over three runs); the same runs against three copies of IDM agree."""
+    errors = np.random.default_rng(4).uniform(10.0, 60.0, 16)
+    idm = seat_rows(errors, "idm")
+    runs = [seat_rows(errors + offset, f"bc_s{offset}") for offset in (2, 3, 4)]
+    metrics = pd.concat([idm, *runs], ignore_index=True)
+    methods = {"IDM": ["idm"], "BC": [f"bc_s{offset}" for offset in (2, 3, 4)]}
+    table = track_table(metrics, methods, [("BC", "IDM")])
+    row = next(line for line in table.splitlines() if line.startswith("| BC - IDM"))
+    assert "| +3.00 [" in row and "*" in row
+    copies = track_table(metrics, {**methods, "IDM": ["idm"] * 3}, [("BC", "IDM")])
+    assert next(line for line in copies.splitlines() if line.startswith("| BC - IDM")) == row
+
+
+def test_the_distributions_differences_are_paired_by_seat():
+    """Two drivers 1 and 3 m/s faster than the humans in every seat of very different speeds: their distances differ
+    by 2 m/s, with no spread when the seats are resampled together."""
+    rng = np.random.default_rng(5)
+    humans = [rng.normal(25.0, 6.0) + rng.random(12) for _ in range(8)]
+    rows = []
+    for seat, human in enumerate(humans):
+        rows += [decision_rows(HUMAN, "reactive", seat, human), decision_rows("near", "reactive", seat, human + 1.0),
+                 decision_rows("far", "reactive", seat, human + 3.0)]
+    table = distribution_table(pd.concat(rows, ignore_index=True), {"near": ["near"], "far": ["far"]}, 0.5,
+                               [("far", "near")]).splitlines()
+    assert table[-1].startswith("| far - near | reactive | +2.00 [+2.00, +2.00] * | +0.00 [+0.00, +0.00] |")

@@ -50,6 +50,15 @@ def test_each_period_is_its_acceleration_with_the_last_command_and_the_tracks_pa
     assert metadata["recorded_scene"]["set_point"] == "the speed at the instant (what an acceleration of 0 holds)"
 
 
+def test_the_printout_counts_each_period_as_the_paper_action_it_amounts_to(tmp_path):
+    """The car keeps its speed for 4 periods and speeds up for 4, the truck keeps its speed for 8: 12 keep and 4
+    accelerate, not the counts of the acceleration interface's actions 0 to 4 (the lowest bins)."""
+    two_car_scene(tmp_path / "scene")
+    result = invoke("recorded-demos", str(tmp_path / "scene"), *ACCELERATION, "--out", str(tmp_path / "demos.parquet"))
+    assert result.exit_code == 0, result.output
+    assert "actions: 12 keep, 4 accelerate, 0 decelerate, 0 lane_left, 0 lane_right (a lane change" in result.output
+
+
 def test_a_run_of_the_other_interface_refuses_them_before_any_work(scene_and_demos, tmp_path):
     _, demos = scene_and_demos
     result = invoke("train", *SMALL, *HISTORY, "--demos", str(demos), "--iterations", "1", "--out",

@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 
 from sumo_rail.config import Config
 from sumo_rail.recordings.seat import SceneEnv
 from sumo_rail.sim.actions import Lateral, acceleration_action
+from sumo_rail.sim.observation import acceleration_slot, control_slot
 from sumo_rail.sim.simulation import EGO_ID
 
 CONFIG = Config.from_dict({"observation": {"lane_block": 1}, "env": {"max_episode_s": 10.0},
@@ -65,3 +67,22 @@ def test_the_seats_history_is_the_recorded_lead_in(drivers_scene):
             assert block[3 * (k - 1) + 1] == pytest.approx(row["acceleration_mps2"] / 9.0, abs=1e-5)
     finally:
         env.close()
+
+
+def test_the_first_observation_shows_the_lead_ins_last_period_as_the_demonstrations_do(replay):
+    """Before its first decision the seated ego's last commanded acceleration is the human's over the period before
+    the seat, in its bin (what recorded-demos shows at that instant), not 0: a policy that learned to go on as the
+    last command did would otherwise start every seat by holding its speed."""
+    tracks = replay.scene.tracks
+    vehicle, first_s = longest_track(tracks, "passenger")
+    track = tracks[tracks["vehicle_id"] == vehicle]
+    time_s, speed = track["time_s"].to_numpy(), track["speed_mps"].to_numpy()
+    config = replay.unwrapped.config
+    actions, period = config.actions, config.env.decision_period_s
+    instants = first_s + period * np.arange(2, 40)
+    accelerations = (np.interp(instants, time_s, speed) - np.interp(instants - period, time_s, speed)) / period
+    chosen = int(np.argmax(np.abs(accelerations)))
+    start_s, shown = float(instants[chosen]), actions.acceleration_mps2(actions.nearest_bin(accelerations[chosen]))
+    assert abs(shown) >= 0.5  # a seat whose human was changing speed
+    observation, _ = replay.reset(seed=0, options={"vehicle": vehicle, "start_s": start_s})
+    assert observation[control_slot(config)] == pytest.approx(acceleration_slot(shown, actions), abs=1e-6)

@@ -1,0 +1,104 @@
+"""BC on the acceleration interface, open loop (docs/results.md, "Learning from recorded drivers: the acceleration
+interface"): at every decision of the held-out drivers (recorded-demos of their split), the acceleration BC chooses
+against the one read off the track, and how much of it is the last command shown in the observation: the share of
+decisions that repeat it (the humans' own share beside it), and what BC chooses when the last command reads 0 m/s^2
+(how a seat began before the seat showed its lead-in's last period), against the humans' share of 0 m/s^2.
+
+    python experiments/acceleration_open_loop.py counts OUT.parquet RUNS_DIR DEMOS.parquet [DEMOS.parquet ...]
+    python experiments/acceleration_open_loop.py table COUNTS.parquet
+
+`counts` reads each DEMOS file (named acceleration_hH_SPLIT_tSCENE.parquet) with the BC policies of RUNS_DIR of the
+same history (acceleration_hH_pP_sSEED/policy_bc.npz) and writes, per demonstration file, driver (the human or a BC
+run) and held-out vehicle, its decisions and the counts the table pools (`COLUMNS`).
+"""
+
+from __future__ import annotations
+
+import re
+import sys
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pyarrow as pa
+
+from sumo_rail.action_config import ActionConfig
+from sumo_rail.datasets import read_metadata, write_parquet
+from sumo_rail.drivers.policies import load_policy
+from sumo_rail.evaluation.statistics import seeded_interval
+from sumo_rail.runners.tables import read_demonstrations
+from sumo_rail.sim.observation import acceleration_slot
+
+DEMOS = re.compile(r"acceleration_(h\d+)_\w+_t\d+\.parquet")
+RUN = re.compile(r"acceleration_(h\d+)_(p\d+)_s(\d+)")
+COLUMNS = {"exact bin": ("exact", "decisions"), "mean |error| [m/s^2]": ("abs_error_mps2", "decisions"),
+           "repeats the last command": ("repeats", "decisions"), "0 m/s^2": ("zero", "decisions"),
+           "0 m/s^2 when the last command reads 0": ("zero_after_zero", "asked_after_zero")}
+"""Table heading -> the (numerator, denominator) counts per vehicle: sums over its decisions."""
+
+
+def accelerations(actions: np.ndarray, interface: ActionConfig) -> np.ndarray:
+    """The acceleration [m/s^2] of each acceleration-interface action (its bin: `split_acceleration_action`)."""
+    return interface.acceleration_mps2(np.asarray(actions) % interface.acceleration_bins)
+
+
+def vehicle_counts(episodes: np.ndarray, read: np.ndarray, chosen: np.ndarray, shown: np.ndarray,
+                   after_zero: np.ndarray) -> pd.DataFrame:
+    """Per vehicle (episode), the `COLUMNS` counts of a driver choosing `chosen` [m/s^2] where the track reads `read`
+    and the last command shown is `shown`, and `after_zero` where it is shown as 0 (NaN: not asked there)."""
+    frame = pd.DataFrame({"episode": episodes, "decisions": 1, "exact": chosen == read,
+                          "abs_error_mps2": np.abs(chosen - read), "repeats": np.isclose(chosen, shown),
+                          "zero": chosen == 0.0, "zero_after_zero": after_zero == 0.0,
+                          "asked_after_zero": ~np.isnan(after_zero)})
+    return frame.groupby("episode").sum().reset_index()
+
+
+def counts(out: Path, runs: Path, demos: list[Path]) -> None:
+    rows = []
+    for path in demos:
+        history = DEMOS.fullmatch(path.name)[1]
+        interface = ActionConfig(**read_metadata(path)["config"]["actions"])
+        read = read_demonstrations(path, interface=interface)
+        slot = read.metadata["observation_names"].index("last_acceleration")
+        truth = accelerations(read.actions, interface)
+        shown = interface.acceleration_mps2(np.round(read.observations[:, slot] * (interface.acceleration_bins - 1)))
+        zeroed = read.observations.copy()
+        zeroed[:, slot] = acceleration_slot(0.0, interface)
+        rows.append(vehicle_counts(read.episodes, truth, truth, shown, np.where(shown == 0.0, truth, np.nan))
+                    .assign(demos=path.name, driver="human"))
+        for folder in sorted(runs.glob(f"acceleration_{history}_p*_s*")):
+            policy, _ = load_policy(folder / "policy_bc.npz")
+            chosen, after_zero = (accelerations(np.argmax(policy.logits(observations), axis=1), interface)
+                                  for observations in (read.observations, zeroed))
+            rows.append(vehicle_counts(read.episodes, truth, chosen, shown, after_zero)
+                        .assign(demos=path.name, driver=folder.name))
+    write_parquet(pa.Table.from_pandas(pd.concat(rows, ignore_index=True), preserve_index=False), out,
+                  {"kind": "acceleration_open_loop", "demos": [path.name for path in demos]})
+
+
+def table(path: Path) -> None:
+    frame = pd.read_parquet(path)
+    humans = frame[(frame["driver"] == "human") & frame["demos"].str.startswith("acceleration_h0_")]
+    print(f"{len(humans)} held-out drivers, {int(humans['decisions'].sum())} decisions; each a share of the decisions "
+          f"(mean |error| per decision; the last column's humans: their share of 0 m/s^2 after a period of 0), 95% "
+          f"intervals over vehicles and training seeds\n")
+    print("| driver | " + " | ".join(COLUMNS) + " |")
+    print("|---|" + "---|" * len(COLUMNS))
+    methods = {"humans (read off their tracks)": [humans]}
+    learners = frame[frame["driver"] != "human"]
+    for setting, runs in learners.groupby(learners["driver"].str.replace(r"_s\d+$", "", regex=True)):
+        history, balance = RUN.fullmatch(f"{setting}_s0").groups()[:2]
+        methods[f"BC, history {history[1:]} s, balance {float('0.' + balance[1:]):g}"] = [
+            run.sort_values(["demos", "episode"]) for _, run in runs.groupby("driver")]
+    for label, runs in methods.items():
+        cells = [seeded_interval([(run[numerator].to_numpy(float), run[denominator].to_numpy(float))
+                                  for run in runs]).format(2 if numerator == "abs_error_mps2" else 3)
+                 for numerator, denominator in COLUMNS.values()]
+        print(f"| {label} | " + " | ".join(cells) + " |")
+
+
+if __name__ == "__main__":
+    if sys.argv[1] == "counts":
+        counts(Path(sys.argv[2]), Path(sys.argv[3]), [Path(path) for path in sys.argv[4:]])
+    else:
+        table(Path(sys.argv[2]))
