@@ -113,7 +113,8 @@ def distribution_table(tracks: pd.DataFrame, methods: Mapping[str, Sequence[str]
         for method, reference in differences:
             seated = [[_seat_samples(by_episode, methods[driver], seat) for seat in humans]
                       for driver in (method, reference)]
-            cells = [_starred(paired_wasserstein_interval(*([seat[name] for seat in driver] for driver in seated),
+            cells = [_starred(paired_wasserstein_interval([seat[name] for seat in seated[0]],
+                                                          [seat[name] for seat in seated[1]],
                                                           [human[name] for human in humans.values()]))
                      for name in DISTRIBUTIONS.values()]
             lines.append(f"| {method} - {reference} | {mode} | " + " | ".join(cells) + " |")
