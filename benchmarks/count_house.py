@@ -44,7 +44,8 @@ def seat_path() -> list[str]:
     import pandas as pd
 
     from sumo_rail.config import Config
-    from sumo_rail.evaluation.scene_evaluation import Seat, SeatTask
+    from sumo_rail.evaluation.protocol import EvaluationTask
+    from sumo_rail.evaluation.scene_evaluation import Seat, SeatStart
     from sumo_rail.recordings.sumo_drivers import SumoDriversSettings, record_sumo_drivers
     from sumo_rail.runners.backends import WorkerContext
     from sumo_rail.runners.rollout import KeepDriver
@@ -66,7 +67,7 @@ def seat_path() -> list[str]:
             owner, qualname = frame.f_locals.get("self"), frame.f_code.co_qualname
             if owner is not None and "." in qualname:
                 classes += [type(owner).__name__, qualname.split(".")[0]]
-            if qualname == "SeatTask.run":
+            if qualname == "EvaluationTask.run":
                 break
             frame = frame.f_back
         paths.append(list(dict.fromkeys(reversed(classes))))
@@ -77,7 +78,7 @@ def seat_path() -> list[str]:
                                "env": {"max_episode_s": 2.0, "v_max_mps": 44.44}})
     context = WorkerContext()
     try:
-        SeatTask(config, Seat(str(folder), vehicle, start_s), KeepDriver(), False, 0).run(context)
+        EvaluationTask(SeatStart(config, Seat(str(folder), vehicle, start_s), False), KeepDriver(), 0).run(context)
     finally:
         context.close()
     return paths[-1]
