@@ -35,7 +35,7 @@ from sumo_rail.recordings.trajectory import TRAJECTORY_COLUMNS, TrajectoryPoint,
 from sumo_rail.runners.backends import RolloutBackend, WorkerContext
 from sumo_rail.runners.rollout import DriverSpec, SumoIdmDriver
 from sumo_rail.sim.env import HighwayEnv
-from sumo_rail.sim.traffic import TrafficView, leader_gap_m
+from sumo_rail.sim.traffic import TrafficView, ego_leader_gap_m
 
 STOP_MPS = 0.5
 """A speed below this is a stop [m/s]."""
@@ -76,7 +76,7 @@ def measured_gap(gap_m: float, range_m: float) -> float:
 
 
 @dataclass(frozen=True)
-class SeatStart:
+class RecordedSeatStart:
     """An episode in `seat` of its scene, non-reactive or `reactive` (`sumo_rail.recordings.seat.SceneEnv`)."""
 
     config: Config
@@ -117,9 +117,7 @@ class TrackObserver:
         self.add(traffic)
 
     def add(self, traffic: TrafficView) -> None:
-        ego, others = traffic.ego, traffic.neighbours
-        gap = leader_gap_m(np.append(ego.lane, others.lane), np.append(ego.lane_position_m, others.lane_position_m),
-                           np.append(ego.length_m, others.length_m), 0)
+        ego, gap = traffic.ego, ego_leader_gap_m(traffic)
         self.points.append(TrajectoryPoint(self.start_s + len(self.points) * self.period_s, ego.front_x, ego.front_y,
                                            ego.speed_mps, ego.lane, ego.lane_position_m,
                                            measured_gap(gap, self.range_m)))
@@ -169,7 +167,7 @@ def evaluate_seats(drivers: Sequence[DriverSpec], names: Sequence[str], config: 
                    on_episode: Callable[[int, Any], None] | None = None) -> Evaluation:
     """Every driver in every seat in every mode: one metrics row per episode, one track row per decision with the
     human's rows once per seat and mode under driver `HUMAN`."""
-    labelled = [(name, EvaluationTask(SeatStart(config, seat, MODES[mode]), driver, seed + index,
+    labelled = [(name, EvaluationTask(RecordedSeatStart(config, seat, MODES[mode]), driver, seed + index,
                                       (Safety(), SeatTrack(seat.start_s))))
                 for mode in modes for driver, name in zip(drivers, names, strict=True)
                 for index, seat in enumerate(seats)]
@@ -182,7 +180,7 @@ def evaluate_seats(drivers: Sequence[DriverSpec], names: Sequence[str], config: 
               for seat in seats}
     rows, tracks = [], []
     for (name, task), result in zip(labelled, results, strict=True):
-        assert isinstance(task.start, SeatStart)
+        assert isinstance(task.start, RecordedSeatStart)
         seat, driven = task.start.seat, pd.DataFrame({name: result.decisions[name] for name in TRAJECTORY_COLUMNS})
         keys = {"policy": name, "mode": "reactive" if task.start.reactive else "non-reactive",
                 "scene": Path(seat.scene).name, "vehicle": seat.vehicle, "start_s": seat.start_s}

@@ -78,6 +78,13 @@ def leader_gap_m(lanes: np.ndarray, fronts_m: np.ndarray, lengths_m: np.ndarray,
     return float(ahead.min()) if len(ahead) else NO_VEHICLE
 
 
+def ego_leader_gap_m(traffic: TrafficView) -> float:
+    """`leader_gap_m` of the ego among its neighbours [m] (inf: nobody seen ahead in its lane)."""
+    ego, others = traffic.ego, traffic.neighbours
+    return leader_gap_m(np.append(ego.lane, others.lane), np.append(ego.lane_position_m, others.lane_position_m),
+                        np.append(ego.length_m, others.length_m), 0)
+
+
 @quick_init
 @dataclass(frozen=True)
 class LaneGap:
