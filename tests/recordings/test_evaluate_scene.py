@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import shutil
 import signal
+from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
@@ -142,6 +143,44 @@ def test_the_same_seed_gives_the_same_episodes_whatever_the_workers(drivers_scen
         twice = evaluate_seats([KeepDriver(), KeepDriver()], ["keep", "keep#2"], CONFIG, seats[:1],
                                ["reactive"], backend, seed=7).metrics
     assert twice["policy"].tolist() == ["keep", "keep#2"]
+
+
+@dataclass(frozen=True)
+class _AsksForSumo:
+    """A driver of its own (no class the evaluation knows) that asks the seat for SUMO's controller."""
+
+    name: str = "own-idm"
+    controller: str = "sumo"
+
+    def create(self, config, seed):
+        return KeepDriver().create(config, seed)
+
+
+def test_any_driver_asking_for_sumos_controller_is_driven_by_sumo_in_the_seat(drivers_scene):
+    """sumo-idm is a controller like any other: a driver spec naming "sumo" drives as sumo-idm does, not as keep."""
+    seats = choose_seats(read_scene(drivers_scene), "test", 10.0, 2.0, 2, 0)
+    with SerialBackend() as backend:
+        metrics = evaluate_seats([SumoIdmDriver(), _AsksForSumo(), KeepDriver()], ["sumo-idm", "own-idm", "keep"],
+                                 CONFIG, seats, ["reactive"], backend, seed=7).metrics
+    driving = ["distance_m", "lane_changes", "position_error_10s_m"]
+    by_driver = {name: rows[driving].reset_index(drop=True) for name, rows in metrics.groupby("policy")}
+    pd.testing.assert_frame_equal(by_driver["own-idm"], by_driver["sumo-idm"])
+    assert not by_driver["own-idm"].equals(by_driver["keep"])
+
+
+def test_the_gap_to_the_leader_is_measured_within_the_lidars_range(drivers_scene):
+    """The driven and the human tracks' gaps are one measure, within lidar.range_m (not a fixed 100 m)."""
+    seats = choose_seats(read_scene(drivers_scene), "test", 10.0, 2.0, None, 0)
+    tracks = {}
+    with SerialBackend() as backend:
+        for range_m in (100.0, 40.0):  # the ego sees 20 m farther (CONTEXT_MARGIN_M): gaps of 40 to 60 m too
+            config = CONFIG.with_overrides({"lidar": {"range_m": range_m}})
+            tracks[range_m] = evaluate_seats([KeepDriver()], ["keep"], config, seats, ["non-reactive"], backend,
+                                             seed=0).decisions
+    for driver in ("keep", HUMAN):
+        wide, narrow = (tracks[range_m][tracks[range_m]["policy"] == driver]["gap_m"] for range_m in (100.0, 40.0))
+        assert wide.between(40.0, 60.0, inclusive="neither").any() and narrow.notna().any(), driver
+        assert not (narrow > 40.0).any(), driver
 
 
 def invoke(*args: str):
