@@ -10,6 +10,7 @@ other; a replayed vehicle running into the ego from behind is the other's fault)
 `STOP_MPS`), the progress relative to the human (distances along the road over the same time), lane changes per km
 and the driving score with its parts (`driving_score`; the human's distance is the reference's). Per decision, for the
 distributions: the ego's and, once per seat, the human's time, position, speed, lane and gap to the leader in its lane.
+The episodes are `protocol.EvaluationTask`s from a `RecordedSeatStart`, watched by `Safety` and `SeatTrack`.
 """
 
 from __future__ import annotations
