@@ -7,7 +7,8 @@ from typing import TYPE_CHECKING
 
 import click
 
-from .options import backend_options, build_backend, check_output, output_options, seed_option
+from .evaluation_options import evaluation_backend, parse_drivers
+from .options import backend_options, check_output, output_options, seed_option
 from .param_types import FiniteFloat
 from .progress import complete, progress
 from .running import interruptible_run
@@ -50,19 +51,11 @@ def evaluate_scene_command(config: Config, scenes: tuple[Path, ...], policies: t
     the humans'. --out gets one row per episode and NAME.tracks.parquet beside it one row per decision (the humans'
     own rows under the driver "human")."""
     from sumo_rail.datasets import DatasetError
-    from sumo_rail.drivers.policies import PolicyFileError
-    from sumo_rail.evaluation.evaluate import DEFAULT_REFERENCE, parse_driver, unique_names
-    from sumo_rail.evaluation.scene_evaluation import (
-        SumoDriver,
-        choose_seats,
-        evaluate_seats,
-        tracks_path,
-        write_scene_evaluation,
-    )
-    from sumo_rail.evaluation.scene_summary import distribution_table, track_table
+    from sumo_rail.evaluation.evaluate import DEFAULT_REFERENCE
+    from sumo_rail.evaluation.protocol import summarise, unique_names, write_evaluation
+    from sumo_rail.evaluation.scene_evaluation import SEAT_DRIVERS, choose_seats, evaluate_seats, tracks_path
     from sumo_rail.recordings.scene import check_scene, read_scene, scene_sources
     from sumo_rail.recordings.tracks import RecordingUsageError
-    from sumo_rail.runners.backends import SerialBackend
 
     check_output(out, overwrite)
     if out is not None:
@@ -78,30 +71,20 @@ def evaluate_scene_command(config: Config, scenes: tuple[Path, ...], policies: t
     if not seats:
         raise click.UsageError(f"no {split} car of {', '.join(map(str, scenes))} has a track of --lead-s + "
                                f"--horizon-s = {lead_s + horizon_s:g} s")
-    drivers = []
-    for text in policies:
-        try:
-            drivers.append(SumoDriver() if text == "sumo-idm" else parse_driver(text, config, DEFAULT_REFERENCE))
-        except PolicyFileError as error:
-            raise click.ClickException(str(error)) from error
-        except ValueError as error:
-            raise click.BadParameter(str(error), param_hint="'--policy'") from error
+    drivers = parse_drivers(policies, config, DEFAULT_REFERENCE, SEAT_DRIVERS)
     names = unique_names(drivers)
-    in_process = workers == 1 and backend_name == "process" and address is None  # no worker for one
-    backend = SerialBackend() if in_process else build_backend(backend_name, workers, address)
+    backend = evaluation_backend(backend_name, workers, address)
     bar = progress(len(drivers) * len(seats) * len(modes), "driving in recorded seats")
     with interruptible_run(bar, backend=backend):
-        metrics, tracks = evaluate_seats(drivers, names, config, seats, modes, backend, seed,
-                                         on_episode=lambda index, result: bar.update())
+        evaluation = evaluate_seats(drivers, names, config, seats, modes, backend, seed,
+                                    on_episode=lambda index, result: bar.update())
         if out is not None:
-            write_scene_evaluation(metrics, tracks, config, seed, out,
-                                   scenes={str(scene.folder.resolve()): scene_sources(scene) for scene in read},
-                                   policies=list(policies), split=split, lead_s=lead_s)
+            write_evaluation(evaluation, config, seed, out,
+                             scenes={str(scene.folder.resolve()): scene_sources(scene) for scene in read},
+                             policies=list(policies), split=split, lead_s=lead_s)
         complete(bar)
-    methods = {name: [name] for name in names}
     click.echo(f"{len(seats)} seats of {len(read)} scene(s), {horizon_s:g} s each\n")
-    click.echo(track_table(metrics, methods) + "\n")
-    click.echo("Wasserstein-1 distance to the humans' distributions:\n")
-    click.echo(distribution_table(tracks, methods, config.env.decision_period_s))
+    click.echo(summarise(evaluation, config))
     if out is not None:
-        click.echo(f"wrote {out}: {len(metrics)} episodes; {tracks_path(out)}: {len(tracks)} decisions")
+        click.echo(f"wrote {out}: {len(evaluation.metrics)} episodes; {tracks_path(out)}: {len(evaluation.decisions)} "
+                   f"decisions")

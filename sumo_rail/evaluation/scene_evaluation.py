@@ -10,54 +10,41 @@ other; a replayed vehicle running into the ego from behind is the other's fault)
 `STOP_MPS`), the progress relative to the human (distances along the road over the same time), lane changes per km
 and the driving score with its parts (`driving_score`; the human's distance is the reference's). Per decision, for the
 distributions: the ego's and, once per seat, the human's time, position, speed, lane and gap to the leader in its lane.
+The episodes are `protocol.EvaluationTask`s from a `RecordedSeatStart`, watched by `Safety` and `SeatTrack`.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pandas as pd
-import pyarrow as pa
 
 from sumo_rail.config import Config
-from sumo_rail.datasets import write_parquet
 from sumo_rail.evaluation.driving_score import SCORE_COLUMNS, driving_scores
 from sumo_rail.evaluation.human_likeness import HORIZONS_S, position_errors
-from sumo_rail.evaluation.safety import SafetyProbe
+from sumo_rail.evaluation.protocol import NAMED_DRIVERS, Evaluation, EvaluationTask, Tables, plain_table
+from sumo_rail.evaluation.safety import Safety
+from sumo_rail.evaluation.scene_summary import HUMAN, seats_summary
 from sumo_rail.recordings.scene import Scene, read_scene
 from sumo_rail.recordings.scene_observations import SceneFrames
 from sumo_rail.recordings.seat import SceneEnv
-from sumo_rail.recordings.trajectory import TrajectoryPoint, trajectory_frame
+from sumo_rail.recordings.trajectory import TRAJECTORY_COLUMNS, TrajectoryPoint, trajectory_frame
 from sumo_rail.runners.backends import RolloutBackend, WorkerContext
-from sumo_rail.runners.rollout import DriverSpec, KeepDriver, probes_in_turn, run_episode
-from sumo_rail.runners.tables import provenance
-from sumo_rail.sim.controllers import ActionController, SumoController
-from sumo_rail.sim.traffic import TrafficView, lane_gaps
+from sumo_rail.runners.rollout import DriverSpec, SumoIdmDriver
+from sumo_rail.sim.env import HighwayEnv
+from sumo_rail.sim.traffic import TrafficView, ego_leader_gap_m
 
 STOP_MPS = 0.5
 """A speed below this is a stop [m/s]."""
-GAP_RANGE_M = 100.0
-"""Gaps to a leader beyond this (or none) are no headway sample [m] (the LIDAR's range)."""
-HUMAN = "human"
-"""The driver name of the recorded vehicles' own rows."""
+SEAT_DRIVERS: dict[str, DriverSpec] = {**NAMED_DRIVERS, "sumo-idm": SumoIdmDriver()}
+"""The drivers a --policy word names in a recorded seat: any road's and SUMO's IDM (the seat's "sumo" controller)."""
 MODES = {"non-reactive": False, "reactive": True}
 SCENE_EPISODES, SCENE_TRACKS = "scene_episodes", "scene_tracks"
 """The `kind` in the provenance of evaluate-scene's two tables."""
-
-
-@dataclass(frozen=True)
-class SumoDriver:
-    """SUMO's IDM and LC2013 in the ego's seat (the env core's "sumo" controller, `SumoController`); the actions are
-    not used."""
-
-    name: str = "sumo-idm"
-
-    def create(self, config: Config, seed: int) -> Callable[[np.ndarray, TrafficView], int]:
-        return KeepDriver().create(config, seed)
 
 
 @dataclass(frozen=True)
@@ -83,25 +70,74 @@ def choose_seats(scene: Scene, split: str, horizon_s: float, lead_s: float, limi
     return [Seat(str(scene.folder), str(vehicle), float(begin) + lead_s) for vehicle, begin in fit["begin"].items()]
 
 
-class _TrackProbe:
-    """The ego's state at every decision, the first at `start_s` [s], one every `period_s` [s] (a `DecisionProbe`)."""
+def measured_gap(gap_m: float, range_m: float) -> float:
+    """A gap to the leader [m] as a headway sample: NaN beyond `range_m` [m] (the LIDAR's, `lidar.range_m`) or
+    without a leader (inf)."""
+    return gap_m if gap_m <= range_m else np.nan
 
-    def __init__(self, start_s: float, period_s: float) -> None:
-        self.start_s, self.period_s = start_s, period_s
+
+@dataclass(frozen=True)
+class RecordedSeatStart:
+    """An episode in `seat` of its scene, non-reactive or `reactive` (`sumo_rail.recordings.seat.SceneEnv`)."""
+
+    config: Config
+    seat: Seat
+    reactive: bool
+
+    def env(self, context: WorkerContext) -> HighwayEnv:
+        env = context.custom_env(("scene", self.config, self.seat.scene, self.reactive),
+                                 lambda: SceneEnv(self.config, Path(self.seat.scene), self.reactive,
+                                                  transport="libsumo"))
+        assert isinstance(env, SceneEnv)
+        return env
+
+    def options(self) -> dict[str, Any]:
+        return {"vehicle": self.seat.vehicle, "start_s": self.seat.start_s}
+
+
+@dataclass(frozen=True)
+class SeatTrack:
+    """Observes the ego's track in a seat (`TrackObserver`): an evaluation's `protocol.ObserverSpec`."""
+
+    start_s: float
+
+    def create(self, config: Config, seed: int) -> TrackObserver:
+        return TrackObserver(self.start_s, config.env.decision_period_s, config.lidar.range_m)
+
+
+class TrackObserver:
+    """The ego's state at every decision (`TrajectoryPoint`s, the first at `start_s`, one every `period_s` [s], the gap
+    to its leader measured within `range_m` [m]) and the state it ended in unless it collided; with the collisions it
+    caused and the speed limit."""
+
+    def __init__(self, start_s: float, period_s: float, range_m: float) -> None:
+        self.start_s, self.period_s, self.range_m = start_s, period_s, range_m
         self.points: list[TrajectoryPoint] = []
 
     def __call__(self, observation: np.ndarray, traffic: TrafficView, action: int, info: dict[str, Any]) -> None:
         self.add(traffic)
 
     def add(self, traffic: TrafficView) -> None:
-        ego, gap = traffic.ego, lane_gaps(traffic, traffic.ego.lane).front_gap_m
+        ego, gap = traffic.ego, ego_leader_gap_m(traffic)
         self.points.append(TrajectoryPoint(self.start_s + len(self.points) * self.period_s, ego.front_x, ego.front_y,
                                            ego.speed_mps, ego.lane, ego.lane_position_m,
-                                           gap if gap <= GAP_RANGE_M else np.nan))
+                                           measured_gap(gap, self.range_m)))
+
+    def columns(self, env: HighwayEnv, metrics: Mapping[str, Any]) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+        """The collisions the ego caused (SUMO named it the collider) and the speed limit [m/s]; the track
+        (`TRAJECTORY_COLUMNS`, one entry more than the decisions unless the ego collided)."""
+        assert isinstance(env, SceneEnv)
+        if metrics["termination"] != "collision":
+            self.add(env.traffic)
+        track = trajectory_frame(self.points)
+        return ({"at_fault_collisions": sum(collider == "ego" for collider, _ in env.ego_collisions),
+                 "limit_mps": env.config.scenario.speed_limit_mps},
+                {name: track[name].to_numpy() for name in TRAJECTORY_COLUMNS})
 
 
-def human_track(frames: SceneFrames, seat: Seat, period_s: float, decisions: int) -> pd.DataFrame:
-    """The seat's recorded vehicle at the episode's decision instants (`TRAJECTORY_COLUMNS`)."""
+def human_track(frames: SceneFrames, seat: Seat, period_s: float, decisions: int, range_m: float) -> pd.DataFrame:
+    """The seat's recorded vehicle at the episode's decision instants (`TRAJECTORY_COLUMNS`), its gap to the leader
+    measured within `range_m` [m]."""
     points = []
     for k in range(decisions + 1):
         time_s = seat.start_s + k * period_s
@@ -109,37 +145,8 @@ def human_track(frames: SceneFrames, seat: Seat, period_s: float, decisions: int
         row = snapshot.row(seat.vehicle)
         if row is None:
             break
-        gap = snapshot.leader_gap_m(row)
-        points.append(snapshot.point(row, time_s)._replace(gap_m=gap if gap <= GAP_RANGE_M else np.nan))
+        points.append(snapshot.point(row, time_s)._replace(gap_m=measured_gap(snapshot.leader_gap_m(row), range_m)))
     return trajectory_frame(points)
-
-
-@dataclass(frozen=True)
-class SeatTask:
-    """One driver's episode in one seat, in one mode (the unit of work of `evaluate_seats`)."""
-
-    config: Config
-    seat: Seat
-    driver: DriverSpec
-    reactive: bool
-    seed: int
-
-    def run(self, context: WorkerContext) -> tuple[dict[str, Any], pd.DataFrame]:
-        env = context.custom_env(("scene", self.config, self.seat.scene, self.reactive),
-                                 lambda: SceneEnv(self.config, Path(self.seat.scene), self.reactive,
-                                                  transport="libsumo"))
-        assert isinstance(env, SceneEnv)
-        track, safety = _TrackProbe(self.seat.start_s, env.config.env.decision_period_s), SafetyProbe()
-        options = {"vehicle": self.seat.vehicle, "start_s": self.seat.start_s,
-                   "controller": (SumoController if isinstance(self.driver, SumoDriver) else ActionController).name}
-        result = run_episode(env, self.driver.create(env.config, self.seed), self.seed, options=options,
-                             probe=probes_in_turn(track, safety))
-        if result.metrics["termination"] != "collision":
-            track.add(env.traffic)
-        driven = trajectory_frame(track.points)
-        return {**result.metrics, **safety.episode_columns(),
-                "at_fault_collisions": sum(collider == "ego" for collider, _ in env.ego_collisions),
-                "limit_mps": env.config.scenario.speed_limit_mps}, driven
 
 
 def seat_columns(driven: pd.DataFrame, human: pd.DataFrame, simulated_s: float) -> dict[str, float]:
@@ -158,48 +165,43 @@ def seat_columns(driven: pd.DataFrame, human: pd.DataFrame, simulated_s: float) 
 
 def evaluate_seats(drivers: Sequence[DriverSpec], names: Sequence[str], config: Config, seats: Sequence[Seat],
                    modes: Sequence[str], backend: RolloutBackend, seed: int,
-                   on_episode: Callable[[int, Any], None] | None = None) -> tuple[pd.DataFrame, pd.DataFrame]:
-    """Every driver in every seat in every mode: (one metrics row per episode, one track row per decision with the
-    human's rows once per seat and mode under driver `HUMAN`)."""
-    labelled = [(name, SeatTask(config, seat, driver, MODES[mode], seed + index))
+                   on_episode: Callable[[int, Any], None] | None = None) -> Evaluation:
+    """Every driver in every seat in every mode: one metrics row per episode, one track row per decision with the
+    human's rows once per seat and mode under driver `HUMAN`."""
+    labelled = [(name, EvaluationTask(RecordedSeatStart(config, seat, MODES[mode]), driver, seed + index,
+                                      (Safety(), SeatTrack(seat.start_s))))
                 for mode in modes for driver, name in zip(drivers, names, strict=True)
                 for index, seat in enumerate(seats)]
-    tasks = [task for _, task in labelled]
-    results = backend.run(tasks, on_result=on_episode)
+    results = backend.run([task for _, task in labelled], on_result=on_episode)
     frames = {scene: SceneFrames(read.tracks, read.meta.frame_rate_hz)
               for scene, read in ((scene, read_scene(Path(scene))) for scene in {seat.scene for seat in seats})}
     period = config.env.decision_period_s
     horizon_decisions = round(config.env.max_episode_s / period)
-    humans = {seat: human_track(frames[seat.scene], seat, period, horizon_decisions) for seat in seats}
+    humans = {seat: human_track(frames[seat.scene], seat, period, horizon_decisions, config.lidar.range_m)
+              for seat in seats}
     rows, tracks = [], []
-    for (name, task), (metrics, driven) in zip(labelled, results, strict=True):
-        mode = "reactive" if task.reactive else "non-reactive"
-        keys = {"policy": name, "mode": mode, "scene": Path(task.seat.scene).name,
-                "vehicle": task.seat.vehicle, "start_s": task.seat.start_s}
-        rows.append({**keys, **metrics, **seat_columns(driven, humans[task.seat], metrics["simulated_s"])})
+    for (name, task), result in zip(labelled, results, strict=True):
+        assert isinstance(task.start, RecordedSeatStart)
+        seat, driven = task.start.seat, pd.DataFrame({name: result.decisions[name] for name in TRAJECTORY_COLUMNS})
+        keys = {"policy": name, "mode": "reactive" if task.start.reactive else "non-reactive",
+                "scene": Path(seat.scene).name, "vehicle": seat.vehicle, "start_s": seat.start_s}
+        rows.append({**keys, **result.metrics, **seat_columns(driven, humans[seat], result.metrics["simulated_s"])})
         tracks.append(driven.assign(**keys))
     for mode in modes:
         for seat, human in humans.items():
             tracks.append(human.assign(policy=HUMAN, mode=mode, scene=Path(seat.scene).name, vehicle=seat.vehicle,
                                        start_s=seat.start_s))
-    metrics_frame = pd.DataFrame(rows)
+    metrics = pd.DataFrame(rows)
     overspeed = [float(np.clip(driven["speed_mps"] - limit, 0.0, None).mean()) if len(driven) else 0.0
-                 for driven, limit in zip(tracks[:len(rows)], metrics_frame["limit_mps"], strict=True)]
-    metrics_frame[list(SCORE_COLUMNS)] = driving_scores(metrics_frame, metrics_frame["human_distance_m"].to_numpy(),
-                                                        np.array(overspeed))
-    return metrics_frame, pd.concat(tracks, ignore_index=True)
+                 for driven, limit in zip(tracks[:len(rows)], metrics["limit_mps"], strict=True)]
+    metrics[list(SCORE_COLUMNS)] = driving_scores(metrics, metrics["human_distance_m"].to_numpy(), np.array(overspeed))
+    return Evaluation(metrics, pd.concat(tracks, ignore_index=True), SEATS)
 
+
+SEATS = Tables(SCENE_EPISODES, SCENE_TRACKS, ".tracks.parquet", plain_table, plain_table, seats_summary)
+"""What `evaluate_seats` writes: the metrics and NAME.tracks.parquet, each as pandas types it."""
 
 
 def tracks_path(metrics_path: Path) -> Path:
     """Where the per-decision tracks of a metrics file go: NAME.tracks.parquet beside NAME.parquet."""
-    return Path(metrics_path).with_suffix(".tracks.parquet")
-
-
-def write_scene_evaluation(metrics: pd.DataFrame, tracks: pd.DataFrame, config: Config, seed: int, out: Path,
-                           **extra: Any) -> None:
-    """The metrics at `out` and the tracks beside it (`tracks_path`), with provenance, each atomically."""
-    write_parquet(pa.Table.from_pandas(metrics, preserve_index=False), out,
-                  provenance(SCENE_EPISODES, config, seed, **extra))
-    write_parquet(pa.Table.from_pandas(tracks, preserve_index=False), tracks_path(out),
-                  provenance(SCENE_TRACKS, config, seed, metrics_file=Path(out).name, **extra))
+    return SEATS.beside(metrics_path)

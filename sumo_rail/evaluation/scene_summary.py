@@ -14,14 +14,20 @@ farther one method is from the humans than another, resampling whole seats
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
 
 from sumo_rail.evaluation.human_likeness import HORIZONS_S, paired_wasserstein_interval, wasserstein_interval
-from sumo_rail.evaluation.scene_evaluation import HUMAN
 from sumo_rail.evaluation.statistics import Interval, Sample, seeded_interval
 
+if TYPE_CHECKING:
+    from sumo_rail.config import Config
+    from sumo_rail.evaluation.protocol import Evaluation
+
+HUMAN = "human"
+"""The driver name of the recorded vehicles' own rows (`scene_evaluation.evaluate_seats`)."""
 SEAT_KEYS = ["mode", "scene", "vehicle", "start_s"]
 MEASURES: dict[str, str] = {
     **{f"position error {h:g} s [m]": f"position_error_{h:g}s_m" for h in HORIZONS_S},
@@ -127,3 +133,12 @@ def _seat_samples(by_episode: Mapping[tuple, dict[str, np.ndarray]], names: Sequ
     episodes = [by_episode[(name, *seat)] for name in names if (name, *seat) in by_episode]
     return {name: np.concatenate([episode[name] for episode in episodes]) if episodes else np.empty(0)
             for name in DISTRIBUTIONS.values()}
+
+
+def seats_summary(evaluation: Evaluation, config: Config, reference: str | None = None,
+                  expert: str | None = None) -> str:
+    """Recorded seats' tables (`protocol.summarise`): every driver's `track_table`, then its `distribution_table`
+    (the seats are their own reference: the humans')."""
+    methods = {name: [name] for name in dict.fromkeys(evaluation.metrics["policy"])}
+    return (f"{track_table(evaluation.metrics, methods)}\n\nWasserstein-1 distance to the humans' distributions:\n\n"
+            f"{distribution_table(evaluation.decisions, methods, config.env.decision_period_s)}")
