@@ -25,7 +25,7 @@ import pandas as pd
 
 from sumo_rail.config import Config
 from sumo_rail.evaluation.driving_score import SCORE_COLUMNS, driving_scores
-from sumo_rail.evaluation.human_likeness import HORIZONS_S, position_errors
+from sumo_rail.evaluation.human_likeness import HORIZONS_S, position_errors, track_rmse
 from sumo_rail.evaluation.protocol import NAMED_DRIVERS, Evaluation, EvaluationTask, Tables, plain_table
 from sumo_rail.evaluation.safety import Safety
 from sumo_rail.evaluation.scene_summary import HUMAN, seats_summary
@@ -150,14 +150,17 @@ def human_track(frames: SceneFrames, seat: Seat, period_s: float, decisions: int
 
 
 def seat_columns(driven: pd.DataFrame, human: pd.DataFrame, simulated_s: float) -> dict[str, float]:
-    """The measures of one episode against the human's track: position errors, progress, stop, lane changes."""
+    """The measures of one episode against the human's track: position errors, their RMSE and the speed's, progress,
+    stop, lane changes."""
     errors = position_errors(driven, human) if len(driven) else np.full(len(HORIZONS_S), np.nan)
+    position_rmse, speed_rmse = track_rmse(driven, human) if len(driven) else (np.nan, np.nan)
     start = human["lane_position_m"].iloc[0]
     human_m = float(np.interp(human["time_s"].iloc[0] + simulated_s, human["time_s"], human["lane_position_m"])
                     - start)
     driven_m = float(driven["lane_position_m"].iloc[-1] - driven["lane_position_m"].iloc[0]) if len(driven) else 0.0
     changes = int(np.abs(np.diff(driven["lane"].to_numpy())).sum()) if len(driven) else 0
     return {**{f"position_error_{h:g}s_m": float(e) for h, e in zip(HORIZONS_S, errors, strict=True)},
+            "position_rmse_m": position_rmse, "speed_rmse_mps": speed_rmse,
             "human_distance_m": human_m, "progress_ratio": driven_m / human_m if human_m > 0 else np.nan,
             "stopped": bool(len(driven) and driven["speed_mps"].min() < STOP_MPS),
             "lane_changes_per_km": changes / (driven_m / 1000.0) if driven_m > 0 else np.nan}
