@@ -32,7 +32,7 @@ if TYPE_CHECKING:
               help="non-reactive: the other vehicles replayed as recorded; reactive: driven by SUMO from their "
                    "recorded state (repeatable).")
 @click.option("--horizon-s", type=FiniteFloat(1, 600), default=15.0, show_default=True,
-              help="Length of each episode [s] (the position error is read at 1, 5 and 10 s).")
+              help="Length of each episode [s] (the position error is read at 1, 2, 5, 10, 15 and 20 s, within it).")
 @click.option("--lead-s", type=FiniteFloat(0, 600), default=5.0, show_default=True,
               help="The ego takes the seat this long after the vehicle's track begins [s].")
 @click.option("--seats", "limit", type=click.IntRange(min=1), default=None,
@@ -45,11 +45,12 @@ def evaluate_scene_command(config: Config, scenes: tuple[Path, ...], policies: t
                            workers: int, backend_name: str, address: str | None, out: Path | None,
                            overwrite: bool) -> None:
     """Put each driver in the seat of each held-out recorded car of SCENES (folders of import-recording or
-    record-sumo-drivers) for --horizon-s, and measure it against that car's recorded track: position error at 1, 5
-    and 10 s, collisions and those the ego caused, stops, progress relative to the human, lane changes per km, hard
-    braking, TTC below 1.5 s, the driving score, and the distances of its speed, acceleration and gap distributions to
-    the humans'. --out gets one row per episode and NAME.tracks.parquet beside it one row per decision (the humans'
-    own rows under the driver "human")."""
+    record-sumo-drivers) for --horizon-s, and measure it against that car's recorded track: position error at 1, 2, 5,
+    10, 15 and 20 s (those the episode reaches), RMSE of position and speed, collisions and those the ego caused, stops,
+    progress relative to the human, lane changes per km, hard braking, TTC below 1.5 s, the driving score, and the
+    distances of its speed, acceleration, jerk, gap and time-headway distributions to the humans'. --out gets one
+    row per episode and NAME.tracks.parquet beside it one row per decision (the humans' own rows under the driver
+    "human")."""
     from sumo_rail.datasets import DatasetError
     from sumo_rail.evaluation.evaluate import DEFAULT_REFERENCE
     from sumo_rail.evaluation.protocol import summarise, unique_names, write_evaluation

@@ -4,13 +4,14 @@ that vehicle's recorded track.
 
 A seat is a held-out passenger car (the ego is a car) whose track covers `lead_s` + `horizon_s` [s]; the ego starts
 `lead_s` after the track begins (the car is fully on the road and has moved with its traffic). Per episode: the
-paper's metrics, the safety measures (`safety.SafetyProbe`), the position error against the human's track at 1, 5 and
-10 s (`human_likeness`), collisions and those the ego caused (SUMO names the ego the collider: it ran into the
-other; a replayed vehicle running into the ego from behind is the other's fault), a stop (speed below
-`STOP_MPS`), the progress relative to the human (distances along the road over the same time), lane changes per km
-and the driving score with its parts (`driving_score`; the human's distance is the reference's). Per decision, for the
-distributions: the ego's and, once per seat, the human's time, position, speed, lane and gap to the leader in its lane.
-The episodes are `protocol.EvaluationTask`s from a `RecordedSeatStart`, watched by `Safety` and `SeatTrack`.
+paper's metrics, the safety measures (`safety.SafetyProbe`), the position error against the human's track at 1, 2,
+5, 10, 15 and 20 s and the RMSE of position and speed over the seat (`human_likeness`), collisions and those the ego
+caused (SUMO names the ego the collider: it ran into the other; a replayed vehicle running into the ego from behind
+is the other's fault), a stop (speed below `STOP_MPS`), the progress relative to the human (distances along the road
+over the same time), lane changes per km and the driving score with its parts (`driving_score`; the human's distance
+is the reference's). Per decision, for the distributions: the ego's and, once per seat, the human's time, position,
+speed, lane and gap to the leader in its lane. The episodes are `protocol.EvaluationTask`s from a
+`RecordedSeatStart`, watched by `Safety` and `SeatTrack`.
 """
 
 from __future__ import annotations

@@ -56,7 +56,8 @@ def test_the_humans_track_is_its_recorded_one_with_the_gap_to_its_leader(drivers
     seat = choose_seats(scene, "test", 10.0, 2.0, None, 0)[0]
     human = human_track(SceneFrames(scene.tracks, scene.meta.frame_rate_hz), seat, 0.5, 20, 100.0)
     recorded = scene.track(seat.vehicle)
-    assert len(human) == 21 and np.allclose(position_errors(human, recorded[recorded["time_s"] >= seat.start_s]), 0)
+    ahead = recorded[recorded["time_s"] >= seat.start_s]
+    assert len(human) == 21 and np.allclose(position_errors(human, ahead, (1.0, 5.0, 10.0)), 0)
     at = scene.tracks[np.isclose(scene.tracks["time_s"], seat.start_s)]
     me = at[at["vehicle_id"] == seat.vehicle].iloc[0]
     ahead = at[(at["lane"] == me["lane"]) & (at["lane_position_m"] - at["length_m"] > me["lane_position_m"])]
