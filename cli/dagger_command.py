@@ -38,7 +38,11 @@ DAGGER = "sumo_rail.learning.dagger"
 @click.option("--rounds", type=click.IntRange(min=0), default=5, show_default=True,
               help="Rounds after the first BC (with --resume: including those already done).")
 @roads_option("each round's episodes")
-@expert_option("Who labels the learner's states [default: the demonstrations' expert].", default=None)
+@expert_option("Who labels the learner's states [default: the demonstrations' expert]. 'log' on demonstrations "
+               "read from a recorded scene (recorded-demos, acceleration interface): training against the log, the "
+               "learner driving in the scene's train-split seats, each state labelled with the acceleration and lane "
+               "change that best return it to the seated car's recorded track over dagger.teacher_horizon_s.",
+               default=None)
 @run_folder_options("round", eval_every=1)
 @tensorboard_option
 def dagger_command(config: Config, settings: LearnerSettings, demos: Path, include_failed: bool, other_road: bool,
@@ -51,12 +55,23 @@ def dagger_command(config: Config, settings: LearnerSettings, demos: Path, inclu
     Writes run.json, dataset.parquet, policy_bc.npz, policy_latest.npz (evaluate it with evaluate --policy),
     log.parquet (one row per round) and checkpoint.json. Ctrl-C or SIGTERM keeps the last complete round;
     --resume continues it with the same result. Its settings are the [network], [bc] and [dagger] sections of --config
-    and --set (--help-settings lists them); every round is behaviour cloning, so bc.epochs is at least 1."""
+    and --set (--help-settings lists them); every round is behaviour cloning, so bc.epochs is at least 1.
+
+    Against the log (--expert log) the teacher knows only the seated car's recorded future: not why it drove so, nor
+    what the others would do once the ego leaves its track (they replay theirs), so a label far from the track says
+    "go back" whatever the traffic there, and states after the track's end have none (docs/recordings.md)."""
+    from sumo_rail.datasets import DatasetError, read_metadata
     from sumo_rail.learning.dagger import train_dagger
+    from sumo_rail.learning.log_dagger import LOG_TEACHER, LogTeacherError, log_scene
     from sumo_rail.learning.run_folder import RunError
     from sumo_rail.learning.validation import Validation
 
-    if expert is not None:
+    if expert == LOG_TEACHER:
+        try:
+            log_scene(read_metadata(demos), demos, config)
+        except (DatasetError, LogTeacherError) as error:
+            raise click.UsageError(str(error)) from error
+    elif expert is not None:
         expert, _ = resolve_expert_option(expert, config, drives=True)
     try:
         run = dataclasses.replace(settings.dagger, demos=str(demos), kind=settings.network.shape,
@@ -83,7 +98,8 @@ def dagger_command(config: Config, settings: LearnerSettings, demos: Path, inclu
         bar.write(text)
 
     with interruptible_run(bar, lambda: kept_until_resume(out, "round", "checkpoint.json"), backend,
-                           tensorboard_logger(tensorboard_dir, "dagger", out), errors=(RunError,)) as board:
+                           tensorboard_logger(tensorboard_dir, "dagger", out),
+                           errors=(RunError, LogTeacherError)) as board:
         train_dagger(out, run, config, rounds, backend, resume, Validation(eval_every, eval_episodes),
                      on_round=show)
         complete(bar)
