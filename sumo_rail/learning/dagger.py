@@ -54,7 +54,7 @@ from sumo_rail.sim.observation import observation_space
 
 CHECKPOINT_FORMAT = "sumo-rail dagger checkpoint 1"
 DATASET = "dagger_dataset"
-ADDED_SETTINGS = ("expert", "egos", "roads", "teacher_horizon_s", "seat_lead_s", "seat_s")
+ADDED_SETTINGS = ("expert", "egos", "roads", "teacher_horizon_s", "seat_lead_s", "seat_s", "seat_zone_m")
 """Settings added since the first runs: an older run.json without them resumes with their defaults."""
 
 
@@ -89,6 +89,8 @@ class DaggerSettings:
     """Against the log: the ego takes a seat this long after the car's track begins."""
     seat_s: float = bounded(1, 600, "s", default=15.0)
     """Against the log: each round's episode in a seat lasts this long (the seat's car's track covers it)."""
+    seat_zone_m: float = bounded(0, 100_000, "m", default=0.0)
+    """Against the log: seats where traffic is established (`choose_seats`' zone_m; evaluate-scene's --zone-m)."""
 
     def __post_init__(self) -> None:
         check_fields(self, "dagger.")
@@ -135,7 +137,7 @@ def train_dagger(folder: Path, settings: DaggerSettings, config: Config, rounds:
     demos_path, demos_hash = demos_record(settings.demos)
     settings = dataclasses.replace(settings, demos=demos_path)
     log = (LogSeats.of(demos.metadata, settings.demos, config, settings.seat_lead_s, settings.seat_s,
-                       settings.teacher_horizon_s) if settings.expert == LOG_TEACHER else None)
+                       settings.teacher_horizon_s, settings.seat_zone_m) if settings.expert == LOG_TEACHER else None)
     # recorded drivers: NotQueryable without the log as teacher (agreement then asks the rule-based style)
     recorded = demonstrations_expert(demos.metadata, DEFAULT_STYLE if log is not None else None)
     style = recorded if log is not None else settings.expert or recorded

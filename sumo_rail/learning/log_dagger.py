@@ -103,7 +103,7 @@ class LogSeats:
 
     @classmethod
     def of(cls, metadata: Mapping[str, Any], demos: str, config: Config, seat_lead_s: float, seat_s: float,
-           horizon_s: float) -> LogSeats:
+           horizon_s: float, zone_m: float = 0.0) -> LogSeats:
         """The train-split seats of the scene the demonstrations `demos` (their `metadata`) were read from; a
         LogTeacherError (one sentence) when the interface is not the acceleration interface, the demonstrations are
         not a scene's, the scene changed since or has no seat that long."""
@@ -117,10 +117,11 @@ class LogSeats:
                                   f"sha256 differ): read the demonstrations again")
         config = config.with_overrides({"env": {"max_episode_s": seat_s}})
         check_scene(scene, config, "train")
-        chosen = choose_seats(scene, "train", seat_s, seat_lead_s, None, 0)
+        chosen = choose_seats(scene, "train", seat_s, seat_lead_s, None, 0, zone_m)
         if not chosen:
+            zone = f" with dagger.seat_zone_m = {zone_m:g} m" if zone_m > 0 else ""
             raise LogTeacherError(f"no train-split car of the scene {folder} has a track of dagger.seat_lead_s + "
-                                  f"dagger.seat_s = {seat_lead_s + seat_s:g} s")
+                                  f"dagger.seat_s = {seat_lead_s + seat_s:g} s{zone}")
         rule, smoothing_s = ActionRule.for_env(config.env), smoothing_for(scene.meta.format)
         humans = [read_human_track(scene.track(seat.vehicle).sort_values("time_s", kind="stable"), rule,
                                    config.actions, smoothing_s) for seat in chosen]
