@@ -129,15 +129,19 @@ class DaggerTask:
 def train_dagger(folder: Path, settings: DaggerSettings, config: Config, rounds: int, backend: RolloutBackend,
                  resume: bool, validation: Validation | None = None,
                  on_round: Callable[[dict[str, Any]], None] | None = None,
-                 on_episode: Callable[[int, Any], None] | None = None) -> Policy:
-    """Run DAgger until `rounds` rounds after BC are done; returns the last policy. Safe to interrupt."""
+                 on_episode: Callable[[int, Any], None] | None = None, log: LogSeats | None = None) -> Policy:
+    """Run DAgger until `rounds` rounds after BC are done; returns the last policy. Safe to interrupt. With
+    `settings.expert` "log" the log teaches in the seats `log` (read here from the demonstrations' scene when None)."""
     folder, validation = Path(folder), validation or Validation()
     observation_size = observation_space(config).shape[0]
     demos = read_demonstrations(Path(settings.demos), observation_size, settings.include_failed_demos, config.actions)
     demos_path, demos_hash = demos_record(settings.demos)
     settings = dataclasses.replace(settings, demos=demos_path)
-    log = (LogSeats.of(demos.metadata, settings.demos, config, settings.seat_lead_s, settings.seat_s,
-                       settings.teacher_horizon_s, settings.seat_zone_m) if settings.expert == LOG_TEACHER else None)
+    if settings.expert == LOG_TEACHER and log is None:
+        log = LogSeats.of(demos.metadata, settings.demos, config, settings.seat_lead_s, settings.seat_s,
+                          settings.teacher_horizon_s, settings.seat_zone_m)
+    elif settings.expert != LOG_TEACHER:
+        log = None
     # recorded drivers: NotQueryable without the log as teacher (agreement then asks the rule-based style)
     recorded = demonstrations_expert(demos.metadata, DEFAULT_STYLE if log is not None else None)
     style = recorded if log is not None else settings.expert or recorded

@@ -104,7 +104,7 @@ def test_the_log_teacher_refuses_in_one_sentence(scene_and_demos, tmp_path, extr
     _, demos = scene_and_demos
     result = invoke("dagger", *SMALL, "--set", "dagger.seat_lead_s=0.5", *extra, "--demos", str(demos), "--expert",
                     "log", "--rounds", "1", "--eval-every", "0", "--out", str(tmp_path / "run"))
-    assert result.exit_code in (1, 2) and message in result.output, result.output
+    assert result.exit_code == 2 and message in result.output, result.output
     assert "Traceback" not in result.output and not (tmp_path / "run").exists()
 
 
@@ -116,3 +116,16 @@ def test_the_log_teacher_needs_a_scenes_demonstrations(scene_and_demos):
     with pytest.raises(RecordingUsageError, match="lanes"):
         LogSeats.of(read_metadata(demos), str(demos), Config.from_dict({**CONFIG.to_dict(),
                                                                          "scenario": {"lanes": 3}}), 0.5, 3.0, 3.0)
+
+
+def test_a_scene_changed_since_its_demonstrations_were_read_is_refused(tmp_path):
+    two_car_scene(tmp_path / "scene")
+    demos = tmp_path / "demos.parquet"
+    assert invoke("recorded-demos", str(tmp_path / "scene"), *ACCELERATION, "--out", str(demos)).exit_code == 0
+    two_car_scene(tmp_path / "scene", lanes=5)  # written again: the same tracks, so the same bytes
+    assert LogSeats.of(read_metadata(demos), str(demos), CONFIG, 0.5, 3.0, 3.0).seats
+    meta = tmp_path / "scene" / "scene.json"
+    meta.write_text(meta.read_text() + "\n")  # one byte more, the same scene read
+    result = invoke("dagger", *SMALL, *ACCELERATION, *SEATS, "--demos", str(demos), "--expert", "log", "--rounds",
+                    "1", "--eval-every", "0", "--out", str(tmp_path / "run"))
+    assert result.exit_code == 2 and "has changed since" in result.output and not (tmp_path / "run").exists()
