@@ -35,15 +35,19 @@ if TYPE_CHECKING:
               help="Length of each episode [s] (the position error is read at 1, 2, 5, 10, 15 and 20 s, within it).")
 @click.option("--lead-s", type=FiniteFloat(0, 600), default=5.0, show_default=True,
               help="The ego takes the seat this long after the vehicle's track begins [s].")
+@click.option("--zone-m", type=FiniteFloat(0, 100_000), default=0.0, show_default=True,
+              help="Seats where traffic is established: each starts at the first instant after --lead-s at which the "
+                   "car is at least this far along the road [m], and its horizon ends at least this far before the "
+                   "road's end (cars that never fit are left out; 0: every seat --lead-s into its track).")
 @click.option("--seats", "limit", type=click.IntRange(min=1), default=None,
               help="Seats per scene, drawn by --seed  [default: every seat that fits].")
 @seed_option("Seed of the seats' draw and of each episode's SUMO seed.")
 @backend_options
 @output_options(required=False)
 def evaluate_scene_command(config: Config, scenes: tuple[Path, ...], policies: tuple[str, ...], split: str,
-                           modes: tuple[str, ...], horizon_s: float, lead_s: float, limit: int | None, seed: int,
-                           workers: int, backend_name: str, address: str | None, out: Path | None,
-                           overwrite: bool) -> None:
+                           modes: tuple[str, ...], horizon_s: float, lead_s: float, zone_m: float,
+                           limit: int | None, seed: int, workers: int, backend_name: str, address: str | None,
+                           out: Path | None, overwrite: bool) -> None:
     """Put each driver in the seat of each held-out recorded car of SCENES (folders of import-recording or
     record-sumo-drivers) for --horizon-s, and measure it against that car's recorded track: position error at 1, 2, 5,
     10, 15 and 20 s (those the episode reaches), RMSE of position and speed, collisions and those the ego caused, stops,
@@ -66,12 +70,14 @@ def evaluate_scene_command(config: Config, scenes: tuple[Path, ...], policies: t
         read = [read_scene(scene) for scene in scenes]
         for scene in read:
             check_scene(scene, config, split)  # one straight edge of the observation's lanes, with such cars
-        seats = [seat for scene in read for seat in choose_seats(scene, split, horizon_s, lead_s, limit, seed)]
+        seats = [seat for scene in read
+                 for seat in choose_seats(scene, split, horizon_s, lead_s, limit, seed, zone_m)]
     except (DatasetError, RecordingUsageError) as error:
         raise click.UsageError(str(error)) from error
     if not seats:
+        zone = f" --zone-m {zone_m:g} m past the road's start and before its end" if zone_m > 0 else ""
         raise click.UsageError(f"no {split} car of {', '.join(map(str, scenes))} has a track of --lead-s + "
-                               f"--horizon-s = {lead_s + horizon_s:g} s")
+                               f"--horizon-s = {lead_s + horizon_s:g} s{zone}")
     drivers = parse_drivers(policies, config, DEFAULT_REFERENCE, SEAT_DRIVERS)
     names = unique_names(drivers)
     backend = evaluation_backend(backend_name, workers, address)
@@ -82,7 +88,7 @@ def evaluate_scene_command(config: Config, scenes: tuple[Path, ...], policies: t
         if out is not None:
             write_evaluation(evaluation, config, seed, out,
                              scenes={str(scene.folder.resolve()): scene_sources(scene) for scene in read},
-                             policies=list(policies), split=split, lead_s=lead_s)
+                             policies=list(policies), split=split, lead_s=lead_s, zone_m=zone_m)
         complete(bar)
     click.echo(f"{len(seats)} seats of {len(read)} scene(s), {horizon_s:g} s each\n")
     click.echo(summarise(evaluation, config))

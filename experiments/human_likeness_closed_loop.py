@@ -13,6 +13,9 @@
 
     python experiments/human_likeness_closed_loop.py CLOSED_LOOP.parquet
     python experiments/human_likeness_closed_loop.py --study acceleration EPISODES.parquet [EPISODES.parquet ...]
+
+`--intervals hierarchical` gives the track tables' intervals from one bootstrap of training seeds and seats
+(`statistics.hierarchical_interval`) instead of the committed tables' t factor on the seeds.
 """
 
 from __future__ import annotations
@@ -99,7 +102,7 @@ def with_phase(metrics: pd.DataFrame, tracks: pd.DataFrame) -> pd.DataFrame:
 
 
 def phase_tables(metrics: pd.DataFrame, tracks: pd.DataFrame, methods: dict[str, list[str]],
-                 differences: list[tuple[str, str]]) -> str:
+                 differences: list[tuple[str, str]], hierarchical: bool = False) -> str:
     """The phase measures of every method in the entering seats, then in the others."""
     phased = with_phase(metrics, tracks)
     seats = phased.drop_duplicates(["scene", "vehicle", "start_s"])["entering"]
@@ -107,7 +110,8 @@ def phase_tables(metrics: pd.DataFrame, tracks: pd.DataFrame, methods: dict[str,
     for entering, label in ((True, f"entering (the seat within {ENTRY_M:g} m of the road's entry)"),
                             (False, "established (farther in)")):
         parts.append(f"\n{label}: {int((seats == entering).sum())} of {len(seats)} seats\n")
-        parts.append(track_table(phased[phased["entering"] == entering], methods, differences, PHASE_MEASURES))
+        parts.append(track_table(phased[phased["entering"] == entering], methods, differences, PHASE_MEASURES,
+                                 hierarchical))
     return "\n".join(parts)
 
 
@@ -115,7 +119,10 @@ def phase_tables(metrics: pd.DataFrame, tracks: pd.DataFrame, methods: dict[str,
 @click.argument("paths", nargs=-1, required=True, type=click.Path(exists=True, dir_okay=False, path_type=Path))
 @click.option("--study", type=click.Choice(["closed-loop", "acceleration"]), default="closed-loop", show_default=True,
               help="Whose drivers: the paper interface's learners, or BC on the acceleration interface.")
-def main(paths: tuple[Path, ...], study: str) -> None:
+@click.option("--intervals", type=click.Choice(["t", "hierarchical"]), default="t", show_default=True,
+              help="How the intervals pool the training seeds: t (the committed tables: a t factor on the seeds' "
+                   "spread) or hierarchical (one bootstrap of seeds and seats, statistics.hierarchical_interval).")
+def main(paths: tuple[Path, ...], study: str, intervals: str) -> None:
     metrics, tracks = read_episodes(paths)
     period = read_metadata(paths[0])["config"]["env"]["decision_period_s"]
     seats = metrics.groupby(["scene", "vehicle"]).ngroups
@@ -129,7 +136,8 @@ def main(paths: tuple[Path, ...], study: str) -> None:
     print(f"{seats} held-out cars' seats in {metrics['scene'].nunique()} scenes of SUMO's drivers, "
           f"{metrics['simulated_s'].max():g} s each; {pooled} pooled over training seeds "
           f"{', '.join(map(str, SEEDS))}; differences paired by seat and training seed (* : the interval excludes 0)\n")
-    print(track_table(metrics, methods, differences))
+    hierarchical = intervals == "hierarchical"
+    print(track_table(metrics, methods, differences, hierarchical=hierarchical))
     print("\nWasserstein-1 distance to the humans' distributions (same seats)"
           + ("; differences paired by seat:\n" if study == "acceleration" else ":\n"))
     print(distribution_table(tracks, methods, period, differences if study == "acceleration" else ()))
@@ -140,7 +148,7 @@ def main(paths: tuple[Path, ...], study: str) -> None:
         print(floor_table(tracks, methods, period))
         print(f"\nBy the seat's phase (ahead of / faster than the human: the driver's place along its lane and speed "
               f"{HORIZON_S:g} s into the seat minus the human's):")
-        print(phase_tables(metrics, tracks, methods, differences))
+        print(phase_tables(metrics, tracks, methods, differences, hierarchical))
 
 
 if __name__ == "__main__":

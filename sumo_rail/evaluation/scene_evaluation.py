@@ -31,7 +31,7 @@ from sumo_rail.evaluation.protocol import NAMED_DRIVERS, Evaluation, EvaluationT
 from sumo_rail.evaluation.safety import Safety
 from sumo_rail.evaluation.scene_summary import HUMAN, seats_summary
 from sumo_rail.recordings.scene import Scene, read_scene
-from sumo_rail.recordings.scene_observations import SceneFrames
+from sumo_rail.recordings.scene_observations import SceneFrames, scene_road
 from sumo_rail.recordings.seat import SceneEnv
 from sumo_rail.recordings.trajectory import TRAJECTORY_COLUMNS, TrajectoryPoint, trajectory_frame
 from sumo_rail.runners.backends import RolloutBackend, WorkerContext
@@ -50,25 +50,51 @@ SCENE_EPISODES, SCENE_TRACKS = "scene_episodes", "scene_tracks"
 
 @dataclass(frozen=True)
 class Seat:
-    """A recorded vehicle's seat: its scene folder, id and the instant the ego takes it [s]."""
+    """A recorded vehicle's seat: its scene folder, id and the instant the ego takes it [s]; its phase there: how far
+    along the road the vehicle is [m] and how long since its track began [s] (NaN where not known)."""
 
     scene: str
     vehicle: str
     start_s: float
+    entry_distance_m: float = float("nan")
+    since_entry_s: float = float("nan")
 
 
 def choose_seats(scene: Scene, split: str, horizon_s: float, lead_s: float, limit: int | None,
-                 seed: int) -> list[Seat]:
+                 seed: int, zone_m: float = 0.0) -> list[Seat]:
     """The seats of `split`'s passenger cars whose tracks cover `lead_s` + `horizon_s`, in id order; with `limit`,
-    that many drawn without replacement by `seed`, kept in id order."""
+    that many drawn without replacement by `seed`, kept in id order. A seat begins `lead_s` into the track; with
+    `zone_m` > 0 [m], where traffic is established: at the first row from then on where the car is at least `zone_m`
+    along the road, its horizon ending at least `zone_m` before the road's end (cars that never fit are left out)."""
     held_out = set(scene.split.loc[scene.split["split"] == split, "vehicle_id"].astype(str))
     spans = scene.tracks.groupby("vehicle_id").agg(begin=("time_s", "min"), end=("time_s", "max"),
                                                    kind=("vehicle_class", "first"))
     fit = spans[(spans["kind"] == "passenger") & (spans["end"] - spans["begin"] >= lead_s + horizon_s - 1e-9)
                 & spans.index.isin(held_out)].sort_index()
-    if limit is not None and limit < len(fit):
-        fit = fit.iloc[np.sort(np.random.default_rng(seed).choice(len(fit), limit, replace=False))]
-    return [Seat(str(scene.folder), str(vehicle), float(begin) + lead_s) for vehicle, begin in fit["begin"].items()]
+    length_m = scene_road(scene.network).length_m if zone_m > 0 else np.inf
+    rows = scene.tracks[scene.tracks["vehicle_id"].isin(fit.index)].sort_values(["vehicle_id", "time_s"],
+                                                                                 kind="stable")
+    seats = [Seat(str(scene.folder), str(vehicle), start[0], start[1], start[0] - float(track["time_s"].iloc[0]))
+             for vehicle, track in rows.groupby("vehicle_id", sort=True)
+             if (start := _seat_start(track, lead_s, horizon_s, zone_m, length_m)) is not None]
+    if limit is not None and limit < len(seats):
+        seats = [seats[k] for k in np.sort(np.random.default_rng(seed).choice(len(seats), limit, replace=False))]
+    return seats
+
+
+def _seat_start(track: pd.DataFrame, lead_s: float, horizon_s: float, zone_m: float,
+                length_m: float) -> tuple[float, float] | None:
+    """(start [s], position along the road there [m]) of a track's seat (`choose_seats`); None when none fits."""
+    time_s, along = track["time_s"].to_numpy(dtype=float), track["lane_position_m"].to_numpy(dtype=float)
+    start_s = float(time_s[0]) + lead_s
+    if zone_m > 0:
+        later = np.flatnonzero((time_s >= start_s - 1e-9) & (along >= zone_m))
+        if not len(later):
+            return None
+        start_s = float(time_s[later[0]])
+        if time_s[-1] < start_s + horizon_s - 1e-9 or np.interp(start_s + horizon_s, time_s, along) > length_m - zone_m:
+            return None
+    return start_s, float(np.interp(start_s, time_s, along))
 
 
 def measured_gap(gap_m: float, range_m: float) -> float:
@@ -189,7 +215,8 @@ def evaluate_seats(drivers: Sequence[DriverSpec], names: Sequence[str], config: 
         seat, driven = task.start.seat, pd.DataFrame({name: result.decisions[name] for name in TRAJECTORY_COLUMNS})
         keys = {"policy": name, "mode": "reactive" if task.start.reactive else "non-reactive",
                 "scene": Path(seat.scene).name, "vehicle": seat.vehicle, "start_s": seat.start_s}
-        rows.append({**keys, **result.metrics, **seat_columns(driven, humans[seat], result.metrics["simulated_s"])})
+        rows.append({**keys, "entry_distance_m": seat.entry_distance_m, "since_entry_s": seat.since_entry_s,
+                     **result.metrics, **seat_columns(driven, humans[seat], result.metrics["simulated_s"])})
         tracks.append(driven.assign(**keys))
     for mode in modes:
         for seat, human in humans.items():

@@ -2,10 +2,11 @@
 
 A method is one driver or several training runs of one (one policy per training seed, every run in the same seats);
 each cell is the method's estimate with its 95% interval (`statistics.seeded_interval`: over training runs and seats;
-a share's within [0, 1]), each difference row the paired difference of two methods, seat by seat and training seed by
-training seed (a reference of one run, a baseline, paired with each of the method's runs). The distributions table
-gives the Wasserstein-1 distance between a method's and the humans' samples of speed, acceleration, gap to the leader
-and the gap to the new leader taken at lane changes, with an interval from resampling whole episodes
+a share's within [0, 1]; or, as an option, `statistics.hierarchical_interval`: one bootstrap of seeds and seats),
+each difference row the paired difference of two methods, seat by seat and training seed by training seed (a
+reference of one run, a baseline, paired with each of the method's runs). The distributions table gives the
+Wasserstein-1 distance between a method's and the humans' samples of speed, acceleration, gap to the leader and the
+gap to the new leader taken at lane changes, with an interval from resampling whole episodes
 (`human_likeness.wasserstein_interval`; a method's training runs' episodes pooled), and each difference row how much
 farther one method is from the humans than another, resampling whole seats
 (`human_likeness.paired_wasserstein_interval`).
@@ -20,7 +21,7 @@ import numpy as np
 import pandas as pd
 
 from sumo_rail.evaluation.human_likeness import HORIZONS_S, paired_wasserstein_interval, wasserstein_interval
-from sumo_rail.evaluation.statistics import Interval, Sample, seeded_interval
+from sumo_rail.evaluation.statistics import Interval, Sample, hierarchical_interval, seeded_interval
 
 if TYPE_CHECKING:
     from sumo_rail.config import Config
@@ -78,26 +79,35 @@ def _runs(metrics: pd.DataFrame, names: Sequence[str], mode: str) -> list[pd.Dat
 
 
 def track_table(metrics: pd.DataFrame, methods: Mapping[str, Sequence[str]],
-                differences: Sequence[tuple[str, str]] = (), measures: Mapping[str, str] = MEASURES) -> str:
+                differences: Sequence[tuple[str, str]] = (), measures: Mapping[str, str] = MEASURES,
+                hierarchical: bool = False) -> str:
     """The `measures` (heading -> a column of `metrics`, or one `samples` makes) of every method in every mode, then
-    each (method, reference) difference; a measure no episode defines is left out."""
+    each (method, reference) difference; a measure no episode defines is left out; with `hierarchical` the intervals
+    resample training seeds and seats together (`statistics.hierarchical_interval`) instead of `seeded_interval`'s t
+    factor on the seeds."""
     measures = defined_measures(metrics, measures)
+    pooled = _hierarchical if hierarchical else seeded_interval
     lines = ["| driver | mode | " + " | ".join(measures) + " |", "|---|---|" + "---|" * len(measures)]
     modes = sorted(metrics["mode"].unique())
     for mode in modes:
         for method, names in methods.items():
             runs = _runs(metrics, names, mode)
-            cells = [seeded_interval([samples(run, measure) for run in runs], share=measure in SHARES).format(2)
+            cells = [pooled([samples(run, measure) for run in runs], share=measure in SHARES).format(2)
                      for measure in measures.values()]
             lines.append(f"| {method} | {mode} | " + " | ".join(cells) + " |")
         for method, reference in differences:
             runs, others = _runs(metrics, methods[method], mode), _runs(metrics, methods[reference], mode)
             others = others * len(runs) if len(others) == 1 else others
-            cells = [_starred(seeded_interval([samples(run, measure) for run in runs],
-                                              [samples(run, measure) for run in others], share=measure in SHARES))
+            cells = [_starred(pooled([samples(run, measure) for run in runs],
+                                     [samples(run, measure) for run in others], share=measure in SHARES))
                      for measure in measures.values()]
             lines.append(f"| {method} - {reference} | {mode} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
+
+
+def _hierarchical(sample: Sequence[Sample], reference: Sequence[Sample] | None = None, share: bool = False) -> Interval:
+    """`hierarchical_interval` (a bootstrap's interval stays within a share's range by itself)."""
+    return hierarchical_interval(sample, reference)
 
 
 def _starred(difference: Interval) -> str:

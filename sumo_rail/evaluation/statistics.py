@@ -6,7 +6,8 @@ denominator of ones, and a rate such as agreement pools decisions over episodes 
 episode weighs by its decisions. Paired estimates resample seeds, keeping each seed's episodes of every driver
 together, so traffic shared by two drivers cancels out of their difference. A method trained with several seeds
 (`seeded_interval`) is resampled over its training seeds and the evaluation episodes together, so the interval
-also holds the spread between training runs.
+also holds the spread between training runs; `hierarchical_interval` does so by one bootstrap of both (seeds and
+seats drawn in each resample) instead of a t factor on the seeds.
 """
 
 from __future__ import annotations
@@ -133,6 +134,48 @@ def _seeded(sample: Sequence[Sample], reference: Sequence[Sample] | None, seed: 
     half = stats.t.ppf(0.5 + CONFIDENCE / 2, len(own) - 1) * np.hypot(np.std(own, ddof=1) / np.sqrt(len(own)),
                                                                        episode_error)
     return Interval(episodes.estimate, float(episodes.estimate - half), float(episodes.estimate + half))
+
+
+def hierarchical_interval(sample: Sequence[Sample], reference: Sequence[Sample] | None = None,
+                          seed: int = 0) -> Interval:
+    """`seeded_interval`'s estimate (a method's pooled ratio over its training runs, `sample` one Sample per training
+    seed on the same seats, or its difference to `reference`, paired run by run and seat by seat) with a percentile
+    interval from one bootstrap of training seeds and seats together: each of `RESAMPLES` resamples draws the runs
+    with replacement and, once for all of them, the seats with replacement, and recomputes the pooled ratio (or
+    difference) over the drawn runs' drawn seats. Seats are crossed with seeds, not nested in them (every run meets the
+    same seats), so one draw of seats serves every run (the pigeonhole bootstrap of crossed designs, Owen 2007):
+    a seat's own difficulty then weighs in the interval once, as in the estimate, and the seeds' disagreement through
+    the drawn runs. Seeded (`seed`), so the same input gives the same interval. With one run it is the seat bootstrap;
+    with few runs the draw of runs sees their spread only through them (three runs give ten distinct draws), so it is
+    narrower than the between-run spread deserves (tests/evaluation/test_hierarchical_bootstrap.py measures the
+    coverage). NaN bounds from fewer than MIN_PAIRS seats for a difference (2 for a level); resamples where a ratio is
+    undefined are left out."""
+    groups = [sample] if reference is None else [sample, reference]
+    numerators = [np.array([np.asarray(run[0], dtype=float) for run in group]) for group in groups]
+    denominators = [np.array([np.asarray(run[1], dtype=float) for run in group]) for group in groups]
+    shapes = {array.shape for array in (*numerators, *denominators)}
+    if len(shapes) != 1 or len(next(iter(shapes))) != 2:
+        raise ValueError("paired training runs must have the same numbers of runs and episodes")
+    runs, seats = shapes.pop()
+
+    def pooled(run_weights: np.ndarray, seat_weights: np.ndarray) -> np.ndarray:
+        """The statistic under weights (B, runs) and (B, seats): how often each run and seat was drawn."""
+        values = [np.einsum("br,rs,bs->b", run_weights, numerator, seat_weights)
+                  / np.einsum("br,rs,bs->b", run_weights, denominator, seat_weights)
+                  for numerator, denominator in zip(numerators, denominators, strict=True)]
+        return values[0] if reference is None else values[0] - values[1]
+
+    with np.errstate(invalid="ignore", divide="ignore"):
+        estimate = float(pooled(np.ones((1, runs)), np.ones((1, seats)))[0])
+        if seats < (2 if reference is None else MIN_PAIRS) or np.isnan(estimate):
+            return Interval(estimate, np.nan, np.nan)
+        rng = np.random.default_rng(seed)
+        run_weights = rng.multinomial(runs, np.full(runs, 1.0 / runs), size=RESAMPLES).astype(float)
+        seat_weights = rng.multinomial(seats, np.full(seats, 1.0 / seats), size=RESAMPLES).astype(float)
+        resampled = pooled(run_weights, seat_weights)
+    tail = 50 * (1 - CONFIDENCE)
+    low, high = np.nanpercentile(resampled, [tail, 100 - tail])
+    return Interval(estimate, float(low), float(high))
 
 
 def slope(x: np.ndarray, y: np.ndarray) -> Interval:

@@ -29,8 +29,11 @@ import pyarrow.parquet as pq
 from sumo_rail.bounds import ConfigError, bounded, check_fields, given
 from sumo_rail.config import Config
 from sumo_rail.datasets import read_metadata, write_bytes_atomically, write_parquet
+from sumo_rail.drivers.expert import DEFAULT_STYLE
 from sumo_rail.drivers.policies import Policy, PolicyShape, save_policy
 from sumo_rail.learning.bc import IMITATION_BC, BcReport, BcSettings, behaviour_cloning
+from sumo_rail.learning.log_dagger import LOG_TEACHER, LogSeats
+from sumo_rail.learning.mixture import LabelledEpisode, Mixture
 from sumo_rail.learning.run_folder import (
     RunError,
     as_json,
@@ -43,15 +46,16 @@ from sumo_rail.learning.validation import Validation, validate, validation_colum
 from sumo_rail.runners.backends import RolloutBackend, WorkerContext
 from sumo_rail.runners.experts import check_drives, demonstrations_expert, resolve_expert
 from sumo_rail.runners.road_mix import road_configs
-from sumo_rail.runners.rollout import Driver, DriverSpec, run_shared_episode, shared_groups
+from sumo_rail.runners.rollout import DriverSpec, run_shared_episode, shared_groups
 from sumo_rail.runners.tables import Demonstrations, provenance, read_demonstrations
 from sumo_rail.seeding import Purpose, episode_seeds
 from sumo_rail.sim.actions import action_count
 from sumo_rail.sim.observation import observation_space
-from sumo_rail.sim.traffic import TrafficView
 
 CHECKPOINT_FORMAT = "sumo-rail dagger checkpoint 1"
 DATASET = "dagger_dataset"
+ADDED_SETTINGS = ("expert", "egos", "roads", "teacher_horizon_s", "seat_lead_s", "seat_s", "seat_zone_m")
+"""Settings added since the first runs: an older run.json without them resumes with their defaults."""
 
 
 @dataclass(frozen=True)
@@ -70,7 +74,8 @@ class DaggerSettings:
     bc: BcSettings = given("[bc]", IMITATION_BC)
     seed: int = given("--seed", 0)
     expert: str | None = given("--expert", None)
-    """Who labels: a style or a policy file (`experts.resolve_expert`); None: the demonstrations' expert."""
+    """Who labels: a style or a policy file (`experts.resolve_expert`), or "log" (`log_dagger.LOG_TEACHER`: the
+    recorded track of the scene the demonstrations were read from); None: the demonstrations' expert."""
     egos: int = bounded(1, 1000, default=1)
     """Egos per simulation: a round's episodes run K at a time in one SUMO (`DaggerTask`)."""
     roads: tuple[str, ...] = given("--roads", ())
@@ -78,6 +83,14 @@ class DaggerSettings:
     on a mix of roads. Empty: every simulation on the configured road."""
     include_failed_demos: bool = given("--include-failed", False)
     """Learn from the demonstrations' failed episodes too (`read_demonstrations`)."""
+    teacher_horizon_s: float = bounded(0.5, 60, "s", default=3.0)
+    """Against the log: the horizon over which a label returns the ego to the human's track (`log_teacher`)."""
+    seat_lead_s: float = bounded(0, 600, "s", default=5.0)
+    """Against the log: the ego takes a seat this long after the car's track begins."""
+    seat_s: float = bounded(1, 600, "s", default=15.0)
+    """Against the log: each round's episode in a seat lasts this long (the seat's car's track covers it)."""
+    seat_zone_m: float = bounded(0, 100_000, "m", default=0.0)
+    """Against the log: seats where traffic is established (`choose_seats`' zone_m; evaluate-scene's --zone-m)."""
 
     def __post_init__(self) -> None:
         check_fields(self, "dagger.")
@@ -90,16 +103,6 @@ class DaggerSettings:
 
     def to_dict(self) -> dict[str, Any]:
         return as_json(dataclasses.asdict(self))
-
-
-@dataclass(frozen=True)
-class LabelledEpisode:
-    observations: np.ndarray
-    """Shape (T, n) float32: every state the mixture visited."""
-    labels: np.ndarray
-    """Shape (T,) int64: the expert's action in each."""
-    policy_decisions: int
-    """Decisions the policy (not the expert) made."""
 
 
 @dataclass(frozen=True)
@@ -116,54 +119,37 @@ class DaggerTask:
 
     def run(self, context: WorkerContext) -> list[LabelledEpisode]:
         """Each ego's labelled episode, in ego order (egos that found no room on the road left out)."""
-        mixtures = [_Mixture(self.policy, self.expert.create(self.config, seed), self.beta, seed)
+        mixtures = [Mixture(self.policy, self.expert.create(self.config, seed), self.beta, seed)
                     for seed in self.seeds]
         env = context.parallel_env(self.config, len(self.seeds))
         run_shared_episode(env, mixtures, self.seeds[0])  # the mixtures keep what DAgger needs
         return [mixture.episode() for mixture in mixtures if mixture.labels]
 
 
-class _Mixture:
-    """A driver that asks the expert at every decision, keeps the state and the expert's label, and follows the
-    expert with probability beta (a coin seeded by `seed`), else the policy."""
-
-    def __init__(self, policy: Policy, expert: Driver, beta: float, seed: int) -> None:
-        self.policy, self.expert, self.beta = policy, expert, beta
-        self.coin = np.random.default_rng(seed)
-        self.observations: list[np.ndarray] = []
-        self.labels: list[int] = []
-        self.policy_decisions = 0
-
-    def __call__(self, observation: np.ndarray, traffic: TrafficView) -> int:
-        label = int(self.expert(observation, traffic))
-        self.observations.append(observation)
-        self.labels.append(label)
-        if self.coin.random() < self.beta:
-            return label
-        self.policy_decisions += 1
-        return self.policy.act(observation)
-
-    def episode(self) -> LabelledEpisode:
-        return LabelledEpisode(np.stack(self.observations).astype(np.float32), np.array(self.labels, dtype=np.int64),
-                               self.policy_decisions)
-
-
 def train_dagger(folder: Path, settings: DaggerSettings, config: Config, rounds: int, backend: RolloutBackend,
                  resume: bool, validation: Validation | None = None,
                  on_round: Callable[[dict[str, Any]], None] | None = None,
-                 on_episode: Callable[[int, Any], None] | None = None) -> Policy:
-    """Run DAgger until `rounds` rounds after BC are done; returns the last policy. Safe to interrupt."""
+                 on_episode: Callable[[int, Any], None] | None = None, log: LogSeats | None = None) -> Policy:
+    """Run DAgger until `rounds` rounds after BC are done; returns the last policy. Safe to interrupt. With
+    `settings.expert` "log" the log teaches in the seats `log` (read here from the demonstrations' scene when None)."""
     folder, validation = Path(folder), validation or Validation()
     observation_size = observation_space(config).shape[0]
     demos = read_demonstrations(Path(settings.demos), observation_size, settings.include_failed_demos, config.actions)
     demos_path, demos_hash = demos_record(settings.demos)
     settings = dataclasses.replace(settings, demos=demos_path)
-    recorded = demonstrations_expert(demos.metadata)  # NotQueryable for recorded drivers, --expert or not
-    style = settings.expert or recorded
+    if settings.expert == LOG_TEACHER and log is None:
+        log = LogSeats.of(demos.metadata, settings.demos, config, settings.seat_lead_s, settings.seat_s,
+                          settings.teacher_horizon_s, settings.seat_zone_m)
+    elif settings.expert != LOG_TEACHER:
+        log = None
+    # recorded drivers: NotQueryable without the log as teacher (agreement then asks the rule-based style)
+    recorded = demonstrations_expert(demos.metadata, DEFAULT_STYLE if log is not None else None)
+    style = recorded if log is not None else settings.expert or recorded
     expert = resolve_expert(style, config, recorded_by=None if settings.expert else settings.demos)
-    check_drives(expert, config)
+    if log is None:
+        check_drives(expert, config)
     shape = PolicyShape(settings.kind, observation_size, settings.hidden, action_count(config.actions))
-    run_record = {"settings": settings.to_dict(), "expert": style, **demos_hash,
+    run_record = {"settings": settings.to_dict(), "expert": LOG_TEACHER if log is not None else style, **demos_hash,
                   **provenance("dagger_run", config, settings.seed)}
     if resume:
         done, dataset, logs = _resume(folder, run_record)
@@ -182,8 +168,10 @@ def train_dagger(folder: Path, settings: DaggerSettings, config: Config, rounds:
         beta = settings.beta_of(round_)
         seeds = episode_seeds(Purpose.TRAIN, 10_000_000 * (settings.seed + 1) + round_ * settings.episodes_per_round,
                               settings.episodes_per_round)
-        labelled = _round_episodes(backend, road_configs(config, settings.roads), policy, expert, beta, seeds,
-                                   settings.egos, on_episode)
+        labelled = (_round_episodes(backend, road_configs(config, settings.roads), policy, expert, beta, seeds,
+                                    settings.egos, on_episode) if log is None else
+                    log.round_episodes(backend, policy, beta, settings.seed, round_, settings.episodes_per_round,
+                                       on_episode))
         dataset = _aggregate(dataset, labelled)
         policy, report = behaviour_cloning(dataset, shape, settings.bc)
         logs.append(_row(round_, sum(len(e.labels) for e in labelled), sum(e.policy_decisions for e in labelled),
@@ -245,7 +233,8 @@ def _save(folder: Path, round_: int, dataset: Demonstrations, policy: Policy, lo
 
 def _resume(folder: Path, run_record: dict[str, Any]) -> tuple[int, Demonstrations, list[dict[str, Any]]]:
     checkpoint_path = folder / "checkpoint.json"
-    check_resumable(folder, checkpoint_path.name, run_record, {"expert": None, "egos": 1, "roads": []})
+    added = {field.name: field.default for field in dataclasses.fields(DaggerSettings) if field.name in ADDED_SETTINGS}
+    check_resumable(folder, checkpoint_path.name, run_record, as_json(added))
     try:
         checkpoint = json.loads(checkpoint_path.read_text())
         done = int(checkpoint["round"])

@@ -176,5 +176,6 @@ def demonstrations_expert(metadata: Mapping[str, Any], recorded_stand_in: str | 
             return recorded_stand_in
         raise NotQueryable(f"these demonstrations were read from the recorded scene {scene.get('folder')}: a "
                            f"recorded driver cannot be asked what it would do at the states another driver reaches, "
-                           f"so DAgger, DART and agreement with the expert do not apply (train BC, RAIL or GAIL)")
+                           f"so DAgger with an expert, DART and agreement with the expert do not apply (train BC, RAIL "
+                           f"or GAIL, or DAgger against the log: --expert log)")
     return recorded_expert(metadata) or DEFAULT_STYLE

@@ -1,0 +1,140 @@
+"""DAgger's rounds against the log (`dagger --expert log` on demonstrations read from a recorded scene by
+`recorded-demos`): the learner drives in the seats of that scene's train-split cars (`recordings.seat.SceneEnv`, the
+other vehicles replayed as recorded) and every state it visits is labelled by `log_teacher.log_label` from the seated
+car's own recorded track.
+
+Each round draws `episodes_per_round` seats (`evaluation.scene_evaluation.choose_seats` of the train split, the ego
+seated `seat_lead_s` into the track for `seat_s`) by the run's seed and the round; a decision is the teacher's label
+with probability beta, else the policy's (DAgger's mixture, as with a queryable expert).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from sumo_rail.config import Config
+from sumo_rail.datasets import DatasetError
+from sumo_rail.drivers.policies import Policy
+from sumo_rail.evaluation.scene_evaluation import Seat, choose_seats
+from sumo_rail.learning.log_teacher import HumanTrack, log_label, read_human_track
+from sumo_rail.learning.mixture import LabelledEpisode, Mixture
+from sumo_rail.recordings.acceleration_reading import smoothing_for
+from sumo_rail.recordings.actions import ActionRule
+from sumo_rail.recordings.scene import check_scene, read_scene, scene_sources
+from sumo_rail.recordings.seat import SceneEnv
+from sumo_rail.runners.backends import RolloutBackend, WorkerContext
+from sumo_rail.runners.experts import RECORDED_SCENE
+from sumo_rail.runners.rollout import run_episode
+from sumo_rail.sim.traffic import TrafficView
+
+LOG_TEACHER = "log"
+"""DAgger's expert that means the log (`dagger --expert log`)."""
+
+
+class LogTeacherError(ValueError):
+    """Training against the log cannot run with these scenes or this configuration."""
+
+
+@dataclass(frozen=True)
+class LogDaggerTask:
+    """One labelled episode in one seat: the mixture of `policy` and the log teacher (probability `beta`) drives; the
+    states and labels are kept (an empty episode when the ego never reached a labelled state)."""
+
+    config: Config
+    policy: Policy
+    seat: Seat
+    human: HumanTrack
+    horizon_s: float
+    beta: float
+    seed: int
+
+    def run(self, context: WorkerContext) -> LabelledEpisode:
+        env = context.custom_env(("scene", self.config, self.seat.scene, False),
+                                 lambda: SceneEnv(self.config, Path(self.seat.scene), False, transport="libsumo"))
+        assert isinstance(env, SceneEnv)
+        teacher = _Teacher(self.human, self.seat.start_s, self.horizon_s, env.config)
+        mixture = Mixture(self.policy, teacher, self.beta, self.seed)
+        run_episode(env, mixture, self.seed, options={"vehicle": self.seat.vehicle, "start_s": self.seat.start_s})
+        return mixture.episode()
+
+
+class _Teacher:
+    """`log_label` at each decision of a seat's episode, the k-th at start_s + k T [s]."""
+
+    def __init__(self, human: HumanTrack, start_s: float, horizon_s: float, config: Config) -> None:
+        self.human, self.start_s, self.horizon_s, self.config = human, start_s, horizon_s, config
+        self.decisions = 0
+
+    def __call__(self, observation: np.ndarray, traffic: TrafficView) -> int | None:
+        time_s = self.start_s + self.decisions * self.config.env.decision_period_s
+        self.decisions += 1
+        ego = traffic.ego
+        return log_label(time_s, ego.lane_position_m, ego.speed_mps, ego.lane, self.human, self.horizon_s,
+                         self.config.actions)
+
+
+def log_scene(metadata: Mapping[str, Any], demos: str | Path, config: Config) -> Path:
+    """The scene folder the demonstrations `demos` (their `metadata`) were read from, which the log teacher's seats are
+    in; a LogTeacherError when they were not read from a scene or `config` is not the acceleration interface."""
+    if config.actions.interface != "acceleration":
+        raise LogTeacherError(f"training against the log labels accelerations, so it needs --set "
+                              f"actions.interface=acceleration (this run's is {config.actions.interface!r})")
+    record = metadata.get(RECORDED_SCENE)
+    if not isinstance(record, Mapping):
+        raise LogTeacherError(f"--expert log trains against the log of the scene demonstrations were read from "
+                              f"(recorded-demos), and {demos} were not read from a recorded scene")
+    return Path(str(record.get("folder")))
+
+
+@dataclass(frozen=True)
+class LogSeats:
+    """The train-split seats of the scenes a run learns against, with their cars' tracks read for the teacher."""
+
+    config: Config
+    """The run's configuration with the seat's length as env.max_episode_s."""
+    seats: tuple[Seat, ...]
+    humans: tuple[HumanTrack, ...]
+    horizon_s: float
+
+    @classmethod
+    def of(cls, metadata: Mapping[str, Any], demos: str, config: Config, seat_lead_s: float, seat_s: float,
+           horizon_s: float, zone_m: float = 0.0) -> LogSeats:
+        """The train-split seats of the scene the demonstrations `demos` (their `metadata`) were read from; a
+        LogTeacherError (one sentence) when the interface is not the acceleration interface, the demonstrations are
+        not a scene's, the scene changed since or has no seat that long."""
+        folder = log_scene(metadata, demos, config)
+        try:
+            scene = read_scene(folder)
+        except DatasetError as error:
+            raise LogTeacherError(f"the scene {demos} were read from cannot be read: {error}") from error
+        if scene_sources(scene) != metadata[RECORDED_SCENE].get("files"):
+            raise LogTeacherError(f"the scene {folder} has changed since {demos} were read from it (its files' "
+                                  f"sha256 differ): read the demonstrations again")
+        config = config.with_overrides({"env": {"max_episode_s": seat_s}})
+        check_scene(scene, config, "train")
+        chosen = choose_seats(scene, "train", seat_s, seat_lead_s, None, 0, zone_m)
+        if not chosen:
+            zone = f" with dagger.seat_zone_m = {zone_m:g} m" if zone_m > 0 else ""
+            raise LogTeacherError(f"no train-split car of the scene {folder} has a track of dagger.seat_lead_s + "
+                                  f"dagger.seat_s = {seat_lead_s + seat_s:g} s{zone}")
+        rule, smoothing_s = ActionRule.for_env(config.env), smoothing_for(scene.meta.format)
+        humans = [read_human_track(scene.track(seat.vehicle).sort_values("time_s", kind="stable"), rule,
+                                   config.actions, smoothing_s) for seat in chosen]
+        return cls(config, tuple(chosen), tuple(humans), horizon_s)
+
+    def round_episodes(self, backend: RolloutBackend, policy: Policy, beta: float, seed: int, round_: int,
+                       episodes: int, on_episode: Callable[[int, Any], None] | None = None) -> list[LabelledEpisode]:
+        """A round's labelled episodes: `episodes` seats drawn by (`seed`, `round_`), without replacement while
+        there are enough, each with its own episode seed (episodes without a labelled state left out)."""
+        rng = np.random.default_rng([seed, round_])
+        chosen = rng.choice(len(self.seats), episodes, replace=episodes > len(self.seats))
+        seeds = rng.integers(2**31 - 1, size=episodes)
+        labelled = backend.run([LogDaggerTask(self.config, policy, self.seats[index], self.humans[index],
+                                              self.horizon_s, beta, int(episode_seed))
+                                for index, episode_seed in zip(chosen, seeds, strict=True)], on_result=on_episode)
+        return [episode for episode in labelled if len(episode.labels)]
