@@ -29,7 +29,14 @@ from sumo_rail.evaluation.driving_score import SCORE_COLUMNS, driving_scores
 from sumo_rail.evaluation.human_likeness import HORIZONS_S, position_errors
 from sumo_rail.evaluation.safety import SafetyProbe
 from sumo_rail.recordings.scene import Scene, read_scene
-from sumo_rail.recordings.scene_observations import SceneFrames
+from sumo_rail.recordings.scene_observations import (
+    SceneFrames,
+    SceneRoad,
+    route_from,
+    route_point,
+    scene_road,
+    scene_routes,
+)
 from sumo_rail.recordings.seat import SceneEnv
 from sumo_rail.recordings.trajectory import TrajectoryPoint, trajectory_frame
 from sumo_rail.runners.backends import RolloutBackend, WorkerContext
@@ -100,9 +107,12 @@ class _TrackProbe:
                                            gap if gap <= GAP_RANGE_M else np.nan))
 
 
-def human_track(frames: SceneFrames, seat: Seat, period_s: float, decisions: int) -> pd.DataFrame:
-    """The seat's recorded vehicle at the episode's decision instants (`TRAJECTORY_COLUMNS`)."""
-    points = []
+def human_track(frames: SceneFrames, seat: Seat, period_s: float, decisions: int, road: SceneRoad,
+                recorded: tuple[str, ...]) -> pd.DataFrame:
+    """The seat's recorded vehicle (which drove the edges `recorded` on the scene's `road`) at the episode's decision
+    instants (`TRAJECTORY_COLUMNS`), its lanes and positions in its seat's route frame, as the ego's."""
+    points: list[TrajectoryPoint] = []
+    route = recorded
     for k in range(decisions + 1):
         time_s = seat.start_s + k * period_s
         snapshot = frames.at(time_s)
@@ -110,7 +120,9 @@ def human_track(frames: SceneFrames, seat: Seat, period_s: float, decisions: int
         if row is None:
             break
         gap = snapshot.leader_gap_m(row)
-        points.append(snapshot.point(row, time_s)._replace(gap_m=gap if gap <= GAP_RANGE_M else np.nan))
+        route = route if points else route_from(recorded, str(snapshot.values["edge"][row]))
+        points.append(route_point(road, route, snapshot, row, time_s)._replace(gap_m=gap if gap <= GAP_RANGE_M
+                                                                                 else np.nan))
     return trajectory_frame(points)
 
 
@@ -166,11 +178,13 @@ def evaluate_seats(drivers: Sequence[DriverSpec], names: Sequence[str], config: 
                 for index, seat in enumerate(seats)]
     tasks = [task for _, task in labelled]
     results = backend.run(tasks, on_result=on_episode)
-    frames = {scene: SceneFrames(read.tracks, read.meta.frame_rate_hz)
+    frames = {scene: (SceneFrames(read.tracks, read.meta.frame_rate_hz), scene_road(read.network),
+                      scene_routes(read.tracks))
               for scene, read in ((scene, read_scene(Path(scene))) for scene in {seat.scene for seat in seats})}
     period = config.env.decision_period_s
     horizon_decisions = round(config.env.max_episode_s / period)
-    humans = {seat: human_track(frames[seat.scene], seat, period, horizon_decisions) for seat in seats}
+    humans = {seat: human_track(scene_frames, seat, period, horizon_decisions, road, routes[seat.vehicle])
+              for seat in seats for scene_frames, road, routes in [frames[seat.scene]]}
     rows, tracks = [], []
     for (name, task), (metrics, driven) in zip(labelled, results, strict=True):
         mode = "reactive" if task.reactive else "non-reactive"

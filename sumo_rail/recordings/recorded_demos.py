@@ -33,7 +33,14 @@ from sumo_rail.datasets import DatasetError, write_parquet
 from sumo_rail.recordings.acceleration_reading import read_acceleration_track, smoothing_for
 from sumo_rail.recordings.actions import ActionRule, read_track, speed_reading
 from sumo_rail.recordings.scene import Scene, check_scene, read_scene, scene_sources
-from sumo_rail.recordings.scene_observations import SceneFrames, SceneRoad, in_route_frame, observe, scene_routes
+from sumo_rail.recordings.scene_observations import (
+    SceneFrames,
+    SceneRoad,
+    in_route_frame,
+    observe,
+    route_point,
+    scene_routes,
+)
 from sumo_rail.recordings.trajectory import TrajectoryPoint, track_past
 from sumo_rail.runners.experts import RECORDED_SCENE
 from sumo_rail.runners.tables import DEMONSTRATIONS, demonstrations_from_columns, provenance
@@ -116,9 +123,7 @@ def decisions_table(scene: Scene, road: SceneRoad, config: Config, decisions: li
             row = snapshot.row(decided.vehicle)
             assert row is not None  # a decision instant lies within its track
             route = routes[decided.vehicle]
-            positions, lanes = road.place(route, snapshot.values["edge"][row:row + 1], snapshot.lanes[row:row + 1],
-                                          snapshot.values["lane_position_m"][row:row + 1])
-            point = snapshot.point(row, instant)._replace(lane=int(lanes[0]), lane_position_m=float(positions[0]))
+            point = route_point(road, route, snapshot, row, instant)
             seen[episode][step] = seat_observation(config, observe(config, road, *snapshot, decided.vehicle,
                                                                    float(decided.set_points_mps[step]), route),
                                                    decided, step, instant, point.lane)

@@ -24,7 +24,7 @@ import pandas as pd
 from sumo_rail.config import Config
 from sumo_rail.datasets import DatasetError
 from sumo_rail.recordings.road import network_root
-from sumo_rail.recordings.trajectory import SceneSnapshot
+from sumo_rail.recordings.trajectory import SceneSnapshot, TrajectoryPoint
 from sumo_rail.sim import kernels, lidar
 from sumo_rail.sim.ego import CONTEXT_MARGIN_M
 from sumo_rail.sim.net_file import NetFile
@@ -108,6 +108,22 @@ def in_route_frame(road: SceneRoad, track: pd.DataFrame, route: tuple[str, ...])
     positions, lanes = road.place(route, track["edge"].to_numpy(), track["lane"].to_numpy(),
                                   track["lane_position_m"].to_numpy())
     return track.assign(lane=lanes, lane_position_m=positions, edge=route[0])
+
+
+def route_point(road: SceneRoad, route: tuple[str, ...], snapshot: SceneSnapshot, row: int,
+                time_s: float) -> TrajectoryPoint:
+    """Entry `row` of `snapshot` as the trajectory point at `time_s` [s], its lane and position in the route frame of
+    `route` (as the env's ego on that route reads its own)."""
+    rows = slice(row, row + 1)
+    positions, lanes = road.place(route, snapshot.values["edge"][rows], snapshot.lanes[rows],
+                                  snapshot.values["lane_position_m"][rows])
+    return snapshot.point(row, time_s)._replace(lane=int(lanes[0]), lane_position_m=float(positions[0]))
+
+
+def route_from(route: tuple[str, ...], edge: str) -> tuple[str, ...]:
+    """The rest of `route` from `edge` on (the seat's route, as the replay gives the seated ego); all of it from a
+    junction."""
+    return route[route.index(edge):] if edge in route else route
 
 
 def scene_road(net_file: Path) -> SceneRoad:
