@@ -54,7 +54,8 @@ def test_seats_are_held_out_cars_whose_tracks_cover_the_episode(drivers_scene):
 def test_the_humans_track_is_its_recorded_one_with_the_gap_to_its_leader(drivers_scene):
     scene = read_scene(drivers_scene)
     seat = choose_seats(scene, "test", 10.0, 2.0, None, 0)[0]
-    human = human_track(SceneFrames(scene.tracks, scene.meta.frame_rate_hz), seat, 0.5, 20)
+    road = scene_road(scene.network)
+    human = human_track(SceneFrames(scene.tracks, scene.meta.frame_rate_hz), seat, 0.5, 20, road, road.route)
     recorded = scene.track(seat.vehicle)
     assert len(human) == 21 and np.allclose(position_errors(human, recorded[recorded["time_s"] >= seat.start_s]), 0)
     at = scene.tracks[np.isclose(scene.tracks["time_s"], seat.start_s)]
