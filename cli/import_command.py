@@ -74,7 +74,7 @@ def split_options(command: Callable[..., None]) -> Callable[..., None]:
 @click.option("--site", type=click.Choice(values("site")), default=None,
               help="NGSIM: the site, which fixes the main lanes (US-101: 1-5, I-80: 1-6)  [default: us-101].")
 @click.option("--network", type=click.Path(path_type=Path, dir_okay=False), default=None,
-              help="FCD: the SUMO .net.xml (or .net.xml.gz) the recording was driven on: one straight edge along +x.")
+              help="FCD: the SUMO .net.xml (or .net.xml.gz) the recording was driven on (any SUMO network).")
 @click.option("--vehicles", default=None, metavar="IDS", help="Keep only these source ids: 3,17,20-40.")
 @click.option("--section", default=None, metavar="START:END", help="Keep only the rows whose front x lies in "
               "START..END m (scene coordinates: along the road in the driving direction for highD and NGSIM).")

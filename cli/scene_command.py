@@ -71,7 +71,7 @@ def evaluate_scene_command(config: Config, scenes: tuple[Path, ...], policies: t
     try:
         read = [read_scene(scene) for scene in scenes]
         for scene in read:
-            check_scene(scene, config, split)  # one straight edge of the observation's lanes, with such cars
+            check_scene(scene, config, split)  # a network whose main road has the observation's lanes
         seats = [seat for scene in read for seat in choose_seats(scene, split, horizon_s, lead_s, limit, seed)]
     except (DatasetError, RecordingUsageError) as error:
         raise click.UsageError(str(error)) from error

@@ -32,8 +32,8 @@ from sumo_rail.recordings.scene import Scene, read_scene
 from sumo_rail.recordings.scene_observations import (
     SceneFrames,
     SceneRoad,
+    in_frame,
     route_from,
-    route_point,
     scene_road,
     scene_routes,
 )
@@ -119,10 +119,10 @@ def human_track(frames: SceneFrames, seat: Seat, period_s: float, decisions: int
         row = snapshot.row(seat.vehicle)
         if row is None:
             break
-        gap = snapshot.leader_gap_m(row)
         route = route if points else route_from(recorded, str(snapshot.values["edge"][row]))
-        points.append(route_point(road, route, snapshot, row, time_s)._replace(gap_m=gap if gap <= GAP_RANGE_M
-                                                                                 else np.nan))
+        framed = in_frame(road, route, snapshot)
+        gap = framed.leader_gap_m(row)
+        points.append(framed.point(row, time_s)._replace(gap_m=gap if gap <= GAP_RANGE_M else np.nan))
     return trajectory_frame(points)
 
 

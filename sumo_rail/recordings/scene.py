@@ -183,7 +183,7 @@ def read_scene(folder: Path) -> Scene:
 
 def check_scene(scene: Scene, config: Config, split: str) -> SceneRoad:
     """The scene's road; RecordingUsageError when the scene cannot give this configuration's observation (another
-    lane count, a road that is not one straight edge), its road's speed limit is not this configuration's
+    lane count, a network that cannot be read), its road's speed limit is not this configuration's
     (`check_speed_limit`) or `split` names no vehicle."""
     if split not in SPLITS:
         raise RecordingUsageError(f"unknown split {split!r}; known: {', '.join(SPLITS)}")

@@ -120,6 +120,13 @@ def route_point(road: SceneRoad, route: tuple[str, ...], snapshot: SceneSnapshot
     return snapshot.point(row, time_s)._replace(lane=int(lanes[0]), lane_position_m=float(positions[0]))
 
 
+def in_frame(road: SceneRoad, route: tuple[str, ...], snapshot: SceneSnapshot) -> SceneSnapshot:
+    """`snapshot` with every vehicle's lane and lane_position_m in the route frame of `route` (a vehicle on a lane
+    not linked to it at position -inf, in no lane of it), so that leaders are found across edges."""
+    positions, lanes = road.place(route, snapshot.values["edge"], snapshot.lanes, snapshot.values["lane_position_m"])
+    return SceneSnapshot(snapshot.ids, {**snapshot.values, "lane_position_m": positions}, lanes)
+
+
 def route_from(route: tuple[str, ...], edge: str) -> tuple[str, ...]:
     """The rest of `route` from `edge` on (the seat's route, as the replay gives the seated ego); all of it from a
     junction."""
