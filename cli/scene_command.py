@@ -25,7 +25,11 @@ if TYPE_CHECKING:
               help="Driver in the seats (repeatable): the rule-based expert, keep (a constant set-point, the human's "
                    "speed at the start), sumo-idm (SUMO's IDM and LC2013 drive the ego) or a saved policy file.")
 @click.option("--split", type=click.Choice(["test", "validation"]), default="test", show_default=True,
-              help="Whose seats: the scenes' held-out vehicles of this split (passenger cars only).")
+              help="Whose seats: the scenes' held-out vehicles of this split (of --seat-class).")
+@click.option("--seat-class", "classes", multiple=True, type=click.Choice(["passenger", "truck"]),
+              default=("passenger",), show_default=True,
+              help="The recorded vehicles' classes whose seats are taken (repeatable); the ego takes the seat's "
+                   "class and size.")
 @click.option("--mode", "modes", multiple=True, type=click.Choice(["non-reactive", "reactive"]),
               default=("non-reactive", "reactive"), show_default=True,
               help="non-reactive: the other vehicles replayed as recorded; reactive: driven by SUMO from their "
@@ -40,7 +44,8 @@ if TYPE_CHECKING:
 @backend_options
 @output_options(required=False)
 def evaluate_scene_command(config: Config, scenes: tuple[Path, ...], policies: tuple[str, ...], split: str,
-                           modes: tuple[str, ...], horizon_s: float, lead_s: float, limit: int | None, seed: int,
+                           classes: tuple[str, ...], modes: tuple[str, ...], horizon_s: float, lead_s: float,
+                           limit: int | None, seed: int,
                            workers: int, backend_name: str, address: str | None, out: Path | None,
                            overwrite: bool) -> None:
     """Put each driver in the seat of each held-out recorded car of SCENES (folders of import-recording or
@@ -72,12 +77,13 @@ def evaluate_scene_command(config: Config, scenes: tuple[Path, ...], policies: t
         read = [read_scene(scene) for scene in scenes]
         for scene in read:
             check_scene(scene, config, split)  # a network whose main road has the observation's lanes
-        seats = [seat for scene in read for seat in choose_seats(scene, split, horizon_s, lead_s, limit, seed)]
+        seats = [seat for scene in read for seat in choose_seats(scene, split, horizon_s, lead_s, limit, seed,
+                                                                          classes)]
     except (DatasetError, RecordingUsageError) as error:
         raise click.UsageError(str(error)) from error
     if not seats:
-        raise click.UsageError(f"no {split} car of {', '.join(map(str, scenes))} has a track of --lead-s + "
-                               f"--horizon-s = {lead_s + horizon_s:g} s")
+        raise click.UsageError(f"no {split} vehicle ({', '.join(classes)}) of {', '.join(map(str, scenes))} has a "
+                               f"track of --lead-s + --horizon-s = {lead_s + horizon_s:g} s")
     drivers = []
     for text in policies:
         try:

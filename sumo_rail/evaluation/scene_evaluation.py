@@ -2,7 +2,8 @@
 scene (`sumo_rail.recordings.seat.SceneEnv`) for a fixed horizon, non-reactive or reactive, and is measured against
 that vehicle's recorded track.
 
-A seat is a held-out passenger car (the ego is a car) whose track covers `lead_s` + `horizon_s` [s]; the ego starts
+A seat is a held-out vehicle of the chosen classes (passenger cars by default, trucks too: the ego takes the seat's
+vehicle class, length and width) whose track covers `lead_s` + `horizon_s` [s]; the ego starts
 `lead_s` after the track begins (the car is fully on the road and has moved with its traffic). Per episode: the
 paper's metrics, the safety measures (`safety.SafetyProbe`), the position error against the human's track at 1, 5 and
 10 s (`human_likeness`), collisions and those the ego caused (SUMO names the ego the collider: it ran into the
@@ -14,7 +15,7 @@ distributions: the ego's and, once per seat, the human's time, position, speed, 
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Collection, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -77,13 +78,13 @@ class Seat:
 
 
 def choose_seats(scene: Scene, split: str, horizon_s: float, lead_s: float, limit: int | None,
-                 seed: int) -> list[Seat]:
-    """The seats of `split`'s passenger cars whose tracks cover `lead_s` + `horizon_s`, in id order; with `limit`,
-    that many drawn without replacement by `seed`, kept in id order."""
+                 seed: int, classes: Collection[str] = ("passenger",)) -> list[Seat]:
+    """The seats of `split`'s vehicles of `classes` (passenger cars by default) whose tracks cover `lead_s` +
+    `horizon_s`, in id order; with `limit`, that many drawn without replacement by `seed`, kept in id order."""
     held_out = set(scene.split.loc[scene.split["split"] == split, "vehicle_id"].astype(str))
     spans = scene.tracks.groupby("vehicle_id").agg(begin=("time_s", "min"), end=("time_s", "max"),
                                                    kind=("vehicle_class", "first"))
-    fit = spans[(spans["kind"] == "passenger") & (spans["end"] - spans["begin"] >= lead_s + horizon_s - 1e-9)
+    fit = spans[spans["kind"].isin(list(classes)) & (spans["end"] - spans["begin"] >= lead_s + horizon_s - 1e-9)
                 & spans.index.isin(held_out)].sort_index()
     if limit is not None and limit < len(fit):
         fit = fit.iloc[np.sort(np.random.default_rng(seed).choice(len(fit), limit, replace=False))]

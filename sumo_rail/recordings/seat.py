@@ -1,6 +1,7 @@
 """The ego in a recorded driver's seat: `SceneEnv` is `HighwayEnv` on a scene's road whose traffic is the scene's
 vehicles (`sumo_rail.sim.replay.ReplayedTraffic`, given the scene's frames), and whose every reset puts the ego where
-one recorded vehicle is at a chosen instant, at its recorded lane, position, speed, length and width, that vehicle
+one recorded vehicle is at a chosen instant, at its recorded lane, position, speed, length, width and vehicle class
+(a truck's seat is a truck's), that vehicle
 then left out of the replay. The ego then drives exactly as in the generated roads (the same actions, ACC,
 observation, rewards, safety readings), until the episode's horizon (`env.max_episode_s`), a collision or the end of
 the road. The human's recorded track is the reference of the episode (`sumo_rail.evaluation.scene_evaluation`).
@@ -58,7 +59,8 @@ class SeatStart:
         top = tracks.groupby("vehicle_id")["speed_mps"].max()
         traffic = ReplayedTraffic(self.frames.at, tracks.groupby("vehicle_id")["time_s"].min().sort_values().to_numpy(),
                                   dict(zip(top.index.astype(str), top.to_numpy(), strict=True)),
-                                  scene_routes(tracks), self.reactive)
+                                  scene_routes(tracks), self.reactive,
+                                  tracks.groupby("vehicle_id")["vehicle_class"].first().astype(str).to_dict())
         return Simulation(config.scenario, config.lidar.range_m + CONTEXT_MARGIN_M, gui=gui, transport=transport,
                           gui_delay_ms=gui_delay_ms, traffic=traffic)
 

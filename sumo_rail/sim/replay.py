@@ -38,6 +38,7 @@ from sumo_rail.sim.road import RouteMap
 from sumo_rail.sim.simulation import Simulation
 from sumo_rail.sim.sumo_api import EGO_ID, SimulationError
 from sumo_rail.sim.traffic_source import Step
+from sumo_rail.sim.user_network import EGO_CLASS
 
 KEEP_ROUTE_ANY_EDGE = 2
 """moveToXY's keepRoute: place the vehicle on the recorded edge and lane, off its route if need be."""
@@ -58,13 +59,16 @@ class ReplayedTraffic:
     """The vehicles of a scene on its network: `frames_at` the scene at any instant, `begins_s` each track's first
     time [s] (sorted: the reactive mode looks for vehicles to place only when one begins), `top_speeds_mps` each
     vehicle's fastest recorded speed [m/s] (its desired speed in the reactive mode), `routes` each vehicle's recorded
-    edges in order (junctions left out: the route it is added on, and the seated ego's from its edge on);
-    `reactive` chooses the mode."""
+    edges in order (junctions left out: the route it is added on, and the seated ego's from its edge on),
+    `classes` each vehicle's SUMO vehicle class (the seated ego's; none given: a passenger car's); `reactive`
+    chooses the mode."""
 
     def __init__(self, frames_at: FramesAt, begins_s: np.ndarray, top_speeds_mps: Mapping[str, float],
-                 routes: Mapping[str, tuple[str, ...]], reactive: bool) -> None:
+                 routes: Mapping[str, tuple[str, ...]], reactive: bool, classes: Mapping[str, str] | None = None
+                 ) -> None:
         self.frames_at = frames_at
         self.routes = routes
+        self.classes = classes or {}
         distinct = sorted({route[start:] for route in set(routes.values()) for start in range(len(route))})
         self._route_ids = {route: REPLAY_ROUTE if not k else f"{REPLAY_ROUTE}_{k}" for k, route in enumerate(distinct)}
         self._route_maps: dict[tuple[str, ...], RouteMap] = {}
@@ -118,7 +122,7 @@ class ReplayedTraffic:
 
     def seat(self, sim: Simulation, vehicle: str, start_s: float, sumo_seed: int) -> None:
         """Load `sim`'s road afresh at `start_s` [s] with SUMO seed `sumo_seed`, place the recorded vehicles there (but
-        `vehicle`) and put the ego in `vehicle`'s place, state and size; DatasetError when it is not on the road
+        `vehicle`) and put the ego in `vehicle`'s place, state, size and class; DatasetError when it is not on the road
         then."""
         sim.load_empty(start_s - self._step_s, sumo_seed)
         self.ego_collisions.clear()
@@ -141,6 +145,9 @@ class ReplayedTraffic:
         vehicle_api.setSpeedFactor(EGO_ID, max(1.0, speed_mps / sim.speed_limit_mps))
         vehicle_api.setPreviousSpeed(EGO_ID, speed_mps)
         sim.resize(EGO_ID, float(values["length_m"][k]), float(values["width_m"][k]))
+        vehicle_class = self.classes.get(vehicle, EGO_CLASS)
+        if vehicle_class != EGO_CLASS:  # the ego's type is a passenger car's
+            vehicle_api.setVehicleClass(EGO_ID, vehicle_class)
         self._ego_in = True
 
     def _ego_route(self, sim: Simulation, vehicle: str, edge: str) -> tuple[str, ...]:

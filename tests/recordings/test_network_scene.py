@@ -15,6 +15,7 @@ from click.testing import CliRunner
 from sumo_rail_cli.main import cli
 
 from sumo_rail.config import Config
+from sumo_rail.evaluation.scene_evaluation import choose_seats
 from sumo_rail.recordings.actions import ActionRule, read_track
 from sumo_rail.recordings.scene import read_scene
 from sumo_rail.recordings.scene_observations import in_route_frame, observe, scene_road, scene_routes
@@ -131,3 +132,18 @@ def test_lane_changes_are_read_across_edges_in_the_route_frame(tmp_path):
     assert (actions(kept, along) == Action.KEEP).all()
     changed = [("in", 0)] * 30 + [("mid", 2)] * 30
     assert list(actions(changed, along)).count(Action.LANE_LEFT) == 1
+
+
+def test_a_trucks_seat_is_taken_on_request_and_the_ego_is_then_a_truck_of_its_size(network_scene):
+    scene = read_scene(network_scene)
+    trucks = choose_seats(scene, "train", 10.0, 2.0, None, 0, ("truck",))
+    assert trucks and all(seat.vehicle.startswith("lorry") for seat in trucks)
+    assert not any(seat.vehicle.startswith("lorry") for seat in choose_seats(scene, "train", 10.0, 2.0, None, 0))
+    env = SceneEnv(CONFIG, network_scene)
+    env.reset(seed=0, options={"vehicle": trucks[0].vehicle, "start_s": trucks[0].start_s})
+    ego = env.traffic.ego
+    assert (ego.length_m, ego.width_m) == pytest.approx((12.0, 2.5))  # the package's truck type, which FCD names
+    assert env.simulation._api.vehicle.getVehicleClass("ego") == "truck"
+    env.reset(seed=0, options={"vehicle": "main.5"})  # a car's seat after it: a car again
+    assert env.simulation._api.vehicle.getVehicleClass("ego") == "passenger"
+    env.close()
