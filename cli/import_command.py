@@ -70,7 +70,8 @@ def split_options(command: Callable[..., None]) -> Callable[..., None]:
 @click.option("--out", type=click.Path(path_type=Path, file_okay=False), required=True,
               help="The scene folder to write (tracks.parquet, scene.json, road.net.xml, split.parquet).")
 @click.option("--direction", type=click.Choice(values("direction")), default=None,
-              help="highD: the driving direction to keep (the other is left out)  [default: lower].")
+              help="highD: the driving direction to keep (the other is left out), or both (each on its own "
+                   "carriageway)  [default: lower].")
 @click.option("--site", type=click.Choice(values("site")), default=None,
               help="NGSIM: the site, which fixes the main lanes (US-101: 1-5, I-80: 1-6)  [default: us-101].")
 @click.option("--network", type=click.Path(path_type=Path, dir_okay=False), default=None,

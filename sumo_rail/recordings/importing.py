@@ -33,7 +33,7 @@ class ImportSettings:
     files: tuple[Path, ...]
     out: Path
     direction: str = "lower"
-    """highD: the driving direction kept ("upper" or "lower")."""
+    """highD: the driving direction kept ("upper" or "lower"), or "both" (each on its own carriageway's edge)."""
     site: str = "us-101"
     """NGSIM: the site ("us-101" or "i-80"), which fixes the main lanes."""
     network: Path | None = None

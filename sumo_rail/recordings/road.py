@@ -20,7 +20,9 @@ from sumo_rail.sim.network import netconvert
 from sumo_rail.sim.user_traffic import read_xml
 
 ROAD_EDGE = "road"
-"""The built road's one edge."""
+"""The built road's edge (its driving direction's, toward +x)."""
+OPPOSITE_EDGE = "road_opposite"
+"""The other carriageway's edge of a road built for both driving directions (toward -x)."""
 ROAD_SPEED_MPS = 44.44
 """The built road's speed limit [m/s] (160 km/h): the recordings' own limits vary; SUMO only needs a bound."""
 
@@ -39,19 +41,25 @@ class NetworkLanes:
         return len(self.widths_m[edge])
 
 
-def build_road(lane_widths_m: list[float], length_m: float, out: Path) -> None:
+def build_road(lane_widths_m: list[float], length_m: float, out: Path,
+               opposite_lane_widths_m: list[float] | None = None, median_m: float = 0.0) -> None:
     """Write a straight road of `length_m` [m] with lanes of `lane_widths_m` [m] (rightmost first) to `out` with
-    netconvert (plain XML nodes and one edge); the
-    same lanes give the same bytes."""
+    netconvert (plain XML nodes and one edge, `ROAD_EDGE`); with `opposite_lane_widths_m`, the other carriageway too
+    (`OPPOSITE_EDGE`, driven toward -x, its left edge `median_m` [m] above y = 0). The same lanes give the same
+    bytes."""
     nodes = ElementTree.Element("nodes")
-    ElementTree.SubElement(nodes, "node", id="start", x="0.0", y="0.0", type="priority")
-    ElementTree.SubElement(nodes, "node", id="end", x=repr(float(length_m)), y="0.0", type="priority")
     edges = ElementTree.Element("edges")
-    edge = ElementTree.SubElement(edges, "edge", id=ROAD_EDGE, attrib={
-        "from": "start", "to": "end", "priority": "10", "numLanes": str(len(lane_widths_m)),
-        "speed": repr(ROAD_SPEED_MPS)})
-    for index, width in enumerate(lane_widths_m):
-        ElementTree.SubElement(edge, "lane", index=str(index), width=f"{width:.3f}")
+    carriageways = [(ROAD_EDGE, lane_widths_m, (0.0, float(length_m)), 0.0)]
+    if opposite_lane_widths_m:
+        carriageways.append((OPPOSITE_EDGE, opposite_lane_widths_m, (float(length_m), 0.0), median_m))
+    for edge_id, widths, (start_x, end_x), y in carriageways:
+        start, end = ("start", "end") if edge_id == ROAD_EDGE else (f"{edge_id}_start", f"{edge_id}_end")
+        ElementTree.SubElement(nodes, "node", id=start, x=repr(start_x), y=repr(y), type="priority")
+        ElementTree.SubElement(nodes, "node", id=end, x=repr(end_x), y=repr(y), type="priority")
+        edge = ElementTree.SubElement(edges, "edge", id=edge_id, attrib={
+            "from": start, "to": end, "priority": "10", "numLanes": str(len(widths)), "speed": repr(ROAD_SPEED_MPS)})
+        for index, width in enumerate(widths):
+            ElementTree.SubElement(edge, "lane", index=str(index), width=f"{width:.3f}")
     with tempfile.TemporaryDirectory() as scratch:
         inputs = {"nodes": Path(scratch) / "road.nod.xml", "edges": Path(scratch) / "road.edg.xml"}
         ElementTree.ElementTree(nodes).write(inputs["nodes"])

@@ -71,7 +71,7 @@ class SceneMeta:
     lanes: int
     """Lanes of the modelled road in the scene's driving direction."""
     direction: str = ""
-    """The recording's driving direction kept (highD: "upper" / "lower"; NGSIM and FCD: "")."""
+    """The recording's driving direction kept (highD: "upper" / "lower", or "both"; NGSIM and FCD: "")."""
     sources: dict[str, str] = field(default_factory=dict)
     """Each source file's absolute path -> sha256 of its bytes."""
     dropped: dict[str, str] = field(default_factory=dict)
@@ -131,7 +131,8 @@ def write_scene_folder(out: Path, recording: Recording, tracks: pd.DataFrame, sp
     try:
         with written_together(out) as staged:
             if recording.lane_widths_m:
-                build_road(list(recording.lane_widths_m), recording.road_length_m, staged.path(out / "road.net.xml"))
+                build_road(list(recording.lane_widths_m), recording.road_length_m, staged.path(out / "road.net.xml"),
+                           list(recording.opposite_lane_widths_m), recording.median_m)
             write_parquet(track_table(tracks), staged.path(out / "tracks.parquet"), record)
             write_parquet(split, staged.path(out / "split.parquet"), {**record, "kind": "recording_split"})
             scene_json = json.dumps(dataclasses.asdict(meta), indent=1, sort_keys=True) + "\n"

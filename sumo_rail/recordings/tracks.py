@@ -59,6 +59,11 @@ class Recording:
     """What the reader left out of the recording, one sentence each (the other driving direction, ramps)."""
     sources: tuple[Path, ...] = ()
     """Every file read: the files given and any companion the format reads beside them (highD's meta files)."""
+    opposite_lane_widths_m: tuple[float, ...] = ()
+    """The other carriageway of the road to build, rightmost lane first [m], driven toward -x with its left edge
+    `median_m` above y = 0 (a scene of both driving directions); empty: none."""
+    median_m: float = 0.0
+    """The strip between the carriageways [m]."""
 
 
 def check_columns(found: list[str], expected: tuple[str, ...], path: object, what: str) -> None:
