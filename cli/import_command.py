@@ -89,9 +89,10 @@ def import_recording_command(config: Config, format_: str, files: tuple[Path, ..
                              hold_out_after_s: float | None, overwrite: bool) -> None:
     """Import a recording of real (or SUMO) driving as a scene: its tracks in the coordinates of a SUMO road.
 
-    highD and NGSIM get a straight road built with netconvert from their lanes; FCD keeps the user's network. The
+    highD and NGSIM get a road built with netconvert from their lanes (NGSIM's with a ramp lane where vehicles use a
+    ramp); FCD keeps the user's network. The
     command prints how many tracks it kept and why any were dropped (too short for one decision of
-    env.decision_period_s, off the modelled lanes, a gap in frames); docs/recordings.md has the details."""
+    env.decision_period_s, a gap in frames); docs/recordings.md has the details."""
     from sumo_rail.datasets import DatasetError
     from sumo_rail.recordings.importing import ImportSettings, check_import, import_recording
     from sumo_rail.recordings.scene import check_scene_output

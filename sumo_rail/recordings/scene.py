@@ -75,7 +75,7 @@ class SceneMeta:
     sources: dict[str, str] = field(default_factory=dict)
     """Each source file's absolute path -> sha256 of its bytes."""
     dropped: dict[str, str] = field(default_factory=dict)
-    """Each dropped track's source id -> the one-phrase reason (too short, off the modelled lanes, gap in frames)."""
+    """Each dropped track's source id -> the one-phrase reason (too short, gap in frames)."""
     settings: dict[str, object] = field(default_factory=dict)
     """The import's settings (section, vehicles, minimum track length ...), for provenance."""
 
@@ -132,7 +132,7 @@ def write_scene_folder(out: Path, recording: Recording, tracks: pd.DataFrame, sp
         with written_together(out) as staged:
             if recording.lane_widths_m:
                 build_road(list(recording.lane_widths_m), recording.road_length_m, staged.path(out / "road.net.xml"),
-                           list(recording.opposite_lane_widths_m), recording.median_m)
+                           list(recording.opposite_lane_widths_m), recording.median_m, recording.ramp_lane_m)
             write_parquet(track_table(tracks), staged.path(out / "tracks.parquet"), record)
             write_parquet(split, staged.path(out / "split.parquet"), {**record, "kind": "recording_split"})
             scene_json = json.dumps(dataclasses.asdict(meta), indent=1, sort_keys=True) + "\n"
