@@ -204,17 +204,20 @@ def observe(config: Config, road: SceneRoad, ids: np.ndarray, values: dict[str, 
     near[row] = False
     heading = np.radians(90.0 - values["heading_deg"])
     route = road.route if route is None else route
-    positions, lanes = road.place(route, values["edge"], lane, values["lane_position_m"])
+    seen = np.flatnonzero(near)
+    positions, lanes = road.place(route, values["edge"][seen], lane[seen], values["lane_position_m"][seen])
+    (position,), (ego_lane,) = road.place(route, values["edge"][row:row + 1], lane[row:row + 1],
+                                          values["lane_position_m"][row:row + 1])
     lane_id = f"{values['edge'][row]}_{lane[row]}"
-    position = float(positions[row])
+    position = float(position)
     state = EgoState(float(x[row]), float(y[row]), float(heading[row]), float(values["speed_mps"][row]),
-                     int(lanes[row]), position, road.lateral_offset_m(lane_id, float(x[row]), float(y[row])),
+                     int(ego_lane), position, road.lateral_offset_m(lane_id, float(x[row]), float(y[row])),
                      float(values["length_m"][row]), float(values["width_m"][row]), lane_id,
                      road.frame(route).view(lane_id, position))
     config_route = route_values(state, config.observation.route_range_m, config.scenario.lanes)
     return kernels.observation_vector(
         np.stack([x[near], y[near]], axis=1), heading[near], values["length_m"][near], values["width_m"][near],
-        values["speed_mps"][near], positions[near], lanes[near], road.edge_rows, state.front_x,
+        values["speed_mps"][near], positions, lanes, road.edge_rows, state.front_x,
         state.front_y, state.heading_rad, state.length_m, state.speed_mps, set_point_mps, position, state.lane,
         state.changing_lane, config.lidar.beams, config.lidar.range_m, config.env.v_min_mps, config.env.v_max_mps,
         config.scenario.lanes, config.observation.lane_block == 1, config.observation.route_block == 1,
