@@ -139,9 +139,11 @@ class ReplayedTraffic:
             raise DatasetError(f"vehicle {vehicle} of the scene is not on the road at {start_s:g} s")
         k, vehicle_api = int(row[0]), self.api.vehicle
         speed_mps = float(values["speed_mps"][k])
-        route = self._ego_route(sim, vehicle, str(values["edge"][k]))
+        edge = str(values["edge"][k])
+        route = self._ego_route(sim, vehicle, edge, int(lanes[k]))
         # placed standing, then given the recorded speed: SUMO refuses a departure above the type's limit on the lane
-        sim.put_ego(EGO_ID, int(lanes[k]), float(values["lane_position_m"][k]), 0.0, route)
+        sim.put_ego(EGO_ID, int(lanes[k]), float(values["lane_position_m"][k]), 0.0, route,
+                    "" if edge == route[0] else edge)
         vehicle_api.setSpeedFactor(EGO_ID, max(1.0, speed_mps / sim.speed_limit_mps))
         vehicle_api.setPreviousSpeed(EGO_ID, speed_mps)
         sim.resize(EGO_ID, float(values["length_m"][k]), float(values["width_m"][k]))
@@ -150,13 +152,18 @@ class ReplayedTraffic:
             vehicle_api.setVehicleClass(EGO_ID, vehicle_class)
         self._ego_in = True
 
-    def _ego_route(self, sim: Simulation, vehicle: str, edge: str) -> tuple[str, ...]:
-        """The seated ego's route: `vehicle`'s recorded edges from `edge` (where it is) on; `sim`'s route frame made
-        that route's (the network's own when it is the simulation's route)."""
+    def _ego_route(self, sim: Simulation, vehicle: str, edge: str, lane: int) -> tuple[str, ...]:
+        """The seated ego's route: `vehicle`'s recorded edges from `edge` (where it is, in `lane`) on, or in a
+        junction from the edge before it; `sim`'s route frame made that route's (the network's own when it is the
+        simulation's route)."""
         recorded = self.routes[vehicle]
-        if edge not in recorded:
-            raise DatasetError(f"vehicle {vehicle} of the scene is in a junction ({edge}) at its seat's instant; seat "
-                               f"it where it is on an edge")
+        if edge not in recorded:  # a junction's lane: its link leads to the next edge
+            links = self.api.lane.getLinks(f"{edge}_{lane}")
+            after = self.api.lane.getEdgeID(links[0][0]) if links else ""
+            if after not in recorded[1:]:
+                raise DatasetError(f"vehicle {vehicle} of the scene is in junction lane {edge}_{lane} at its seat's "
+                                   f"instant, which leads to no edge of its recorded route")
+            edge = recorded[recorded.index(after) - 1]
         route = recorded[recorded.index(edge):]
         maps = self._route_maps
         if not maps:

@@ -94,12 +94,12 @@ def test_fcd_on_a_users_network_reads_trains_and_evaluates_with_the_documented_c
 
 def test_the_seat_sees_what_the_scene_gives_on_the_ramp_the_bend_and_across_edges(network_scene):
     """The seated ego's first observation (its lanes and positions in its own route's frame, the route block, the
-    road's edges and junctions for the LIDAR) is the scene's observation of the recorded vehicle there."""
+    road's edges and junctions for the LIDAR) is the scene's observation of the recorded vehicle there, on an edge or
+    in a junction."""
     env = SceneEnv(CONFIG, network_scene)
     tracks, names = env.scene.tracks, observation_names(CONFIG)
     routes = scene_routes(tracks)
-    seats = [(vehicle, edge) for vehicle, edge in (("onramp.3", "ramp"), ("onramp.3", "mid"), ("main.5", "out"),
-                                                   ("lorry.1", "in"))]
+    seats = [("onramp.3", "ramp"), ("onramp.3", "mid"), ("main.5", "out"), ("lorry.1", "in"), ("main.5", ":c_0")]
     for vehicle, edge in seats:
         rows = tracks[(tracks["vehicle_id"] == vehicle) & (tracks["edge"] == edge)]
         start_s = round(float(rows["time_s"].iloc[len(rows) // 2]), 6)
