@@ -116,17 +116,36 @@ class NetFile(Sensing):
         scenario.lanes)."""
         return RouteMap.from_sumo(self, route, main_lanes)
 
-    def main_route(self) -> tuple[str, ...]:
-        """The network's main road as a route: from the widest edge that no edge leads into (of all edges when
-        every one has a predecessor), on along the widest successor at each junction (then the lowest id) until the
-        road ends or comes back on itself."""
+    def successors(self) -> dict[str, set[str]]:
+        """Each edge's successors: the edges its lanes lead onto (junctions crossed), internal edges left out."""
         successors: dict[str, set[str]] = {edge: set() for edge in self.edge.ends}
         for lane, links in self.lane.links.items():
             source = self.lane.edge[lane]
             if source in successors:
                 successors[source].update(self.lane.edge[to] for to, _ in links if self.lane.edge[to] in successors)
+        return successors
+
+    def entries(self) -> list[str]:
+        """The edges no edge leads into (all of them when every one has a predecessor), in id order."""
+        successors = self.successors()
         entered = set().union(*successors.values())
-        starts = [edge for edge in successors if edge not in entered] or list(successors)
+        return sorted(edge for edge in successors if edge not in entered) or sorted(successors)
+
+    def reaches(self, source: str, target: str) -> bool:
+        """Whether edge `target` can be driven to from edge `source`."""
+        successors, seen, queue = self.successors(), {source}, [source]
+        while queue:
+            for after in successors[queue.pop()] - seen:
+                seen.add(after)
+                queue.append(after)
+        return target in seen
+
+    def main_route(self) -> tuple[str, ...]:
+        """The network's main road as a route: from the widest edge that no edge leads into (of all edges when
+        every one has a predecessor), on along the widest successor at each junction (then the lowest id) until the
+        road ends or comes back on itself."""
+        successors = self.successors()
+        starts = self.entries()
         widest = self.edge.lanes.get
 
         def pick(edges: Iterable[str]) -> str | None:

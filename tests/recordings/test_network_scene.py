@@ -147,3 +147,23 @@ def test_a_trucks_seat_is_taken_on_request_and_the_ego_is_then_a_truck_of_its_si
     env.reset(seed=0, options={"vehicle": "main.5"})  # a car's seat after it: a car again
     assert env.simulation._api.vehicle.getVehicleClass("ego") == "passenger"
     env.close()
+
+
+def test_record_sumo_drivers_on_a_users_network_flows_from_every_entry_and_reads_as_demonstrations(tmp_path):
+    """record-sumo-drivers with scenario.kind network: the drivers enter from the road's start and the on-ramp, the
+    scene names the user's network (with its sha256), and recorded-demos reads it."""
+    net = ramp_network(tmp_path)
+    on_network = ["--set", "scenario.kind=network", "--set", f"scenario.network={net}", "--set",
+                  "scenario.route=in mid out", "--set", "scenario.warmup_s=40", "--set", "scenario.flow_veh_per_h=1500",
+                  "--set", "scenario.lanes=3"]
+    result = CliRunner().invoke(cli, ["record-sumo-drivers", "--out", str(tmp_path / "scene"), "--seed", "2",
+                                      "--duration-s", "30", *on_network])
+    assert result.exit_code == 0, result.output
+    scene = read_scene(tmp_path / "scene")
+    assert scene.network == net.resolve() and str(net.resolve()) in scene.meta.sources
+    firsts = scene.tracks.sort_values("time_s").groupby("vehicle_id")["edge"].first()
+    entered = scene.tracks[scene.tracks["vehicle_id"].isin(firsts.index[firsts == "ramp"])]
+    assert len(entered) and (entered["edge"] == "mid").any()  # some came in by the ramp and joined the main road
+    result = CliRunner().invoke(cli, ["recorded-demos", str(tmp_path / "scene"), *SPEED, "--out",
+                                      str(tmp_path / "demos.parquet")])
+    assert result.exit_code == 0, result.output
