@@ -150,8 +150,10 @@ def test_both_directions_are_one_scene_each_on_its_own_carriageway(tmp_path):
     assert env.traffic.ego.front_x < ego.front_x - 10.0  # 0.5 s at 30 m/s toward -x
     env.close()
     result = CliRunner().invoke(cli, ["recorded-demos", str(tmp_path / "both"), "--set", "scenario.lanes=2", "--set",
-                                      "scenario.speed_limit_mps=44.44", "--set", "env.v_max_mps=44.44", "--split",
+                                      "scenario.speed_limit_mps=44.44", "--set", "env.v_max_mps=44.44", "--set",
+                                      "observation.lane_block=1", "--set", "observation.route_block=1", "--split",
                                       "train", "--out", str(tmp_path / "demos.parquet")])
     assert result.exit_code == 0, result.output
     demos = pd.read_parquet(tmp_path / "demos.parquet")
     assert (demos.groupby("episode")["position_m"].diff().dropna() > 0).all()  # each along its own carriageway
+    assert np.isfinite(np.stack(demos["observation"].to_numpy())).all()  # the other carriageway's cars in sight too
