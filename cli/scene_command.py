@@ -48,12 +48,12 @@ def evaluate_scene_command(config: Config, scenes: tuple[Path, ...], policies: t
                            limit: int | None, seed: int,
                            workers: int, backend_name: str, address: str | None, out: Path | None,
                            overwrite: bool) -> None:
-    """Put each driver in the seat of each held-out recorded car of SCENES (folders of import-recording or
-    record-sumo-drivers) for --horizon-s, and measure it against that car's recorded track: position error at 1, 5
-    and 10 s, collisions and those the ego caused, stops, progress relative to the human, lane changes per km, hard
-    braking, TTC below 1.5 s, the driving score, and the distances of its speed, acceleration and gap distributions to
-    the humans'. --out gets one row per episode and NAME.tracks.parquet beside it one row per decision (the humans'
-    own rows under the driver "human")."""
+    """Put each driver in the seat of each held-out recorded car (or truck, --seat-class truck) of SCENES (folders of
+    import-recording or record-sumo-drivers) for --horizon-s, and measure it against that vehicle's recorded track:
+    position error at 1, 5 and 10 s, collisions and those the ego caused, stops, progress relative to the human, lane
+    changes per km, hard braking, TTC below 1.5 s, the driving score, and the distances of its speed, acceleration and
+    gap distributions to the humans'. --out gets one row per episode and NAME.tracks.parquet beside it one row per
+    decision (the humans' own rows under the driver "human")."""
     from sumo_rail.datasets import DatasetError
     from sumo_rail.drivers.policies import PolicyFileError
     from sumo_rail.evaluation.evaluate import DEFAULT_REFERENCE, parse_driver, unique_names
