@@ -70,11 +70,12 @@ def split_options(command: Callable[..., None]) -> Callable[..., None]:
 @click.option("--out", type=click.Path(path_type=Path, file_okay=False), required=True,
               help="The scene folder to write (tracks.parquet, scene.json, road.net.xml, split.parquet).")
 @click.option("--direction", type=click.Choice(values("direction")), default=None,
-              help="highD: the driving direction to keep (the other is left out)  [default: lower].")
+              help="highD: the driving direction to keep (the other is left out), or both (each on its own "
+                   "carriageway)  [default: lower].")
 @click.option("--site", type=click.Choice(values("site")), default=None,
               help="NGSIM: the site, which fixes the main lanes (US-101: 1-5, I-80: 1-6)  [default: us-101].")
 @click.option("--network", type=click.Path(path_type=Path, dir_okay=False), default=None,
-              help="FCD: the SUMO .net.xml (or .net.xml.gz) the recording was driven on: one straight edge along +x.")
+              help="FCD: the SUMO .net.xml (or .net.xml.gz) the recording was driven on (any SUMO network).")
 @click.option("--vehicles", default=None, metavar="IDS", help="Keep only these source ids: 3,17,20-40.")
 @click.option("--section", default=None, metavar="START:END", help="Keep only the rows whose front x lies in "
               "START..END m (scene coordinates: along the road in the driving direction for highD and NGSIM).")
@@ -88,9 +89,10 @@ def import_recording_command(config: Config, format_: str, files: tuple[Path, ..
                              hold_out_after_s: float | None, overwrite: bool) -> None:
     """Import a recording of real (or SUMO) driving as a scene: its tracks in the coordinates of a SUMO road.
 
-    highD and NGSIM get a straight road built with netconvert from their lanes; FCD keeps the user's network. The
+    highD and NGSIM get a road built with netconvert from their lanes (NGSIM's with a ramp lane where vehicles use a
+    ramp); FCD keeps the user's network. The
     command prints how many tracks it kept and why any were dropped (too short for one decision of
-    env.decision_period_s, off the modelled lanes, a gap in frames); docs/recordings.md has the details."""
+    env.decision_period_s, a gap in frames); docs/recordings.md has the details."""
     from sumo_rail.datasets import DatasetError
     from sumo_rail.recordings.importing import ImportSettings, check_import, import_recording
     from sumo_rail.recordings.scene import check_scene_output

@@ -34,7 +34,8 @@ if TYPE_CHECKING:
 def record_sumo_drivers_command(config: Config, out: Path, seed: int, duration_s: float, split_seed: int,
                                 test_share: float, validation_share: float, overwrite: bool) -> None:
     """Record SUMO's own drivers (Krauss and IDM, LC2013 with several temperaments, cars and trucks) on a straight
-    motorway as a scene folder: drivers whose rules no one here wrote.
+    motorway, or on your network (scenario.kind network: flows from every entry edge to scenario.route's end), as a
+    scene folder: drivers whose rules no one here wrote.
 
     The road has scenario.lanes lanes of scenario.lane_width_m over scenario.length_m, and a speed limit of 44.44 m/s
     (160 km/h) as every scene road built from a recording (scenario.speed_limit_mps does not change it; the commands

@@ -26,7 +26,11 @@ if TYPE_CHECKING:
               help="Driver in the seats (repeatable): the rule-based expert, keep (a constant set-point, the human's "
                    "speed at the start), sumo-idm (SUMO's IDM and LC2013 drive the ego) or a saved policy file.")
 @click.option("--split", type=click.Choice(["test", "validation"]), default="test", show_default=True,
-              help="Whose seats: the scenes' held-out vehicles of this split (passenger cars only).")
+              help="Whose seats: the scenes' held-out vehicles of this split (of --seat-class).")
+@click.option("--seat-class", "classes", multiple=True, type=click.Choice(["passenger", "truck"]),
+              default=("passenger",), show_default=True,
+              help="The recorded vehicles' classes whose seats are taken (repeatable); the ego takes the seat's "
+                   "class and size.")
 @click.option("--mode", "modes", multiple=True, type=click.Choice(["non-reactive", "reactive"]),
               default=("non-reactive", "reactive"), show_default=True,
               help="non-reactive: the other vehicles replayed as recorded; reactive: driven by SUMO from their "
@@ -45,16 +49,16 @@ if TYPE_CHECKING:
 @backend_options
 @output_options(required=False)
 def evaluate_scene_command(config: Config, scenes: tuple[Path, ...], policies: tuple[str, ...], split: str,
-                           modes: tuple[str, ...], horizon_s: float, lead_s: float, zone_m: float,
-                           limit: int | None, seed: int, workers: int, backend_name: str, address: str | None,
-                           out: Path | None, overwrite: bool) -> None:
-    """Put each driver in the seat of each held-out recorded car of SCENES (folders of import-recording or
-    record-sumo-drivers) for --horizon-s, and measure it against that car's recorded track: position error at 1, 2, 5,
-    10, 15 and 20 s (those the episode reaches), RMSE of position and speed, collisions and those the ego caused, stops,
-    progress relative to the human, lane changes per km, hard braking, TTC below 1.5 s, the driving score, and the
-    distances of its speed, acceleration, jerk, gap and time-headway distributions to the humans'. --out gets one
-    row per episode and NAME.tracks.parquet beside it one row per decision (the humans' own rows under the driver
-    "human")."""
+                           classes: tuple[str, ...], modes: tuple[str, ...], horizon_s: float, lead_s: float,
+                           zone_m: float, limit: int | None, seed: int, workers: int, backend_name: str,
+                           address: str | None, out: Path | None, overwrite: bool) -> None:
+    """Put each driver in the seat of each held-out recorded car (or truck, --seat-class truck) of SCENES (folders of
+    import-recording or record-sumo-drivers) for --horizon-s, and measure it against that vehicle's recorded track:
+    position error at 1, 2, 5, 10, 15 and 20 s (those the episode reaches), RMSE of position and speed, collisions and
+    those the ego caused, stops, progress relative to the human, lane changes per km, hard braking, TTC below 1.5 s,
+    the driving score, and the distances of its speed, acceleration, jerk, gap and time-headway distributions to the
+    humans'. --out gets one row per episode and NAME.tracks.parquet beside it one row per decision (the humans' own
+    rows under the driver "human")."""
     from sumo_rail.datasets import DatasetError
     from sumo_rail.evaluation.evaluate import DEFAULT_REFERENCE
     from sumo_rail.evaluation.protocol import summarise, unique_names, write_evaluation
@@ -69,15 +73,15 @@ def evaluate_scene_command(config: Config, scenes: tuple[Path, ...], policies: t
     try:
         read = [read_scene(scene) for scene in scenes]
         for scene in read:
-            check_scene(scene, config, split)  # one straight edge of the observation's lanes, with such cars
-        seats = [seat for scene in read
-                 for seat in choose_seats(scene, split, horizon_s, lead_s, limit, seed, zone_m)]
+            check_scene(scene, config, split)  # a network whose main road has the observation's lanes
+        seats = [seat for scene in read for seat in choose_seats(scene, split, horizon_s, lead_s, limit, seed,
+                                                                          zone_m=zone_m, classes=classes)]
     except (DatasetError, RecordingUsageError) as error:
         raise click.UsageError(str(error)) from error
     if not seats:
         zone = f" --zone-m {zone_m:g} m past the road's start and before its end" if zone_m > 0 else ""
-        raise click.UsageError(f"no {split} car of {', '.join(map(str, scenes))} has a track of --lead-s + "
-                               f"--horizon-s = {lead_s + horizon_s:g} s{zone}")
+        raise click.UsageError(f"no {split} vehicle ({', '.join(classes)}) of {', '.join(map(str, scenes))} has a "
+                               f"track of --lead-s + --horizon-s = {lead_s + horizon_s:g} s{zone}")
     drivers = parse_drivers(policies, config, DEFAULT_REFERENCE, SEAT_DRIVERS)
     names = unique_names(drivers)
     backend = evaluation_backend(backend_name, workers, address)

@@ -2,7 +2,8 @@
 scene (`sumo_rail.recordings.seat.SceneEnv`) for a fixed horizon, non-reactive or reactive, and is measured against
 that vehicle's recorded track.
 
-A seat is a held-out passenger car (the ego is a car) whose track covers `lead_s` + `horizon_s` [s]; the ego starts
+A seat is a held-out vehicle of the chosen classes (passenger cars by default, trucks too: the ego takes the seat's
+vehicle class, length and width) whose track covers `lead_s` + `horizon_s` [s]; the ego starts
 `lead_s` after the track begins (the car is fully on the road and has moved with its traffic). Per episode: the
 paper's metrics, the safety measures (`safety.SafetyProbe`), the position error against the human's track at 1, 2,
 5, 10, 15 and 20 s and the RMSE of position and speed over the seat (`human_likeness`), collisions and those the ego
@@ -16,7 +17,7 @@ speed, lane and gap to the leader in its lane. The episodes are `protocol.Evalua
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Collection, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -31,7 +32,14 @@ from sumo_rail.evaluation.protocol import NAMED_DRIVERS, Evaluation, EvaluationT
 from sumo_rail.evaluation.safety import Safety
 from sumo_rail.evaluation.scene_summary import HUMAN, seats_summary
 from sumo_rail.recordings.scene import Scene, read_scene
-from sumo_rail.recordings.scene_observations import SceneFrames, scene_road
+from sumo_rail.recordings.scene_observations import (
+    SceneFrames,
+    SceneRoad,
+    in_frame,
+    route_from,
+    scene_road,
+    scene_routes,
+)
 from sumo_rail.recordings.seat import SceneEnv
 from sumo_rail.recordings.trajectory import TRAJECTORY_COLUMNS, TrajectoryPoint, trajectory_frame
 from sumo_rail.runners.backends import RolloutBackend, WorkerContext
@@ -61,31 +69,37 @@ class Seat:
 
 
 def choose_seats(scene: Scene, split: str, horizon_s: float, lead_s: float, limit: int | None,
-                 seed: int, zone_m: float = 0.0) -> list[Seat]:
-    """The seats of `split`'s passenger cars whose tracks cover `lead_s` + `horizon_s`, in id order; with `limit`,
-    that many drawn without replacement by `seed`, kept in id order. A seat begins `lead_s` into the track; with
-    `zone_m` > 0 [m], where traffic is established: at the first row from then on where the car is at least `zone_m`
-    along the road, its horizon ending at least `zone_m` before the road's end (cars that never fit are left out)."""
+                 seed: int, *, zone_m: float = 0.0, classes: Collection[str] = ("passenger",)) -> list[Seat]:
+    """The seats of `split`'s vehicles of `classes` (passenger cars by default) whose tracks cover `lead_s` +
+    `horizon_s`, in id order; with `limit`, that many drawn without replacement by `seed`, kept in id order. A seat
+    begins `lead_s` into the track; with `zone_m` > 0 [m], where traffic is established: at the first row from then on
+    where the vehicle is at least `zone_m` along the road, its horizon ending at least `zone_m` before the road's end
+    (vehicles that never fit are left out)."""
     held_out = set(scene.split.loc[scene.split["split"] == split, "vehicle_id"].astype(str))
     spans = scene.tracks.groupby("vehicle_id").agg(begin=("time_s", "min"), end=("time_s", "max"),
                                                    kind=("vehicle_class", "first"))
-    fit = spans[(spans["kind"] == "passenger") & (spans["end"] - spans["begin"] >= lead_s + horizon_s - 1e-9)
+    fit = spans[spans["kind"].isin(list(classes)) & (spans["end"] - spans["begin"] >= lead_s + horizon_s - 1e-9)
                 & spans.index.isin(held_out)].sort_index()
-    length_m = scene_road(scene.network).length_m if zone_m > 0 else np.inf
+    road, routes = scene_road(scene.network), scene_routes(scene.tracks)
     rows = scene.tracks[scene.tracks["vehicle_id"].isin(fit.index)].sort_values(["vehicle_id", "time_s"],
                                                                                  kind="stable")
-    seats = [Seat(str(scene.folder), str(vehicle), start[0], start[1], start[0] - float(track["time_s"].iloc[0]))
-             for vehicle, track in rows.groupby("vehicle_id", sort=True)
-             if (start := _seat_start(track, lead_s, horizon_s, zone_m, length_m)) is not None]
+    seats = []
+    for vehicle, track in rows.groupby("vehicle_id", sort=True):
+        route, time_s = routes[str(vehicle)], track["time_s"].to_numpy(dtype=float)
+        along = road.place(route, track["edge"].to_numpy().astype(str), track["lane"].to_numpy(),
+                           track["lane_position_m"].to_numpy(dtype=float))[0]  # along its route, across edges
+        start = _seat_start(time_s, along, lead_s, horizon_s, zone_m, road.frame(route).length_m)
+        if start is not None:
+            seats.append(Seat(str(scene.folder), str(vehicle), start[0], start[1], start[0] - float(time_s[0])))
     if limit is not None and limit < len(seats):
         seats = [seats[k] for k in np.sort(np.random.default_rng(seed).choice(len(seats), limit, replace=False))]
     return seats
 
 
-def _seat_start(track: pd.DataFrame, lead_s: float, horizon_s: float, zone_m: float,
+def _seat_start(time_s: np.ndarray, along: np.ndarray, lead_s: float, horizon_s: float, zone_m: float,
                 length_m: float) -> tuple[float, float] | None:
-    """(start [s], position along the road there [m]) of a track's seat (`choose_seats`); None when none fits."""
-    time_s, along = track["time_s"].to_numpy(dtype=float), track["lane_position_m"].to_numpy(dtype=float)
+    """(start [s], position along the route there [m]) of a track's seat (`choose_seats`) from its times [s] and
+    positions along its route [m] (-inf where off it); None when none fits."""
     start_s = float(time_s[0]) + lead_s
     if zone_m > 0:
         later = np.flatnonzero((time_s >= start_s - 1e-9) & (along >= zone_m))
@@ -162,17 +176,22 @@ class TrackObserver:
                 {name: track[name].to_numpy() for name in TRAJECTORY_COLUMNS})
 
 
-def human_track(frames: SceneFrames, seat: Seat, period_s: float, decisions: int, range_m: float) -> pd.DataFrame:
-    """The seat's recorded vehicle at the episode's decision instants (`TRAJECTORY_COLUMNS`), its gap to the leader
-    measured within `range_m` [m]."""
-    points = []
+def human_track(frames: SceneFrames, seat: Seat, period_s: float, decisions: int, road: SceneRoad,
+                recorded: tuple[str, ...], range_m: float) -> pd.DataFrame:
+    """The seat's recorded vehicle (which drove the edges `recorded` on the scene's `road`) at the episode's decision
+    instants (`TRAJECTORY_COLUMNS`), its lanes and positions in its seat's route frame, as the ego's, its gap to the
+    leader measured within `range_m` [m]."""
+    points: list[TrajectoryPoint] = []
+    route = recorded
     for k in range(decisions + 1):
         time_s = seat.start_s + k * period_s
         snapshot = frames.at(time_s)
         row = snapshot.row(seat.vehicle)
         if row is None:
             break
-        points.append(snapshot.point(row, time_s)._replace(gap_m=measured_gap(snapshot.leader_gap_m(row), range_m)))
+        route = route if points else route_from(recorded, str(snapshot.values["edge"][row]))
+        framed = in_frame(road, route, snapshot)
+        points.append(framed.point(row, time_s)._replace(gap_m=measured_gap(framed.leader_gap_m(row), range_m)))
     return trajectory_frame(points)
 
 
@@ -203,12 +222,14 @@ def evaluate_seats(drivers: Sequence[DriverSpec], names: Sequence[str], config: 
                 for mode in modes for driver, name in zip(drivers, names, strict=True)
                 for index, seat in enumerate(seats)]
     results = backend.run([task for _, task in labelled], on_result=on_episode)
-    frames = {scene: SceneFrames(read.tracks, read.meta.frame_rate_hz)
+    frames = {scene: (SceneFrames(read.tracks, read.meta.frame_rate_hz), scene_road(read.network),
+                      scene_routes(read.tracks))
               for scene, read in ((scene, read_scene(Path(scene))) for scene in {seat.scene for seat in seats})}
     period = config.env.decision_period_s
     horizon_decisions = round(config.env.max_episode_s / period)
-    humans = {seat: human_track(frames[seat.scene], seat, period, horizon_decisions, config.lidar.range_m)
-              for seat in seats}
+    humans = {seat: human_track(scene_frames, seat, period, horizon_decisions, road, routes[seat.vehicle],
+                                config.lidar.range_m)
+              for seat in seats for scene_frames, road, routes in [frames[seat.scene]]}
     rows, tracks = [], []
     for (name, task), result in zip(labelled, results, strict=True):
         assert isinstance(task.start, RecordedSeatStart)

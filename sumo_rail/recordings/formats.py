@@ -29,7 +29,7 @@ class ReadOptions:
     """What a reader is told besides its files; each format reads the options its `RecordingFormat` names."""
 
     direction: str = "lower"
-    """highD: the driving direction kept ("upper" or "lower")."""
+    """highD: the driving direction kept ("upper" or "lower"), or "both" (each on its own carriageway's edge)."""
     site: str = "us-101"
     """NGSIM: the site ("us-101" or "i-80"), which fixes the main lanes."""
     network: Path | None = None
@@ -90,7 +90,8 @@ class RecordingFormat:
 
 
 HIGHD = RecordingFormat("highd", "XX_tracks.csv (its tracksMeta and recordingMeta beside it)",
-                        "sumo_rail.recordings.highd", {"direction": ("upper", "lower")}, contiguous=True)
+                        "sumo_rail.recordings.highd", {"direction": ("upper", "lower", "both")},
+                        contiguous=True)
 NGSIM = RecordingFormat("ngsim", "US-101 / I-80 trajectory CSV or text files (gzip-compressed too)",
                         "sumo_rail.recordings.ngsim", {"site": ("us-101", "i-80")}, speed_smoothing_s=1.0)
 FCD = RecordingFormat("fcd", "SUMO --fcd-output XML (.xml or .xml.gz)", "sumo_rail.recordings.fcd", network=True)

@@ -8,9 +8,12 @@ driven leftwards (its rightmost lane at the top), 2 the lower one, driven rightw
 bottom). laneId counts the strips between markings from the top, from 1: a recording with n lanes a direction has
 upper lanes 2 .. n + 1 and lower lanes n + 3 .. 2n + 2.
 
-One direction is read at a time; the other is left out (said so in the scene's notes). The scene's road is a straight
+One direction is read at a time, the other left out (said so in the scene's notes): the scene's road is a straight
 edge along +x in the driving direction whose lanes have the widths between the direction's markings; its x is the
-image x of the front bumper (lower) or the image's right end minus it (upper).
+image x of the front bumper (lower) or the image's right end minus it (upper). Or both at once (direction "both"): the
+road is then both carriageways, the lower one as above (edge `road.ROAD_EDGE` along +x, left edge at y = 0) and the
+upper one where the image has it (edge `road.OPPOSITE_EDGE`, driven toward -x, its left edge the median's width above
+y = 0), x the image x shifted as the lower direction's.
 """
 
 from __future__ import annotations
@@ -22,7 +25,7 @@ import pandas as pd
 
 from sumo_rail.recordings.formats import ReadOptions
 from sumo_rail.recordings.levelx import SUFFIXES, LevelXLayout
-from sumo_rail.recordings.road import ROAD_EDGE
+from sumo_rail.recordings.road import OPPOSITE_EDGE, ROAD_EDGE
 from sumo_rail.recordings.tracks import (
     LANE_TOLERANCE_M,
     Recording,
@@ -74,7 +77,8 @@ def _markings(meta: pd.Series, column: str, path: Path) -> np.ndarray:
 
 
 def read(files: list[Path], options: ReadOptions) -> Recording:
-    """The vehicles of one driving direction (`options.direction`, "upper" or "lower") of a highD recording."""
+    """The vehicles of one driving direction (`options.direction`, "upper" or "lower") of a highD recording, or of
+    both ("both")."""
     direction = options.direction
     sources = LAYOUT.recording_files(files)
     tracks_path, tracks_meta_path, recording_meta_path = sources
@@ -98,37 +102,55 @@ def read(files: list[Path], options: ReadOptions) -> Recording:
     if not known.all():
         raise RecordingDataError(f"{tracks_path}: vehicle {raw['id'][~known].iloc[0]} is not in "
                                  f"{tracks_meta_path.name}")
-    wanted = meta.loc[meta["drivingDirection"] == DIRECTIONS[direction]]
-    raw = raw[raw["id"].isin(wanted["id"])].reset_index(drop=True)
-    classes = wanted.set_index("id")["class"].reindex(raw["id"]).to_numpy()
-    tracks = _scene_rows(raw, direction, upper, lower, rate, tracks_path)
-    tracks["vehicle_class"] = np.where(np.isin(np.char.lower(classes.astype(str)), ["truck", "bus"]), "truck",
-                                       "passenger")
+    sides = ("lower", "upper") if direction == "both" else (direction,)
+    shift_m = min(0.0, float(np.min(raw["x"].to_numpy(float), initial=0.0))) if direction == "both" else None
+    parts = []
+    for side in sides:
+        wanted = meta.loc[meta["drivingDirection"] == DIRECTIONS[side]]
+        rows = raw[raw["id"].isin(wanted["id"])].reset_index(drop=True)
+        classes = wanted.set_index("id")["class"].reindex(rows["id"]).to_numpy()
+        part = _scene_rows(rows, side, upper, lower, rate, tracks_path, shift_m)
+        part["vehicle_class"] = np.where(np.isin(np.char.lower(classes.astype(str)), ["truck", "bus"]), "truck",
+                                         "passenger")
+        parts.append(part)
+    tracks = pd.concat(parts, ignore_index=True) if len(parts) > 1 else parts[0]
     check_limits(tracks, tracks_path, "xVelocity", "width")
+    length_m = road_length_m(tracks, tracks_path)
+    if direction == "both":
+        opposite = (tracks["edge"] == OPPOSITE_EDGE).to_numpy()
+        tracks.loc[opposite, "lane_position_m"] = length_m - tracks.loc[opposite, "x_m"]
+        return Recording(tracks, rate, len(lower) - 1, tuple(float(width) for width in np.diff(lower)[::-1]),
+                         length_m, [], sources, tuple(float(width) for width in np.diff(upper)),
+                         float(lower[0] - upper[-1]))  # the median: from the upper's last marking to the lower's first
     markings = upper if direction == "upper" else lower
     widths = np.diff(markings) if direction == "upper" else np.diff(markings)[::-1]
     other = "lower" if direction == "upper" else "upper"
+    wanted = meta.loc[meta["drivingDirection"] == DIRECTIONS[direction]]
     notes = [f"the {other} driving direction ({len(meta) - len(wanted)} vehicles) is left out; import it with "
-             f"--direction {other}"]
-    return Recording(tracks, rate, len(widths), tuple(float(width) for width in widths),
-                     road_length_m(tracks, tracks_path), notes, sources)
+             f"--direction {other}, or both with --direction both"]
+    return Recording(tracks, rate, len(widths), tuple(float(width) for width in widths), length_m, notes, sources)
 
 
 def _scene_rows(raw: pd.DataFrame, direction: str, upper: np.ndarray, lower: np.ndarray, rate: float,
-                path: Path) -> pd.DataFrame:
-    """highD rows in the scene's coordinates: the front bumper's centre on a road along +x whose left edge is y = 0."""
+                path: Path, shift_m: float | None = None) -> pd.DataFrame:
+    """highD rows in the scene's coordinates: the front bumper's centre on a road along +x whose left edge is y = 0;
+    with `shift_m` (a scene of both directions), every image x less `shift_m` [m] and the upper direction where the
+    image has it, on `OPPOSITE_EDGE` (its lane positions are the caller's: they count from the road's far end)."""
     x, y = raw["x"].to_numpy(float), raw["y"].to_numpy(float)
     length, width = raw["width"].to_numpy(float), raw["height"].to_numpy(float)
     vx, vy = raw["xVelocity"].to_numpy(float), raw["yVelocity"].to_numpy(float)
     ax, ay = raw["xAcceleration"].to_numpy(float), raw["yAcceleration"].to_numpy(float)
     centre_y = y + width / 2
-    if direction == "upper":
+    if direction == "upper" and shift_m is None:
         end = float(np.max(x + length, initial=0.0))
         front, lateral, dx, dy, forward = end - x, centre_y - upper[-1], -vx, vy, -1.0
         markings, first_lane = upper, 2
+    elif direction == "upper":
+        front, lateral, dx, dy, forward = x - shift_m, lower[0] - centre_y, vx, -vy, -1.0
+        markings, first_lane = upper, 2
     else:
-        front, lateral, dx, dy, forward = (x + length - min(0.0, float(np.min(x, initial=0.0))), lower[0] - centre_y,
-                                           vx, -vy, 1.0)
+        shift = min(0.0, float(np.min(x, initial=0.0))) if shift_m is None else shift_m
+        front, lateral, dx, dy, forward = x + length - shift, lower[0] - centre_y, vx, -vy, 1.0
         markings, first_lane = lower, len(upper) + 2
     lanes = len(markings) - 1
     strip = raw["laneId"].to_numpy(np.int64) - first_lane  # strip between markings, from the top
@@ -160,7 +182,8 @@ def _scene_rows(raw: pd.DataFrame, direction: str, upper: np.ndarray, lower: np.
         "vehicle_id": ids, "source_id": ids, "frame": raw["frame"].to_numpy(np.int64),
         "time_s": (raw["frame"].to_numpy(float) - 1.0) / rate, "x_m": front, "y_m": lateral,
         "heading_deg": heading_deg(np.where(speed > 0, dx, 1.0), np.where(speed > 0, dy, 0.0)),
-        "speed_mps": speed, "acceleration_mps2": along, "edge": ROAD_EDGE,
+        "speed_mps": speed, "acceleration_mps2": along,
+        "edge": OPPOSITE_EDGE if direction == "upper" and shift_m is not None else ROAD_EDGE,
         "lane": lane.astype(np.int16), "lane_position_m": front,
         "length_m": length.astype(np.float32), "width_m": width.astype(np.float32)})
 

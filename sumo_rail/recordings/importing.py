@@ -3,7 +3,7 @@
 
 The format is looked up by name; what it takes (a network, a direction, a site) and how it is checked and read are
 its `RecordingFormat`'s. Everything a user can get wrong in the command (files, options, columns, the network: for FCD
-one straight edge along +x, as `recorded-demos` and `evaluate-scene` take) is checked by `check_import` before any
+a SUMO network with an edge, as `recorded-demos` and `evaluate-scene` take) is checked by `check_import` before any
 work (`RecordingUsageError`); what is wrong in the data is found while reading (`RecordingDataError`). The folder's
 files are written together: on any error none of them is. scene.json pins every file read by its sha256.
 """
@@ -33,7 +33,7 @@ class ImportSettings:
     files: tuple[Path, ...]
     out: Path
     direction: str = "lower"
-    """highD: the driving direction kept ("upper" or "lower")."""
+    """highD: the driving direction kept ("upper" or "lower"), or "both" (each on its own carriageway's edge)."""
     site: str = "us-101"
     """NGSIM: the site ("us-101" or "i-80"), which fixes the main lanes."""
     network: Path | None = None

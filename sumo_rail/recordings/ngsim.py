@@ -5,27 +5,32 @@ Location among them, are allowed), or the original whitespace-separated text fil
 header; either may be gzip-compressed. Units are feet, ft/s and ft/s^2 at 10 Hz (Frame_ID counts tenths of a second
 from 1). Local_Y is the front of the vehicle along the road from the section's entry, Local_X the lateral position of
 its front centre from the section's left edge. Lane_ID 1 is the leftmost lane: US-101 has main lanes 1 to 5, an
-auxiliary lane 6, an on-ramp 7 and an off-ramp 8; I-80 main lanes 1 to 6 and an on-ramp 7. Tracks that use the
-auxiliary lane or a ramp are left out (said so). A Vehicle_ID is reused for another vehicle after the first one left:
+auxiliary lane 6, an on-ramp 7 and an off-ramp 8; I-80 main lanes 1 to 6 and an on-ramp 7. Every track is kept, on a
+road built with the lanes the recording uses. A Vehicle_ID is reused for another vehicle after the first one left:
 a track is split where the vehicle's Total_Frames, v_Length, v_Width or v_Class change ("17", "17#2"); a gap with
 none of them changing is a gap in frames and the track is dropped. A vehicle drives toward growing Local_Y: a track
 that falls back more than BACKWARD_TOLERANCE_M is refused.
 
-The scene's road is a straight edge along +x with the site's main lanes, 12 ft (3.6576 m) each; x is Local_Y and y
-minus Local_X, in metres.
+The scene's road runs straight along +x with the site's through lanes (`THROUGH_LANES`: the main lanes and US-101's
+auxiliary lane), 12 ft (3.6576 m) each, left edge at y = 0; x is Local_Y and y minus Local_X, in metres. Where the
+recording has vehicles on a ramp, the road has one more lane on the right (lanes 7 and 8 lie there, one 12 ft strip
+right of the auxiliary lane): from its start to `RAMP_MARGIN_M` past the farthest on-ramp front (edge
+`road.ON_RAMP_EDGE`, merging into the rightmost through lane), and from `RAMP_MARGIN_M` before the nearest off-ramp
+front to its end (`road.OFF_RAMP_EDGE`, leaving it); where those would leave less than `MIN_THROUGH_M` between them,
+the ramp lane runs the whole section. Each row's edge, lane and lane position are read off that road.
 """
 
 from __future__ import annotations
 
+import tempfile
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
 from sumo_rail.recordings.formats import ReadOptions
-from sumo_rail.recordings.road import ROAD_EDGE
+from sumo_rail.recordings.road import build_road, place_on_road
 from sumo_rail.recordings.tracks import (
-    OFF_ROAD_LANE,
     Recording,
     RecordingDataError,
     RecordingUsageError,
@@ -48,7 +53,15 @@ LANE_WIDTH_M = 12 * FEET_M
 FRAME_RATE_HZ = 10.0
 MAIN_LANES = {"us-101": 5, "i-80": 6}
 """Each site's main lanes (Lane_ID 1 .. n); higher lane ids are the auxiliary lane and the ramps."""
+THROUGH_LANES = {"us-101": 6, "i-80": 6}
+"""Each site's lanes along the whole section (Lane_ID 1 .. n): the main lanes and US-101's auxiliary lane 6."""
+ON_RAMP_ID, OFF_RAMP_ID = 7, 8
 HIGHEST_LANE_ID = 8
+RAMP_MARGIN_M = 5.0
+"""The ramp lane ends this far past the farthest on-ramp front, and begins this far before the nearest off-ramp front
+[m] (beyond the junction netconvert builds there, 4 m either side)."""
+MIN_THROUGH_M = 20.0
+"""The shortest stretch without the ramp lane between an on-ramp and an off-ramp [m]."""
 TRUCK_CLASS = 3
 """v_Class: 1 motorcycle, 2 automobile, 3 truck."""
 BACKWARD_TOLERANCE_M = 1.0
@@ -91,8 +104,8 @@ def check_headers(files: list[Path]) -> None:
 
 
 def read(files: list[Path], options: ReadOptions) -> Recording:
-    """The vehicles on the main lanes of an NGSIM recording of `options.site` ("us-101" or "i-80"; where a Location
-    column is present, only its rows of the site are read)."""
+    """The vehicles of an NGSIM recording of `options.site` ("us-101" or "i-80"; where a Location column is present,
+    only its rows of the site are read), on a road built with the lanes they use (module docstring)."""
     site = options.site
     parts = [_read_file(path, site) for path in files]
     raw = pd.concat(parts, ignore_index=True) if len(parts) > 1 else parts[0]
@@ -104,7 +117,6 @@ def read(files: list[Path], options: ReadOptions) -> Recording:
     vehicle_ids = _split_reused_ids(raw)
     x = raw["Local_Y"].to_numpy(float) * FEET_M
     _check_forward(vehicle_ids, raw["Frame_ID"].to_numpy(np.int64), x, files[0])
-    lanes = MAIN_LANES[site]
     lane_id = raw["Lane_ID"].to_numpy(np.int64)
     bad = (lane_id < 1) | (lane_id > HIGHEST_LANE_ID)
     if bad.any():
@@ -118,15 +130,39 @@ def read(files: list[Path], options: ReadOptions) -> Recording:
         "time_s": (raw["Frame_ID"].to_numpy(float) - 1.0) / FRAME_RATE_HZ, "x_m": x, "y_m": y,
         "heading_deg": heading_deg(np.where(np.hypot(dx, dy) > 0, dx, 1.0), dy),
         "speed_mps": raw["v_Vel"].to_numpy(float) * FEET_M, "acceleration_mps2": raw["v_Acc"].to_numpy(float) * FEET_M,
-        "edge": ROAD_EDGE, "lane": np.where(lane_id <= lanes, lanes - lane_id, OFF_ROAD_LANE).astype(np.int16),
-        "lane_position_m": x, "length_m": (raw["v_Length"].to_numpy(float) * FEET_M).astype(np.float32),
+        "length_m": (raw["v_Length"].to_numpy(float) * FEET_M).astype(np.float32),
         "width_m": (raw["v_Width"].to_numpy(float) * FEET_M).astype(np.float32),
         "vehicle_class": np.where(raw["v_Class"].to_numpy(np.int64) == TRUCK_CLASS, "truck", "passenger")})
     check_limits(tracks, files[0], "v_Vel", "v_Length")
-    notes = [f"NGSIM site {site}: main lanes 1 to {lanes} modelled; tracks on the "
-             f"{'auxiliary lane 6, ' if lanes == 5 else ''}ramps (lanes 7, 8) are left out"]
-    return Recording(tracks, FRAME_RATE_HZ, lanes, (LANE_WIDTH_M,) * lanes, road_length_m(tracks, files[0]), notes,
-                     tuple(files))
+    length_m = road_length_m(tracks, files[0])
+    through, widths, ramp_lane_m = _road(site, lane_id, x, length_m)
+    with tempfile.TemporaryDirectory() as scratch:
+        net = Path(scratch) / "road.net.xml"
+        build_road(list(widths), length_m, net, ramp_lane_m=ramp_lane_m)
+        edge, lane, position = place_on_road(net, x, np.minimum(lane_id, through + 1))
+    assert (lane >= 0).all()  # the ramp lane reaches past every ramp front (`_road`)
+    tracks.insert(tracks.columns.get_loc("length_m"), "edge", edge)
+    tracks.insert(tracks.columns.get_loc("length_m"), "lane", lane.astype(np.int16))
+    tracks.insert(tracks.columns.get_loc("length_m"), "lane_position_m", position)
+    ramps = "a ramp lane right of them" if len(widths) > through or ramp_lane_m else "no ramp"
+    notes = [f"NGSIM site {site}: lanes 1 to {through} along the whole section, {ramps}; every track kept"]
+    return Recording(tracks, FRAME_RATE_HZ, len(widths) + (ramp_lane_m is not None), widths, length_m, notes,
+                     tuple(files), ramp_lane_m=ramp_lane_m)
+
+
+def _road(site: str, lane_id: np.ndarray, x_m: np.ndarray, length_m: float
+          ) -> tuple[int, tuple[float, ...], tuple[float, float] | None]:
+    """The through lanes of `site`, the lane widths of the road to build [m] (rightmost first) and its ramp lane's
+    ends [m] (None: no ramp lane, or one along the whole section, then among the widths)."""
+    through = THROUGH_LANES[site]
+    on, off = lane_id == ON_RAMP_ID, lane_id == OFF_RAMP_ID
+    if not (on.any() or off.any()):
+        return through, (LANE_WIDTH_M,) * through, None
+    on_m = float(x_m[on].max()) + RAMP_MARGIN_M if on.any() else 0.0
+    off_m = float(x_m[off].min()) - RAMP_MARGIN_M if off.any() else length_m
+    if off_m - on_m < MIN_THROUGH_M:
+        return through, (LANE_WIDTH_M,) * (through + 1), None
+    return through, (LANE_WIDTH_M,) * through, (on_m, off_m)
 
 
 def _read_file(path: Path, site: str) -> pd.DataFrame:

@@ -33,7 +33,14 @@ from sumo_rail.datasets import DatasetError, write_parquet
 from sumo_rail.recordings.acceleration_reading import read_acceleration_track, smoothing_for
 from sumo_rail.recordings.actions import ActionRule, read_track, speed_reading
 from sumo_rail.recordings.scene import Scene, check_scene, read_scene, scene_sources
-from sumo_rail.recordings.scene_observations import SceneFrames, SceneRoad, observe
+from sumo_rail.recordings.scene_observations import (
+    SceneFrames,
+    SceneRoad,
+    in_route_frame,
+    observe,
+    route_point,
+    scene_routes,
+)
 from sumo_rail.recordings.trajectory import TrajectoryPoint, track_past
 from sumo_rail.runners.experts import RECORDED_SCENE
 from sumo_rail.runners.tables import DEMONSTRATIONS, demonstrations_from_columns, provenance
@@ -58,11 +65,13 @@ class TrackDecisions:
 
 
 def track_decisions(vehicle: str, track: pd.DataFrame, rule: ActionRule, config: Config,
-                    smoothing_s: float = 0.0) -> TrackDecisions:
+                    smoothing_s: float = 0.0, sideways: bool = True) -> TrackDecisions:
     """The decisions read off one track (rows sorted by time): the paper's actions by `rule`, with the set-point it
-    estimates, or the acceleration interface's (`acceleration_reading`, speeds smoothed over `smoothing_s` [s])."""
+    estimates, or the acceleration interface's (`acceleration_reading`, speeds smoothed over `smoothing_s` [s]);
+    `sideways`: y is the sideways position (a straight road along +x), which times a lane change's onset."""
     time_s, speed = track["time_s"].to_numpy(), track["speed_mps"].to_numpy()
-    lane, edge, lateral = track["lane"].to_numpy(), track["edge"].to_numpy(), track["y_m"].to_numpy()
+    lane, edge = track["lane"].to_numpy(), track["edge"].to_numpy()
+    lateral = track["y_m"].to_numpy() if sideways else None
     interface = config.actions
     if interface.interface == "acceleration":
         instants, actions, _ = read_acceleration_track(time_s, speed, lane, edge, lateral, rule, interface,
@@ -98,6 +107,7 @@ def decisions_table(scene: Scene, road: SceneRoad, config: Config, decisions: li
                     observation_size: int) -> tuple[dict[str, np.ndarray], np.ndarray]:
     """The demonstration columns and observations of `decisions` (one episode each, in order)."""
     frames = SceneFrames(scene.tracks, scene.meta.frame_rate_hz)
+    routes = scene_routes(scene.tracks[scene.tracks["vehicle_id"].isin([decided.vehicle for decided in decisions])])
     flag = 2 * config.lidar.beams + 2 + config.scenario.lanes  # the observation's lane-change flag
     wanted: dict[float, list[tuple[int, int]]] = {}
     for episode, decided in enumerate(decisions):
@@ -112,9 +122,10 @@ def decisions_table(scene: Scene, road: SceneRoad, config: Config, decisions: li
             decided = decisions[episode]
             row = snapshot.row(decided.vehicle)
             assert row is not None  # a decision instant lies within its track
-            point = snapshot.point(row, instant)
+            route = routes[decided.vehicle]
+            point = route_point(road, route, snapshot, row, instant)
             seen[episode][step] = seat_observation(config, observe(config, road, *snapshot, decided.vehicle,
-                                                                   float(decided.set_points_mps[step])),
+                                                                   float(decided.set_points_mps[step]), route),
                                                    decided, step, instant, point.lane)
             points[episode][step] = point
     env, observations, rows = config.env, [], []
@@ -155,7 +166,9 @@ def write_recorded_demos(folder: Path, config: Config, split: str, out: Path) ->
     chosen = scene.tracks[scene.tracks["vehicle_id"].isin(vehicles)].sort_values(["vehicle_id", "time_s"],
                                                                                    kind="stable")
     smoothing_s = smoothing_for(scene.meta.format)
-    decisions = [track_decisions(str(vehicle), track, rule, config, smoothing_s)
+    routes = scene_routes(chosen)
+    decisions = [track_decisions(str(vehicle), in_route_frame(road, track, routes[str(vehicle)]), rule, config,
+                                 smoothing_s, road.straight)
                  for vehicle, track in chosen.groupby("vehicle_id", sort=True)]
     kept = [decided for decided in decisions if len(decided.actions)]
     if not kept:

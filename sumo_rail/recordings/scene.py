@@ -71,11 +71,11 @@ class SceneMeta:
     lanes: int
     """Lanes of the modelled road in the scene's driving direction."""
     direction: str = ""
-    """The recording's driving direction kept (highD: "upper" / "lower"; NGSIM and FCD: "")."""
+    """The recording's driving direction kept (highD: "upper" / "lower", or "both"; NGSIM and FCD: "")."""
     sources: dict[str, str] = field(default_factory=dict)
     """Each source file's absolute path -> sha256 of its bytes."""
     dropped: dict[str, str] = field(default_factory=dict)
-    """Each dropped track's source id -> the one-phrase reason (too short, off the modelled lanes, gap in frames)."""
+    """Each dropped track's source id -> the one-phrase reason (too short, gap in frames)."""
     settings: dict[str, object] = field(default_factory=dict)
     """The import's settings (section, vehicles, minimum track length ...), for provenance."""
 
@@ -131,7 +131,8 @@ def write_scene_folder(out: Path, recording: Recording, tracks: pd.DataFrame, sp
     try:
         with written_together(out) as staged:
             if recording.lane_widths_m:
-                build_road(list(recording.lane_widths_m), recording.road_length_m, staged.path(out / "road.net.xml"))
+                build_road(list(recording.lane_widths_m), recording.road_length_m, staged.path(out / "road.net.xml"),
+                           list(recording.opposite_lane_widths_m), recording.median_m, recording.ramp_lane_m)
             write_parquet(track_table(tracks), staged.path(out / "tracks.parquet"), record)
             write_parquet(split, staged.path(out / "split.parquet"), {**record, "kind": "recording_split"})
             scene_json = json.dumps(dataclasses.asdict(meta), indent=1, sort_keys=True) + "\n"
@@ -183,7 +184,7 @@ def read_scene(folder: Path) -> Scene:
 
 def check_scene(scene: Scene, config: Config, split: str) -> SceneRoad:
     """The scene's road; RecordingUsageError when the scene cannot give this configuration's observation (another
-    lane count, a road that is not one straight edge), its road's speed limit is not this configuration's
+    lane count, a network that cannot be read), its road's speed limit is not this configuration's
     (`check_speed_limit`) or `split` names no vehicle."""
     if split not in SPLITS:
         raise RecordingUsageError(f"unknown split {split!r}; known: {', '.join(SPLITS)}")

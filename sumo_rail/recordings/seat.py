@@ -1,15 +1,17 @@
 """The ego in a recorded driver's seat: `SceneEnv` is `HighwayEnv` on a scene's road whose traffic is the scene's
 vehicles (`sumo_rail.sim.replay.ReplayedTraffic`, given the scene's frames), and whose every reset puts the ego where
-one recorded vehicle is at a chosen instant, at its recorded lane, position, speed, length and width, that vehicle
+one recorded vehicle is at a chosen instant, at its recorded lane, position, speed, length, width and vehicle class
+(a truck's seat is a truck's), that vehicle
 then left out of the replay. The ego then drives exactly as in the generated roads (the same actions, ACC,
 observation, rewards, safety readings), until the episode's horizon (`env.max_episode_s`), a collision or the end of
 the road. The human's recorded track is the reference of the episode (`sumo_rail.evaluation.scene_evaluation`).
 
-Scenes on one straight edge only (highD, NGSIM, record-sumo-drivers; an FCD recording on a user's network of several
-edges is refused in one sentence, as for `recorded-demos`). The seat's driver may also be SUMO itself: with the env
-core's reset option `"controller": "sumo"` the ego is given SUMO's IDM car following and LC2013 lane changing
-(`sumo_rail.sim.controllers.SumoController`), desired speed the ego's top set-point, and the actions passed to `step`
-are checked, not used.
+Scenes on any SUMO network (several edges, bends, ramps, lane drops): the env's route is the network's main road
+(`NetFile.main_route`); the seated ego drives the recorded vehicle's own edges from where it is, in that route's frame
+(its observation's positions, lanes and route block), as `recorded-demos` reads it. The seat's driver may also be
+SUMO itself: with the env core's reset option `"controller": "sumo"` the ego is given SUMO's IDM car following and
+LC2013 lane changing (`sumo_rail.sim.controllers.SumoController`), desired speed the ego's top set-point, and the
+actions passed to `step` are checked, not used.
 """
 
 from __future__ import annotations
@@ -23,7 +25,7 @@ import numpy as np
 
 from sumo_rail.config import Config
 from sumo_rail.recordings.scene import Scene, read_scene
-from sumo_rail.recordings.scene_observations import SceneFrames, SceneRoad, scene_road
+from sumo_rail.recordings.scene_observations import SceneFrames, SceneRoad, scene_road, scene_routes
 from sumo_rail.recordings.trajectory import track_past
 from sumo_rail.sim.ego import CONTEXT_MARGIN_M
 from sumo_rail.sim.ego_past import EgoPast
@@ -33,9 +35,11 @@ from sumo_rail.sim.simulation import EGO_ID, Simulation
 
 
 def scene_config(config: Config, scene: Scene, road: SceneRoad) -> Config:
-    """`config` on the scene's road: kind network, the scene's network and its one edge, the scene's lanes."""
+    """`config` on the scene's road: kind network, the scene's network and its main road's route, the scene's
+    lanes."""
     return config.with_overrides({"scenario": {"kind": "network", "network": str(scene.network.resolve()),
-                                               "route": road.edge, "traffic_file": "", "lanes": road.lanes}})
+                                               "route": " ".join(road.route), "traffic_file": "",
+                                               "lanes": road.lanes}})
 
 
 @dataclass(frozen=True)
@@ -54,8 +58,9 @@ class SeatStart:
         tracks = self.scene.tracks
         top = tracks.groupby("vehicle_id")["speed_mps"].max()
         traffic = ReplayedTraffic(self.frames.at, tracks.groupby("vehicle_id")["time_s"].min().sort_values().to_numpy(),
-                                  dict(zip(top.index.astype(str), top.to_numpy(), strict=True)), self.road.edge,
-                                  self.reactive)
+                                  dict(zip(top.index.astype(str), top.to_numpy(), strict=True)),
+                                  scene_routes(tracks), self.reactive,
+                                  tracks.groupby("vehicle_id")["vehicle_class"].first().astype(str).to_dict())
         return Simulation(config.scenario, config.lidar.range_m + CONTEXT_MARGIN_M, gui=gui, transport=transport,
                           gui_delay_ms=gui_delay_ms, traffic=traffic)
 

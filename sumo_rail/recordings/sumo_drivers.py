@@ -1,10 +1,13 @@
 """A recording of drivers no one here wrote: SUMO's own car-following and lane-changing models on a straight
-motorway, captured at every step (the simulation's observer, `sumo_rail.sim.observers.VehicleCapture`) and written as
-a scene folder (format "sumo").
+motorway or on a network of the user's, captured at every step (the simulation's observer,
+`sumo_rail.sim.observers.VehicleCapture`) and written as a scene folder (format "sumo").
 
 The road is `road.build_road`'s straight edge (the scenario's lanes, lane width and length, as the package's own
-straight highway; its speed limit `road.ROAD_SPEED_MPS`, as every built scene road's). The traffic is a Poisson flow of
-scenario.flow_veh_per_h of `DRIVER_TYPES`: cars and trucks, Krauss and IDM car following, LC2013 lane changing with
+straight highway; its speed limit `road.ROAD_SPEED_MPS`, as every built scene road's), or with scenario.kind network
+the user's network (scenario.network, named in scene.json with its sha256, as an FCD scene's): there every edge no
+edge leads into (a road's start, an on-ramp) from which the end of scenario.route can be reached gets a flow to it,
+scenario.flow_veh_per_h for the widest such edge and in proportion to its lanes for the others. The traffic is a
+Poisson flow of `DRIVER_TYPES`: cars and trucks, Krauss and IDM car following, LC2013 lane changing with
 calm, eager and cooperative temperaments (lcSpeedGain, lcCooperative, lcAssertive), driver imperfection sigma > 0 and a
 spread of desired speeds (a normal speedFactor per vehicle). After scenario.warmup_s [s] every vehicle on the road is
 captured at every step for `duration_s` [s]: its front bumper's centre, heading, speed, acceleration, edge, lane and
@@ -22,12 +25,16 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from sumo_rail.config import Config
+from sumo_rail.config import Config, ConfigError, ScenarioConfig
+from sumo_rail.datasets import file_sha256
 from sumo_rail.recordings.formats import SUMO_DRIVERS
-from sumo_rail.recordings.road import ROAD_EDGE, ROAD_SPEED_MPS, build_road
+from sumo_rail.recordings.road import ROAD_EDGE, ROAD_SPEED_MPS, build_road, network_root
 from sumo_rail.recordings.scene import SPLITS, SceneMeta, check_scene_output, split_table, write_scene_folder
+from sumo_rail.recordings.scene_observations import scene_road
 from sumo_rail.recordings.tracks import Recording, RecordingDataError, RecordingUsageError, kept_tracks
+from sumo_rail.sim import network
 from sumo_rail.sim.built_network import BuiltNetwork
+from sumo_rail.sim.net_file import NetFile
 from sumo_rail.sim.observers import VehicleCapture
 from sumo_rail.sim.simulation import Simulation
 from sumo_rail.sim.traffic_source import GeneratedTraffic
@@ -88,18 +95,34 @@ class SumoDriversSummary:
     """Vehicles of each of `DRIVER_TYPES` among the kept tracks."""
 
 
-def routes_xml(flow_veh_per_h: float) -> bytes:
-    """The routes file: `DRIVER_TYPES` as one distribution, flowing with Poisson arrivals along the built road."""
+def routes_xml(flow_veh_per_h: float, entries: dict[str, float] | None = None, to_edge: str = "") -> bytes:
+    """The routes file: `DRIVER_TYPES` as one distribution, flowing with Poisson arrivals along the built road, or
+    (`entries`: edge -> veh/h) from each entry edge to `to_edge` on a user's network."""
     root = ElementTree.Element("routes")
     for type_id, attributes in DRIVER_TYPES.items():
         ElementTree.SubElement(root, "vType", id=type_id, laneChangeModel="LC2013", actionStepLength="0.5",
                                attrib=attributes)
     ElementTree.SubElement(root, "vTypeDistribution", id="drivers", vTypes=" ".join(DRIVER_TYPES))
-    ElementTree.SubElement(root, "route", id="road_route", edges=ROAD_EDGE)
-    ElementTree.SubElement(root, "flow", id="drivers", route="road_route", type="drivers", begin="0", end="1e9",
-                           period=f"exp({flow_veh_per_h / 3600.0!r})", departLane="random", departSpeed="max",
-                           departPos="base")
+    if entries is None:
+        ElementTree.SubElement(root, "route", id="road_route", edges=ROAD_EDGE)
+        ElementTree.SubElement(root, "flow", id="drivers", route="road_route", type="drivers", begin="0", end="1e9",
+                               period=f"exp({flow_veh_per_h / 3600.0!r})", departLane="random", departSpeed="max",
+                               departPos="base")
+    for entry, veh_per_h in (entries or {}).items():
+        ElementTree.SubElement(root, "flow", attrib={
+            "id": f"drivers_{entry}", "from": entry, "to": to_edge, "type": "drivers", "begin": "0", "end": "1e9",
+            "period": f"exp({veh_per_h / 3600.0!r})", "departLane": "random", "departSpeed": "max",
+            "departPos": "base"})
     return ElementTree.tostring(root)
+
+
+def network_entries(scenario: ScenarioConfig) -> dict[str, float]:
+    """The drivers' flows on a user's network (module docstring): entry edge -> veh/h."""
+    net = NetFile(network_root(Path(scenario.network).expanduser().resolve()))
+    target = scenario.route.split()[-1]
+    reaching = [edge for edge in net.entries() if net.reaches(edge, target)]
+    widest = max(net.edge.getLaneNumber(edge) for edge in reaching)
+    return {edge: scenario.flow_veh_per_h * net.edge.getLaneNumber(edge) / widest for edge in reaching}
 
 
 def _capture(config: Config, settings: SumoDriversSettings, net_file: Path, scratch: Path) -> pd.DataFrame:
@@ -107,8 +130,11 @@ def _capture(config: Config, settings: SumoDriversSettings, net_file: Path, scra
     frame, source_id, type): a simulation whose traffic is the routes' own, watched at every step."""
     scenario = dataclasses.replace(config.scenario, traffic_seed=settings.seed)
     routes = scratch / "drivers.rou.xml"
-    routes.write_bytes(routes_xml(scenario.flow_veh_per_h))
-    traffic = GeneratedTraffic(BuiltNetwork(net_file, routes, scratch, (ROAD_EDGE,)))
+    on_network = scenario.kind == "network"
+    routes.write_bytes(routes_xml(scenario.flow_veh_per_h, network_entries(scenario), scenario.route.split()[-1])
+                       if on_network else routes_xml(scenario.flow_veh_per_h))
+    route = tuple(scenario.route.split()) if on_network else (ROAD_EDGE,)
+    traffic = GeneratedTraffic(BuiltNetwork(net_file, routes, scratch, route))
     sim = Simulation(scenario, 0.0, transport="auto", traffic=traffic)
     step_s = scenario.step_length_s
     try:
@@ -123,7 +149,7 @@ def _capture(config: Config, settings: SumoDriversSettings, net_file: Path, scra
         "vehicle_id": ids, "source_id": ids, "frame": frame, "time_s": np.round(frame * step_s, 9),
         "x_m": columns["x_m"], "y_m": columns["y_m"], "heading_deg": columns["heading_deg"],
         "speed_mps": columns["speed_mps"], "acceleration_mps2": columns["acceleration_mps2"], "edge": columns["edge"],
-        "lane": np.where(np.asarray(columns["edge"]) == ROAD_EDGE, columns["lane"], -1).astype(np.int16),
+        "lane": np.asarray(columns["lane"]).astype(np.int16),
         "lane_position_m": columns["lane_position_m"], "length_m": np.array(columns["length_m"], dtype=np.float32),
         "width_m": np.array(columns["width_m"], dtype=np.float32), "vehicle_class": columns["vehicle_class"],
         "type": columns["type"]})
@@ -131,10 +157,16 @@ def _capture(config: Config, settings: SumoDriversSettings, net_file: Path, scra
 
 def check_recording(settings: SumoDriversSettings, config: Config) -> None:
     """RecordingUsageError for anything wrong before work starts: the folder, a scene already in it, the shares, a
-    road other than the straight one, a duration too short for one decision."""
-    if config.scenario.kind != "straight":
-        raise RecordingUsageError(f"record-sumo-drivers records on a straight road of scenario.lanes lanes, not on "
-                                  f"scenario.kind {config.scenario.kind}; drop that setting")
+    road other than the straight one or a user's network (whose route is checked as every command checks it), a
+    duration too short for one decision."""
+    if config.scenario.kind not in ("straight", "network"):
+        raise RecordingUsageError(f"record-sumo-drivers records on a straight road of scenario.lanes lanes or on your "
+                                  f"network (scenario.kind network), not on scenario.kind {config.scenario.kind}")
+    if config.scenario.kind == "network":
+        try:
+            network.check_user_route(config)
+        except ConfigError as error:
+            raise RecordingUsageError(str(error)) from error
     decision_s = config.env.decision_period_s + config.scenario.step_length_s
     if settings.duration_s < decision_s:
         raise RecordingUsageError(f"--duration-s {settings.duration_s:g} is shorter than one decision and the step "
@@ -148,10 +180,13 @@ def check_recording(settings: SumoDriversSettings, config: Config) -> None:
 def record_sumo_drivers(settings: SumoDriversSettings, config: Config) -> SumoDriversSummary:
     """Record `settings.duration_s` of SUMO's drivers and write the scene folder `settings.out`."""
     scenario = config.scenario
-    widths = [scenario.lane_width_m] * scenario.lanes
+    on_network = scenario.kind == "network"
+    widths = [] if on_network else [scenario.lane_width_m] * scenario.lanes
+    user_net = Path(scenario.network).expanduser().resolve()
     with tempfile.TemporaryDirectory() as scratch:
-        net_file = Path(scratch) / "road.net.xml"
-        build_road(widths, scenario.length_m, net_file)
+        net_file = user_net if on_network else Path(scratch) / "road.net.xml"
+        if not on_network:
+            build_road(widths, scenario.length_m, net_file)
         rows = _capture(config, settings, net_file, Path(scratch))
     raise_more = "raise --duration-s, scenario.warmup_s or scenario.flow_veh_per_h"
     if rows.empty:
@@ -168,8 +203,12 @@ def record_sumo_drivers(settings: SumoDriversSettings, config: Config) -> SumoDr
     recorded |= {"warmup_s": scenario.warmup_s, "flow_veh_per_h": scenario.flow_veh_per_h,
                  "decision_period_s": config.env.decision_period_s, "step_length_s": scenario.step_length_s,
                  "road_speed_mps": ROAD_SPEED_MPS, "driver_types": DRIVER_TYPES}
-    meta = SceneMeta(format=SUMO_DRIVERS.name, frame_rate_hz=rate_hz, network="road.net.xml", lanes=scenario.lanes,
-                     sources={}, dropped=dropped, settings=recorded)
+    if on_network:
+        recorded |= {"road_speed_mps": scene_road(user_net).speed_limit_mps, "route": scenario.route}
+    meta = SceneMeta(format=SUMO_DRIVERS.name, frame_rate_hz=rate_hz,
+                     network=str(user_net) if on_network else "road.net.xml", lanes=scenario.lanes,
+                     sources={str(user_net): file_sha256(user_net)} if on_network else {}, dropped=dropped,
+                     settings=recorded)
     recording = Recording(tracks, rate_hz, scenario.lanes, tuple(widths), scenario.length_m)
     write_scene_folder(settings.out, recording, tracks, split, meta, config)
     counts = pd.Series(split.column("split").to_pylist()).value_counts()

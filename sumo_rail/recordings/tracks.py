@@ -29,11 +29,9 @@ MAX_ROAD_M = 100_000.0
 position farther than this from the recording's origin, or a built road longer than this, is a broken recording."""
 LANE_TOLERANCE_M = 1.0
 """A vehicle's centre this far [m] beyond the sides of the lane a recording names is on another lane (or road)."""
-OFF_LANES, GAP, TOO_SHORT = "off the modelled lanes", "gap in frames", "too short for one decision"
-DROP_REASONS = (OFF_LANES, GAP, TOO_SHORT)
+GAP, TOO_SHORT = "gap in frames", "too short for one decision"
+DROP_REASONS = (GAP, TOO_SHORT)
 """Why a track is left out of a scene, in one phrase each; a track with several is left out for the first."""
-OFF_ROAD_LANE = -1
-"""The `lane` a reader gives a row outside the modelled lanes (a ramp, the other driving direction's lanes)."""
 
 
 class RecordingUsageError(DatasetError):
@@ -59,6 +57,14 @@ class Recording:
     """What the reader left out of the recording, one sentence each (the other driving direction, ramps)."""
     sources: tuple[Path, ...] = ()
     """Every file read: the files given and any companion the format reads beside them (highD's meta files)."""
+    opposite_lane_widths_m: tuple[float, ...] = ()
+    """The other carriageway of the road to build, rightmost lane first [m], driven toward -x with its left edge
+    `median_m` above y = 0 (a scene of both driving directions); empty: none."""
+    median_m: float = 0.0
+    """The strip between the carriageways [m]."""
+    ramp_lane_m: tuple[float, float] | None = None
+    """A ramp lane right of the road to build: an on-ramp from x = 0 to the first [m], an off-ramp from the second
+    to the end (`road.build_road`); None: none."""
 
 
 def check_columns(found: list[str], expected: tuple[str, ...], path: object, what: str) -> None:
@@ -182,12 +188,12 @@ def decision_frames(frame_rate_hz: float, decision_period_s: float) -> int:
 
 def kept_tracks(tracks: pd.DataFrame, frame_rate_hz: float, decision_period_s: float, path: object,
                 gaps_fail: bool) -> tuple[pd.DataFrame, dict[str, str]]:
-    """The tracks worth keeping, sorted by vehicle and time, and each dropped track's `source_id` -> reason: a row
-    off the modelled lanes, a gap in its frames (`gaps_fail`: a RecordingDataError instead, for formats whose tracks
+    """The tracks worth keeping, sorted by vehicle and time, and each dropped track's `source_id` -> reason: a gap in
+    its frames (`gaps_fail`: a RecordingDataError instead, for formats whose tracks
     are contiguous by definition), fewer frames than one decision needs. A vehicle twice in one frame is a
     RecordingDataError."""
     if tracks.empty:
-        raise RecordingDataError(f"{path} holds no vehicle in the modelled lanes; the recording is empty")
+        raise RecordingDataError(f"{path} holds no vehicle; the recording is empty")
     tracks = tracks.sort_values(["vehicle_id", "frame"], kind="stable", ignore_index=True)
     same = tracks["vehicle_id"].to_numpy()[1:] == tracks["vehicle_id"].to_numpy()[:-1]
     step = np.diff(tracks["frame"].to_numpy())
@@ -200,10 +206,9 @@ def kept_tracks(tracks: pd.DataFrame, frame_rate_hz: float, decision_period_s: f
         row = tracks.iloc[int(np.argmax(gap))]
         raise RecordingDataError(f"{path}: vehicle {row['source_id']} has a gap in its frames before frame "
                                  f"{row['frame']}")
-    by_vehicle = pd.DataFrame({"vehicle_id": tracks["vehicle_id"], "gap": gap,
-                               "off": tracks["lane"].to_numpy() == OFF_ROAD_LANE}).groupby("vehicle_id", sort=True)
-    summary = by_vehicle.agg(gap=("gap", "any"), off=("off", "any"), frames=("gap", "size"))
-    failed = {OFF_LANES: summary["off"], GAP: summary["gap"],
+    by_vehicle = pd.DataFrame({"vehicle_id": tracks["vehicle_id"], "gap": gap}).groupby("vehicle_id", sort=True)
+    summary = by_vehicle.agg(gap=("gap", "any"), frames=("gap", "size"))
+    failed = {GAP: summary["gap"],
               TOO_SHORT: summary["frames"] < decision_frames(frame_rate_hz, decision_period_s)}
     reasons = pd.Series("", index=summary.index)
     for reason in reversed(DROP_REASONS):  # the first of DROP_REASONS a track fails is written last

@@ -48,7 +48,7 @@ class SceneSnapshot(NamedTuple):
 
     ids: np.ndarray
     values: dict[str, np.ndarray]
-    """x_m, y_m, speed_mps, lane_position_m, heading_deg, length_m, width_m."""
+    """x_m, y_m, speed_mps, lane_position_m, heading_deg, length_m, width_m (floats) and edge (the edge ids)."""
     lanes: np.ndarray
 
     def row(self, vehicle: str) -> int | None:

@@ -95,15 +95,22 @@ class EgoPlacement:
                 return None
         return speed_mps
 
-    def put_ego(self, vehicle: str, lane: int, position_m: float, speed_mps: float) -> None:
+    def put_ego(self, vehicle: str, lane: int, position_m: float, speed_mps: float,
+                route: tuple[str, ...] = (), edge: str = "") -> None:
         """Add an ego and move it onto the road at once, in `lane` of its start edge with its front at `position_m` [m]
         and speed `speed_mps` [m/s], skipping SUMO's insertion checks (`place_ego` makes them first; a recorded seat
-        needs none)."""
-        api = self._api.vehicle
+        needs none). `route`: the ego's own route (edge ids; empty: the scenario's), whose first edge it starts on,
+        or `edge` (a junction's, after the route's first edge)."""
+        api, route_id = self._api.vehicle, self._built.route_id
         self.forget_sizes(vehicle)
-        api.add(vehicle, self._built.route_id, typeID=network.EGO_TYPE, depart="now", departLane=str(lane),
+        if route and route != self._built.ego_route:
+            route_id = f"{vehicle}:{' '.join(route)}"
+            if route_id not in self._api.route.getIDList():  # a load forgets the routes added since
+                self._api.route.add(route_id, list(route))
+        start = edge or (route[0] if route else self.start_edge)
+        api.add(vehicle, route_id, typeID=network.EGO_TYPE, depart="now", departLane="0" if edge else str(lane),
                 departPos=repr(position_m), departSpeed=repr(speed_mps))
-        api.moveTo(vehicle, f"{self.start_edge}_{lane}", position_m)
+        api.moveTo(vehicle, f"{start}_{lane}", position_m)
         api.setLaneChangeMode(vehicle, LANE_CHANGE_MODE_TRACI_ONLY_SAFE)
 
     def remove_ego(self, vehicle: str) -> None:

@@ -34,9 +34,11 @@ from sumo_rail.sim import network
 from sumo_rail.sim.built_network import BuiltNetwork
 from sumo_rail.sim.commands import LANE_CHANGE_MODE_SUMO
 from sumo_rail.sim.controllers import SUMO_DRIVER_TYPE
+from sumo_rail.sim.road import RouteMap
 from sumo_rail.sim.simulation import Simulation
 from sumo_rail.sim.sumo_api import EGO_ID, SimulationError
 from sumo_rail.sim.traffic_source import Step
+from sumo_rail.sim.user_network import EGO_CLASS
 
 KEEP_ROUTE_ANY_EDGE = 2
 """moveToXY's keepRoute: place the vehicle on the recorded edge and lane, off its route if need be."""
@@ -45,21 +47,32 @@ SPEED_MODE_SUMO = 31
 REPLAY_RADIUS_M = 500.0
 """Non-reactive vehicles are in SUMO while within this distance of the ego along the road [m]."""
 REPLAY_ROUTE = "scene_replay"
-"""The route (the scene's one edge) every recorded vehicle is added on."""
+"""The first of the routes recorded vehicles are added on (each vehicle's recorded edges from where it enters: one
+route for every distinct sequence; the others are this id and a number)."""
 FramesAt = Callable[[float], tuple[np.ndarray, dict[str, np.ndarray], np.ndarray]]
 """The scene at an instant [s]: the ids of the vehicles on the road, their values ("x_m", "y_m", "heading_deg",
-"speed_mps", "lane_position_m", "length_m", "width_m"; a scene's track columns) and lanes, one entry each."""
+"speed_mps", "lane_position_m", "length_m", "width_m"; a scene's track columns; "edge", the edge ids) and lanes (SUMO's
+index on that edge), one entry each."""
 
 
 class ReplayedTraffic:
-    """The vehicles of a scene on its one edge `edge`: `frames_at` the scene at any instant, `begins_s` each track's
-    first time [s] (sorted: the reactive mode looks for vehicles to place only when one begins), `top_speeds_mps` each
-    vehicle's fastest recorded speed [m/s] (its desired speed in the reactive mode); `reactive` chooses the mode."""
+    """The vehicles of a scene on its network: `frames_at` the scene at any instant, `begins_s` each track's first
+    time [s] (sorted: the reactive mode looks for vehicles to place only when one begins), `top_speeds_mps` each
+    vehicle's fastest recorded speed [m/s] (its desired speed in the reactive mode), `routes` each vehicle's recorded
+    edges in order (junctions left out: the route it is added on, and the seated ego's from its edge on),
+    `classes` each vehicle's SUMO vehicle class (the seated ego's; none given: a passenger car's); `reactive`
+    chooses the mode."""
 
-    def __init__(self, frames_at: FramesAt, begins_s: np.ndarray, top_speeds_mps: Mapping[str, float], edge: str,
-                 reactive: bool) -> None:
+    def __init__(self, frames_at: FramesAt, begins_s: np.ndarray, top_speeds_mps: Mapping[str, float],
+                 routes: Mapping[str, tuple[str, ...]], reactive: bool, classes: Mapping[str, str] | None = None
+                 ) -> None:
         self.frames_at = frames_at
-        self.edge = edge
+        self.routes = routes
+        self.classes = classes or {}
+        distinct = sorted({route[start:] for route in set(routes.values()) for start in range(len(route))})
+        self._route_ids = {route: REPLAY_ROUTE if not k else f"{REPLAY_ROUTE}_{k}" for k, route in enumerate(distinct)}
+        self._route_maps: dict[tuple[str, ...], RouteMap] = {}
+        """The seated ego's route frame by its route (`seat`)."""
         self.reactive = reactive
         self._begins_s = np.asarray(begins_s)
         self._top_speeds_mps = top_speeds_mps
@@ -88,7 +101,8 @@ class ReplayedTraffic:
         root = ElementTree.parse(built.routes_file).getroot()
         for flow in root.findall("flow"):
             root.remove(flow)
-        ElementTree.SubElement(root, "route", id=REPLAY_ROUTE, edges=self.edge)
+        for route, route_id in self._route_ids.items():
+            ElementTree.SubElement(root, "route", id=route_id, edges=" ".join(route))
         ElementTree.SubElement(root, "vType", id=SUMO_DRIVER_TYPE, carFollowModel="IDM", laneChangeModel="LC2013")
         routes = built.directory / "scene.rou.xml"
         write_bytes_atomically(routes, ElementTree.tostring(root))
@@ -108,7 +122,7 @@ class ReplayedTraffic:
 
     def seat(self, sim: Simulation, vehicle: str, start_s: float, sumo_seed: int) -> None:
         """Load `sim`'s road afresh at `start_s` [s] with SUMO seed `sumo_seed`, place the recorded vehicles there (but
-        `vehicle`) and put the ego in `vehicle`'s place, state and size; DatasetError when it is not on the road
+        `vehicle`) and put the ego in `vehicle`'s place, state, size and class; DatasetError when it is not on the road
         then."""
         sim.load_empty(start_s - self._step_s, sumo_seed)
         self.ego_collisions.clear()
@@ -125,12 +139,39 @@ class ReplayedTraffic:
             raise DatasetError(f"vehicle {vehicle} of the scene is not on the road at {start_s:g} s")
         k, vehicle_api = int(row[0]), self.api.vehicle
         speed_mps = float(values["speed_mps"][k])
+        edge = str(values["edge"][k])
+        route = self._ego_route(sim, vehicle, edge, int(lanes[k]))
         # placed standing, then given the recorded speed: SUMO refuses a departure above the type's limit on the lane
-        sim.put_ego(EGO_ID, int(lanes[k]), float(values["lane_position_m"][k]), 0.0)
+        sim.put_ego(EGO_ID, int(lanes[k]), float(values["lane_position_m"][k]), 0.0, route,
+                    "" if edge == route[0] else edge)
         vehicle_api.setSpeedFactor(EGO_ID, max(1.0, speed_mps / sim.speed_limit_mps))
         vehicle_api.setPreviousSpeed(EGO_ID, speed_mps)
         sim.resize(EGO_ID, float(values["length_m"][k]), float(values["width_m"][k]))
+        vehicle_class = self.classes.get(vehicle, EGO_CLASS)
+        if vehicle_class != EGO_CLASS:  # the ego's type is a passenger car's
+            vehicle_api.setVehicleClass(EGO_ID, vehicle_class)
         self._ego_in = True
+
+    def _ego_route(self, sim: Simulation, vehicle: str, edge: str, lane: int) -> tuple[str, ...]:
+        """The seated ego's route: `vehicle`'s recorded edges from `edge` (where it is, in `lane`) on, or in a
+        junction from the edge before it; `sim`'s route frame made that route's (the network's own when it is the
+        simulation's route)."""
+        recorded = self.routes[vehicle]
+        if edge not in recorded:  # a junction's lane: its link leads to the next edge
+            links = self.api.lane.getLinks(f"{edge}_{lane}")
+            after = self.api.lane.getEdgeID(links[0][0]) if links else ""
+            if after not in recorded[1:]:
+                raise DatasetError(f"vehicle {vehicle} of the scene is in junction lane {edge}_{lane} at its seat's "
+                                   f"instant, which leads to no edge of its recorded route")
+            edge = recorded[recorded.index(after) - 1]
+        route = recorded[recorded.index(edge):]
+        maps = self._route_maps
+        if not maps:
+            maps[sim.route_map.route] = sim.route_map
+        if route not in maps:
+            maps[route] = RouteMap.from_sumo(self.api, route, sim.scenario.lanes)
+        sim.route_map = maps[route]
+        return route
 
     def step(self) -> None:
         """One SUMO step with the recorded vehicles placed for its end; the ego's collisions kept."""
@@ -170,12 +211,13 @@ class ReplayedTraffic:
                 if gone in on_road:
                     vehicle.remove(gone)
             self._placed.intersection_update(ids.tolist())
-        x, y, heading, speed = values["x_m"], values["y_m"], values["heading_deg"], values["speed_mps"]
+        x, y, heading, speed, edges = (values[name] for name in ("x_m", "y_m", "heading_deg", "speed_mps", "edge"))
         for k, name in enumerate(ids.tolist()):
             if name == self._skip or (self.reactive and name in self._placed):
                 continue
             if name not in on_road:  # new, or (non-reactive) removed by SUMO after a collision: placed again
-                vehicle.add(name, REPLAY_ROUTE, departLane=str(lanes[k]), departSpeed=repr(float(speed[k])))
+                route_id, depart_lane = self._entry(name, str(edges[k]), int(lanes[k]))
+                vehicle.add(name, route_id, departLane=depart_lane, departSpeed=repr(float(speed[k])))
                 vehicle.setLength(name, float(values["length_m"][k]))
                 vehicle.setWidth(name, float(values["width_m"][k]))
                 vehicle.setSpeedMode(name, 0)
@@ -185,8 +227,16 @@ class ReplayedTraffic:
                     self._releasing.append(name)
             elif self.reactive:
                 continue
-            vehicle.moveToXY(name, self.edge, int(lanes[k]), float(x[k]), float(y[k]), float(heading[k]),
+            vehicle.moveToXY(name, str(edges[k]), int(lanes[k]), float(x[k]), float(y[k]), float(heading[k]),
                              KEEP_ROUTE_ANY_EDGE)
+
+    def _entry(self, vehicle: str, edge: str, lane: int) -> tuple[str, str]:
+        """The route `vehicle` is added on where it is, in lane `lane` of `edge`: its recorded edges from `edge` on
+        (in a junction: all of them), and its depart lane (SUMO's best in a junction; `moveToXY` places it)."""
+        route = self.routes[vehicle]
+        if edge in route:
+            return self._route_ids[route[route.index(edge):]], str(lane)
+        return self._route_ids[route], "best"
 
     def _release(self) -> None:
         """Hand the vehicles placed before the last step to SUMO's models (reactive mode)."""

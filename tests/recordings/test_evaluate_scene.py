@@ -54,7 +54,8 @@ def test_seats_are_held_out_cars_whose_tracks_cover_the_episode(drivers_scene):
 def test_the_humans_track_is_its_recorded_one_with_the_gap_to_its_leader(drivers_scene):
     scene = read_scene(drivers_scene)
     seat = choose_seats(scene, "test", 10.0, 2.0, None, 0)[0]
-    human = human_track(SceneFrames(scene.tracks, scene.meta.frame_rate_hz), seat, 0.5, 20, 100.0)
+    road = scene_road(scene.network)
+    human = human_track(SceneFrames(scene.tracks, scene.meta.frame_rate_hz), seat, 0.5, 20, road, road.route, 100.0)
     recorded = scene.track(seat.vehicle)
     ahead = recorded[recorded["time_s"] >= seat.start_s]
     assert len(human) == 21 and np.allclose(position_errors(human, ahead, (1.0, 5.0, 10.0)), 0)
@@ -206,17 +207,16 @@ def test_evaluate_scene_writes_both_tables_with_provenance(drivers_scene, tmp_pa
     assert sources[str((drivers_scene / "tracks.parquet").resolve())] == file_sha256(drivers_scene / "tracks.parquet")
 
 
-@pytest.mark.parametrize("problem", ["not a scene", "two edges", "no seat", "policy", "other lanes"])
+@pytest.mark.parametrize("problem", ["not a scene", "not a network", "no seat", "policy", "other lanes"])
 def test_evaluate_scene_refuses_in_one_sentence_and_writes_nothing(drivers_scene, tmp_path, problem):
     scene, extra, code = drivers_scene, ["--set", "scenario.lanes=3"], 2
     if problem == "not a scene":
         scene = tmp_path / "empty"
         scene.mkdir()
-    elif problem == "two edges":
-        scene = tmp_path / "bent"
+    elif problem == "not a network":
+        scene = tmp_path / "damaged"
         shutil.copytree(drivers_scene, scene)
-        net = (scene / "road.net.xml").read_text()
-        (scene / "road.net.xml").write_text(net.replace("</net>", '<edge id="other" from="a" to="b"/></net>'))
+        (scene / "road.net.xml").write_text("<net>")
     elif problem == "no seat":
         extra += ["--horizon-s", "600"]
     elif problem == "other lanes":  # the scene has 3 lanes, the observation 5: a policy would read a wrong layout
@@ -262,6 +262,7 @@ def cut_in_scene(drivers_scene, folder):
     1 s, then 0.5 m ahead of it in lane 0 at 5 m/s: whoever sits in the human's seat runs into it."""
     shutil.copytree(drivers_scene, folder)
     road = scene_road(folder / "road.net.xml")
+    lane_y_m = [road.net.lane.getShape(f"{road.route[0]}_{lane}")[0][1] for lane in range(road.lanes)]
     rows = []
     for k in range(151):
         time_s = k / 10.0
@@ -270,8 +271,8 @@ def cut_in_scene(drivers_scene, folder):
         cutter_x = 100.0 + 30.0 + 5.0 + 5.0 * (time_s - 1.0) if cut else human_x + 8.0
         for vehicle, x, lane, speed in (("human", human_x, 0, 30.0), ("cutter", cutter_x, 0 if cut else 1,
                                                                      5.0 if cut else 30.0)):
-            rows.append({"vehicle_id": vehicle, "time_s": time_s, "x_m": x, "y_m": road.lane_y_m[lane],
-                         "heading_deg": 90.0, "speed_mps": speed, "acceleration_mps2": 0.0, "edge": road.edge,
+            rows.append({"vehicle_id": vehicle, "time_s": time_s, "x_m": x, "y_m": lane_y_m[lane],
+                         "heading_deg": 90.0, "speed_mps": speed, "acceleration_mps2": 0.0, "edge": road.route[0],
                          "lane": lane, "lane_position_m": x, "length_m": 4.5, "width_m": 1.8,
                          "vehicle_class": "passenger"})
     pd.DataFrame(rows).astype({"lane": "int16", "length_m": "float32", "width_m": "float32"}).to_parquet(

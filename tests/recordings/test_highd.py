@@ -3,13 +3,21 @@
 from __future__ import annotations
 
 import numpy as np
+import pandas as pd
 import pytest
+from click.testing import CliRunner
 from recording_files import LOWER_MARKINGS, UPPER_MARKINGS, highd_vehicle, write_highd
+from sumo_rail_cli.main import cli
 
+from sumo_rail.config import Config
 from sumo_rail.recordings import highd
 from sumo_rail.recordings.formats import ReadOptions
+from sumo_rail.recordings.road import OPPOSITE_EDGE, ROAD_EDGE, read_lanes
+from sumo_rail.recordings.scene import read_scene
 from sumo_rail.recordings.scene_observations import SceneFrames
+from sumo_rail.recordings.seat import SceneEnv
 from sumo_rail.recordings.tracks import RecordingDataError, RecordingUsageError
+from sumo_rail.sim.actions import Action
 
 
 @pytest.fixture
@@ -106,3 +114,46 @@ def test_at_25_hz_an_instant_between_frames_is_interpolated_toward_the_next(tmp_
     _, values, _ = frames.at(0.49)
     assert values["x_m"][0] != pytest.approx(track["x_m"].iloc[12]) and values["x_m"][0] != pytest.approx(
         track["x_m"].iloc[13])
+
+
+def test_both_directions_are_one_scene_each_on_its_own_carriageway(tmp_path):
+    """--direction both: the lower direction exactly as in its own scene, the upper one on the other carriageway's
+    edge, driven toward -x; every row on the lane it names, at its position along it; a seat there drives that way."""
+    rows = (highd_vehicle(1, range(1, 251), 400.0, 2, upper=True)
+            + highd_vehicle(2, range(1, 251), 20.0, 6, upper=False)
+            + highd_vehicle(3, range(1, 251), 60.0, 5, upper=False))
+    recording = write_highd(tmp_path, rows)
+    for direction in ("both", "lower"):
+        result = CliRunner().invoke(cli, ["import-recording", "--format", "highd", str(recording), "--direction",
+                                          direction, "--out", str(tmp_path / direction)])
+        assert result.exit_code == 0, result.output
+    both, lower = read_scene(tmp_path / "both"), read_scene(tmp_path / "lower")
+    assert both.meta.direction == "both" and set(both.tracks["edge"]) == {ROAD_EDGE, OPPOSITE_EDGE}
+    columns = ["vehicle_id", "time_s", "x_m", "y_m", "heading_deg", "lane", "lane_position_m"]
+    pd.testing.assert_frame_equal(both.tracks[both.tracks["edge"] == ROAD_EDGE][columns].reset_index(drop=True),
+                                  lower.tracks[columns].reset_index(drop=True))
+    lanes = read_lanes(both.network)
+    for (edge, lane), on in both.tracks.groupby(["edge", "lane"]):
+        start, end = lanes.shapes_m[edge][lane][[0, -1]]
+        along = (end - start) / np.linalg.norm(end - start)
+        offset = on[["x_m", "y_m"]].to_numpy() - start
+        # on its centre line (which the network file holds to 0.01 m), at its position along it
+        assert np.abs(offset @ np.array([-along[1], along[0]])) == pytest.approx(0.0, abs=0.006)
+        assert offset @ along == pytest.approx(on["lane_position_m"].to_numpy(), abs=0.006)
+    config = Config.from_dict({"scenario": {"lanes": 2, "speed_limit_mps": 44.44}, "env": {
+        "v_max_mps": 44.44, "ego_start_min_m": 0.0, "ego_start_max_m": 10.0, "end_margin_m": 10.0}})
+    env = SceneEnv(config, tmp_path / "both")
+    env.reset(seed=0, options={"vehicle": "1", "start_s": 1.0})
+    ego = env.traffic.ego
+    assert ego.lane_id == f"{OPPOSITE_EDGE}_0" and np.cos(ego.heading_rad) == pytest.approx(-1.0)
+    env.step(int(Action.KEEP))
+    assert env.traffic.ego.front_x < ego.front_x - 10.0  # 0.5 s at 30 m/s toward -x
+    env.close()
+    result = CliRunner().invoke(cli, ["recorded-demos", str(tmp_path / "both"), "--set", "scenario.lanes=2", "--set",
+                                      "scenario.speed_limit_mps=44.44", "--set", "env.v_max_mps=44.44", "--set",
+                                      "observation.lane_block=1", "--set", "observation.route_block=1", "--split",
+                                      "train", "--out", str(tmp_path / "demos.parquet")])
+    assert result.exit_code == 0, result.output
+    demos = pd.read_parquet(tmp_path / "demos.parquet")
+    assert (demos.groupby("episode")["position_m"].diff().dropna() > 0).all()  # each along its own carriageway
+    assert np.isfinite(np.stack(demos["observation"].to_numpy())).all()  # the other carriageway's cars in sight too

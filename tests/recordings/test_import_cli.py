@@ -61,13 +61,13 @@ def test_holding_out_by_time_tests_the_vehicles_that_enter_later(tmp_path):
     assert held == {"8", "9", "10"}  # vehicle k enters at frame 1 + 20 k, at 20 k / 25 s: 7 at 5.6 s, 8 at 6.4 s
 
 
-def test_an_ngsim_recording_says_what_it_left_out(tmp_path):
+def test_an_ngsim_recording_keeps_its_ramp_vehicles_and_says_so(tmp_path):
     rows = ngsim_vehicle(1, range(1, 40), 0.0, 2) + ngsim_vehicle(2, range(1, 40), 30.0, 8)
     path = write_ngsim(tmp_path / "trajectories.csv", rows)
     result = invoke("--format", "ngsim", str(path), "--out", str(tmp_path / "scene"))
     assert result.exit_code == 0, result.output
-    assert "kept 1 tracks, dropped 1 (1 off the modelled lanes)" in result.output
-    assert "ramps (lanes 7, 8) are left out" in result.output
+    assert "kept 2 tracks, dropped 0" in result.output
+    assert "lanes 1 to 6 along the whole section, a ramp lane right of them; every track kept" in result.output
 
 
 def bad_value(column, value, vehicle=3):
@@ -89,7 +89,7 @@ BREAKAGES = {
             "vehicle 3 has a gap in its frames before frame 71"),
     "lane": (lambda rows: [bad_value("laneId", 9)(row) for row in rows],
              "lane 9 of vehicle 3 at frame 70 is not a lane of the lower direction's markings"),
-    "empty": (lambda rows: [], "holds no vehicle in the modelled lanes; the recording is empty"),
+    "empty": (lambda rows: [], "holds no vehicle; the recording is empty"),
 }
 
 

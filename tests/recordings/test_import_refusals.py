@@ -8,6 +8,7 @@ import gzip
 import json
 import subprocess
 
+import numpy as np
 import pandas as pd
 import pytest
 from click.testing import CliRunner
@@ -25,7 +26,7 @@ from sumo_rail_cli.output_lock import lock_path
 
 from sumo_rail.recordings import highd
 from sumo_rail.recordings.formats import ReadOptions
-from sumo_rail.recordings.road import build_road
+from sumo_rail.recordings.road import build_road, read_lanes
 from sumo_rail.recordings.tracks import RecordingDataError
 from sumo_rail.sim.network import netconvert
 
@@ -176,12 +177,16 @@ def one_edge_network(folder, to_xy: tuple[float, float]):
 
 
 @pytest.mark.parametrize("to_xy", [(0.0, 400.0), (-400.0, 0.0)], ids=["north", "west"])
-def test_an_fcd_network_that_is_not_one_edge_along_x_is_refused_at_import_as_later_commands_would(tmp_path, to_xy):
+def test_an_fcd_network_whose_edge_does_not_run_along_x_is_imported(tmp_path, to_xy):
+    """Scenes are on any SUMO network (tests/recordings/test_network_scene.py drives one of several edges)."""
     network = one_edge_network(tmp_path, to_xy)
-    fcd = write_fcd(tmp_path / "fcd.xml", fcd_vehicle("a", range(20), 50.0, 1.6, "road_0"))
-    output = refused(tmp_path, 2, "--format", "fcd", str(fcd), "--network", str(network))
-    assert "the lanes of edge road do not run straight along +x; scenes are replayed and read as demonstrations on " \
-           "one straight edge whose lanes run along +x" in output
+    start, end = read_lanes(network).shapes_m["road"][0][[0, -1]]
+    along = (end - start) / np.linalg.norm(end - start)
+    rows = [{**row, "pos": row["x"], "x": start[0] + row["x"] * along[0], "y": start[1] + row["x"] * along[1]}
+            for row in fcd_vehicle("a", range(20), 50.0, 0.0, "road_0")]
+    result = invoke("--format", "fcd", str(write_fcd(tmp_path / "fcd.xml", rows)), "--network", str(network),
+                    "--out", str(tmp_path / "scene"))
+    assert result.exit_code == 0 and "kept 1 tracks" in result.output, result.output
 
 
 def test_bom_headers_are_read_as_the_columns_they_name(tmp_path):

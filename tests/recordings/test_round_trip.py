@@ -84,7 +84,7 @@ def test_ngsim_round_trip_at_10_hz_in_feet(tmp_path):
     written = pd.read_csv(path)
     assert written["Lane_ID"].min() == 1 and written["Local_Y"].iloc[0] == pytest.approx(60.0 / 0.3048, abs=1e-3)
     read = ngsim.read([path], ReadOptions(site="us-101"))
-    tracks = read.tracks.assign(lane=read.tracks["lane"] - 2)  # 3 lanes written, US-101's 5 read: lane 1 is leftmost
+    tracks = read.tracks.assign(lane=read.tracks["lane"] - 3)  # 3 lanes written, US-101's 6 read: lane 1 is leftmost
     assert_same_tracks(original, tracks, heading_deg=2.0)  # NGSIM has no heading: read from the positions
 
 

@@ -29,7 +29,8 @@ def test_zone_0_keeps_todays_seats_and_reports_their_phase(drivers_scene):
 def test_a_zone_moves_each_seat_to_where_the_car_is_past_it_and_drops_cars_that_cannot_finish_before_the_end(
         drivers_scene):
     scene = read_scene(drivers_scene)
-    length_m, zone_m = scene_road(scene.network).length_m, 250.0
+    road = scene_road(scene.network)
+    length_m, zone_m = road.frame(road.route).length_m, 250.0
     today = choose_seats(scene, "test", 5.0, 2.0, None, 0)
     zoned = choose_seats(scene, "test", 5.0, 2.0, None, 0, zone_m=zone_m)
     assert zoned and {seat.vehicle for seat in zoned} <= {seat.vehicle for seat in today}

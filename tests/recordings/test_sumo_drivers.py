@@ -137,14 +137,16 @@ def test_what_cannot_be_recorded_is_one_sentence_and_nothing_written(tmp_path, e
     assert named in refused(tmp_path, *extra)
 
 
-def test_a_user_network_is_refused_not_ignored(tmp_path):
+def test_a_user_network_is_checked_as_every_command_checks_it(tmp_path):
+    """record-sumo-drivers takes a user's network (tests/recordings/test_network_scene.py records on one); a route
+    not in it is one sentence before any work."""
     from sumo_rail.recordings.road import build_road
 
     network = tmp_path.parent / f"{tmp_path.name}.net.xml"
     build_road([3.2] * 5, 3000.0, network)
     output = refused(tmp_path, "--seed", "1", "--duration-s", "1", "--set", "scenario.kind=network", "--set",
-                     f"scenario.network={network}", "--set", "scenario.route=road")
-    assert "scenario.kind network" in output
+                     f"scenario.network={network}", "--set", "scenario.route=nowhere")
+    assert "scenario.route's edge 'nowhere' is not in" in output
 
 
 def test_a_recording_that_keeps_no_track_is_refused_and_nothing_written(tmp_path):

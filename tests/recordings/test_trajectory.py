@@ -10,7 +10,8 @@ import pandas as pd
 import pytest
 
 from sumo_rail.evaluation.scene_evaluation import Seat, human_track
-from sumo_rail.recordings.scene_observations import SceneFrames
+from sumo_rail.recordings.road import build_road
+from sumo_rail.recordings.scene_observations import SceneFrames, scene_road
 from sumo_rail.recordings.trajectory import TRAJECTORY_COLUMNS, track_past, trajectory_frame
 
 
@@ -40,16 +41,20 @@ def test_a_snapshot_gives_each_vehicle_as_a_named_point_with_its_leader_gap():
     assert c_row is not None and snapshot.leader_gap_m(c_row) == math.inf
 
 
-def test_a_seats_human_track_is_its_points_with_the_gaps_in_range():
+def test_a_seats_human_track_is_its_points_with_the_gaps_in_range(tmp_path):
     frames = SceneFrames(tracks(), 10.0)
-    human = human_track(frames, Seat("scene", "a", 0.2), 0.3, 5, 100.0)  # the track ends at 1.0 s: three instants
+    build_road([3.2, 3.2], 100.0, tmp_path / "road.net.xml")
+    road = scene_road(tmp_path / "road.net.xml")
+    human = human_track(frames, Seat("scene", "a", 0.2), 0.3, 5, road, ("road",), 100.0)  # the track ends at 1.0 s
     assert tuple(human.columns) == TRAJECTORY_COLUMNS == ("time_s", "x_m", "y_m", "speed_mps", "lane",
                                                          "lane_position_m", "gap_m")
     assert human["time_s"].tolist() == pytest.approx([0.2, 0.5, 0.8])
     assert human["gap_m"].tolist() == pytest.approx([15.5] * 3)
-    alone = human_track(frames, Seat("scene", "c", 0.2), 0.3, 5, 100.0)
+    assert human["lane_position_m"].tolist() == pytest.approx([14.0, 20.0, 26.0])
+    alone = human_track(frames, Seat("scene", "c", 0.2), 0.3, 5, road, ("road",), 100.0)
     assert alone["gap_m"].isna().all()
-    assert human_track(frames, Seat("scene", "a", 0.2), 0.3, 5, 15.0)["gap_m"].isna().all()  # beyond the range
+    beyond = human_track(frames, Seat("scene", "a", 0.2), 0.3, 5, road, ("road",), 15.0)
+    assert beyond["gap_m"].isna().all()  # beyond the range
     assert trajectory_frame([]).columns.tolist() == list(TRAJECTORY_COLUMNS)
 
 
