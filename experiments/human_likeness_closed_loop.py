@@ -13,6 +13,11 @@
 
     python experiments/human_likeness_closed_loop.py CLOSED_LOOP.parquet
     python experiments/human_likeness_closed_loop.py --study acceleration EPISODES.parquet [EPISODES.parquet ...]
+    python experiments/human_likeness_closed_loop.py --study log EPISODES.parquet
+
+- training against the log (`--study log`, experiments/specs/human_likeness_log.toml): BC and `dagger --expert log`
+  (runs named log_tT_sSEED: teacher horizon T s) against every baseline found (keep, SUMO's IDM, the calibrated IDM)
+  and against BC, with the same distributions, floor and phase tables.
 
 `--intervals hierarchical` gives the track tables' intervals from one bootstrap of training seeds and seats
 (`statistics.hierarchical_interval`) instead of the committed tables' t factor on the seeds.
@@ -41,6 +46,9 @@ METHODS = {KEEP: ["keep"], IDM: ["sumo-idm"],
 DIFFERENCES = [("RAIL", "BC"), ("GAIL", "BC")]
 ACCELERATION_RUN = re.compile(r"acceleration_h(\d+)_p(\d+)_s(\d+)/policy_bc")
 """The BC policies of the acceleration study: acceleration_hH_pP_sSEED/policy_bc."""
+LOG_RUN = re.compile(r"log_t(\d+)_s(\d+)/policy_(bc|latest)")
+"""The runs of the log study: log_tT_sSEED (dagger --expert log, teacher horizon T s): its BC and its last policy."""
+CALIBRATED = "IDM calibrated on the train split"
 ENTRY_M = 300.0
 """A seat that begins within this distance of the road's entry [m] is in the entering phase."""
 HORIZON_S = 10.0
@@ -59,6 +67,23 @@ def acceleration_methods(policies: set[str]) -> dict[str, list[str]]:
     methods = {"constant speed (keep)": ["keep"], IDM: ["sumo-idm"]}
     for (history, balance), runs in sorted(settings.items()):
         methods[f"BC, history {history} s, balance {float('0.' + balance):g}"] = [name for _, name in sorted(runs)]
+    return methods
+
+
+def log_methods(policies: set[str]) -> dict[str, list[str]]:
+    """The baselines found in `policies` (constant speed, SUMO's IDM, the calibrated IDM), BC (the first teacher's
+    runs' policy_bc: BC does not depend on the teacher) and training against the log for each teacher horizon."""
+    runs: dict[tuple[str, int], list[tuple[int, str]]] = {}
+    for policy in policies:
+        if found := LOG_RUN.fullmatch(policy):
+            runs.setdefault((found[3], int(found[1])), []).append((int(found[2]), policy))
+    methods = {name: [driver] for name, driver in (("constant speed (keep)", "keep"), (IDM, "sumo-idm"),
+                                                   (CALIBRATED, "sumo-idm-calibrated")) if driver in policies}
+    teachers = sorted(teacher for kind, teacher in runs if kind == "latest")
+    if teachers and ("bc", teachers[0]) in runs:
+        methods["BC"] = [name for _, name in sorted(runs[("bc", teachers[0])])]
+    for teacher in teachers:
+        methods[f"against the log, teacher {teacher} s"] = [name for _, name in sorted(runs[("latest", teacher)])]
     return methods
 
 
@@ -117,8 +142,9 @@ def phase_tables(metrics: pd.DataFrame, tracks: pd.DataFrame, methods: dict[str,
 
 @click.command()
 @click.argument("paths", nargs=-1, required=True, type=click.Path(exists=True, dir_okay=False, path_type=Path))
-@click.option("--study", type=click.Choice(["closed-loop", "acceleration"]), default="closed-loop", show_default=True,
-              help="Whose drivers: the paper interface's learners, or BC on the acceleration interface.")
+@click.option("--study", type=click.Choice(["closed-loop", "acceleration", "log"]), default="closed-loop",
+              show_default=True, help="Whose drivers: the paper interface's learners, BC on the acceleration "
+                                      "interface, or BC and training against the log (dagger --expert log) on it.")
 @click.option("--intervals", type=click.Choice(["t", "hierarchical"]), default="t", show_default=True,
               help="How the intervals pool the training seeds: t (the committed tables: a t factor on the seeds' "
                    "spread) or hierarchical (one bootstrap of seeds and seats, statistics.hierarchical_interval).")
@@ -128,20 +154,27 @@ def main(paths: tuple[Path, ...], study: str, intervals: str) -> None:
     seats = metrics.groupby(["scene", "vehicle"]).ngroups
     if study == "closed-loop":
         methods, differences, pooled = METHODS, DIFFERENCES, "BC, RAIL and GAIL"
-    else:
+    elif study == "acceleration":
         methods = acceleration_methods(set(metrics["policy"]))
         learners = [method for method in methods if method.startswith("BC")]
         differences = [(learner, baseline) for learner in learners for baseline in (IDM, "constant speed (keep)")]
         pooled = "BC (acceleration interface)"
+    else:
+        methods = log_methods(set(metrics["policy"]))
+        learners = [method for method in methods if method == "BC" or method.startswith("against the log")]
+        baselines = [method for method in methods if method not in learners]
+        differences = [(learner, baseline) for learner in learners for baseline in baselines]
+        differences += [(learner, "BC") for learner in learners if learner != "BC"]
+        pooled = "BC and training against the log (acceleration interface)"
     print(f"{seats} held-out cars' seats in {metrics['scene'].nunique()} scenes of SUMO's drivers, "
           f"{metrics['simulated_s'].max():g} s each; {pooled} pooled over training seeds "
           f"{', '.join(map(str, SEEDS))}; differences paired by seat and training seed (* : the interval excludes 0)\n")
     hierarchical = intervals == "hierarchical"
     print(track_table(metrics, methods, differences, hierarchical=hierarchical))
     print("\nWasserstein-1 distance to the humans' distributions (same seats)"
-          + ("; differences paired by seat:\n" if study == "acceleration" else ":\n"))
-    print(distribution_table(tracks, methods, period, differences if study == "acceleration" else ()))
-    if study == "acceleration":
+          + ("; differences paired by seat:\n" if study != "closed-loop" else ":\n"))
+    print(distribution_table(tracks, methods, period, differences if study != "closed-loop" else ()))
+    if study != "closed-loop":
         print("\nThe floor: the humans of one random half of the seats against the other half's, and each driver's "
               "distance (its episodes in one half against the humans of the other) as a multiple of it, the mean "
               "over 200 splits [the middle 95% of the splits' multiples]:\n")
