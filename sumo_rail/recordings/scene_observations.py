@@ -96,9 +96,13 @@ class SceneFrames:
         self.values = {name: ordered[name].to_numpy(dtype=np.float64)
                        for name in (*_CONTINUOUS, "heading_deg", "length_m", "width_m")}
         self.lane = ordered["lane"].to_numpy().astype(np.int64)
+        self._starts = np.searchsorted(self.frame, np.arange(int(self.frame[-1]) + 2 if len(self.frame) else 1))
+        """Each frame's first row (and the last frame's end): frame f is rows `_starts[f]` to `_starts[f + 1]`."""
 
     def _rows(self, frame: int) -> slice:
-        return slice(int(np.searchsorted(self.frame, frame, "left")), int(np.searchsorted(self.frame, frame, "right")))
+        if not 0 <= frame < len(self._starts) - 1:
+            return slice(0, 0)
+        return slice(int(self._starts[frame]), int(self._starts[frame + 1]))
 
     def at(self, time_s: float) -> SceneSnapshot:
         """The vehicles at `time_s` [s] (ids, values x_m, y_m, speed_mps, lane_position_m, heading_deg, length_m,

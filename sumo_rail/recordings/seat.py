@@ -67,7 +67,8 @@ class SeatStart:
         assert tuple(agents) == (EGO_ID,)
         vehicle, step_s = str(options["vehicle"]), config.scenario.step_length_s
         # SUMO's run begins one step before the seat: a track from the scene's first instant is taken one step in
-        start_s = float(options.get("start_s", max(self.scene.track(vehicle)["time_s"].iloc[0], step_s)))
+        start_s = float(options["start_s"] if "start_s" in options
+                        else max(self.scene.track(vehicle)["time_s"].iloc[0], step_s))
         if start_s < step_s:
             raise ValueError(f"reset option 'start_s' must be at least one SUMO step ({step_s:g} s) into the scene, "
                              f"got {start_s:g}")

@@ -46,6 +46,8 @@ REPLAY_RADIUS_M = 500.0
 """Non-reactive vehicles are in SUMO while within this distance of the ego along the road [m]."""
 REPLAY_ROUTE = "scene_replay"
 """The route (the scene's one edge) every recorded vehicle is added on."""
+_PLACED = ("x_m", "y_m", "heading_deg", "speed_mps", "length_m", "width_m")
+"""The values of a scene's vehicles a placement reads, in the order `_place` unpacks them."""
 FramesAt = Callable[[float], tuple[np.ndarray, dict[str, np.ndarray], np.ndarray]]
 """The scene at an instant [s]: the ids of the vehicles on the road, their values ("x_m", "y_m", "heading_deg",
 "speed_mps", "lane_position_m", "length_m", "width_m"; a scene's track columns) and lanes, one entry each."""
@@ -156,37 +158,39 @@ class ReplayedTraffic:
             if not first and begun[0] == begun[1]:
                 return  # no track begins in this step: nothing to place
         ids, values, lanes = self.frames_at(time_s)
+        x = values["x_m"]
         if not self.reactive:
             if ego_x_m is None:
                 seat = np.flatnonzero(ids == self._skip)
-                ego_x_m = float(values["x_m"][seat[0]]) if len(seat) else None
+                ego_x_m = float(x[seat[0]]) if len(seat) else None
             if ego_x_m is not None:
-                near = np.abs(values["x_m"] - ego_x_m) <= REPLAY_RADIUS_M
-                ids, lanes, values = ids[near], lanes[near], {name: column[near] for name, column in values.items()}
+                near = np.flatnonzero(np.abs(x - ego_x_m) <= REPLAY_RADIUS_M)
+                ids, lanes, values = ids[near], lanes[near], {name: values[name][near] for name in _PLACED}
+        names = ids.tolist()
         vehicle = self.api.vehicle
         on_road = set(vehicle.getIDList())
         if not self.reactive:
-            for gone in self._placed.difference(ids.tolist()):
+            for gone in self._placed.difference(names):
                 if gone in on_road:
                     vehicle.remove(gone)
-            self._placed.intersection_update(ids.tolist())
-        x, y, heading, speed = values["x_m"], values["y_m"], values["heading_deg"], values["speed_mps"]
-        for k, name in enumerate(ids.tolist()):
-            if name == self._skip or (self.reactive and name in self._placed):
+            self._placed.intersection_update(names)
+        move, edge, skip, placed = vehicle.moveToXY, self.edge, self._skip, self._placed
+        rows = zip(names, lanes.tolist(), *(values[name].tolist() for name in _PLACED), strict=True)
+        for name, lane, x_m, y_m, heading_deg, speed_mps, length_m, width_m in rows:
+            if name == skip or (self.reactive and name in placed):
                 continue
             if name not in on_road:  # new, or (non-reactive) removed by SUMO after a collision: placed again
-                vehicle.add(name, REPLAY_ROUTE, departLane=str(lanes[k]), departSpeed=repr(float(speed[k])))
-                vehicle.setLength(name, float(values["length_m"][k]))
-                vehicle.setWidth(name, float(values["width_m"][k]))
+                vehicle.add(name, REPLAY_ROUTE, departLane=str(lane), departSpeed=repr(speed_mps))
+                vehicle.setLength(name, length_m)
+                vehicle.setWidth(name, width_m)
                 vehicle.setSpeedMode(name, 0)
                 vehicle.setLaneChangeMode(name, 0)
-                self._placed.add(name)
+                placed.add(name)
                 if self.reactive:
                     self._releasing.append(name)
             elif self.reactive:
                 continue
-            vehicle.moveToXY(name, self.edge, int(lanes[k]), float(x[k]), float(y[k]), float(heading[k]),
-                             KEEP_ROUTE_ANY_EDGE)
+            move(name, edge, lane, x_m, y_m, heading_deg, KEEP_ROUTE_ANY_EDGE)
 
     def _release(self) -> None:
         """Hand the vehicles placed before the last step to SUMO's models (reactive mode)."""
