@@ -1,12 +1,16 @@
 """Benchmark: a closed-loop episode in a recorded scene (`evaluate-scene`'s episode: the ego in a recorded car's seat,
 deciding every 0.5 s through the env, the others replayed or reactive) against raw SUMO stepping of the same scene
 (the same vehicles, each departing at its first recorded time, lane, position and speed from a route file, driven
-by SUMO alone: libsumo's `simulationStep` and nothing else). Writes its section of docs/benchmarks.md.
+by SUMO alone: libsumo's `simulationStep` and nothing else, with the SUMO options every episode runs with:
+`simulation.run_options`, whose continuous lane changes, `--lanechange.duration`, cost SUMO about twice the work
+of its default instant ones on the 3 km scene; SUMO's defaults are measured too). Writes its section of
+docs/benchmarks.md.
 
 Two scenes: a synthetic highD-sized recording (bench_import's: 3,000 vehicles over 15 minutes at 25 Hz, about
 1,000,000 rows, imported as a user does) and a record-sumo-drivers scene (5 lanes, 3 km, 600 s, about 150 vehicles
 on the road at once). Speed is simulated seconds per wall-clock second, the ego's episodes' resets (a fresh load of
-the road and the first placement) included.
+the road and the first placement) included; time is the process's CPU time (libsumo runs in it), so that other
+jobs on a shared machine do not count.
 """
 
 from __future__ import annotations
@@ -28,16 +32,19 @@ from sumo_rail.config import Config
 from sumo_rail.datasets import sumo_version
 from sumo_rail.recordings.importing import ImportSettings, check_import, import_recording
 from sumo_rail.recordings.scene import Scene, read_scene
-from sumo_rail.recordings.seat import SceneEnv
+from sumo_rail.recordings.scene_observations import scene_road
+from sumo_rail.recordings.seat import SceneEnv, scene_config
 from sumo_rail.recordings.sumo_drivers import SumoDriversSettings, record_sumo_drivers
 from sumo_rail.sim import network
+from sumo_rail.sim.simulation import run_options
 
 LEAD_S = 1.0
 """The ego takes a seat this long into the car's track [s]."""
 
 
-def raw_speed(scene: Scene, begin_s: float, seconds: float, step_s: float) -> float:
-    """Simulated seconds per wall second of SUMO alone driving the scene's vehicles from `begin_s` for `seconds`."""
+def raw_speed(scene: Scene, begin_s: float, seconds: float, options: list[str]) -> float:
+    """Simulated seconds per CPU second of SUMO alone driving the scene's vehicles from `begin_s` for `seconds`
+    with SUMO options `options` (the step length among them)."""
     routes = ElementTree.Element("routes")
     edge = str(scene.tracks["edge"].iloc[0])
     ElementTree.SubElement(routes, "route", id="r", edges=edge)
@@ -48,24 +55,24 @@ def raw_speed(scene: Scene, begin_s: float, seconds: float, step_s: float) -> fl
                                departSpeed=f"{row['speed_mps']:.2f}", length=f"{row['length_m']:.2f}")
     route_file = scene.folder / "bench.rou.xml"
     ElementTree.ElementTree(routes).write(route_file)
-    libsumo.start([network.sumo_binary("sumo"), "-n", str(scene.network), "-r", str(route_file), "--step-length",
-                   str(step_s), "--no-step-log", "true", "--no-warnings", "true"])
+    libsumo.start([network.sumo_binary("sumo"), "-n", str(scene.network), "-r", str(route_file), *options])
+    step_s = float(options[options.index("--step-length") + 1])
     try:
         libsumo.simulationStep(begin_s)
-        start = time.perf_counter()
+        start = time.process_time()
         for _ in range(round(seconds / step_s)):
             libsumo.simulationStep()
-        return seconds / (time.perf_counter() - start)
+        return seconds / (time.process_time() - start)
     finally:
         libsumo.close()
 
 
 def closed_loop_speed(scene: Scene, config: Config, reactive: bool, seats: list[tuple[str, float]]) -> float:
-    """Simulated seconds per wall second of always-keep episodes in `seats` (vehicle, start [s])."""
+    """Simulated seconds per CPU second of always-keep episodes in `seats` (vehicle, start [s])."""
     env = SceneEnv(config, scene, reactive=reactive, transport="libsumo")
     try:
         env.reset(seed=0, options={"vehicle": seats[0][0], "start_s": seats[0][1]})  # SUMO started, not timed
-        simulated, start = 0.0, time.perf_counter()
+        simulated, start = 0.0, time.process_time()
         for vehicle, start_s in seats:
             env.reset(seed=0, options={"vehicle": vehicle, "start_s": start_s})
             done, info = False, {}
@@ -73,7 +80,7 @@ def closed_loop_speed(scene: Scene, config: Config, reactive: bool, seats: list[
                 _, _, terminated, truncated, info = env.step(0)
                 done = terminated or truncated
             simulated += info["time_s"]
-        return simulated / (time.perf_counter() - start)
+        return simulated / (time.process_time() - start)
     finally:
         env.close()
 
@@ -107,24 +114,33 @@ def main() -> None:
             config = Config.from_dict({"scenario": {"lanes": lanes}, "env": {"max_episode_s": horizon_s}})
             seats = seats_of(scene, args.seats, horizon_s)
             window_s = seats[-1][1] - seats[0][1]
-            raw = raw_speed(scene, seats[0][1], window_s, config.scenario.step_length_s)
+            defaults = ["--step-length", repr(config.scenario.step_length_s), "--no-step-log", "true", "--no-warnings",
+                    "true"]
+            raw, raw_default = (raw_speed(scene, seats[0][1], window_s, options) for options in (
+                run_options(scene_config(config, scene, scene_road(scene.network)).scenario), defaults))
             on_road = scene.tracks.groupby("time_s").size().median()
             speeds = [closed_loop_speed(scene, config, reactive, seats) for reactive in (False, True)]
-            cells = " | ".join(f"{speed:.0f} ({speed / raw:.2f}x)" for speed in speeds)
-            rows.append(f"| {label} | {horizon_s:g} | {on_road:.0f} | {raw:.0f} | {cells} |")
+            cells = " | ".join(f"{speed:.0f} ({speed / raw:.2f}x; {speed / raw_default:.2f}x)" for speed in speeds)
+            rows.append(f"| {label} | {horizon_s:g} | {on_road:.0f} | {raw:.0f} | {raw_default:.0f} | {cells} |")
+    load = os.getloadavg()[0]
     section = f"""
 ## Closed-loop episodes in a recorded scene (issue 46)
 
 Command: `make bench` (runs `python benchmarks/bench_replay.py --seats {args.seats}`).
-Machine: {platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}, SUMO {sumo_version()}.
-Simulated seconds per wall-clock second, one process. Raw SUMO: the scene's vehicles departing from a route file at
-their first recorded state, driven by SUMO alone (`simulationStep` only) over the seats' time span. Closed loop:
-{args.seats} always-keep episodes in seats spread over the recording ({LEAD_S:g} s into each car's track), through
-`SceneEnv` (a decision every 0.5 s: observation, command, safety readings), resets included; non-reactive places
-every recorded vehicle within 500 m of the ego with `moveToXY` at every 0.1 s step, reactive places each once.
+Machine: {platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}, SUMO {sumo_version()}; load
+average {load:.1f} at the end of the run (other jobs shared the machine when above 1).
+Simulated seconds per CPU second of the process (libsumo runs in it). Raw SUMO: the scene's vehicles departing from a
+route file at their first recorded state, driven by SUMO alone (`simulationStep` only) over the seats' time span,
+with the SUMO options every episode runs with (`simulation.run_options`: continuous lane changes over
+`scenario.lane_change_duration_s`, collision checks) and, for comparison, with SUMO's defaults (instant lane changes,
+about half the work on the 3 km scene). Closed loop: {args.seats} always-keep episodes in seats spread over the
+recording ({LEAD_S:g} s into each car's track), through `SceneEnv` (a decision every 0.5 s: observation, command,
+safety readings), resets (a fresh load of the road, the first placement) included; non-reactive places every
+recorded vehicle within 500 m of the ego with `moveToXY` at every 0.1 s step, reactive places each once. Ratios: to
+raw SUMO with the episodes' options; to raw SUMO with SUMO's defaults.
 
-| scene | episode [s] | vehicles on the road (median) | raw SUMO [sim s / s] | non-reactive | reactive |
-|---|---|---|---|---|---|
+| scene | episode [s] | vehicles (median) | raw SUMO [sim s / CPU s] | raw, defaults | non-reactive | reactive |
+|---|---|---|---|---|---|---|
 {chr(10).join(rows)}
 
 Goal: a closed-loop episode at least 0.8x raw SUMO stepping of the same scene.

@@ -164,7 +164,8 @@ class Scene:
         rows = self._rows_of.get(vehicle)
         if rows is None:
             raise DatasetError(f"scene {self.folder} has no vehicle {vehicle!r}")
-        return self.tracks.iloc[rows].sort_values("time_s")
+        contiguous = rows[-1] - rows[0] + 1 == len(rows)  # as the scene writers write them: a slice, no copy
+        return self.tracks.iloc[slice(rows[0], rows[-1] + 1) if contiguous else rows].sort_values("time_s")
 
 
 def read_scene(folder: Path) -> Scene:

@@ -58,3 +58,22 @@ def test_a_tracks_rows_are_its_past():
     assert past.time_s == pytest.approx([k / 10 for k in range(11)])
     assert past.acceleration_mps2 == pytest.approx([0.1 * k for k in range(11)])
     assert past.lane == [0.0] * 11 and np.allclose(past.speed_mps, 20.0)
+
+
+def test_between_frames_only_a_vehicle_in_the_next_frame_moves_and_its_heading_turns_the_short_way():
+    """Interpolation links each vehicle to its own row in the next frame: "b" leaves after frame 3 and is back at
+    frame 5 (not interpolated between 3 and 4, nor 4 and 5), "d" enters at frame 4, "a"'s heading crosses north."""
+    rows = tracks()
+    rows = rows[~((rows["vehicle_id"] == "b") & (rows["time_s"].round(1) == 0.4))]
+    rows.loc[rows["vehicle_id"] == "a", "heading_deg"] = (350.0 + 5.0 * np.arange(11)) % 360.0
+    entering = rows[(rows["vehicle_id"] == "c") & (rows["time_s"] >= 0.35)].assign(vehicle_id="d", lane=0)
+    frames = SceneFrames(pd.concat([rows, entering]).sample(frac=1.0, random_state=1), 10.0)
+    snapshot = frames.at(0.35)
+    a, b, d = (snapshot.row(vehicle) for vehicle in "abd")
+    assert a is not None and b is not None and d is None
+    assert snapshot.values["x_m"][a] == pytest.approx(17.0) and snapshot.values["x_m"][b] == pytest.approx(36.0)
+    assert frames.at(0.15).values["heading_deg"][a] == pytest.approx(357.5)  # 355 to 0 degrees
+    after = frames.at(0.45)
+    assert after.row("b") is None and after.values["x_m"][after.row("d")] == pytest.approx(29.0)
+    with pytest.raises(ValueError):  # the frames' own values are handed out read-only, never to be changed
+        frames.at(0.4).values["length_m"][0] = 1.0
