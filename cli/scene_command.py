@@ -15,21 +15,25 @@ from .settings import config_options
 
 if TYPE_CHECKING:
     from sumo_rail.config import Config
+    from sumo_rail.recordings.idm_calibration import IdmCalibration
 
 
 @click.command("evaluate-scene")
 @config_options
 @click.argument("scenes", nargs=-1, required=True, type=click.Path(path_type=Path, file_okay=False))
 @click.option("--policy", "policies", multiple=True, default=("expert",), show_default=True,
-              metavar="expert[:STYLE]|keep|sumo-idm|PATH",
+              metavar="expert[:STYLE]|keep|sumo-idm|sumo-idm-calibrated|PATH",
               help="Driver in the seats (repeatable): the rule-based expert, keep (a constant set-point, the human's "
-                   "speed at the start), sumo-idm (SUMO's IDM and LC2013 drive the ego) or a saved policy file.")
+                   "speed at the start), sumo-idm (SUMO's IDM and LC2013 drive the ego), sumo-idm-calibrated (the "
+                   "same with the IDM fitted on each scene's train split and the desired speed read from the seated "
+                   "driver's lead-in) or a saved policy file.")
 @click.option("--split", type=click.Choice(["test", "validation"]), default="test", show_default=True,
               help="Whose seats: the scenes' held-out vehicles of this split (passenger cars only).")
 @click.option("--mode", "modes", multiple=True, type=click.Choice(["non-reactive", "reactive"]),
               default=("non-reactive", "reactive"), show_default=True,
               help="non-reactive: the other vehicles replayed as recorded; reactive: driven by SUMO from their "
-                   "recorded state (repeatable).")
+                   "recorded state, each by its recorded vType or else the IDM calibrated on the scene's train split "
+                   "(repeatable).")
 @click.option("--horizon-s", type=FiniteFloat(1, 600), default=15.0, show_default=True,
               help="Length of each episode [s] (the position error is read at 1, 5 and 10 s).")
 @click.option("--lead-s", type=FiniteFloat(0, 600), default=5.0, show_default=True,
@@ -53,7 +57,9 @@ def evaluate_scene_command(config: Config, scenes: tuple[Path, ...], policies: t
     from sumo_rail.drivers.policies import PolicyFileError
     from sumo_rail.evaluation.evaluate import DEFAULT_REFERENCE, parse_driver, unique_names
     from sumo_rail.evaluation.scene_evaluation import (
+        CALIBRATED_IDM,
         SumoDriver,
+        calibrated_sumo_driver,
         choose_seats,
         evaluate_seats,
         tracks_path,
@@ -61,6 +67,7 @@ def evaluate_scene_command(config: Config, scenes: tuple[Path, ...], policies: t
     )
     from sumo_rail.evaluation.scene_summary import distribution_table, track_table
     from sumo_rail.recordings.scene import check_scene, read_scene, scene_sources
+    from sumo_rail.recordings.scene_drivers import reactive_types
     from sumo_rail.recordings.tracks import RecordingUsageError
     from sumo_rail.runners.backends import SerialBackend
 
@@ -78,28 +85,40 @@ def evaluate_scene_command(config: Config, scenes: tuple[Path, ...], policies: t
     if not seats:
         raise click.UsageError(f"no {split} car of {', '.join(map(str, scenes))} has a track of --lead-s + "
                                f"--horizon-s = {lead_s + horizon_s:g} s")
-    drivers = []
+    drivers, step_s = [], config.scenario.step_length_s
+    calibrations: dict[str, IdmCalibration] = {}
     for text in policies:
         try:
-            drivers.append(SumoDriver() if text == "sumo-idm" else parse_driver(text, config, DEFAULT_REFERENCE))
+            if text == CALIBRATED_IDM:
+                calibrated, calibrations = calibrated_sumo_driver(read, step_s, lead_s, horizon_s)
+            drivers.append(SumoDriver() if text == "sumo-idm" else calibrated if text == CALIBRATED_IDM
+                           else parse_driver(text, config, DEFAULT_REFERENCE))
         except PolicyFileError as error:
             raise click.ClickException(str(error)) from error
         except ValueError as error:
             raise click.BadParameter(str(error), param_hint="'--policy'") from error
+    reactive = {str(scene.folder): reactive_types(scene, step_s) for scene in read} if "reactive" in modes else {}
     names = unique_names(drivers)
     in_process = workers == 1 and backend_name == "process" and address is None  # no worker for one
     backend = SerialBackend() if in_process else build_backend(backend_name, workers, address)
     bar = progress(len(drivers) * len(seats) * len(modes), "driving in recorded seats")
     with interruptible_run(bar, backend=backend):
         metrics, tracks = evaluate_seats(drivers, names, config, seats, modes, backend, seed,
-                                         on_episode=lambda index, result: bar.update())
+                                         on_episode=lambda index, result: bar.update(),
+                                         reactive_types={scene: found.types for scene, found in reactive.items()})
         if out is not None:
             write_scene_evaluation(metrics, tracks, config, seed, out,
                                    scenes={str(scene.folder.resolve()): scene_sources(scene) for scene in read},
-                                   policies=list(policies), split=split, lead_s=lead_s)
+                                   policies=list(policies), split=split, lead_s=lead_s,
+                                   idm_calibration={scene: found.as_dict() for scene, found in calibrations.items()},
+                                   reactive_drivers={scene: found.as_dict() for scene, found in reactive.items()})
         complete(bar)
     methods = {name: [name] for name in names}
     click.echo(f"{len(seats)} seats of {len(read)} scene(s), {horizon_s:g} s each\n")
+    for folder, found in calibrations.items():
+        click.echo(f"{folder}, {CALIBRATED_IDM}: {found.describe()}\n")
+    for folder, drove in reactive.items():
+        click.echo(f"{folder}, {drove.describe()}\n")
     click.echo(track_table(metrics, methods) + "\n")
     click.echo("Wasserstein-1 distance to the humans' distributions:\n")
     click.echo(distribution_table(tracks, methods, config.env.decision_period_s))

@@ -1,6 +1,8 @@
 """Drivers in recorded drivers' seats (closed loop): each driver takes each chosen held-out vehicle's place in its
 scene (`sumo_rail.recordings.seat.SceneEnv`) for a fixed horizon, non-reactive or reactive, and is measured against
-that vehicle's recorded track.
+that vehicle's recorded track. SUMO's IDM may take the seat with its own parameters (`SumoDriver()`, "sumo-idm") or
+those calibrated on the scene's train split (`calibrated_sumo_driver`, "sumo-idm-calibrated"; its desired speed, read
+from the seated driver's lead-in, is the episode's `desired_mps`).
 
 A seat is a held-out passenger car (the ego is a car) whose track covers `lead_s` + `horizon_s` [s]; the ego starts
 `lead_s` after the track begins (the car is fully on the road and has moved with its traffic). Per episode: the
@@ -14,7 +16,7 @@ distributions: the ego's and, once per seat, the human's time, position, speed, 
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -28,14 +30,18 @@ from sumo_rail.datasets import write_parquet
 from sumo_rail.evaluation.driving_score import SCORE_COLUMNS, driving_scores
 from sumo_rail.evaluation.human_likeness import HORIZONS_S, position_errors
 from sumo_rail.evaluation.safety import SafetyProbe
+from sumo_rail.recordings.idm import IdmParameters
+from sumo_rail.recordings.idm_calibration import IdmCalibration, lead_in_desired_speed
 from sumo_rail.recordings.scene import Scene, read_scene
+from sumo_rail.recordings.scene_drivers import SEAT_IDM_TYPE, idm_type, seat_calibration
 from sumo_rail.recordings.scene_observations import SceneFrames
 from sumo_rail.recordings.seat import SceneEnv
 from sumo_rail.recordings.trajectory import TrajectoryPoint, trajectory_frame
 from sumo_rail.runners.backends import RolloutBackend, WorkerContext
 from sumo_rail.runners.rollout import DriverSpec, KeepDriver, probes_in_turn, run_episode
 from sumo_rail.runners.tables import provenance
-from sumo_rail.sim.controllers import ActionController, SumoController
+from sumo_rail.sim.controllers import ActionController, Controller, SumoController
+from sumo_rail.sim.replay import NO_TYPES, VehicleTypes
 from sumo_rail.sim.traffic import TrafficView, lane_gaps
 
 STOP_MPS = 0.5
@@ -47,17 +53,45 @@ HUMAN = "human"
 MODES = {"non-reactive": False, "reactive": True}
 SCENE_EPISODES, SCENE_TRACKS = "scene_episodes", "scene_tracks"
 """The `kind` in the provenance of evaluate-scene's two tables."""
+ACTIONS = ActionController()
+"""The driver's actions drive the ego (every driver but SUMO's)."""
 
 
 @dataclass(frozen=True)
 class SumoDriver:
     """SUMO's IDM and LC2013 in the ego's seat (the env core's "sumo" controller, `SumoController`); the actions are
-    not used."""
+    not used. Without `idm`, SUMO's IDM parameters and the ego's top set-point as desired speed; with `idm`, each
+    scene's calibrated IDM and the desired speed read from the seated driver's lead-in."""
 
     name: str = "sumo-idm"
+    idm: tuple[tuple[str, IdmParameters, float], ...] = ()
+    """(scene folder, its calibrated parameters, its train drivers' median desired speed [m/s]) of each scene."""
 
     def create(self, config: Config, seed: int) -> Callable[[np.ndarray, TrafficView], int]:
         return KeepDriver().create(config, seed)
+
+    def controller(self, scene: Scene, seat: Seat, step_s: float) -> tuple[SumoController, VehicleTypes]:
+        """The controller of `seat` in `scene` (SUMO's step `step_s` [s]) and the vehicle type it needs defined."""
+        found = {folder: (parameters, typical) for folder, parameters, typical in self.idm}.get(seat.scene)
+        if found is None:
+            return SumoController(), NO_TYPES
+        parameters, typical = found
+        desired = lead_in_desired_speed(scene.tracks, seat.vehicle, seat.start_s, parameters, step_s,
+                                        typical_mps=typical)
+        return SumoController(self.name, SEAT_IDM_TYPE, desired), VehicleTypes({SEAT_IDM_TYPE: idm_type(parameters)})
+
+
+CALIBRATED_IDM = "sumo-idm-calibrated"
+"""The driver name of SUMO's IDM calibrated on each scene's train split."""
+
+
+def calibrated_sumo_driver(scenes: Sequence[Scene], step_s: float, lead_s: float,
+                           horizon_s: float) -> tuple[SumoDriver, dict[str, IdmCalibration]]:
+    """SUMO's IDM calibrated on each scene's train seats (`scene_drivers.seat_calibration`) and the calibrations, by
+    scene folder; ValueError naming the scene where no IDM can be fitted."""
+    calibrations = {str(scene.folder): seat_calibration(scene, step_s, lead_s, horizon_s) for scene in scenes}
+    return SumoDriver(CALIBRATED_IDM, tuple((folder, found.parameters, found.desired_mps)
+                                            for folder, found in calibrations.items())), calibrations
 
 
 @dataclass(frozen=True)
@@ -123,15 +157,19 @@ class SeatTask:
     driver: DriverSpec
     reactive: bool
     seed: int
+    types: VehicleTypes = NO_TYPES
+    """The vehicle types SUMO knows (the reactive vehicles', `scene_drivers.reactive_types`, and the controller's)."""
+    controller: Controller = ACTIONS
+    """Who drives the ego: the driver's actions, or SUMO (`SumoDriver.controller`)."""
 
     def run(self, context: WorkerContext) -> tuple[dict[str, Any], pd.DataFrame]:
-        env = context.custom_env(("scene", self.config, self.seat.scene, self.reactive),
+        types = self.types
+        env = context.custom_env(("scene", self.config, self.seat.scene, self.reactive, types.key),
                                  lambda: SceneEnv(self.config, Path(self.seat.scene), self.reactive,
-                                                  transport="libsumo"))
+                                                  transport="libsumo", types=types))
         assert isinstance(env, SceneEnv)
         track, safety = _TrackProbe(self.seat.start_s, env.config.env.decision_period_s), SafetyProbe()
-        options = {"vehicle": self.seat.vehicle, "start_s": self.seat.start_s,
-                   "controller": (SumoController if isinstance(self.driver, SumoDriver) else ActionController).name}
+        options = {"vehicle": self.seat.vehicle, "start_s": self.seat.start_s, "controller": self.controller}
         result = run_episode(env, self.driver.create(env.config, self.seed), self.seed, options=options,
                              probe=probes_in_turn(track, safety))
         if result.metrics["termination"] != "collision":
@@ -139,6 +177,7 @@ class SeatTask:
         driven = trajectory_frame(track.points)
         return {**result.metrics, **safety.episode_columns(),
                 "at_fault_collisions": sum(collider == "ego" for collider, _ in env.ego_collisions),
+                "desired_mps": getattr(self.controller, "desired_mps", None) or np.nan,
                 "limit_mps": env.config.scenario.speed_limit_mps}, driven
 
 
@@ -158,16 +197,25 @@ def seat_columns(driven: pd.DataFrame, human: pd.DataFrame, simulated_s: float) 
 
 def evaluate_seats(drivers: Sequence[DriverSpec], names: Sequence[str], config: Config, seats: Sequence[Seat],
                    modes: Sequence[str], backend: RolloutBackend, seed: int,
-                   on_episode: Callable[[int, Any], None] | None = None) -> tuple[pd.DataFrame, pd.DataFrame]:
+                   on_episode: Callable[[int, Any], None] | None = None,
+                   reactive_types: Mapping[str, VehicleTypes] | None = None) -> tuple[pd.DataFrame, pd.DataFrame]:
     """Every driver in every seat in every mode: (one metrics row per episode, one track row per decision with the
-    human's rows once per seat and mode under driver `HUMAN`)."""
-    labelled = [(name, SeatTask(config, seat, driver, MODES[mode], seed + index))
-                for mode in modes for driver, name in zip(drivers, names, strict=True)
-                for index, seat in enumerate(seats)]
+    human's rows once per seat and mode under driver `HUMAN`). `reactive_types`: each scene folder's reactive
+    vehicles' types (`scene_drivers.reactive_types`; default: SUMO's default Krauss)."""
+    scenes = {scene: read_scene(Path(scene)) for scene in {seat.scene: None for seat in seats}}
+    step_s, types = config.scenario.step_length_s, reactive_types or {}
+    labelled = []
+    for mode in modes:
+        for driver, name in zip(drivers, names, strict=True):
+            for index, seat in enumerate(seats):
+                controller, seat_types = (driver.controller(scenes[seat.scene], seat, step_s)
+                                          if isinstance(driver, SumoDriver) else (ACTIONS, NO_TYPES))
+                scene_types = types.get(seat.scene, NO_TYPES) if MODES[mode] else NO_TYPES
+                labelled.append((name, SeatTask(config, seat, driver, MODES[mode], seed + index, VehicleTypes(
+                    {**scene_types.definitions, **seat_types.definitions}, scene_types.of_vehicle), controller)))
     tasks = [task for _, task in labelled]
     results = backend.run(tasks, on_result=on_episode)
-    frames = {scene: SceneFrames(read.tracks, read.meta.frame_rate_hz)
-              for scene, read in ((scene, read_scene(Path(scene))) for scene in {seat.scene for seat in seats})}
+    frames = {scene: SceneFrames(read.tracks, read.meta.frame_rate_hz) for scene, read in scenes.items()}
     period = config.env.decision_period_s
     horizon_decisions = round(config.env.max_episode_s / period)
     humans = {seat: human_track(frames[seat.scene], seat, period, horizon_decisions) for seat in seats}

@@ -79,6 +79,11 @@ class SceneMeta:
     """Each dropped track's source id -> the one-phrase reason (too short, off the modelled lanes, gap in frames)."""
     settings: dict[str, object] = field(default_factory=dict)
     """The import's settings (section, vehicles, minimum track length ...), for provenance."""
+    vehicle_types: dict[str, str] = field(default_factory=dict)
+    """Each vehicle's SUMO vType id where the recording names one (FCD's `type`, SUMO's drivers' types)."""
+    vtypes: dict[str, dict[str, str]] = field(default_factory=dict)
+    """The definitions (vType attributes) of those types that the recording came with: the user's route or
+    additional file given to `import-recording` (FCD), or the run's own (SUMO's drivers)."""
 
 
 def track_table(tracks: pd.DataFrame) -> pa.Table:

@@ -88,12 +88,18 @@ class SumoDriversSummary:
     """Vehicles of each of `DRIVER_TYPES` among the kept tracks."""
 
 
+def driver_type(type_id: str) -> dict[str, str]:
+    """The vType attributes of `DRIVER_TYPES[type_id]` as the run defines it (its share of arrivals left out)."""
+    return {"laneChangeModel": "LC2013", "actionStepLength": "0.5",
+            **{key: value for key, value in DRIVER_TYPES[type_id].items() if key != "probability"}}
+
+
 def routes_xml(flow_veh_per_h: float) -> bytes:
     """The routes file: `DRIVER_TYPES` as one distribution, flowing with Poisson arrivals along the built road."""
     root = ElementTree.Element("routes")
     for type_id, attributes in DRIVER_TYPES.items():
-        ElementTree.SubElement(root, "vType", id=type_id, laneChangeModel="LC2013", actionStepLength="0.5",
-                               attrib=attributes)
+        ElementTree.SubElement(root, "vType", id=type_id,
+                               attrib={**driver_type(type_id), "probability": attributes["probability"]})
     ElementTree.SubElement(root, "vTypeDistribution", id="drivers", vTypes=" ".join(DRIVER_TYPES))
     ElementTree.SubElement(root, "route", id="road_route", edges=ROAD_EDGE)
     ElementTree.SubElement(root, "flow", id="drivers", route="road_route", type="drivers", begin="0", end="1e9",
@@ -168,8 +174,11 @@ def record_sumo_drivers(settings: SumoDriversSettings, config: Config) -> SumoDr
     recorded |= {"warmup_s": scenario.warmup_s, "flow_veh_per_h": scenario.flow_veh_per_h,
                  "decision_period_s": config.env.decision_period_s, "step_length_s": scenario.step_length_s,
                  "road_speed_mps": ROAD_SPEED_MPS, "driver_types": DRIVER_TYPES}
+    kinds = tracks.drop_duplicates("vehicle_id")
     meta = SceneMeta(format=SUMO_DRIVERS.name, frame_rate_hz=rate_hz, network="road.net.xml", lanes=scenario.lanes,
-                     sources={}, dropped=dropped, settings=recorded)
+                     sources={}, dropped=dropped, settings=recorded,
+                     vehicle_types=dict(zip(kinds["vehicle_id"].astype(str), kinds["type"].astype(str), strict=True)),
+                     vtypes={type_id: driver_type(type_id) for type_id in DRIVER_TYPES})
     recording = Recording(tracks, rate_hz, scenario.lanes, tuple(widths), scenario.length_m)
     write_scene_folder(settings.out, recording, tracks, split, meta, config)
     counts = pd.Series(split.column("split").to_pylist()).value_counts()

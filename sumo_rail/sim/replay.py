@@ -6,8 +6,8 @@
   car following sees the recorded speeds.
 - reactive: each vehicle is placed once at its recorded state (position, lane, speed) where its track begins (or at
   the ego's start, when it is on the road then) and from the next step on driven by SUMO's car following and lane
-  changing (SUMO's default Krauss type, its desired speed the fastest speed its track records), so it reacts to the
-  ego; it leaves at the end of the road.
+  changing (its type of `VehicleTypes`, else SUMO's default Krauss type; its desired speed the fastest speed its
+  track records), so it reacts to the ego; it leaves at the end of the road.
 
 An episode seats the ego (`EGO_ID`) in one recorded vehicle (`ReplayedTraffic.seat`), which is then never placed.
 The scene comes in as plain data (`FramesAt`: every vehicle's ids, values and lanes at an instant, interpolated
@@ -22,8 +22,11 @@ observations, and a SUMO-driven seat the same speeds, with every vehicle in SUMO
 from __future__ import annotations
 
 import dataclasses
+import hashlib
+import json
 import xml.etree.ElementTree as ElementTree
 from collections.abc import Callable, Collection, Mapping
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -51,18 +54,42 @@ _PLACED = ("x_m", "y_m", "heading_deg", "speed_mps", "length_m", "width_m")
 FramesAt = Callable[[float], tuple[np.ndarray, dict[str, np.ndarray], np.ndarray]]
 """The scene at an instant [s]: the ids of the vehicles on the road, their values ("x_m", "y_m", "heading_deg",
 "speed_mps", "lane_position_m", "length_m", "width_m"; a scene's track columns) and lanes, one entry each."""
+DEFAULT_TYPE = "DEFAULT_VEHTYPE"
+"""SUMO's default vehicle type (Krauss, LC2013): a vehicle's without one of `VehicleTypes`."""
+
+
+@dataclass(frozen=True)
+class VehicleTypes:
+    """SUMO vehicle types of a scene's simulation: `definitions` (type id -> vType attributes, written into its routes
+    file) and `of_vehicle` (recorded vehicle -> type id: how it drives in the reactive mode; SUMO's default type for
+    the others and for every replayed vehicle of the non-reactive mode, which SUMO does not drive)."""
+
+    definitions: Mapping[str, Mapping[str, str]] = field(default_factory=dict)
+    of_vehicle: Mapping[str, str] = field(default_factory=dict)
+
+    @property
+    def key(self) -> str:
+        """A digest of the types (equal types, equal keys): what tells simulations of other types apart."""
+        content = json.dumps([self.definitions, self.of_vehicle], sort_keys=True).encode()
+        return hashlib.sha256(content).hexdigest()[:16]
+
+
+NO_TYPES = VehicleTypes()
+"""No vehicle type but SUMO's own (every reactive vehicle SUMO's default Krauss)."""
 
 
 class ReplayedTraffic:
     """The vehicles of a scene on its one edge `edge`: `frames_at` the scene at any instant, `begins_s` each track's
     first time [s] (sorted: the reactive mode looks for vehicles to place only when one begins), `top_speeds_mps` each
-    vehicle's fastest recorded speed [m/s] (its desired speed in the reactive mode); `reactive` chooses the mode."""
+    vehicle's fastest recorded speed [m/s] (its desired speed in the reactive mode); `reactive` chooses the mode,
+    `types` the vehicle types SUMO knows (the reactive vehicles' and a SUMO-driven ego's)."""
 
     def __init__(self, frames_at: FramesAt, begins_s: np.ndarray, top_speeds_mps: Mapping[str, float], edge: str,
-                 reactive: bool) -> None:
+                 reactive: bool, types: VehicleTypes = NO_TYPES) -> None:
         self.frames_at = frames_at
         self.edge = edge
         self.reactive = reactive
+        self.types = types
         self._begins_s = np.asarray(begins_s)
         self._top_speeds_mps = top_speeds_mps
         self._speed_factor: dict[str, float] = {}
@@ -84,16 +111,20 @@ class ReplayedTraffic:
         self._last_s = -np.inf
 
     def network(self, scenario: ScenarioConfig) -> BuiltNetwork:
-        """The scene's road with its routes file less the generated flows, with the replay's route and the type of
-        SUMO's own driver in the seat (`SUMO_DRIVER_TYPE`)."""
+        """The scene's road with its routes file less the generated flows, with the replay's route, the type of
+        SUMO's own driver in the seat (`SUMO_DRIVER_TYPE`) and `types`' definitions (the file named by its content:
+        simulations of other types share the road's folder)."""
         built = network.build(scenario)
         root = ElementTree.parse(built.routes_file).getroot()
         for flow in root.findall("flow"):
             root.remove(flow)
         ElementTree.SubElement(root, "route", id=REPLAY_ROUTE, edges=self.edge)
         ElementTree.SubElement(root, "vType", id=SUMO_DRIVER_TYPE, carFollowModel="IDM", laneChangeModel="LC2013")
-        routes = built.directory / "scene.rou.xml"
-        write_bytes_atomically(routes, ElementTree.tostring(root))
+        for type_id, attributes in self.types.definitions.items():
+            ElementTree.SubElement(root, "vType", attrib={**attributes, "id": type_id})
+        content = ElementTree.tostring(root)
+        routes = built.directory / f"scene.{hashlib.sha256(content).hexdigest()[:16]}.rou.xml"
+        write_bytes_atomically(routes, content)
         return dataclasses.replace(built, routes_file=routes)
 
     def connect(self, api: Any, step_s: float, speed_limit_mps: float) -> Step:
@@ -175,12 +206,14 @@ class ReplayedTraffic:
                     vehicle.remove(gone)
             self._placed.intersection_update(names)
         move, edge, skip, placed = vehicle.moveToXY, self.edge, self._skip, self._placed
+        type_of = self.types.of_vehicle if self.reactive else {}
         rows = zip(names, lanes.tolist(), *(values[name].tolist() for name in _PLACED), strict=True)
         for name, lane, x_m, y_m, heading_deg, speed_mps, length_m, width_m in rows:
             if name == skip or (self.reactive and name in placed):
                 continue
             if name not in on_road:  # new, or (non-reactive) removed by SUMO after a collision: placed again
-                vehicle.add(name, REPLAY_ROUTE, departLane=str(lane), departSpeed=repr(speed_mps))
+                vehicle.add(name, REPLAY_ROUTE, type_of.get(name, DEFAULT_TYPE), departLane=str(lane),
+                            departSpeed=repr(speed_mps))
                 vehicle.setLength(name, length_m)
                 vehicle.setWidth(name, width_m)
                 vehicle.setSpeedMode(name, 0)
