@@ -85,3 +85,55 @@ def test_evaluate_scene_says_who_drives_the_reactive_vehicles_and_records_it(dri
     assert f"{drivers_scene}, reactive vehicles: {vehicles} driven by their recorded vType, 0 by" in result.output
     recorded = read_metadata(out)["reactive_drivers"][str(drivers_scene)]
     assert recorded["recorded_vtype"] == vehicles and set(recorded["vtypes"]) == set(DRIVER_TYPES)
+
+
+def fcd_scene_files(folder):
+    """An FCD recording on a built 300 m road of two lanes: "a" and "b" of type car_calm, "t" of type lorry."""
+    from recording_files import fcd_vehicle
+
+    from sumo_rail.recordings.road import build_road
+
+    build_road([3.2, 3.2], 300.0, folder / "net.net.xml")
+    rows = [row for k, vehicle in enumerate("abt") for row in fcd_vehicle(vehicle, range(60), 10.0 + 50 * k, -1.6,
+                                                                           "road_1")]
+    lines = "".join(f'<timestep time="{t / 10:.2f}">' + "".join(
+        f'<vehicle id="{row["id"]}" x="{row["x"]:.2f}" y="-1.60" angle="90.00" '
+        f'type="{"lorry" if row["id"] == "t" else "car_calm"}" speed="20.00" pos="{row["x"]:.2f}" lane="road_1"/>'
+        for row in rows if round(row["time"] * 10) == t) + "</timestep>" for t in range(60))
+    (folder / "fcd.xml").write_text(f"<fcd-export>{lines}</fcd-export>")
+    (folder / "types.rou.xml").write_text('<routes><vType id="car_calm" carFollowModel="IDM" tau="1.7"/>'
+                                          '<vType id="other" tau="1.1"/></routes>')
+    return ["--format", "fcd", str(folder / "fcd.xml"), "--network", str(folder / "net.net.xml")]
+
+
+def test_an_fcd_scene_keeps_each_vehicles_vtype_and_the_definitions_given(tmp_path):
+    """import-recording --vtypes keeps the definitions of the types the recording names; a type it does not define
+    (lorry) is said by the reactive mode's choice, which the calibrated IDM (or here, with nothing to fit, SUMO's
+    default) then drives."""
+    result = CliRunner().invoke(cli, ["import-recording", *fcd_scene_files(tmp_path), "--vtypes",
+                                      str(tmp_path / "types.rou.xml"), "--out", str(tmp_path / "scene")])
+    assert result.exit_code == 0, result.output
+    scene = read_scene(tmp_path / "scene")
+    assert scene.meta.vehicle_types == {"a": "car_calm", "b": "car_calm", "t": "lorry"}
+    assert scene.meta.vtypes == {"car_calm": {"carFollowModel": "IDM", "tau": "1.7"}}
+    assert str((tmp_path / "types.rou.xml").resolve()) in scene.meta.sources
+    found = reactive_types(scene, 0.1)
+    assert found.recorded == 2 and found.calibrated == 1 and "lorry" in found.note
+    assert found.types.of_vehicle == {"a": "car_calm", "b": "car_calm"}
+
+
+@pytest.mark.parametrize("case", ["not fcd", "no vtype", "not xml"])
+def test_vtypes_refused_in_one_sentence(tmp_path, case):
+    files = fcd_scene_files(tmp_path)
+    (tmp_path / "empty.xml").write_text("<routes/>")
+    (tmp_path / "broken.xml").write_text("<routes><vType")
+    given = {"not fcd": tmp_path / "types.rou.xml", "no vtype": tmp_path / "empty.xml",
+             "not xml": tmp_path / "broken.xml"}[case]
+    if case == "not fcd":
+        files = ["--format", "ngsim", str(tmp_path / "fcd.xml")]
+    result = CliRunner().invoke(cli, ["import-recording", *files, "--vtypes", str(given), "--out",
+                                      str(tmp_path / "scene")])
+    said = {"not fcd": "--vtypes applies to --format fcd only", "no vtype": f"--vtypes {given} defines no vType",
+            "not xml": f"--vtypes {given} is not a readable route or additional file"}[case]
+    assert result.exit_code == 2 and said in result.output and "Traceback" not in result.output, result.output
+    assert not (tmp_path / "scene").exists()
