@@ -50,9 +50,10 @@ class ReactiveTypes:
 
     def describe(self) -> str:
         """Who drives, in a sentence or two."""
-        said = [f"reactive vehicles: {self.recorded} driven by their recorded vType, {self.calibrated} by "
-                + ("SUMO's IDM calibrated on the train split" if self.calibration is not None
-                   else "SUMO's default Krauss")]
+        others = ("SUMO's IDM calibrated on the train split" if self.calibration is not None
+                  else "SUMO's default Krauss")
+        said = [f"reactive vehicles: {self.recorded} driven by their recorded vType"
+                + (f", {self.calibrated} by {others}" if self.calibrated else "")]
         if self.calibration is not None:
             said.append(self.calibration.describe())
         return "\n".join(said + ([self.note] if self.note else []))

@@ -82,7 +82,7 @@ def test_evaluate_scene_says_who_drives_the_reactive_vehicles_and_records_it(dri
                                       *SCENE_SPEED, "--set", "scenario.lanes=3"])
     assert result.exit_code == 0, result.output
     vehicles = len(read_scene(drivers_scene).split)
-    assert f"{drivers_scene}, reactive vehicles: {vehicles} driven by their recorded vType, 0 by" in result.output
+    assert f"{drivers_scene}, reactive vehicles: {vehicles} driven by their recorded vType\n" in result.output
     recorded = read_metadata(out)["reactive_drivers"][str(drivers_scene)]
     assert recorded["recorded_vtype"] == vehicles and set(recorded["vtypes"]) == set(DRIVER_TYPES)
 
