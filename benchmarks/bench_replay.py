@@ -134,7 +134,7 @@ def main() -> None:
             raw_default = raw_speed(scene, seats[0][1], window_s, defaults)
             on_road = scene.tracks.groupby("time_s").size().median()
             speeds = [closed_loop_speed(scene, config, reactive, seats, types.types) for reactive in (False, True)]
-            drivers.append(f"{label}: {types.describe().splitlines()[0]}")
+            drivers.append(f"- {label}: {types.describe().splitlines()[0]}")
             cells = " | ".join(f"{speed:.0f} ({speed / raw:.2f}x; {speed / raw_default:.2f}x)" for speed in speeds)
             rows.append(f"| {label} | {horizon_s:g} | {on_road:.0f} | {raw:.0f} | {raw_default:.0f} | {cells} |")
     load = os.getloadavg()[0]
