@@ -34,6 +34,7 @@ bench: $(STAMP)
 	$(PY) benchmarks/bench_rail_egos.py --out docs/benchmarks.md
 	$(PY) benchmarks/bench_import.py --out docs/benchmarks.md
 	$(PY) benchmarks/bench_replay.py --out docs/benchmarks.md
+	$(PY) benchmarks/bench_acceleration.py --out docs/benchmarks.md
 	# frames, MP4s and (with a display, e.g. under xvfb-run) a sumo-gui episode
 	$(PY) benchmarks/bench_render.py --out docs/benchmarks.md
 	# highway-env (and pygame-ce) only for the comparison; it accepts the project's gymnasium 1.x. If it cannot be

@@ -29,6 +29,7 @@ from doc_section import write_section
 
 from sumo_rail.config import Config
 from sumo_rail.datasets import sumo_version
+from sumo_rail.sim.actions import keep_action
 from sumo_rail.sim.env import HighwayEnv
 from sumo_rail.sim.simulation import EGO_ID, Simulation
 from sumo_rail.sim.starts import start_ego
@@ -40,7 +41,9 @@ def clocks() -> np.ndarray:
 
 
 def env_round(env: HighwayEnv, seeds: list[int], random_actions: bool) -> tuple[np.ndarray, list[int]]:
-    """(wall, CPU) time of whole episodes (resets included), keeping or random actions; decisions per episode."""
+    """(wall, CPU) time of whole episodes (resets included), keeping (the interface's action that changes nothing) or
+    random actions; decisions per episode."""
+    keep = keep_action(env.config.actions)
     decisions = []
     start = clocks()
     for seed in seeds:
@@ -48,7 +51,7 @@ def env_round(env: HighwayEnv, seeds: list[int], random_actions: bool) -> tuple[
         rng = np.random.default_rng(seed)
         count, done = 0, False
         while not done:
-            action = int(rng.integers(5)) if random_actions else 0
+            action = int(rng.integers(env.action_space.n)) if random_actions else keep
             _, _, terminated, truncated, _ = env.step(action)
             count += 1
             done = terminated or truncated

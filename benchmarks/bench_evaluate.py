@@ -19,7 +19,8 @@ from doc_section import bench_parser, write_section
 from sumo_rail.config import Config
 from sumo_rail.datasets import sumo_version
 from sumo_rail.drivers.expert import DEFAULT_STYLE
-from sumo_rail.evaluation.evaluate import EvaluationTask
+from sumo_rail.evaluation.evaluate import Agreement
+from sumo_rail.evaluation.protocol import EvaluationTask, RoadStart
 from sumo_rail.runners.backends import SerialBackend
 from sumo_rail.runners.rollout import EpisodeTask, ExpertDriver, KeepDriver, RandomDriver
 from sumo_rail.seeding import Purpose, episode_seeds
@@ -34,7 +35,8 @@ def main() -> None:
     seeds = episode_seeds(Purpose.EVALUATE, 1000, args.episodes)
     plain = [EpisodeTask(config, driver, seed, pool="test", warm_state=k) for driver in DRIVERS
              for k, seed in enumerate(seeds)]
-    compared = [EvaluationTask(task, ExpertDriver(DEFAULT_STYLE)) for task in plain]
+    compared = [EvaluationTask(RoadStart(config, task.pool, task.warm_state), task.driver, task.seed,
+                               (Agreement(ExpertDriver(DEFAULT_STYLE)),)) for task in plain]
     rates: dict[str, list[float]] = {"plain": [], "compared": []}
     decisions = 0
     with SerialBackend() as backend:

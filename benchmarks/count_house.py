@@ -1,10 +1,11 @@
 """Counts for docs/design.md's "The house in numbers" (issue 52): the classes on the way from `evaluate-scene
 --policy` to the seat, and the private members of sumo_rail/sim/ touched outside it.
 
-The way to the seat: one `SeatTask` (evaluate-scene's unit of work; a `--policy` driver's reset is any driver's) in a
-small scene of SUMO's drivers; when SUMO is loaded for the seat, every class with a method on the call stack from the
-task down to the load (the class that defines the method and, where another, the instance's). The private members:
-`tests/test_layout.py`'s SUMO-boundary check over the tree `--root` (default this one): each (file, member) it finds.
+The way to the seat: one `EvaluationTask` in a seat (evaluate-scene's unit of work; a `--policy` driver's reset is
+any driver's) in a small scene of SUMO's drivers; when SUMO is loaded for the seat, every class with a method on the
+call stack from the task down to the load (the class that defines the method and, where another, the instance's). The
+private members: `tests/test_layout.py`'s SUMO-boundary check over the tree `--root` (default this one): each (file,
+member) it finds.
 Usage: `python benchmarks/count_house.py [--root TREE]` (the classes are those of the sumo_rail that Python imports).
 """
 
@@ -40,11 +41,12 @@ def private_members(root: Path) -> list[tuple[str, str]]:
 
 
 def seat_path() -> list[str]:
-    """The classes on the call stack from a SeatTask to SUMO's load of the seat, outermost first."""
+    """The classes on the call stack from an EvaluationTask in a seat to SUMO's load of the seat, outermost first."""
     import pandas as pd
 
     from sumo_rail.config import Config
-    from sumo_rail.evaluation.scene_evaluation import Seat, SeatTask
+    from sumo_rail.evaluation.protocol import EvaluationTask
+    from sumo_rail.evaluation.scene_evaluation import RecordedSeatStart, Seat
     from sumo_rail.recordings.sumo_drivers import SumoDriversSettings, record_sumo_drivers
     from sumo_rail.runners.backends import WorkerContext
     from sumo_rail.runners.rollout import KeepDriver
@@ -66,7 +68,7 @@ def seat_path() -> list[str]:
             owner, qualname = frame.f_locals.get("self"), frame.f_code.co_qualname
             if owner is not None and "." in qualname:
                 classes += [type(owner).__name__, qualname.split(".")[0]]
-            if qualname == "SeatTask.run":
+            if qualname == "EvaluationTask.run":
                 break
             frame = frame.f_back
         paths.append(list(dict.fromkeys(reversed(classes))))
@@ -77,7 +79,8 @@ def seat_path() -> list[str]:
                                "env": {"max_episode_s": 2.0, "v_max_mps": 44.44}})
     context = WorkerContext()
     try:
-        SeatTask(config, Seat(str(folder), vehicle, start_s), KeepDriver(), False, 0).run(context)
+        seat = Seat(str(folder), vehicle, start_s)
+        EvaluationTask(RecordedSeatStart(config, seat, False), KeepDriver(), 0).run(context)
     finally:
         context.close()
     return paths[-1]

@@ -11,6 +11,7 @@ import click
 from sumo_rail.seeding import EVALUATION_EPISODES
 
 from .demos_options import RECORDED_NOTE, check_demos
+from .evaluation_options import evaluation_backend, parse_drivers
 from .options import (
     backend_options,
     build_backend,
@@ -131,32 +132,14 @@ def evaluate_command(config: Config, policies: tuple[str, ...],
     if video_episodes is not None and video_dir is None:
         raise click.UsageError("--video-episodes needs --video DIR")
     from sumo_rail.drivers.expert import DEFAULT_STYLE
-    from sumo_rail.drivers.policies import PolicyFileError
-    from sumo_rail.evaluation.evaluate import (
-        decisions_path,
-        evaluate,
-        parse_driver,
-        policy_source,
-        recorded_reference,
-        unique_names,
-        write_evaluation,
-    )
-    from sumo_rail.evaluation.summary import distance_summary, summary_table
-    from sumo_rail.runners.backends import SerialBackend
+    from sumo_rail.evaluation.evaluate import decisions_path, evaluate, policy_source, recorded_reference
+    from sumo_rail.evaluation.protocol import summarise, unique_names, write_evaluation
     from sumo_rail.seeding import Purpose, episode_seeds
 
     if out is not None:
         check_output(decisions_path(out), overwrite)
     recorded_expert, expert_driver = resolve_expert_option(expert or DEFAULT_STYLE, config)
-
-    drivers = []
-    for text in policies:
-        try:
-            drivers.append(parse_driver(text, config, expert_driver))
-        except PolicyFileError as error:
-            raise click.ClickException(str(error)) from error
-        except ValueError as error:
-            raise click.BadParameter(str(error), param_hint="'--policy'") from error
+    drivers = parse_drivers(policies, config, expert_driver)
     try:  # an explicit --expert is every driver's; without it, each its own file's
         references = [expert_driver if expert is not None else recorded_reference(driver, policy_source(text), config,
                                                                                   expert_driver)
@@ -173,10 +156,7 @@ def evaluate_command(config: Config, policies: tuple[str, ...],
         raise click.BadParameter(f"{reference!r} is not one of the drivers ({', '.join(names)})",
                                  param_hint="'--reference'")
     seeds = episode_seeds(Purpose.EVALUATE, seed, episodes)
-    in_process = gui or (workers == 1 and backend_name == "process" and address is None)  # no worker for one
-    backend = (SerialBackend(render_mode="human" if gui else None,
-                             gui_delay_ms=100.0 if gui_delay_ms is None else gui_delay_ms)
-               if in_process else build_backend(backend_name, workers, address))
+    backend = evaluation_backend(backend_name, workers, address, gui, gui_delay_ms)
     bar = progress(len(drivers) * episodes, "evaluating")
     with interruptible_run(bar, backend=backend):
         evaluation = evaluate(drivers, config, seeds, backend, references, pool,
@@ -187,9 +167,7 @@ def evaluate_command(config: Config, policies: tuple[str, ...],
                              expert=recorded_expert if expert is not None else None, pool=pool)
         written_videos = _write_videos(evaluation.videos, video_dir)
         complete(bar)
-    click.echo(summary_table(evaluation.metrics, reference, route=config.scenario.has_route_measures))
-    if expert_driver.name in names and len(names) > 1:
-        click.echo("\n" + distance_summary(evaluation.decisions, expert_driver.name, config.scenario.lanes))
+    click.echo(summarise(evaluation, config, reference, expert_driver.name))
     if out is not None:
         click.echo(f"wrote {out}: {len(evaluation.metrics)} episodes; {decisions_path(out)}: "
                    f"{len(evaluation.decisions)} decisions")

@@ -7,7 +7,8 @@ from typing import TYPE_CHECKING
 
 import click
 
-from .options import backend_options, build_backend, check_output, output_options, seed_option
+from .evaluation_options import evaluation_backend, parse_drivers
+from .options import backend_options, check_output, output_options, seed_option
 from .param_types import FiniteFloat
 from .progress import complete, progress
 from .running import interruptible_run
@@ -35,7 +36,7 @@ if TYPE_CHECKING:
                    "recorded state, each by its recorded vType or else the IDM calibrated on the scene's train split "
                    "(repeatable).")
 @click.option("--horizon-s", type=FiniteFloat(1, 600), default=15.0, show_default=True,
-              help="Length of each episode [s] (the position error is read at 1, 5 and 10 s).")
+              help="Length of each episode [s] (the position error is read at 1, 2, 5, 10, 15 and 20 s, within it).")
 @click.option("--lead-s", type=FiniteFloat(0, 600), default=5.0, show_default=True,
               help="The ego takes the seat this long after the vehicle's track begins [s].")
 @click.option("--seats", "limit", type=click.IntRange(min=1), default=None,
@@ -48,28 +49,26 @@ def evaluate_scene_command(config: Config, scenes: tuple[Path, ...], policies: t
                            workers: int, backend_name: str, address: str | None, out: Path | None,
                            overwrite: bool) -> None:
     """Put each driver in the seat of each held-out recorded car of SCENES (folders of import-recording or
-    record-sumo-drivers) for --horizon-s, and measure it against that car's recorded track: position error at 1, 5
-    and 10 s, collisions and those the ego caused, stops, progress relative to the human, lane changes per km, hard
-    braking, TTC below 1.5 s, the driving score, and the distances of its speed, acceleration and gap distributions to
-    the humans'. --out gets one row per episode and NAME.tracks.parquet beside it one row per decision (the humans'
-    own rows under the driver "human")."""
+    record-sumo-drivers) for --horizon-s, and measure it against that car's recorded track: position error at 1, 2, 5,
+    10, 15 and 20 s (those the episode reaches), RMSE of position and speed, collisions and those the ego caused, stops,
+    progress relative to the human, lane changes per km, hard braking, TTC below 1.5 s, the driving score, and the
+    distances of its speed, acceleration, jerk, gap and time-headway distributions to the humans'. --out gets one
+    row per episode and NAME.tracks.parquet beside it one row per decision (the humans' own rows under the driver
+    "human")."""
     from sumo_rail.datasets import DatasetError
-    from sumo_rail.drivers.policies import PolicyFileError
-    from sumo_rail.evaluation.evaluate import DEFAULT_REFERENCE, parse_driver, unique_names
+    from sumo_rail.evaluation.evaluate import DEFAULT_REFERENCE
+    from sumo_rail.evaluation.protocol import summarise, unique_names, write_evaluation
     from sumo_rail.evaluation.scene_evaluation import (
         CALIBRATED_IDM,
-        SumoDriver,
-        calibrated_sumo_driver,
+        SEAT_DRIVERS,
+        calibrated_idm_driver,
         choose_seats,
         evaluate_seats,
         tracks_path,
-        write_scene_evaluation,
     )
-    from sumo_rail.evaluation.scene_summary import distribution_table, track_table
     from sumo_rail.recordings.scene import check_scene, read_scene, scene_sources
     from sumo_rail.recordings.scene_drivers import reactive_types
     from sumo_rail.recordings.tracks import RecordingUsageError
-    from sumo_rail.runners.backends import SerialBackend
 
     check_output(out, overwrite)
     if out is not None:
@@ -85,42 +84,35 @@ def evaluate_scene_command(config: Config, scenes: tuple[Path, ...], policies: t
     if not seats:
         raise click.UsageError(f"no {split} car of {', '.join(map(str, scenes))} has a track of --lead-s + "
                                f"--horizon-s = {lead_s + horizon_s:g} s")
-    drivers, step_s = [], config.scenario.step_length_s
+    step_s, named = config.scenario.step_length_s, dict(SEAT_DRIVERS)
     calibrations: dict[str, IdmCalibration] = {}
-    for text in policies:
+    if CALIBRATED_IDM in policies:
         try:
-            if text == CALIBRATED_IDM:
-                calibrated, calibrations = calibrated_sumo_driver(read, step_s, lead_s, horizon_s)
-            drivers.append(SumoDriver() if text == "sumo-idm" else calibrated if text == CALIBRATED_IDM
-                           else parse_driver(text, config, DEFAULT_REFERENCE))
-        except PolicyFileError as error:
-            raise click.ClickException(str(error)) from error
+            named[CALIBRATED_IDM], calibrations = calibrated_idm_driver(read, step_s, lead_s, horizon_s)
         except ValueError as error:
             raise click.BadParameter(str(error), param_hint="'--policy'") from error
+    drivers = parse_drivers(policies, config, DEFAULT_REFERENCE, named)
     reactive = {str(scene.folder): reactive_types(scene, step_s) for scene in read} if "reactive" in modes else {}
     names = unique_names(drivers)
-    in_process = workers == 1 and backend_name == "process" and address is None  # no worker for one
-    backend = SerialBackend() if in_process else build_backend(backend_name, workers, address)
+    backend = evaluation_backend(backend_name, workers, address)
     bar = progress(len(drivers) * len(seats) * len(modes), "driving in recorded seats")
     with interruptible_run(bar, backend=backend):
-        metrics, tracks = evaluate_seats(drivers, names, config, seats, modes, backend, seed,
-                                         on_episode=lambda index, result: bar.update(),
-                                         reactive_types={scene: found.types for scene, found in reactive.items()})
+        evaluation = evaluate_seats(drivers, names, config, seats, modes, backend, seed,
+                                    on_episode=lambda index, result: bar.update(),
+                                    reactive_types={folder: found.types for folder, found in reactive.items()})
         if out is not None:
-            write_scene_evaluation(metrics, tracks, config, seed, out,
-                                   scenes={str(scene.folder.resolve()): scene_sources(scene) for scene in read},
-                                   policies=list(policies), split=split, lead_s=lead_s,
-                                   idm_calibration={scene: found.as_dict() for scene, found in calibrations.items()},
-                                   reactive_drivers={scene: found.as_dict() for scene, found in reactive.items()})
+            write_evaluation(evaluation, config, seed, out,
+                             scenes={str(scene.folder.resolve()): scene_sources(scene) for scene in read},
+                             policies=list(policies), split=split, lead_s=lead_s,
+                             idm_calibration={folder: found.as_dict() for folder, found in calibrations.items()},
+                             reactive_drivers={folder: found.as_dict() for folder, found in reactive.items()})
         complete(bar)
-    methods = {name: [name] for name in names}
     click.echo(f"{len(seats)} seats of {len(read)} scene(s), {horizon_s:g} s each\n")
     for folder, found in calibrations.items():
         click.echo(f"{folder}, {CALIBRATED_IDM}: {found.describe()}\n")
     for folder, drove in reactive.items():
         click.echo(f"{folder}, {drove.describe()}\n")
-    click.echo(track_table(metrics, methods) + "\n")
-    click.echo("Wasserstein-1 distance to the humans' distributions:\n")
-    click.echo(distribution_table(tracks, methods, config.env.decision_period_s))
+    click.echo(summarise(evaluation, config))
     if out is not None:
-        click.echo(f"wrote {out}: {len(metrics)} episodes; {tracks_path(out)}: {len(tracks)} decisions")
+        click.echo(f"wrote {out}: {len(evaluation.metrics)} episodes; {tracks_path(out)}: {len(evaluation.decisions)} "
+                   f"decisions")

@@ -48,11 +48,11 @@ def expert_driver(config: Config) -> DriverFactory:
 
     def choose(observation: np.ndarray, env: HighwayEnv) -> tuple[int, dict]:
         action = expert(observation, env.traffic)
-        api = env.simulation._api
-        leader = api.vehicle.getLeader(EGO_ID, LEADER_RANGE_M)
+        sim = env.simulation
+        assert sim is not None  # the episode is running
         return action, {"expert": action, "lateral": LATERAL.get(action, 0), "speed_mps": env.traffic.ego.speed_mps,
                         "set_point_mps": env.traffic.set_point_mps,
-                        "leader_speed_mps": api.vehicle.getSpeed(leader[0]) if leader else np.inf}
+                        "leader_speed_mps": sim.leader_speed_mps(EGO_ID, LEADER_RANGE_M)}
 
     return lambda seed: choose
 

@@ -20,7 +20,9 @@ from sumo_rail.datasets import write_bytes_atomically
 from sumo_rail.recordings import fcd, highd, ngsim
 from sumo_rail.recordings.formats import ReadOptions
 from sumo_rail.recordings.road import read_lanes
+from sumo_rail.sim import network
 from sumo_rail.sim.env import HighwayEnv
+from sumo_rail.sim.observers import Rows, VehicleCapture
 from sumo_rail.sim.sumo_api import EGO_ID
 
 EPISODE_GAP_S = 1000.0
@@ -36,14 +38,17 @@ DriverFactory = Callable[[int], Driver]
 """The driver of one episode, from the episode's seed."""
 
 
-def ego_state(api, time_s: float) -> dict:
-    vehicle = api.vehicle
-    x, y = vehicle.getPosition(EGO_ID)
-    return {"time_s": round(time_s, 6), "x_m": x, "y_m": y, "heading_deg": vehicle.getAngle(EGO_ID),
-            "speed_mps": vehicle.getSpeed(EGO_ID), "acceleration_mps2": vehicle.getAcceleration(EGO_ID),
-            "edge": vehicle.getRoadID(EGO_ID), "lane": vehicle.getLaneIndex(EGO_ID),
-            "lane_position_m": vehicle.getLanePosition(EGO_ID), "length_m": vehicle.getLength(EGO_ID),
-            "width_m": vehicle.getWidth(EGO_ID), "vehicle_class": "passenger"}
+TRACK_COLUMNS = ("time_s", "x_m", "y_m", "heading_deg", "speed_mps", "acceleration_mps2", "edge", "lane",
+                 "lane_position_m", "length_m", "width_m", "vehicle_class")
+"""The columns of an ego's track as driven (a scene's track columns but the vehicle id, added per episode)."""
+
+
+def ego_rows(columns: Rows, shift_s: float) -> pd.DataFrame:
+    """The ego's rows among every vehicle's (`VehicleCapture.columns`, or one moment's rows with a "time_s" column),
+    its times shifted by `shift_s` [s] and kept to the microsecond (Python's rounding)."""
+    frame = pd.DataFrame(columns)
+    ego = frame[frame["vehicle_id"] == EGO_ID]
+    return ego.assign(time_s=[round(time_s + shift_s, 6) for time_s in ego["time_s"]])[list(TRACK_COLUMNS)]
 
 
 def drive(config: Config, seeds: list[int], pool: str, drivers: DriverFactory
@@ -56,28 +61,21 @@ def drive(config: Config, seeds: list[int], pool: str, drivers: DriverFactory
         driver = drivers(seed)
         observation, _ = env.reset(seed=seed, options={"pool": pool})
         sim = env.simulation
-        api, start_s = sim._api, sim.time_s
+        assert sim is not None  # a reset starts it
+        start_s = sim.time_s
         vehicle, shift_s = f"ep{index:03d}", index * EPISODE_GAP_S - start_s
-        rows = [ego_state(api, start_s + shift_s)]
-        step = sim._calls.step.__wrapped__ if hasattr(sim._calls.step, "__wrapped__") else sim._calls.step
-
-        def recording_step(step=step, rows=rows, shift_s=shift_s, api=api):
-            step()
-            if EGO_ID in api.vehicle.getIDList():
-                rows.append(ego_state(api, api.simulation.getTime() + shift_s))
-
-        recording_step.__wrapped__ = step
-        sim._calls = sim._calls._replace(step=recording_step)
-        decision, done = 0, False
-        while not done:
-            action, row = driver(observation, env)
-            decisions.append({"vehicle_id": vehicle, "decision": decision, **row})
-            observation, _, terminated, truncated, _ = env.step(action)
-            decision, done = decision + 1, terminated or truncated
-        tracks.append(pd.DataFrame(rows).assign(vehicle_id=vehicle))
-    net_file = sim._built.net_file
+        first = ego_rows({**sim.vehicle_rows(), "time_s": start_s}, shift_s)
+        with sim.watching(VehicleCapture(every_step=True)) as capture:
+            decision, done = 0, False
+            while not done:
+                action, row = driver(observation, env)
+                decisions.append({"vehicle_id": vehicle, "decision": decision, **row})
+                observation, _, terminated, truncated, _ = env.step(action)
+                decision, done = decision + 1, terminated or truncated
+        tracks.append(pd.concat([first, ego_rows(capture.columns, shift_s)], ignore_index=True)
+                      .assign(vehicle_id=vehicle))
     env.close()
-    return pd.concat(tracks, ignore_index=True), pd.DataFrame(decisions), net_file
+    return pd.concat(tracks, ignore_index=True), pd.DataFrame(decisions), network.build(config.scenario).net_file
 
 
 def round_trips(tracks: pd.DataFrame, net_file: Path, lanes: int, folder: Path) -> dict[str, pd.DataFrame]:

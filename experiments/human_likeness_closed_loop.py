@@ -25,6 +25,7 @@ import numpy as np
 import pandas as pd
 
 from sumo_rail.datasets import read_metadata
+from sumo_rail.evaluation.human_floor import floor_table
 from sumo_rail.evaluation.scene_evaluation import HUMAN, tracks_path
 from sumo_rail.evaluation.scene_summary import SEAT_KEYS, distribution_table, track_table
 
@@ -133,6 +134,10 @@ def main(paths: tuple[Path, ...], study: str) -> None:
           + ("; differences paired by seat:\n" if study == "acceleration" else ":\n"))
     print(distribution_table(tracks, methods, period, differences if study == "acceleration" else ()))
     if study == "acceleration":
+        print("\nThe floor: the humans of one random half of the seats against the other half's, and each driver's "
+              "distance (its episodes in one half against the humans of the other) as a multiple of it, the mean "
+              "over 200 splits [the middle 95% of the splits' multiples]:\n")
+        print(floor_table(tracks, methods, period))
         print(f"\nBy the seat's phase (ahead of / faster than the human: the driver's place along its lane and speed "
               f"{HORIZON_S:g} s into the seat minus the human's):")
         print(phase_tables(metrics, tracks, methods, differences))

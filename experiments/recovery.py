@@ -18,7 +18,8 @@ import pyarrow as pa
 
 from sumo_rail.config import Config
 from sumo_rail.datasets import write_parquet
-from sumo_rail.evaluation.evaluate import DEFAULT_REFERENCE, parse_driver
+from sumo_rail.evaluation.evaluate import DEFAULT_REFERENCE
+from sumo_rail.evaluation.protocol import parse_driver
 from sumo_rail.evaluation.recovery import HORIZON, LOW_STEPS, RECOVERY_COLUMNS, START_LIMIT, recovery_tasks
 from sumo_rail.runners.backends import ProcessPoolBackend
 from sumo_rail.runners.tables import provenance

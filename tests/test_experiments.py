@@ -199,3 +199,50 @@ def test_thinned_tracks_keep_the_figure_s_seat_and_everything_the_table_reads():
     assert thin.loc[~kept, POSITIONS].isna().all().all()
     others = [column for column in tracks.columns if column not in POSITIONS]
     assert thin[others].equals(tracks[others])
+
+
+def test_ego_tracks_keep_the_ego_at_every_sumo_step_as_sumos_getters_read_it(small_config):
+    """`ego_tracks.drive` (a `VehicleCapture` every step) keeps, on one short episode, the rows the validations kept
+    before it: SUMO's getters read after every step of a swapped step function."""
+    import pandas as pd
+    from ego_tracks import TRACK_COLUMNS, drive
+
+    from sumo_rail.sim.actions import Action
+    from sumo_rail.sim.env import HighwayEnv
+    from sumo_rail.sim.sumo_api import EGO_ID
+
+    config = small_config.with_overrides({"env": {"max_episode_s": 6.0}})
+    tracks, _, _ = drive(config, [3], "validation", lambda seed: lambda observation, env: (int(Action.KEEP),
+                                                                                          {"lateral": 0}))
+    env = HighwayEnv(config)
+    try:
+        env.reset(seed=3, options={"pool": "validation"})
+        sim = env.simulation
+        api, start_s, rows = sim._api, sim.time_s, []
+
+        def read(time_s: float) -> dict:
+            vehicle = api.vehicle
+            x, y = vehicle.getPosition(EGO_ID)
+            return {"time_s": round(time_s - start_s, 6), "x_m": x, "y_m": y, "heading_deg": vehicle.getAngle(EGO_ID),
+                    "speed_mps": vehicle.getSpeed(EGO_ID), "acceleration_mps2": vehicle.getAcceleration(EGO_ID),
+                    "edge": vehicle.getRoadID(EGO_ID), "lane": vehicle.getLaneIndex(EGO_ID),
+                    "lane_position_m": vehicle.getLanePosition(EGO_ID), "length_m": vehicle.getLength(EGO_ID),
+                    "width_m": vehicle.getWidth(EGO_ID), "vehicle_class": "passenger"}
+
+        step = sim._calls.step
+
+        def reading_step() -> None:
+            step()
+            if EGO_ID in api.vehicle.getIDList():
+                rows.append(read(api.simulation.getTime()))
+
+        rows.append(read(start_s))
+        sim._calls = sim._calls._replace(step=reading_step)
+        done = False
+        while not done:
+            _, _, terminated, truncated, _ = env.step(int(Action.KEEP))
+            done = terminated or truncated
+    finally:
+        env.close()
+    assert len(rows) > 50
+    pd.testing.assert_frame_equal(tracks[list(TRACK_COLUMNS)], pd.DataFrame(rows), check_exact=True)

@@ -184,11 +184,7 @@ SUMO_API = ("libsumo", "traci", "sumolib")
 """SUMO's Python APIs: spoken to only from sumo_rail/sim/ (docs/design.md, "Where to find it": the SUMO boundary)."""
 SUMO_LOADERS = ("load_api", "load_constants", "decision_calls")
 """What `sumo_rail.sim.sumo_api` hands out of SUMO's API itself (its constants and errors may be imported anywhere)."""
-BOUNDARY_EXEMPT = {
-    "experiments/action_rule_validation.py": "its ego track at every SUMO step moves to experiments/ego_tracks.py (a "
-                                             "branch in progress), then onto the step observer (sim/observers.py)",
-    "experiments/ego_tracks.py": "that ego track, once moved here, until it is on the step observer",
-}
+BOUNDARY_EXEMPT: dict[str, str] = {}
 """Files outside sim/ that still cross the boundary, with why; each that exists must still cross it (the list only
 shrinks)."""
 

@@ -4,7 +4,7 @@ paper's metrics and the on-policy comparison with the reference expert, per deci
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -13,37 +13,17 @@ import pandas as pd
 import pyarrow as pa
 
 from sumo_rail.config import Config
-from sumo_rail.datasets import write_parquet
-from sumo_rail.drivers.expert import DEFAULT_STYLE, STYLES
+from sumo_rail.drivers.expert import DEFAULT_STYLE
 from sumo_rail.evaluation.driving_score import SCORE_COLUMNS, driving_scores, mean_overspeed, reference_distances
 from sumo_rail.evaluation.fidelity import CONFUSION_COLUMNS, DECISION_FIELDS, RATE_COLUMNS, DecisionProbe
-from sumo_rail.evaluation.safety import SAFETY_DECISION_FIELDS, SAFETY_MEASURES, SafetyProbe
-from sumo_rail.runners.backends import RolloutBackend, WorkerContext
-from sumo_rail.runners.experts import check_drives, parse_policy, resolve_expert
-from sumo_rail.runners.rollout import DriverSpec, EpisodeTask, ExpertDriver, KeepDriver, RandomDriver, probes_in_turn
-from sumo_rail.runners.tables import EPISODE_METRICS, METRIC_COLUMNS, metrics_table, provenance
-from sumo_rail.runners.video import FrameRecorder, encode_mp4, video_name
-from sumo_rail.sim.env import HighwayEnv
-
-
-def parse_driver(text: str, config: Config, expert: DriverSpec) -> DriverSpec:
-    """'expert' (the given `expert`), 'expert:STYLE', 'keep', 'random', the path of a saved policy file
-    (`parse_policy`), or 'sampled:PATH', that policy drawing each action from the softmax of its logits."""
-    name, colon, style = text.partition(":")
-    if name == "sampled" and colon:
-        return parse_policy(Path(style), config, sampled=True)
-    if name == "expert":
-        if colon and style not in STYLES:
-            raise ValueError(f"unknown expert style {style!r}; known styles: {', '.join(sorted(STYLES))}")
-        driver = ExpertDriver(style) if colon else expert
-        check_drives(driver, config)
-        return driver
-    if text == "keep":
-        return KeepDriver()
-    if text == "random":
-        return RandomDriver()
-    return parse_policy(Path(text), config)
-
+from sumo_rail.evaluation.protocol import Evaluation, EvaluationTask, RoadStart, Tables, unique_names
+from sumo_rail.evaluation.safety import SAFETY_DECISION_FIELDS, SAFETY_MEASURES, Safety
+from sumo_rail.evaluation.summary import episodes_summary
+from sumo_rail.runners.backends import RolloutBackend
+from sumo_rail.runners.experts import resolve_expert
+from sumo_rail.runners.rollout import DriverSpec, ExpertDriver
+from sumo_rail.runners.tables import EPISODE_METRICS, METRIC_COLUMNS, metrics_table
+from sumo_rail.runners.video import video_name
 
 DEFAULT_REFERENCE = ExpertDriver(DEFAULT_STYLE)
 """The expert drivers are compared with when nothing else is said."""
@@ -64,52 +44,27 @@ DECISION_TYPES: dict[str, pa.DataType] = {**_DECISION_KEYS,
 
 
 @dataclass(frozen=True)
-class EvaluatedEpisode:
-    """One evaluated episode: its metrics row (with the fidelity columns) and its per-decision records."""
+class Agreement:
+    """Observes each decision with the reference expert (any driver): the on-policy comparison (`DecisionProbe`)."""
 
-    metrics: dict[str, Any]
-    decisions: dict[str, np.ndarray]
-    video: bytes | None = None
-    """The episode as an MP4 (bird's-eye frames, one per decision), when it was asked for."""
-
-
-@dataclass(frozen=True)
-class EvaluationTask:
-    """One episode of one driver, watched by the reference expert (any driver)."""
-
-    episode: EpisodeTask
     reference: DriverSpec
-    video: bool = False
-    """Also record the episode as an MP4 of bird's-eye frames."""
 
-    def run(self, context: WorkerContext) -> EvaluatedEpisode:
-        config = self.episode.config
-        probe = DecisionProbe(self.reference.create(config, self.episode.seed), config.actions)
-        safety = SafetyProbe()
-        recorder: FrameRecorder | None = None
-
-        def record(env: HighwayEnv) -> FrameRecorder:
-            nonlocal recorder
-            recorder = FrameRecorder(env)
-            return recorder
-
-        result = self.episode.run(context, probes_in_turn(probe, safety), observer=record if self.video else None)
-        video = None
-        if recorder is not None:
-            video = encode_mp4(recorder.frames, 1.0 / self.episode.config.env.decision_period_s)
-        return EvaluatedEpisode({**result.metrics, "reference": self.reference.name, **probe.episode_columns(),
-                                 **safety.episode_columns()}, probe.decision_columns() | safety.decision_columns(),
-                                video)
+    def create(self, config: Config, seed: int) -> DecisionProbe:
+        return DecisionProbe(self.reference.create(config, seed), config.actions, self.reference.name)
 
 
-@dataclass(frozen=True)
-class Evaluation:
-    """Every driver on every seed: one metrics row per episode, one decisions row per decision."""
+def _metrics_table(metrics: pd.DataFrame) -> pa.Table:
+    extra_types = {name: kind for name, kind in FIDELITY_TYPES.items() if name in metrics.columns}
+    return metrics_table(metrics.to_dict("records"), extra_types)
 
-    metrics: pd.DataFrame
-    decisions: pd.DataFrame
-    videos: dict[str, bytes] = field(default_factory=dict)
-    """MP4 bytes of the recorded episodes by file name (`video_name`: driver, episode, seed)."""
+
+def _decisions_table(decisions: pd.DataFrame) -> pa.Table:
+    return pa.table({name: pa.array(decisions[name].to_numpy(), type=kind) for name, kind in DECISION_TYPES.items()})
+
+
+EPISODES = Tables(EPISODE_METRICS, DECISIONS, ".decisions.parquet", _metrics_table, _decisions_table,
+                  episodes_summary)
+"""What `evaluate` writes: the metrics (with the fidelity columns where they exist) and NAME.decisions.parquet."""
 
 
 def evaluate(drivers: Sequence[DriverSpec], config: Config, seeds: Sequence[int], backend: RolloutBackend,
@@ -122,8 +77,8 @@ def evaluate(drivers: Sequence[DriverSpec], config: Config, seeds: Sequence[int]
     names = unique_names(drivers)
     warm_states = config.scenario.snapshots
     references = list(reference) if isinstance(reference, Sequence) else [reference] * len(drivers)
-    tasks = [EvaluationTask(EpisodeTask(config, driver, seed, pool=pool, warm_state=k % warm_states),
-                            driver_reference, video=k < video_episodes)
+    tasks = [EvaluationTask(RoadStart(config, pool, k % warm_states), driver, seed,
+                            (Agreement(driver_reference), Safety()), video=k < video_episodes)
              for driver, driver_reference in zip(drivers, references, strict=True) for k, seed in enumerate(seeds)]
     results = backend.run(tasks, on_result=on_episode)
     rows, decisions, videos = [], [], {}
@@ -140,7 +95,7 @@ def evaluate(drivers: Sequence[DriverSpec], config: Config, seeds: Sequence[int]
     metrics[list(SCORE_COLUMNS)] = driving_scores(
         metrics, reference_distances(metrics),
         mean_overspeed(decisions_frame, metrics, config.scenario.speed_limit_mps))
-    return Evaluation(metrics, decisions_frame, videos)
+    return Evaluation(metrics, decisions_frame, EPISODES, videos)
 
 
 def policy_source(text: str) -> str:
@@ -158,34 +113,6 @@ def recorded_reference(driver: DriverSpec, source: str, config: Config,
     return resolve_expert(recorded, config, recorded_by=source) if recorded else fallback
 
 
-def unique_names(drivers: Sequence[DriverSpec]) -> list[str]:
-    """Driver names, suffixed with #2, #3... where two drivers share a name."""
-    names: list[str] = []
-    for driver in drivers:
-        name, count = driver.name, 1
-        while name in names:
-            count += 1
-            name = f"{driver.name}#{count}"
-        names.append(name)
-    return names
-
-
 def decisions_path(metrics_path: Path) -> Path:
     """Where the per-decision records of a metrics file go: NAME.decisions.parquet beside NAME.parquet."""
-    return Path(metrics_path).with_suffix(".decisions.parquet")
-
-
-def write_evaluation(evaluation: Evaluation, config: Config, seed: int, out: Path, **extra: Any) -> None:
-    """The metrics table at `out` and the decisions table beside it (`decisions_path`), with provenance, atomically."""
-    write_metrics(evaluation.metrics, config, seed, out, **extra)
-    table = pa.table({name: pa.array(evaluation.decisions[name].to_numpy(), type=kind)
-                      for name, kind in DECISION_TYPES.items()})
-    write_parquet(table, decisions_path(out), provenance(DECISIONS, config, seed, metrics_file=Path(out).name,
-                                                          **extra))
-
-
-def write_metrics(metrics: pd.DataFrame, config: Config, seed: int, out: Path, **extra: Any) -> None:
-    """The metrics table (with the fidelity columns where `metrics` has them) with provenance, atomically."""
-    extra_types = {name: kind for name, kind in FIDELITY_TYPES.items() if name in metrics.columns}
-    write_parquet(metrics_table(metrics.to_dict("records"), extra_types), out,
-                  provenance(EPISODE_METRICS, config, seed, **extra))
+    return EPISODES.beside(metrics_path)

@@ -13,6 +13,7 @@ watches an episode and keeps:
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
@@ -82,8 +83,10 @@ class DecisionProbe:
     compared as the paper action it counts as (`sim.actions.paper_action`): its lane change, else the sign of its
     acceleration, against the expert's."""
 
-    def __init__(self, reference: Driver, actions: ActionConfig | None = None) -> None:
+    def __init__(self, reference: Driver, actions: ActionConfig | None = None, name: str | None = None) -> None:
         self.reference = reference
+        self.name = name
+        """The reference's name, the "reference" column of an evaluation's record (`columns`)."""
         self.actions = actions or ActionConfig()
         self._accelerating = self.actions.interface == "acceleration"
         self.confusion = np.zeros((len(Action), len(Action)), dtype=np.int64)
@@ -115,6 +118,11 @@ class DecisionProbe:
         columns = list(zip(*self._rows, strict=True)) if self._rows else [()] * len(DECISION_FIELDS)
         return {name: np.asarray(values, dtype=kind) for (name, kind), values in
                 zip(DECISION_FIELDS.items(), columns, strict=True)}
+
+    def columns(self, env: object, metrics: Mapping[str, Any]) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+        """An evaluation observer's record (`protocol.EpisodeObserver`): the reference's name, the confusion counts and
+        rates; the DECISION_FIELDS."""
+        return {"reference": self.name, **self.episode_columns()}, self.decision_columns()
 
 
 DECISION_FIELDS: dict[str, type] = {

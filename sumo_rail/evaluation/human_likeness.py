@@ -19,8 +19,9 @@ from scipy.stats import wasserstein_distance
 
 from sumo_rail.evaluation.statistics import CONFIDENCE, RESAMPLES, Interval, interval, mean_sample
 
-HORIZONS_S = (1.0, 5.0, 10.0)
-"""Horizons of the position error [s]."""
+HORIZONS_S = (1.0, 2.0, 5.0, 10.0, 15.0, 20.0)
+"""Horizons of the position error [s] (the field's curve: 1-5 s as Kuefler et al., 10-20 s as PS-GAIL's and the Sim
+Agents' longer rollouts); a horizon beyond an episode's end is NaN there."""
 
 
 def position_at(track: pd.DataFrame, time_s: float) -> np.ndarray:
@@ -40,6 +41,21 @@ def position_errors(driven: pd.DataFrame, reference: pd.DataFrame,
     start = float(reference["time_s"].iloc[0])
     return np.array([float(np.hypot(*(position_at(driven, start + h) - position_at(reference, start + h))))
                      for h in horizons_s])
+
+
+def track_rmse(driven: pd.DataFrame, reference: pd.DataFrame) -> tuple[float, float]:
+    """(position [m], speed [m/s]) root mean square error of `driven` against `reference` over the driven track's
+    instants within the reference's time span (the reference interpolated linearly there); NaNs without any."""
+    times = driven["time_s"].to_numpy(dtype=float)
+    reference_times = reference["time_s"].to_numpy(dtype=float)
+    inside = (times >= reference_times[0]) & (times <= reference_times[-1]) if len(reference_times) else times < 0
+    if not inside.any():
+        return np.nan, np.nan
+    times = times[inside]
+    squared = {name: (driven[name].to_numpy(dtype=float)[inside]
+                      - np.interp(times, reference_times, reference[name].to_numpy(dtype=float))) ** 2
+               for name in ("x_m", "y_m", "speed_mps")}
+    return float(np.sqrt(np.mean(squared["x_m"] + squared["y_m"]))), float(np.sqrt(np.mean(squared["speed_mps"])))
 
 
 def position_error_intervals(pairs: Sequence[tuple[pd.DataFrame, pd.DataFrame]], seed: int = 0,

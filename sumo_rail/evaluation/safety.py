@@ -17,6 +17,8 @@ with a follower in the new lane) and the hardest deceleration of a follower afte
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -125,3 +127,15 @@ class SafetyProbe:
         return {"ttc_s": np.minimum(np.array(self._ttc_s, dtype=np.float64), TTC_CAP_S),
                 "jerk_max_mps3": np.array(self._readings["jerk_max_mps3"], dtype=np.float64),
                 "cut_in_follower_decel_mps2": np.where(np.isinf(follower_accel), np.nan, -follower_accel)}
+
+    def columns(self, env: object, metrics: Mapping[str, Any]) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+        """An evaluation observer's record (`protocol.EpisodeObserver`): the SAFETY_MEASURES, SAFETY_DECISION_FIELDS."""
+        return self.episode_columns(), self.decision_columns()
+
+
+@dataclass(frozen=True)
+class Safety:
+    """Observes each decision's safety readings (`SafetyProbe`): an evaluation's `protocol.ObserverSpec`."""
+
+    def create(self, config: object, seed: int) -> SafetyProbe:
+        return SafetyProbe()

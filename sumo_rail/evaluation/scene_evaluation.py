@@ -1,17 +1,20 @@
 """Drivers in recorded drivers' seats (closed loop): each driver takes each chosen held-out vehicle's place in its
 scene (`sumo_rail.recordings.seat.SceneEnv`) for a fixed horizon, non-reactive or reactive, and is measured against
-that vehicle's recorded track. SUMO's IDM may take the seat with its own parameters (`SumoDriver()`, "sumo-idm") or
-those calibrated on the scene's train split (`calibrated_sumo_driver`, "sumo-idm-calibrated"; its desired speed, read
-from the seated driver's lead-in, is the episode's `desired_mps`).
+that vehicle's recorded track.
 
 A seat is a held-out passenger car (the ego is a car) whose track covers `lead_s` + `horizon_s` [s]; the ego starts
 `lead_s` after the track begins (the car is fully on the road and has moved with its traffic). Per episode: the
-paper's metrics, the safety measures (`safety.SafetyProbe`), the position error against the human's track at 1, 5 and
-10 s (`human_likeness`), collisions and those the ego caused (SUMO names the ego the collider: it ran into the
-other; a replayed vehicle running into the ego from behind is the other's fault), a stop (speed below
-`STOP_MPS`), the progress relative to the human (distances along the road over the same time), lane changes per km
-and the driving score with its parts (`driving_score`; the human's distance is the reference's). Per decision, for the
-distributions: the ego's and, once per seat, the human's time, position, speed, lane and gap to the leader in its lane.
+paper's metrics, the safety measures (`safety.SafetyProbe`), the position error against the human's track at 1, 2,
+5, 10, 15 and 20 s and the RMSE of position and speed over the seat (`human_likeness`), collisions and those the ego
+caused (SUMO names the ego the collider: it ran into the other; a replayed vehicle running into the ego from behind
+is the other's fault), a stop (speed below `STOP_MPS`), the progress relative to the human (distances along the road
+over the same time), lane changes per km and the driving score with its parts (`driving_score`; the human's distance
+is the reference's). Per decision, for the distributions: the ego's and, once per seat, the human's time, position,
+speed, lane and gap to the leader in its lane. The episodes are `protocol.EvaluationTask`s from a
+`RecordedSeatStart`, watched by `Safety` and `SeatTrack`. SUMO's IDM may take the seat with its own parameters
+("sumo-idm") or those calibrated on the scene's train split (`CalibratedIdmDriver`, "sumo-idm-calibrated"; its desired
+speed, read from the seated driver's lead-in, is the episode's `desired_mps`); the reactive vehicles are driven as
+`scene_drivers.reactive_types` says (`evaluate_seats`' `reactive_types`).
 """
 
 from __future__ import annotations
@@ -23,75 +26,34 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
-import pyarrow as pa
 
 from sumo_rail.config import Config
-from sumo_rail.datasets import write_parquet
 from sumo_rail.evaluation.driving_score import SCORE_COLUMNS, driving_scores
-from sumo_rail.evaluation.human_likeness import HORIZONS_S, position_errors
-from sumo_rail.evaluation.safety import SafetyProbe
+from sumo_rail.evaluation.human_likeness import HORIZONS_S, position_errors, track_rmse
+from sumo_rail.evaluation.protocol import NAMED_DRIVERS, Evaluation, EvaluationTask, Tables, plain_table
+from sumo_rail.evaluation.safety import Safety
+from sumo_rail.evaluation.scene_summary import HUMAN, seats_summary
 from sumo_rail.recordings.idm import IdmParameters
 from sumo_rail.recordings.idm_calibration import IdmCalibration, lead_in_desired_speed
 from sumo_rail.recordings.scene import Scene, read_scene
 from sumo_rail.recordings.scene_drivers import SEAT_IDM_TYPE, idm_type, seat_calibration
 from sumo_rail.recordings.scene_observations import SceneFrames
 from sumo_rail.recordings.seat import SceneEnv
-from sumo_rail.recordings.trajectory import TrajectoryPoint, trajectory_frame
+from sumo_rail.recordings.trajectory import TRAJECTORY_COLUMNS, TrajectoryPoint, trajectory_frame
 from sumo_rail.runners.backends import RolloutBackend, WorkerContext
-from sumo_rail.runners.rollout import DriverSpec, KeepDriver, probes_in_turn, run_episode
-from sumo_rail.runners.tables import provenance
-from sumo_rail.sim.controllers import ActionController, Controller, SumoController
+from sumo_rail.runners.rollout import Driver, DriverSpec, KeepDriver, SumoIdmDriver
+from sumo_rail.sim.controllers import SumoController
+from sumo_rail.sim.env import HighwayEnv
 from sumo_rail.sim.replay import NO_TYPES, VehicleTypes
-from sumo_rail.sim.traffic import TrafficView, lane_gaps
+from sumo_rail.sim.traffic import TrafficView, ego_leader_gap_m
 
 STOP_MPS = 0.5
 """A speed below this is a stop [m/s]."""
-GAP_RANGE_M = 100.0
-"""Gaps to a leader beyond this (or none) are no headway sample [m] (the LIDAR's range)."""
-HUMAN = "human"
-"""The driver name of the recorded vehicles' own rows."""
+SEAT_DRIVERS: dict[str, DriverSpec] = {**NAMED_DRIVERS, "sumo-idm": SumoIdmDriver()}
+"""The drivers a --policy word names in a recorded seat: any road's and SUMO's IDM (the seat's "sumo" controller)."""
 MODES = {"non-reactive": False, "reactive": True}
 SCENE_EPISODES, SCENE_TRACKS = "scene_episodes", "scene_tracks"
 """The `kind` in the provenance of evaluate-scene's two tables."""
-ACTIONS = ActionController()
-"""The driver's actions drive the ego (every driver but SUMO's)."""
-
-
-@dataclass(frozen=True)
-class SumoDriver:
-    """SUMO's IDM and LC2013 in the ego's seat (the env core's "sumo" controller, `SumoController`); the actions are
-    not used. Without `idm`, SUMO's IDM parameters and the ego's top set-point as desired speed; with `idm`, each
-    scene's calibrated IDM and the desired speed read from the seated driver's lead-in."""
-
-    name: str = "sumo-idm"
-    idm: tuple[tuple[str, IdmParameters, float], ...] = ()
-    """(scene folder, its calibrated parameters, its train drivers' median desired speed [m/s]) of each scene."""
-
-    def create(self, config: Config, seed: int) -> Callable[[np.ndarray, TrafficView], int]:
-        return KeepDriver().create(config, seed)
-
-    def controller(self, scene: Scene, seat: Seat, step_s: float) -> tuple[SumoController, VehicleTypes]:
-        """The controller of `seat` in `scene` (SUMO's step `step_s` [s]) and the vehicle type it needs defined."""
-        found = {folder: (parameters, typical) for folder, parameters, typical in self.idm}.get(seat.scene)
-        if found is None:
-            return SumoController(), NO_TYPES
-        parameters, typical = found
-        desired = lead_in_desired_speed(scene.tracks, seat.vehicle, seat.start_s, parameters, step_s,
-                                        typical_mps=typical)
-        return SumoController(self.name, SEAT_IDM_TYPE, desired), VehicleTypes({SEAT_IDM_TYPE: idm_type(parameters)})
-
-
-CALIBRATED_IDM = "sumo-idm-calibrated"
-"""The driver name of SUMO's IDM calibrated on each scene's train split."""
-
-
-def calibrated_sumo_driver(scenes: Sequence[Scene], step_s: float, lead_s: float,
-                           horizon_s: float) -> tuple[SumoDriver, dict[str, IdmCalibration]]:
-    """SUMO's IDM calibrated on each scene's train seats (`scene_drivers.seat_calibration`) and the calibrations, by
-    scene folder; ValueError naming the scene where no IDM can be fitted."""
-    calibrations = {str(scene.folder): seat_calibration(scene, step_s, lead_s, horizon_s) for scene in scenes}
-    return SumoDriver(CALIBRATED_IDM, tuple((folder, found.parameters, found.desired_mps)
-                                            for folder, found in calibrations.items())), calibrations
 
 
 @dataclass(frozen=True)
@@ -117,25 +79,125 @@ def choose_seats(scene: Scene, split: str, horizon_s: float, lead_s: float, limi
     return [Seat(str(scene.folder), str(vehicle), float(begin) + lead_s) for vehicle, begin in fit["begin"].items()]
 
 
-class _TrackProbe:
-    """The ego's state at every decision, the first at `start_s` [s], one every `period_s` [s] (a `DecisionProbe`)."""
+def measured_gap(gap_m: float, range_m: float) -> float:
+    """A gap to the leader [m] as a headway sample: NaN beyond `range_m` [m] (the LIDAR's, `lidar.range_m`) or
+    without a leader (inf)."""
+    return gap_m if gap_m <= range_m else np.nan
 
-    def __init__(self, start_s: float, period_s: float) -> None:
-        self.start_s, self.period_s = start_s, period_s
+
+@dataclass(frozen=True)
+class RecordedSeatStart:
+    """An episode in `seat` of its scene, non-reactive or `reactive` (`sumo_rail.recordings.seat.SceneEnv`), SUMO
+    knowing the vehicle types `types` (the reactive vehicles' and a SUMO-driven seat's); `controller`: the seat's own
+    controller, where the seat fixes it (the calibrated IDM's desired speed is the seated driver's)."""
+
+    config: Config
+    seat: Seat
+    reactive: bool
+    types: VehicleTypes = NO_TYPES
+    controller: SumoController | None = None
+
+    def env(self, context: WorkerContext) -> HighwayEnv:
+        types = self.types
+        env = context.custom_env(("scene", self.config, self.seat.scene, self.reactive, types.key),
+                                 lambda: SceneEnv(self.config, Path(self.seat.scene), self.reactive,
+                                                  transport="libsumo", types=types))
+        assert isinstance(env, SceneEnv)
+        return env
+
+    def options(self) -> dict[str, Any]:
+        return {"vehicle": self.seat.vehicle, "start_s": self.seat.start_s,
+                **({} if self.controller is None else {"controller": self.controller})}
+
+
+CALIBRATED_IDM = "sumo-idm-calibrated"
+"""The driver name of SUMO's IDM calibrated on each scene's train split."""
+
+
+@dataclass(frozen=True)
+class CalibratedIdmDriver:
+    """SUMO's IDM and LC2013 in the seat with each scene's calibrated parameters (`idm`: scene folder, parameters, the
+    train drivers' median desired speed [m/s]) and the desired speed read from the seated driver's lead-in; asks for
+    SUMO's controller, which each seat's start gives (`seat_controller`); the actions (keep's) are not used."""
+
+    idm: tuple[tuple[str, IdmParameters, float], ...]
+    name: str = CALIBRATED_IDM
+    controller: str = SumoController.name
+
+    def create(self, config: Config, seed: int) -> Driver:
+        return KeepDriver().create(config, seed)
+
+    def seat_controller(self, scene: Scene, seat: Seat, step_s: float) -> tuple[SumoController, VehicleTypes]:
+        """The controller of `seat` in `scene` (SUMO's step `step_s` [s]) and the vehicle type it needs defined."""
+        parameters, typical = {folder: (found, median) for folder, found, median in self.idm}[seat.scene]
+        desired = lead_in_desired_speed(scene.tracks, seat.vehicle, seat.start_s, parameters, step_s,
+                                        typical_mps=typical)
+        return SumoController(self.name, SEAT_IDM_TYPE, desired), VehicleTypes({SEAT_IDM_TYPE: idm_type(parameters)})
+
+
+def calibrated_idm_driver(scenes: Sequence[Scene], step_s: float, lead_s: float,
+                          horizon_s: float) -> tuple[CalibratedIdmDriver, dict[str, IdmCalibration]]:
+    """SUMO's IDM calibrated on each scene's train seats (`scene_drivers.seat_calibration`) and the calibrations, by
+    scene folder; ValueError naming the scene where no IDM can be fitted."""
+    calibrations = {str(scene.folder): seat_calibration(scene, step_s, lead_s, horizon_s) for scene in scenes}
+    return CalibratedIdmDriver(tuple((folder, found.parameters, found.desired_mps)
+                                     for folder, found in calibrations.items())), calibrations
+
+
+def seat_start(config: Config, seat: Seat, reactive: bool, driver: DriverSpec, scene: Scene,
+               reactive_types: VehicleTypes) -> RecordedSeatStart:
+    """The start of `driver`'s episode in `seat` of `scene`: the reactive vehicles of `reactive_types` (when
+    `reactive`), and a calibrated IDM's seat controller and type."""
+    types, controller = reactive_types if reactive else NO_TYPES, None
+    if isinstance(driver, CalibratedIdmDriver):
+        controller, seat_types = driver.seat_controller(scene, seat, config.scenario.step_length_s)
+        types = VehicleTypes({**types.definitions, **seat_types.definitions}, types.of_vehicle)
+    return RecordedSeatStart(config, seat, reactive, types, controller)
+
+
+@dataclass(frozen=True)
+class SeatTrack:
+    """Observes the ego's track in a seat (`TrackObserver`): an evaluation's `protocol.ObserverSpec`."""
+
+    start_s: float
+
+    def create(self, config: Config, seed: int) -> TrackObserver:
+        return TrackObserver(self.start_s, config.env.decision_period_s, config.lidar.range_m)
+
+
+class TrackObserver:
+    """The ego's state at every decision (`TrajectoryPoint`s, the first at `start_s`, one every `period_s` [s], the gap
+    to its leader measured within `range_m` [m]) and the state it ended in unless it collided; with the collisions it
+    caused and the speed limit."""
+
+    def __init__(self, start_s: float, period_s: float, range_m: float) -> None:
+        self.start_s, self.period_s, self.range_m = start_s, period_s, range_m
         self.points: list[TrajectoryPoint] = []
 
     def __call__(self, observation: np.ndarray, traffic: TrafficView, action: int, info: dict[str, Any]) -> None:
         self.add(traffic)
 
     def add(self, traffic: TrafficView) -> None:
-        ego, gap = traffic.ego, lane_gaps(traffic, traffic.ego.lane).front_gap_m
+        ego, gap = traffic.ego, ego_leader_gap_m(traffic)
         self.points.append(TrajectoryPoint(self.start_s + len(self.points) * self.period_s, ego.front_x, ego.front_y,
                                            ego.speed_mps, ego.lane, ego.lane_position_m,
-                                           gap if gap <= GAP_RANGE_M else np.nan))
+                                           measured_gap(gap, self.range_m)))
+
+    def columns(self, env: HighwayEnv, metrics: Mapping[str, Any]) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+        """The collisions the ego caused (SUMO named it the collider) and the speed limit [m/s]; the track
+        (`TRAJECTORY_COLUMNS`, one entry more than the decisions unless the ego collided)."""
+        assert isinstance(env, SceneEnv)
+        if metrics["termination"] != "collision":
+            self.add(env.traffic)
+        track = trajectory_frame(self.points)
+        return ({"at_fault_collisions": sum(collider == "ego" for collider, _ in env.ego_collisions),
+                 "limit_mps": env.config.scenario.speed_limit_mps},
+                {name: track[name].to_numpy() for name in TRAJECTORY_COLUMNS})
 
 
-def human_track(frames: SceneFrames, seat: Seat, period_s: float, decisions: int) -> pd.DataFrame:
-    """The seat's recorded vehicle at the episode's decision instants (`TRAJECTORY_COLUMNS`)."""
+def human_track(frames: SceneFrames, seat: Seat, period_s: float, decisions: int, range_m: float) -> pd.DataFrame:
+    """The seat's recorded vehicle at the episode's decision instants (`TRAJECTORY_COLUMNS`), its gap to the leader
+    measured within `range_m` [m]."""
     points = []
     for k in range(decisions + 1):
         time_s = seat.start_s + k * period_s
@@ -143,53 +205,22 @@ def human_track(frames: SceneFrames, seat: Seat, period_s: float, decisions: int
         row = snapshot.row(seat.vehicle)
         if row is None:
             break
-        gap = snapshot.leader_gap_m(row)
-        points.append(snapshot.point(row, time_s)._replace(gap_m=gap if gap <= GAP_RANGE_M else np.nan))
+        points.append(snapshot.point(row, time_s)._replace(gap_m=measured_gap(snapshot.leader_gap_m(row), range_m)))
     return trajectory_frame(points)
 
 
-@dataclass(frozen=True)
-class SeatTask:
-    """One driver's episode in one seat, in one mode (the unit of work of `evaluate_seats`)."""
-
-    config: Config
-    seat: Seat
-    driver: DriverSpec
-    reactive: bool
-    seed: int
-    types: VehicleTypes = NO_TYPES
-    """The vehicle types SUMO knows (the reactive vehicles', `scene_drivers.reactive_types`, and the controller's)."""
-    controller: Controller = ACTIONS
-    """Who drives the ego: the driver's actions, or SUMO (`SumoDriver.controller`)."""
-
-    def run(self, context: WorkerContext) -> tuple[dict[str, Any], pd.DataFrame]:
-        types = self.types
-        env = context.custom_env(("scene", self.config, self.seat.scene, self.reactive, types.key),
-                                 lambda: SceneEnv(self.config, Path(self.seat.scene), self.reactive,
-                                                  transport="libsumo", types=types))
-        assert isinstance(env, SceneEnv)
-        track, safety = _TrackProbe(self.seat.start_s, env.config.env.decision_period_s), SafetyProbe()
-        options = {"vehicle": self.seat.vehicle, "start_s": self.seat.start_s, "controller": self.controller}
-        result = run_episode(env, self.driver.create(env.config, self.seed), self.seed, options=options,
-                             probe=probes_in_turn(track, safety))
-        if result.metrics["termination"] != "collision":
-            track.add(env.traffic)
-        driven = trajectory_frame(track.points)
-        return {**result.metrics, **safety.episode_columns(),
-                "at_fault_collisions": sum(collider == "ego" for collider, _ in env.ego_collisions),
-                "desired_mps": getattr(self.controller, "desired_mps", None) or np.nan,
-                "limit_mps": env.config.scenario.speed_limit_mps}, driven
-
-
 def seat_columns(driven: pd.DataFrame, human: pd.DataFrame, simulated_s: float) -> dict[str, float]:
-    """The measures of one episode against the human's track: position errors, progress, stop, lane changes."""
+    """The measures of one episode against the human's track: position errors, their RMSE and the speed's, progress,
+    stop, lane changes."""
     errors = position_errors(driven, human) if len(driven) else np.full(len(HORIZONS_S), np.nan)
+    position_rmse, speed_rmse = track_rmse(driven, human) if len(driven) else (np.nan, np.nan)
     start = human["lane_position_m"].iloc[0]
     human_m = float(np.interp(human["time_s"].iloc[0] + simulated_s, human["time_s"], human["lane_position_m"])
                     - start)
     driven_m = float(driven["lane_position_m"].iloc[-1] - driven["lane_position_m"].iloc[0]) if len(driven) else 0.0
     changes = int(np.abs(np.diff(driven["lane"].to_numpy())).sum()) if len(driven) else 0
     return {**{f"position_error_{h:g}s_m": float(e) for h, e in zip(HORIZONS_S, errors, strict=True)},
+            "position_rmse_m": position_rmse, "speed_rmse_mps": speed_rmse,
             "human_distance_m": human_m, "progress_ratio": driven_m / human_m if human_m > 0 else np.nan,
             "stopped": bool(len(driven) and driven["speed_mps"].min() < STOP_MPS),
             "lane_changes_per_km": changes / (driven_m / 1000.0) if driven_m > 0 else np.nan}
@@ -198,56 +229,48 @@ def seat_columns(driven: pd.DataFrame, human: pd.DataFrame, simulated_s: float) 
 def evaluate_seats(drivers: Sequence[DriverSpec], names: Sequence[str], config: Config, seats: Sequence[Seat],
                    modes: Sequence[str], backend: RolloutBackend, seed: int,
                    on_episode: Callable[[int, Any], None] | None = None,
-                   reactive_types: Mapping[str, VehicleTypes] | None = None) -> tuple[pd.DataFrame, pd.DataFrame]:
-    """Every driver in every seat in every mode: (one metrics row per episode, one track row per decision with the
-    human's rows once per seat and mode under driver `HUMAN`). `reactive_types`: each scene folder's reactive
+                   reactive_types: Mapping[str, VehicleTypes] | None = None) -> Evaluation:
+    """Every driver in every seat in every mode: one metrics row per episode, one track row per decision with the
+    human's rows once per seat and mode under driver `HUMAN`. `reactive_types`: each scene folder's reactive
     vehicles' types (`scene_drivers.reactive_types`; default: SUMO's default Krauss)."""
     scenes = {scene: read_scene(Path(scene)) for scene in {seat.scene: None for seat in seats}}
-    step_s, types = config.scenario.step_length_s, reactive_types or {}
-    labelled = []
-    for mode in modes:
-        for driver, name in zip(drivers, names, strict=True):
-            for index, seat in enumerate(seats):
-                controller, seat_types = (driver.controller(scenes[seat.scene], seat, step_s)
-                                          if isinstance(driver, SumoDriver) else (ACTIONS, NO_TYPES))
-                scene_types = types.get(seat.scene, NO_TYPES) if MODES[mode] else NO_TYPES
-                labelled.append((name, SeatTask(config, seat, driver, MODES[mode], seed + index, VehicleTypes(
-                    {**scene_types.definitions, **seat_types.definitions}, scene_types.of_vehicle), controller)))
-    tasks = [task for _, task in labelled]
-    results = backend.run(tasks, on_result=on_episode)
+    types = reactive_types or {}
+    labelled = [(name, EvaluationTask(seat_start(config, seat, MODES[mode], driver, scenes[seat.scene],
+                                                 types.get(seat.scene, NO_TYPES)), driver, seed + index,
+                                      (Safety(), SeatTrack(seat.start_s))))
+                for mode in modes for driver, name in zip(drivers, names, strict=True)
+                for index, seat in enumerate(seats)]
+    results = backend.run([task for _, task in labelled], on_result=on_episode)
     frames = {scene: SceneFrames(read.tracks, read.meta.frame_rate_hz) for scene, read in scenes.items()}
     period = config.env.decision_period_s
     horizon_decisions = round(config.env.max_episode_s / period)
-    humans = {seat: human_track(frames[seat.scene], seat, period, horizon_decisions) for seat in seats}
+    humans = {seat: human_track(frames[seat.scene], seat, period, horizon_decisions, config.lidar.range_m)
+              for seat in seats}
     rows, tracks = [], []
-    for (name, task), (metrics, driven) in zip(labelled, results, strict=True):
-        mode = "reactive" if task.reactive else "non-reactive"
-        keys = {"policy": name, "mode": mode, "scene": Path(task.seat.scene).name,
-                "vehicle": task.seat.vehicle, "start_s": task.seat.start_s}
-        rows.append({**keys, **metrics, **seat_columns(driven, humans[task.seat], metrics["simulated_s"])})
+    for (name, task), result in zip(labelled, results, strict=True):
+        assert isinstance(task.start, RecordedSeatStart)
+        seat, driven = task.start.seat, pd.DataFrame({name: result.decisions[name] for name in TRAJECTORY_COLUMNS})
+        keys = {"policy": name, "mode": "reactive" if task.start.reactive else "non-reactive",
+                "scene": Path(seat.scene).name, "vehicle": seat.vehicle, "start_s": seat.start_s}
+        desired = np.nan if task.start.controller is None else task.start.controller.desired_mps
+        rows.append({**keys, **result.metrics, **seat_columns(driven, humans[seat], result.metrics["simulated_s"]),
+                     "desired_mps": desired})
         tracks.append(driven.assign(**keys))
     for mode in modes:
         for seat, human in humans.items():
             tracks.append(human.assign(policy=HUMAN, mode=mode, scene=Path(seat.scene).name, vehicle=seat.vehicle,
                                        start_s=seat.start_s))
-    metrics_frame = pd.DataFrame(rows)
+    metrics = pd.DataFrame(rows)
     overspeed = [float(np.clip(driven["speed_mps"] - limit, 0.0, None).mean()) if len(driven) else 0.0
-                 for driven, limit in zip(tracks[:len(rows)], metrics_frame["limit_mps"], strict=True)]
-    metrics_frame[list(SCORE_COLUMNS)] = driving_scores(metrics_frame, metrics_frame["human_distance_m"].to_numpy(),
-                                                        np.array(overspeed))
-    return metrics_frame, pd.concat(tracks, ignore_index=True)
+                 for driven, limit in zip(tracks[:len(rows)], metrics["limit_mps"], strict=True)]
+    metrics[list(SCORE_COLUMNS)] = driving_scores(metrics, metrics["human_distance_m"].to_numpy(), np.array(overspeed))
+    return Evaluation(metrics, pd.concat(tracks, ignore_index=True), SEATS)
 
+
+SEATS = Tables(SCENE_EPISODES, SCENE_TRACKS, ".tracks.parquet", plain_table, plain_table, seats_summary)
+"""What `evaluate_seats` writes: the metrics and NAME.tracks.parquet, each as pandas types it."""
 
 
 def tracks_path(metrics_path: Path) -> Path:
     """Where the per-decision tracks of a metrics file go: NAME.tracks.parquet beside NAME.parquet."""
-    return Path(metrics_path).with_suffix(".tracks.parquet")
-
-
-def write_scene_evaluation(metrics: pd.DataFrame, tracks: pd.DataFrame, config: Config, seed: int, out: Path,
-                           **extra: Any) -> None:
-    """The metrics at `out` and the tracks beside it (`tracks_path`), with provenance, each atomically."""
-    write_parquet(pa.Table.from_pandas(metrics, preserve_index=False), out,
-                  provenance(SCENE_EPISODES, config, seed, **extra))
-    write_parquet(pa.Table.from_pandas(tracks, preserve_index=False), tracks_path(out),
-                  provenance(SCENE_TRACKS, config, seed, metrics_file=Path(out).name, **extra))
+    return SEATS.beside(metrics_path)

@@ -14,26 +14,34 @@ farther one method is from the humans than another, resampling whole seats
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
 
 from sumo_rail.evaluation.human_likeness import HORIZONS_S, paired_wasserstein_interval, wasserstein_interval
-from sumo_rail.evaluation.scene_evaluation import HUMAN
 from sumo_rail.evaluation.statistics import Interval, Sample, seeded_interval
 
+if TYPE_CHECKING:
+    from sumo_rail.config import Config
+    from sumo_rail.evaluation.protocol import Evaluation
+
+HUMAN = "human"
+"""The driver name of the recorded vehicles' own rows (`scene_evaluation.evaluate_seats`)."""
 SEAT_KEYS = ["mode", "scene", "vehicle", "start_s"]
 MEASURES: dict[str, str] = {
     **{f"position error {h:g} s [m]": f"position_error_{h:g}s_m" for h in HORIZONS_S},
+    "position RMSE [m]": "position_rmse_m", "speed RMSE [m/s]": "speed_rmse_mps",
     "collisions": "collided", "at fault": "at_fault", "stops": "stopped", "progress vs human": "progress_ratio",
     "lane changes / km": "lane_changes_per_km", "hard braking / episode": "hard_braking",
     "TTC < 1.5 s share": "ttc_below_1_5s_share", "driving score": "driving_score",
 }
-"""Table heading -> the measure (`samples`)."""
+"""Table heading -> the measure (`samples`); a table leaves out those no episode defines (`defined_measures`: a
+horizon beyond the seats' length, a measure older evaluations did not record)."""
 SHARES = frozenset({"collided", "at_fault", "stopped", "ttc_below_1_5s_share", "driving_score"})
 """The measures that are shares, in [0, 1], whose intervals stay there (`statistics.seeded_interval`'s `share`)."""
-DISTRIBUTIONS = {"speed [m/s]": "speed", "acceleration [m/s^2]": "acceleration", "gap to leader [m]": "gap",
-                 "lane-change gap [m]": "lane_change_gap"}
+DISTRIBUTIONS = {"speed [m/s]": "speed", "acceleration [m/s^2]": "acceleration", "jerk [m/s^3]": "jerk",
+                 "gap to leader [m]": "gap", "time headway [s]": "headway", "lane-change gap [m]": "lane_change_gap"}
 
 
 def samples(episodes: pd.DataFrame, measure: str) -> Sample:
@@ -54,6 +62,16 @@ def samples(episodes: pd.DataFrame, measure: str) -> Sample:
     return np.where(defined, values, 0.0), defined.astype(float)
 
 
+def defined_measures(metrics: pd.DataFrame, measures: Mapping[str, str]) -> dict[str, str]:
+    """The `measures` some episode of `metrics` defines (its column recorded and not NaN everywhere)."""
+    def defined(measure: str) -> bool:
+        try:
+            return bool(samples(metrics, measure)[1].any())
+        except KeyError:
+            return False
+    return {heading: measure for heading, measure in measures.items() if defined(measure)}
+
+
 def _runs(metrics: pd.DataFrame, names: Sequence[str], mode: str) -> list[pd.DataFrame]:
     """Each run's episodes in `mode`, in the same seat order."""
     return [metrics[(metrics["policy"] == name) & (metrics["mode"] == mode)].sort_values(SEAT_KEYS) for name in names]
@@ -62,7 +80,8 @@ def _runs(metrics: pd.DataFrame, names: Sequence[str], mode: str) -> list[pd.Dat
 def track_table(metrics: pd.DataFrame, methods: Mapping[str, Sequence[str]],
                 differences: Sequence[tuple[str, str]] = (), measures: Mapping[str, str] = MEASURES) -> str:
     """The `measures` (heading -> a column of `metrics`, or one `samples` makes) of every method in every mode, then
-    each (method, reference) difference."""
+    each (method, reference) difference; a measure no episode defines is left out."""
+    measures = defined_measures(metrics, measures)
     lines = ["| driver | mode | " + " | ".join(measures) + " |", "|---|---|" + "---|" * len(measures)]
     modes = sorted(metrics["mode"].unique())
     for mode in modes:
@@ -86,13 +105,17 @@ def _starred(difference: Interval) -> str:
 
 
 def distribution_samples(track: pd.DataFrame, period_s: float) -> dict[str, np.ndarray]:
-    """One episode's (or one human's) samples: speeds, accelerations between decisions, gaps to the leader and the
-    gaps at lane changes (the gap in the new lane at the first decision there)."""
+    """One episode's (or one human's) samples: speeds, accelerations and jerks between decisions, gaps to the leader,
+    time headways (the gap over the speed, while moving faster than 1 m/s) and the gaps at lane changes (the gap in
+    the new lane at the first decision there)."""
     speed = track["speed_mps"].to_numpy(float)
     lane = track["lane"].to_numpy()
     gap = track["gap_m"].to_numpy(float)
     changed = np.flatnonzero(np.diff(lane) != 0) + 1
-    return {"speed": speed, "acceleration": np.diff(speed) / period_s, "gap": gap, "lane_change_gap": gap[changed]}
+    acceleration = np.diff(speed) / period_s
+    headway = np.divide(gap, speed, out=np.full_like(gap, np.nan), where=speed > 1.0)
+    return {"speed": speed, "acceleration": acceleration, "jerk": np.diff(acceleration) / period_s, "gap": gap,
+            "headway": headway, "lane_change_gap": gap[changed]}
 
 
 def distribution_table(tracks: pd.DataFrame, methods: Mapping[str, Sequence[str]], period_s: float,
@@ -127,3 +150,12 @@ def _seat_samples(by_episode: Mapping[tuple, dict[str, np.ndarray]], names: Sequ
     episodes = [by_episode[(name, *seat)] for name in names if (name, *seat) in by_episode]
     return {name: np.concatenate([episode[name] for episode in episodes]) if episodes else np.empty(0)
             for name in DISTRIBUTIONS.values()}
+
+
+def seats_summary(evaluation: Evaluation, config: Config, reference: str | None = None,
+                  expert: str | None = None) -> str:
+    """Recorded seats' tables (`protocol.summarise`): every driver's `track_table`, then its `distribution_table`
+    (the seats are their own reference: the humans')."""
+    methods = {name: [name] for name in dict.fromkeys(evaluation.metrics["policy"])}
+    return (f"{track_table(evaluation.metrics, methods)}\n\nWasserstein-1 distance to the humans' distributions:\n\n"
+            f"{distribution_table(evaluation.decisions, methods, config.env.decision_period_s)}")

@@ -4,7 +4,7 @@ of every driver to a reference driver, and the distribution distances to the ref
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import pandas as pd
 
@@ -39,6 +39,10 @@ SHARES = frozenset({*RATES, "failures", *(name for name in SAFETY_MEASURES if na
 """The measures that are shares, in [0, 1] (`statistics.seeded_interval`'s `share`): the agreement rates, the share of
 episodes that failed, the shares of decisions, and the driving score with its parts."""
 DETECTABLE = "*"
+
+if TYPE_CHECKING:
+    from sumo_rail.config import Config
+    from sumo_rail.evaluation.protocol import Evaluation
 
 
 def measure_samples(episodes: pd.DataFrame, route: bool = False) -> dict[str, Sample]:
@@ -163,6 +167,17 @@ def summary_table(metrics: pd.DataFrame, reference: str | None = None, seed: int
                    if (differences["estimate"].notna() & differences["low"].isna()).any() else "")
         text += (f"\n\ndifference to {reference} on the same seeds [95% interval]; {DETECTABLE}: the interval "
                  f"excludes 0 (a detectable difference){too_few}:\n{grid.to_string()}")
+    return text
+
+
+def episodes_summary(evaluation: Evaluation, config: Config, reference: str | None = None,
+                     expert: str | None = None) -> str:
+    """Generated episodes' tables (`protocol.summarise`): `summary_table`, then, with the expert named `expert` among
+    several drivers, every driver's `distance_summary` to it."""
+    text = summary_table(evaluation.metrics, reference, route=config.scenario.has_route_measures)
+    drivers = drivers_of(evaluation.metrics)
+    if expert in drivers and len(drivers) > 1:
+        text += "\n\n" + distance_summary(evaluation.decisions, expert, config.scenario.lanes)
     return text
 
 

@@ -13,6 +13,7 @@ import numpy as np
 import pandas as pd
 
 from sumo_rail.sim.ego_past import EgoPast
+from sumo_rail.sim.traffic import leader_gap_m
 
 
 class TrajectoryPoint(NamedTuple):
@@ -62,11 +63,7 @@ class SceneSnapshot(NamedTuple):
 
     def leader_gap_m(self, row: int) -> float:
         """[m] from entry `row`'s front bumper to the rear of the nearest vehicle ahead in its lane (inf: none)."""
-        same = (self.lanes == self.lanes[row]) & (np.arange(len(self.ids)) != row)
-        position = self.values["lane_position_m"]
-        rears = position[same] - self.values["length_m"][same]
-        ahead = rears[rears > position[row]] - position[row]
-        return float(ahead.min()) if len(ahead) else math.inf
+        return leader_gap_m(self.lanes, self.values["lane_position_m"], self.values["length_m"], row)
 
 
 def track_past(rows: pd.DataFrame) -> EgoPast:

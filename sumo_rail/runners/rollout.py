@@ -18,8 +18,8 @@ from sumo_rail.drivers.policies import Policy
 from sumo_rail.runners.dart import ActionNoise
 from sumo_rail.seeding import driver_generator
 from sumo_rail.sim.actions import Action, action_count, keep_action
+from sumo_rail.sim.controllers import ActionController, SumoController
 from sumo_rail.sim.env import HighwayEnv
-from sumo_rail.sim.observers import Observer
 from sumo_rail.sim.parallel_env import ParallelHighwayEnv
 from sumo_rail.sim.respawning import RespawningEgos
 from sumo_rail.sim.rewards import EpisodeMetrics
@@ -66,6 +66,24 @@ class KeepDriver:
     def create(self, config: Config, seed: int) -> Driver:
         keep = keep_action(config.actions)
         return lambda observation, traffic: keep
+
+
+@dataclass(frozen=True)
+class SumoIdmDriver:
+    """SUMO's IDM and LC2013 in the ego's seat: asks the env core for its "sumo" controller
+    (`sumo_rail.sim.controllers.SumoController`, a recorded scene's); the actions (keep's) are counted, not used."""
+
+    name: str = "sumo-idm"
+    controller: str = SumoController.name
+
+    def create(self, config: Config, seed: int) -> Driver:
+        return KeepDriver().create(config, seed)
+
+
+def controller_of(driver: DriverSpec) -> str:
+    """The env core's controller `driver` asks for (reset option "controller"): its own `controller`, else the env's
+    actions."""
+    return str(getattr(driver, "controller", ActionController.name))
 
 
 @dataclass(frozen=True)
@@ -258,8 +276,8 @@ def _step_columns(observations: list[np.ndarray], rows: list[tuple[Any, ...]]) -
 
 @dataclass(frozen=True)
 class EpisodeTask:
-    """One episode of the single-ego `HighwayEnv`, watched decision by decision (`probe`) and, for videos, frame by
-    frame (`wrap`): what evaluation runs; recordings and learners run `EpisodeGroupTask`s."""
+    """One episode of the single-ego `HighwayEnv` (evaluation runs `sumo_rail.evaluation.protocol.EvaluationTask`s;
+    recordings and learners `EpisodeGroupTask`s)."""
 
     config: Config
     driver: DriverSpec
@@ -270,15 +288,10 @@ class EpisodeTask:
     warm_state: int | None = None
     """Index of the warm state in the pool; None: drawn from the seed."""
 
-    def run(self, context: WorkerContext, probe: DecisionProbe | None = None,
-            observer: Callable[[HighwayEnv], Observer] | None = None) -> EpisodeResult:
-        """Run the episode on the context's env, watched by `observer(env)` when given (e.g. a frame recorder)."""
+    def run(self, context: WorkerContext) -> EpisodeResult:
+        """Run the episode on the context's env."""
         env = context.env(self.config)
         options: dict[str, Any] = {"pool": self.pool}
         if self.warm_state is not None:
             options["warm_state"] = self.warm_state
-        driver = self.driver.create(self.config, self.seed)
-        if observer is None:
-            return run_episode(env, driver, self.seed, self.record, options, probe)
-        with env.watching(observer(env)):
-            return run_episode(env, driver, self.seed, self.record, options, probe)
+        return run_episode(env, self.driver.create(self.config, self.seed), self.seed, self.record, options)

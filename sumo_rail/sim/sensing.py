@@ -96,6 +96,12 @@ class Sensing:
             packer = self._row_packers[count] = struct.Struct(f"={8 * count}d")
         return packer
 
+    def leader_speed_mps(self, vehicle: str, range_m: float) -> float:
+        """The speed [m/s] of SUMO's leader of `vehicle` (its car following's, along its route) within `range_m` [m]
+        ahead; inf when there is none."""
+        found = self._api.vehicle.getLeader(vehicle, range_m)
+        return float(self._api.vehicle.getSpeed(found[0])) if found else math.inf
+
     def vehicle_types(self, ids: tuple[str, ...]) -> list[str]:
         """SUMO vehicle type of each vehicle in `ids` (e.g. "car", "truck"), for drawing."""
         get_type = self._api.vehicle.getTypeID

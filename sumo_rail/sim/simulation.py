@@ -172,7 +172,11 @@ class Simulation(EgoPlacement, Stepping, Sensing, EgoCommands):
 
     def watch(self, observer: Observer) -> None:
         """Call `observer` (every_step) after each SUMO step of the egos' periods, of a seat and of `advance`, until
-        `unwatch`."""
+        `unwatch`. An observer of decisions (not every_step) is refused: the env (`ParallelHighwayEnv.watching`)
+        shows it each reset and decision."""
+        if not observer.every_step:
+            raise ValueError(f"{type(observer).__name__} watches decisions, not SUMO steps: give it to the env's "
+                             "watching, which shows it each reset and decision")
         self._observers.append(observer)
         self._compose_step()
 

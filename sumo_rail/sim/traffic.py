@@ -68,6 +68,23 @@ def lane_gaps(traffic: TrafficView, lane: int) -> LaneGaps:
                     float(alongside_speed))
 
 
+def leader_gap_m(lanes: np.ndarray, fronts_m: np.ndarray, lengths_m: np.ndarray, row: int) -> float:
+    """[m] from vehicle `row`'s front bumper to the rear of the nearest vehicle ahead in its lane (inf: none), given
+    every vehicle's lane, front position along the road [m] and length [m] (a driven ego's or a recorded vehicle's:
+    the seat evaluation's one gap to the leader)."""
+    same = (lanes == lanes[row]) & (np.arange(len(lanes)) != row)
+    rears = fronts_m[same] - lengths_m[same]
+    ahead = rears[rears > fronts_m[row]] - fronts_m[row]
+    return float(ahead.min()) if len(ahead) else NO_VEHICLE
+
+
+def ego_leader_gap_m(traffic: TrafficView) -> float:
+    """`leader_gap_m` of the ego among its neighbours [m] (inf: nobody seen ahead in its lane)."""
+    ego, others = traffic.ego, traffic.neighbours
+    return leader_gap_m(np.append(ego.lane, others.lane), np.append(ego.lane_position_m, others.lane_position_m),
+                        np.append(ego.length_m, others.length_m), 0)
+
+
 @quick_init
 @dataclass(frozen=True)
 class LaneGap:

@@ -26,10 +26,10 @@ def test_evaluation_starts_from_held_out_warm_states_one_per_episode(small_confi
         evaluate([KeepDriver()], small_config, episode_seeds(Purpose.EVALUATE, 0, episodes), backend)
         evaluate([KeepDriver()], small_config, episode_seeds(Purpose.EVALUATE, 0, 1), backend, pool="validation")
         record_demonstrations(small_config, ExpertDriver("normal"), "normal", 0, 1, backend, tmp_path / "demos.parquet")
-    evaluated = [task.episode for task in backend.tasks[:episodes]]
+    evaluated = [task.start for task in backend.tasks[:episodes]]
     assert {task.pool for task in evaluated} == {"test"}
     assert [task.warm_state for task in evaluated] == [0, 1, 2, 0]  # distinct until the pool is exhausted
-    assert backend.tasks[episodes].episode.pool == "validation"
+    assert backend.tasks[episodes].start.pool == "validation"
     recording = backend.tasks[-1]  # a group of egos on a road reset without options: the train pool, drawn
     assert isinstance(recording, EpisodeGroupTask) and not {"pool", "warm_state"} & set(vars(recording))
 

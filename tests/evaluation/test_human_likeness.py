@@ -5,6 +5,7 @@ import pytest
 from sumo_rail.evaluation.human_likeness import (
     position_error_intervals,
     position_errors,
+    track_rmse,
     wasserstein,
     wasserstein_interval,
 )
@@ -12,23 +13,36 @@ from sumo_rail.evaluation.human_likeness import (
 
 def _track(start_s: float, seconds: float, x0: float = 0.0, y0: float = 0.0, speed: float = 30.0) -> pd.DataFrame:
     times = start_s + np.arange(0.0, seconds + 1e-9, 0.04)  # highD's 25 Hz
-    return pd.DataFrame({"time_s": times, "x_m": x0 + speed * (times - start_s), "y_m": np.full(len(times), y0)})
+    return pd.DataFrame({"time_s": times, "x_m": x0 + speed * (times - start_s), "y_m": np.full(len(times), y0),
+                         "speed_mps": np.full(len(times), speed)})
 
 
 def test_a_constant_offset_track_gives_that_offset_at_every_horizon():
-    human = _track(100.0, 12.0)
-    beside = _track(100.0, 12.0, x0=3.0, y0=4.0)  # 3 m ahead, 4 m across: 5 m
-    assert position_errors(beside, human) == pytest.approx([5.0, 5.0, 5.0])
-    assert position_errors(human, human).tolist() == [0.0, 0.0, 0.0]
+    human = _track(100.0, 20.0)
+    beside = _track(100.0, 20.0, x0=3.0, y0=4.0)  # 3 m ahead, 4 m across: 5 m
+    assert position_errors(beside, human) == pytest.approx([5.0] * 6)  # 1, 2, 5, 10, 15 and 20 s
+    assert position_errors(human, human).tolist() == [0.0] * 6
 
 
 def test_a_slower_track_drifts_in_proportion_and_an_ended_track_has_no_error():
     human = _track(0.0, 12.0, speed=30.0)
     slower = _track(0.0, 12.0, speed=28.0)  # 2 m/s slower: 2, 10, 20 m behind
-    assert position_errors(slower, human) == pytest.approx([2.0, 10.0, 20.0])
+    assert position_errors(slower, human, (1.0, 5.0, 10.0)) == pytest.approx([2.0, 10.0, 20.0])
     crashed = _track(0.0, 3.0)
     errors = position_errors(crashed, human)
-    assert errors[0] == 0.0 and np.isnan(errors[1:]).all()
+    assert errors[0] == errors[1] == 0.0 and np.isnan(errors[2:]).all()  # 1 and 2 s reached, 5 s and on not
+    assert np.isnan(position_errors(human, human)[-1])  # a 12 s track has no 15 or 20 s error
+
+
+def test_the_rmse_of_a_drifting_track_is_over_its_instants_within_the_reference():
+    human = _track(0.0, 10.0, speed=30.0)
+    slower = _track(0.0, 12.0, speed=28.0)  # 2 m/s slower: 2t m behind at t
+    times = slower["time_s"].to_numpy()
+    within = times[times <= 10.0 + 1e-9]
+    position, speed = track_rmse(slower, human)
+    assert position == pytest.approx(np.sqrt(np.mean((2 * within) ** 2)))
+    assert speed == pytest.approx(2.0)
+    assert np.isnan(track_rmse(_track(20.0, 5.0), human)).all()  # no instant in common
 
 
 def test_errors_over_episodes_have_their_mean_and_interval():

@@ -81,3 +81,12 @@ def test_the_distributions_differences_are_paired_by_seat():
     table = distribution_table(pd.concat(rows, ignore_index=True), {"near": ["near"], "far": ["far"]}, 0.5,
                                [("far", "near")]).splitlines()
     assert table[-1].startswith("| far - near | reactive | +2.00 [+2.00, +2.00] * | +0.00 [+0.00, +0.00] |")
+
+
+def test_a_measure_no_episode_defines_is_left_out_of_the_table():
+    """15 s seats reach the 15 s horizon but not the 20 s one; an older evaluation recorded no 2 s error."""
+    metrics = seat_rows(np.full(16, 10.0), "bc").assign(position_error_15s_m=15.0, position_error_20s_m=np.nan)
+    heading = track_table(metrics, {"BC": ["bc"]}).splitlines()[0]
+    assert "position error 15 s [m]" in heading and "position error 10 s [m]" in heading
+    assert "position error 20 s [m]" not in heading and "position error 2 s [m]" not in heading
+    assert "speed RMSE" not in heading and "driving score" in heading

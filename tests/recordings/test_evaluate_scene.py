@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import shutil
 import signal
+from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
@@ -20,7 +21,6 @@ from sumo_rail.datasets import file_sha256, read_metadata
 from sumo_rail.evaluation.human_likeness import position_errors
 from sumo_rail.evaluation.scene_evaluation import (
     HUMAN,
-    SumoDriver,
     choose_seats,
     evaluate_seats,
     human_track,
@@ -32,7 +32,7 @@ from sumo_rail.recordings.scene import read_scene
 from sumo_rail.recordings.scene_observations import SceneFrames, scene_road
 from sumo_rail.runners.backends import SerialBackend
 from sumo_rail.runners.factory import make_backend
-from sumo_rail.runners.rollout import KeepDriver
+from sumo_rail.runners.rollout import KeepDriver, SumoIdmDriver
 
 CONFIG = Config.from_dict({"observation": {"lane_block": 1}, "env": {"max_episode_s": 10.0}})
 
@@ -54,9 +54,10 @@ def test_seats_are_held_out_cars_whose_tracks_cover_the_episode(drivers_scene):
 def test_the_humans_track_is_its_recorded_one_with_the_gap_to_its_leader(drivers_scene):
     scene = read_scene(drivers_scene)
     seat = choose_seats(scene, "test", 10.0, 2.0, None, 0)[0]
-    human = human_track(SceneFrames(scene.tracks, scene.meta.frame_rate_hz), seat, 0.5, 20)
+    human = human_track(SceneFrames(scene.tracks, scene.meta.frame_rate_hz), seat, 0.5, 20, 100.0)
     recorded = scene.track(seat.vehicle)
-    assert len(human) == 21 and np.allclose(position_errors(human, recorded[recorded["time_s"] >= seat.start_s]), 0)
+    ahead = recorded[recorded["time_s"] >= seat.start_s]
+    assert len(human) == 21 and np.allclose(position_errors(human, ahead, (1.0, 5.0, 10.0)), 0)
     at = scene.tracks[np.isclose(scene.tracks["time_s"], seat.start_s)]
     me = at[at["vehicle_id"] == seat.vehicle].iloc[0]
     ahead = at[(at["lane"] == me["lane"]) & (at["lane_position_m"] - at["length_m"] > me["lane_position_m"])]
@@ -133,16 +134,54 @@ def test_the_same_seed_gives_the_same_episodes_whatever_the_workers(drivers_scen
     runs = []
     for backend in (SerialBackend(), make_backend("process", 2)):
         with backend:
-            runs.append(evaluate_seats([KeepDriver(), SumoDriver()], ["keep", "sumo-idm"], CONFIG, seats,
+            runs.append(evaluate_seats([KeepDriver(), SumoIdmDriver()], ["keep", "sumo-idm"], CONFIG, seats,
                                        ["non-reactive", "reactive"], backend, seed=7))
-    pd.testing.assert_frame_equal(runs[0][0], runs[1][0])
-    pd.testing.assert_frame_equal(runs[0][1], runs[1][1])
-    metrics, tracks = runs[0]
+    pd.testing.assert_frame_equal(runs[0].metrics, runs[1].metrics)
+    pd.testing.assert_frame_equal(runs[0].decisions, runs[1].decisions)
+    metrics, tracks = runs[0].metrics, runs[0].decisions
     assert len(metrics) == 2 * 3 * 2 and set(tracks["policy"]) == {"keep", "sumo-idm", HUMAN}
     with SerialBackend() as backend:  # the same driver twice keeps both names (evaluate-scene's "keep#2")
-        twice, _ = evaluate_seats([KeepDriver(), KeepDriver()], ["keep", "keep#2"], CONFIG, seats[:1],
-                                  ["reactive"], backend, seed=7)
+        twice = evaluate_seats([KeepDriver(), KeepDriver()], ["keep", "keep#2"], CONFIG, seats[:1],
+                               ["reactive"], backend, seed=7).metrics
     assert twice["policy"].tolist() == ["keep", "keep#2"]
+
+
+@dataclass(frozen=True)
+class _AsksForSumo:
+    """A driver of its own (no class the evaluation knows) that asks the seat for SUMO's controller."""
+
+    name: str = "own-idm"
+    controller: str = "sumo"
+
+    def create(self, config, seed):
+        return KeepDriver().create(config, seed)
+
+
+def test_any_driver_asking_for_sumos_controller_is_driven_by_sumo_in_the_seat(drivers_scene):
+    """sumo-idm is a controller like any other: a driver spec naming "sumo" drives as sumo-idm does, not as keep."""
+    seats = choose_seats(read_scene(drivers_scene), "test", 10.0, 2.0, 2, 0)
+    with SerialBackend() as backend:
+        metrics = evaluate_seats([SumoIdmDriver(), _AsksForSumo(), KeepDriver()], ["sumo-idm", "own-idm", "keep"],
+                                 CONFIG, seats, ["reactive"], backend, seed=7).metrics
+    driving = ["distance_m", "lane_changes", "position_error_10s_m"]
+    by_driver = {name: rows[driving].reset_index(drop=True) for name, rows in metrics.groupby("policy")}
+    pd.testing.assert_frame_equal(by_driver["own-idm"], by_driver["sumo-idm"])
+    assert not by_driver["own-idm"].equals(by_driver["keep"])
+
+
+def test_the_gap_to_the_leader_is_measured_within_the_lidars_range(drivers_scene):
+    """The driven and the human tracks' gaps are one measure, within lidar.range_m (not a fixed 100 m)."""
+    seats = choose_seats(read_scene(drivers_scene), "test", 10.0, 2.0, None, 0)
+    tracks = {}
+    with SerialBackend() as backend:
+        for range_m in (100.0, 40.0):  # the ego sees 20 m farther (CONTEXT_MARGIN_M): gaps of 40 to 60 m too
+            config = CONFIG.with_overrides({"lidar": {"range_m": range_m}})
+            tracks[range_m] = evaluate_seats([KeepDriver()], ["keep"], config, seats, ["non-reactive"], backend,
+                                             seed=0).decisions
+    for driver in ("keep", HUMAN):
+        wide, narrow = (tracks[range_m][tracks[range_m]["policy"] == driver]["gap_m"] for range_m in (100.0, 40.0))
+        assert wide.between(40.0, 60.0, inclusive="neither").any() and narrow.notna().any(), driver
+        assert not (narrow > 40.0).any(), driver
 
 
 def invoke(*args: str):
@@ -209,8 +248,8 @@ def test_a_replayed_follower_running_into_a_braking_ego_is_not_the_egos_fault(dr
     config = CONFIG.with_overrides({"env": {"max_episode_s": 20.0}})
     seats = choose_seats(scene, "test", 20.0, 2.0, None, 0) + choose_seats(scene, "train", 20.0, 2.0, None, 0)
     with SerialBackend() as backend:
-        metrics, _ = evaluate_seats([_Braking()], ["braking"], config, seats, ["non-reactive", "reactive"], backend,
-                                    seed=0)
+        metrics = evaluate_seats([_Braking()], ["braking"], config, seats, ["non-reactive", "reactive"], backend,
+                                 seed=0).metrics
     replayed, reactive = (metrics[metrics["mode"] == mode] for mode in ("non-reactive", "reactive"))
     assert replayed["collisions"].sum() >= 1 and replayed["at_fault_collisions"].sum() == 0
     hit = replayed[replayed["collisions"] > 0]
@@ -248,13 +287,13 @@ def test_running_into_a_vehicle_that_cut_in_is_the_egos_fault(drivers_scene, tmp
     scene = read_scene(cut_in_scene(drivers_scene, tmp_path / "cut_in"))
     seats = choose_seats(scene, "test", 10.0, 0.5, None, 0)
     with SerialBackend() as backend:
-        metrics, _ = evaluate_seats([KeepDriver()], ["keep"], CONFIG, seats, ["non-reactive"], backend, seed=0)
+        metrics = evaluate_seats([KeepDriver()], ["keep"], CONFIG, seats, ["non-reactive"], backend, seed=0).metrics
     row = metrics.iloc[0]
     assert row["termination"] == "collision" and row["at_fault_collisions"] == 1
     assert row["driving_score"] == 0.0 and row["no_collision"] == 0.0
 
 
-@pytest.mark.parametrize(("after", "when"), [("sumo_rail.evaluation.scene_evaluation:write_scene_evaluation", ""),
+@pytest.mark.parametrize(("after", "when"), [("sumo_rail.evaluation.protocol:write_evaluation", ""),
                                              ("sumo_rail.evaluation.scene_summary:track_table",
                                               " after the work was done")])
 def test_a_sigterm_after_both_outputs_were_written_names_them(drivers_scene, tmp_path, after, when):

@@ -14,13 +14,7 @@ from sumo_rail_cli.main import cli
 
 from sumo_rail.config import Config
 from sumo_rail.datasets import read_metadata
-from sumo_rail.evaluation.scene_evaluation import (
-    CALIBRATED_IDM,
-    SumoDriver,
-    calibrated_sumo_driver,
-    choose_seats,
-    evaluate_seats,
-)
+from sumo_rail.evaluation.scene_evaluation import CALIBRATED_IDM, calibrated_idm_driver, choose_seats, evaluate_seats
 from sumo_rail.recordings import sumo_drivers
 from sumo_rail.recordings.idm import SUMO_DEFAULTS, IdmParameters
 from sumo_rail.recordings.idm_calibration import calibrate, lead_in_desired_speed
@@ -28,6 +22,7 @@ from sumo_rail.recordings.scene import read_scene
 from sumo_rail.recordings.scene_drivers import SEAT_IDM_TYPE
 from sumo_rail.recordings.seat import SceneEnv
 from sumo_rail.runners.backends import SerialBackend
+from sumo_rail.runners.rollout import SumoIdmDriver
 from sumo_rail.sim.simulation import EGO_ID
 
 CONFIG = Config.from_dict({"observation": {"lane_block": 1}, "env": {"max_episode_s": 10.0}})
@@ -70,7 +65,7 @@ def test_the_calibration_finds_sumos_idm_drivers_parameters(idm_scene):
 def test_the_calibrated_idm_takes_the_seat(drivers_scene):
     """The seat's SUMO type carries the calibrated parameters and the desired speed read from the lead-in."""
     scene = read_scene(drivers_scene)
-    driver, calibrations = calibrated_sumo_driver([scene], CONFIG.scenario.step_length_s, 2.0, 10.0)
+    driver, calibrations = calibrated_idm_driver([scene], CONFIG.scenario.step_length_s, 2.0, 10.0)
     found = calibrations[str(drivers_scene)]
     parameters = found.parameters
     assert driver.name == CALIBRATED_IDM and driver.idm == ((str(drivers_scene), parameters, found.desired_mps),)
@@ -78,7 +73,7 @@ def test_the_calibrated_idm_takes_the_seat(drivers_scene):
     seat = choose_seats(scene, "test", 10.0, 2.0, 1, 0)[0]
     desired = lead_in_desired_speed(scene.tracks, seat.vehicle, seat.start_s, parameters, 0.1,
                                     typical_mps=found.desired_mps)
-    controller, types = driver.controller(scene, seat, 0.1)
+    controller, types = driver.seat_controller(scene, seat, 0.1)
     assert controller.type_id == SEAT_IDM_TYPE and controller.desired_mps == desired
     env = SceneEnv(CONFIG, scene, types=types)
     try:
@@ -94,11 +89,12 @@ def test_the_calibrated_idm_takes_the_seat(drivers_scene):
 
 def test_the_calibrated_idm_drives_recorded_seats(drivers_scene):
     scene = read_scene(drivers_scene)
-    calibrated, _ = calibrated_sumo_driver([scene], CONFIG.scenario.step_length_s, 2.0, 10.0)
+    calibrated, _ = calibrated_idm_driver([scene], CONFIG.scenario.step_length_s, 2.0, 10.0)
     seats = choose_seats(scene, "test", 10.0, 2.0, 2, 0)
     with SerialBackend() as backend:
-        metrics, tracks = evaluate_seats([SumoDriver(), calibrated], ["sumo-idm", CALIBRATED_IDM], CONFIG, seats,
-                                         ["non-reactive"], backend, seed=3)
+        evaluation = evaluate_seats([SumoIdmDriver(), calibrated], ["sumo-idm", CALIBRATED_IDM], CONFIG, seats,
+                                    ["non-reactive"], backend, seed=3)
+    metrics, tracks = evaluation.metrics, evaluation.decisions
     assert metrics["policy"].tolist() == ["sumo-idm"] * 2 + [CALIBRATED_IDM] * 2
     assert np.isfinite(metrics["position_error_1s_m"]).all() and (metrics["collisions"] == 0).all()
     (_, parameters, typical), = calibrated.idm

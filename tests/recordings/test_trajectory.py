@@ -42,13 +42,14 @@ def test_a_snapshot_gives_each_vehicle_as_a_named_point_with_its_leader_gap():
 
 def test_a_seats_human_track_is_its_points_with_the_gaps_in_range():
     frames = SceneFrames(tracks(), 10.0)
-    human = human_track(frames, Seat("scene", "a", 0.2), 0.3, 5)  # the track ends at 1.0 s: three instants
+    human = human_track(frames, Seat("scene", "a", 0.2), 0.3, 5, 100.0)  # the track ends at 1.0 s: three instants
     assert tuple(human.columns) == TRAJECTORY_COLUMNS == ("time_s", "x_m", "y_m", "speed_mps", "lane",
                                                          "lane_position_m", "gap_m")
     assert human["time_s"].tolist() == pytest.approx([0.2, 0.5, 0.8])
     assert human["gap_m"].tolist() == pytest.approx([15.5] * 3)
-    alone = human_track(frames, Seat("scene", "c", 0.2), 0.3, 5)
+    alone = human_track(frames, Seat("scene", "c", 0.2), 0.3, 5, 100.0)
     assert alone["gap_m"].isna().all()
+    assert human_track(frames, Seat("scene", "a", 0.2), 0.3, 5, 15.0)["gap_m"].isna().all()  # beyond the range
     assert trajectory_frame([]).columns.tolist() == list(TRAJECTORY_COLUMNS)
 
 

@@ -14,9 +14,8 @@ from test_cli import invoke
 from sumo_rail.config import Config
 from sumo_rail.datasets import write_parquet
 from sumo_rail.drivers.policies import Policy, PolicyShape, save_policy
-from sumo_rail.evaluation.evaluate import write_metrics
 from sumo_rail.runners.rollout import ACTION_COLUMNS
-from sumo_rail.runners.tables import METRIC_COLUMNS, provenance
+from sumo_rail.runners.tables import EPISODE_METRICS, METRIC_COLUMNS, metrics_table, provenance
 
 CONFIG = Config()
 OBSERVATIONS = 56
@@ -62,7 +61,7 @@ def make_metrics(path: Path, drivers: tuple[str, ...] = ("expert-normal", "polic
                         "termination": "end_of_road", "terminated": False, "truncated": True,
                         **dict.fromkeys(ACTION_COLUMNS, 40)})
             rows.append(row)
-    write_metrics(pd.DataFrame(rows, columns=list(METRIC_COLUMNS)), CONFIG, 1000, path)
+    write_parquet(metrics_table(rows), path, provenance(EPISODE_METRICS, CONFIG, 1000))
     return path
 
 

@@ -110,3 +110,13 @@ def test_who_drives_is_a_controller_of_a_known_name(env):
         env.reset(seed=0, options={"controller": {"ego_1": "sumo"}})
     with pytest.raises(SimulationError, match="SUMO's own driver needs vehicle type scene_idm"):
         env.reset(seed=0, options={"controller": "sumo"})  # the generated roads' routes do not bring it
+
+
+def test_the_simulation_refuses_an_observer_of_decisions(env):
+    """Simulation.watching shows every SUMO step; an observer of decisions belongs to the env, which says so."""
+    env.reset(seed=1)
+    with pytest.raises(ValueError, match="Moments watches decisions, not SUMO steps"):
+        env.simulation.watch(Moments())
+    with env.simulation.watching(VehicleCapture(every_step=True)) as capture:
+        env.step(int(Action.KEEP))
+    assert capture.moments > 0

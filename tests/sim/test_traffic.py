@@ -5,7 +5,7 @@ from scenes import EGO_FRONT, view
 from sumo_rail.config import Config
 from sumo_rail.sim.env import HighwayEnv
 from sumo_rail.sim.observation import observation_names, observation_space
-from sumo_rail.sim.traffic import lane_block, lane_gaps, within
+from sumo_rail.sim.traffic import ego_leader_gap_m, lane_block, lane_gaps, within
 
 
 def test_lane_block_reads_gaps_and_relative_speeds_per_lane():
@@ -55,6 +55,21 @@ def test_lane_block_is_the_per_lane_computation_bit_for_bit_on_random_scenes():
         expected = lane_block_per_lane(traffic, range_m, v_max_mps)
         actual = lane_block(traffic, range_m, v_max_mps)
         assert actual.dtype == np.float32 and actual.tobytes() == expected.tobytes()
+
+
+def test_the_leader_gap_of_rows_is_the_lane_gaps_front_gap_bit_for_bit():
+    """The seat evaluation's one gap to the leader (`leader_gap_m`, here on the ego and its neighbours) is what
+    `lane_gaps` finds ahead of the ego in its lane, to the bit, with equal positions and lanes nobody is in."""
+    rng = np.random.default_rng(52)
+    for _ in range(2000):
+        count = int(rng.integers(0, 20))
+        positions = EGO_FRONT + rng.uniform(-140.0, 140.0, count)
+        if count and rng.random() < 0.3:
+            positions[rng.integers(0, count, count // 2)] = positions[0]
+        others = [(int(rng.integers(0, 3)), float(position), float(rng.choice([4.5, 7.5, 16.5])), 30.0)
+                  for position in positions]
+        traffic = view(others, lane=int(rng.integers(0, 3)), speed=25.0, lanes=3)
+        assert ego_leader_gap_m(traffic) == lane_gaps(traffic, traffic.ego.lane).front_gap_m
 
 
 def test_within_drops_vehicles_beyond_the_range_only():
