@@ -78,3 +78,19 @@ def test_between_frames_only_a_vehicle_in_the_next_frame_moves_and_its_heading_t
     assert after.row("b") is None and after.values["x_m"][after.row("d")] == pytest.approx(29.0)
     with pytest.raises(ValueError):  # the frames' own values are handed out read-only, never to be changed
         frames.at(0.4).values["length_m"][0] = 1.0
+
+
+@pytest.mark.parametrize("order", ["by vehicle", "by time"])
+def test_a_scenes_track_is_its_vehicles_rows_in_time_order_however_the_table_is_ordered(order, tmp_path):
+    """`Scene.track` finds a vehicle's rows once (a slice where they are together, as the writers write them)."""
+    from sumo_rail.datasets import DatasetError
+    from sumo_rail.recordings.scene import Scene, SceneMeta
+
+    rows = tracks().sort_values(["vehicle_id", "time_s"] if order == "by vehicle" else ["time_s", "vehicle_id"],
+                                ignore_index=True)
+    scene = Scene(tmp_path, SceneMeta("sumo", 10.0, "road.net.xml", 2), rows, pd.DataFrame(), tmp_path / "net")
+    for vehicle in "abc":
+        expected = rows[rows["vehicle_id"] == vehicle].sort_values("time_s")
+        pd.testing.assert_frame_equal(scene.track(vehicle), expected)
+    with pytest.raises(DatasetError, match="has no vehicle 'nobody'"):
+        scene.track("nobody")
