@@ -169,7 +169,7 @@ class ReplayedTraffic:
         """One SUMO step with the recorded vehicles placed for its end; the ego's collisions kept."""
         api = self.api
         end_s = api.simulation.getTime() + self._step_s
-        self._place(end_s, api.vehicle.getPosition(EGO_ID)[0] if self._ego_in else None)
+        self._place(end_s, api.vehicle.getPosition(EGO_ID)[0] if self._ego_in and not self.reactive else None)
         api.simulationStep(end_s)  # to a time: over traci a plain step after a load may keep SUMO's clock
         simulation = api.simulation
         if simulation.getCollidingVehiclesNumber():
@@ -181,7 +181,8 @@ class ReplayedTraffic:
 
     def _place(self, time_s: float, ego_x_m: float | None) -> None:
         """Put the recorded vehicles where the recording has them at `time_s` [s]; called before the SUMO step that
-        ends at `time_s`. `ego_x_m`: the ego's x [m] (None before it is on the road: the recorded x of its seat)."""
+        ends at `time_s`. `ego_x_m`: the ego's x [m] (None before it is on the road: the recorded x of its seat; the
+        reactive mode places every vehicle, wherever the ego is)."""
         if self.reactive:
             self._release()
             begun = np.searchsorted(self._begins_s, [self._last_s, time_s], side="right")
