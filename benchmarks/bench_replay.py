@@ -1,12 +1,16 @@
 """Benchmark: a closed-loop episode in a recorded scene (`evaluate-scene`'s episode: the ego in a recorded car's seat,
 deciding every 0.5 s through the env, the others replayed or reactive) against raw SUMO stepping of the same scene
 (the same vehicles, each departing at its first recorded time, lane, position and speed from a route file, driven
-by SUMO alone: libsumo's `simulationStep` and nothing else). Writes its section of docs/benchmarks.md.
+by SUMO alone: libsumo's `simulationStep` and nothing else, with the SUMO options every episode runs with:
+`simulation.run_options`, whose continuous lane changes, `--lanechange.duration`, cost SUMO about twice the work
+of its default instant ones on the 3 km scene; SUMO's defaults are measured too). Writes its section of
+docs/benchmarks.md.
 
 Two scenes: a synthetic highD-sized recording (bench_import's: 3,000 vehicles over 15 minutes at 25 Hz, about
 1,000,000 rows, imported as a user does) and a record-sumo-drivers scene (5 lanes, 3 km, 600 s, about 150 vehicles
 on the road at once). Speed is simulated seconds per wall-clock second, the ego's episodes' resets (a fresh load of
-the road and the first placement) included.
+the road and the first placement) included; time is the process's CPU time (libsumo runs in it), so that other
+jobs on a shared machine do not count.
 """
 
 from __future__ import annotations
@@ -28,44 +32,58 @@ from sumo_rail.config import Config
 from sumo_rail.datasets import sumo_version
 from sumo_rail.recordings.importing import ImportSettings, check_import, import_recording
 from sumo_rail.recordings.scene import Scene, read_scene
-from sumo_rail.recordings.seat import SceneEnv
+from sumo_rail.recordings.scene_drivers import reactive_types
+from sumo_rail.recordings.scene_observations import scene_road
+from sumo_rail.recordings.seat import SceneEnv, scene_config
 from sumo_rail.recordings.sumo_drivers import SumoDriversSettings, record_sumo_drivers
 from sumo_rail.sim import network
+from sumo_rail.sim.replay import DEFAULT_TYPE, VehicleTypes
+from sumo_rail.sim.simulation import run_options
 
 LEAD_S = 1.0
 """The ego takes a seat this long into the car's track [s]."""
 
 
-def raw_speed(scene: Scene, begin_s: float, seconds: float, step_s: float) -> float:
-    """Simulated seconds per wall second of SUMO alone driving the scene's vehicles from `begin_s` for `seconds`."""
+def raw_speed(scene: Scene, begin_s: float, seconds: float, options: list[str], types: VehicleTypes | None = None,
+              limit_mps: float = 0.0) -> float:
+    """Simulated seconds per CPU second of SUMO alone driving the scene's vehicles from `begin_s` for `seconds`
+    with SUMO options `options` (the step length among them); with `types`, each vehicle of its type and desired speed
+    as in the reactive episodes (the fastest its track records, on a road of limit `limit_mps` [m/s])."""
     routes = ElementTree.Element("routes")
+    for type_id, attributes in (types.definitions if types else {}).items():
+        ElementTree.SubElement(routes, "vType", attrib={**attributes, "id": type_id})
     edge = str(scene.tracks["edge"].iloc[0])
     ElementTree.SubElement(routes, "route", id="r", edges=edge)
     first = scene.tracks.sort_values("time_s").groupby("vehicle_id", sort=False).first().sort_values("time_s")
+    top = scene.tracks.groupby("vehicle_id")["speed_mps"].max()
     for vehicle, row in first.iterrows():
+        driver = {"type": types.of_vehicle.get(str(vehicle), DEFAULT_TYPE),
+                  "speedFactor": f"{top[vehicle] / limit_mps:.4f}"} if types else {}
         ElementTree.SubElement(routes, "vehicle", id=str(vehicle), route="r", depart=f"{row['time_s']:.2f}",
                                departLane=str(int(row["lane"])), departPos=f"{max(row['lane_position_m'], 0):.2f}",
-                               departSpeed=f"{row['speed_mps']:.2f}", length=f"{row['length_m']:.2f}")
+                               departSpeed=f"{row['speed_mps']:.2f}", length=f"{row['length_m']:.2f}", **driver)
     route_file = scene.folder / "bench.rou.xml"
     ElementTree.ElementTree(routes).write(route_file)
-    libsumo.start([network.sumo_binary("sumo"), "-n", str(scene.network), "-r", str(route_file), "--step-length",
-                   str(step_s), "--no-step-log", "true", "--no-warnings", "true"])
+    libsumo.start([network.sumo_binary("sumo"), "-n", str(scene.network), "-r", str(route_file), *options])
+    step_s = float(options[options.index("--step-length") + 1])
     try:
         libsumo.simulationStep(begin_s)
-        start = time.perf_counter()
+        start = time.process_time()
         for _ in range(round(seconds / step_s)):
             libsumo.simulationStep()
-        return seconds / (time.perf_counter() - start)
+        return seconds / (time.process_time() - start)
     finally:
         libsumo.close()
 
 
-def closed_loop_speed(scene: Scene, config: Config, reactive: bool, seats: list[tuple[str, float]]) -> float:
-    """Simulated seconds per wall second of always-keep episodes in `seats` (vehicle, start [s])."""
-    env = SceneEnv(config, scene, reactive=reactive, transport="libsumo")
+def closed_loop_speed(scene: Scene, config: Config, reactive: bool, seats: list[tuple[str, float]],
+                      types: VehicleTypes) -> float:
+    """Simulated seconds per CPU second of always-keep episodes in `seats` (vehicle, start [s]), the reactive
+    vehicles of `types`."""
+    env = SceneEnv(config, scene, reactive=reactive, transport="libsumo", types=types)
     try:
         env.reset(seed=0, options={"vehicle": seats[0][0], "start_s": seats[0][1]})  # SUMO started, not timed
-        simulated, start = 0.0, time.perf_counter()
+        simulated, start = 0.0, time.process_time()
         for vehicle, start_s in seats:
             env.reset(seed=0, options={"vehicle": vehicle, "start_s": start_s})
             done, info = False, {}
@@ -73,7 +91,7 @@ def closed_loop_speed(scene: Scene, config: Config, reactive: bool, seats: list[
                 _, _, terminated, truncated, info = env.step(0)
                 done = terminated or truncated
             simulated += info["time_s"]
-        return simulated / (time.perf_counter() - start)
+        return simulated / (time.process_time() - start)
     finally:
         env.close()
 
@@ -92,39 +110,56 @@ def main() -> None:
     parser.add_argument("--seats", type=int, default=30, help="episodes per scene and mode")
     parser.add_argument("--out", type=Path, default=Path("docs/benchmarks.md"))
     args = parser.parse_args()
-    rows = []
+    rows, drivers = [], []
     with tempfile.TemporaryDirectory() as folder:
         tracks, _ = synthetic_recording(Path(folder), 3000, 334, seed=0)
         highd = ImportSettings("highd", (tracks,), Path(folder) / "highd")
         import_recording(highd, Config(), check_import(highd))
-        drivers = Path(folder) / "drivers"
-        record_sumo_drivers(SumoDriversSettings(out=drivers, seed=1),
+        recorded = Path(folder) / "drivers"
+        record_sumo_drivers(SumoDriversSettings(out=recorded, seed=1),
                             Config.from_dict({"scenario": {"warmup_s": 120.0}}))
         scenes = (("synthetic highD (3 lanes, 420 m, 25 Hz)", highd.out, 3, 10.0),
-                  ("record-sumo-drivers (5 lanes, 3 km, 10 Hz)", drivers, 5, 15.0))
+                  ("record-sumo-drivers (5 lanes, 3 km, 10 Hz)", recorded, 5, 15.0))
         for label, path, lanes, horizon_s in scenes:
             scene = read_scene(path)
             config = Config.from_dict({"scenario": {"lanes": lanes}, "env": {"max_episode_s": horizon_s}})
             seats = seats_of(scene, args.seats, horizon_s)
             window_s = seats[-1][1] - seats[0][1]
-            raw = raw_speed(scene, seats[0][1], window_s, config.scenario.step_length_s)
+            defaults = ["--step-length", repr(config.scenario.step_length_s), "--no-step-log", "true", "--no-warnings",
+                    "true"]
+            road = scene_road(scene.network)
+            types = reactive_types(scene, config.scenario.step_length_s)
+            raw = raw_speed(scene, seats[0][1], window_s, run_options(scene_config(config, scene, road).scenario),
+                            types.types, road.speed_limit_mps)
+            raw_default = raw_speed(scene, seats[0][1], window_s, defaults)
             on_road = scene.tracks.groupby("time_s").size().median()
-            speeds = [closed_loop_speed(scene, config, reactive, seats) for reactive in (False, True)]
-            cells = " | ".join(f"{speed:.0f} ({speed / raw:.2f}x)" for speed in speeds)
-            rows.append(f"| {label} | {horizon_s:g} | {on_road:.0f} | {raw:.0f} | {cells} |")
+            speeds = [closed_loop_speed(scene, config, reactive, seats, types.types) for reactive in (False, True)]
+            drivers.append(f"- {label}: {types.describe().splitlines()[0]}")
+            cells = " | ".join(f"{speed:.0f} ({speed / raw:.2f}x; {speed / raw_default:.2f}x)" for speed in speeds)
+            rows.append(f"| {label} | {horizon_s:g} | {on_road:.0f} | {raw:.0f} | {raw_default:.0f} | {cells} |")
+    load = os.getloadavg()[0]
     section = f"""
 ## Closed-loop episodes in a recorded scene (issue 46)
 
 Command: `make bench` (runs `python benchmarks/bench_replay.py --seats {args.seats}`).
-Machine: {platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}, SUMO {sumo_version()}.
-Simulated seconds per wall-clock second, one process. Raw SUMO: the scene's vehicles departing from a route file at
-their first recorded state, driven by SUMO alone (`simulationStep` only) over the seats' time span. Closed loop:
+Machine: {platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}, SUMO {sumo_version()}; load
+average {load:.1f} at the end of the run (other jobs shared the machine when above 1).
+Simulated seconds per CPU second of the process (libsumo runs in it). Raw SUMO: the scene's vehicles departing from a
+route file at their first recorded state, driven by SUMO alone (`simulationStep` only) over the seats' time span,
+with the SUMO options every episode runs with (`simulation.run_options`: continuous lane changes over
+`scenario.lane_change_duration_s`, collision checks) and the reactive episodes' drivers (each vehicle's vType and
+desired speed, `scene_drivers.reactive_types`); and, for comparison, as this benchmark first defined it: SUMO's
+default options (instant lane changes, about half the work on the 3 km scene) and default type. Closed loop:
 {args.seats} always-keep episodes in seats spread over the recording ({LEAD_S:g} s into each car's track), through
-`SceneEnv` (a decision every 0.5 s: observation, command, safety readings), resets included; non-reactive places
-every recorded vehicle within 500 m of the ego with `moveToXY` at every 0.1 s step, reactive places each once.
+`SceneEnv` (a decision every 0.5 s: observation, command, safety readings), resets (a fresh load of the road, the
+first placement) included; non-reactive places every recorded vehicle within 500 m of the ego with `moveToXY` at
+every 0.1 s step, reactive places each once and drives it as `evaluate-scene` does. Ratios: to raw SUMO with the
+episodes' options and drivers; to raw SUMO as first defined.
 
-| scene | episode [s] | vehicles on the road (median) | raw SUMO [sim s / s] | non-reactive | reactive |
-|---|---|---|---|---|---|
+{chr(10).join(drivers)}
+
+| scene | episode [s] | vehicles (median) | raw SUMO [sim s / CPU s] | raw, defaults | non-reactive | reactive |
+|---|---|---|---|---|---|---|
 {chr(10).join(rows)}
 
 Goal: a closed-loop episode at least 0.8x raw SUMO stepping of the same scene.

@@ -76,6 +76,9 @@ def split_options(command: Callable[..., None]) -> Callable[..., None]:
               help="NGSIM: the site, which fixes the main lanes (US-101: 1-5, I-80: 1-6)  [default: us-101].")
 @click.option("--network", type=click.Path(path_type=Path, dir_okay=False), default=None,
               help="FCD: the SUMO .net.xml (or .net.xml.gz) the recording was driven on (any SUMO network).")
+@click.option("--vtypes", type=click.Path(path_type=Path, dir_okay=False), default=None,
+              help="FCD: the route or additional file defining the recording's vTypes (the reactive replay drives "
+                   "each vehicle by its own; without it, by the IDM calibrated on the train split).")
 @click.option("--vehicles", default=None, metavar="IDS", help="Keep only these source ids: 3,17,20-40.")
 @click.option("--section", default=None, metavar="START:END", help="Keep only the rows whose front x lies in "
               "START..END m (scene coordinates: along the road in the driving direction for highD and NGSIM).")
@@ -84,7 +87,8 @@ def split_options(command: Callable[..., None]) -> Callable[..., None]:
               help="Split by time instead: vehicles entering at or after T s are the test set.")
 @click.option("--overwrite", is_flag=True, help="Replace a scene already in --out.")
 def import_recording_command(config: Config, format_: str, files: tuple[Path, ...], out: Path, direction: str | None,
-                             site: str | None, network: Path | None, vehicles: str | None, section: str | None,
+                             site: str | None, network: Path | None, vtypes: Path | None, vehicles: str | None,
+                             section: str | None,
                              split_seed: int, test_share: float, validation_share: float,
                              hold_out_after_s: float | None, overwrite: bool) -> None:
     """Import a recording of real (or SUMO) driving as a scene: its tracks in the coordinates of a SUMO road.
@@ -104,7 +108,7 @@ def import_recording_command(config: Config, format_: str, files: tuple[Path, ..
             raise click.UsageError(f"--{option} applies to --format {' or '.join(takers)} only")
     settings = ImportSettings(format_, files, out, direction or "lower", site or "us-101", network,
                               _vehicles(vehicles), _section(section), split_seed, test_share, validation_share,
-                              hold_out_after_s, overwrite)
+                              hold_out_after_s, overwrite, vtypes)
     try:
         options = check_import(settings)
         lock_output(out)  # held until the command ends: a second import into --out meanwhile is one sentence

@@ -16,15 +16,18 @@ from .settings import config_options
 
 if TYPE_CHECKING:
     from sumo_rail.config import Config
+    from sumo_rail.recordings.idm_calibration import IdmCalibration
 
 
 @click.command("evaluate-scene")
 @config_options
 @click.argument("scenes", nargs=-1, required=True, type=click.Path(path_type=Path, file_okay=False))
 @click.option("--policy", "policies", multiple=True, default=("expert",), show_default=True,
-              metavar="expert[:STYLE]|keep|sumo-idm|PATH",
+              metavar="expert[:STYLE]|keep|sumo-idm|sumo-idm-calibrated|PATH",
               help="Driver in the seats (repeatable): the rule-based expert, keep (a constant set-point, the human's "
-                   "speed at the start), sumo-idm (SUMO's IDM and LC2013 drive the ego) or a saved policy file.")
+                   "speed at the start), sumo-idm (SUMO's IDM and LC2013 drive the ego), sumo-idm-calibrated (the "
+                   "same with the IDM fitted on each scene's train split and the desired speed read from the seated "
+                   "driver's lead-in) or a saved policy file.")
 @click.option("--split", type=click.Choice(["test", "validation"]), default="test", show_default=True,
               help="Whose seats: the scenes' held-out vehicles of this split (of --seat-class).")
 @click.option("--seat-class", "classes", multiple=True, type=click.Choice(["passenger", "truck"]),
@@ -34,7 +37,8 @@ if TYPE_CHECKING:
 @click.option("--mode", "modes", multiple=True, type=click.Choice(["non-reactive", "reactive"]),
               default=("non-reactive", "reactive"), show_default=True,
               help="non-reactive: the other vehicles replayed as recorded; reactive: driven by SUMO from their "
-                   "recorded state (repeatable).")
+                   "recorded state, each by its recorded vType or else the IDM calibrated on the scene's train split "
+                   "(repeatable).")
 @click.option("--horizon-s", type=FiniteFloat(1, 600), default=15.0, show_default=True,
               help="Length of each episode [s] (the position error is read at 1, 2, 5, 10, 15 and 20 s, within it).")
 @click.option("--lead-s", type=FiniteFloat(0, 600), default=5.0, show_default=True,
@@ -62,8 +66,16 @@ def evaluate_scene_command(config: Config, scenes: tuple[Path, ...], policies: t
     from sumo_rail.datasets import DatasetError
     from sumo_rail.evaluation.evaluate import DEFAULT_REFERENCE
     from sumo_rail.evaluation.protocol import summarise, unique_names, write_evaluation
-    from sumo_rail.evaluation.scene_evaluation import SEAT_DRIVERS, choose_seats, evaluate_seats, tracks_path
+    from sumo_rail.evaluation.scene_evaluation import (
+        CALIBRATED_IDM,
+        SEAT_DRIVERS,
+        calibrated_idm_driver,
+        choose_seats,
+        evaluate_seats,
+        tracks_path,
+    )
     from sumo_rail.recordings.scene import check_scene, read_scene, scene_sources
+    from sumo_rail.recordings.scene_drivers import reactive_types
     from sumo_rail.recordings.tracks import RecordingUsageError
 
     check_output(out, overwrite)
@@ -82,19 +94,34 @@ def evaluate_scene_command(config: Config, scenes: tuple[Path, ...], policies: t
         zone = f" --zone-m {zone_m:g} m past the road's start and before its end" if zone_m > 0 else ""
         raise click.UsageError(f"no {split} vehicle ({', '.join(classes)}) of {', '.join(map(str, scenes))} has a "
                                f"track of --lead-s + --horizon-s = {lead_s + horizon_s:g} s{zone}")
-    drivers = parse_drivers(policies, config, DEFAULT_REFERENCE, SEAT_DRIVERS)
+    step_s, named = config.scenario.step_length_s, dict(SEAT_DRIVERS)
+    calibrations: dict[str, IdmCalibration] = {}
+    if CALIBRATED_IDM in policies:
+        try:
+            named[CALIBRATED_IDM], calibrations = calibrated_idm_driver(read, step_s, lead_s, horizon_s)
+        except ValueError as error:
+            raise click.BadParameter(str(error), param_hint="'--policy'") from error
+    drivers = parse_drivers(policies, config, DEFAULT_REFERENCE, named)
+    reactive = {str(scene.folder): reactive_types(scene, step_s) for scene in read} if "reactive" in modes else {}
     names = unique_names(drivers)
     backend = evaluation_backend(backend_name, workers, address)
     bar = progress(len(drivers) * len(seats) * len(modes), "driving in recorded seats")
     with interruptible_run(bar, backend=backend):
         evaluation = evaluate_seats(drivers, names, config, seats, modes, backend, seed,
-                                    on_episode=lambda index, result: bar.update())
+                                    on_episode=lambda index, result: bar.update(),
+                                    reactive_types={folder: found.types for folder, found in reactive.items()})
         if out is not None:
             write_evaluation(evaluation, config, seed, out,
                              scenes={str(scene.folder.resolve()): scene_sources(scene) for scene in read},
-                             policies=list(policies), split=split, lead_s=lead_s, zone_m=zone_m)
+                             policies=list(policies), split=split, lead_s=lead_s, zone_m=zone_m,
+                             idm_calibration={folder: found.as_dict() for folder, found in calibrations.items()},
+                             reactive_drivers={folder: found.as_dict() for folder, found in reactive.items()})
         complete(bar)
     click.echo(f"{len(seats)} seats of {len(read)} scene(s), {horizon_s:g} s each\n")
+    for folder, found in calibrations.items():
+        click.echo(f"{folder}, {CALIBRATED_IDM}: {found.describe()}\n")
+    for folder, drove in reactive.items():
+        click.echo(f"{folder}, {drove.describe()}\n")
     click.echo(summarise(evaluation, config))
     if out is not None:
         click.echo(f"wrote {out}: {len(evaluation.metrics)} episodes; {tracks_path(out)}: {len(evaluation.decisions)} "

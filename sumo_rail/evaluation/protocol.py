@@ -106,7 +106,7 @@ class EvaluationTask:
         env = self.start.env(context)
         config = env.config
         observers = [spec.create(config, self.seed) for spec in self.observers]
-        options = {**self.start.options(), "controller": controller_of(self.driver)}
+        options = {"controller": controller_of(self.driver), **self.start.options()}  # a start may fix the seat's
         driver = self.driver.create(config, self.seed)
         recorder = FrameRecorder(env) if self.video else None
         with env.watching(recorder) if recorder is not None else contextlib.nullcontext():

@@ -12,7 +12,10 @@ is the other's fault), a stop (speed below `STOP_MPS`), the progress relative to
 over the same time), lane changes per km and the driving score with its parts (`driving_score`; the human's distance
 is the reference's). Per decision, for the distributions: the ego's and, once per seat, the human's time, position,
 speed, lane and gap to the leader in its lane. The episodes are `protocol.EvaluationTask`s from a
-`RecordedSeatStart`, watched by `Safety` and `SeatTrack`.
+`RecordedSeatStart`, watched by `Safety` and `SeatTrack`. SUMO's IDM may take the seat with its own parameters
+("sumo-idm") or those calibrated on the scene's train split (`CalibratedIdmDriver`, "sumo-idm-calibrated"; its desired
+speed, read from the seated driver's lead-in, is the episode's `desired_mps`); the reactive vehicles are driven as
+`scene_drivers.reactive_types` says (`evaluate_seats`' `reactive_types`).
 """
 
 from __future__ import annotations
@@ -31,7 +34,10 @@ from sumo_rail.evaluation.human_likeness import HORIZONS_S, position_errors, tra
 from sumo_rail.evaluation.protocol import NAMED_DRIVERS, Evaluation, EvaluationTask, Tables, plain_table
 from sumo_rail.evaluation.safety import Safety
 from sumo_rail.evaluation.scene_summary import HUMAN, seats_summary
+from sumo_rail.recordings.idm import IdmParameters
+from sumo_rail.recordings.idm_calibration import IdmCalibration, lead_in_desired_speed
 from sumo_rail.recordings.scene import Scene, read_scene
+from sumo_rail.recordings.scene_drivers import SEAT_IDM_TYPE, idm_type, seat_calibration
 from sumo_rail.recordings.scene_observations import (
     SceneFrames,
     SceneRoad,
@@ -43,8 +49,10 @@ from sumo_rail.recordings.scene_observations import (
 from sumo_rail.recordings.seat import SceneEnv
 from sumo_rail.recordings.trajectory import TRAJECTORY_COLUMNS, TrajectoryPoint, trajectory_frame
 from sumo_rail.runners.backends import RolloutBackend, WorkerContext
-from sumo_rail.runners.rollout import DriverSpec, SumoIdmDriver
+from sumo_rail.runners.rollout import Driver, DriverSpec, KeepDriver, SumoIdmDriver
+from sumo_rail.sim.controllers import SumoController
 from sumo_rail.sim.env import HighwayEnv
+from sumo_rail.sim.replay import NO_TYPES, VehicleTypes
 from sumo_rail.sim.traffic import TrafficView, ego_leader_gap_m
 
 STOP_MPS = 0.5
@@ -119,21 +127,72 @@ def measured_gap(gap_m: float, range_m: float) -> float:
 
 @dataclass(frozen=True)
 class RecordedSeatStart:
-    """An episode in `seat` of its scene, non-reactive or `reactive` (`sumo_rail.recordings.seat.SceneEnv`)."""
+    """An episode in `seat` of its scene, non-reactive or `reactive` (`sumo_rail.recordings.seat.SceneEnv`), SUMO
+    knowing the vehicle types `types` (the reactive vehicles' and a SUMO-driven seat's); `controller`: the seat's own
+    controller, where the seat fixes it (the calibrated IDM's desired speed is the seated driver's)."""
 
     config: Config
     seat: Seat
     reactive: bool
+    types: VehicleTypes = NO_TYPES
+    controller: SumoController | None = None
 
     def env(self, context: WorkerContext) -> HighwayEnv:
-        env = context.custom_env(("scene", self.config, self.seat.scene, self.reactive),
+        types = self.types
+        env = context.custom_env(("scene", self.config, self.seat.scene, self.reactive, types.key),
                                  lambda: SceneEnv(self.config, Path(self.seat.scene), self.reactive,
-                                                  transport="libsumo"))
+                                                  transport="libsumo", types=types))
         assert isinstance(env, SceneEnv)
         return env
 
     def options(self) -> dict[str, Any]:
-        return {"vehicle": self.seat.vehicle, "start_s": self.seat.start_s}
+        return {"vehicle": self.seat.vehicle, "start_s": self.seat.start_s,
+                **({} if self.controller is None else {"controller": self.controller})}
+
+
+CALIBRATED_IDM = "sumo-idm-calibrated"
+"""The driver name of SUMO's IDM calibrated on each scene's train split."""
+
+
+@dataclass(frozen=True)
+class CalibratedIdmDriver:
+    """SUMO's IDM and LC2013 in the seat with each scene's calibrated parameters (`idm`: scene folder, parameters, the
+    train drivers' median desired speed [m/s]) and the desired speed read from the seated driver's lead-in; asks for
+    SUMO's controller, which each seat's start gives (`seat_controller`); the actions (keep's) are not used."""
+
+    idm: tuple[tuple[str, IdmParameters, float], ...]
+    name: str = CALIBRATED_IDM
+    controller: str = SumoController.name
+
+    def create(self, config: Config, seed: int) -> Driver:
+        return KeepDriver().create(config, seed)
+
+    def seat_controller(self, scene: Scene, seat: Seat, step_s: float) -> tuple[SumoController, VehicleTypes]:
+        """The controller of `seat` in `scene` (SUMO's step `step_s` [s]) and the vehicle type it needs defined."""
+        parameters, typical = {folder: (found, median) for folder, found, median in self.idm}[seat.scene]
+        desired = lead_in_desired_speed(scene.tracks, seat.vehicle, seat.start_s, parameters, step_s,
+                                        typical_mps=typical)
+        return SumoController(self.name, SEAT_IDM_TYPE, desired), VehicleTypes({SEAT_IDM_TYPE: idm_type(parameters)})
+
+
+def calibrated_idm_driver(scenes: Sequence[Scene], step_s: float, lead_s: float,
+                          horizon_s: float) -> tuple[CalibratedIdmDriver, dict[str, IdmCalibration]]:
+    """SUMO's IDM calibrated on each scene's train seats (`scene_drivers.seat_calibration`) and the calibrations, by
+    scene folder; ValueError naming the scene where no IDM can be fitted."""
+    calibrations = {str(scene.folder): seat_calibration(scene, step_s, lead_s, horizon_s) for scene in scenes}
+    return CalibratedIdmDriver(tuple((folder, found.parameters, found.desired_mps)
+                                     for folder, found in calibrations.items())), calibrations
+
+
+def seat_start(config: Config, seat: Seat, reactive: bool, driver: DriverSpec, scene: Scene,
+               reactive_types: VehicleTypes) -> RecordedSeatStart:
+    """The start of `driver`'s episode in `seat` of `scene`: the reactive vehicles of `reactive_types` (when
+    `reactive`), and a calibrated IDM's seat controller and type."""
+    types, controller = reactive_types if reactive else NO_TYPES, None
+    if isinstance(driver, CalibratedIdmDriver):
+        controller, seat_types = driver.seat_controller(scene, seat, config.scenario.step_length_s)
+        types = VehicleTypes({**types.definitions, **seat_types.definitions}, types.of_vehicle)
+    return RecordedSeatStart(config, seat, reactive, types, controller)
 
 
 @dataclass(frozen=True)
@@ -214,17 +273,21 @@ def seat_columns(driven: pd.DataFrame, human: pd.DataFrame, simulated_s: float) 
 
 def evaluate_seats(drivers: Sequence[DriverSpec], names: Sequence[str], config: Config, seats: Sequence[Seat],
                    modes: Sequence[str], backend: RolloutBackend, seed: int,
-                   on_episode: Callable[[int, Any], None] | None = None) -> Evaluation:
+                   on_episode: Callable[[int, Any], None] | None = None,
+                   reactive_types: Mapping[str, VehicleTypes] | None = None) -> Evaluation:
     """Every driver in every seat in every mode: one metrics row per episode, one track row per decision with the
-    human's rows once per seat and mode under driver `HUMAN`."""
-    labelled = [(name, EvaluationTask(RecordedSeatStart(config, seat, MODES[mode]), driver, seed + index,
+    human's rows once per seat and mode under driver `HUMAN`. `reactive_types`: each scene folder's reactive
+    vehicles' types (`scene_drivers.reactive_types`; default: SUMO's default Krauss)."""
+    scenes = {scene: read_scene(Path(scene)) for scene in {seat.scene: None for seat in seats}}
+    types = reactive_types or {}
+    labelled = [(name, EvaluationTask(seat_start(config, seat, MODES[mode], driver, scenes[seat.scene],
+                                                 types.get(seat.scene, NO_TYPES)), driver, seed + index,
                                       (Safety(), SeatTrack(seat.start_s))))
                 for mode in modes for driver, name in zip(drivers, names, strict=True)
                 for index, seat in enumerate(seats)]
     results = backend.run([task for _, task in labelled], on_result=on_episode)
     frames = {scene: (SceneFrames(read.tracks, read.meta.frame_rate_hz), scene_road(read.network),
-                      scene_routes(read.tracks))
-              for scene, read in ((scene, read_scene(Path(scene))) for scene in {seat.scene for seat in seats})}
+                      scene_routes(read.tracks)) for scene, read in scenes.items()}
     period = config.env.decision_period_s
     horizon_decisions = round(config.env.max_episode_s / period)
     humans = {seat: human_track(scene_frames, seat, period, horizon_decisions, road, routes[seat.vehicle],
@@ -236,8 +299,10 @@ def evaluate_seats(drivers: Sequence[DriverSpec], names: Sequence[str], config: 
         seat, driven = task.start.seat, pd.DataFrame({name: result.decisions[name] for name in TRAJECTORY_COLUMNS})
         keys = {"policy": name, "mode": "reactive" if task.start.reactive else "non-reactive",
                 "scene": Path(seat.scene).name, "vehicle": seat.vehicle, "start_s": seat.start_s}
+        desired = np.nan if task.start.controller is None else task.start.controller.desired_mps
         rows.append({**keys, "entry_distance_m": seat.entry_distance_m, "since_entry_s": seat.since_entry_s,
-                     **result.metrics, **seat_columns(driven, humans[seat], result.metrics["simulated_s"])})
+                     **result.metrics, **seat_columns(driven, humans[seat], result.metrics["simulated_s"]),
+                     "desired_mps": desired})
         tracks.append(driven.assign(**keys))
     for mode in modes:
         for seat, human in humans.items():

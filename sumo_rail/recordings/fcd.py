@@ -101,7 +101,8 @@ def read(files: list[Path], options: ReadOptions) -> Recording:
         "x_m": columns["x"], "y_m": columns["y"], "heading_deg": columns["angle"], "speed_mps": columns["speed"],
         "acceleration_mps2": np.array([np.nan if value is None else value for value in columns["acceleration"]]),
         "edge": edge, "lane": lane.astype(np.int16), "lane_position_m": columns["pos"],
-        "length_m": length.astype(np.float32), "width_m": width.astype(np.float32), "vehicle_class": vehicle_class})
+        "length_m": length.astype(np.float32), "width_m": width.astype(np.float32), "vehicle_class": vehicle_class,
+        "type": columns["type"]})
     check_limits(tracks, files[0], "speed", "length", by_time=True)
     _check_on_lanes(tracks, network, network_path, files[0])
     missing = tracks["acceleration_mps2"].isna().to_numpy()

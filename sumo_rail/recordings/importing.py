@@ -11,6 +11,7 @@ files are written together: on any error none of them is. scene.json pins every 
 from __future__ import annotations
 
 import dataclasses
+import xml.etree.ElementTree as ElementTree
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -48,6 +49,9 @@ class ImportSettings:
     hold_out_after_s: float | None = None
     """Hold out by time: the vehicles that enter at or after this time [s] are the test set."""
     overwrite: bool = False
+    vtypes: Path | None = None
+    """FCD: a route or additional file defining the vTypes the recording's `type` names (the reactive replay drives
+    each vehicle by its own, `scene_drivers`)."""
 
 
 @dataclass(frozen=True)
@@ -71,6 +75,9 @@ def check_import(settings: ImportSettings) -> ReadOptions:
     if (settings.network is not None) != form.network:
         raise RecordingUsageError(f"--network is needed for --format {' and '.join(f.name for f in taking('network'))} "
                                   f"and only for it")
+    if settings.vtypes is not None and not form.network:
+        raise RecordingUsageError(f"--vtypes applies to --format {' or '.join(f.name for f in taking('network'))} "
+                                  f"only (the formats that name SUMO vTypes)")
     options = ReadOptions(settings.direction, settings.site, settings.network)
     for option, values in form.choices.items():
         if getattr(options, option) not in values:
@@ -94,7 +101,24 @@ def check_import(settings: ImportSettings) -> ReadOptions:
             scene_road(settings.network)  # what recorded-demos and evaluate-scene take
         except DatasetError as error:
             raise RecordingUsageError(str(error)) from error
+    if settings.vtypes is not None:
+        vtype_definitions(settings.vtypes)
     return options
+
+
+def vtype_definitions(path: Path) -> dict[str, dict[str, str]]:
+    """The vTypes a SUMO route or additional file `path` defines: id -> attributes (the id left out);
+    RecordingUsageError naming the file when it is not readable XML or defines none."""
+    try:
+        check_file(path, "vType file")
+        root = ElementTree.parse(path).getroot()
+    except (DatasetError, ElementTree.ParseError) as error:
+        raise RecordingUsageError(f"--vtypes {path} is not a readable route or additional file ({error})") from error
+    found = {vtype.get("id", ""): {key: value for key, value in vtype.attrib.items() if key != "id"}
+             for vtype in root.iter("vType")}
+    if not found:
+        raise RecordingUsageError(f"--vtypes {path} defines no vType")
+    return found
 
 
 def selected(recording: Recording, settings: ImportSettings) -> pd.DataFrame:
@@ -111,6 +135,18 @@ def selected(recording: Recording, settings: ImportSettings) -> pd.DataFrame:
     return tracks
 
 
+def recorded_types(tracks: pd.DataFrame, vtypes: Path | None) -> dict[str, dict]:
+    """`SceneMeta`'s vehicle_types (each kept vehicle's vType, where the reader read one: a "type" column) and vtypes
+    (the definitions of those types that the file `vtypes` gives)."""
+    if "type" not in tracks:
+        return {}
+    first = tracks.drop_duplicates("vehicle_id")
+    named = dict(zip(first["vehicle_id"].astype(str), first["type"].astype(str), strict=True))
+    defined = vtype_definitions(vtypes) if vtypes is not None else {}
+    return {"vehicle_types": named,
+            "vtypes": {type_id: defined[type_id] for type_id in sorted(set(named.values())) if type_id in defined}}
+
+
 def import_recording(settings: ImportSettings, config: Config, options: ReadOptions) -> ImportSummary:
     """Read, select, check and write the scene folder `settings.out`; `options` are `check_import`'s."""
     form = FORMATS[settings.format]
@@ -124,8 +160,8 @@ def import_recording(settings: ImportSettings, config: Config, options: ReadOpti
                                  f"{'; '.join(reasons) or 'none in the section or the vehicles chosen'})")
     split = split_table(tracks, settings.split_seed, settings.test_share, settings.validation_share,
                         settings.hold_out_after_s)
-    sources = {str(path.resolve()): file_sha256(path)
-               for path in [*recording.sources, *([settings.network] if settings.network else [])]}
+    sources = {str(path.resolve()): file_sha256(path) for path in [
+        *recording.sources, *(path for path in (settings.network, settings.vtypes) if path is not None)]}
     recorded = {key: (str(value) if isinstance(value, Path) else value)
                 for key, value in dataclasses.asdict(settings).items() if key not in ("out", "overwrite", "files")}
     recorded |= {"decision_period_s": period_s, "vehicles": list(settings.vehicles),
@@ -133,7 +169,7 @@ def import_recording(settings: ImportSettings, config: Config, options: ReadOpti
     meta = SceneMeta(format=settings.format, frame_rate_hz=recording.frame_rate_hz,
                      network=str(settings.network.resolve()) if settings.network else "road.net.xml",
                      lanes=recording.lanes, direction=settings.direction if "direction" in form.choices else "",
-                     sources=sources, dropped=dropped, settings=recorded)
+                     sources=sources, dropped=dropped, settings=recorded, **recorded_types(tracks, settings.vtypes))
     write_scene_folder(settings.out, recording, tracks, split, meta, config)
     counts = pd.Series(split.column("split").to_pylist()).value_counts()
     return ImportSummary(len(split), dropped, recording.notes, {name: int(counts.get(name, 0)) for name in SPLITS})

@@ -14,6 +14,7 @@ was built from the recording. `write_scene_folder` writes them together (`import
 from __future__ import annotations
 
 import dataclasses
+import functools
 import json
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -78,6 +79,11 @@ class SceneMeta:
     """Each dropped track's source id -> the one-phrase reason (too short, gap in frames)."""
     settings: dict[str, object] = field(default_factory=dict)
     """The import's settings (section, vehicles, minimum track length ...), for provenance."""
+    vehicle_types: dict[str, str] = field(default_factory=dict)
+    """Each vehicle's SUMO vType id where the recording names one (FCD's `type`, SUMO's drivers' types)."""
+    vtypes: dict[str, dict[str, str]] = field(default_factory=dict)
+    """The definitions (vType attributes) of those types that the recording came with: the user's route or
+    additional file given to `import-recording` (FCD), or the run's own (SUMO's drivers)."""
 
 
 def track_table(tracks: pd.DataFrame) -> pa.Table:
@@ -153,12 +159,19 @@ class Scene:
     split: pd.DataFrame
     network: Path
 
+    @functools.cached_property
+    def _rows_of(self) -> dict[str, np.ndarray]:
+        """Each vehicle's row positions in `tracks` (found once: a mask over a highD-sized table takes milliseconds
+        per vehicle)."""
+        return {str(vehicle): rows for vehicle, rows in self.tracks.groupby("vehicle_id", sort=False).indices.items()}
+
     def track(self, vehicle: str) -> pd.DataFrame:
         """One vehicle's rows in time order; DatasetError when the scene has no such vehicle."""
-        rows = self.tracks[self.tracks["vehicle_id"] == vehicle]
-        if rows.empty:
+        rows = self._rows_of.get(vehicle)
+        if rows is None:
             raise DatasetError(f"scene {self.folder} has no vehicle {vehicle!r}")
-        return rows.sort_values("time_s")
+        contiguous = rows[-1] - rows[0] + 1 == len(rows)  # as the scene writers write them: a slice, no copy
+        return self.tracks.iloc[slice(rows[0], rows[-1] + 1) if contiguous else rows].sort_values("time_s")
 
 
 def read_scene(folder: Path) -> Scene:

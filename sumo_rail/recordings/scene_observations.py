@@ -166,9 +166,17 @@ class SceneFrames:
                        for name in (*_CONTINUOUS, "heading_deg", "length_m", "width_m")}
         self.values["edge"] = ordered["edge"].to_numpy().astype(str)
         self.lane = ordered["lane"].to_numpy().astype(np.int64)
+        for column in (self.ids, self.frame, self.lane, *self.values.values()):
+            column.flags.writeable = False  # `at` hands out views of the values it does not interpolate
+        self._starts = np.searchsorted(self.frame, np.arange(int(self.frame[-1]) + 2 if len(self.frame) else 1))
+        """Each frame's first row (and the last frame's end): frame f is rows `_starts[f]` to `_starts[f + 1]`."""
+        self._next = _next_rows(pd.factorize(ordered["vehicle_id"])[0], self.frame)
+        """Each row's vehicle's (first) row in the next frame, -1 where it has none."""
 
     def _rows(self, frame: int) -> slice:
-        return slice(int(np.searchsorted(self.frame, frame, "left")), int(np.searchsorted(self.frame, frame, "right")))
+        if not 0 <= frame < len(self._starts) - 1:
+            return slice(0, 0)
+        return slice(int(self._starts[frame]), int(self._starts[frame + 1]))
 
     def at(self, time_s: float) -> SceneSnapshot:
         """The vehicles at `time_s` [s] (ids, values x_m, y_m, speed_mps, lane_position_m, heading_deg, length_m,
@@ -179,17 +187,32 @@ class SceneFrames:
         share = position - low
         rows = self._rows(low)
         ids, lane = self.ids[rows], self.lane[rows]
-        values = {name: column[rows].copy() for name, column in self.values.items()}
-        later = self._rows(low + 1)
-        if share > _FRAME_TOLERANCE and later.stop > later.start:
-            found = np.minimum(np.searchsorted(self.ids[later], ids), later.stop - later.start - 1)
-            present = self.ids[later][found] == ids
-            source = later.start + found[present]
+        values = {name: column[rows] for name, column in self.values.items()}
+        if share > _FRAME_TOLERANCE:
+            following = self._next[rows]
+            present = following >= 0
+            source = following[present]
+            for name in (*_CONTINUOUS, "heading_deg"):
+                values[name] = values[name].copy()
             for name in _CONTINUOUS:
                 values[name][present] += share * (self.values[name][source] - values[name][present])
             turn = (self.values["heading_deg"][source] - values["heading_deg"][present] + 180.0) % 360.0 - 180.0
             values["heading_deg"][present] = (values["heading_deg"][present] + share * turn) % 360.0
         return SceneSnapshot(ids, values, lane)
+
+
+def _next_rows(vehicle: np.ndarray, frame: np.ndarray) -> np.ndarray:
+    """For rows of vehicle codes `vehicle` in frames `frame`: the first row of the same vehicle in the next frame,
+    -1 where it has none."""
+    order = np.lexsort((frame, vehicle))  # stable: the rows of one vehicle in one frame keep their order
+    vehicle, frame = vehicle[order], frame[order]
+    new = np.r_[True, (vehicle[1:] != vehicle[:-1]) | (frame[1:] != frame[:-1])]
+    starts = np.flatnonzero(new)
+    follows = (vehicle[starts[1:]] == vehicle[starts[:-1]]) & (frame[starts[1:]] == frame[starts[:-1]] + 1)
+    following = np.r_[np.where(follows, order[starts[1:]], -1), -1]
+    result = np.empty(len(order), dtype=np.int64)
+    result[order] = following[np.cumsum(new) - 1]
+    return result
 
 
 def observe(config: Config, road: SceneRoad, ids: np.ndarray, values: dict[str, np.ndarray], lane: np.ndarray,

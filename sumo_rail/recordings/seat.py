@@ -30,7 +30,7 @@ from sumo_rail.recordings.trajectory import track_past
 from sumo_rail.sim.ego import CONTEXT_MARGIN_M
 from sumo_rail.sim.ego_past import EgoPast
 from sumo_rail.sim.env import HighwayEnv
-from sumo_rail.sim.replay import ReplayedTraffic
+from sumo_rail.sim.replay import NO_TYPES, ReplayedTraffic, VehicleTypes
 from sumo_rail.sim.simulation import EGO_ID, Simulation
 
 
@@ -45,13 +45,14 @@ def scene_config(config: Config, scene: Scene, road: SceneRoad) -> Config:
 @dataclass(frozen=True)
 class SeatStart:
     """The `StartRule` of a recorded scene (`scene`, its `frames` and `road`): the simulation's traffic is the
-    scene's vehicles (`ReplayedTraffic`, `reactive` or not), every reset seats the ego in a recorded vehicle (reset
-    options "vehicle" and "start_s"; see `SceneEnv`)."""
+    scene's vehicles (`ReplayedTraffic`, `reactive` or not, SUMO's vehicle types `types`), every reset seats the ego
+    in a recorded vehicle (reset options "vehicle" and "start_s"; see `SceneEnv`)."""
 
     scene: Scene
     frames: SceneFrames
     road: SceneRoad
     reactive: bool
+    types: VehicleTypes = NO_TYPES
     options: tuple[str, ...] = ("vehicle", "start_s")
 
     def simulation(self, config: Config, transport: str, gui: bool, gui_delay_ms: float) -> Simulation:
@@ -60,7 +61,8 @@ class SeatStart:
         traffic = ReplayedTraffic(self.frames.at, tracks.groupby("vehicle_id")["time_s"].min().sort_values().to_numpy(),
                                   dict(zip(top.index.astype(str), top.to_numpy(), strict=True)),
                                   scene_routes(tracks), self.reactive,
-                                  tracks.groupby("vehicle_id")["vehicle_class"].first().astype(str).to_dict())
+                                  tracks.groupby("vehicle_id")["vehicle_class"].first().astype(str).to_dict(),
+                                  self.types)
         return Simulation(config.scenario, config.lidar.range_m + CONTEXT_MARGIN_M, gui=gui, transport=transport,
                           gui_delay_ms=gui_delay_ms, traffic=traffic)
 
@@ -72,7 +74,8 @@ class SeatStart:
         assert tuple(agents) == (EGO_ID,)
         vehicle, step_s = str(options["vehicle"]), config.scenario.step_length_s
         # SUMO's run begins one step before the seat: a track from the scene's first instant is taken one step in
-        start_s = float(options.get("start_s", max(self.scene.track(vehicle)["time_s"].iloc[0], step_s)))
+        start_s = float(options["start_s"] if "start_s" in options
+                        else max(self.scene.track(vehicle)["time_s"].iloc[0], step_s))
         if start_s < step_s:
             raise ValueError(f"reset option 'start_s' must be at least one SUMO step ({step_s:g} s) into the scene, "
                              f"got {start_s:g}")
@@ -97,16 +100,19 @@ class SceneEnv(HighwayEnv):
     driven by SUMO from their recorded state (True). `reset(options={"vehicle": ID, "start_s": T})` seats the ego
     in vehicle ID at T [s] (default: where its track begins, or one SUMO step into the scene for a vehicle there
     from its first instant); `"controller": "sumo"` lets SUMO drive it (the actions passed to `step` are then
-    checked, not used)."""
+    checked, not used). `types`: the vehicle types SUMO knows besides its default, with each reactive vehicle's
+    (`sumo_rail.recordings.scene_drivers.reactive_types`; default: none, every reactive vehicle SUMO's default
+    Krauss)."""
 
     def __init__(self, config: Config | Mapping[str, Any] | str | Path | None, scene: Path | Scene,
-                 reactive: bool = False, render_mode: str | None = None, transport: str = "auto") -> None:
+                 reactive: bool = False, render_mode: str | None = None, transport: str = "auto",
+                 types: VehicleTypes = NO_TYPES) -> None:
         self.scene = scene if isinstance(scene, Scene) else read_scene(Path(scene))
         self.frames = SceneFrames(self.scene.tracks, self.scene.meta.frame_rate_hz)
         self.road = scene_road(self.scene.network)
         self.reactive = reactive
         super().__init__(scene_config(Config.coerce(config), self.scene, self.road), render_mode=render_mode,
-                         transport=transport, start=SeatStart(self.scene, self.frames, self.road, reactive))
+                         transport=transport, start=SeatStart(self.scene, self.frames, self.road, reactive, types))
 
     @property
     def ego_collisions(self) -> list[tuple[str, str]]:

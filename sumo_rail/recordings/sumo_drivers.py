@@ -95,13 +95,19 @@ class SumoDriversSummary:
     """Vehicles of each of `DRIVER_TYPES` among the kept tracks."""
 
 
+def driver_type(type_id: str) -> dict[str, str]:
+    """The vType attributes of `DRIVER_TYPES[type_id]` as the run defines it (its share of arrivals left out)."""
+    return {"laneChangeModel": "LC2013", "actionStepLength": "0.5",
+            **{key: value for key, value in DRIVER_TYPES[type_id].items() if key != "probability"}}
+
+
 def routes_xml(flow_veh_per_h: float, entries: dict[str, float] | None = None, to_edge: str = "") -> bytes:
     """The routes file: `DRIVER_TYPES` as one distribution, flowing with Poisson arrivals along the built road, or
     (`entries`: edge -> veh/h) from each entry edge to `to_edge` on a user's network."""
     root = ElementTree.Element("routes")
     for type_id, attributes in DRIVER_TYPES.items():
-        ElementTree.SubElement(root, "vType", id=type_id, laneChangeModel="LC2013", actionStepLength="0.5",
-                               attrib=attributes)
+        ElementTree.SubElement(root, "vType", id=type_id,
+                               attrib={**driver_type(type_id), "probability": attributes["probability"]})
     ElementTree.SubElement(root, "vTypeDistribution", id="drivers", vTypes=" ".join(DRIVER_TYPES))
     if entries is None:
         ElementTree.SubElement(root, "route", id="road_route", edges=ROAD_EDGE)
@@ -205,10 +211,13 @@ def record_sumo_drivers(settings: SumoDriversSettings, config: Config) -> SumoDr
                  "road_speed_mps": ROAD_SPEED_MPS, "driver_types": DRIVER_TYPES}
     if on_network:
         recorded |= {"road_speed_mps": scene_road(user_net).speed_limit_mps, "route": scenario.route}
+    kinds = tracks.drop_duplicates("vehicle_id")
     meta = SceneMeta(format=SUMO_DRIVERS.name, frame_rate_hz=rate_hz,
                      network=str(user_net) if on_network else "road.net.xml", lanes=scenario.lanes,
                      sources={str(user_net): file_sha256(user_net)} if on_network else {}, dropped=dropped,
-                     settings=recorded)
+                     settings=recorded,
+                     vehicle_types=dict(zip(kinds["vehicle_id"].astype(str), kinds["type"].astype(str), strict=True)),
+                     vtypes={type_id: driver_type(type_id) for type_id in DRIVER_TYPES})
     recording = Recording(tracks, rate_hz, scenario.lanes, tuple(widths), scenario.length_m)
     write_scene_folder(settings.out, recording, tracks, split, meta, config)
     counts = pd.Series(split.column("split").to_pylist()).value_counts()

@@ -6,8 +6,8 @@
   car following sees the recorded speeds.
 - reactive: each vehicle is placed once at its recorded state (position, lane, speed) where its track begins (or at
   the ego's start, when it is on the road then) and from the next step on driven by SUMO's car following and lane
-  changing (SUMO's default Krauss type, its desired speed the fastest speed its track records), so it reacts to the
-  ego; it leaves at the end of the road.
+  changing (its type of `VehicleTypes`, else SUMO's default Krauss type; its desired speed the fastest speed its
+  track records), so it reacts to the ego; it leaves at the end of the road.
 
 An episode seats the ego (`EGO_ID`) in one recorded vehicle (`ReplayedTraffic.seat`), which is then never placed.
 The scene comes in as plain data (`FramesAt`: every vehicle's ids, values and lanes at an instant, interpolated
@@ -22,8 +22,11 @@ observations, and a SUMO-driven seat the same speeds, with every vehicle in SUMO
 from __future__ import annotations
 
 import dataclasses
+import hashlib
+import json
 import xml.etree.ElementTree as ElementTree
 from collections.abc import Callable, Collection, Mapping
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -49,10 +52,34 @@ REPLAY_RADIUS_M = 500.0
 REPLAY_ROUTE = "scene_replay"
 """The first of the routes recorded vehicles are added on (each vehicle's recorded edges from where it enters: one
 route for every distinct sequence; the others are this id and a number)."""
+_PLACED = ("x_m", "y_m", "heading_deg", "speed_mps", "length_m", "width_m", "edge")
+"""The values of a scene's vehicles a placement reads, in the order `_place` unpacks them."""
 FramesAt = Callable[[float], tuple[np.ndarray, dict[str, np.ndarray], np.ndarray]]
 """The scene at an instant [s]: the ids of the vehicles on the road, their values ("x_m", "y_m", "heading_deg",
 "speed_mps", "lane_position_m", "length_m", "width_m"; a scene's track columns; "edge", the edge ids) and lanes (SUMO's
 index on that edge), one entry each."""
+DEFAULT_TYPE = "DEFAULT_VEHTYPE"
+"""SUMO's default vehicle type (Krauss, LC2013): a vehicle's without one of `VehicleTypes`."""
+
+
+@dataclass(frozen=True)
+class VehicleTypes:
+    """SUMO vehicle types of a scene's simulation: `definitions` (type id -> vType attributes, written into its routes
+    file) and `of_vehicle` (recorded vehicle -> type id: how it drives in the reactive mode; SUMO's default type for
+    the others and for every replayed vehicle of the non-reactive mode, which SUMO does not drive)."""
+
+    definitions: Mapping[str, Mapping[str, str]] = field(default_factory=dict)
+    of_vehicle: Mapping[str, str] = field(default_factory=dict)
+
+    @property
+    def key(self) -> str:
+        """A digest of the types (equal types, equal keys): what tells simulations of other types apart."""
+        content = json.dumps([self.definitions, self.of_vehicle], sort_keys=True).encode()
+        return hashlib.sha256(content).hexdigest()[:16]
+
+
+NO_TYPES = VehicleTypes()
+"""No vehicle type but SUMO's own (every reactive vehicle SUMO's default Krauss)."""
 
 
 class ReplayedTraffic:
@@ -61,11 +88,11 @@ class ReplayedTraffic:
     vehicle's fastest recorded speed [m/s] (its desired speed in the reactive mode), `routes` each vehicle's recorded
     edges in order (junctions left out: the route it is added on, and the seated ego's from its edge on),
     `classes` each vehicle's SUMO vehicle class (the seated ego's; none given: a passenger car's); `reactive`
-    chooses the mode."""
+    chooses the mode, `types` the vehicle types SUMO knows (the reactive vehicles' and a SUMO-driven ego's)."""
 
     def __init__(self, frames_at: FramesAt, begins_s: np.ndarray, top_speeds_mps: Mapping[str, float],
-                 routes: Mapping[str, tuple[str, ...]], reactive: bool, classes: Mapping[str, str] | None = None
-                 ) -> None:
+                 routes: Mapping[str, tuple[str, ...]], reactive: bool, classes: Mapping[str, str] | None = None,
+                 types: VehicleTypes = NO_TYPES) -> None:
         self.frames_at = frames_at
         self.routes = routes
         self.classes = classes or {}
@@ -74,6 +101,7 @@ class ReplayedTraffic:
         self._route_maps: dict[tuple[str, ...], RouteMap] = {}
         """The seated ego's route frame by its route (`seat`)."""
         self.reactive = reactive
+        self.types = types
         self._begins_s = np.asarray(begins_s)
         self._top_speeds_mps = top_speeds_mps
         self._speed_factor: dict[str, float] = {}
@@ -95,8 +123,9 @@ class ReplayedTraffic:
         self._last_s = -np.inf
 
     def network(self, scenario: ScenarioConfig) -> BuiltNetwork:
-        """The scene's road with its routes file less the generated flows, with the replay's route and the type of
-        SUMO's own driver in the seat (`SUMO_DRIVER_TYPE`)."""
+        """The scene's road with its routes file less the generated flows, with the replay's route, the type of
+        SUMO's own driver in the seat (`SUMO_DRIVER_TYPE`) and `types`' definitions (the file named by its content:
+        simulations of other types share the road's folder)."""
         built = network.build(scenario)
         root = ElementTree.parse(built.routes_file).getroot()
         for flow in root.findall("flow"):
@@ -104,8 +133,11 @@ class ReplayedTraffic:
         for route, route_id in self._route_ids.items():
             ElementTree.SubElement(root, "route", id=route_id, edges=" ".join(route))
         ElementTree.SubElement(root, "vType", id=SUMO_DRIVER_TYPE, carFollowModel="IDM", laneChangeModel="LC2013")
-        routes = built.directory / "scene.rou.xml"
-        write_bytes_atomically(routes, ElementTree.tostring(root))
+        for type_id, attributes in self.types.definitions.items():
+            ElementTree.SubElement(root, "vType", attrib={**attributes, "id": type_id})
+        content = ElementTree.tostring(root)
+        routes = built.directory / f"scene.{hashlib.sha256(content).hexdigest()[:16]}.rou.xml"
+        write_bytes_atomically(routes, content)
         return dataclasses.replace(built, routes_file=routes)
 
     def connect(self, api: Any, step_s: float, speed_limit_mps: float) -> Step:
@@ -177,7 +209,7 @@ class ReplayedTraffic:
         """One SUMO step with the recorded vehicles placed for its end; the ego's collisions kept."""
         api = self.api
         end_s = api.simulation.getTime() + self._step_s
-        self._place(end_s, api.vehicle.getPosition(EGO_ID)[0] if self._ego_in else None)
+        self._place(end_s, api.vehicle.getPosition(EGO_ID)[0] if self._ego_in and not self.reactive else None)
         api.simulationStep(end_s)  # to a time: over traci a plain step after a load may keep SUMO's clock
         simulation = api.simulation
         if simulation.getCollidingVehiclesNumber():
@@ -189,7 +221,8 @@ class ReplayedTraffic:
 
     def _place(self, time_s: float, ego_x_m: float | None) -> None:
         """Put the recorded vehicles where the recording has them at `time_s` [s]; called before the SUMO step that
-        ends at `time_s`. `ego_x_m`: the ego's x [m] (None before it is on the road: the recorded x of its seat)."""
+        ends at `time_s`. `ego_x_m`: the ego's x [m] (None before it is on the road: the recorded x of its seat; the
+        reactive mode places every vehicle, wherever the ego is)."""
         if self.reactive:
             self._release()
             begun = np.searchsorted(self._begins_s, [self._last_s, time_s], side="right")
@@ -197,38 +230,42 @@ class ReplayedTraffic:
             if not first and begun[0] == begun[1]:
                 return  # no track begins in this step: nothing to place
         ids, values, lanes = self.frames_at(time_s)
+        x = values["x_m"]
         if not self.reactive:
             if ego_x_m is None:
                 seat = np.flatnonzero(ids == self._skip)
-                ego_x_m = float(values["x_m"][seat[0]]) if len(seat) else None
+                ego_x_m = float(x[seat[0]]) if len(seat) else None
             if ego_x_m is not None:
-                near = np.abs(values["x_m"] - ego_x_m) <= REPLAY_RADIUS_M
-                ids, lanes, values = ids[near], lanes[near], {name: column[near] for name, column in values.items()}
+                near = np.flatnonzero(np.abs(x - ego_x_m) <= REPLAY_RADIUS_M)
+                ids, lanes, values = ids[near], lanes[near], {name: values[name][near] for name in _PLACED}
+        names = ids.tolist()
         vehicle = self.api.vehicle
         on_road = set(vehicle.getIDList())
         if not self.reactive:
-            for gone in self._placed.difference(ids.tolist()):
+            for gone in self._placed.difference(names):
                 if gone in on_road:
                     vehicle.remove(gone)
-            self._placed.intersection_update(ids.tolist())
-        x, y, heading, speed, edges = (values[name] for name in ("x_m", "y_m", "heading_deg", "speed_mps", "edge"))
-        for k, name in enumerate(ids.tolist()):
-            if name == self._skip or (self.reactive and name in self._placed):
+            self._placed.intersection_update(names)
+        move, skip, placed = vehicle.moveToXY, self._skip, self._placed
+        type_of = self.types.of_vehicle if self.reactive else {}
+        rows = zip(names, lanes.tolist(), *(values[name].tolist() for name in _PLACED), strict=True)
+        for name, lane, x_m, y_m, heading_deg, speed_mps, length_m, width_m, edge in rows:
+            if name == skip or (self.reactive and name in placed):
                 continue
             if name not in on_road:  # new, or (non-reactive) removed by SUMO after a collision: placed again
-                route_id, depart_lane = self._entry(name, str(edges[k]), int(lanes[k]))
-                vehicle.add(name, route_id, departLane=depart_lane, departSpeed=repr(float(speed[k])))
-                vehicle.setLength(name, float(values["length_m"][k]))
-                vehicle.setWidth(name, float(values["width_m"][k]))
+                route_id, depart_lane = self._entry(name, edge, lane)
+                vehicle.add(name, route_id, type_of.get(name, DEFAULT_TYPE), departLane=depart_lane,
+                            departSpeed=repr(speed_mps))
+                vehicle.setLength(name, length_m)
+                vehicle.setWidth(name, width_m)
                 vehicle.setSpeedMode(name, 0)
                 vehicle.setLaneChangeMode(name, 0)
-                self._placed.add(name)
+                placed.add(name)
                 if self.reactive:
                     self._releasing.append(name)
             elif self.reactive:
                 continue
-            vehicle.moveToXY(name, str(edges[k]), int(lanes[k]), float(x[k]), float(y[k]), float(heading[k]),
-                             KEEP_ROUTE_ANY_EDGE)
+            move(name, edge, lane, x_m, y_m, heading_deg, KEEP_ROUTE_ANY_EDGE)
 
     def _entry(self, vehicle: str, edge: str, lane: int) -> tuple[str, str]:
         """The route `vehicle` is added on where it is, in lane `lane` of `edge`: its recorded edges from `edge` on

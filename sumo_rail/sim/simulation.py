@@ -342,11 +342,15 @@ def _close_quietly(api: object) -> None:
 
 def sumo_options(scenario: ScenarioConfig, built: network.BuiltNetwork) -> list[str]:
     """Every SUMO option that shapes a simulation of `scenario` on `built`, explicitly (the network and route files
-    first)."""
+    first, then `run_options`)."""
+    return ["--net-file", str(built.net_file), "--route-files", built.route_files, *run_options(scenario)]
+
+
+def run_options(scenario: ScenarioConfig) -> list[str]:
+    """The SUMO options of a simulation of `scenario` besides its files: its step, lane changes, collisions, and
+    SUMO's own randomness and logs."""
     s = scenario
     return [
-        "--net-file", str(built.net_file),
-        "--route-files", built.route_files,
         "--step-length", repr(s.step_length_s),
         "--lanechange.duration", repr(s.lane_change_duration_s),
         "--time-to-teleport", repr(s.teleport_time_s),

@@ -64,3 +64,38 @@ def test_a_tracks_rows_are_its_past():
     assert past.time_s == pytest.approx([k / 10 for k in range(11)])
     assert past.acceleration_mps2 == pytest.approx([0.1 * k for k in range(11)])
     assert past.lane == [0.0] * 11 and np.allclose(past.speed_mps, 20.0)
+
+
+def test_between_frames_only_a_vehicle_in_the_next_frame_moves_and_its_heading_turns_the_short_way():
+    """Interpolation links each vehicle to its own row in the next frame: "b" leaves after frame 3 and is back at
+    frame 5 (not interpolated between 3 and 4, nor 4 and 5), "d" enters at frame 4, "a"'s heading crosses north."""
+    rows = tracks()
+    rows = rows[~((rows["vehicle_id"] == "b") & (rows["time_s"].round(1) == 0.4))]
+    rows.loc[rows["vehicle_id"] == "a", "heading_deg"] = (350.0 + 5.0 * np.arange(11)) % 360.0
+    entering = rows[(rows["vehicle_id"] == "c") & (rows["time_s"] >= 0.35)].assign(vehicle_id="d", lane=0)
+    frames = SceneFrames(pd.concat([rows, entering]).sample(frac=1.0, random_state=1), 10.0)
+    snapshot = frames.at(0.35)
+    a, b, d = (snapshot.row(vehicle) for vehicle in "abd")
+    assert a is not None and b is not None and d is None
+    assert snapshot.values["x_m"][a] == pytest.approx(17.0) and snapshot.values["x_m"][b] == pytest.approx(36.0)
+    assert frames.at(0.15).values["heading_deg"][a] == pytest.approx(357.5)  # 355 to 0 degrees
+    after = frames.at(0.45)
+    assert after.row("b") is None and after.values["x_m"][after.row("d")] == pytest.approx(29.0)
+    with pytest.raises(ValueError):  # the frames' own values are handed out read-only, never to be changed
+        frames.at(0.4).values["length_m"][0] = 1.0
+
+
+@pytest.mark.parametrize("order", ["by vehicle", "by time"])
+def test_a_scenes_track_is_its_vehicles_rows_in_time_order_however_the_table_is_ordered(order, tmp_path):
+    """`Scene.track` finds a vehicle's rows once (a slice where they are together, as the writers write them)."""
+    from sumo_rail.datasets import DatasetError
+    from sumo_rail.recordings.scene import Scene, SceneMeta
+
+    rows = tracks().sort_values(["vehicle_id", "time_s"] if order == "by vehicle" else ["time_s", "vehicle_id"],
+                                ignore_index=True)
+    scene = Scene(tmp_path, SceneMeta("sumo", 10.0, "road.net.xml", 2), rows, pd.DataFrame(), tmp_path / "net")
+    for vehicle in "abc":
+        expected = rows[rows["vehicle_id"] == vehicle].sort_values("time_s")
+        pd.testing.assert_frame_equal(scene.track(vehicle), expected)
+    with pytest.raises(DatasetError, match="has no vehicle 'nobody'"):
+        scene.track("nobody")

@@ -103,8 +103,8 @@ def test_an_observer_stops_with_its_block(env):
 
 
 def test_who_drives_is_a_controller_of_a_known_name(env):
-    with pytest.raises(ValueError, match=r"'controller' must be one of 'actions', 'sumo' \(or a mapping of agents to "
-                                         r"them\), got 'idm'"):
+    with pytest.raises(ValueError, match=r"'controller' must be one of 'actions', 'sumo' or a controller \(or a "
+                                         r"mapping of agents to them\), got 'idm'"):
         env.reset(seed=0, options={"controller": "idm"})
     with pytest.raises(ValueError, match="'controller' names no agent 'ego_1'; agents are ego"):
         env.reset(seed=0, options={"controller": {"ego_1": "sumo"}})

@@ -1,0 +1,101 @@
+"""Who drives in a recorded scene besides the recording: the other vehicles of the reactive mode and SUMO's IDM in a
+seat, each from what the recording says (docs/replay.md).
+
+- The reactive mode (`reactive_types`): each vehicle is driven by its recorded SUMO vType where the recording names
+  one and came with its definition (`SceneMeta.vehicle_types` and `vtypes`: an FCD recording's `type` with the route
+  or additional file given to `import-recording --vtypes`, SUMO's drivers' own types); every other vehicle by SUMO's
+  IDM calibrated on the scene's train split (`idm_calibration.calibrate` on `REACTIVE_CALIBRATION`'s windows drawn
+  from every train track; LC2013 lane changing), or SUMO's default Krauss where the split has nothing to fit. Its
+  desired speed is the fastest its track records (`sim.replay`), whatever its type.
+- The seat (`seat_calibration`, `evaluate-scene --policy sumo-idm-calibrated`): SUMO's IDM with the parameters fitted
+  on the train cars' seats (the span `lead_s` to `lead_s` + `horizon_s` into each track) and the desired speed read
+  from the seated driver's lead-in (`idm_calibration.lead_in_desired_speed`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+from sumo_rail.recordings.idm import IdmParameters
+from sumo_rail.recordings.idm_calibration import CalibrationSettings, IdmCalibration, calibrate
+from sumo_rail.recordings.scene import Scene
+from sumo_rail.sim.replay import VehicleTypes
+
+REACTIVE_IDM_TYPE = "scene_idm_calibrated"
+"""The vType of the reactive vehicles the calibrated IDM drives."""
+SEAT_IDM_TYPE = "seat_idm_calibrated"
+"""The vType of the calibrated IDM in a seat."""
+REACTIVE_CALIBRATION = CalibrationSettings(max_windows=2000)
+"""How the reactive vehicles' IDM is calibrated: 2,000 train windows drawn from all (the default 20,000 took 190 s on
+a 600 s scene of SUMO's drivers, 2,000 about 10 s)."""
+
+
+def idm_type(parameters: IdmParameters) -> dict[str, str]:
+    """The vType attributes of SUMO's IDM with `parameters` and LC2013 lane changing."""
+    return {**parameters.vtype_attributes(), "laneChangeModel": "LC2013"}
+
+
+@dataclass(frozen=True)
+class ReactiveTypes:
+    """Who drives the reactive vehicles of a scene: `types` (for `sim.replay`), how many vehicles drive their
+    recorded type and how many the calibrated IDM (`calibration`, None when none was needed or possible), and
+    `note`: why a vehicle does not drive its recorded type, if any."""
+
+    types: VehicleTypes
+    recorded: int
+    calibrated: int
+    calibration: IdmCalibration | None
+    note: str
+
+    def describe(self) -> str:
+        """Who drives, in a sentence or two."""
+        others = ("SUMO's IDM calibrated on the train split" if self.calibration is not None
+                  else "SUMO's default Krauss")
+        said = [f"reactive vehicles: {self.recorded} driven by their recorded vType"
+                + (f", {self.calibrated} by {others}" if self.calibrated else "")]
+        if self.calibration is not None:
+            said.append(self.calibration.describe())
+        return "\n".join(said + ([self.note] if self.note else []))
+
+    def as_dict(self) -> dict[str, Any]:
+        """The choice as plain data (provenance)."""
+        return {"recorded_vtype": self.recorded, "calibrated_idm" if self.calibration else "sumo_default":
+                self.calibrated, "vtypes": {key: dict(value) for key, value in self.types.definitions.items()},
+                "calibration": self.calibration.as_dict() if self.calibration else None, "note": self.note}
+
+
+def reactive_types(scene: Scene, step_s: float) -> ReactiveTypes:
+    """The reactive mode's drivers of `scene` (module docstring), for SUMO's step `step_s` [s]."""
+    meta = scene.meta
+    vehicles = scene.split["vehicle_id"].astype(str).tolist()
+    recorded = {vehicle: meta.vehicle_types[vehicle] for vehicle in vehicles
+                if meta.vehicle_types.get(vehicle) in meta.vtypes}
+    missing = sorted({meta.vehicle_types[vehicle] for vehicle in vehicles
+                      if vehicle in meta.vehicle_types and vehicle not in recorded})
+    note = (f"the recording names vTypes without their definitions ({', '.join(missing[:5])}"
+            f"{', ...' if len(missing) > 5 else ''}): give its route or additional file to import-recording "
+            f"--vtypes" if missing else "")
+    definitions = {type_id: meta.vtypes[type_id] for type_id in sorted(set(recorded.values()))}
+    others = len(vehicles) - len(recorded)
+    calibration = None
+    if others:
+        try:
+            calibration = calibrate(scene.tracks, scene.split, step_s, REACTIVE_CALIBRATION)
+        except ValueError as error:
+            note = "; ".join(filter(None, [note, f"no IDM could be calibrated on the train split ({error})"]))
+    if calibration is not None:
+        definitions[REACTIVE_IDM_TYPE] = idm_type(calibration.parameters)
+        recorded |= {vehicle: REACTIVE_IDM_TYPE for vehicle in vehicles if vehicle not in recorded}
+    return ReactiveTypes(VehicleTypes(definitions, recorded), len(vehicles) - others, others, calibration, note)
+
+
+def seat_calibration(scene: Scene, step_s: float, lead_s: float, horizon_s: float) -> IdmCalibration:
+    """SUMO's IDM calibrated on the train cars' seats of `scene` (the span `lead_s` to `lead_s` + `horizon_s` [s]
+    into each track, where evaluate-scene seats the held-out ones); ValueError in one sentence naming the scene when
+    its train split has nothing to fit."""
+    try:
+        return calibrate(scene.tracks, scene.split, step_s, CalibrationSettings(span_s=(lead_s, lead_s + horizon_s)))
+    except ValueError as error:
+        raise ValueError(f"cannot calibrate SUMO's IDM on the train split of the scene {scene.folder}: {error}") \
+            from error

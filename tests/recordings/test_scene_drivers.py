@@ -1,0 +1,139 @@
+"""Who drives the reactive vehicles of a recorded scene: each its recorded vType where the recording names one and
+came with its definition, else SUMO's IDM calibrated on the scene's train split; said in evaluate-scene's output."""
+
+from __future__ import annotations
+
+import json
+import shutil
+
+import pytest
+from click.testing import CliRunner
+from recording_files import SCENE_SPEED
+from sumo_rail_cli.main import cli
+
+from sumo_rail.config import Config
+from sumo_rail.datasets import read_metadata
+from sumo_rail.recordings.scene import read_scene
+from sumo_rail.recordings.scene_drivers import REACTIVE_IDM_TYPE, reactive_types
+from sumo_rail.recordings.seat import SceneEnv
+from sumo_rail.recordings.sumo_drivers import DRIVER_TYPES
+from sumo_rail.sim.actions import Action
+from sumo_rail.sim.replay import DEFAULT_TYPE
+from sumo_rail.sim.simulation import EGO_ID
+
+CONFIG = Config.from_dict({"observation": {"lane_block": 1}, "env": {"max_episode_s": 10.0}})
+
+
+def types_on_road(scene_folder, types, reactive: bool) -> dict[str, tuple[str, float]]:
+    """Each other vehicle's SUMO type and tau [s] one decision into a seat of the scene."""
+    env = SceneEnv(CONFIG, scene_folder, reactive=reactive, types=types)
+    try:
+        spans = env.scene.tracks.groupby("vehicle_id")["time_s"].agg(["min", "max"])
+        vehicle = str((spans["max"] - spans["min"]).idxmax())
+        env.reset(seed=0, options={"vehicle": vehicle, "start_s": float(spans.loc[vehicle, "min"]) + 2.0})
+        env.step(int(Action.KEEP))
+        api = env.simulation._api.vehicle
+        # a resized vehicle drives its own copy of its type, "TYPE@VEHICLE"
+        return {other: (api.getTypeID(other).split("@")[0], api.getTau(other)) for other in api.getIDList()
+                if other != EGO_ID}
+    finally:
+        env.close()
+
+
+def test_sumos_drivers_drive_their_recorded_types_when_reactive(drivers_scene):
+    """record-sumo-drivers keeps each vehicle's type and the types' definitions: the reactive vehicles drive them
+    (tau included); replayed ones stay SUMO's default type (SUMO does not drive them)."""
+    scene = read_scene(drivers_scene)
+    assert set(scene.split["vehicle_id"]) <= set(scene.meta.vehicle_types)
+    found = reactive_types(scene, 0.1)
+    assert (found.recorded, found.calibrated, found.calibration, found.note) == (len(scene.split), 0, None, "")
+    reactive = types_on_road(drivers_scene, found.types, reactive=True)
+    assert reactive and all(type_id == scene.meta.vehicle_types[other] for other, (type_id, _) in reactive.items())
+    assert all(tau == pytest.approx(float(DRIVER_TYPES[type_id]["tau"])) for type_id, tau in reactive.values())
+    replayed = types_on_road(drivers_scene, found.types, reactive=False)
+    assert {type_id for type_id, _ in replayed.values()} == {DEFAULT_TYPE}
+
+
+@pytest.fixture(scope="module")
+def untyped_scene(drivers_scene, tmp_path_factory):
+    """The drivers scene whose recording names its vehicles' types but came without their definitions."""
+    folder = tmp_path_factory.mktemp("untyped") / "scene"
+    shutil.copytree(drivers_scene, folder)
+    meta = json.loads((folder / "scene.json").read_text())
+    (folder / "scene.json").write_text(json.dumps({**meta, "vtypes": {}}))
+    return folder
+
+
+def test_without_the_types_definitions_the_idm_calibrated_on_the_train_split_drives_and_it_is_said(untyped_scene):
+    scene = read_scene(untyped_scene)
+    found = reactive_types(scene, 0.1)
+    assert (found.recorded, found.calibrated) == (0, len(scene.split)) and found.calibration is not None
+    assert "without their definitions" in found.note and "--vtypes" in found.note
+    assert "SUMO's IDM calibrated on the train split" in found.describe()
+    reactive = types_on_road(untyped_scene, found.types, reactive=True)
+    assert reactive and {type_id for type_id, _ in reactive.values()} == {REACTIVE_IDM_TYPE}
+    assert [tau for _, tau in reactive.values()] == pytest.approx([found.calibration.parameters.tau_s] * len(reactive))
+
+
+def test_evaluate_scene_says_who_drives_the_reactive_vehicles_and_records_it(drivers_scene, tmp_path):
+    out = tmp_path / "seats.parquet"
+    result = CliRunner().invoke(cli, ["evaluate-scene", str(drivers_scene), "--policy", "keep", "--seats", "1",
+                                      "--horizon-s", "5", "--lead-s", "2", "--mode", "reactive", "--out", str(out),
+                                      *SCENE_SPEED, "--set", "scenario.lanes=3"])
+    assert result.exit_code == 0, result.output
+    vehicles = len(read_scene(drivers_scene).split)
+    assert f"{drivers_scene}, reactive vehicles: {vehicles} driven by their recorded vType\n" in result.output
+    recorded = read_metadata(out)["reactive_drivers"][str(drivers_scene)]
+    assert recorded["recorded_vtype"] == vehicles and set(recorded["vtypes"]) == set(DRIVER_TYPES)
+
+
+def fcd_scene_files(folder):
+    """An FCD recording on a built 300 m road of two lanes: "a" and "b" of type car_calm, "t" of type lorry."""
+    from recording_files import fcd_vehicle
+
+    from sumo_rail.recordings.road import build_road
+
+    build_road([3.2, 3.2], 300.0, folder / "net.net.xml")
+    rows = [row for k, vehicle in enumerate("abt") for row in fcd_vehicle(vehicle, range(60), 10.0 + 50 * k, -1.6,
+                                                                           "road_1")]
+    lines = "".join(f'<timestep time="{t / 10:.2f}">' + "".join(
+        f'<vehicle id="{row["id"]}" x="{row["x"]:.2f}" y="-1.60" angle="90.00" '
+        f'type="{"lorry" if row["id"] == "t" else "car_calm"}" speed="20.00" pos="{row["x"]:.2f}" lane="road_1"/>'
+        for row in rows if round(row["time"] * 10) == t) + "</timestep>" for t in range(60))
+    (folder / "fcd.xml").write_text(f"<fcd-export>{lines}</fcd-export>")
+    (folder / "types.rou.xml").write_text('<routes><vType id="car_calm" carFollowModel="IDM" tau="1.7"/>'
+                                          '<vType id="other" tau="1.1"/></routes>')
+    return ["--format", "fcd", str(folder / "fcd.xml"), "--network", str(folder / "net.net.xml")]
+
+
+def test_an_fcd_scene_keeps_each_vehicles_vtype_and_the_definitions_given(tmp_path):
+    """import-recording --vtypes keeps the definitions of the types the recording names; a type it does not define
+    (lorry) is said by the reactive mode's choice, which the calibrated IDM (or here, with nothing to fit, SUMO's
+    default) then drives."""
+    result = CliRunner().invoke(cli, ["import-recording", *fcd_scene_files(tmp_path), "--vtypes",
+                                      str(tmp_path / "types.rou.xml"), "--out", str(tmp_path / "scene")])
+    assert result.exit_code == 0, result.output
+    scene = read_scene(tmp_path / "scene")
+    assert scene.meta.vehicle_types == {"a": "car_calm", "b": "car_calm", "t": "lorry"}
+    assert scene.meta.vtypes == {"car_calm": {"carFollowModel": "IDM", "tau": "1.7"}}
+    assert str((tmp_path / "types.rou.xml").resolve()) in scene.meta.sources
+    found = reactive_types(scene, 0.1)
+    assert found.recorded == 2 and found.calibrated == 1 and "lorry" in found.note
+    assert found.types.of_vehicle == {"a": "car_calm", "b": "car_calm"}
+
+
+@pytest.mark.parametrize("case", ["not fcd", "no vtype", "not xml"])
+def test_vtypes_refused_in_one_sentence(tmp_path, case):
+    files = fcd_scene_files(tmp_path)
+    (tmp_path / "empty.xml").write_text("<routes/>")
+    (tmp_path / "broken.xml").write_text("<routes><vType")
+    given = {"not fcd": tmp_path / "types.rou.xml", "no vtype": tmp_path / "empty.xml",
+             "not xml": tmp_path / "broken.xml"}[case]
+    if case == "not fcd":
+        files = ["--format", "ngsim", str(tmp_path / "fcd.xml")]
+    result = CliRunner().invoke(cli, ["import-recording", *files, "--vtypes", str(given), "--out",
+                                      str(tmp_path / "scene")])
+    said = {"not fcd": "--vtypes applies to --format fcd only", "no vtype": f"--vtypes {given} defines no vType",
+            "not xml": f"--vtypes {given} is not a readable route or additional file"}[case]
+    assert result.exit_code == 2 and said in result.output and "Traceback" not in result.output, result.output
+    assert not (tmp_path / "scene").exists()
