@@ -14,6 +14,7 @@ as every file written before it existed, acts by argmax).
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import zipfile
 from dataclasses import dataclass
@@ -101,6 +102,11 @@ class Policy:
     def acts(self, observations: np.ndarray) -> np.ndarray:
         """`act` of each row of a batch of observations (shape (B, n)), shape (B,)."""
         return decode(self.logits(observations), self.shape.decoding)
+
+    def decoded_by(self, decoding: str) -> Policy:
+        """This policy acting by `decoding` (the same parameters and normalisation; `sumo_rail.drivers.decoding`)."""
+        return Policy(dataclasses.replace(self.shape, decoding=decoding), self.parameters, self.observation_mean,
+                      self.observation_std)
 
     def probabilities(self, observations: np.ndarray) -> np.ndarray:
         """Softmax of the logits, for one observation (shape (a,)) or a batch (shape (B, a))."""

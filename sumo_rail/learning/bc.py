@@ -9,7 +9,6 @@ on one thread during the call.
 
 from __future__ import annotations
 
-import dataclasses
 import logging
 from dataclasses import dataclass
 
@@ -157,14 +156,13 @@ def behaviour_cloning(demos: Demonstrations, shape: PolicyShape, settings: BcSet
         losses = _fit(network, torch.from_numpy(observations[train]), torch.from_numpy(actions[train]), settings,
                       generator)
     policy = torch_to_policy(network)
-    argmax = dataclasses.replace(shape, decoding="argmax")
     report = BcReport(train_accuracy=_accuracy(policy, observations[train], actions[train]),
                       holdout_accuracy=_accuracy(policy, observations[holdout], actions[holdout]) if holdout.any()
                       else None, losses=losses, train_rows=int(train.sum()), holdout_rows=int(holdout.sum()),
                       majority_accuracy=majority_accuracy(actions[train], actions[holdout]),
-                      argmax_holdout_accuracy=_accuracy(Policy(argmax, policy.parameters, mean, std),
-                                                        observations[holdout], actions[holdout])
-                      if holdout.any() and argmax != shape else None)
+                      argmax_holdout_accuracy=_accuracy(policy.decoded_by("argmax"), observations[holdout],
+                                                        actions[holdout])
+                      if holdout.any() and shape.decoding != "argmax" else None)
     logger.info("behaviour cloning: loss %.4f, train accuracy %.3f, holdout accuracy %s", losses[-1],
                 report.train_accuracy, "n/a" if report.holdout_accuracy is None else f"{report.holdout_accuracy:.3f}")
     return policy, report

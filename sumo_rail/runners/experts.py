@@ -18,7 +18,7 @@ from typing import Any
 from sumo_rail.config import Config
 from sumo_rail.datasets import DatasetError, file_sha256
 from sumo_rail.drivers.expert import DEFAULT_STYLE, STYLES
-from sumo_rail.drivers.policies import Policy, PolicyFileError, load_policy
+from sumo_rail.drivers.policies import PolicyFileError, load_policy
 from sumo_rail.runners.rollout import DriverSpec, ExpertDriver, PolicyDriver
 from sumo_rail.sim.actions import action_count
 from sumo_rail.sim.observation import observation_names
@@ -67,8 +67,7 @@ def parse_policy(path: Path, config: Config, sampled: bool = False, name: str | 
                               f"action interface has {count} (actions.interface={config.actions.interface})"
                               f"{differing_settings(metadata, config, INTERFACE_SETTINGS)}")
     decoding = config.actions.decoding
-    policy = Policy(dataclasses.replace(policy.shape, decoding=decoding), policy.parameters, policy.observation_mean,
-                    policy.observation_std)
+    policy = policy.decoded_by(decoding)
     suffix = SAMPLED_SUFFIX if sampled else "" if decoding == "argmax" else f" ({decoding})"
     return PolicyDriver(policy, (name or policy_name(path)) + suffix, expert=recorded_expert(metadata),
                         sampled=sampled)
