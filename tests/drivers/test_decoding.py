@@ -10,8 +10,10 @@ import pytest
 from sumo_rail.action_config import ActionConfig
 from sumo_rail.bounds import ConfigError
 from sumo_rail.config import Config
+from sumo_rail.datasets import DatasetError
 from sumo_rail.drivers.decoding import decode
 from sumo_rail.drivers.policies import Policy, PolicyFileError, PolicyShape, load_policy, save_policy
+from sumo_rail.runners.tables import interface_mismatch
 from sumo_rail.sim.actions import Lateral, acceleration_action, split_acceleration_action
 
 ACTIONS = ActionConfig(interface="acceleration")
@@ -115,3 +117,13 @@ def test_the_paper_interface_refuses_a_decoding_other_than_argmax():
     assert chosen.actions.decoding == "median"
     with pytest.raises(ConfigError, match=r"unknown actions.decoding 'mode'; known: argmax, expected, median"):
         Config.from_dict({"actions": {"interface": "acceleration", "decoding": "mode"}})
+
+
+def test_demonstrations_of_the_interface_serve_a_run_of_any_decoding(tmp_path):
+    """The decoding says how a policy reads its logits, not what an action is: demonstrations recorded under one
+    decoding train a run of another, while another interface is still refused."""
+    recorded = {"config": {"actions": {"interface": "acceleration"}}}  # written before the decoding existed
+    for decoding in ("argmax", "expected", "median"):
+        interface_mismatch(tmp_path / "demos.parquet", recorded, ActionConfig("acceleration", decoding=decoding))
+    with pytest.raises(DatasetError, match="holds demonstrations of the acceleration interface"):
+        interface_mismatch(tmp_path / "demos.parquet", recorded, ActionConfig())
