@@ -44,4 +44,4 @@ def decode(logits: np.ndarray, decoding: str) -> np.ndarray:
         chosen = np.rint(conditional @ np.arange(bins, dtype=np.float64)).astype(np.int64)
     else:
         chosen = np.argmax(np.cumsum(conditional, axis=-1) >= 0.5, axis=-1)
-    return lateral * bins + np.clip(chosen, 0, bins - 1)
+    return lateral * bins + chosen
