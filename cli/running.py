@@ -107,9 +107,12 @@ def sb3_outcome(result: Any, out: Path, critic_warmup: int) -> str:
 
 
 def bc_summary(report: BcReport, policy_path: Path) -> str:
-    """One line on a behaviour-cloning result: train and held-out accuracy (beside the held-out accuracy of always
-    choosing the commonest action), where the policy was saved."""
+    """One line on a behaviour-cloning result: train and held-out accuracy of the policy's decoded action (beside the
+    logits' argmax's when it decodes otherwise, and the held-out accuracy of always choosing the commonest action),
+    where the policy was saved."""
     holdout = "n/a" if report.holdout_accuracy is None else f"{report.holdout_accuracy:.3f}"
+    if report.argmax_holdout_accuracy is not None:
+        holdout += f", by the logits' argmax {report.argmax_holdout_accuracy:.3f}"
     if report.majority_accuracy is not None:
         holdout += f" (majority action {report.majority_accuracy:.3f})"
     return (f"behaviour cloning: train accuracy {report.train_accuracy:.3f}, holdout accuracy {holdout} "

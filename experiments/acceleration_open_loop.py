@@ -4,12 +4,14 @@ against the one read off the track, and how much of it is the last command shown
 decisions that repeat it (the humans' own share beside it), and what BC chooses when the last command reads 0 m/s^2
 (how a seat began before the seat showed its lead-in's last period), against the humans' share of 0 m/s^2.
 
-    python experiments/acceleration_open_loop.py counts OUT.parquet RUNS_DIR DEMOS.parquet [DEMOS.parquet ...]
+    python experiments/acceleration_open_loop.py counts [--decodings D,D] [--runs GLOB] OUT.parquet RUNS_DIR DEMOS...
     python experiments/acceleration_open_loop.py table COUNTS.parquet
 
 `counts` reads each DEMOS file (named acceleration_hH_SPLIT_tSCENE.parquet) with the BC policies of RUNS_DIR of the
-same history (acceleration_hH_pP_sSEED/policy_bc.npz) and writes, per demonstration file, driver (the human or a BC
-run) and held-out vehicle, its decisions and the counts the table pools (`COLUMNS`).
+same history (acceleration_hH_pP_sSEED/policy_bc.npz; with --runs, those matching GLOB) and writes, per demonstration
+file, driver (the human or a BC run), decoding (how the BC policy's logits become its action, `actions.decoding`:
+argmax unless --decodings names others) and held-out vehicle, its decisions and the counts the table pools
+(`COLUMNS`).
 """
 
 from __future__ import annotations
@@ -53,7 +55,7 @@ def vehicle_counts(episodes: np.ndarray, read: np.ndarray, chosen: np.ndarray, s
     return frame.groupby("episode").sum().reset_index()
 
 
-def counts(out: Path, runs: Path, demos: list[Path]) -> None:
+def counts(out: Path, runs: Path, demos: list[Path], decodings: list[str], pattern: str = "") -> None:
     rows = []
     for path in demos:
         history = DEMOS.fullmatch(path.name)[1]
@@ -67,38 +69,54 @@ def counts(out: Path, runs: Path, demos: list[Path]) -> None:
         rows.append(vehicle_counts(read.episodes, truth, truth, shown, np.where(shown == 0.0, truth, np.nan))
                     .assign(demos=path.name, driver="human"))
         for folder in sorted(runs.glob(f"acceleration_{history}_p*_s*")):
+            if pattern and not folder.match(pattern):
+                continue
             policy, _ = load_policy(folder / "policy_bc.npz")
-            chosen, after_zero = (accelerations(np.argmax(policy.logits(observations), axis=1), interface)
-                                  for observations in (read.observations, zeroed))
-            rows.append(vehicle_counts(read.episodes, truth, chosen, shown, after_zero)
-                        .assign(demos=path.name, driver=folder.name))
+            for decoding in decodings:
+                chosen, after_zero = (accelerations(policy.decoded_by(decoding).acts(observations), interface)
+                                      for observations in (read.observations, zeroed))
+                rows.append(vehicle_counts(read.episodes, truth, chosen, shown, after_zero)
+                            .assign(demos=path.name, driver=folder.name, decoding=decoding))
     write_parquet(pa.Table.from_pandas(pd.concat(rows, ignore_index=True), preserve_index=False), out,
                   {"kind": "acceleration_open_loop", "demos": [path.name for path in demos]})
 
 
 def table(path: Path) -> None:
     frame = pd.read_parquet(path)
+    if "decoding" not in frame:  # counted before the decoding existed: argmax
+        frame = frame.assign(decoding="argmax")
     humans = frame[(frame["driver"] == "human") & frame["demos"].str.startswith("acceleration_h0_")]
     print(f"{len(humans)} held-out drivers, {int(humans['decisions'].sum())} decisions; each a share of the decisions "
           f"(mean |error| per decision; the last column's humans: their share of 0 m/s^2 after a period of 0), 95% "
           f"intervals over vehicles and training seeds\n")
     print("| driver | " + " | ".join(COLUMNS) + " |")
     print("|---|" + "---|" * len(COLUMNS))
-    methods = {"humans (read off their tracks)": [humans]}
+    methods: dict[str, tuple[list[pd.DataFrame], list[pd.DataFrame] | None]] = {
+        "humans (read off their tracks)": ([humans], None)}
     learners = frame[frame["driver"] != "human"]
-    for setting, runs in learners.groupby(learners["driver"].str.replace(r"_s\d+$", "", regex=True)):
+    for (setting, decoding), runs in learners.groupby([learners["driver"].str.replace(r"_s\d+$", "", regex=True),
+                                                       learners["decoding"]]):
         history, balance = RUN.fullmatch(f"{setting}_s0").groups()[:2]
-        methods[f"BC, history {history[1:]} s, balance {float('0.' + balance[1:]):g}"] = [
-            run.sort_values(["demos", "episode"]) for _, run in runs.groupby("driver")]
-    for label, runs in methods.items():
-        cells = [seeded_interval([(run[numerator].to_numpy(float), run[denominator].to_numpy(float))
-                                  for run in runs]).format(2 if numerator == "abs_error_mps2" else 3)
+        label = f"BC, history {history[1:]} s, balance {float('0.' + balance[1:]):g}"
+        ordered = [run.sort_values(["demos", "episode"]) for _, run in runs.groupby("driver")]
+        methods[label if decoding == "argmax" else f"{label}, {decoding} decoding"] = (ordered, None)
+        if decoding != "argmax":  # paired by training seed and vehicle with the same policies' argmax
+            methods[f"{label}, {decoding} - argmax"] = (ordered, methods[label][0])
+    for label, (runs, argmax) in methods.items():
+        cells = [seeded_interval(*[None if group is None else
+                                   [(run[numerator].to_numpy(float), run[denominator].to_numpy(float))
+                                    for run in group] for group in (runs, argmax)])
+                 .format(2 if numerator == "abs_error_mps2" else 3)
                  for numerator, denominator in COLUMNS.values()]
         print(f"| {label} | " + " | ".join(cells) + " |")
 
 
 if __name__ == "__main__":
     if sys.argv[1] == "counts":
-        counts(Path(sys.argv[2]), Path(sys.argv[3]), [Path(path) for path in sys.argv[4:]])
+        arguments, options = sys.argv[2:], {"--decodings": "argmax", "--runs": ""}
+        while arguments[0] in options:
+            options[arguments[0]], arguments = arguments[1], arguments[2:]
+        counts(Path(arguments[0]), Path(arguments[1]), [Path(path) for path in arguments[2:]],
+               options["--decodings"].split(","), options["--runs"])
     else:
         table(Path(sys.argv[2]))

@@ -3,6 +3,7 @@ range and bins (`sumo_rail.sim.actions` turns an action into SUMO's commands).""
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 from sumo_rail.bounds import ConfigError, bounded
@@ -10,6 +11,12 @@ from sumo_rail.bounds import ConfigError, bounded
 INTERFACES = ("paper", "acceleration")
 """paper: the paper's five actions (keep, accelerate, decelerate: the ACC's set-point moved by env.speed_step_mps;
 lane left, lane right). acceleration: a longitudinal acceleration bin and a lane keep / left / right."""
+
+DECODINGS = ("argmax", "expected", "median")
+"""How a policy's logits become an action (`sumo_rail.drivers.decoding`). argmax: the action of the highest logit.
+expected and median (the acceleration interface only): the lane decision of the highest lateral marginal (the
+softmax summed over its bins), then the bin nearest the mean, or the median, of the acceleration under the softmax
+conditioned on that lane decision."""
 
 
 @dataclass(frozen=True)
@@ -33,6 +40,12 @@ class ActionConfig:
     acceleration_bin_mps2: float = bounded(0.05, 0.25, "m/s^2", default=0.25)
     """The width of the acceleration interface's bins [m/s^2], between 0.05 and 0.25 m/s^2; it divides the range from
     acceleration_min_mps2 to acceleration_max_mps2 into whole bins (37 at the defaults)."""
+    decoding: str = "argmax"
+    """How a policy's logits become its action in this run (training, validation and evaluation alike; a policy file
+    records the decoding it was trained with): "argmax" (the highest logit), or on the acceleration interface
+    "expected" (the lane decision of the highest lateral marginal, then the bin nearest the acceleration's mean under
+    the softmax given that lane decision) or "median" (that distribution's median bin). A classifier's argmax takes
+    the modal bin (0 m/s^2) where a driver gently speeds up; the mean does not."""
 
     def validate(self) -> None:
         if self.interface not in INTERFACES:
@@ -42,6 +55,16 @@ class ActionConfig:
             raise ConfigError(f"actions.acceleration_bin_mps2 ({self.acceleration_bin_mps2:g} m/s^2) must divide the "
                               f"range from {self.acceleration_min_mps2:g} to {self.acceleration_max_mps2:g} m/s^2 "
                               f"into whole bins")
+        if self.decoding not in DECODINGS:
+            raise ConfigError(f"unknown actions.decoding {self.decoding!r}; known: {', '.join(DECODINGS)}")
+        if self.decoding != "argmax" and self.interface != "acceleration":
+            raise ConfigError(f"actions.decoding={self.decoding} reads a lane decision and an acceleration bin off the "
+                              f"acceleration interface's logits; the {self.interface} interface's actions are decoded "
+                              f"by argmax (set actions.interface=acceleration)")
+
+    def same_space(self, other: ActionConfig) -> bool:
+        """Whether `other` is the same interface with the same actions (its decoding may differ)."""
+        return dataclasses.replace(other, decoding=self.decoding) == self
 
     @property
     def acceleration_bins(self) -> int:

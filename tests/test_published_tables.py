@@ -58,6 +58,8 @@ REGENERATED: dict[str, list[str]] = {
     "human_likeness_acceleration/open_loop.md": ["experiments/acceleration_open_loop.py", "table",
                                                  f"{R}/human_likeness_acceleration/open_loop.parquet"],
     "log_teacher/validation.md": ["experiments/log_teacher_horizon.py", f"{R}/log_teacher/validation.parquet"],
+    "human_likeness_acceleration/open_loop_decoding.md": ["experiments/acceleration_open_loop.py", "table",
+                                                          f"{R}/human_likeness_acceleration/open_loop_decoding.parquet"],
     "ppo_expert/lane_change_context.md": ["experiments/lane_change_context.py",
                                           f"{R}/ppo_expert/test_ppo_expert.decisions.parquet"],
     "ars_reference/table.md": ["experiments/ars_reference.py", "--seeds", "0", "1", "2", "3", "4",

@@ -7,12 +7,14 @@ where x = (observation - mean) / std is the observation normalised by the statis
 
 A policy file is a NumPy `.npz` archive read with `allow_pickle=False` (no code can run on load) holding:
 `format` ("sumo-rail policy"), `format_version`, `kind`, `observation_size`, `hidden`, `actions`,
-`parameters` (float32), `observation_mean`, `observation_std` (float64) and `metadata` (a JSON string:
-observation names, config, provenance).
+`parameters` (float32), `observation_mean`, `observation_std` (float64), `metadata` (a JSON string:
+observation names, config, provenance) and, for a policy that does not act by argmax, `decoding` (a file without it,
+as every file written before it existed, acts by argmax).
 """
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import zipfile
 from dataclasses import dataclass
@@ -22,6 +24,7 @@ from typing import Any
 import numpy as np
 
 from sumo_rail.datasets import describe, written_atomically
+from sumo_rail.drivers.decoding import check_decoding, decode
 
 FORMAT = "sumo-rail policy"
 FORMAT_VERSION = 1
@@ -44,12 +47,15 @@ class PolicyShape:
     hidden: int = 10
     """Hidden units of the 'mlp' kind (ignored for 'linear')."""
     actions: int = 5
+    decoding: str = "argmax"
+    """How `Policy.act` reads the logits (`sumo_rail.drivers.decoding`): the run's actions.decoding."""
 
     def __post_init__(self) -> None:
         if self.kind not in KINDS:
             raise ValueError(f"policy kind must be one of {', '.join(KINDS)}, got {self.kind!r}")
         if self.observation_size < 1 or self.actions < 1 or (self.kind == "mlp" and self.hidden < 1):
             raise ValueError(f"policy sizes must be positive, got {self}")
+        check_decoding(self.decoding, self.actions)
 
     @property
     def parameter_count(self) -> int:
@@ -58,8 +64,9 @@ class PolicyShape:
 
 
 class Policy:
-    """A policy on the logits of the normalised observation: `act(observation)` is their argmax (deterministic),
-    `sample(observation, rng)` draws from their softmax (the stochastic policy PPO trains)."""
+    """A policy on the logits of the normalised observation: `act(observation)` decodes them by its shape's decoding
+    (their argmax unless told otherwise; deterministic), `sample(observation, rng)` draws from their softmax (the
+    stochastic policy PPO trains)."""
 
     def __init__(self, shape: PolicyShape, parameters: np.ndarray, observation_mean: np.ndarray | None = None,
                  observation_std: np.ndarray | None = None) -> None:
@@ -89,8 +96,17 @@ class Policy:
         return np.tanh(x @ w1.T + b1) @ w2.T + b2
 
     def act(self, observation: np.ndarray) -> int:
-        """The action with the highest logit (ties: the lowest action index)."""
-        return int(np.argmax(self.logits(observation)))
+        """The action of the logits under the shape's decoding (argmax: the highest logit, ties the lowest index)."""
+        return int(decode(self.logits(observation), self.shape.decoding))
+
+    def acts(self, observations: np.ndarray) -> np.ndarray:
+        """`act` of each row of a batch of observations (shape (B, n)), shape (B,)."""
+        return decode(self.logits(observations), self.shape.decoding)
+
+    def decoded_by(self, decoding: str) -> Policy:
+        """This policy acting by `decoding` (the same parameters and normalisation; `sumo_rail.drivers.decoding`)."""
+        return Policy(dataclasses.replace(self.shape, decoding=decoding), self.parameters, self.observation_mean,
+                      self.observation_std)
 
     def probabilities(self, observations: np.ndarray) -> np.ndarray:
         """Softmax of the logits, for one observation (shape (a,)) or a batch (shape (B, a))."""
@@ -125,8 +141,10 @@ def _unflatten(shape: PolicyShape, parameters: np.ndarray) -> tuple[np.ndarray, 
 
 def save_policy(policy: Policy, path: Path, metadata: dict[str, Any]) -> None:
     """Write the policy file atomically (`written_atomically`)."""
+    decoding: dict[str, Any] = ({} if policy.shape.decoding == "argmax"
+                                else {"decoding": np.array(policy.shape.decoding)})  # argmax files as before
     with written_atomically(path) as temporary, open(temporary, "wb") as handle:
-        np.savez(handle, format=np.array(FORMAT), format_version=np.array(FORMAT_VERSION),
+        np.savez(handle, **decoding, format=np.array(FORMAT), format_version=np.array(FORMAT_VERSION),
                  kind=np.array(policy.shape.kind), observation_size=np.array(policy.shape.observation_size),
                  hidden=np.array(policy.shape.hidden), actions=np.array(policy.shape.actions),
                  parameters=policy.parameters, observation_mean=policy.observation_mean,
@@ -167,7 +185,7 @@ def load_policy(path: Path) -> tuple[Policy, dict[str, Any]]:
                               f"{FORMAT_VERSION}")
     try:
         shape = PolicyShape(str(fields["kind"]), int(fields["observation_size"]), int(fields["hidden"]),
-                            int(fields["actions"]))
+                            int(fields["actions"]), str(fields.get("decoding", "argmax")))
         policy = Policy(shape, fields["parameters"], fields["observation_mean"], fields["observation_std"])
         metadata = json.loads(str(fields["metadata"]))
     except KeyError as error:

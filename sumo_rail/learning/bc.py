@@ -54,8 +54,10 @@ IMITATION_BC = BcSettings()
 @dataclass(frozen=True)
 class BcReport:
     train_accuracy: float
+    """Share of training rows where the policy's action (`Policy.act`, by its shape's decoding) is the demonstrated
+    one."""
     holdout_accuracy: float | None
-    """None when the demonstrations hold a single episode."""
+    """The same on the held-out rows; None when the demonstrations hold a single episode."""
     losses: list[float]
     """Mean cross-entropy (nats per row) of each epoch."""
     train_rows: int
@@ -63,6 +65,9 @@ class BcReport:
     majority_accuracy: float | None = None
     """The held-out accuracy of always choosing the training rows' commonest action (the baseline a held-out
     accuracy beats or not); None without a holdout."""
+    argmax_holdout_accuracy: float | None = None
+    """The held-out accuracy of the logits' argmax when the policy decodes otherwise (`PolicyShape.decoding`); None
+    when it decodes by argmax (holdout_accuracy is that) or without a holdout."""
 
 
 class PolicyNetwork(nn.Module):
@@ -154,7 +159,10 @@ def behaviour_cloning(demos: Demonstrations, shape: PolicyShape, settings: BcSet
     report = BcReport(train_accuracy=_accuracy(policy, observations[train], actions[train]),
                       holdout_accuracy=_accuracy(policy, observations[holdout], actions[holdout]) if holdout.any()
                       else None, losses=losses, train_rows=int(train.sum()), holdout_rows=int(holdout.sum()),
-                      majority_accuracy=majority_accuracy(actions[train], actions[holdout]))
+                      majority_accuracy=majority_accuracy(actions[train], actions[holdout]),
+                      argmax_holdout_accuracy=_accuracy(policy.decoded_by("argmax"), observations[holdout],
+                                                        actions[holdout])
+                      if holdout.any() and shape.decoding != "argmax" else None)
     logger.info("behaviour cloning: loss %.4f, train accuracy %.3f, holdout accuracy %s", losses[-1],
                 report.train_accuracy, "n/a" if report.holdout_accuracy is None else f"{report.holdout_accuracy:.3f}")
     return policy, report
@@ -194,8 +202,8 @@ def majority_accuracy(train: np.ndarray, holdout: np.ndarray) -> float | None:
 
 
 def _accuracy(policy: Policy, observations: np.ndarray, actions: np.ndarray) -> float:
-    """Share of rows where `policy.act` picks the demonstrated action (argmax ties: lowest index, as act)."""
-    return float(np.mean(np.argmax(policy.logits(observations), axis=1) == actions))
+    """Share of rows where `policy.act` picks the demonstrated action (by the policy's decoding, as act)."""
+    return float(np.mean(policy.acts(observations) == actions))
 
 
 def _check(observations: np.ndarray, actions: np.ndarray, shape: PolicyShape, settings: BcSettings) -> None:

@@ -148,7 +148,8 @@ def train_dagger(folder: Path, settings: DaggerSettings, config: Config, rounds:
     expert = resolve_expert(style, config, recorded_by=None if settings.expert else settings.demos)
     if log is None:
         check_drives(expert, config)
-    shape = PolicyShape(settings.kind, observation_size, settings.hidden, action_count(config.actions))
+    shape = PolicyShape(settings.kind, observation_size, settings.hidden, action_count(config.actions),
+                        config.actions.decoding)
     run_record = {"settings": settings.to_dict(), "expert": LOG_TEACHER if log is not None else style, **demos_hash,
                   **provenance("dagger_run", config, settings.seed)}
     if resume:

@@ -44,8 +44,10 @@ def policy_name(path: Path) -> str:
 
 def parse_policy(path: Path, config: Config, sampled: bool = False, name: str | None = None) -> PolicyDriver:
     """The saved policy file at `path` as a driver named `name` (default `policy_name`), after checking that it reads
-    the environment's observation layout; `sampled`: it draws its actions from the softmax of its logits instead of
-    taking their argmax, and its name ends in " (sampled)". Its `expert` is the expert its file records."""
+    the environment's observation layout. It decodes its logits by `config`'s actions.decoding, whatever decoding its
+    file records (the run says how its policies act; a name not decoding by argmax ends in " (DECODING)"); `sampled`:
+    it draws its actions from the softmax of its logits instead, and its name ends in " (sampled)". Its `expert` is
+    the expert its file records."""
     policy, metadata = load_policy(path)
     expected = observation_names(config)
     if policy.shape.observation_size != len(expected):
@@ -64,8 +66,11 @@ def parse_policy(path: Path, config: Config, sampled: bool = False, name: str | 
         raise PolicyFileError(f"policy {path} chooses among {policy.shape.actions} actions but this configuration's "
                               f"action interface has {count} (actions.interface={config.actions.interface})"
                               f"{differing_settings(metadata, config, INTERFACE_SETTINGS)}")
-    name = (name or policy_name(path)) + (SAMPLED_SUFFIX if sampled else "")
-    return PolicyDriver(policy, name, expert=recorded_expert(metadata), sampled=sampled)
+    decoding = config.actions.decoding
+    policy = policy.decoded_by(decoding)
+    suffix = SAMPLED_SUFFIX if sampled else "" if decoding == "argmax" else f" ({decoding})"
+    return PolicyDriver(policy, (name or policy_name(path)) + suffix, expert=recorded_expert(metadata),
+                        sampled=sampled)
 
 
 def differing_settings(metadata: Mapping[str, Any], config: Config,

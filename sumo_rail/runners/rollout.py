@@ -113,8 +113,9 @@ class ExpertDriver:
 
 @dataclass(frozen=True)
 class PolicyDriver:
-    """A learned policy: the argmax of its logits on the observation, or with `sampled` an action drawn from their
-    softmax by the episode's `driver_generator`."""
+    """A learned policy: its logits on the observation read by its decoding (`Policy.act`: their argmax unless
+    actions.decoding says otherwise), or with `sampled` an action drawn from their softmax by the episode's
+    `driver_generator`."""
 
     policy: Policy
     name: str

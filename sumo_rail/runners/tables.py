@@ -39,7 +39,7 @@ def interface_mismatch(path: Path, metadata: dict[str, Any], interface: ActionCo
     """A DatasetError when the demonstrations at `path` (their `metadata`) were recorded with another action interface
     than `interface`."""
     recorded = demonstrations_interface(metadata)
-    if recorded != interface:
+    if not recorded.same_space(interface):
         raise DatasetError(f"{path} holds demonstrations of the {_interface_words(recorded)}, this run uses the "
                            f"{_interface_words(interface)}: record them again, or set [actions] as they were")
 

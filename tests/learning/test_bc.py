@@ -145,3 +145,27 @@ def test_the_holdout_accuracy_comes_with_the_majority_action_baseline():
     _, single = behaviour_cloning(separable(episodes=1, rows_per_episode=20), PolicyShape("linear", N),
                                   BcSettings(epochs=1))
     assert single.majority_accuracy is None and "majority" not in bc_summary(single, "p.npz")
+
+
+def test_the_holdout_accuracy_is_the_decoded_actions_beside_the_argmaxs():
+    """Drivers who hold their speed (bin 24, 0 m/s^2) at 0.4 and speed up gently at 0.6 where feature 0 is positive:
+    the argmax holds the speed, the expected decoding speeds up; the report scores the decoded action, the argmax's
+    beside it, and a policy decoding by argmax reports no second accuracy."""
+    rng = np.random.default_rng(3)
+    observations = rng.normal(size=(2000, N)).astype(np.float32)
+    gentle = rng.choice([24, 27, 28], size=2000, p=[0.4, 0.35, 0.25])
+    actions = np.where(observations[:, 0] > 0, gentle, 24).astype(np.int64)
+    demos = Demonstrations(observations, actions, np.repeat(np.arange(10), 200), {})
+    settings = BcSettings(epochs=5, learning_rate=1e-2, class_balance=0.0)
+    policy, report = behaviour_cloning(demos, PolicyShape("linear", N, actions=111, decoding="expected"), settings)
+    _, holdout = split_episodes(demos.episodes, 0.2, 0)
+    decoded, argmax = policy.acts(observations[holdout]), np.argmax(policy.logits(observations[holdout]), axis=1)
+    assert np.any(decoded != argmax)
+    assert report.holdout_accuracy == pytest.approx(np.mean(decoded == actions[holdout]))
+    assert report.argmax_holdout_accuracy == pytest.approx(np.mean(argmax == actions[holdout]))
+    from sumo_rail_cli.running import bc_summary
+
+    assert f", by the logits' argmax {report.argmax_holdout_accuracy:.3f}" in bc_summary(report, "p.npz")
+    same, by_argmax = behaviour_cloning(demos, PolicyShape("linear", N, actions=111), settings)
+    assert by_argmax.argmax_holdout_accuracy is None and by_argmax.holdout_accuracy == report.argmax_holdout_accuracy
+    assert np.array_equal(same.parameters, policy.parameters)  # the decoding changes no weight

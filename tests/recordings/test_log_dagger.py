@@ -10,7 +10,7 @@ from test_recorded_demos import SMALL, invoke, two_car_scene
 
 from sumo_rail.config import Config
 from sumo_rail.datasets import read_metadata
-from sumo_rail.drivers.policies import Policy, PolicyShape
+from sumo_rail.drivers.policies import Policy, PolicyShape, load_policy
 from sumo_rail.learning.log_dagger import LogDaggerTask, LogSeats
 from sumo_rail.recordings.scene import read_scene
 from sumo_rail.recordings.tracks import RecordingUsageError
@@ -87,8 +87,10 @@ def test_dagger_against_the_log_aggregates_the_learners_labelled_states(scene_an
     _, demos = scene_and_demos
     result = invoke("dagger", *SMALL, *ACCELERATION, *SEATS, "--demos", str(demos), "--expert", "log", "--rounds",
                     "1", "--set", "dagger.episodes_per_round=2", "--set", "bc.epochs=1", "--eval-every", "0",
-                    "--out", str(tmp_path / "run"))
+                    "--set", "actions.decoding=expected", "--out", str(tmp_path / "run"))
     assert result.exit_code == 0, result.output
+    for name in ("policy_bc.npz", "policy_latest.npz"):  # the run's decoding, in its rollouts and its files
+        assert load_policy(tmp_path / "run" / name)[0].shape.decoding == "expected"
     dataset = pq.read_table(tmp_path / "run" / "dataset.parquet")
     episodes = np.array(dataset.column("episode").to_pylist())
     assert len(episodes) == 16 + 2 * 6  # the 16 demonstrations, 6 decisions in each of 2 seats

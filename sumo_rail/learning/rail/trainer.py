@@ -86,7 +86,8 @@ def train(folder: Path, settings: RunSettings, config: Config, iterations: int, 
     demos = read_demonstrations(Path(settings.demos), observation_size, settings.include_failed_demos, config.actions)
     demos_path, demos_hash = demos_record(settings.demos)
     settings = dataclasses.replace(settings, demos=demos_path)
-    shape = PolicyShape(settings.kind, observation_size, settings.hidden, action_count(config.actions))
+    shape = PolicyShape(settings.kind, observation_size, settings.hidden, action_count(config.actions),
+                        config.actions.decoding)
     expert = demonstrations_expert(demos.metadata, recorded_stand_in=DEFAULT_STYLE)  # recorded: agreement asks it
     run_record = {"settings": settings.to_dict(), "expert": expert, **demos_hash,
                   **provenance("training_run", config, settings.rail.seed)}

@@ -72,7 +72,8 @@ def set_actor_trainable(ppo_policy: ActorCriticPolicy, trainable: bool) -> None:
 
 
 def ppo_to_policy(ppo_policy: ActorCriticPolicy, shape: PolicyShape, normalisation: FixedNormalisation) -> Policy:
-    """The PPO actor as a `Policy` on raw observations; act = PPO's deterministic predict (up to float32 near-ties)."""
+    """The PPO actor as a `Policy` of `shape` on raw observations; act = PPO's deterministic predict (up to float32
+    near-ties) when `shape` decodes by argmax."""
     parts = [tensor.detach().reshape(-1) for layer in _actor_linears(ppo_policy)
              for tensor in (layer.weight, layer.bias)]
     return Policy(shape, torch.cat(parts).numpy().astype(np.float32), normalisation.mean, normalisation.std)

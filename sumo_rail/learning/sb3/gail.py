@@ -122,7 +122,8 @@ def train_gail(folder: Path, settings: GailSettings, config: Config,
     demos = read_demonstrations(Path(settings.demos), observation_size, settings.include_failed_demos, config.actions)
     demos_path, demos_hash = demos_record(settings.demos)
     settings = dataclasses.replace(settings, demos=demos_path)
-    shape = PolicyShape(settings.kind, observation_size, settings.hidden, action_count(config.actions))
+    shape = PolicyShape(settings.kind, observation_size, settings.hidden, action_count(config.actions),
+                        config.actions.decoding)
     expert = demonstrations_expert(demos.metadata, DEFAULT_STYLE)  # recorded drivers: the rule-based stands in
     run_record = {"settings": settings.to_dict(), "expert": expert, **demos_hash,
                   **provenance("gail_run", config, settings.seed)}

@@ -97,7 +97,7 @@ class PpoSettings(PpoSchedule):
     def shape(self, config: Config) -> PolicyShape:
         """The actor's layout on `config`'s observation."""
         return PolicyShape(self.kind, observation_space(config).shape[0], self.hidden,
-                           action_count(config.actions))
+                           action_count(config.actions), config.actions.decoding)
 
 
 @dataclass(frozen=True)
