@@ -40,7 +40,8 @@ if TYPE_CHECKING:
                    "recorded state, each by its recorded vType or else the IDM calibrated on the scene's train split "
                    "(repeatable).")
 @click.option("--horizon-s", type=FiniteFloat(1, 600), default=15.0, show_default=True,
-              help="Length of each episode [s] (the position error is read at 1, 2, 5, 10, 15 and 20 s, within it).")
+              help="Length of each episode [s] (the position error is read at 1, 2, 5, 10, 15 and 20 s, within it); "
+                   "it is the seats' env.max_episode_s (another value set for it is refused).")
 @click.option("--lead-s", type=FiniteFloat(0, 600), default=5.0, show_default=True,
               help="The ego takes the seat this long after the vehicle's track begins [s].")
 @click.option("--zone-m", type=FiniteFloat(0, 100_000), default=0.0, show_default=True,
@@ -63,6 +64,7 @@ def evaluate_scene_command(config: Config, scenes: tuple[Path, ...], policies: t
     the driving score, and the distances of its speed, acceleration, jerk, gap and time-headway distributions to the
     humans'. --out gets one row per episode and NAME.tracks.parquet beside it one row per decision (the humans' own
     rows under the driver "human")."""
+    from sumo_rail.config import EnvConfig
     from sumo_rail.datasets import DatasetError
     from sumo_rail.evaluation.evaluate import DEFAULT_REFERENCE
     from sumo_rail.evaluation.protocol import summarise, unique_names, write_evaluation
@@ -81,6 +83,10 @@ def evaluate_scene_command(config: Config, scenes: tuple[Path, ...], policies: t
     check_output(out, overwrite)
     if out is not None:
         check_output(tracks_path(out), overwrite)
+    if config.env.max_episode_s not in (EnvConfig().max_episode_s, horizon_s):
+        raise click.UsageError(f"a seat's episode lasts --horizon-s ({horizon_s:g} s), env.max_episode_s "
+                               f"({config.env.max_episode_s:g} s) would be ignored: pass --horizon-s "
+                               f"{config.env.max_episode_s:g} instead")
     config = config.with_overrides({"env": {"max_episode_s": horizon_s}})
     try:
         read = [read_scene(scene) for scene in scenes]

@@ -207,7 +207,8 @@ def test_evaluate_scene_writes_both_tables_with_provenance(drivers_scene, tmp_pa
     assert sources[str((drivers_scene / "tracks.parquet").resolve())] == file_sha256(drivers_scene / "tracks.parquet")
 
 
-@pytest.mark.parametrize("problem", ["not a scene", "not a network", "no seat", "policy", "other lanes"])
+@pytest.mark.parametrize("problem", ["not a scene", "not a network", "no seat", "policy", "other lanes",
+                                     "shadowed length"])
 def test_evaluate_scene_refuses_in_one_sentence_and_writes_nothing(drivers_scene, tmp_path, problem):
     scene, extra, code = drivers_scene, ["--set", "scenario.lanes=3"], 2
     if problem == "not a scene":
@@ -221,6 +222,8 @@ def test_evaluate_scene_refuses_in_one_sentence_and_writes_nothing(drivers_scene
         extra += ["--horizon-s", "600"]
     elif problem == "other lanes":  # the scene has 3 lanes, the observation 5: a policy would read a wrong layout
         extra = ["--set", "scenario.lanes=5"]
+    elif problem == "shadowed length":  # the seat's length is --horizon-s: a different env.max_episode_s is refused
+        extra += ["--set", "env.max_episode_s=12"]
     else:
         (tmp_path / "policy.npz").write_bytes(b"not a policy")
         extra, code = [*extra, "--policy", str(tmp_path / "policy.npz")], 1
