@@ -1,20 +1,23 @@
-"""The README's figure of a replayed scene: in one held-out car's seat, the human's recorded track and the tracks of
-BC, RAIL and the constant set-point driven there (non-reactive), as lateral position against distance along the road
-and distance ahead of the human against time; an x marks where a driver's episode ended early (a collision). The seat
-is the one, among those where the human changed lanes, where
-the BC and RAIL of training seed 0 end farthest apart.
+"""The README's figures of a replayed scene: in one held-out car's seat, the human's recorded track and the tracks of
+other drivers there (non-reactive), as lateral position against distance along the road and distance ahead of the
+human against time; an x marks where a driver's episode ended early (a collision).
 
-docs/results commits the tracks' positions and times (x_m, y_m, lane_position_m, time_s) only in the seat this figure
-shows (`thin_tracks`; the closed-loop table reads none of them): the figure is the same from either.
+- the closed loop (the default): BC, RAIL and the constant set-point, in the seat, among those where the human changed
+  lanes, where the BC and RAIL of training seed 0 end farthest apart. docs/results commits the tracks' positions and
+  times (x_m, y_m, lane_position_m, time_s) only in that seat (`thin_tracks`; the closed-loop table reads none of
+  them): the figure is the same from either.
+- `--driver POLICY=LABEL` (repeatable) draws those drivers instead, in the seat where the first one's position error
+  at 10 s is the median of its errors over the seats (a typical seat, not a chosen one).
 
     python experiments/plot_scene_tracks.py CLOSED_LOOP.parquet OUT.png
+    python experiments/plot_scene_tracks.py EPISODES.parquet OUT.png --driver log_t2_s0/policy_latest=LABEL ...
 """
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
+import click
 import numpy as np
 import pandas as pd
 from matplotlib.backends.backend_agg import FigureCanvasAgg
@@ -51,14 +54,36 @@ def thin_tracks(tracks: pd.DataFrame) -> pd.DataFrame:
     return tracks.assign(**{name: tracks[name].mask(elsewhere) for name in POSITIONS})
 
 
-def main(metrics_path: Path, out: Path) -> None:
+def median_seat(metrics: pd.DataFrame, policy: str) -> tuple:
+    """The seat (scene, vehicle, start) where `policy`'s position error at 10 s (non-reactive) is the median of its
+    errors over the seats (the lower middle one of an even count)."""
+    errors = metrics[(metrics["policy"] == policy) & (metrics["mode"] == "non-reactive")].dropna(
+        subset=["position_error_10s_m"]).sort_values(["position_error_10s_m", *SEAT])
+    if errors.empty:
+        raise click.UsageError(f"no non-reactive episode of {policy!r} reaches 10 s")
+    return tuple(errors.iloc[(len(errors) - 1) // 2][SEAT])
+
+
+@click.command()
+@click.argument("metrics_path", type=click.Path(exists=True, dir_okay=False, path_type=Path))
+@click.argument("out", type=click.Path(dir_okay=False, path_type=Path))
+@click.option("--driver", "drivers", multiple=True, metavar="POLICY=LABEL",
+              help="Draw this driver (repeatable), in the seat of the first one's median 10 s error.")
+def main(metrics_path: Path, out: Path, drivers: tuple[str, ...]) -> None:
     tracks, metrics = pd.read_parquet(tracks_path(metrics_path)), pd.read_parquet(metrics_path)
-    seat = chosen_seat(tracks)
+    if drivers:
+        colours = ["tab:blue", "tab:red", "tab:green", "tab:gray", "tab:purple"]
+        named = dict(driver.split("=", 1) for driver in drivers)
+        shown = {HUMAN: DRIVERS[HUMAN], **{policy: (label, colours[k % len(colours)])
+                                           for k, (policy, label) in enumerate(named.items())}}
+        seat = median_seat(metrics, next(iter(named)))
+    else:
+        shown, seat = DRIVERS, chosen_seat(tracks)
     chosen = tracks[(tracks["mode"] == "non-reactive") & (tracks[SEAT] == pd.Series(seat, index=SEAT)).all(axis=1)]
     human = chosen[chosen["policy"] == HUMAN].set_index("time_s")
     figure = Figure(figsize=(9, 5.5), layout="constrained")
     above, below = figure.subplots(2, 1)
-    for policy, (label, colour) in DRIVERS.items():
+    for policy, (label, colour) in shown.items():
         track = chosen[chosen["policy"] == policy]
         if track.empty:
             continue
@@ -84,4 +109,4 @@ def main(metrics_path: Path, out: Path) -> None:
 
 
 if __name__ == "__main__":
-    main(Path(sys.argv[1]), Path(sys.argv[2]))
+    main()

@@ -246,3 +246,17 @@ def test_ego_tracks_keep_the_ego_at_every_sumo_step_as_sumos_getters_read_it(sma
         env.close()
     assert len(rows) > 50
     pd.testing.assert_frame_equal(tracks[list(TRACK_COLUMNS)], pd.DataFrame(rows), check_exact=True)
+
+
+def test_the_figures_typical_seat_is_the_median_of_the_first_drivers_10_s_errors():
+    import pandas as pd
+    from plot_scene_tracks import median_seat
+
+    rows = [{"policy": policy, "mode": mode, "scene": "s", "vehicle": f"v{k}", "start_s": 1.0,
+             "position_error_10s_m": error}
+            for k, error in enumerate([9.0, 1.0, 5.0, 7.0, 3.0, float("nan")])
+            for policy, mode in (("log", "non-reactive"), ("log", "reactive"), ("other", "non-reactive"))]
+    metrics = pd.DataFrame(rows)
+    metrics.loc[metrics["mode"] == "reactive", "position_error_10s_m"] = 0.0  # the other mode is not read
+    metrics.loc[metrics["policy"] == "other", "position_error_10s_m"] *= -1
+    assert median_seat(metrics, "log") == ("s", "v2", 1.0)  # errors 1, 3, 5, 7, 9: 5 m is v2's
