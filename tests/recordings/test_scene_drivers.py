@@ -137,3 +137,19 @@ def test_vtypes_refused_in_one_sentence(tmp_path, case):
             "not xml": f"--vtypes {given} is not a readable route or additional file"}[case]
     assert result.exit_code == 2 and said in result.output and "Traceback" not in result.output, result.output
     assert not (tmp_path / "scene").exists()
+
+
+def test_a_recorded_vtype_named_as_a_built_in_type_drives_the_reactive_vehicles(tmp_path):
+    """An FCD recording whose vType is named "car" (a type of the road's own traffic, whose flows a scene leaves out):
+    the recording's definition replaces it, and the reactive vehicles drive it (SUMO refused two types "car")."""
+    files = fcd_scene_files(tmp_path)
+    for name in ("fcd.xml", "types.rou.xml"):
+        (tmp_path / name).write_text((tmp_path / name).read_text().replace("car_calm", "car"))
+    result = CliRunner().invoke(cli, ["import-recording", *files, "--vtypes", str(tmp_path / "types.rou.xml"),
+                                      "--out", str(tmp_path / "scene")])
+    assert result.exit_code == 0, result.output
+    found = reactive_types(read_scene(tmp_path / "scene"), 0.1)
+    assert found.types.of_vehicle == {"a": "car", "b": "car"}
+    reactive = types_on_road(tmp_path / "scene", found.types, reactive=True)
+    cars = {other: drove for other, drove in reactive.items() if other in "ab"}
+    assert cars and all(drove == ("car", pytest.approx(1.7)) for drove in cars.values()), reactive
