@@ -153,6 +153,16 @@ def test_a_trucks_seat_is_taken_on_request_and_the_ego_is_then_a_truck_of_its_si
     env.close()
 
 
+
+def test_a_trucks_seat_driven_by_sumo_stays_a_truck_of_its_size(network_scene):
+    """sumo-idm (and sumo-idm-calibrated) in a truck's seat: SUMO's driver type is a car's, the ego keeps its class."""
+    truck = choose_seats(read_scene(network_scene), "train", 10.0, 2.0, None, 0, classes=("truck",))[0]
+    env = SceneEnv(CONFIG, network_scene)
+    env.reset(seed=0, options={"vehicle": truck.vehicle, "start_s": truck.start_s, "controller": "sumo"})
+    vehicle = env.simulation._api.vehicle
+    assert (vehicle.getVehicleClass("ego"), vehicle.getLength("ego"), vehicle.getWidth("ego")) == ("truck", 12.0, 2.5)
+    env.close()
+
 def test_record_sumo_drivers_on_a_users_network_flows_from_every_entry_and_reads_as_demonstrations(tmp_path):
     """record-sumo-drivers with scenario.kind network: the drivers enter from the road's start and the on-ramp, the
     scene names the user's network (with its sha256), and recorded-demos reads it."""
