@@ -104,7 +104,7 @@ def evaluate_scene_command(config: Config, scenes: tuple[Path, ...], policies: t
     calibrations: dict[str, IdmCalibration] = {}
     if CALIBRATED_IDM in policies:
         try:
-            named[CALIBRATED_IDM], calibrations = calibrated_idm_driver(read, step_s, lead_s, horizon_s)
+            named[CALIBRATED_IDM], calibrations = calibrated_idm_driver(read, step_s, lead_s, horizon_s, seats)
         except ValueError as error:
             raise click.BadParameter(str(error), param_hint="'--policy'") from error
     drivers = parse_drivers(policies, config, DEFAULT_REFERENCE, named)

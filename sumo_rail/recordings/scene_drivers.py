@@ -8,8 +8,8 @@ seat, each from what the recording says (docs/replay.md).
   from every train track; LC2013 lane changing), or SUMO's default Krauss where the split has nothing to fit. Its
   desired speed is the fastest its track records (`sim.replay`), whatever its type.
 - The seat (`seat_calibration`, `evaluate-scene --policy sumo-idm-calibrated`): SUMO's IDM with the parameters fitted
-  on the train cars' seats (the span `lead_s` to `lead_s` + `horizon_s` into each track) and the desired speed read
-  from the seated driver's lead-in (`idm_calibration.lead_in_desired_speed`).
+  on the seats of the train drivers of the seat's class (the span `lead_s` to `lead_s` + `horizon_s` into each track)
+  and the desired speed read from the seated driver's lead-in (`idm_calibration.lead_in_desired_speed`).
 """
 
 from __future__ import annotations
@@ -90,12 +90,15 @@ def reactive_types(scene: Scene, step_s: float) -> ReactiveTypes:
     return ReactiveTypes(VehicleTypes(definitions, recorded), len(vehicles) - others, others, calibration, note)
 
 
-def seat_calibration(scene: Scene, step_s: float, lead_s: float, horizon_s: float) -> IdmCalibration:
-    """SUMO's IDM calibrated on the train cars' seats of `scene` (the span `lead_s` to `lead_s` + `horizon_s` [s]
-    into each track, where evaluate-scene seats the held-out ones); ValueError in one sentence naming the scene when
-    its train split has nothing to fit."""
+def seat_calibration(scene: Scene, step_s: float, lead_s: float, horizon_s: float,
+                     vehicle_class: str = "passenger") -> IdmCalibration:
+    """SUMO's IDM calibrated on the seats of `scene`'s train drivers of `vehicle_class` (the span `lead_s` to `lead_s`
+    + `horizon_s` [s] into each track, where evaluate-scene seats the held-out ones); ValueError in one sentence naming
+    the scene when its train split has nothing to fit."""
+    settings = CalibrationSettings(span_s=(lead_s, lead_s + horizon_s), vehicle_class=vehicle_class)
     try:
-        return calibrate(scene.tracks, scene.split, step_s, CalibrationSettings(span_s=(lead_s, lead_s + horizon_s)))
+        return calibrate(scene.tracks, scene.split, step_s, settings)
     except ValueError as error:
-        raise ValueError(f"cannot calibrate SUMO's IDM on the train split of the scene {scene.folder}: {error}") \
-            from error
+        drivers = "" if vehicle_class == "passenger" else f" ({vehicle_class} drivers)"
+        raise ValueError(f"cannot calibrate SUMO's IDM on the train split of the scene {scene.folder}{drivers}: "
+                         f"{error}") from error

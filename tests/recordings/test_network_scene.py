@@ -17,7 +17,7 @@ from sumo_rail_cli.main import cli
 from sumo_rail.config import Config
 from sumo_rail.datasets import read_metadata
 from sumo_rail.drivers.policies import Policy, PolicyShape
-from sumo_rail.evaluation.scene_evaluation import choose_seats
+from sumo_rail.evaluation.scene_evaluation import calibrated_idm_driver, choose_seats
 from sumo_rail.learning.log_dagger import LogDaggerTask, LogSeats
 from sumo_rail.recordings.actions import ActionRule, read_track
 from sumo_rail.recordings.scene import read_scene
@@ -162,6 +162,18 @@ def test_a_trucks_seat_driven_by_sumo_stays_a_truck_of_its_size(network_scene):
     vehicle = env.simulation._api.vehicle
     assert (vehicle.getVehicleClass("ego"), vehicle.getLength("ego"), vehicle.getWidth("ego")) == ("truck", 12.0, 2.5)
     env.close()
+
+
+def test_the_calibrated_idm_in_a_trucks_seat_is_fitted_on_the_trains_trucks(network_scene):
+    """sumo-idm-calibrated with --seat-class truck: a truck's seat gets the IDM fitted on the train split's trucks and
+    a desired speed of its own (the cars' median desired speed, 32 m/s, raised it above the trucks' 25 m/s)."""
+    scene = read_scene(network_scene)
+    seats = choose_seats(scene, "validation", 10.0, 2.0, None, 0, classes=("truck",))
+    driver, calibrations = calibrated_idm_driver([scene], 0.1, 2.0, 10.0, seats)
+    assert [found.settings.vehicle_class for found in calibrations.values()] == ["truck"]
+    controller, _ = driver.seat_controller(scene, seats[0], 0.1)
+    trucks = scene.tracks[scene.tracks["vehicle_class"] == "truck"]
+    assert controller.desired_mps <= trucks["speed_mps"].max() + 0.5
 
 def test_record_sumo_drivers_on_a_users_network_flows_from_every_entry_and_reads_as_demonstrations(tmp_path):
     """record-sumo-drivers with scenario.kind network: the drivers enter from the road's start and the on-ramp, the
