@@ -188,7 +188,7 @@ def calibrated_idm_driver(scenes: Sequence[Scene], step_s: float, lead_s: float,
     """SUMO's IDM calibrated on each scene's train seats (`scene_drivers.seat_calibration`), one for each vehicle class
     of its `seats` (passenger cars when none is given), and the calibrations by `calibration_key`; ValueError naming
     the scene where no IDM can be fitted."""
-    calibrations = {}
+    calibrations: dict[str, IdmCalibration] = {}
     for scene in scenes:
         folder, kinds = str(scene.folder), scene.tracks.groupby("vehicle_id")["vehicle_class"].first()
         classes = sorted({str(kinds[seat.vehicle]) for seat in seats if seat.scene == folder}) or ["passenger"]
