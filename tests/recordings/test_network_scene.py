@@ -21,6 +21,7 @@ from sumo_rail.evaluation.scene_evaluation import calibrated_idm_driver, choose_
 from sumo_rail.learning.log_dagger import LogDaggerTask, LogSeats
 from sumo_rail.recordings.actions import ActionRule, read_track
 from sumo_rail.recordings.scene import read_scene
+from sumo_rail.recordings.scene_drivers import reactive_types
 from sumo_rail.recordings.scene_observations import in_route_frame, observe, scene_road, scene_routes
 from sumo_rail.recordings.seat import SceneEnv
 from sumo_rail.runners.backends import SerialBackend
@@ -174,6 +175,20 @@ def test_the_calibrated_idm_in_a_trucks_seat_is_fitted_on_the_trains_trucks(netw
     controller, _ = driver.seat_controller(scene, seats[0], 0.1)
     trucks = scene.tracks[scene.tracks["vehicle_class"] == "truck"]
     assert controller.desired_mps <= trucks["speed_mps"].max() + 0.5
+
+
+def test_reactive_trucks_driven_by_the_calibrated_idm_stay_trucks(network_scene):
+    """The reactive mode drives the recording's trucks by the IDM calibrated on the train split as trucks (they were
+    passenger cars of a truck's size)."""
+    scene = read_scene(network_scene)
+    env = SceneEnv(CONFIG, network_scene, reactive=True, types=reactive_types(scene, 0.1).types)
+    env.reset(seed=0, options={"vehicle": "main.5"})
+    env.step(env.action_space.sample())
+    vehicle = env.simulation._api.vehicle
+    classes = {other: vehicle.getVehicleClass(other) for other in vehicle.getIDList() if other != "ego"}
+    env.close()
+    assert any(other.startswith("lorry") for other in classes)
+    assert all((kind == "truck") == other.startswith("lorry") for other, kind in classes.items()), classes
 
 def test_record_sumo_drivers_on_a_users_network_flows_from_every_entry_and_reads_as_demonstrations(tmp_path):
     """record-sumo-drivers with scenario.kind network: the drivers enter from the road's start and the on-ramp, the

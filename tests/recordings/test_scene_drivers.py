@@ -14,7 +14,7 @@ from sumo_rail_cli.main import cli
 from sumo_rail.config import Config
 from sumo_rail.datasets import read_metadata
 from sumo_rail.recordings.scene import read_scene
-from sumo_rail.recordings.scene_drivers import REACTIVE_IDM_TYPE, reactive_types
+from sumo_rail.recordings.scene_drivers import REACTIVE_IDM_TRUCK_TYPE, REACTIVE_IDM_TYPE, reactive_types
 from sumo_rail.recordings.seat import SceneEnv
 from sumo_rail.recordings.sumo_drivers import DRIVER_TYPES
 from sumo_rail.sim.actions import Action
@@ -71,7 +71,9 @@ def test_without_the_types_definitions_the_idm_calibrated_on_the_train_split_dri
     assert "without their definitions" in found.note and "--vtypes" in found.note
     assert "SUMO's IDM calibrated on the train split" in found.describe()
     reactive = types_on_road(untyped_scene, found.types, reactive=True)
-    assert reactive and {type_id for type_id, _ in reactive.values()} == {REACTIVE_IDM_TYPE}
+    trucks = set(scene.tracks.loc[scene.tracks["vehicle_class"] == "truck", "vehicle_id"])
+    assert reactive and all(type_id == (REACTIVE_IDM_TRUCK_TYPE if other in trucks else REACTIVE_IDM_TYPE)
+                            for other, (type_id, _) in reactive.items())
     assert [tau for _, tau in reactive.values()] == pytest.approx([found.calibration.parameters.tau_s] * len(reactive))
 
 
