@@ -88,10 +88,12 @@ def reactive_types(scene: Scene, step_s: float) -> ReactiveTypes:
             note = "; ".join(filter(None, [note, f"no IDM could be calibrated on the train split ({error})"]))
     if calibration is not None:
         trucks = set(scene.tracks.loc[scene.tracks["vehicle_class"] == "truck", "vehicle_id"].astype(str))
+        calibrated = {vehicle: REACTIVE_IDM_TRUCK_TYPE if vehicle in trucks else REACTIVE_IDM_TYPE
+                      for vehicle in vehicles if vehicle not in recorded}
         definitions[REACTIVE_IDM_TYPE] = idm_type(calibration.parameters)
-        definitions[REACTIVE_IDM_TRUCK_TYPE] = {**definitions[REACTIVE_IDM_TYPE], "vClass": "truck"}
-        recorded |= {vehicle: REACTIVE_IDM_TRUCK_TYPE if vehicle in trucks else REACTIVE_IDM_TYPE
-                     for vehicle in vehicles if vehicle not in recorded}
+        if REACTIVE_IDM_TRUCK_TYPE in calibrated.values():
+            definitions[REACTIVE_IDM_TRUCK_TYPE] = {**definitions[REACTIVE_IDM_TYPE], "vClass": "truck"}
+        recorded |= calibrated
     return ReactiveTypes(VehicleTypes(definitions, recorded), len(vehicles) - others, others, calibration, note)
 
 
