@@ -155,3 +155,17 @@ def test_a_recorded_vtype_named_as_a_built_in_type_drives_the_reactive_vehicles(
     reactive = types_on_road(tmp_path / "scene", found.types, reactive=True)
     cars = {other: drove for other, drove in reactive.items() if other in "ab"}
     assert cars and all(drove == ("car", pytest.approx(1.7)) for drove in cars.values()), reactive
+
+
+def test_the_vtypes_file_sizes_and_classes_the_fcd_vehicles_of_its_types(tmp_path):
+    """FCD holds no sizes: a vehicle of a type the --vtypes file defines takes its length, width and class (the
+    lorry was a 5 m car, for the seats and the replay, though its recorded type drove as a 16.5 m truck)."""
+    files = fcd_scene_files(tmp_path)
+    (tmp_path / "types.rou.xml").write_text('<routes><vType id="lorry" vClass="truck" length="16.5" width="2.55"/>'
+                                            '</routes>')
+    result = CliRunner().invoke(cli, ["import-recording", *files, "--vtypes", str(tmp_path / "types.rou.xml"),
+                                      "--out", str(tmp_path / "scene")])
+    assert result.exit_code == 0, result.output
+    first = read_scene(tmp_path / "scene").tracks.drop_duplicates("vehicle_id").set_index("vehicle_id")
+    assert first.loc["t", ["vehicle_class", "length_m", "width_m"]].tolist() == ["truck", 16.5, pytest.approx(2.55)]
+    assert first.loc["a", ["vehicle_class", "length_m"]].tolist() == ["passenger", 5.0]  # not defined: as before
