@@ -104,7 +104,7 @@ def evaluate_scene_command(config: Config, scenes: tuple[Path, ...], policies: t
     calibrations: dict[str, IdmCalibration] = {}
     if CALIBRATED_IDM in policies:
         try:
-            named[CALIBRATED_IDM], calibrations = calibrated_idm_driver(read, step_s, lead_s, horizon_s)
+            named[CALIBRATED_IDM], calibrations = calibrated_idm_driver(read, step_s, lead_s, horizon_s, seats)
         except ValueError as error:
             raise click.BadParameter(str(error), param_hint="'--policy'") from error
     drivers = parse_drivers(policies, config, DEFAULT_REFERENCE, named)
@@ -119,7 +119,8 @@ def evaluate_scene_command(config: Config, scenes: tuple[Path, ...], policies: t
         if out is not None:
             write_evaluation(evaluation, config, seed, out,
                              scenes={str(scene.folder.resolve()): scene_sources(scene) for scene in read},
-                             policies=list(policies), split=split, lead_s=lead_s, zone_m=zone_m,
+                             policies=list(policies), split=split, seat_classes=list(classes), seats=limit,
+                             lead_s=lead_s, zone_m=zone_m,
                              idm_calibration={folder: found.as_dict() for folder, found in calibrations.items()},
                              reactive_drivers={folder: found.as_dict() for folder, found in reactive.items()})
         complete(bar)

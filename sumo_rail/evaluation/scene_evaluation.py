@@ -156,8 +156,9 @@ CALIBRATED_IDM = "sumo-idm-calibrated"
 
 @dataclass(frozen=True)
 class CalibratedIdmDriver:
-    """SUMO's IDM and LC2013 in the seat with each scene's calibrated parameters (`idm`: scene folder, parameters, the
-    train drivers' median desired speed [m/s]) and the desired speed read from the seated driver's lead-in; asks for
+    """SUMO's IDM and LC2013 in the seat with each scene's calibrated parameters for the seat's class (`idm`:
+    `calibration_key`, parameters, the train drivers' median desired speed [m/s]) and the desired speed read from the
+    seated driver's lead-in; asks for
     SUMO's controller, which each seat's start gives (`seat_controller`); the actions (keep's) are not used."""
 
     idm: tuple[tuple[str, IdmParameters, float], ...]
@@ -169,19 +170,32 @@ class CalibratedIdmDriver:
 
     def seat_controller(self, scene: Scene, seat: Seat, step_s: float) -> tuple[SumoController, VehicleTypes]:
         """The controller of `seat` in `scene` (SUMO's step `step_s` [s]) and the vehicle type it needs defined."""
-        parameters, typical = {folder: (found, median) for folder, found, median in self.idm}[seat.scene]
+        key = calibration_key(seat.scene, str(scene.track(seat.vehicle)["vehicle_class"].iloc[0]))
+        parameters, typical = {name: (found, median) for name, found, median in self.idm}[key]
         desired = lead_in_desired_speed(scene.tracks, seat.vehicle, seat.start_s, parameters, step_s,
                                         typical_mps=typical)
         return SumoController(self.name, SEAT_IDM_TYPE, desired), VehicleTypes({SEAT_IDM_TYPE: idm_type(parameters)})
 
 
-def calibrated_idm_driver(scenes: Sequence[Scene], step_s: float, lead_s: float,
-                          horizon_s: float) -> tuple[CalibratedIdmDriver, dict[str, IdmCalibration]]:
-    """SUMO's IDM calibrated on each scene's train seats (`scene_drivers.seat_calibration`) and the calibrations, by
-    scene folder; ValueError naming the scene where no IDM can be fitted."""
-    calibrations = {str(scene.folder): seat_calibration(scene, step_s, lead_s, horizon_s) for scene in scenes}
-    return CalibratedIdmDriver(tuple((folder, found.parameters, found.desired_mps)
-                                     for folder, found in calibrations.items())), calibrations
+def calibration_key(folder: str, vehicle_class: str) -> str:
+    """The name of a scene's calibration for seats of `vehicle_class`: its folder (passenger cars), else the folder and
+    the class."""
+    return folder if vehicle_class == "passenger" else f"{folder} ({vehicle_class})"
+
+
+def calibrated_idm_driver(scenes: Sequence[Scene], step_s: float, lead_s: float, horizon_s: float,
+                          seats: Sequence[Seat] = ()) -> tuple[CalibratedIdmDriver, dict[str, IdmCalibration]]:
+    """SUMO's IDM calibrated on each scene's train seats (`scene_drivers.seat_calibration`), one for each vehicle class
+    of its `seats` (passenger cars when none is given), and the calibrations by `calibration_key`; ValueError naming
+    the scene where no IDM can be fitted."""
+    calibrations: dict[str, IdmCalibration] = {}
+    for scene in scenes:
+        folder, kinds = str(scene.folder), scene.tracks.groupby("vehicle_id")["vehicle_class"].first()
+        classes = sorted({str(kinds[seat.vehicle]) for seat in seats if seat.scene == folder}) or ["passenger"]
+        calibrations |= {calibration_key(folder, kind): seat_calibration(scene, step_s, lead_s, horizon_s, kind)
+                         for kind in classes}
+    return CalibratedIdmDriver(tuple((key, found.parameters, found.desired_mps)
+                                     for key, found in calibrations.items())), calibrations
 
 
 def seat_start(config: Config, seat: Seat, reactive: bool, driver: DriverSpec, scene: Scene,

@@ -16,6 +16,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import pandas as pd
 
 from sumo_rail.config import Config
 from sumo_rail.datasets import DatasetError
@@ -26,6 +27,7 @@ from sumo_rail.learning.mixture import LabelledEpisode, Mixture
 from sumo_rail.recordings.acceleration_reading import smoothing_for
 from sumo_rail.recordings.actions import ActionRule
 from sumo_rail.recordings.scene import check_scene, read_scene, scene_sources
+from sumo_rail.recordings.scene_observations import SceneRoad, in_route_frame, route_from, scene_road, scene_routes
 from sumo_rail.recordings.seat import SceneEnv
 from sumo_rail.runners.backends import RolloutBackend, WorkerContext
 from sumo_rail.runners.experts import RECORDED_SCENE
@@ -91,6 +93,16 @@ def log_scene(metadata: Mapping[str, Any], demos: str | Path, config: Config) ->
     return Path(str(record.get("folder")))
 
 
+def seat_frame(road: SceneRoad, track: pd.DataFrame, recorded: tuple[str, ...], start_s: float) -> pd.DataFrame:
+    """A seated car's rows (sorted by time; it drove the edges `recorded`) in the route frame of the seated ego, whose
+    positions and lanes the teacher compares with them: its recorded edges from the one it is on at `start_s` [s]
+    (in a junction, the one before), as `sim.replay` gives the ego; the rows before it reached that route left out."""
+    before = track.loc[track["time_s"] <= start_s + 1e-9, "edge"].astype(str)
+    edges = before[~before.str.startswith(":")]
+    framed = in_route_frame(road, track, route_from(recorded, edges.iloc[-1]) if len(edges) else recorded)
+    return framed[np.isfinite(framed["lane_position_m"].to_numpy(dtype=float))]
+
+
 @dataclass(frozen=True)
 class LogSeats:
     """The train-split seats of the scenes a run learns against, with their cars' tracks read for the teacher."""
@@ -123,8 +135,10 @@ class LogSeats:
             raise LogTeacherError(f"no train-split car of the scene {folder} has a track of dagger.seat_lead_s + "
                                   f"dagger.seat_s = {seat_lead_s + seat_s:g} s{zone}")
         rule, smoothing_s = ActionRule.for_env(config.env), smoothing_for(scene.meta.format)
-        humans = [read_human_track(scene.track(seat.vehicle).sort_values("time_s", kind="stable"), rule,
-                                   config.actions, smoothing_s) for seat in chosen]
+        road, routes = scene_road(scene.network), scene_routes(scene.tracks)
+        humans = [read_human_track(seat_frame(road, scene.track(seat.vehicle).sort_values("time_s", kind="stable"),
+                                              routes[seat.vehicle], seat.start_s), rule, config.actions, smoothing_s)
+                  for seat in chosen]
         return cls(config, tuple(chosen), tuple(humans), horizon_s)
 
     def round_episodes(self, backend: RolloutBackend, policy: Policy, beta: float, seed: int, round_: int,

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import gzip
 import xml.etree.ElementTree as ElementTree
+from collections.abc import Mapping
 from pathlib import Path
 from typing import IO, cast
 from xml.sax.saxutils import quoteattr
@@ -58,12 +59,13 @@ def check_headers(files: list[Path]) -> None:
                                       f"<fcd-export>")
 
 
-def _vehicle_types() -> dict[str, tuple[float, float, str]]:
-    """The package's own vehicle types: id -> (length, width [m], vClass)."""
+def _vehicle_types(given: Mapping[str, Mapping[str, str]]) -> dict[str, tuple[float, float, str]]:
+    """The package's own vehicle types and the `given` ones (the user's, which win): id -> (length, width [m],
+    vClass)."""
     root = ElementTree.fromstring((sources_dir() / VEHICLE_TYPES_FILE).read_bytes())
-    return {vtype.get("id", ""): (float(vtype.get("length", DEFAULT_SIZE_M[0])),
-                                  float(vtype.get("width", DEFAULT_SIZE_M[1])), vtype.get("vClass", "passenger"))
-            for vtype in root.iter("vType")}
+    attributes = {**{vtype.get("id", ""): vtype.attrib for vtype in root.iter("vType")}, **given}
+    return {type_id: (float(found.get("length", DEFAULT_SIZE_M[0])), float(found.get("width", DEFAULT_SIZE_M[1])),
+                      found.get("vClass", "passenger")) for type_id, found in attributes.items()}
 
 
 def read(files: list[Path], options: ReadOptions) -> Recording:
@@ -88,7 +90,7 @@ def read(files: list[Path], options: ReadOptions) -> Recording:
         raise RecordingDataError(f"{files[0]}: the timestep at {time[int(np.argmax(uneven))]:g} s is not a whole "
                                  f"number of {step_s:g} s steps after the first; the output steps are uneven")
     edge, lane = _lanes(columns, network, network_path)
-    types = _vehicle_types()
+    types = _vehicle_types(options.vtypes)
     default = (*DEFAULT_SIZE_M, "passenger")
     known = [types.get(name, default) for name in columns["type"]]
     length = np.array([size[0] if value is None else value

@@ -34,6 +34,8 @@ class ReadOptions:
     """NGSIM: the site ("us-101" or "i-80"), which fixes the main lanes."""
     network: Path | None = None
     """FCD: the SUMO network the positions refer to."""
+    vtypes: Mapping[str, Mapping[str, str]] = field(default_factory=dict)
+    """FCD: the vTypes the user's --vtypes file defines (id -> attributes): the sizes and classes of their vehicles."""
 
 
 class FormatReader(Protocol):

@@ -1,7 +1,8 @@
 """SUMO's IDM calibrated on a scene's train split: the strong baseline in a recorded seat (`sumo-idm-calibrated`).
 
 What is fitted: the five IDM parameters of `idm.IdmParameters` (accel, decel, tau, minGap, delta) within `BOUNDS`,
-one set for the scene's train drivers of one class (passenger cars by default: the seats are cars), and with them
+one set for the scene's train drivers of one class (passenger cars by default; evaluate-scene fits one for each class
+of its seats), and with them
 each train driver's desired speed v0, which IDM needs and no recording names.
 
 On what (`idm_windows`): windows of `horizon_s` from every `sample_s` of each train track (or of its span `span_s`

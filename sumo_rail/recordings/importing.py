@@ -102,7 +102,7 @@ def check_import(settings: ImportSettings) -> ReadOptions:
         except DatasetError as error:
             raise RecordingUsageError(str(error)) from error
     if settings.vtypes is not None:
-        vtype_definitions(settings.vtypes)
+        options = dataclasses.replace(options, vtypes=vtype_definitions(settings.vtypes))
     return options
 
 

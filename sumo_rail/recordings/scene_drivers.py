@@ -5,11 +5,11 @@ seat, each from what the recording says (docs/replay.md).
   one and came with its definition (`SceneMeta.vehicle_types` and `vtypes`: an FCD recording's `type` with the route
   or additional file given to `import-recording --vtypes`, SUMO's drivers' own types); every other vehicle by SUMO's
   IDM calibrated on the scene's train split (`idm_calibration.calibrate` on `REACTIVE_CALIBRATION`'s windows drawn
-  from every train track; LC2013 lane changing), or SUMO's default Krauss where the split has nothing to fit. Its
-  desired speed is the fastest its track records (`sim.replay`), whatever its type.
+  from every train track; LC2013 lane changing; the trucks of SUMO's class truck), or SUMO's default Krauss where
+  the split has nothing to fit. Its desired speed is the fastest its track records (`sim.replay`), whatever its type.
 - The seat (`seat_calibration`, `evaluate-scene --policy sumo-idm-calibrated`): SUMO's IDM with the parameters fitted
-  on the train cars' seats (the span `lead_s` to `lead_s` + `horizon_s` into each track) and the desired speed read
-  from the seated driver's lead-in (`idm_calibration.lead_in_desired_speed`).
+  on the seats of the train drivers of the seat's class (the span `lead_s` to `lead_s` + `horizon_s` into each track)
+  and the desired speed read from the seated driver's lead-in (`idm_calibration.lead_in_desired_speed`).
 """
 
 from __future__ import annotations
@@ -24,6 +24,8 @@ from sumo_rail.sim.replay import VehicleTypes
 
 REACTIVE_IDM_TYPE = "scene_idm_calibrated"
 """The vType of the reactive vehicles the calibrated IDM drives."""
+REACTIVE_IDM_TRUCK_TYPE = "scene_idm_calibrated_truck"
+"""The same of the recording's trucks (SUMO's class truck)."""
 SEAT_IDM_TYPE = "seat_idm_calibrated"
 """The vType of the calibrated IDM in a seat."""
 REACTIVE_CALIBRATION = CalibrationSettings(max_windows=2000)
@@ -85,17 +87,25 @@ def reactive_types(scene: Scene, step_s: float) -> ReactiveTypes:
         except ValueError as error:
             note = "; ".join(filter(None, [note, f"no IDM could be calibrated on the train split ({error})"]))
     if calibration is not None:
+        trucks = set(scene.tracks.loc[scene.tracks["vehicle_class"] == "truck", "vehicle_id"].astype(str))
+        calibrated = {vehicle: REACTIVE_IDM_TRUCK_TYPE if vehicle in trucks else REACTIVE_IDM_TYPE
+                      for vehicle in vehicles if vehicle not in recorded}
         definitions[REACTIVE_IDM_TYPE] = idm_type(calibration.parameters)
-        recorded |= {vehicle: REACTIVE_IDM_TYPE for vehicle in vehicles if vehicle not in recorded}
+        if REACTIVE_IDM_TRUCK_TYPE in calibrated.values():
+            definitions[REACTIVE_IDM_TRUCK_TYPE] = {**definitions[REACTIVE_IDM_TYPE], "vClass": "truck"}
+        recorded |= calibrated
     return ReactiveTypes(VehicleTypes(definitions, recorded), len(vehicles) - others, others, calibration, note)
 
 
-def seat_calibration(scene: Scene, step_s: float, lead_s: float, horizon_s: float) -> IdmCalibration:
-    """SUMO's IDM calibrated on the train cars' seats of `scene` (the span `lead_s` to `lead_s` + `horizon_s` [s]
-    into each track, where evaluate-scene seats the held-out ones); ValueError in one sentence naming the scene when
-    its train split has nothing to fit."""
+def seat_calibration(scene: Scene, step_s: float, lead_s: float, horizon_s: float,
+                     vehicle_class: str = "passenger") -> IdmCalibration:
+    """SUMO's IDM calibrated on the seats of `scene`'s train drivers of `vehicle_class` (the span `lead_s` to `lead_s`
+    + `horizon_s` [s] into each track, where evaluate-scene seats the held-out ones); ValueError in one sentence naming
+    the scene when its train split has nothing to fit."""
+    settings = CalibrationSettings(span_s=(lead_s, lead_s + horizon_s), vehicle_class=vehicle_class)
     try:
-        return calibrate(scene.tracks, scene.split, step_s, CalibrationSettings(span_s=(lead_s, lead_s + horizon_s)))
+        return calibrate(scene.tracks, scene.split, step_s, settings)
     except ValueError as error:
-        raise ValueError(f"cannot calibrate SUMO's IDM on the train split of the scene {scene.folder}: {error}") \
-            from error
+        drivers = "" if vehicle_class == "passenger" else f" ({vehicle_class} drivers)"
+        raise ValueError(f"cannot calibrate SUMO's IDM on the train split of the scene {scene.folder}{drivers}: "
+                         f"{error}") from error

@@ -85,13 +85,16 @@ class EgoCommands:
     def hand_to_sumo(self, vehicle: str, type_id: str, desired_mps: float) -> None:
         """Let SUMO's own models drive `vehicle` from now on: the vehicle type `type_id` (its car following and lane
         changing; a type of the running routes), SUMO's default lane-change mode, desired speed `desired_mps` [m/s];
-        the vehicle keeps its length and width."""
+        the vehicle keeps its length, width and vehicle class."""
         vehicle_api = self._api.vehicle
         if type_id not in self._api.vehicletype.getIDList():
             raise SimulationError(f"SUMO's own driver needs vehicle type {type_id}, which this simulation's routes do "
                                   f"not define (a recorded scene's traffic brings it)")
         length_m, width_m = vehicle_api.getLength(vehicle), vehicle_api.getWidth(vehicle)
+        vehicle_class = vehicle_api.getVehicleClass(vehicle)
         vehicle_api.setType(vehicle, type_id)
-        self.resize(vehicle, length_m, width_m)  # a new type brings its own size
+        self.resize(vehicle, length_m, width_m)  # a new type brings its own size and class
+        if vehicle_api.getVehicleClass(vehicle) != vehicle_class:  # a truck's seat stays a truck's
+            vehicle_api.setVehicleClass(vehicle, vehicle_class)
         vehicle_api.setLaneChangeMode(vehicle, LANE_CHANGE_MODE_SUMO)
         vehicle_api.setSpeedFactor(vehicle, desired_mps / self.speed_limit_mps)

@@ -33,7 +33,7 @@ import numpy as np
 
 from sumo_rail.config import ScenarioConfig
 from sumo_rail.datasets import DatasetError, write_bytes_atomically
-from sumo_rail.sim import network
+from sumo_rail.sim import network, scenarios
 from sumo_rail.sim.built_network import BuiltNetwork
 from sumo_rail.sim.commands import LANE_CHANGE_MODE_SUMO
 from sumo_rail.sim.controllers import SUMO_DRIVER_TYPE
@@ -124,12 +124,14 @@ class ReplayedTraffic:
 
     def network(self, scenario: ScenarioConfig) -> BuiltNetwork:
         """The scene's road with its routes file less the generated flows, with the replay's route, the type of
-        SUMO's own driver in the seat (`SUMO_DRIVER_TYPE`) and `types`' definitions (the file named by its content:
-        simulations of other types share the road's folder)."""
+        SUMO's own driver in the seat (`SUMO_DRIVER_TYPE`) and `types`' definitions (replacing the road's own types of
+        the same ids; the file named by its content: simulations of other types share the road's folder)."""
         built = network.build(scenario)
         root = ElementTree.parse(built.routes_file).getroot()
         for flow in root.findall("flow"):
             root.remove(flow)
+        # the road's own traffic's types (its flows are gone) give way to the scene's; the ego's never do
+        scenarios.drop_types(root, set(self.types.definitions) - {network.EGO_TYPE, network.ACCELERATION_EGO_TYPE})
         for route, route_id in self._route_ids.items():
             ElementTree.SubElement(root, "route", id=route_id, edges=" ".join(route))
         ElementTree.SubElement(root, "vType", id=SUMO_DRIVER_TYPE, carFollowModel="IDM", laneChangeModel="LC2013")

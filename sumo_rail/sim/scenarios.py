@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import copy
 import xml.etree.ElementTree as ElementTree
-from collections.abc import Callable
+from collections.abc import Callable, Collection
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -120,10 +120,7 @@ def network_routes(scenario: ScenarioConfig, vehicle_types: bytes, ego_route: tu
     flow = _find(root, "flow", "traffic", VEHICLE_TYPES_FILE)
     for element in [*root.findall("route"), flow]:
         root.remove(element)
-    for element in [*root.findall("vType"), *root.findall("vTypeDistribution")]:
-        members = {element.get("id"), *element.get("vTypes", "").split()}
-        if members & their_types:
-            root.remove(element)
+    drop_types(root, their_types)
     ElementTree.SubElement(root, "route", id="ego_route", edges=" ".join(ego_route))
     if with_flow and through_route is None:
         flow.set("route", "ego_route")
@@ -141,6 +138,15 @@ def network_routes(scenario: ScenarioConfig, vehicle_types: bytes, ego_route: tu
             root.append(element)
         leaving.set("id", "route_traffic")
     return ElementTree.tostring(root)
+
+
+def drop_types(root: ElementTree.Element, type_ids: Collection[str]) -> None:
+    """Remove from a routes file's `root` the vehicle types `type_ids` names and the distributions of any of them:
+    definitions given elsewhere replace them."""
+    for element in [*root.findall("vType"), *root.findall("vTypeDistribution")]:
+        members = {element.get("id"), *element.get("vTypes", "").split()}
+        if members & set(type_ids):
+            root.remove(element)
 
 
 def _merge(scenario: ScenarioConfig, nodes: ElementTree.Element, edges: ElementTree.Element,

@@ -203,6 +203,7 @@ def test_evaluate_scene_writes_both_tables_with_provenance(drivers_scene, tmp_pa
     assert (tracks["policy"] == HUMAN).sum() == 2 * 21
     metadata = read_metadata(out)
     assert metadata["kind"] == "scene_episodes" and metadata["split"] == "test"
+    assert (metadata["seat_classes"], metadata["seats"], metadata["lead_s"]) == (["passenger"], 2, 2.0)
     sources = metadata["scenes"][str(drivers_scene.resolve())]  # each scene file with its sha256
     assert sources[str((drivers_scene / "tracks.parquet").resolve())] == file_sha256(drivers_scene / "tracks.parquet")
 

@@ -15,14 +15,19 @@ from click.testing import CliRunner
 from sumo_rail_cli.main import cli
 
 from sumo_rail.config import Config
-from sumo_rail.evaluation.scene_evaluation import choose_seats
+from sumo_rail.datasets import read_metadata
+from sumo_rail.drivers.policies import Policy, PolicyShape
+from sumo_rail.evaluation.scene_evaluation import calibrated_idm_driver, choose_seats
+from sumo_rail.learning.log_dagger import LogDaggerTask, LogSeats
 from sumo_rail.recordings.actions import ActionRule, read_track
 from sumo_rail.recordings.scene import read_scene
+from sumo_rail.recordings.scene_drivers import reactive_types
 from sumo_rail.recordings.scene_observations import in_route_frame, observe, scene_road, scene_routes
 from sumo_rail.recordings.seat import SceneEnv
-from sumo_rail.sim.actions import Action
+from sumo_rail.runners.backends import SerialBackend
+from sumo_rail.sim.actions import Action, split_acceleration_action
 from sumo_rail.sim.network import netconvert, sumo_binary
-from sumo_rail.sim.observation import observation_names
+from sumo_rail.sim.observation import observation_names, observation_space
 
 SPEED = ("--set", "scenario.lanes=3", "--set", "scenario.speed_limit_mps=30", "--set", "env.v_max_mps=30")
 CONFIG = Config.from_dict({"scenario": {"lanes": 3, "speed_limit_mps": 30.0}, "env": {"v_max_mps": 30.0},
@@ -149,6 +154,42 @@ def test_a_trucks_seat_is_taken_on_request_and_the_ego_is_then_a_truck_of_its_si
     env.close()
 
 
+
+def test_a_trucks_seat_driven_by_sumo_stays_a_truck_of_its_size(network_scene):
+    """sumo-idm (and sumo-idm-calibrated) in a truck's seat: SUMO's driver type is a car's, the ego keeps its class."""
+    truck = choose_seats(read_scene(network_scene), "train", 10.0, 2.0, None, 0, classes=("truck",))[0]
+    env = SceneEnv(CONFIG, network_scene)
+    env.reset(seed=0, options={"vehicle": truck.vehicle, "start_s": truck.start_s, "controller": "sumo"})
+    vehicle = env.simulation._api.vehicle
+    assert (vehicle.getVehicleClass("ego"), vehicle.getLength("ego"), vehicle.getWidth("ego")) == ("truck", 12.0, 2.5)
+    env.close()
+
+
+def test_the_calibrated_idm_in_a_trucks_seat_is_fitted_on_the_trains_trucks(network_scene):
+    """sumo-idm-calibrated with --seat-class truck: a truck's seat gets the IDM fitted on the train split's trucks and
+    a desired speed of its own (the cars' median desired speed, 32 m/s, raised it above the trucks' 25 m/s)."""
+    scene = read_scene(network_scene)
+    seats = choose_seats(scene, "validation", 10.0, 2.0, None, 0, classes=("truck",))
+    driver, calibrations = calibrated_idm_driver([scene], 0.1, 2.0, 10.0, seats)
+    assert [found.settings.vehicle_class for found in calibrations.values()] == ["truck"]
+    controller, _ = driver.seat_controller(scene, seats[0], 0.1)
+    trucks = scene.tracks[scene.tracks["vehicle_class"] == "truck"]
+    assert controller.desired_mps <= trucks["speed_mps"].max() + 0.5
+
+
+def test_reactive_trucks_driven_by_the_calibrated_idm_stay_trucks(network_scene):
+    """The reactive mode drives the recording's trucks by the IDM calibrated on the train split as trucks (they were
+    passenger cars of a truck's size)."""
+    scene = read_scene(network_scene)
+    env = SceneEnv(CONFIG, network_scene, reactive=True, types=reactive_types(scene, 0.1).types)
+    env.reset(seed=0, options={"vehicle": "main.5"})
+    env.step(env.action_space.sample())
+    vehicle = env.simulation._api.vehicle
+    classes = {other: vehicle.getVehicleClass(other) for other in vehicle.getIDList() if other != "ego"}
+    env.close()
+    assert any(other.startswith("lorry") for other in classes)
+    assert all((kind == "truck") == other.startswith("lorry") for other, kind in classes.items()), classes
+
 def test_record_sumo_drivers_on_a_users_network_flows_from_every_entry_and_reads_as_demonstrations(tmp_path):
     """record-sumo-drivers with scenario.kind network: the drivers enter from the road's start and the on-ramp, the
     scene names the user's network (with its sha256), and recorded-demos reads it."""
@@ -167,3 +208,31 @@ def test_record_sumo_drivers_on_a_users_network_flows_from_every_entry_and_reads
     result = CliRunner().invoke(cli, ["recorded-demos", str(tmp_path / "scene"), *SPEED, "--out",
                                       str(tmp_path / "demos.parquet")])
     assert result.exit_code == 0, result.output
+
+
+def test_the_teacher_on_a_network_scene_reads_the_human_in_the_seats_route_frame(network_scene, tmp_path):
+    """A car seated on the on-ramp that joins the main road within its seat: the teacher driving (beta 1) keeps the
+    ego on the human's track across the edges, so its labels stay near the human's read accelerations (the human read
+    per edge was 270 m behind the ego once on the next edge: full braking)."""
+    demos = tmp_path / "demos.parquet"
+    result = CliRunner().invoke(cli, ["recorded-demos", str(network_scene), *SPEED, "--set",
+                                      "actions.interface=acceleration", "--out", str(demos)])
+    assert result.exit_code == 0, result.output
+    config = Config.from_dict({"actions": {"interface": "acceleration"}, "scenario": {"lanes": 3,
+                              "speed_limit_mps": 30.0}, "env": {"v_max_mps": 30.0}})
+    seats = LogSeats.of(read_metadata(demos), str(demos), config, 7.0, 8.0, 3.0)
+    tracks = read_scene(network_scene).tracks
+    crossing = [k for k, seat in enumerate(seats.seats) if set(tracks[(tracks["vehicle_id"] == seat.vehicle) & (
+        tracks["time_s"].between(seat.start_s, seat.start_s + 4.0))]["edge"]) >= {"ramp", "mid"}]
+    assert crossing
+    k = crossing[0]
+    shape = PolicyShape("linear", observation_space(config).shape[0], 0, 3 * config.actions.acceleration_bins)
+    policy = Policy(shape, np.zeros(shape.parameter_count, np.float32))  # never asked: the teacher drives
+    with SerialBackend() as backend:
+        episode, = backend.run([LogDaggerTask(seats.config, policy, seats.seats[k], seats.humans[k], 3.0, 1.0, 7)])
+    actions = config.actions
+    labelled = [actions.acceleration_mps2(split_acceleration_action(int(a), actions)[0]) for a in episode.labels]
+    human = seats.humans[k].accelerations_mps2
+    first = round((seats.seats[k].start_s - seats.humans[k].instants_s[0]) / seats.humans[k].period_s)
+    assert len(labelled) >= 14
+    assert np.abs(np.array(labelled) - human[first:first + len(labelled)]).max() < 1.0, labelled

@@ -14,7 +14,7 @@ from sumo_rail_cli.main import cli
 from sumo_rail.config import Config
 from sumo_rail.datasets import read_metadata
 from sumo_rail.recordings.scene import read_scene
-from sumo_rail.recordings.scene_drivers import REACTIVE_IDM_TYPE, reactive_types
+from sumo_rail.recordings.scene_drivers import REACTIVE_IDM_TRUCK_TYPE, REACTIVE_IDM_TYPE, reactive_types
 from sumo_rail.recordings.seat import SceneEnv
 from sumo_rail.recordings.sumo_drivers import DRIVER_TYPES
 from sumo_rail.sim.actions import Action
@@ -71,7 +71,9 @@ def test_without_the_types_definitions_the_idm_calibrated_on_the_train_split_dri
     assert "without their definitions" in found.note and "--vtypes" in found.note
     assert "SUMO's IDM calibrated on the train split" in found.describe()
     reactive = types_on_road(untyped_scene, found.types, reactive=True)
-    assert reactive and {type_id for type_id, _ in reactive.values()} == {REACTIVE_IDM_TYPE}
+    trucks = set(scene.tracks.loc[scene.tracks["vehicle_class"] == "truck", "vehicle_id"])
+    assert reactive and all(type_id == (REACTIVE_IDM_TRUCK_TYPE if other in trucks else REACTIVE_IDM_TYPE)
+                            for other, (type_id, _) in reactive.items())
     assert [tau for _, tau in reactive.values()] == pytest.approx([found.calibration.parameters.tau_s] * len(reactive))
 
 
@@ -137,3 +139,33 @@ def test_vtypes_refused_in_one_sentence(tmp_path, case):
             "not xml": f"--vtypes {given} is not a readable route or additional file"}[case]
     assert result.exit_code == 2 and said in result.output and "Traceback" not in result.output, result.output
     assert not (tmp_path / "scene").exists()
+
+
+def test_a_recorded_vtype_named_as_a_built_in_type_drives_the_reactive_vehicles(tmp_path):
+    """An FCD recording whose vType is named "car" (a type of the road's own traffic, whose flows a scene leaves out):
+    the recording's definition replaces it, and the reactive vehicles drive it (SUMO refused two types "car")."""
+    files = fcd_scene_files(tmp_path)
+    for name in ("fcd.xml", "types.rou.xml"):
+        (tmp_path / name).write_text((tmp_path / name).read_text().replace("car_calm", "car"))
+    result = CliRunner().invoke(cli, ["import-recording", *files, "--vtypes", str(tmp_path / "types.rou.xml"),
+                                      "--out", str(tmp_path / "scene")])
+    assert result.exit_code == 0, result.output
+    found = reactive_types(read_scene(tmp_path / "scene"), 0.1)
+    assert found.types.of_vehicle == {"a": "car", "b": "car"}
+    reactive = types_on_road(tmp_path / "scene", found.types, reactive=True)
+    cars = {other: drove for other, drove in reactive.items() if other in "ab"}
+    assert cars and all(drove == ("car", pytest.approx(1.7)) for drove in cars.values()), reactive
+
+
+def test_the_vtypes_file_sizes_and_classes_the_fcd_vehicles_of_its_types(tmp_path):
+    """FCD holds no sizes: a vehicle of a type the --vtypes file defines takes its length, width and class (the
+    lorry was a 5 m car, for the seats and the replay, though its recorded type drove as a 16.5 m truck)."""
+    files = fcd_scene_files(tmp_path)
+    (tmp_path / "types.rou.xml").write_text('<routes><vType id="lorry" vClass="truck" length="16.5" width="2.55"/>'
+                                            '</routes>')
+    result = CliRunner().invoke(cli, ["import-recording", *files, "--vtypes", str(tmp_path / "types.rou.xml"),
+                                      "--out", str(tmp_path / "scene")])
+    assert result.exit_code == 0, result.output
+    first = read_scene(tmp_path / "scene").tracks.drop_duplicates("vehicle_id").set_index("vehicle_id")
+    assert first.loc["t", ["vehicle_class", "length_m", "width_m"]].tolist() == ["truck", 16.5, pytest.approx(2.55)]
+    assert first.loc["a", ["vehicle_class", "length_m"]].tolist() == ["passenger", 5.0]  # not defined: as before
