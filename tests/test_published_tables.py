@@ -58,6 +58,8 @@ REGENERATED: dict[str, list[str]] = {
     "human_likeness_acceleration/open_loop.md": ["experiments/acceleration_open_loop.py", "table",
                                                  f"{R}/human_likeness_acceleration/open_loop.parquet"],
     "log_teacher/validation.md": ["experiments/log_teacher_horizon.py", f"{R}/log_teacher/validation.parquet"],
+    "log_study/log_test.md": ["experiments/human_likeness_closed_loop.py", "--study", "log", "--intervals",
+                              "hierarchical", f"{R}/log_study/log_test.parquet"],
     "human_likeness_acceleration/open_loop_decoding.md": ["experiments/acceleration_open_loop.py", "table",
                                                           f"{R}/human_likeness_acceleration/open_loop_decoding.parquet"],
     "ppo_expert/lane_change_context.md": ["experiments/lane_change_context.py",
@@ -101,6 +103,8 @@ NOT_REGENERABLE: dict[str, str] = {
     "human_likeness_acceleration/validation_seat_showed_0.md": "its evaluations are not committed and no longer made: "
                                                                "the seats then showed 0 m/s^2 as the last command "
                                                                "before the first decision (before commit 1ae2b34)",
+    "log_study/log_validation.md": "its evaluations (results/human_likeness/log_validation, 2.7 MB with their tracks) "
+                                   "are not committed; the grid spec human_likeness_log.toml makes them again",
     "fidelity_demo/table.txt": "evaluate's printout of the simulated evaluation, not a table script's output",
     "generalisation/previous_5b09e52/table.md": "an earlier run's table as published then; its evaluations are not "
                                                 "committed",
