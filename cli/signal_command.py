@@ -71,6 +71,7 @@ def step_signal_command(config: Config, settings: LearnerSettings, demos: Path, 
     from sumo_rail.learning.rail.step_signal import Meter, measure, variants
     from sumo_rail.runners.experts import demonstrations_expert, resolve_expert
     from sumo_rail.runners.tables import provenance, read_demonstrations
+    from sumo_rail.sim.actions import action_count
     from sumo_rail.sim.observation import observation_space
 
     with library_errors():
@@ -85,6 +86,11 @@ def step_signal_command(config: Config, settings: LearnerSettings, demos: Path, 
     if policy.shape.observation_size != demonstrations.observations.shape[1]:
         raise click.UsageError(f"policy {policy_path} sees {policy.shape.observation_size} observation values but "
                                f"the configuration gives {demonstrations.observations.shape[1]}")
+    if policy.shape.actions != (count := action_count(config.actions)):
+        raise click.UsageError(f"policy {policy_path} chooses among {policy.shape.actions} actions but the "
+                               f"configuration's action interface has {count} "
+                               f"(actions.interface={config.actions.interface})")
+    policy = policy.decoded_by(config.actions.decoding)  # as every command reads a policy file: the run's decoding
     if zero_weights:
         policy = Policy(policy.shape, np.zeros_like(policy.parameters), policy.observation_mean,
                         policy.observation_std)

@@ -61,6 +61,11 @@ def test_bad_input_is_one_sentence(tmp_path, demos, policy):
     lane_block = invoke("step-signal", *SMALL, "--set", "observation.lane_block=1", "--demos", str(demos),
                         "--policy", str(policy))
     assert lane_block.exit_code != 0 and "Traceback" not in lane_block.output
+    other = tmp_path / "acceleration.npz"  # a policy of the acceleration interface (111 actions), paper demonstrations
+    shape = PolicyShape("linear", 56, actions=111)
+    save_policy(Policy(shape, np.zeros(shape.parameter_count)), other, {})
+    mismatch = invoke("step-signal", *SMALL, "--demos", str(demos), "--policy", str(other))
+    assert mismatch.exit_code == 2 and "chooses among 111 actions" in mismatch.output, mismatch.output
     for word in ("rail.top=40", "rail.directions=2"):
         refused = invoke("step-signal", *SMALL, "--demos", str(demos), "--policy", str(policy), "--set", word)
         assert refused.exit_code == 2 and word.split("=")[0] in refused.output
