@@ -46,23 +46,18 @@ def moved_from_bc(run) -> bool:
     return not np.array_equal(bc.parameters, latest.parameters)
 
 
-def test_rail_learns_from_recorded_demonstrations_on_the_acceleration_interface(scene_and_demos, tmp_path):
+@pytest.mark.parametrize(("command", "options"), [
+    ("train", ["--iterations", "1", "--set", "rail.directions=2", "--set", "rail.top=1", "--eval-every", "0"]),
+    ("gail", ["--timesteps", "64", "--set", "gail.n_steps=32", "--set", "gail.envs=1", "--set",
+              "gail.critic_warmup=0"]),
+])
+def test_rail_and_gail_learn_from_recorded_demonstrations_on_the_acceleration_interface(scene_and_demos, tmp_path,
+                                                                                        command, options):
+    if command == "gail":
+        pytest.importorskip("stable_baselines3", reason="gail is the package's optional extra [baselines]")
     scene, demos = scene_and_demos
-    run = tmp_path / "rail"
-    result = invoke("train", *SMALL, *ACCELERATION, "--demos", str(demos), "--iterations", "1", "--set",
-                    "rail.directions=2", "--set", "rail.top=1", "--set", "bc.epochs=1", "--eval-every", "0",
-                    "--out", str(run))
-    assert result.exit_code == 0, result.output
-    assert moved_from_bc(run)
-    drives_a_seat(scene, run / "policy_latest.npz", tmp_path)
-
-
-def test_gail_learns_from_recorded_demonstrations_on_the_acceleration_interface(scene_and_demos, tmp_path):
-    pytest.importorskip("stable_baselines3", reason="gail is the package's optional extra [baselines]")
-    scene, demos = scene_and_demos
-    run = tmp_path / "gail"
-    result = invoke("gail", *SMALL, *ACCELERATION, "--demos", str(demos), "--timesteps", "64", "--set",
-                    "gail.n_steps=32", "--set", "gail.envs=1", "--set", "gail.critic_warmup=0", "--set", "bc.epochs=1",
+    run = tmp_path / command
+    result = invoke(command, *SMALL, *ACCELERATION, "--demos", str(demos), *options, "--set", "bc.epochs=1",
                     "--out", str(run))
     assert result.exit_code == 0, result.output
     assert moved_from_bc(run)
