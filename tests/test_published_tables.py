@@ -60,6 +60,8 @@ REGENERATED: dict[str, list[str]] = {
     "log_teacher/validation.md": ["experiments/log_teacher_horizon.py", f"{R}/log_teacher/validation.parquet"],
     "log_study/log_test.md": ["experiments/human_likeness_closed_loop.py", "--study", "log", "--intervals",
                               "hierarchical", f"{R}/log_study/log_test.parquet"],
+    "log_study/road2_test.md": ["experiments/human_likeness_closed_loop.py", "--study", "log", "--intervals",
+                                "hierarchical", f"{R}/log_study/road2_test.parquet"],
     "human_likeness_acceleration/open_loop_decoding.md": ["experiments/acceleration_open_loop.py", "table",
                                                           f"{R}/human_likeness_acceleration/open_loop_decoding.parquet"],
     "ppo_expert/lane_change_context.md": ["experiments/lane_change_context.py",
