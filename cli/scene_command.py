@@ -93,7 +93,8 @@ def evaluate_scene_command(config: Config, scenes: tuple[Path, ...], policies: t
         for scene in read:
             check_scene(scene, config, split)  # a network whose main road has the observation's lanes
         seats = [seat for scene in read for seat in choose_seats(scene, split, horizon_s, lead_s, limit, seed,
-                                                                          zone_m=zone_m, classes=classes)]
+                                                                          zone_m=zone_m, classes=classes,
+                                                                          earliest_s=config.scenario.step_length_s)]
     except (DatasetError, RecordingUsageError) as error:
         raise click.UsageError(str(error)) from error
     if not seats:

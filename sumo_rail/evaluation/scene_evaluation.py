@@ -77,12 +77,14 @@ class Seat:
 
 
 def choose_seats(scene: Scene, split: str, horizon_s: float, lead_s: float, limit: int | None,
-                 seed: int, *, zone_m: float = 0.0, classes: Collection[str] = ("passenger",)) -> list[Seat]:
+                 seed: int, *, zone_m: float = 0.0, classes: Collection[str] = ("passenger",),
+                 earliest_s: float = 0.0) -> list[Seat]:
     """The seats of `split`'s vehicles of `classes` (passenger cars by default) whose tracks cover `lead_s` +
     `horizon_s`, in id order; with `limit`, that many drawn without replacement by `seed`, kept in id order. A seat
     begins `lead_s` into the track; with `zone_m` > 0 [m], where traffic is established: at the first row from then on
     where the vehicle is at least `zone_m` along the road, its horizon ending at least `zone_m` before the road's end
-    (vehicles that never fit are left out)."""
+    (vehicles that never fit are left out). No seat starts before `earliest_s` [s] (SUMO's run begins one step before
+    the seat: give the step length; a track from the scene's first instant is then taken one step in)."""
     held_out = set(scene.split.loc[scene.split["split"] == split, "vehicle_id"].astype(str))
     spans = scene.tracks.groupby("vehicle_id").agg(begin=("time_s", "min"), end=("time_s", "max"),
                                                    kind=("vehicle_class", "first"))
@@ -96,7 +98,8 @@ def choose_seats(scene: Scene, split: str, horizon_s: float, lead_s: float, limi
         route, time_s = routes[str(vehicle)], track["time_s"].to_numpy(dtype=float)
         along = road.place(route, track["edge"].to_numpy().astype(str), track["lane"].to_numpy(),
                            track["lane_position_m"].to_numpy(dtype=float))[0]  # along its route, across edges
-        start = _seat_start(time_s, along, lead_s, horizon_s, zone_m, road.frame(route).length_m)
+        start = _seat_start(time_s, along, max(lead_s, earliest_s - float(time_s[0])), horizon_s, zone_m,
+                            road.frame(route).length_m)
         if start is not None:
             seats.append(Seat(str(scene.folder), str(vehicle), start[0], start[1], start[0] - float(time_s[0])))
     if limit is not None and limit < len(seats):
@@ -109,6 +112,8 @@ def _seat_start(time_s: np.ndarray, along: np.ndarray, lead_s: float, horizon_s:
     """(start [s], position along the route there [m]) of a track's seat (`choose_seats`) from its times [s] and
     positions along its route [m] (-inf where off it); None when none fits."""
     start_s = float(time_s[0]) + lead_s
+    if time_s[-1] < start_s + horizon_s - 1e-9:
+        return None
     if zone_m > 0:
         later = np.flatnonzero((time_s >= start_s - 1e-9) & (along >= zone_m))
         if not len(later):

@@ -129,7 +129,8 @@ class LogSeats:
                                   f"sha256 differ): read the demonstrations again")
         config = config.with_overrides({"env": {"max_episode_s": seat_s}})
         check_scene(scene, config, "train")
-        chosen = choose_seats(scene, "train", seat_s, seat_lead_s, None, 0, zone_m=zone_m)
+        chosen = choose_seats(scene, "train", seat_s, seat_lead_s, None, 0, zone_m=zone_m,
+                              earliest_s=config.scenario.step_length_s)
         if not chosen:
             zone = f" with dagger.seat_zone_m = {zone_m:g} m" if zone_m > 0 else ""
             raise LogTeacherError(f"no train-split car of the scene {folder} has a track of dagger.seat_lead_s + "

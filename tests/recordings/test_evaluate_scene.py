@@ -51,6 +51,19 @@ def test_seats_are_held_out_cars_whose_tracks_cover_the_episode(drivers_scene):
     assert {seat.vehicle for seat in drawn} <= {seat.vehicle for seat in seats}
 
 
+def test_no_seat_starts_before_sumos_first_step_and_every_seat_still_covers_its_horizon(drivers_scene):
+    """With --lead-s 0 a car on the road at the scene's first instant would be seated at 0 s, before SUMO's run can
+    begin (one step): it is taken one step in, and left out when its track then no longer covers the horizon."""
+    scene = read_scene(drivers_scene)
+    first = scene.tracks["time_s"].min()
+    assert first < 0.1 and (scene.tracks.groupby("vehicle_id")["time_s"].min() == first).any()
+    seats = choose_seats(scene, "test", 10.0, 0.0, None, 0, earliest_s=0.1)
+    ends = scene.tracks.groupby("vehicle_id")["time_s"].max()
+    assert seats and all(seat.start_s >= 0.1 - 1e-9 for seat in seats)
+    assert all(ends[seat.vehicle] >= seat.start_s + 10.0 - 1e-9 for seat in seats)
+    assert any(seat.start_s < 0.1 for seat in choose_seats(scene, "test", 10.0, 0.0, None, 0))
+
+
 def test_the_humans_track_is_its_recorded_one_with_the_gap_to_its_leader(drivers_scene):
     scene = read_scene(drivers_scene)
     seat = choose_seats(scene, "test", 10.0, 2.0, None, 0)[0]
