@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from sumo_rail.bounds import ConfigError, bounded, check_fields, replace_settings
-from sumo_rail.drivers.policies import KINDS, PolicyShape
+from sumo_rail.drivers.policies import KINDS
 
 
 @dataclass(frozen=True)
@@ -32,10 +32,6 @@ class NetworkSettings:
         if self.shape not in KINDS:
             raise ConfigError(f"network.shape must be one of {', '.join(KINDS)}, got {self.shape!r}")
         check_fields(self, "network.")
-
-    def policy_shape(self, observation_size: int) -> PolicyShape:
-        """The policy's layout on an observation of `observation_size` values."""
-        return PolicyShape(self.shape, observation_size, self.hidden)
 
 
 SECTIONS: dict[str, str] = {
