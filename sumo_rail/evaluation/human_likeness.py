@@ -93,13 +93,13 @@ def wasserstein_interval(ours: Sequence[np.ndarray], theirs: Sequence[np.ndarray
     if min(len(ours), len(theirs)) < 2 or np.isnan(estimate):
         return Interval(estimate, np.nan, np.nan)
     values, groups, is_ours = _sorted_groups(ours, theirs)
+    steps, in_draw = np.diff(values), np.where(is_ours, groups, len(ours) + groups)
     rng = np.random.default_rng(seed)
     draws = np.empty(resamples)
     for k in range(resamples):
-        weights = [np.zeros(len(values)), np.zeros(len(values))]
-        for weight, members, count in ((weights[0], is_ours, len(ours)), (weights[1], ~is_ours, len(theirs))):
-            weight[members] = np.bincount(rng.integers(count, size=count), minlength=count)[groups[members]]
-        draws[k] = _weighted_w1(values, *weights)
+        drawn = np.concatenate([np.bincount(rng.integers(count, size=count), minlength=count)
+                                for count in (len(ours), len(theirs))])
+        draws[k] = _weighted_w1(steps, drawn[in_draw], is_ours)
     return _percentile_interval(estimate, draws)
 
 
@@ -116,13 +116,13 @@ def paired_wasserstein_interval(ours: Sequence[np.ndarray], others: Sequence[np.
     estimate = (wasserstein(_joined(ours), _joined(theirs)) - wasserstein(_joined(others), _joined(theirs)))
     if len(ours) < 2 or np.isnan(estimate):
         return Interval(estimate, np.nan, np.nan)
-    pairs = [_sorted_groups(side, theirs) for side in (ours, others)]
+    pairs = [(np.diff(values), groups, is_ours)
+             for values, groups, is_ours in (_sorted_groups(side, theirs) for side in (ours, others))]
     rng = np.random.default_rng(seed)
     draws = np.empty(resamples)
     for k in range(resamples):
         drawn = np.bincount(rng.integers(len(ours), size=len(ours)), minlength=len(ours))
-        distances = [_weighted_w1(values, np.where(is_ours, drawn[groups], 0), np.where(is_ours, 0, drawn[groups]))
-                     for values, groups, is_ours in pairs]
+        distances = [_weighted_w1(steps, drawn[groups], is_ours) for steps, groups, is_ours in pairs]
         draws[k] = distances[0] - distances[1]
     return _percentile_interval(estimate, draws)
 
@@ -147,13 +147,18 @@ def _percentile_interval(estimate: float, draws: np.ndarray) -> Interval:
     return Interval(estimate, float(low), float(high))
 
 
-def _weighted_w1(values: np.ndarray, ours: np.ndarray, theirs: np.ndarray) -> float:
-    """The Wasserstein-1 distance between two weighted samples of the same sorted `values` (weights `ours`,
-    `theirs`): the integral of |F_ours - F_theirs|; NaN when a side has no weight."""
-    if ours.sum() == 0 or theirs.sum() == 0:
+def _weighted_w1(steps: np.ndarray, weights: np.ndarray, is_ours: np.ndarray) -> float:
+    """The Wasserstein-1 distance between the two weighted samples of the same sorted values whose gaps are `steps`
+    (`np.diff` of the values): `weights` integer counts, `is_ours` which side each value is on; the integral of
+    |F_ours - F_theirs| (the distribution functions' cumulative counts kept in integers, so exact); NaN when a side
+    has no weight."""
+    everyone = np.cumsum(weights)
+    ours = np.cumsum(weights * is_ours)
+    theirs = everyone - ours
+    if ours[-1] == 0 or theirs[-1] == 0:
         return np.nan
-    difference = np.cumsum(ours) / ours.sum() - np.cumsum(theirs) / theirs.sum()
-    return float(np.sum(np.abs(difference[:-1]) * np.diff(values)))
+    difference = ours[:-1] / ours[-1] - theirs[:-1] / theirs[-1]
+    return float(np.sum(np.abs(difference) * steps))
 
 
 def _joined(groups: Sequence[np.ndarray]) -> np.ndarray:
