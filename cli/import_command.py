@@ -74,6 +74,9 @@ def split_options(command: Callable[..., None]) -> Callable[..., None]:
                    "carriageway)  [default: lower].")
 @click.option("--site", type=click.Choice(values("site")), default=None,
               help="NGSIM: the site, which fixes the main lanes (US-101: 1-5, I-80: 1-6)  [default: us-101].")
+@click.option("--period", type=click.IntRange(min=1), default=None, metavar="N",
+              help="NGSIM: the recording period to import (1: the earliest) from files that hold several, as the "
+                   "data.transportation.gov edition does (the command names them when one must be chosen).")
 @click.option("--network", type=click.Path(path_type=Path, dir_okay=False), default=None,
               help="FCD: the SUMO .net.xml (or .net.xml.gz) the recording was driven on (any SUMO network).")
 @click.option("--vtypes", type=click.Path(path_type=Path, dir_okay=False), default=None,
@@ -87,8 +90,8 @@ def split_options(command: Callable[..., None]) -> Callable[..., None]:
               help="Split by time instead: vehicles entering at or after T s are the test set.")
 @click.option("--overwrite", is_flag=True, help="Replace a scene already in --out.")
 def import_recording_command(config: Config, format_: str, files: tuple[Path, ...], out: Path, direction: str | None,
-                             site: str | None, network: Path | None, vtypes: Path | None, vehicles: str | None,
-                             section: str | None,
+                             site: str | None, period: int | None, network: Path | None, vtypes: Path | None,
+                             vehicles: str | None, section: str | None,
                              split_seed: int, test_share: float, validation_share: float,
                              hold_out_after_s: float | None, overwrite: bool) -> None:
     """Import a recording of real (or SUMO) driving as a scene: its tracks in the coordinates of a SUMO road.
@@ -106,7 +109,7 @@ def import_recording_command(config: Config, format_: str, files: tuple[Path, ..
         takers = [form.name for form in taking(option)]
         if value is not None and format_ not in takers:
             raise click.UsageError(f"--{option} applies to --format {' or '.join(takers)} only")
-    settings = ImportSettings(format_, files, out, direction or "lower", site or "us-101", network,
+    settings = ImportSettings(format_, files, out, direction or "lower", site or "us-101", period, network,
                               _vehicles(vehicles), _section(section), split_seed, test_share, validation_share,
                               hold_out_after_s, overwrite, vtypes)
     try:

@@ -32,6 +32,8 @@ class ReadOptions:
     """highD: the driving direction kept ("upper" or "lower"), or "both" (each on its own carriageway's edge)."""
     site: str = "us-101"
     """NGSIM: the site ("us-101" or "i-80"), which fixes the main lanes."""
+    period: int | None = None
+    """NGSIM: the recording period to read (1: the earliest) of files that hold several; None: the only one."""
     network: Path | None = None
     """FCD: the SUMO network the positions refer to."""
     vtypes: Mapping[str, Mapping[str, str]] = field(default_factory=dict)

@@ -37,6 +37,8 @@ class ImportSettings:
     """highD: the driving direction kept ("upper" or "lower"), or "both" (each on its own carriageway's edge)."""
     site: str = "us-101"
     """NGSIM: the site ("us-101" or "i-80"), which fixes the main lanes."""
+    period: int | None = None
+    """NGSIM: the recording period to read (1: the earliest) of files that hold several; None: the only one."""
     network: Path | None = None
     """FCD: the SUMO network the positions refer to."""
     vehicles: tuple[str, ...] = ()
@@ -78,7 +80,11 @@ def check_import(settings: ImportSettings) -> ReadOptions:
     if settings.vtypes is not None and not form.network:
         raise RecordingUsageError(f"--vtypes applies to --format {' or '.join(f.name for f in taking('network'))} "
                                   f"only (the formats that name SUMO vTypes)")
-    options = ReadOptions(settings.direction, settings.site, settings.network)
+    if settings.period is not None and "site" not in form.choices:
+        raise RecordingUsageError(f"--period applies to --format {' or '.join(f.name for f in taking('site'))} only "
+                                  f"(files that hold several recording periods)")
+    options = ReadOptions(direction=settings.direction, site=settings.site, period=settings.period,
+                          network=settings.network)
     for option, values in form.choices.items():
         if getattr(options, option) not in values:
             raise RecordingUsageError(f"--{option} {getattr(options, option)!r} is not one of {form.name}'s: "

@@ -1,15 +1,17 @@
 """NGSIM US-101 and I-80 vehicle trajectories (FHWA, public): read into a scene, and write a scene out.
 
 A file is the trajectory CSV with a header of `COLUMNS` (the extra columns of the data.transportation.gov edition,
-Location among them, are allowed), or the original whitespace-separated text file of those 18 columns without a
-header; either may be gzip-compressed. Units are feet, ft/s and ft/s^2 at 10 Hz (Frame_ID counts tenths of a second
-from 1). Local_Y is the front of the vehicle along the road from the section's entry, Local_X the lateral position of
-its front centre from the section's left edge. Lane_ID 1 is the leftmost lane: US-101 has main lanes 1 to 5, an
-auxiliary lane 6, an on-ramp 7 and an off-ramp 8; I-80 main lanes 1 to 6 and an on-ramp 7. Every track is kept, on a
-road built with the lanes the recording uses. A Vehicle_ID is reused for another vehicle after the first one left:
-a track is split where the vehicle's Total_Frames, v_Length, v_Width or v_Class change ("17", "17#2"); a gap with
-none of them changing is a gap in frames and the track is dropped. A vehicle drives toward growing Local_Y: a track
-that falls back more than BACKWARD_TOLERANCE_M is refused.
+Location among them, are allowed, and its spelling v_length), or the original whitespace-separated text file of those 18
+columns without a header; either may be gzip-compressed. Units are feet, ft/s and ft/s^2 at 10 Hz (Frame_ID counts
+tenths of a second from 1 in each recording period; files holding several periods, as that edition does, are read one
+period at a time, `ReadOptions.period`). Rows repeated word for word (that edition has some) are read once. Local_Y is
+the front of the vehicle along the road from the section's entry, Local_X the lateral position of its front centre from
+the section's left edge. Lane_ID 1 is the leftmost lane: US-101 has main lanes 1 to 5, an auxiliary lane 6, an on-ramp 7
+and an off-ramp 8; I-80 main lanes 1 to 6 and an on-ramp 7. Every track is kept, on a road built with the lanes the
+recording uses. A Vehicle_ID is reused for another vehicle after the first one left: a track is split where the
+vehicle's Total_Frames, v_Length, v_Width or v_Class change ("17", "17#2"); a gap with none of them changing is a gap in
+frames and the track is dropped. A vehicle drives toward growing Local_Y: a track that falls back more than
+BACKWARD_TOLERANCE_M is refused.
 
 The scene's road runs straight along +x with the site's through lanes (`THROUGH_LANES`: the main lanes and US-101's
 auxiliary lane), 12 ft (3.6576 m) each, left edge at y = 0; x is Local_Y and y minus Local_X, in metres. Where the
@@ -23,6 +25,7 @@ the ramp lane runs the whole section. Each row's edge, lane and lane position ar
 from __future__ import annotations
 
 import tempfile
+from datetime import UTC, datetime
 from pathlib import Path
 
 import numpy as np
@@ -67,8 +70,14 @@ TRUCK_CLASS = 3
 BACKWARD_TOLERANCE_M = 1.0
 """A track whose front falls back this far [m] behind where it was (its frames running backwards along the road) is
 broken; less is the positions' noise."""
+_CANONICAL = {name.casefold(): name for name in (*COLUMNS, "Location")}
+"""A header's names as this module spells them: the data.transportation.gov edition writes v_length, the original
+files v_Length."""
 _IDENTITY = ("Total_Frames", "v_Length", "v_Width", "v_Class")
-_READ = ("Vehicle_ID", "Frame_ID", *_IDENTITY, "Local_X", "Local_Y", "v_Vel", "v_Acc", "Lane_ID")
+_READ = ("Vehicle_ID", "Frame_ID", *_IDENTITY, "Global_Time", "Local_X", "Local_Y", "v_Vel", "v_Acc", "Lane_ID")
+PERIOD_GAP_S = 60.0
+"""Rows whose Global_Time minus their Frame_ID's time differ by more than this [s] are of different recording periods
+(each period counts its frames from 1; the data.transportation.gov edition holds a site's periods in one file)."""
 
 
 def _header(path: Path) -> tuple[list[str], bool]:
@@ -86,7 +95,7 @@ def _header(path: Path) -> tuple[list[str], bool]:
                                   f"NGSIM's original text files")
     if numbers:
         return list(COLUMNS), False
-    return [name.strip() for name in first.strip().split(",")], True
+    return [_CANONICAL.get(name.strip().casefold(), name.strip()) for name in first.strip().split(",")], True
 
 
 def _is_number(text: str) -> bool:
@@ -108,12 +117,14 @@ def read(files: list[Path], options: ReadOptions) -> Recording:
     only its rows of the site are read), on a road built with the lanes they use (module docstring)."""
     site = options.site
     parts = [_read_file(path, site) for path in files]
-    raw = pd.concat(parts, ignore_index=True) if len(parts) > 1 else parts[0]
+    raw, period_note = _one_period(pd.concat(parts, ignore_index=True) if len(parts) > 1 else parts[0], options.period,
+                                   files[0])
     if len(files) > 1 and raw.duplicated(["Vehicle_ID", "Frame_ID"]).any():
         row = raw[raw.duplicated(["Vehicle_ID", "Frame_ID"])].iloc[0]
         raise RecordingDataError(f"vehicle {row['Vehicle_ID']} appears in frame {row['Frame_ID']} of two of the files; "
                                  f"they overlap in time")
-    raw = raw.sort_values(["Vehicle_ID", "Frame_ID"], kind="stable", ignore_index=True)
+    repeated = raw.duplicated(list(_READ))  # the data.transportation.gov edition repeats some rows word for word
+    raw = raw[~repeated].sort_values(["Vehicle_ID", "Frame_ID"], kind="stable", ignore_index=True)
     vehicle_ids = _split_reused_ids(raw)
     x = raw["Local_Y"].to_numpy(float) * FEET_M
     _check_forward(vehicle_ids, raw["Frame_ID"].to_numpy(np.int64), x, files[0])
@@ -145,7 +156,9 @@ def read(files: list[Path], options: ReadOptions) -> Recording:
     tracks.insert(tracks.columns.get_loc("length_m"), "lane", lane.astype(np.int16))
     tracks.insert(tracks.columns.get_loc("length_m"), "lane_position_m", position)
     ramps = "a ramp lane right of them" if len(widths) > through or ramp_lane_m else "no ramp"
-    notes = [f"NGSIM site {site}: lanes 1 to {through} along the whole section, {ramps}; every track kept"]
+    notes = [f"NGSIM site {site}: lanes 1 to {through} along the whole section, {ramps}; every track kept",
+             *([f"{int(repeated.sum())} row(s) repeated word for word left out"] if repeated.any() else []),
+             *([period_note] if period_note else [])]
     return Recording(tracks, FRAME_RATE_HZ, len(widths) + (ramp_lane_m is not None), widths, length_m, notes,
                      tuple(files), ramp_lane_m=ramp_lane_m)
 
@@ -169,7 +182,9 @@ def _read_file(path: Path, site: str) -> pd.DataFrame:
     names, has_header = _header(path)
     wanted = [*_READ, "Location"] if "Location" in names else list(_READ)
     if has_header:
-        raw = read_csv(path, "NGSIM trajectory", usecols=wanted, low_memory=False)
+        raw = read_csv(path, "NGSIM trajectory", usecols=lambda name: _CANONICAL.get(name.strip().casefold()) in wanted,
+                       low_memory=False)
+        raw = raw.rename(columns=lambda name: _CANONICAL[name.strip().casefold()])
     else:
         raw = read_csv(path, "NGSIM trajectory", sep=r"\s+", header=None, names=list(COLUMNS), usecols=list(_READ))
     check_numbers(raw, _READ, path, "Vehicle_ID", "Frame_ID")
@@ -181,6 +196,31 @@ def _read_file(path: Path, site: str) -> pd.DataFrame:
             raise RecordingDataError(f"{path} has no rows of {site} (its locations: {locations}); pass --site")
         raw = raw[here].drop(columns="Location").reset_index(drop=True)
     return raw
+
+
+def _one_period(raw: pd.DataFrame, period: int | None, path: Path) -> tuple[pd.DataFrame, str | None]:
+    """The rows of recording period `period` (1: the earliest; None: the only one) and a note naming it when the rows
+    hold several; RecordingDataError when they hold several and none is chosen, or fewer than `period`."""
+    offset_s = (raw["Global_Time"].to_numpy(np.float64) - 100.0 * raw["Frame_ID"].to_numpy(np.float64)) / 1000.0
+    offsets = np.unique(offset_s)
+    labels = np.cumsum(np.concatenate([[0], np.diff(offsets) > PERIOD_GAP_S]))[np.searchsorted(offsets, offset_s)]
+    count = int(labels.max()) + 1
+    starts = [_clock(raw["Global_Time"].to_numpy()[labels == label].min()) for label in range(count)]
+    if period is None and count > 1:
+        raise RecordingDataError(f"{path} holds {count} recording periods (starting {', '.join(starts)}); import one "
+                                 f"at a time with --period 1 to {count}")
+    if period is not None and period > count:
+        raise RecordingDataError(f"--period {period}: {path} holds {count} recording period(s)")
+    if count == 1:
+        return raw, None
+    chosen = (period or 1) - 1
+    return (raw[labels == chosen].reset_index(drop=True),
+            f"recording period {chosen + 1} of {count}, starting {starts[chosen]}")
+
+
+def _clock(global_time_ms: float) -> str:
+    """An NGSIM Global_Time [ms since 1970] as UTC clock time."""
+    return datetime.fromtimestamp(global_time_ms / 1000.0, tz=UTC).strftime("%Y-%m-%d %H:%M:%S UTC")
 
 
 def _split_reused_ids(raw: pd.DataFrame) -> np.ndarray:

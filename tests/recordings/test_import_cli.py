@@ -179,7 +179,7 @@ def test_fcd_keeps_the_users_network_and_vehicles_and_a_section_select_rows(tmp_
 
 
 def test_a_vehicle_twice_in_one_frame_is_refused(tmp_path):
-    rows = ngsim_vehicle(4, range(1, 30), 0.0, 2)
-    path = write_ngsim(tmp_path / "t.csv", rows + rows[5:6])
+    rows = ngsim_vehicle(4, range(1, 30), 0.0, 2)  # and frame 6 again, saying otherwise (a word-for-word repeat is
+    path = write_ngsim(tmp_path / "t.csv", [*rows, dict(rows[5], Local_Y=rows[5]["Local_Y"] + 2.0)])  # read once)
     result = invoke("--format", "ngsim", str(path), "--out", str(tmp_path / "scene"))
     assert result.exit_code == 1 and "vehicle 4 appears twice in frame 6" in result.output, result.output

@@ -87,6 +87,53 @@ def test_only_the_sites_rows_of_a_file_with_locations_are_read(tmp_path):
         ngsim.read([tmp_path / "ngsim.csv"], ReadOptions(site="i-80"))
 
 
+def test_the_data_transportation_gov_edition_is_read_as_the_original(tmp_path):
+    """That edition writes v_length (not v_Length), adds zone and movement columns and Location, often a leading
+    index column, and repeats some rows word for word; a repeated frame whose values differ is still refused."""
+    rows = ngsim_vehicle(1, range(1, 30), 0.0, 2) + ngsim_vehicle(2, range(5, 40), 80.0, 3, length_ft=22.0)
+    original = ngsim.read([write_ngsim(tmp_path / "original.csv", rows)], ReadOptions(site="us-101"))
+    edition = pd.DataFrame(rows).rename(columns={"v_Length": "v_length"})
+    edition[["O_Zone", "D_Zone", "Int_ID", "Section_ID", "Direction", "Movement"]] = 0
+    edition["Location"] = "us-101"
+    pd.concat([edition, edition.iloc[[3, 40]]]).to_csv(tmp_path / "edition.csv")  # with pandas' index column
+    ngsim.check_headers([tmp_path / "edition.csv"])
+    read = ngsim.read([tmp_path / "edition.csv"], ReadOptions(site="us-101"))
+    pd.testing.assert_frame_equal(read.tracks, original.tracks)
+    assert "2 row(s) repeated word for word left out" in read.notes
+    conflicting = pd.concat([edition, edition.iloc[[3]].assign(Local_Y=1.0)])
+    conflicting.to_csv(tmp_path / "conflicting.csv", index=False)
+    with pytest.raises(RecordingDataError, match="vehicle 1 appears twice in frame 4"):
+        kept_tracks(ngsim.read([tmp_path / "conflicting.csv"], ReadOptions(site="us-101")).tracks, 10.0, 0.5,
+                    "conflicting.csv", gaps_fail=False)
+
+
+def test_a_file_of_several_recording_periods_is_imported_one_period_at_a_time(tmp_path):
+    """The data.transportation.gov edition holds a site's periods in one file, each counting its frames from 1 and
+    reusing vehicle ids: the command names the periods, --period picks one, and only its vehicles are kept."""
+    first = ngsim_vehicle(1, range(1, 40), 0.0, 2) + ngsim_vehicle(2, range(1, 40), 60.0, 3)
+    later = [dict(row, Global_Time=row["Global_Time"] + 15 * 60 * 1000, Lane_ID=4)
+             for row in ngsim_vehicle(1, range(1, 30), 100.0, 4) + ngsim_vehicle(3, range(1, 30), 30.0, 4)]
+    path = write_ngsim(tmp_path / "ngsim.csv", later + first)
+    runner = CliRunner()
+    refused = runner.invoke(cli, ["import-recording", "--format", "ngsim", str(path), "--out", str(tmp_path / "all")])
+    assert refused.exit_code == 1 and "holds 2 recording periods (starting 2005-06-15 " in refused.output
+    assert "with --period 1 to 2" in refused.output and not (tmp_path / "all").exists()
+    for period, vehicles, lane in ((1, {"1", "2"}, {4, 3}), (2, {"1", "3"}, {2})):
+        out = tmp_path / f"period{period}"
+        done = runner.invoke(cli, ["import-recording", "--format", "ngsim", str(path), "--period", str(period),
+                                   "--test-share", "0", "--validation-share", "0", "--out", str(out)])
+        assert done.exit_code == 0, done.output
+        assert f"recording period {period} of 2, starting 2005-06-15" in done.output
+        tracks = read_scene(out).tracks
+        assert set(tracks["vehicle_id"]) == vehicles and set(tracks["lane"]) == lane
+    beyond = runner.invoke(cli, ["import-recording", "--format", "ngsim", str(path), "--period", "3",
+                                 "--out", str(tmp_path / "none")])
+    assert beyond.exit_code == 1 and "--period 3: " in beyond.output and "holds 2 recording period(s)" in beyond.output
+    other = runner.invoke(cli, ["import-recording", "--format", "highd", str(path), "--period", "1",
+                                "--out", str(tmp_path / "highd")])
+    assert other.exit_code == 2 and "--period applies to --format ngsim only" in other.output
+
+
 def test_a_track_of_exactly_one_decisions_frames_is_kept_and_one_frame_less_is_too_short(tmp_path):
     """At 10 Hz a 0.5 s decision needs 6 frames: its period's 5 and the one after it."""
     rows = ngsim_vehicle(1, range(1, 7), 0.0, 2) + ngsim_vehicle(2, range(1, 6), 50.0, 2)
