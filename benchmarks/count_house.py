@@ -46,7 +46,8 @@ def seat_path() -> list[str]:
 
     from sumo_rail.config import Config
     from sumo_rail.evaluation.protocol import EvaluationTask
-    from sumo_rail.evaluation.scene_evaluation import RecordedSeatStart, Seat
+    from sumo_rail.evaluation.scene_evaluation import RecordedSeatStart
+    from sumo_rail.recordings.seats import Seat
     from sumo_rail.recordings.sumo_drivers import SumoDriversSettings, record_sumo_drivers
     from sumo_rail.runners.backends import WorkerContext
     from sumo_rail.runners.rollout import KeepDriver

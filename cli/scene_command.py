@@ -72,12 +72,12 @@ def evaluate_scene_command(config: Config, scenes: tuple[Path, ...], policies: t
         CALIBRATED_IDM,
         SEAT_DRIVERS,
         calibrated_idm_driver,
-        choose_seats,
         evaluate_seats,
         tracks_path,
     )
     from sumo_rail.recordings.scene import check_scene, read_scene, scene_sources
     from sumo_rail.recordings.scene_drivers import reactive_types
+    from sumo_rail.recordings.seats import choose_seats
     from sumo_rail.recordings.tracks import RecordingUsageError
 
     check_output(out, overwrite)

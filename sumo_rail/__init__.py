@@ -25,10 +25,13 @@ if TYPE_CHECKING:
 
 __version__ = version("sumo-rail")
 ENV_ID = "sumo_rail/Highway-v0"
-__all__ = ["ENV_ID", "HighwayEnv", "__version__", "parallel_env"]
+SCENE_ENV_ID = "sumo_rail/Scene-v0"
+"""A recorded scene's env (`sumo_rail.recordings.seat.SceneEnv`): `gymnasium.make(SCENE_ENV_ID, scene=FOLDER)`."""
+__all__ = ["ENV_ID", "SCENE_ENV_ID", "HighwayEnv", "__version__", "parallel_env"]
 
-if ENV_ID not in gymnasium.registry:
-    gymnasium.register(id=ENV_ID, entry_point="sumo_rail.sim.env:HighwayEnv")
+for _id, _entry in ((ENV_ID, "sumo_rail.sim.env:HighwayEnv"), (SCENE_ENV_ID, "sumo_rail.recordings.seat:SceneEnv")):
+    if _id not in gymnasium.registry:
+        gymnasium.register(id=_id, entry_point=_entry)
 
 
 def parallel_env(egos: int = 1, config: Config | dict[str, Any] | str | Path | None = None,

@@ -21,7 +21,6 @@ import pandas as pd
 from sumo_rail.config import Config
 from sumo_rail.datasets import DatasetError
 from sumo_rail.drivers.policies import Policy
-from sumo_rail.evaluation.scene_evaluation import Seat, choose_seats
 from sumo_rail.learning.log_teacher import HumanTrack, log_label, read_human_track
 from sumo_rail.learning.mixture import LabelledEpisode, Mixture
 from sumo_rail.recordings.acceleration_reading import smoothing_for
@@ -29,6 +28,7 @@ from sumo_rail.recordings.actions import ActionRule
 from sumo_rail.recordings.scene import check_scene, read_scene, scene_sources
 from sumo_rail.recordings.scene_observations import SceneRoad, in_route_frame, route_from, scene_road, scene_routes
 from sumo_rail.recordings.seat import SceneEnv
+from sumo_rail.recordings.seats import Seat, choose_seats
 from sumo_rail.runners.backends import RolloutBackend, WorkerContext
 from sumo_rail.runners.experts import RECORDED_SCENE
 from sumo_rail.runners.rollout import run_episode

@@ -26,6 +26,7 @@ import numpy as np
 from sumo_rail.config import Config
 from sumo_rail.recordings.scene import Scene, read_scene
 from sumo_rail.recordings.scene_observations import SceneFrames, SceneRoad, scene_road, scene_routes
+from sumo_rail.recordings.seats import SeatDraw
 from sumo_rail.recordings.trajectory import track_past
 from sumo_rail.sim.ego import CONTEXT_MARGIN_M
 from sumo_rail.sim.ego_past import EgoPast
@@ -46,12 +47,13 @@ def scene_config(config: Config, scene: Scene, road: SceneRoad) -> Config:
 class SeatStart:
     """The `StartRule` of a recorded scene (`scene`, its `frames` and `road`): the simulation's traffic is the
     scene's vehicles (`ReplayedTraffic`, `reactive` or not, SUMO's vehicle types `types`), every reset seats the ego
-    in a recorded vehicle (reset options "vehicle" and "start_s"; see `SceneEnv`)."""
+    in a recorded vehicle (reset options "vehicle" and "start_s", else a seat `seats` draws; see `SceneEnv`)."""
 
     scene: Scene
     frames: SceneFrames
     road: SceneRoad
     reactive: bool
+    seats: SeatDraw
     types: VehicleTypes = NO_TYPES
     options: tuple[str, ...] = ("vehicle", "start_s")
 
@@ -69,8 +71,8 @@ class SeatStart:
     def enter(self, sim: Simulation, rng: np.random.Generator, config: Config, agents: Sequence[str],
               options: dict[str, Any]) -> list[str]:
         if "vehicle" not in options:
-            raise ValueError("SceneEnv.reset needs options={'vehicle': ID}: the recorded vehicle whose seat the ego "
-                             "takes")
+            seat = self.seats.draw(rng)
+            options = {**options, "vehicle": seat.vehicle, "start_s": seat.start_s}
         assert tuple(agents) == (EGO_ID,)
         vehicle, step_s = str(options["vehicle"]), config.scenario.step_length_s
         # SUMO's run begins one step before the seat: a track from the scene's first instant is taken one step in
@@ -102,17 +104,32 @@ class SceneEnv(HighwayEnv):
     from its first instant); `"controller": "sumo"` lets SUMO drive it (the actions passed to `step` are then
     checked, not used). `types`: the vehicle types SUMO knows besides its default, with each reactive vehicle's
     (`sumo_rail.recordings.scene_drivers.reactive_types`; default: none, every reactive vehicle SUMO's default
-    Krauss)."""
+    Krauss).
+
+    A reset without a vehicle (Gymnasium's `reset(seed=...)`, vector envs, Stable-Baselines3) seats the ego in a seat
+    of the scene's `split` drawn by the episode's seed (`sumo_rail.recordings.seats.SeatDraw`: a passenger car whose
+    track covers `lead_s` [s] of lead-in and `env.max_episode_s`, with `zone_m` [m] where traffic is established, as
+    `evaluate-scene --lead-s --zone-m` chooses them); `info` names it ("vehicle", "start_s").
+    `gymnasium.make("sumo_rail/Scene-v0", scene=FOLDER, config=...)` makes it."""
 
     def __init__(self, config: Config | Mapping[str, Any] | str | Path | None, scene: Path | Scene,
                  reactive: bool = False, render_mode: str | None = None, transport: str = "auto",
-                 types: VehicleTypes = NO_TYPES) -> None:
+                 types: VehicleTypes = NO_TYPES, split: str = "train", lead_s: float = 5.0,
+                 zone_m: float = 0.0) -> None:
         self.scene = scene if isinstance(scene, Scene) else read_scene(Path(scene))
         self.frames = SceneFrames(self.scene.tracks, self.scene.meta.frame_rate_hz)
         self.road = scene_road(self.scene.network)
         self.reactive = reactive
-        super().__init__(scene_config(Config.coerce(config), self.scene, self.road), render_mode=render_mode,
-                         transport=transport, start=SeatStart(self.scene, self.frames, self.road, reactive, types))
+        config = scene_config(Config.coerce(config), self.scene, self.road)
+        seats = SeatDraw(self.scene, split, config.env.max_episode_s, lead_s, zone_m, config.scenario.step_length_s)
+        super().__init__(config, render_mode=render_mode, transport=transport,
+                         start=SeatStart(self.scene, self.frames, self.road, reactive, seats, types))
+
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None,
+              ) -> tuple[np.ndarray, dict[str, Any]]:
+        observation, info = super().reset(seed=seed, options=options)
+        vehicle, start_s = replayed(self.simulation).seated if self.simulation is not None else (None, None)
+        return observation, {**info, "vehicle": vehicle, "start_s": start_s}
 
     @property
     def ego_collisions(self) -> list[tuple[str, str]]:

@@ -21,7 +21,6 @@ from sumo_rail.datasets import file_sha256, read_metadata
 from sumo_rail.evaluation.human_likeness import position_errors
 from sumo_rail.evaluation.scene_evaluation import (
     HUMAN,
-    choose_seats,
     evaluate_seats,
     human_track,
     seat_columns,
@@ -30,6 +29,7 @@ from sumo_rail.evaluation.scene_evaluation import (
 from sumo_rail.evaluation.scene_summary import distribution_samples, track_table
 from sumo_rail.recordings.scene import read_scene
 from sumo_rail.recordings.scene_observations import SceneFrames, scene_road
+from sumo_rail.recordings.seats import choose_seats
 from sumo_rail.runners.backends import SerialBackend
 from sumo_rail.runners.factory import make_backend
 from sumo_rail.runners.rollout import KeepDriver, SumoIdmDriver

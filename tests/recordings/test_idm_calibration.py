@@ -14,13 +14,14 @@ from sumo_rail_cli.main import cli
 
 from sumo_rail.config import Config
 from sumo_rail.datasets import read_metadata
-from sumo_rail.evaluation.scene_evaluation import CALIBRATED_IDM, calibrated_idm_driver, choose_seats, evaluate_seats
+from sumo_rail.evaluation.scene_evaluation import CALIBRATED_IDM, calibrated_idm_driver, evaluate_seats
 from sumo_rail.recordings import sumo_drivers
 from sumo_rail.recordings.idm import SUMO_DEFAULTS, IdmParameters
 from sumo_rail.recordings.idm_calibration import calibrate, lead_in_desired_speed
 from sumo_rail.recordings.scene import read_scene
 from sumo_rail.recordings.scene_drivers import SEAT_IDM_TYPE
 from sumo_rail.recordings.seat import SceneEnv
+from sumo_rail.recordings.seats import choose_seats
 from sumo_rail.runners.backends import SerialBackend
 from sumo_rail.runners.rollout import SumoIdmDriver
 from sumo_rail.sim.simulation import EGO_ID

@@ -17,13 +17,14 @@ from sumo_rail_cli.main import cli
 from sumo_rail.config import Config
 from sumo_rail.datasets import read_metadata
 from sumo_rail.drivers.policies import Policy, PolicyShape
-from sumo_rail.evaluation.scene_evaluation import calibrated_idm_driver, choose_seats
+from sumo_rail.evaluation.scene_evaluation import calibrated_idm_driver
 from sumo_rail.learning.log_dagger import LogDaggerTask, LogSeats
 from sumo_rail.recordings.actions import ActionRule, read_track
 from sumo_rail.recordings.scene import read_scene
 from sumo_rail.recordings.scene_drivers import reactive_types
 from sumo_rail.recordings.scene_observations import in_route_frame, observe, scene_road, scene_routes
 from sumo_rail.recordings.seat import SceneEnv
+from sumo_rail.recordings.seats import choose_seats
 from sumo_rail.runners.backends import SerialBackend
 from sumo_rail.sim.actions import Action, split_acceleration_action
 from sumo_rail.sim.network import netconvert, sumo_binary

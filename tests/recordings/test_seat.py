@@ -227,11 +227,6 @@ def test_the_seat_is_taken_where_the_track_begins_by_default(replay):
             replay.reset(seed=0, options={"vehicle": vehicle, "start_s": 0.0})
 
 
-def test_a_reset_needs_a_vehicle(replay):
-    with pytest.raises(ValueError, match="vehicle"):
-        replay.reset(seed=0)
-
-
 def test_libsumo_and_traci_drive_the_same_seat_alike(drivers_scene, replay):
     """The fixture's env holds libsumo; the same seat over traci gives the same states, decision by decision."""
     tracks = replay.scene.tracks

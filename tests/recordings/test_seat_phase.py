@@ -9,9 +9,9 @@ from click.testing import CliRunner
 from recording_files import SCENE_SPEED
 from sumo_rail_cli.main import cli
 
-from sumo_rail.evaluation.scene_evaluation import choose_seats
 from sumo_rail.recordings.scene import read_scene
 from sumo_rail.recordings.scene_observations import scene_road
+from sumo_rail.recordings.seats import choose_seats
 
 
 def test_zone_0_keeps_todays_seats_and_reports_their_phase(drivers_scene):

@@ -9,9 +9,10 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from sumo_rail.evaluation.scene_evaluation import Seat, human_track
+from sumo_rail.evaluation.scene_evaluation import human_track
 from sumo_rail.recordings.road import build_road
 from sumo_rail.recordings.scene_observations import SceneFrames, scene_road
+from sumo_rail.recordings.seats import Seat
 from sumo_rail.recordings.trajectory import TRAJECTORY_COLUMNS, track_past, trajectory_frame
 
 

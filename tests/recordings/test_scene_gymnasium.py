@@ -1,0 +1,52 @@
+"""A recorded scene as a Gymnasium env: `gymnasium.make(SCENE_ENV_ID, scene=...)` passes Gymnasium's checker, and a
+reset without a vehicle seats the ego in a seat of the scene's split drawn by the seed (the seats evaluate-scene
+chooses), so vector envs and Stable-Baselines3 drive it as they drive the generated road."""
+
+from __future__ import annotations
+
+import gymnasium
+import numpy as np
+import pytest
+from gymnasium.utils.env_checker import check_env
+
+import sumo_rail
+from sumo_rail.recordings.scene import read_scene
+from sumo_rail.recordings.seats import choose_seats
+
+CONFIG = {"observation": {"lane_block": 1}, "env": {"max_episode_s": 8.0}, "actions": {"interface": "acceleration"}}
+
+
+@pytest.fixture(scope="module")
+def scene_env(drivers_scene):
+    env = gymnasium.make(sumo_rail.SCENE_ENV_ID, scene=drivers_scene, config=CONFIG, lead_s=2.0)
+    yield env
+    env.close()
+
+
+def test_the_scene_env_passes_gymnasiums_checker(scene_env):
+    check_env(scene_env.unwrapped, skip_render_check=True)
+
+
+def test_a_reset_by_seed_alone_seats_the_ego_in_a_seat_of_the_split_drawn_by_the_seed(scene_env, drivers_scene):
+    seats = {(seat.vehicle, seat.start_s) for seat in choose_seats(read_scene(drivers_scene), "train", 8.0, 2.0,
+                                                                   None, 0, earliest_s=0.1)}
+    drawn = {}
+    for seed in range(8):
+        observation, info = scene_env.reset(seed=seed)
+        drawn[seed] = (info["vehicle"], info["start_s"], observation)
+    assert {(vehicle, start_s) for vehicle, start_s, _ in drawn.values()} <= seats
+    assert len({vehicle for vehicle, _, _ in drawn.values()}) >= 3  # drawn, not always the first seat
+    observation, info = scene_env.reset(seed=5)
+    assert (info["vehicle"], info["start_s"]) == drawn[5][:2] and np.array_equal(observation, drawn[5][2])
+    vehicle, start_s, _ = drawn[5]
+    chosen, chosen_info = scene_env.reset(seed=0, options={"vehicle": vehicle, "start_s": start_s})
+    assert chosen_info["vehicle"] == vehicle and np.array_equal(chosen, drawn[5][2])  # the same seat, named
+
+
+def test_a_scene_without_a_seat_that_fits_is_one_sentence(drivers_scene):
+    env = gymnasium.make(sumo_rail.SCENE_ENV_ID, scene=drivers_scene,
+                         config={**CONFIG, "env": {"max_episode_s": 600.0}})
+    with pytest.raises(ValueError, match=r"no train-split car of the scene .* has a track covering the seat's "
+                                         r"lead-in 5 s and env.max_episode_s 600 s$"):
+        env.reset(seed=0)
+    env.close()
