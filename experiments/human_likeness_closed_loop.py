@@ -46,8 +46,10 @@ METHODS = {KEEP: ["keep"], IDM: ["sumo-idm"],
 DIFFERENCES = [("RAIL", "BC"), ("GAIL", "BC")]
 ACCELERATION_RUN = re.compile(r"acceleration_h(\d+)_p(\d+)_s(\d+)/policy_bc")
 """The BC policies of the acceleration study: acceleration_hH_pP_sSEED/policy_bc."""
-LOG_RUN = re.compile(r"log_t(\d+)_s(\d+)/policy_(bc|latest)")
-"""The runs of the log study: log_tT_sSEED (dagger --expert log, teacher horizon T s): its BC and its last policy."""
+LOG_RUN = re.compile(r"log_t(\d+)_s(\d+)/policy_(bc|latest)(?: \((sampled|expected|median)\))?")
+"""The runs of the log study: log_tT_sSEED (dagger --expert log, teacher horizon T s): its BC and its last policy,
+acting by argmax or, named so, by another decoding (`--set actions.decoding=expected`) or drawing each action from
+its softmax (`--policy sampled:PATH`)."""
 CALIBRATED = "IDM calibrated on the train split"
 ENTRY_M = 300.0
 """A seat that begins within this distance of the road's entry [m] is in the entering phase."""
@@ -76,14 +78,17 @@ def log_methods(policies: set[str]) -> dict[str, list[str]]:
     runs: dict[tuple[str, int], list[tuple[int, str]]] = {}
     for policy in policies:
         if found := LOG_RUN.fullmatch(policy):
-            runs.setdefault((found[3], int(found[1])), []).append((int(found[2]), policy))
+            runs.setdefault((found[3] + (f", {found[4]}" if found[4] else ""), int(found[1])), []).append(
+                (int(found[2]), policy))
     methods = {name: [driver] for name, driver in (("constant speed (keep)", "keep"), (IDM, "sumo-idm"),
                                                    (CALIBRATED, "sumo-idm-calibrated")) if driver in policies}
     teachers = sorted(teacher for kind, teacher in runs if kind == "latest")
     if teachers and ("bc", teachers[0]) in runs:
         methods["BC"] = [name for _, name in sorted(runs[("bc", teachers[0])])]
     for teacher in teachers:
-        methods[f"against the log, teacher {teacher} s"] = [name for _, name in sorted(runs[("latest", teacher)])]
+        for kind in sorted(kind for kind, horizon in runs if kind.startswith("latest") and horizon == teacher):
+            methods[f"against the log, teacher {teacher} s{kind.removeprefix('latest')}"] = [
+                name for _, name in sorted(runs[(kind, teacher)])]
     return methods
 
 
@@ -164,7 +169,9 @@ def main(paths: tuple[Path, ...], study: str, intervals: str) -> None:
         learners = [method for method in methods if method == "BC" or method.startswith("against the log")]
         baselines = [method for method in methods if method not in learners]
         differences = [(learner, baseline) for learner in learners for baseline in baselines]
-        differences += [(learner, "BC") for learner in learners if learner != "BC"]
+        differences += [(learner, "BC") for learner in learners if learner != "BC" and "BC" in methods]
+        differences += [(learner, learner.rsplit(", ", 1)[0]) for learner in learners
+                        if learner.endswith((", sampled", ", expected", ", median"))]
         pooled = "BC and training against the log (acceleration interface)"
     print(f"{seats} held-out cars' seats in {metrics['scene'].nunique()} scenes of SUMO's drivers, "
           f"{metrics['simulated_s'].max():g} s each; {pooled} pooled over training seeds "

@@ -105,6 +105,9 @@ NOT_REGENERABLE: dict[str, str] = {
     "human_likeness_acceleration/validation_seat_showed_0.md": "its evaluations are not committed and no longer made: "
                                                                "the seats then showed 0 m/s^2 as the last command "
                                                                "before the first decision (before commit 1ae2b34)",
+    "log_study/decoding_validation.md": "its evaluations (results/human_likeness/decoding_validation*, 3.8 MB with "
+                                        "their tracks) are not committed; the grid spec log_decoding_validation.toml "
+                                        "makes them again",
     "log_study/log_validation.md": "its evaluations (results/human_likeness/log_validation, 2.7 MB with their tracks) "
                                    "are not committed; the grid spec human_likeness_log.toml makes them again",
     "fidelity_demo/table.txt": "evaluate's printout of the simulated evaluation, not a table script's output",
