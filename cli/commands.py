@@ -11,7 +11,14 @@ import click
 from sumo_rail.seeding import EVALUATION_EPISODES
 
 from .demos_options import RECORDED_NOTE, check_demos
-from .evaluation_options import evaluation_backend, parse_drivers
+from .evaluation_options import (
+    check_video_dir,
+    check_watching,
+    evaluation_backend,
+    parse_drivers,
+    watching_options,
+    write_videos,
+)
 from .options import (
     backend_options,
     build_backend,
@@ -102,17 +109,7 @@ def record_expert(config: Config, episodes: int, seed: int, workers: int, backen
                    "choosing settings; use another --seed than the test runs' too).")
 @episode_options(default_seed=1000, default_episodes=EVALUATION_EPISODES)
 @backend_options
-@click.option("--gui/--gui-off", default=False, show_default=True,
-              help="--gui drives the first episode of the first driver in sumo-gui (needs a display), following the "
-                   "ego (drawn in red).")
-@click.option("--gui-delay", "gui_delay_ms", type=FiniteFloat(min=0), default=None, metavar="MS",
-              help="With --gui: wall-clock milliseconds per 0.1 s SUMO step  [default: 100, real time; 0: as fast as "
-                   "possible].")
-@click.option("--video", "video_dir", type=click.Path(path_type=Path, file_okay=False), default=None,
-              help="Folder for MP4 videos (bird's-eye view, one frame per decision) of the first --video-episodes "
-                   "episodes of every driver; needs pip install 'sumo-rail[video]'.")
-@click.option("--video-episodes", type=click.IntRange(min=1), default=None, metavar="K",
-              help="With --video: episodes recorded per driver  [default: 1].")
+@watching_options
 @output_options(required=False)
 def evaluate_command(config: Config, policies: tuple[str, ...],
                      expert: str | None, reference: str | None,
@@ -127,10 +124,7 @@ def evaluate_command(config: Config, policies: tuple[str, ...],
     episode and NAME.decisions.parquet beside it one row per decision. --video writes DRIVER_episodeNNN_seedS.mp4
     files into a folder."""
     check_output(out, overwrite)
-    if gui_delay_ms is not None and not gui:
-        raise click.UsageError("--gui-delay needs --gui")
-    if video_episodes is not None and video_dir is None:
-        raise click.UsageError("--video-episodes needs --video DIR")
+    check_watching(gui, gui_delay_ms, video_dir, video_episodes)
     from sumo_rail.drivers.expert import DEFAULT_STYLE
     from sumo_rail.evaluation.evaluate import decisions_path, evaluate, policy_source, recorded_reference
     from sumo_rail.evaluation.protocol import summarise, unique_names, write_evaluation
@@ -149,7 +143,7 @@ def evaluate_command(config: Config, policies: tuple[str, ...],
     if gui:
         drivers, references, episodes = drivers[:1], references[:1], 1
     names = unique_names(drivers)
-    _check_video_dir(video_dir, names, overwrite)
+    check_video_dir(video_dir, names, overwrite)
     if video_dir is not None:
         note_output(video_dir)  # a stop names it: written or not
     if reference is not None and reference not in names:
@@ -165,7 +159,7 @@ def evaluate_command(config: Config, policies: tuple[str, ...],
         if out is not None:
             write_evaluation(evaluation, config, seed, out, policies=list(policies), episode_seeds=seeds,
                              expert=recorded_expert if expert is not None else None, pool=pool)
-        written_videos = _write_videos(evaluation.videos, video_dir)
+        written_videos = write_videos(evaluation.videos, video_dir)
         complete(bar)
     click.echo(summarise(evaluation, config, reference, expert_driver.name))
     if out is not None:
@@ -173,48 +167,6 @@ def evaluate_command(config: Config, policies: tuple[str, ...],
                    f"{len(evaluation.decisions)} decisions")
     if written_videos:
         click.echo(f"wrote {len(written_videos)} videos into {video_dir}: {', '.join(written_videos)}")
-
-
-def _check_video_dir(video_dir: Path | None, names: list[str], overwrite: bool) -> None:
-    """Check --video before any work: the encoder is installed (exit 1, with the install hint), the folder can be
-    made, and no video of these drivers would be replaced without --overwrite (exit 2)."""
-    if video_dir is None:
-        return
-    from sumo_rail.datasets import file_in_the_way
-    from sumo_rail.runners.video import VideoError, require_encoder, video_name
-
-    try:
-        require_encoder()
-    except VideoError as error:
-        raise click.ClickException(str(error)) from error
-    if video_dir.exists() and not video_dir.is_dir():
-        raise click.BadParameter(f"{video_dir} exists and is not a folder", param_hint="'--video'")
-    if not video_dir.exists() and not video_dir.parent.is_dir():
-        blocking = file_in_the_way(video_dir.parent)
-        raise click.BadParameter(f"the folder holding {video_dir} does not exist" if blocking is None else
-                                 f"the folder holding {video_dir} cannot be: {blocking} is a file, not a folder",
-                                 param_hint="'--video'")
-    if video_dir.is_dir() and not overwrite:
-        prefixes = {video_name(name, 0, 0).split("_episode")[0] for name in names}
-        clash = sorted(path.name for path in video_dir.glob("*.mp4") if path.name.split("_episode")[0] in prefixes)
-        if clash:
-            raise click.BadParameter(f"{video_dir} already holds videos of these drivers ({clash[0]}, ...); pass "
-                                     f"--overwrite to replace them", param_hint="'--video'")
-
-
-def _write_videos(videos: dict[str, bytes], video_dir: Path | None) -> list[str]:
-    """Write each video into --video atomically; the file names, sorted."""
-    if video_dir is None:
-        return []
-    from sumo_rail.runners.video import VideoError, write_bytes
-
-    try:
-        video_dir.mkdir(exist_ok=True)
-        for name, content in videos.items():
-            write_bytes(content, video_dir / name)
-    except (OSError, VideoError) as error:
-        raise click.ClickException(f"cannot write the videos into {video_dir}: {error}") from error
-    return sorted(videos)
 
 
 @click.command("train")

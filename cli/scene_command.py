@@ -7,11 +7,17 @@ from typing import TYPE_CHECKING
 
 import click
 
-from .evaluation_options import evaluation_backend, parse_drivers
+from .evaluation_options import (
+    check_video_dir,
+    evaluation_backend,
+    parse_drivers,
+    video_option,
+    write_videos,
+)
 from .options import backend_options, check_output, output_options, seed_option
 from .param_types import FiniteFloat
 from .progress import complete, progress
-from .running import interruptible_run
+from .running import interruptible_run, note_output
 from .settings import config_options
 
 if TYPE_CHECKING:
@@ -52,18 +58,20 @@ if TYPE_CHECKING:
               help="Seats per scene, drawn by --seed  [default: every seat that fits].")
 @seed_option("Seed of the seats' draw and of each episode's SUMO seed.")
 @backend_options
+@video_option("every episode, named DRIVER_MODE_episodeNNN_seedS.mp4 (NNN: the seat's index; choose how "
+              "many with --seats)")
 @output_options(required=False)
 def evaluate_scene_command(config: Config, scenes: tuple[Path, ...], policies: tuple[str, ...], split: str,
                            classes: tuple[str, ...], modes: tuple[str, ...], horizon_s: float, lead_s: float,
                            zone_m: float, limit: int | None, seed: int, workers: int, backend_name: str,
-                           address: str | None, out: Path | None, overwrite: bool) -> None:
+                           address: str | None, video_dir: Path | None, out: Path | None, overwrite: bool) -> None:
     """Put each driver in the seat of each held-out recorded car (or truck, --seat-class truck) of SCENES (folders of
     import-recording or record-sumo-drivers) for --horizon-s, and measure it against that vehicle's recorded track:
     position error at 1, 2, 5, 10, 15 and 20 s (those the episode reaches), RMSE of position and speed, collisions and
     those the ego caused, stops, progress relative to the human, lane changes per km, hard braking, TTC below 1.5 s,
     the driving score, and the distances of its speed, acceleration, jerk, gap and time-headway distributions to the
     humans'. --out gets one row per episode and NAME.tracks.parquet beside it one row per decision (the humans' own
-    rows under the driver "human")."""
+    rows under the driver "human"). --video films every episode into a folder."""
     from sumo_rail.config import EnvConfig
     from sumo_rail.datasets import DatasetError
     from sumo_rail.evaluation.evaluate import DEFAULT_REFERENCE
@@ -111,12 +119,16 @@ def evaluate_scene_command(config: Config, scenes: tuple[Path, ...], policies: t
     drivers = parse_drivers(policies, config, DEFAULT_REFERENCE, named)
     reactive = {str(scene.folder): reactive_types(scene, step_s) for scene in read} if "reactive" in modes else {}
     names = unique_names(drivers)
+    check_video_dir(video_dir, [f"{name} {mode}" for name in names for mode in modes], overwrite)
+    if video_dir is not None:
+        note_output(video_dir)  # a stop names it: written or not
     backend = evaluation_backend(backend_name, workers, address)
     bar = progress(len(drivers) * len(seats) * len(modes), "driving in recorded seats")
     with interruptible_run(bar, backend=backend):
         evaluation = evaluate_seats(drivers, names, config, seats, modes, backend, seed,
                                     on_episode=lambda index, result: bar.update(),
-                                    reactive_types={folder: found.types for folder, found in reactive.items()})
+                                    reactive_types={folder: found.types for folder, found in reactive.items()},
+                                    video_episodes=len(seats) if video_dir is not None else 0)
         if out is not None:
             write_evaluation(evaluation, config, seed, out,
                              scenes={str(scene.folder.resolve()): scene_sources(scene) for scene in read},
@@ -124,6 +136,7 @@ def evaluate_scene_command(config: Config, scenes: tuple[Path, ...], policies: t
                              lead_s=lead_s, zone_m=zone_m,
                              idm_calibration={folder: found.as_dict() for folder, found in calibrations.items()},
                              reactive_drivers={folder: found.as_dict() for folder, found in reactive.items()})
+        written_videos = write_videos(evaluation.videos, video_dir)
         complete(bar)
     click.echo(f"{len(seats)} seats of {len(read)} scene(s), {horizon_s:g} s each\n")
     for folder, found in calibrations.items():
@@ -134,3 +147,5 @@ def evaluate_scene_command(config: Config, scenes: tuple[Path, ...], policies: t
     if out is not None:
         click.echo(f"wrote {out}: {len(evaluation.metrics)} episodes; {tracks_path(out)}: {len(evaluation.decisions)} "
                    f"decisions")
+    if written_videos:
+        click.echo(f"wrote {len(written_videos)} videos into {video_dir}: {', '.join(written_videos)}")

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import os
 import shutil
+import subprocess
+from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
@@ -68,3 +70,37 @@ def workspace(workspace_template: Path, tmp_path: Path, monkeypatch: pytest.Monk
     shutil.copytree(workspace_template, folder)
     monkeypatch.chdir(folder)
     return folder
+
+
+@pytest.fixture(scope="module")
+def display(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
+    """A private Xvfb display (1280x800) for a module's sumo-gui tests; its number is chosen by Xvfb itself. Skipped,
+    saying why, where no Xvfb binary is installed or it does not start, except in CI (CI=true, whose .ci/run installs
+    Xvfb), where both fail."""
+    binary = shutil.which("Xvfb")
+    if binary is None:
+        skip_outside_ci("no Xvfb binary: install the system package xvfb (apt-get install xvfb) to run the GUI tests")
+    log = tmp_path_factory.mktemp("xvfb") / "xvfb.log"
+    read_end, write_end = os.pipe()
+    with log.open("wb") as log_file:
+        server = subprocess.Popen([binary, "-displayfd", str(write_end), "-screen", "0", "1280x800x24", "-nolisten",
+                                   "tcp"], pass_fds=(write_end,), stdout=subprocess.DEVNULL, stderr=log_file)
+    os.close(write_end)
+    with os.fdopen(read_end) as pipe:
+        number = pipe.readline().strip()
+    if not number:
+        server.kill()
+        server.wait()
+        skip_outside_ci(f"{binary} is installed but did not start; its last words: "
+                        f"{log.read_text(errors='replace').strip()[-500:]!r}")
+    yield f":{number}"
+    server.terminate()
+    server.wait(timeout=10)
+
+
+def skip_outside_ci(reason: str) -> None:
+    """Skip, saying why; in CI (CI=true), where the display is set up to run these tests, fail instead, so that a
+    broken display is not a silent pass."""
+    if os.environ.get("CI") == "true":
+        pytest.fail(f"{reason} (CI=true: the sumo-gui tests must run here)", pytrace=False)
+    pytest.skip(reason)

@@ -51,6 +51,7 @@ from sumo_rail.recordings.seats import Seat
 from sumo_rail.recordings.trajectory import TRAJECTORY_COLUMNS, TrajectoryPoint, trajectory_frame
 from sumo_rail.runners.backends import RolloutBackend, WorkerContext
 from sumo_rail.runners.rollout import Driver, DriverSpec, KeepDriver, SumoIdmDriver
+from sumo_rail.runners.video import video_name
 from sumo_rail.sim.controllers import SumoController
 from sumo_rail.sim.env import HighwayEnv
 from sumo_rail.sim.replay import NO_TYPES, VehicleTypes
@@ -87,7 +88,8 @@ class RecordedSeatStart:
         types = self.types
         env = context.custom_env(("scene", self.config, self.seat.scene, self.reactive, types.key),
                                  lambda: SceneEnv(self.config, Path(self.seat.scene), self.reactive,
-                                                  transport="libsumo", types=types))
+                                                  context.render_mode, "libsumo", types,
+                                                  gui_delay_ms=context.gui_delay_ms))
         assert isinstance(env, SceneEnv)
         return env
 
@@ -234,18 +236,19 @@ def seat_columns(driven: pd.DataFrame, human: pd.DataFrame, simulated_s: float) 
 def evaluate_seats(drivers: Sequence[DriverSpec], names: Sequence[str], config: Config, seats: Sequence[Seat],
                    modes: Sequence[str], backend: RolloutBackend, seed: int,
                    on_episode: Callable[[int, Any], None] | None = None,
-                   reactive_types: Mapping[str, VehicleTypes] | None = None) -> Evaluation:
+                   reactive_types: Mapping[str, VehicleTypes] | None = None, video_episodes: int = 0) -> Evaluation:
     """Every driver in every seat in every mode: one metrics row per episode, one track row per decision with the
     human's rows once per seat and mode under driver `HUMAN`. `reactive_types`: each scene folder's reactive
-    vehicles' types (`scene_drivers.reactive_types`; default: SUMO's default Krauss)."""
+    vehicles' types (`scene_drivers.reactive_types`; default: SUMO's default Krauss). The first `video_episodes`
+    seats of every driver and mode are also recorded as MP4s, named by `seat_video_name`."""
     scenes = {scene: read_scene(Path(scene)) for scene in {seat.scene: None for seat in seats}}
     types = reactive_types or {}
-    labelled = [(name, EvaluationTask(seat_start(config, seat, MODES[mode], driver, scenes[seat.scene],
-                                                 types.get(seat.scene, NO_TYPES)), driver, seed + index,
-                                      (Safety(), SeatTrack(seat.start_s))))
+    labelled = [(name, index, EvaluationTask(seat_start(config, seat, MODES[mode], driver, scenes[seat.scene],
+                                                        types.get(seat.scene, NO_TYPES)), driver, seed + index,
+                                             (Safety(), SeatTrack(seat.start_s)), video=index < video_episodes))
                 for mode in modes for driver, name in zip(drivers, names, strict=True)
                 for index, seat in enumerate(seats)]
-    results = backend.run([task for _, task in labelled], on_result=on_episode)
+    results = backend.run([task for _, _, task in labelled], on_result=on_episode)
     frames = {scene: (SceneFrames(read.tracks, read.meta.frame_rate_hz), scene_road(read.network),
                       scene_routes(read.tracks)) for scene, read in scenes.items()}
     period = config.env.decision_period_s
@@ -253,12 +256,15 @@ def evaluate_seats(drivers: Sequence[DriverSpec], names: Sequence[str], config: 
     humans = {seat: human_track(scene_frames, seat, period, horizon_decisions, road, routes[seat.vehicle],
                                 config.lidar.range_m)
               for seat in seats for scene_frames, road, routes in [frames[seat.scene]]}
-    rows, tracks = [], []
-    for (name, task), result in zip(labelled, results, strict=True):
+    rows, tracks, videos = [], [], {}
+    for (name, index, task), result in zip(labelled, results, strict=True):
         assert isinstance(task.start, RecordedSeatStart)
         seat, driven = task.start.seat, pd.DataFrame({name: result.decisions[name] for name in TRAJECTORY_COLUMNS})
-        keys = {"policy": name, "mode": "reactive" if task.start.reactive else "non-reactive",
-                "scene": Path(seat.scene).name, "vehicle": seat.vehicle, "start_s": seat.start_s}
+        mode = "reactive" if task.start.reactive else "non-reactive"
+        keys = {"policy": name, "mode": mode, "scene": Path(seat.scene).name, "vehicle": seat.vehicle,
+                "start_s": seat.start_s}
+        if result.video is not None:
+            videos[seat_video_name(name, mode, index, task.seed)] = result.video
         desired = np.nan if task.start.controller is None else task.start.controller.desired_mps
         rows.append({**keys, "entry_distance_m": seat.entry_distance_m, "since_entry_s": seat.since_entry_s,
                      **result.metrics, **seat_columns(driven, humans[seat], result.metrics["simulated_s"]),
@@ -272,7 +278,12 @@ def evaluate_seats(drivers: Sequence[DriverSpec], names: Sequence[str], config: 
     overspeed = [float(np.clip(driven["speed_mps"] - limit, 0.0, None).mean()) if len(driven) else 0.0
                  for driven, limit in zip(tracks[:len(rows)], metrics["limit_mps"], strict=True)]
     metrics[list(SCORE_COLUMNS)] = driving_scores(metrics, metrics["human_distance_m"].to_numpy(), np.array(overspeed))
-    return Evaluation(metrics, pd.concat(tracks, ignore_index=True), SEATS)
+    return Evaluation(metrics, pd.concat(tracks, ignore_index=True), SEATS, videos)
+
+
+def seat_video_name(driver: str, mode: str, index: int, seed: int) -> str:
+    """File name of the video of `driver` in the `index`-th seat in `mode` (`video_name` of "DRIVER MODE")."""
+    return video_name(f"{driver} {mode}", index, seed)
 
 
 SEATS = Tables(SCENE_EPISODES, SCENE_TRACKS, ".tracks.parquet", plain_table, plain_table, seats_summary)

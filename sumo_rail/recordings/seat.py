@@ -115,14 +115,14 @@ class SceneEnv(HighwayEnv):
     def __init__(self, config: Config | Mapping[str, Any] | str | Path | None, scene: Path | Scene,
                  reactive: bool = False, render_mode: str | None = None, transport: str = "auto",
                  types: VehicleTypes = NO_TYPES, split: str = "train", lead_s: float = 5.0,
-                 zone_m: float = 0.0) -> None:
+                 zone_m: float = 0.0, gui_delay_ms: float = 100.0) -> None:
         self.scene = scene if isinstance(scene, Scene) else read_scene(Path(scene))
         self.frames = SceneFrames(self.scene.tracks, self.scene.meta.frame_rate_hz)
         self.road = scene_road(self.scene.network)
         self.reactive = reactive
         config = scene_config(Config.coerce(config), self.scene, self.road)
         seats = SeatDraw(self.scene, split, config.env.max_episode_s, lead_s, zone_m, config.scenario.step_length_s)
-        super().__init__(config, render_mode=render_mode, transport=transport,
+        super().__init__(config, render_mode=render_mode, transport=transport, gui_delay_ms=gui_delay_ms,
                          start=SeatStart(self.scene, self.frames, self.road, reactive, seats, types))
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None,

@@ -62,6 +62,16 @@ class WorkerContext:
         self._key: Hashable = None
         self._env: HighwayEnv | ParallelHighwayEnv | None = None
 
+    @property
+    def render_mode(self) -> str | None:
+        """How the envs of this worker render ("human": sumo-gui), for `custom_env`'s makers."""
+        return self._render_mode
+
+    @property
+    def gui_delay_ms(self) -> float:
+        """Wall-clock milliseconds per SUMO step in sumo-gui."""
+        return self._gui_delay_ms
+
     def env(self, config: Config) -> HighwayEnv:
         """The single-ego env of `config`, created on first use and kept for later tasks with an equal config."""
         if self._env is None or self._key != (config, None):

@@ -1,9 +1,7 @@
-"""sumo-gui under a virtual X display (Xvfb): an episode runs to its end, the view follows the ego, evaluate --gui
-writes its row. Skipped, saying why, where no Xvfb binary is installed or it does not start, except in CI (CI=true,
-whose .ci/run installs Xvfb), where both fail."""
+"""sumo-gui under a virtual X display (Xvfb, the `display` fixture of tests/conftest.py): an episode runs to its end,
+the view follows the ego, evaluate --gui writes its row."""
 
 import os
-import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -19,38 +17,6 @@ from sumo_rail.sim.env import HighwayEnv
 
 SMALL = ["--set", "scenario.length_m=1500", "--set", "scenario.warmup_s=120", "--set", "scenario.snapshots=3",
          "--set", "env.ego_start_min_m=300", "--set", "env.ego_start_max_m=500"]
-
-
-@pytest.fixture(scope="module")
-def display(tmp_path_factory):
-    """A private Xvfb display (1280x800) for this module's tests; its number is chosen by Xvfb itself."""
-    binary = shutil.which("Xvfb")
-    if binary is None:
-        skip_outside_ci("no Xvfb binary: install the system package xvfb (apt-get install xvfb) to run the GUI tests")
-    log = tmp_path_factory.mktemp("xvfb") / "xvfb.log"
-    read_end, write_end = os.pipe()
-    with log.open("wb") as log_file:
-        server = subprocess.Popen([binary, "-displayfd", str(write_end), "-screen", "0", "1280x800x24", "-nolisten",
-                                   "tcp"], pass_fds=(write_end,), stdout=subprocess.DEVNULL, stderr=log_file)
-    os.close(write_end)
-    with os.fdopen(read_end) as pipe:
-        number = pipe.readline().strip()
-    if not number:
-        server.kill()
-        server.wait()
-        skip_outside_ci(f"{binary} is installed but did not start; its last words: "
-                        f"{log.read_text(errors='replace').strip()[-500:]!r}")
-    yield f":{number}"
-    server.terminate()
-    server.wait(timeout=10)
-
-
-def skip_outside_ci(reason: str) -> None:
-    """Skip, saying why; in CI (CI=true), where the display is set up to run these tests, fail instead, so that a
-    broken display is not a silent pass."""
-    if os.environ.get("CI") == "true":
-        pytest.fail(f"{reason} (CI=true: the sumo-gui tests must run here)", pytrace=False)
-    pytest.skip(reason)
 
 
 def test_gui_episode_runs_to_its_end_and_the_view_follows_the_red_ego(display, monkeypatch, small_config, tmp_path):

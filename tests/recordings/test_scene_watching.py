@@ -1,0 +1,51 @@
+"""Watching drivers in recorded seats: evaluate-scene --video films every episode; a scene's env drives a seat in
+sumo-gui (under the `display` fixture's Xvfb), as the generated road's does."""
+
+from __future__ import annotations
+
+import gymnasium
+import numpy as np
+import pandas as pd
+from click.testing import CliRunner
+from sumo_rail_cli.main import cli
+
+import sumo_rail
+from sumo_rail.runners.video import read_frames
+from sumo_rail.sim.render import EGO
+
+SEATS = ["--set", "observation.lane_block=1", "--set", "scenario.lanes=3", "--set", "scenario.speed_limit_mps=44.44",
+         "--set", "env.v_max_mps=50", "--seats", "2", "--horizon-s", "6", "--lead-s", "2"]
+
+
+def test_evaluate_scene_films_every_episode(drivers_scene, tmp_path):
+    videos, out = tmp_path / "videos", tmp_path / "seats.parquet"
+    result = CliRunner().invoke(cli, ["evaluate-scene", str(drivers_scene), *SEATS, "--policy", "keep", "--policy",
+                                      "sumo-idm", "--video", str(videos), "--out", str(out)])
+    assert result.exit_code == 0, result.output
+    metrics = pd.read_parquet(out)
+    names = {f"{driver}_{mode}_episode{index:03d}_seed{index}.mp4" for driver in ("keep", "sumo-idm")
+             for mode in ("non-reactive", "reactive") for index in range(2)}
+    assert {path.name for path in videos.iterdir()} == names
+    first = metrics[(metrics["policy"] == "keep") & (metrics["mode"] == "reactive")].iloc[0]
+    frames = read_frames(videos / "keep_reactive_episode000_seed0.mp4")
+    assert len(frames) == first["steps"] + 1  # the seat's first view, then one frame per decision
+    near_ego = np.abs(frames[len(frames) // 2].astype(int) - np.array(EGO)).sum(axis=2) < 60
+    assert near_ego.sum() > 20  # the red ego drawn in the seat
+    again = CliRunner().invoke(cli, ["evaluate-scene", str(drivers_scene), *SEATS, "--policy", "keep", "--video",
+                                     str(videos)])
+    assert again.exit_code == 2 and "--overwrite" in again.output and "Traceback" not in again.output
+
+
+def test_a_scene_env_drives_a_seat_in_sumo_gui(display, drivers_scene, monkeypatch):
+    monkeypatch.setenv("DISPLAY", display)
+    env = gymnasium.make(sumo_rail.SCENE_ENV_ID, scene=drivers_scene, render_mode="human", gui_delay_ms=0,
+                         lead_s=2.0, config={"observation": {"lane_block": 1}, "env": {"max_episode_s": 6.0}})
+    try:
+        _, info = env.reset(seed=1)
+        steps, terminated, truncated = 0, False, False
+        while not (terminated or truncated):
+            _, _, terminated, truncated, _ = env.step(0)
+            steps += 1
+        assert info["vehicle"] and steps > 5
+    finally:
+        env.close()
