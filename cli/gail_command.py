@@ -70,6 +70,14 @@ def gail_command(config: Config, settings: LearnerSettings, demos: Path, include
     check_run_folder(out)
     if check_demos(demos, config, include_failed, other_road):
         click.echo(RECORDED_NOTE)
+    if run.in_seats:  # the scene is driven: refused before any work when it cannot be
+        from sumo_rail.datasets import read_metadata
+        from sumo_rail.learning.sb3.seat_road import SceneSeats
+
+        try:
+            SceneSeats.of_demonstrations(read_metadata(demos), demos, config, run.seat_lead_s, run.seat_zone_m)
+        except ValueError as error:
+            raise click.UsageError(str(error)) from error
     bar = progress(run.updates * run.steps_per_update, "GAIL", unit="timestep")
 
     def show_bc(report: BcReport) -> None:

@@ -44,7 +44,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from sumo_rail.bounds import bounded, given
-from sumo_rail.config import Config
+from sumo_rail.config import Config, ConfigError
 from sumo_rail.drivers.expert import DEFAULT_STYLE
 from sumo_rail.drivers.policies import Policy, PolicyShape, save_policy
 from sumo_rail.learning.bc import IMITATION_BC, BcReport, BcSettings, behaviour_cloning
@@ -73,6 +73,7 @@ from sumo_rail.learning.sb3.runs import (
     require_stable_baselines3,
     save_update,
 )
+from sumo_rail.learning.sb3.seat_road import SceneSeats
 from sumo_rail.learning.torch_threads import single_thread
 from sumo_rail.runners.experts import demonstrations_expert
 from sumo_rail.runners.tables import Demonstrations, provenance, read_demonstrations
@@ -97,9 +98,19 @@ class GailSettings(PpoSchedule):
     critic_warmup: int = bounded(0, 100_000, default=5, kw_only=True)
     """First updates with the actor frozen: only the critic learns; they count in --timesteps."""
     discriminator: DiscriminatorSettings = given("[discriminator]", default_factory=DiscriminatorSettings)
+    in_seats: bool = False
+    """On demonstrations read from a recorded scene: PPO's episodes in that scene's train-split seats, one ego per env,
+    each episode env.max_episode_s in a seat drawn by the env (`sb3.seat_road`), the others replayed; False: on the
+    generated road (the paper's)."""
+    seat_lead_s: float = bounded(0, 600, "s", default=5.0, kw_only=True)
+    """With in_seats: the ego takes a seat this long after the car's track begins (evaluate-scene's --lead-s)."""
+    seat_zone_m: float = bounded(0, 100_000, "m", default=0.0, kw_only=True)
+    """With in_seats: seats where traffic is established (evaluate-scene's --zone-m)."""
 
     def __post_init__(self) -> None:
         self.check_schedule("gail")
+        if self.in_seats and self.egos > 1:
+            raise ConfigError("gail.in_seats drives one ego in each seat, so it takes no gail.egos above 1")
 
 
 @dataclass(frozen=True)
@@ -124,6 +135,8 @@ def train_gail(folder: Path, settings: GailSettings, config: Config,
     settings = dataclasses.replace(settings, demos=demos_path)
     shape = PolicyShape(settings.kind, observation_size, settings.hidden, action_count(config.actions),
                         config.actions.decoding)
+    seats = (SceneSeats.of_demonstrations(demos.metadata, settings.demos, config, settings.seat_lead_s,
+                                          settings.seat_zone_m) if settings.in_seats else None)
     expert = demonstrations_expert(demos.metadata, DEFAULT_STYLE)  # recorded drivers: the rule-based stands in
     run_record = {"settings": settings.to_dict(), "expert": expert, **demos_hash,
                   **provenance("gail_run", config, settings.seed)}
@@ -144,7 +157,7 @@ def train_gail(folder: Path, settings: GailSettings, config: Config,
         with env_processes(folder, "GAIL", lambda: len(logs)) as processes:
             processes.venv = labelled_vec_env(driving_processes(config, settings.envs, settings.egos,
                                                                 resumed_env_seed(settings.seed, len(logs)),
-                                                                processes.error_dir), labeller, normalisation)
+                                                                processes.error_dir, seats), labeller, normalisation)
             if settings.normalize_reward:
                 processes.venv = normalised_rewards(processes.venv, settings.gamma)
             model = build_ppo(processes.venv, shape, settings)

@@ -29,6 +29,7 @@ import numpy as np
 
 from sumo_rail.config import Config
 from sumo_rail.learning.sb3.envs import LOST_ENV, exit_reporting
+from sumo_rail.learning.sb3.seat_road import SceneSeats, SeatRoad
 from sumo_rail.runners.spawning import die_with_parent, ignore_stop_signals
 from sumo_rail.seeding import Purpose, episode_seeds
 from sumo_rail.sim.parallel_env import ParallelHighwayEnv
@@ -73,13 +74,15 @@ class RespawningRoad:
 
 
 def _road_process(remote: Connection, parent_remote: Connection, config: Config, egos: int, seed: int,
-                  error_file: str) -> None:
-    """A worker process: one `RespawningRoad` answering "reset", "step" and "close" over `remote`."""
+                  error_file: str, seats: SceneSeats | None = None) -> None:
+    """A worker process: one `RespawningRoad` (with `seats`: a `seat_road.SeatRoad`) answering "reset", "step" and
+    "close" over `remote`."""
     ignore_stop_signals()  # Ctrl-C and a SIGTERM reach the whole process group: the parent decides
     die_with_parent()
     parent_remote.close()
     try:
-        road = RespawningRoad(config, egos, seed)
+        road: RespawningRoad | SeatRoad = (RespawningRoad(config, egos, seed) if seats is None
+                                           else SeatRoad(config, seats, seed))
         while True:
             command, data = remote.recv()
             if command == "reset":

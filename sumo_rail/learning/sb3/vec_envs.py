@@ -17,6 +17,7 @@ from stable_baselines3.common.vec_env.base_vec_env import VecEnvObs
 from sumo_rail.config import Config
 from sumo_rail.learning.sb3.actor import FixedNormalisation
 from sumo_rail.learning.sb3.envs import LOST_ENV
+from sumo_rail.learning.sb3.seat_road import SceneSeats
 from sumo_rail.learning.sb3.shared_road import _road_process, env_seeds
 from sumo_rail.runners.spawning import start_shielded
 from sumo_rail.sim.actions import action_space_of
@@ -30,7 +31,8 @@ class SharedRoadVecEnv(VecEnv):
     """`driving_envs.driving_processes`: env i is ego i % egos of process i // egos; `processes` are the worker
     processes (for lost-env reports)."""
 
-    def __init__(self, config: Config, processes: int, egos: int, seed: int, error_dir: Path) -> None:
+    def __init__(self, config: Config, processes: int, egos: int, seed: int, error_dir: Path,
+                 seats: SceneSeats | None = None) -> None:
         super().__init__(processes * egos, observation_space(config), action_space_of(config.actions))
         self.egos = egos
         context = multiprocessing.get_context("spawn")
@@ -39,7 +41,7 @@ class SharedRoadVecEnv(VecEnv):
             remote, worker_remote = context.Pipe()
             process = context.Process(target=_road_process, daemon=True,
                                       args=(worker_remote, remote, config, egos, process_seed,
-                                            str(error_dir / f"env_{index}.txt")))
+                                            str(error_dir / f"env_{index}.txt"), seats))
             start_shielded(process)  # a Ctrl-C while it imports must not kill it: the parent decides
             worker_remote.close()
             self.remotes.append(remote)
