@@ -22,3 +22,18 @@ def drivers_scene(tmp_path_factory):
     tracks = tracks[(tracks["vehicle_id"] != first) | (tracks["time_s"] <= tracks["time_s"].min() + 5.0)]
     tracks.to_parquet(folder / "tracks.parquet", index=False)
     return folder
+
+
+@pytest.fixture(scope="module")
+def scene_and_demos(tmp_path_factory):
+    """The two-car scene (a car at 25 m/s for 2 s, then +2 m/s^2 for 2 s, behind a truck), all train, and its
+    demonstrations on the acceleration interface (one per test module: a module may change its scene)."""
+    from test_recorded_demos import invoke, two_car_scene
+
+    folder = tmp_path_factory.mktemp("two_car")
+    two_car_scene(folder / "scene")
+    demos = folder / "demos.parquet"
+    result = invoke("recorded-demos", str(folder / "scene"), "--set", "actions.interface=acceleration", "--out",
+                    str(demos))
+    assert result.exit_code == 0, result.output
+    return folder / "scene", demos

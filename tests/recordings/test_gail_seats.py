@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from test_recorded_demos import SMALL, invoke, two_car_scene
+from test_recorded_demos import SMALL, invoke
 
 from sumo_rail.config import Config
 from sumo_rail.datasets import read_metadata
@@ -13,16 +13,6 @@ from sumo_rail.learning.sb3.seat_road import SceneSeats, SeatRoad
 
 ACCELERATION = ("--set", "actions.interface=acceleration")
 SEAT = ("--set", "env.max_episode_s=3", "--set", "gail.seat_lead_s=0.5")
-
-
-@pytest.fixture(scope="module")
-def scene_and_demos(tmp_path_factory):
-    folder = tmp_path_factory.mktemp("gail_seats")
-    two_car_scene(folder / "scene")
-    demos = folder / "demos.parquet"
-    result = invoke("recorded-demos", str(folder / "scene"), *ACCELERATION, "--out", str(demos))
-    assert result.exit_code == 0, result.output
-    return folder / "scene", demos
 
 
 def seat_config(scene) -> Config:

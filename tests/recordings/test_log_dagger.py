@@ -24,18 +24,6 @@ CONFIG = Config.from_dict({"actions": {"interface": "acceleration"}, "scenario":
                            "env": {"v_max_mps": 44.44}})
 
 
-@pytest.fixture(scope="module")
-def scene_and_demos(tmp_path_factory):
-    """The two-car scene (a car at 25 m/s for 2 s, then +2 m/s^2 for 2 s, behind a truck), all train, and its
-    demonstrations on the acceleration interface."""
-    folder = tmp_path_factory.mktemp("log_dagger")
-    two_car_scene(folder / "scene")
-    demos = folder / "demos.parquet"
-    result = invoke("recorded-demos", str(folder / "scene"), *ACCELERATION, "--out", str(demos))
-    assert result.exit_code == 0, result.output
-    return folder / "scene", demos
-
-
 def constant_policy(action: int) -> Policy:
     """A linear policy that always chooses `action`."""
     shape = PolicyShape("linear", observation_space(CONFIG).shape[0], 0, 3 * CONFIG.actions.acceleration_bins)
