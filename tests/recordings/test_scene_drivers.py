@@ -169,3 +169,50 @@ def test_the_vtypes_file_sizes_and_classes_the_fcd_vehicles_of_its_types(tmp_pat
     first = read_scene(tmp_path / "scene").tracks.drop_duplicates("vehicle_id").set_index("vehicle_id")
     assert first.loc["t", ["vehicle_class", "length_m", "width_m"]].tolist() == ["truck", 16.5, pytest.approx(2.55)]
     assert first.loc["a", ["vehicle_class", "length_m"]].tolist() == ["passenger", 5.0]  # not defined: as before
+
+
+@pytest.mark.parametrize(("vtype", "said"), [
+    ('<vType id="car_calm" carFollowModel="Wobbly"/>', "vType 'car_calm': Unknown car following model 'Wobbly'"),
+    ('<vType id="car_calm" accel="brisk"/>', "vType 'car_calm': Invalid Car-Following-Model Attribute accel"),
+    ('<vType id="car_calm" length="-4.5"/>', "vType 'car_calm': length must be greater than 0"),
+    ('<vType id="car_calm" acel="2.6"/>', "vType 'car_calm': attribute 'acel' is not declared"),
+    ('<vType id="car_calm" accel="nan"/>', "vType 'car_calm' attribute accel is 'nan', not a finite number"),
+    ('<vType tau="1.1"/>', "a vType without an id"),
+    ('<vType id="car_calm"><laneChanging-LC2013/></vType>', "vType 'car_calm' has a <laneChanging-LC2013> child"),
+])
+def test_a_vtype_sumo_would_refuse_is_refused_at_import_naming_the_file_type_and_attribute(tmp_path, vtype, said):
+    """What SUMO refuses in a --vtypes file (it used to be found by evaluate-scene's reactive mode) or this project
+    cannot keep is refused by import-recording before any work: exit 2, one sentence, nothing written."""
+    files = fcd_scene_files(tmp_path)
+    given = tmp_path / "types.rou.xml"
+    given.write_text(f"<routes>{vtype}</routes>")
+    result = CliRunner().invoke(cli, ["import-recording", *files, "--vtypes", str(given), "--out",
+                                      str(tmp_path / "scene")])
+    assert result.exit_code == 2 and f"--vtypes {given}: " in result.output and said in result.output, result.output
+    assert "Traceback" not in result.output and result.output.strip().splitlines()[-1].startswith("Error: --vtypes")
+    assert not (tmp_path / "scene").exists()
+
+
+def test_a_vtypes_car_following_child_and_params_are_kept_and_drive_the_reactive_vehicles(tmp_path):
+    """A vType's <carFollowing-IDM> child (SUMO's older way of naming the model) and <param> children are kept in the
+    scene and written back for SUMO: the reactive vehicles drive the child's tau and their type holds the params."""
+    files = fcd_scene_files(tmp_path)
+    (tmp_path / "types.rou.xml").write_text('<routes><vType id="car_calm" maxSpeed="40"><carFollowing-IDM tau="1.7" '
+                                            'delta="3"/><param key="note" value="calm"/></vType></routes>')
+    result = CliRunner().invoke(cli, ["import-recording", *files, "--vtypes", str(tmp_path / "types.rou.xml"),
+                                      "--out", str(tmp_path / "scene")])
+    assert result.exit_code == 0, result.output
+    scene = read_scene(tmp_path / "scene")
+    assert scene.meta.vtypes == {"car_calm": {"maxSpeed": "40", "carFollowModel": "IDM", "tau": "1.7", "delta": "3",
+                                              "param:note": "calm"}}
+    found = reactive_types(scene, 0.1)
+    env = SceneEnv(CONFIG, tmp_path / "scene", reactive=True, types=found.types)
+    try:
+        env.reset(seed=0, options={"vehicle": "t", "start_s": 1.0})
+        env.step(int(Action.KEEP))
+        api = env.simulation._api
+        cars = [other for other in api.vehicle.getIDList() if other in "ab"]
+        assert cars and all(api.vehicle.getTau(car) == pytest.approx(1.7) for car in cars)
+        assert api.vehicletype.getParameter("car_calm", "note") == "calm"
+    finally:
+        env.close()
