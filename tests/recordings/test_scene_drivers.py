@@ -14,7 +14,7 @@ from sumo_rail_cli.main import cli
 from sumo_rail.config import Config
 from sumo_rail.datasets import read_metadata
 from sumo_rail.recordings.scene import read_scene
-from sumo_rail.recordings.scene_drivers import REACTIVE_IDM_TRUCK_TYPE, REACTIVE_IDM_TYPE, reactive_types
+from sumo_rail.recordings.scene_drivers import REACTIVE_IDM_TRUCK_TYPE, REACTIVE_IDM_TYPE, reactive_types, sumo_type_ids
 from sumo_rail.recordings.seat import SceneEnv
 from sumo_rail.recordings.sumo_drivers import DRIVER_TYPES
 from sumo_rail.sim.actions import Action
@@ -216,3 +216,32 @@ def test_a_vtypes_car_following_child_and_params_are_kept_and_drive_the_reactive
         assert api.vehicletype.getParameter("car_calm", "note") == "calm"
     finally:
         env.close()
+
+
+@pytest.mark.parametrize(("name", "drives_as"), [("car_calm", "car_calm"), ("ego", "ego_recorded"),
+                                                 ("scene_idm", "scene_idm_recorded"),
+                                                 (REACTIVE_IDM_TYPE, f"{REACTIVE_IDM_TYPE}_recorded"),
+                                                 (DEFAULT_TYPE, f"{DEFAULT_TYPE}_recorded")])
+def test_a_recorded_vtype_named_as_one_of_the_projects_own_drives_under_another_name(tmp_path, name, drives_as):
+    """An FCD recording whose vType is named as a type the scene's simulation defines itself (the ego's, SUMO's driver
+    in a seat, the calibrated IDM's, SUMO's default): SUMO refused two types "ego", or the recorded one took over the
+    vehicles of the project's (SUMO's default drove every vehicle without a type by the recorded tau). Now it drives
+    under another name, said in the note, and a vehicle without a definition drives SUMO's default."""
+    files = fcd_scene_files(tmp_path)
+    for file in ("fcd.xml", "types.rou.xml"):
+        (tmp_path / file).write_text((tmp_path / file).read_text().replace("car_calm", name))
+    result = CliRunner().invoke(cli, ["import-recording", *files, "--vtypes", str(tmp_path / "types.rou.xml"),
+                                      "--out", str(tmp_path / "scene")])
+    assert result.exit_code == 0, result.output
+    scene = read_scene(tmp_path / "scene")
+    assert scene.meta.vehicle_types["a"] == name  # the scene stays true to the recording
+    found = reactive_types(scene, 0.1)
+    assert found.types.of_vehicle == {"a": drives_as, "b": drives_as}
+    assert (f"{name} as {drives_as}" in found.note) == (name != drives_as)
+    reactive = types_on_road(tmp_path / "scene", found.types, reactive=True)
+    assert reactive["b"] == (drives_as, pytest.approx(1.7)) and reactive["t"] == (DEFAULT_TYPE, pytest.approx(1.0))
+
+
+def test_a_renamed_recorded_vtype_takes_a_name_no_other_type_has():
+    assert sumo_type_ids({"ego", "ego_recorded", "car"}) == {"ego": "ego_recorded1", "ego_recorded": "ego_recorded",
+                                                             "car": "car"}
