@@ -113,7 +113,7 @@ def reactive_types(scene: Scene, step_s: float) -> ReactiveTypes:
     calibration = None
     if others:
         try:
-            calibration = calibrate(scene.tracks, scene.split, step_s, REACTIVE_CALIBRATION)
+            calibration = calibrate(scene.tracks, scene.split, scene.road, step_s, REACTIVE_CALIBRATION)
         except ValueError as error:
             note = "; ".join(filter(None, [note, f"no IDM could be calibrated on the train split ({error})"]))
     if calibration is not None:
@@ -134,7 +134,7 @@ def seat_calibration(scene: Scene, step_s: float, lead_s: float, horizon_s: floa
     the scene when its train split has nothing to fit."""
     settings = CalibrationSettings(span_s=(lead_s, lead_s + horizon_s), vehicle_class=vehicle_class)
     try:
-        return calibrate(scene.tracks, scene.split, step_s, settings)
+        return calibrate(scene.tracks, scene.split, scene.road, step_s, settings)
     except ValueError as error:
         drivers = "" if vehicle_class == "passenger" else f" ({vehicle_class} drivers)"
         raise ValueError(f"cannot calibrate SUMO's IDM on the train split of the scene {scene.folder}{drivers}: "
