@@ -102,9 +102,11 @@ def main(bench: Path, dart: Path | None, safety: list[Path]) -> None:
 
 @click.command(help=__doc__)
 @click.argument("bench", type=click.Path(exists=True, file_okay=False, path_type=Path))
-@click.argument("dart", type=click.Path(exists=True, file_okay=False, allow_dash=True))
+@click.argument("dart", metavar="DART_DIR|-")
 @click.argument("safety", nargs=-1, type=click.Path(exists=True, file_okay=False, path_type=Path))
 def cli(bench: Path, dart: str, safety: tuple[Path, ...]) -> None:
+    if dart != "-" and not Path(dart).is_dir():
+        raise click.BadParameter(f"{dart} is not a folder (give - for none)", param_hint="DART_DIR")
     main(bench, None if dart == "-" else Path(dart), list(safety))
 
 

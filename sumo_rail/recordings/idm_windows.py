@@ -83,8 +83,7 @@ def scene_rows(tracks: pd.DataFrame, road: SceneRoad, step_s: float,
     tick = table["tick"].to_numpy()
     on_lane = table["lane_position_m"].to_numpy(dtype=np.float64)
     length = table["length_m"].to_numpy(dtype=np.float64)
-    lane_ids, lane_code = np.unique(table["edge"].astype(str).to_numpy() + "_" + table["lane"].astype(str).to_numpy(),
-                                    return_inverse=True)
+    lane_code, lane_ids = pd.factorize(table["edge"].astype(str) + "_" + table["lane"].astype(str))
     names, name_code = np.unique(vehicle, return_inverse=True)
     route_ids, route_of_name = np.unique([" ".join(routes[name]) for name in names], return_inverse=True)
     route_code = route_of_name[name_code]
