@@ -11,9 +11,9 @@ Usage: python experiments/ablation_table.py METRICS.parquet
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
+import click
 import numpy as np
 import pandas as pd
 from benchmark_table import expert_driver
@@ -89,5 +89,11 @@ def movement(runs: list[Path]) -> tuple[float, float, float]:
     return float(np.mean(distances)), float(np.mean(first)), float(np.mean(last))
 
 
+@click.command(help=__doc__)
+@click.argument("path", type=click.Path(exists=True, dir_okay=False))
+def cli(path: str) -> None:
+    main(path)
+
+
 if __name__ == "__main__":
-    main(sys.argv[1])
+    cli()

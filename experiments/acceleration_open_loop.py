@@ -17,9 +17,9 @@ argmax unless --decodings names others) and held-out vehicle, its decisions and 
 from __future__ import annotations
 
 import re
-import sys
 from pathlib import Path
 
+import click
 import numpy as np
 import pandas as pd
 import pyarrow as pa
@@ -111,12 +111,26 @@ def table(path: Path) -> None:
         print(f"| {label} | " + " | ".join(cells) + " |")
 
 
+@click.group(help=__doc__)
+def cli() -> None:
+    pass
+
+
+@cli.command("counts")
+@click.option("--decodings", default="argmax", show_default=True, help="Decodings, comma-separated.")
+@click.option("--runs", default="", help="A glob of the run folders to count (default: all).")
+@click.argument("out", type=click.Path(dir_okay=False, path_type=Path))
+@click.argument("runs_dir", type=click.Path(exists=True, file_okay=False, path_type=Path))
+@click.argument("demos", nargs=-1, required=True, type=click.Path(exists=True, dir_okay=False, path_type=Path))
+def counts_command(decodings: str, runs: str, out: Path, runs_dir: Path, demos: tuple[Path, ...]) -> None:
+    counts(out, runs_dir, list(demos), decodings.split(","), runs)
+
+
+@cli.command("table")
+@click.argument("path", type=click.Path(exists=True, dir_okay=False, path_type=Path))
+def table_command(path: Path) -> None:
+    table(path)
+
+
 if __name__ == "__main__":
-    if sys.argv[1] == "counts":
-        arguments, options = sys.argv[2:], {"--decodings": "argmax", "--runs": ""}
-        while arguments[0] in options:
-            options[arguments[0]], arguments = arguments[1], arguments[2:]
-        counts(Path(arguments[0]), Path(arguments[1]), [Path(path) for path in arguments[2:]],
-               options["--decodings"].split(","), options["--runs"])
-    else:
-        table(Path(sys.argv[2]))
+    cli()

@@ -16,9 +16,9 @@ Usage: python experiments/agreement_episodes.py STYLE METRICS.parquet [METRICS.p
 from __future__ import annotations
 
 import re
-import sys
 from pathlib import Path
 
+import click
 import numpy as np
 import pandas as pd
 
@@ -73,8 +73,15 @@ def write_summaries(paths: list[Path]) -> None:
             path.with_suffix(".setpoints.parquet"), index=False)
 
 
+@click.command(help=__doc__)
+@click.argument("style", type=click.Choice(sorted(STYLES)))
+@click.argument("paths", nargs=-1, required=True, type=click.Path(exists=True, dir_okay=False, path_type=Path))
+@click.option("--summary", is_flag=True, help="Also write METRICS.setpoints.parquet beside each metrics file.")
+def cli(style: str, paths: tuple[Path, ...], summary: bool) -> None:
+    if summary:
+        write_summaries(list(paths))
+    print(table(style, list(paths)))
+
+
 if __name__ == "__main__":
-    arguments = [argument for argument in sys.argv[2:] if argument != "--summary"]
-    if "--summary" in sys.argv[2:]:
-        write_summaries([Path(path) for path in arguments])
-    print(table(sys.argv[1], [Path(path) for path in arguments]))
+    cli()

@@ -7,8 +7,7 @@ Usage: python experiments/bc_class_balance_table.py VALIDATION.parquet
 
 from __future__ import annotations
 
-import sys
-
+import click
 import pandas as pd
 from seeded import difference_cell, digits_of, seed_samples, training_seeds, value_cell
 
@@ -32,5 +31,11 @@ def main(path: str) -> None:
         for measure in MEASURES) + " |")
 
 
+@click.command(help=__doc__)
+@click.argument("path", type=click.Path(exists=True, dir_okay=False))
+def cli(path: str) -> None:
+    main(path)
+
+
 if __name__ == "__main__":
-    main(sys.argv[1])
+    cli()

@@ -9,8 +9,9 @@ Usage: python experiments/bc_epochs.py EPOCHS[,EPOCHS...] DEMOS.parquet [DEMOS.p
 from __future__ import annotations
 
 import math
-import sys
 from pathlib import Path
+
+import click
 
 from sumo_rail.drivers.policies import PolicyShape
 from sumo_rail.learning.bc import BcSettings, behaviour_cloning
@@ -33,5 +34,19 @@ def main(epochs: list[int], paths: list[Path]) -> None:
                   f"{report.train_accuracy:.3f} | {held_out} |")
 
 
+def _epochs(context: click.Context, parameter: click.Parameter, value: str) -> list[int]:
+    try:
+        return [int(count) for count in value.split(",")]
+    except ValueError:
+        raise click.BadParameter(f"{value!r} is not a comma-separated list of whole numbers") from None
+
+
+@click.command(help=__doc__)
+@click.argument("epochs", callback=_epochs)
+@click.argument("paths", nargs=-1, required=True, type=click.Path(exists=True, dir_okay=False, path_type=Path))
+def cli(epochs: list[int], paths: tuple[Path, ...]) -> None:
+    main(epochs, list(paths))
+
+
 if __name__ == "__main__":
-    main([int(count) for count in sys.argv[1].split(",")], [Path(path) for path in sys.argv[2:]])
+    cli()

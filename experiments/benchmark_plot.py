@@ -7,9 +7,9 @@ Usage: python experiments/benchmark_plot.py OUT_DIR FIGURE.png   (reads OUT_DIR/
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
+import click
 from benchmark_table import METHODS, methods_found, read_evaluations
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
@@ -46,5 +46,12 @@ def main(out: Path, figure_path: Path) -> None:
     figure.savefig(figure_path, dpi=120)
 
 
+@click.command(help=__doc__)
+@click.argument("out", type=click.Path(exists=True, file_okay=False, path_type=Path))
+@click.argument("figure_path", type=click.Path(dir_okay=False, path_type=Path))
+def cli(out: Path, figure_path: Path) -> None:
+    main(out, figure_path)
+
+
 if __name__ == "__main__":
-    main(Path(sys.argv[1]), Path(sys.argv[2]))
+    cli()

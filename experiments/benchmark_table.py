@@ -9,9 +9,9 @@ they are not committed, OUT_DIR/distributions.parquet, the summary of them the t
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
+import click
 import pandas as pd
 from seeded import difference_cell, digits_of, pooled, seed_samples, training_seeds, value_cell
 
@@ -177,5 +177,12 @@ def main(out: Path, write_summary: bool = False) -> None:
     print("\n```\n" + distance_text(summary_distances(summary, expert_name), expert_name) + "\n```")
 
 
+@click.command(help=__doc__)
+@click.argument("out", type=click.Path(exists=True, file_okay=False, path_type=Path))
+@click.option("--summary", is_flag=True, help="Also write the decisions' summary beside the evaluations.")
+def cli(out: Path, summary: bool) -> None:
+    main(out, summary)
+
+
 if __name__ == "__main__":
-    main(Path(sys.argv[1]), "--summary" in sys.argv[2:])
+    cli()

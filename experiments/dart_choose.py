@@ -6,9 +6,9 @@ Usage: python experiments/dart_choose.py OUT_DIR   (reads OUT_DIR/validation_eps
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
+import click
 import pandas as pd
 
 from sumo_rail.evaluation.fidelity import CONFUSION_COLUMNS, agreement_counts
@@ -30,5 +30,11 @@ def main(out: Path) -> None:
     print(max(sorted(levels, key=float), key=lambda level: levels[level]))
 
 
+@click.command(help=__doc__)
+@click.argument("out", type=click.Path(exists=True, file_okay=False, path_type=Path))
+def cli(out: Path) -> None:
+    main(out)
+
+
 if __name__ == "__main__":
-    main(Path(sys.argv[1]))
+    cli()

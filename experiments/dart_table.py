@@ -10,9 +10,9 @@ Usage: python experiments/dart_table.py BENCH_DIR DART_DIR|- [SAFETY_DIR ...]   
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
+import click
 import pandas as pd
 from benchmark_table import (
     DERIVED,
@@ -100,5 +100,15 @@ def main(bench: Path, dart: Path | None, safety: list[Path]) -> None:
         print(f"\nThe re-evaluation against the committed evaluation: {reproduces(committed, again)}.")
 
 
+@click.command(help=__doc__)
+@click.argument("bench", type=click.Path(exists=True, file_okay=False, path_type=Path))
+@click.argument("dart", metavar="DART_DIR|-")
+@click.argument("safety", nargs=-1, type=click.Path(exists=True, file_okay=False, path_type=Path))
+def cli(bench: Path, dart: str, safety: tuple[Path, ...]) -> None:
+    if dart != "-" and not Path(dart).is_dir():
+        raise click.BadParameter(f"{dart} is not a folder (give - for none)", param_hint="DART_DIR")
+    main(bench, None if dart == "-" else Path(dart), list(safety))
+
+
 if __name__ == "__main__":
-    main(Path(sys.argv[1]), None if sys.argv[2] == "-" else Path(sys.argv[2]), [Path(arg) for arg in sys.argv[3:]])
+    cli()

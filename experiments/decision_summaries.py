@@ -22,9 +22,9 @@ the summaries made from the records with the committed ones instead of writing t
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
+import click
 import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
@@ -86,5 +86,11 @@ def main(check: bool) -> None:
             print(f"{path}: {len(summary)} rows")
 
 
+@click.command(help=__doc__)
+@click.option("--check", is_flag=True, help="Compare with the committed summaries instead of writing them.")
+def cli(check: bool) -> None:
+    main(check)
+
+
 if __name__ == "__main__":
-    main("--check" in sys.argv[1:])
+    cli()

@@ -10,9 +10,9 @@ Usage: python experiments/demonstrations_plot.py OUT_DIR COUNT [COUNT ...]   (re
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
+import click
 import pandas as pd
 from benchmark_table import expert_driver
 from matplotlib.backends.backend_agg import FigureCanvasAgg
@@ -97,5 +97,12 @@ def main(out: Path, counts: list[int]) -> None:
         plot(found, float(ratio(expert["lane_changes"]))).savefig(out / "demonstrations.png", dpi=120)
 
 
+@click.command(help=__doc__)
+@click.argument("out", type=click.Path(exists=True, file_okay=False, path_type=Path))
+@click.argument("counts", nargs=-1, required=True, type=click.IntRange(min=1))
+def cli(out: Path, counts: tuple[int, ...]) -> None:
+    main(out, list(counts))
+
+
 if __name__ == "__main__":
-    main(Path(sys.argv[1]), [int(count) for count in sys.argv[2:]])
+    cli()

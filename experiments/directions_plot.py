@@ -20,9 +20,9 @@ series being nN or nN_kKr; without SERIES, every series found there)
 from __future__ import annotations
 
 import re
-import sys
 from pathlib import Path
 
+import click
 import numpy as np
 import pandas as pd
 from matplotlib.backends.backend_agg import FigureCanvasAgg
@@ -158,6 +158,12 @@ def main(out: Path, names: list[str]) -> None:
     plot(curves).savefig(out / "directions.png", dpi=120)
 
 
+@click.command(help=__doc__)
+@click.argument("out", type=click.Path(exists=True, file_okay=False, path_type=Path))
+@click.argument("series", nargs=-1)
+def cli(out: Path, series: tuple[str, ...]) -> None:
+    main(out, list(series) or series_found(out))
+
+
 if __name__ == "__main__":
-    folder = Path(sys.argv[1])
-    main(folder, sys.argv[2:] or series_found(folder))
+    cli()

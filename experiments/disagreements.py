@@ -11,8 +11,8 @@ Usage: python experiments/disagreements.py EVALUATION.decisions.parquet [...]
 from __future__ import annotations
 
 import re
-import sys
 
+import click
 import numpy as np
 import pandas as pd
 
@@ -62,5 +62,11 @@ def main(*paths: str) -> None:
         print("| " + " | ".join(f"{value:.3f}" if isinstance(value, float) else str(value) for value in row) + " |")
 
 
+@click.command(help=__doc__)
+@click.argument("paths", nargs=-1, required=True, type=click.Path(exists=True, dir_okay=False))
+def cli(paths: tuple[str, ...]) -> None:
+    main(*paths)
+
+
 if __name__ == "__main__":
-    main(*sys.argv[1:])
+    cli()

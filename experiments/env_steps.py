@@ -6,9 +6,15 @@ Usage: python experiments/env_steps.py RUN_FOLDER/log.parquet
 
 from __future__ import annotations
 
-import sys
-
+import click
 import pandas as pd
 
+
+@click.command(help=__doc__)
+@click.argument("path", type=click.Path(exists=True, dir_okay=False))
+def cli(path: str) -> None:
+    print(int(pd.read_parquet(path, columns=["env_steps"])["env_steps"].sum()))
+
+
 if __name__ == "__main__":
-    print(int(pd.read_parquet(sys.argv[1], columns=["env_steps"])["env_steps"].sum()))
+    cli()

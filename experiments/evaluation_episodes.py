@@ -7,8 +7,7 @@ paper metric and the half-width of its 95% interval relative to the mean.
 
 from __future__ import annotations
 
-import sys
-
+import click
 import pandas as pd
 
 from sumo_rail.evaluation.statistics import interval, mean_sample
@@ -29,5 +28,11 @@ def main(path: str) -> None:
         print(f"| {count} | " + " | ".join(cells) + " |")
 
 
+@click.command(help=__doc__)
+@click.argument("path", type=click.Path(exists=True, dir_okay=False))
+def cli(path: str) -> None:
+    main(path)
+
+
 if __name__ == "__main__":
-    main(sys.argv[1])
+    cli()

@@ -10,8 +10,7 @@ Usage: python experiments/gail_choices_table.py METRICS.parquet
 
 from __future__ import annotations
 
-import sys
-
+import click
 import pandas as pd
 from ablation_table import MEASURES
 from seeded import difference_cell, digits_of, seed_samples, training_seeds, value_cell
@@ -44,5 +43,11 @@ def main(path: str) -> None:
             print(f"| {label} | {measure} | " + " | ".join(cells) + " |")
 
 
+@click.command(help=__doc__)
+@click.argument("path", type=click.Path(exists=True, dir_okay=False))
+def cli(path: str) -> None:
+    main(path)
+
+
 if __name__ == "__main__":
-    main(sys.argv[1])
+    cli()

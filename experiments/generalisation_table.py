@@ -12,9 +12,9 @@ Usage: python experiments/generalisation_table.py OUT_DIR [FIGURE.png]
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
+import click
 import matplotlib
 
 matplotlib.use("Agg")
@@ -235,5 +235,12 @@ def main(out: Path, figure_path: Path | None) -> None:
         print(f"\n(figure: {figure_path})")
 
 
+@click.command(help=__doc__)
+@click.argument("out", type=click.Path(exists=True, file_okay=False, path_type=Path))
+@click.argument("figure_path", required=False, type=click.Path(dir_okay=False, path_type=Path))
+def cli(out: Path, figure_path: Path | None) -> None:
+    main(out, figure_path)
+
+
 if __name__ == "__main__":
-    main(Path(sys.argv[1]), Path(sys.argv[2]) if len(sys.argv) > 2 else None)
+    cli()

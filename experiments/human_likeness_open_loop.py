@@ -14,9 +14,9 @@ and the agreed ones among them.
 from __future__ import annotations
 
 import dataclasses
-import sys
 from pathlib import Path
 
+import click
 import numpy as np
 import pandas as pd
 import pyarrow as pa
@@ -84,8 +84,23 @@ def table(path: Path) -> None:
     print(f"| BC minus always keep (paired by vehicle) | {cells[0]} | {cells[1]} |")
 
 
+@click.group(help=__doc__)
+def cli() -> None:
+    pass
+
+
+@cli.command("train")
+@click.argument("out", type=click.Path(exists=True, file_okay=False, path_type=Path))
+@click.argument("tags", nargs=-1, required=True)
+def train_command(out: Path, tags: tuple[str, ...]) -> None:
+    train(out, list(tags))
+
+
+@cli.command("table")
+@click.argument("path", type=click.Path(exists=True, dir_okay=False, path_type=Path))
+def table_command(path: Path) -> None:
+    table(path)
+
+
 if __name__ == "__main__":
-    if sys.argv[1] == "train":
-        train(Path(sys.argv[2]), sys.argv[3:])
-    else:
-        table(Path(sys.argv[2]))
+    cli()

@@ -11,9 +11,9 @@ Usage: python experiments/lane_change_context.py EVALUATION.decisions.parquet [H
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
+import click
 import numpy as np
 import pandas as pd
 
@@ -83,6 +83,16 @@ def main(path: str, headway_s: float = 3.0, write: bool = False) -> None:
         print("| " + " | ".join(f"{value:.3f}" if isinstance(value, float) else str(value) for value in row) + " |")
 
 
+@click.command(help=__doc__)
+@click.argument("path", type=click.Path(dir_okay=False))
+@click.argument("headway_s", required=False, default=3.0, type=click.FloatRange(min=0.0, min_open=True))
+@click.option("--summary", is_flag=True, help="Also write NAME.lane_changes.parquet beside the decisions.")
+def cli(path: str, headway_s: float, summary: bool) -> None:
+    if not Path(path).is_file() and not counts_path(path).is_file():
+        raise click.BadParameter(f"neither {path} nor the counts beside it ({counts_path(path)}) exist",
+                                 param_hint="PATH")
+    main(path, headway_s, write=summary)
+
+
 if __name__ == "__main__":
-    arguments = [argument for argument in sys.argv[1:] if argument != "--summary"]
-    main(arguments[0], *(float(value) for value in arguments[1:]), write="--summary" in sys.argv[1:])
+    cli()

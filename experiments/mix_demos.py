@@ -4,9 +4,9 @@ mixed. Usage: python experiments/mix_demos.py OUT.parquet IN.parquet [IN.parquet
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
+import click
 import pyarrow as pa
 import pyarrow.compute as pc
 import pyarrow.parquet as pq
@@ -31,5 +31,12 @@ def main(out: Path, sources: list[Path]) -> None:
     print(f"wrote {out}: {mixed.num_rows} decisions of {offset} episodes from {len(sources)} files")
 
 
+@click.command(help=__doc__)
+@click.argument("out", type=click.Path(dir_okay=False, path_type=Path))
+@click.argument("sources", nargs=-1, required=True, type=click.Path(exists=True, dir_okay=False, path_type=Path))
+def cli(out: Path, sources: tuple[Path, ...]) -> None:
+    main(out, list(sources))
+
+
 if __name__ == "__main__":
-    main(Path(sys.argv[1]), [Path(name) for name in sys.argv[2:]])
+    cli()

@@ -13,9 +13,9 @@ printout, validation.txt).
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
+import click
 import pandas as pd
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
@@ -94,5 +94,12 @@ def plot_rounds(logs: dict[str, pd.DataFrame]) -> Figure:
     return figure
 
 
+@click.command(help=__doc__)
+@click.argument("out", type=click.Path(exists=True, file_okay=False, path_type=Path))
+@click.argument("designs", nargs=-1, required=True)
+def cli(out: Path, designs: tuple[str, ...]) -> None:
+    main(out, list(designs))
+
+
 if __name__ == "__main__":
-    main(Path(sys.argv[1]), sys.argv[2:])
+    cli()

@@ -9,9 +9,9 @@ run.json and log.parquet)
 from __future__ import annotations
 
 import json
-import sys
 from pathlib import Path
 
+import click
 import pandas as pd
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
@@ -50,5 +50,12 @@ def main(out: str, *runs: str) -> None:
     figure.savefig(out, dpi=120)
 
 
+@click.command(help=__doc__)
+@click.argument("out", type=click.Path(dir_okay=False))
+@click.argument("runs", nargs=-1, required=True, type=click.Path(exists=True, file_okay=False))
+def cli(out: str, runs: tuple[str, ...]) -> None:
+    main(out, *runs)
+
+
 if __name__ == "__main__":
-    main(*sys.argv[1:])
+    cli()

@@ -8,9 +8,9 @@ Usage: python experiments/paper_table.py BENCH_DIR [PAPER_SCALE_DIR]
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
+import click
 import pandas as pd
 from benchmark_table import expert_driver, read_evaluations
 from seeded import difference_cell, digits_of, pooled, seed_samples, training_seeds
@@ -65,5 +65,12 @@ def main(bench: Path, paper_scale: Path | None) -> None:
             print(f"| {measure} | {difference_cell(mine, start, measure, digits_of(measure))} |")
 
 
+@click.command(help=__doc__)
+@click.argument("bench", type=click.Path(exists=True, file_okay=False, path_type=Path))
+@click.argument("paper_scale", required=False, type=click.Path(exists=True, file_okay=False, path_type=Path))
+def cli(bench: Path, paper_scale: Path | None) -> None:
+    main(bench, paper_scale)
+
+
 if __name__ == "__main__":
-    main(Path(sys.argv[1]), Path(sys.argv[2]) if len(sys.argv) > 2 else None)
+    cli()

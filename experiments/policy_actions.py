@@ -7,9 +7,9 @@ Usage: python experiments/policy_actions.py DEMOS.parquet POLICY.npz [POLICY.npz
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
+import click
 import numpy as np
 
 from sumo_rail.drivers.policies import load_policy
@@ -37,7 +37,12 @@ def main(demos_path: str, *policy_paths: str) -> None:
               f"{', '.join(f'{value:.3f}' for value in argmax)} | {lane_change:.3f} |")
 
 
+@click.command(help=__doc__)
+@click.argument("demos_path", type=click.Path(exists=True, dir_okay=False))
+@click.argument("policy_paths", nargs=-1, required=True, type=click.Path(exists=True, dir_okay=False))
+def cli(demos_path: str, policy_paths: tuple[str, ...]) -> None:
+    main(demos_path, *policy_paths)
+
+
 if __name__ == "__main__":
-    if len(sys.argv) < 3:
-        raise SystemExit(__doc__)
-    main(*sys.argv[1:])
+    cli()

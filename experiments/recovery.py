@@ -11,9 +11,9 @@ Usage: python experiments/recovery.py OUT_DIR DRIVER [DRIVER ...]   (DRIVER: exp
 from __future__ import annotations
 
 import os
-import sys
 from pathlib import Path
 
+import click
 import pyarrow as pa
 
 from sumo_rail.config import Config
@@ -47,5 +47,12 @@ def main(out: Path, drivers: list[str]) -> None:
             print(f"wrote {path}: {len(rows)} episodes", flush=True)
 
 
+@click.command(help=__doc__)
+@click.argument("out", type=click.Path(file_okay=False, path_type=Path))
+@click.argument("drivers", nargs=-1, required=True)
+def cli(out: Path, drivers: tuple[str, ...]) -> None:
+    main(out, list(drivers))
+
+
 if __name__ == "__main__":
-    main(Path(sys.argv[1]), sys.argv[2:])
+    cli()

@@ -9,9 +9,9 @@ Usage: python experiments/recovery_table.py RECOVERY_DIR FIGURE.png   (prints Ma
 from __future__ import annotations
 
 import re
-import sys
 from pathlib import Path
 
+import click
 import matplotlib
 
 matplotlib.use("Agg")
@@ -95,5 +95,12 @@ def main(folder: Path, figure: Path) -> None:
     fig.savefig(figure, dpi=120)
 
 
+@click.command(help=__doc__)
+@click.argument("folder", type=click.Path(exists=True, file_okay=False, path_type=Path))
+@click.argument("figure", type=click.Path(dir_okay=False, path_type=Path))
+def cli(folder: Path, figure: Path) -> None:
+    main(folder, figure)
+
+
 if __name__ == "__main__":
-    main(Path(sys.argv[1]), Path(sys.argv[2]))
+    cli()

@@ -7,8 +7,7 @@ episodes, e.g. later variants evaluated apart, are read as one)
 
 from __future__ import annotations
 
-import sys
-
+import click
 import pandas as pd
 from seeded import difference_cell, digits_of, seed_samples, training_seeds, value_cell
 
@@ -51,5 +50,11 @@ def main(*paths: str) -> None:
                 for measure in MEASURES) + " |")
 
 
+@click.command(help=__doc__)
+@click.argument("paths", nargs=-1, required=True, type=click.Path(exists=True, dir_okay=False))
+def cli(paths: tuple[str, ...]) -> None:
+    main(*paths)
+
+
 if __name__ == "__main__":
-    main(*sys.argv[1:])
+    cli()

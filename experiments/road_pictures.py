@@ -3,9 +3,9 @@ Usage: python experiments/road_pictures.py OUT_DIR   (writes road_KIND.png for e
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
+import click
 from PIL import Image
 
 from sumo_rail.config import FEATURE_KINDS, Config
@@ -32,9 +32,13 @@ def picture(kind: str, out: Path, seed: int = 3) -> None:
         env.close()
 
 
-if __name__ == "__main__":
-    folder = Path(sys.argv[1])
+@click.command(help=__doc__)
+@click.argument("folder", type=click.Path(file_okay=False, path_type=Path))
+def cli(folder: Path) -> None:
     folder.mkdir(parents=True, exist_ok=True)
     for name in ("straight", *FEATURE_KINDS):
         picture(name, folder)
-        print(f"wrote {folder / f'road_{name}.png'}")
+
+
+if __name__ == "__main__":
+    cli()

@@ -9,8 +9,7 @@ every evaluation drove)
 
 from __future__ import annotations
 
-import sys
-
+import click
 import pandas as pd
 from seeded import difference_cell, digits_of, seed_samples, training_seeds, value_cell
 
@@ -48,5 +47,12 @@ def main(egos: int, *paths: str) -> None:
             difference_cell(shared, alone, measure, digits_of(measure)) for measure in MEASURES) + " |")
 
 
+@click.command(help=__doc__)
+@click.argument("egos", type=click.IntRange(min=1))
+@click.argument("paths", nargs=-1, required=True, type=click.Path(exists=True, dir_okay=False))
+def cli(egos: int, paths: tuple[str, ...]) -> None:
+    main(egos, *paths)
+
+
 if __name__ == "__main__":
-    main(int(sys.argv[1]), *sys.argv[2:])
+    cli()

@@ -10,10 +10,10 @@ other ARS step settings (b = N, centred ranks) give on the same rollouts, from t
 from __future__ import annotations
 
 import json
-import sys
 from pathlib import Path
 from typing import Any
 
+import click
 import numpy as np
 
 from sumo_rail.learning.rail.noise import directions
@@ -148,5 +148,12 @@ def main(folder: str, figure_path: str | None = None) -> None:
         figure(reports, Path(figure_path))
 
 
+@click.command(help=__doc__)
+@click.argument("folder", type=click.Path(exists=True, file_okay=False))
+@click.argument("figure_path", required=False, type=click.Path(dir_okay=False))
+def cli(folder: str, figure_path: str | None) -> None:
+    main(folder, figure_path)
+
+
 if __name__ == "__main__":
-    main(*sys.argv[1:])
+    cli()

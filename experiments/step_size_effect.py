@@ -12,9 +12,9 @@ Usage: python experiments/step_size_effect.py DEMOS.parquet RUN [RUN ...]
 from __future__ import annotations
 
 import json
-import sys
 from pathlib import Path
 
+import click
 import numpy as np
 import pandas as pd
 
@@ -46,5 +46,12 @@ def main(demos_path: str, *runs: str) -> None:
               f"| {largest:.1e} |")
 
 
+@click.command(help=__doc__)
+@click.argument("demos_path", type=click.Path(exists=True, dir_okay=False))
+@click.argument("runs", nargs=-1, required=True, type=click.Path(exists=True, file_okay=False))
+def cli(demos_path: str, runs: tuple[str, ...]) -> None:
+    main(demos_path, *runs)
+
+
 if __name__ == "__main__":
-    main(*sys.argv[1:])
+    cli()

@@ -8,8 +8,7 @@ Usage: python experiments/style_table.py METRICS.parquet
 
 from __future__ import annotations
 
-import sys
-
+import click
 import pandas as pd
 from seeded import difference_cell, digits_of, seed_samples, training_seeds, value_cell
 
@@ -55,5 +54,11 @@ def main(path: str) -> None:
                   f"{difference_cell(per_method[method], per_method['bc'], 'agreement', 3)} |")
 
 
+@click.command(help=__doc__)
+@click.argument("path", type=click.Path(exists=True, dir_okay=False))
+def cli(path: str) -> None:
+    main(path)
+
+
 if __name__ == "__main__":
-    main(sys.argv[1])
+    cli()

@@ -6,8 +6,9 @@ Usage: python experiments/swap_normalizer.py WEIGHTS.npz NORMALIZER.npz OUT.npz
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
+
+import click
 
 from sumo_rail.drivers.policies import Policy, load_policy, save_policy
 
@@ -19,5 +20,13 @@ def main(weights: Path, normalizer: Path, out: Path) -> None:
     save_policy(swapped, out, {**metadata, "weights_from": str(weights), "normalizer_from": str(normalizer)})
 
 
+@click.command(help=__doc__)
+@click.argument("weights", type=click.Path(exists=True, dir_okay=False, path_type=Path))
+@click.argument("normalizer", type=click.Path(exists=True, dir_okay=False, path_type=Path))
+@click.argument("out", type=click.Path(dir_okay=False, path_type=Path))
+def cli(weights: Path, normalizer: Path, out: Path) -> None:
+    main(weights, normalizer, out)
+
+
 if __name__ == "__main__":
-    main(*map(Path, sys.argv[1:4]))
+    cli()

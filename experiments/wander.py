@@ -6,10 +6,10 @@ Usage: python experiments/wander.py RUN_DIR [RUN_DIR ...]   (prints each run's i
 
 from __future__ import annotations
 
-import sys
 from dataclasses import dataclass
 from pathlib import Path
 
+import click
 import numpy as np
 
 from sumo_rail.datasets import read_json_record
@@ -73,5 +73,11 @@ def main(folders: list[Path]) -> None:
               f"{found.moved:.2f} | {found.ratio:.2f} |")
 
 
+@click.command(help=__doc__)
+@click.argument("folders", nargs=-1, required=True, type=click.Path(exists=True, file_okay=False, path_type=Path))
+def cli(folders: tuple[Path, ...]) -> None:
+    main(list(folders))
+
+
 if __name__ == "__main__":
-    main([Path(argument) for argument in sys.argv[1:]])
+    cli()

@@ -5,6 +5,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import click
 import numpy as np
 import pytest
 
@@ -260,3 +261,35 @@ def test_the_figures_typical_seat_is_the_median_of_the_first_drivers_10_s_errors
     metrics.loc[metrics["mode"] == "reactive", "position_error_10s_m"] = 0.0  # the other mode is not read
     metrics.loc[metrics["policy"] == "other", "position_error_10s_m"] *= -1
     assert median_seat(metrics, "log") == ("s", "v2", 1.0)  # errors 1, 3, 5, 7, 9: 5 m is v2's
+
+
+CLICK_SCRIPTS = sorted(path.stem for path in EXPERIMENTS.glob("*.py")
+                       if 'if __name__ == "__main__":\n    cli()' in path.read_text())
+
+
+def test_no_experiment_script_parses_its_arguments_by_hand():
+    """A script reads its arguments with click (a usage message and exit 2 on a bad one), not off sys.argv: a missing
+    or mistyped argument was an IndexError or ValueError traceback."""
+    by_hand = [path.name for path in sorted(EXPERIMENTS.glob("*.py")) if re.search(r"sys\.argv\[", path.read_text())]
+    assert by_hand == []
+    assert len(CLICK_SCRIPTS) >= 30
+
+
+@pytest.mark.parametrize("name", CLICK_SCRIPTS)
+def test_an_experiment_script_refuses_a_bad_argument_with_its_usage_and_exit_2(name: str, tmp_path: Path):
+    """An unknown option, a missing argument (for a script that needs one), an input file that is not there: a usage
+    message and one sentence, exit 2 (a script's only argument that is an output folder is not tried: it is made)."""
+    from click.testing import CliRunner
+
+    command = __import__(name).cli
+    needs = isinstance(command, click.Group) or any(parameter.required for parameter in command.params)
+    missing = str(tmp_path / "missing.parquet")
+    inputs = [parameter for parameter in command.params if isinstance(parameter.type, click.Path)
+              and parameter.type.exists]
+    cases = [["--no-such-option"], *([[]] if needs else []), *([[missing]] if inputs or isinstance(command, click.Group)
+                                                                else [])]
+    for arguments in cases:
+        result = CliRunner().invoke(command, arguments)
+        assert result.exit_code == 2 and isinstance(result.exception, SystemExit), (arguments, result.output)
+        assert "Usage:" in result.output and ("Error: " in result.output or arguments == [])  # a group: its help
+    assert not (tmp_path / "missing.parquet").exists()

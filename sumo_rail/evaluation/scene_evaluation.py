@@ -120,7 +120,7 @@ class CalibratedIdmDriver:
         """The controller of `seat` in `scene` (SUMO's step `step_s` [s]) and the vehicle type it needs defined."""
         key = calibration_key(seat.scene, str(scene.track(seat.vehicle)["vehicle_class"].iloc[0]))
         parameters, typical = {name: (found, median) for name, found, median in self.idm}[key]
-        desired = lead_in_desired_speed(scene.tracks, seat.vehicle, seat.start_s, parameters, step_s,
+        desired = lead_in_desired_speed(scene.tracks, scene.road, seat.vehicle, seat.start_s, parameters, step_s,
                                         typical_mps=typical)
         return SumoController(self.name, SEAT_IDM_TYPE, desired), VehicleTypes({SEAT_IDM_TYPE: idm_type(parameters)})
 

@@ -37,6 +37,7 @@ import pandas as pd
 
 from sumo_rail.recordings.idm import SUMO_DEFAULTS, IdmParameters, simulate
 from sumo_rail.recordings.idm_windows import SceneRows, Windows, follow_windows, scene_rows, speed_floor
+from sumo_rail.recordings.scene_observations import SceneRoad, scene_routes
 
 BOUNDS = (IdmParameters(0.3, 0.5, 0.3, 0.5, 1.0), IdmParameters(6.0, 9.0, 4.0, 10.0, 8.0))
 """The range of each fitted parameter: decel at most SUMO's emergencyDecel of a car (9 m/s^2)."""
@@ -228,11 +229,12 @@ class IdmCalibration:
         return "\n".join(lines)
 
 
-def calibrate(tracks: pd.DataFrame, split: pd.DataFrame, step_s: float,
+def calibrate(tracks: pd.DataFrame, split: pd.DataFrame, road: SceneRoad, step_s: float,
               settings: CalibrationSettings = CalibrationSettings()) -> IdmCalibration:
-    """The IDM fitted on the train drivers of `settings.vehicle_class` in `tracks` (a scene's `TRACK_COLUMNS`;
-    `split`: vehicle_id -> split), with its error on the train and validation windows beside SUMO's defaults'."""
-    rows = scene_rows(tracks, step_s)
+    """The IDM fitted on the train drivers of `settings.vehicle_class` in `tracks` (a scene's `TRACK_COLUMNS` on the
+    network of `road`; `split`: vehicle_id -> split), with its error on the train and validation windows beside SUMO's
+    defaults'."""
+    rows = scene_rows(tracks, road, step_s)
     kind = tracks.drop_duplicates("vehicle_id").set_index("vehicle_id")["vehicle_class"]
     members = {name: set(split.loc[split["split"] == name, "vehicle_id"].astype(str))
                & set(kind.index[kind == settings.vehicle_class].astype(str)) for name in ("train", "validation")}
@@ -249,18 +251,20 @@ def calibrate(tracks: pd.DataFrame, split: pd.DataFrame, step_s: float,
                           errors)
 
 
-def lead_in_desired_speed(tracks: pd.DataFrame, vehicle: str, start_s: float, parameters: IdmParameters,
-                          step_s: float, settings: CalibrationSettings = CalibrationSettings(),
-                          typical_mps: float = 0.0) -> float:
-    """The desired speed [m/s] of `vehicle` under `parameters`, read from its lead-in: the scene's rows before
-    `start_s` [s] (its first row alone, when the seat is taken where its track begins), its floor when the lead-in
-    holds no window; never below `typical_mps` (the train drivers' median, where a lead-in shows too little)."""
+def lead_in_desired_speed(tracks: pd.DataFrame, road: SceneRoad, vehicle: str, start_s: float,
+                          parameters: IdmParameters, step_s: float,
+                          settings: CalibrationSettings = CalibrationSettings(), typical_mps: float = 0.0) -> float:
+    """The desired speed [m/s] of `vehicle` under `parameters`, read from its lead-in: the scene's rows (on the network
+    of `road`) before `start_s` [s] (its first row alone, when the seat is taken where its track begins), its leaders
+    found along its recorded route (the seat's), its floor when the lead-in holds no window; never below `typical_mps`
+    (the train drivers' median, where a lead-in shows too little)."""
     own = tracks[tracks["vehicle_id"] == vehicle]
     if own.empty:
         raise ValueError(f"the scene has no vehicle {vehicle!r}")
     begin_s = float(own["time_s"].min())
     times = tracks["time_s"]
-    rows = scene_rows(tracks[(times >= begin_s) & (times < max(start_s - 1e-9, begin_s + step_s / 2))], step_s)
+    lead_in = tracks[(times >= begin_s) & (times < max(start_s - 1e-9, begin_s + step_s / 2))]
+    rows = scene_rows(lead_in, road, step_s, scene_routes(lead_in) | scene_routes(own))
     windows = windows_of(rows, {vehicle}, step_s, settings)
     if len(windows):
         read = float(read_desired_speeds(parameters, windows, step_s, settings)[0])

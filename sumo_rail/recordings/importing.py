@@ -12,18 +12,20 @@ from __future__ import annotations
 
 import dataclasses
 import xml.etree.ElementTree as ElementTree
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
 import pandas as pd
 
-from sumo_rail.config import Config
+from sumo_rail.config import Config, ConfigError
 from sumo_rail.datasets import DatasetError, check_file, file_sha256
 from sumo_rail.recordings.formats import FORMATS, ReadOptions, importable, taking
 from sumo_rail.recordings.road import read_lanes
 from sumo_rail.recordings.scene import SPLITS, SceneMeta, check_scene_output, split_table, write_scene_folder
 from sumo_rail.recordings.scene_observations import scene_road
 from sumo_rail.recordings.tracks import Recording, RecordingDataError, RecordingUsageError, kept_tracks
+from sumo_rail.sim.vehicle_types import check_vtypes, read_vtypes
 
 
 @dataclass(frozen=True)
@@ -107,23 +109,27 @@ def check_import(settings: ImportSettings) -> ReadOptions:
             scene_road(settings.network)  # what recorded-demos and evaluate-scene take
         except DatasetError as error:
             raise RecordingUsageError(str(error)) from error
-    if settings.vtypes is not None:
-        options = dataclasses.replace(options, vtypes=vtype_definitions(settings.vtypes))
+    if settings.vtypes is not None and settings.network is not None:
+        options = dataclasses.replace(options, vtypes=vtype_definitions(settings.vtypes, settings.network))
     return options
 
 
-def vtype_definitions(path: Path) -> dict[str, dict[str, str]]:
-    """The vTypes a SUMO route or additional file `path` defines: id -> attributes (the id left out);
-    RecordingUsageError naming the file when it is not readable XML or defines none."""
+def vtype_definitions(path: Path, network: Path) -> dict[str, dict[str, str]]:
+    """The vTypes a SUMO route or additional file `path` defines (`sim.vehicle_types.read_vtypes`: id -> definition),
+    each as SUMO takes it on `network`; RecordingUsageError naming the file (and the type and what is wrong in it) when
+    it is not readable XML, defines none or one SUMO refuses."""
     try:
         check_file(path, "vType file")
         root = ElementTree.parse(path).getroot()
     except (DatasetError, ElementTree.ParseError) as error:
         raise RecordingUsageError(f"--vtypes {path} is not a readable route or additional file ({error})") from error
-    found = {vtype.get("id", ""): {key: value for key, value in vtype.attrib.items() if key != "id"}
-             for vtype in root.iter("vType")}
-    if not found:
-        raise RecordingUsageError(f"--vtypes {path} defines no vType")
+    try:
+        found = read_vtypes(root)
+        if not found:
+            raise RecordingUsageError(f"--vtypes {path} defines no vType")
+        check_vtypes(network, found)
+    except ConfigError as error:
+        raise RecordingUsageError(f"--vtypes {path}: {error}") from error
     return found
 
 
@@ -141,16 +147,15 @@ def selected(recording: Recording, settings: ImportSettings) -> pd.DataFrame:
     return tracks
 
 
-def recorded_types(tracks: pd.DataFrame, vtypes: Path | None) -> dict[str, dict]:
+def recorded_types(tracks: pd.DataFrame, defined: Mapping[str, Mapping[str, str]]) -> dict[str, dict]:
     """`SceneMeta`'s vehicle_types (each kept vehicle's vType, where the reader read one: a "type" column) and vtypes
-    (the definitions of those types that the file `vtypes` gives)."""
+    (the definitions of those types among `defined`, the --vtypes file's)."""
     if "type" not in tracks:
         return {}
     first = tracks.drop_duplicates("vehicle_id")
     named = dict(zip(first["vehicle_id"].astype(str), first["type"].astype(str), strict=True))
-    defined = vtype_definitions(vtypes) if vtypes is not None else {}
-    return {"vehicle_types": named,
-            "vtypes": {type_id: defined[type_id] for type_id in sorted(set(named.values())) if type_id in defined}}
+    kept = sorted(set(named.values()) & set(defined))
+    return {"vehicle_types": named, "vtypes": {type_id: dict(defined[type_id]) for type_id in kept}}
 
 
 def import_recording(settings: ImportSettings, config: Config, options: ReadOptions) -> ImportSummary:
@@ -175,7 +180,7 @@ def import_recording(settings: ImportSettings, config: Config, options: ReadOpti
     meta = SceneMeta(format=settings.format, frame_rate_hz=recording.frame_rate_hz,
                      network=str(settings.network.resolve()) if settings.network else "road.net.xml",
                      lanes=recording.lanes, direction=settings.direction if "direction" in form.choices else "",
-                     sources=sources, dropped=dropped, settings=recorded, **recorded_types(tracks, settings.vtypes))
+                     sources=sources, dropped=dropped, settings=recorded, **recorded_types(tracks, options.vtypes))
     write_scene_folder(settings.out, recording, tracks, split, meta, config)
     counts = pd.Series(split.column("split").to_pylist()).value_counts()
     return ImportSummary(len(split), dropped, recording.notes, {name: int(counts.get(name, 0)) for name in SPLITS})

@@ -165,6 +165,11 @@ class Scene:
         per vehicle)."""
         return {str(vehicle): rows for vehicle, rows in self.tracks.groupby("vehicle_id", sort=False).indices.items()}
 
+    @functools.cached_property
+    def road(self) -> SceneRoad:
+        """The scene's road on its network (read once)."""
+        return scene_road(self.network)
+
     def track(self, vehicle: str) -> pd.DataFrame:
         """One vehicle's rows in time order; DatasetError when the scene has no such vehicle."""
         rows = self._rows_of.get(vehicle)

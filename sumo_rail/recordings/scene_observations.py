@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import itertools
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -63,11 +64,17 @@ class SceneRoad:
               lane_positions_m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Positions along `route` [m] and route lanes of vehicles on `edges`' lanes `lanes` at `lane_positions_m`
         [m] (`RouteMap.place`; a lane not linked to the route is `road.UNPLACED`)."""
+        starts, route_lanes = self.lane_starts(route, [f"{edge}_{lane}" for edge, lane in zip(edges, lanes,
+                                                                                                 strict=True)])
+        return starts + lane_positions_m, route_lanes
+
+    def lane_starts(self, route: tuple[str, ...], lane_ids: Sequence[str]) -> tuple[np.ndarray, np.ndarray]:
+        """Where each lane of `lane_ids` starts along `route` [m] and its route lane (`RouteMap.lane_places`; a lane
+        not linked to the route is `road.UNPLACED`)."""
         places = self.frame(route).lane_places
-        starts, route_lanes = zip(*[places.get(f"{edge}_{lane}", UNPLACED) for edge, lane in zip(edges, lanes,
-                                                                                                strict=True)],
-                                  strict=True) if len(edges) else ((), ())
-        return np.asarray(starts, dtype=np.float64) + lane_positions_m, np.asarray(route_lanes, dtype=np.int64)
+        starts, route_lanes = zip(*[places.get(lane_id, UNPLACED) for lane_id in lane_ids],
+                                  strict=True) if len(lane_ids) else ((), ())
+        return np.asarray(starts, dtype=np.float64), np.asarray(route_lanes, dtype=np.int64)
 
     def lateral_offset_m(self, lane_id: str, x_m: float, y_m: float) -> float:
         """Signed distance [m] of the point (x, y) from lane `lane_id`'s centre line, left positive (SUMO's lateral

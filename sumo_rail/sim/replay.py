@@ -42,6 +42,7 @@ from sumo_rail.sim.simulation import Simulation
 from sumo_rail.sim.sumo_api import EGO_ID, SimulationError
 from sumo_rail.sim.traffic_source import Step
 from sumo_rail.sim.user_network import EGO_CLASS
+from sumo_rail.sim.vehicle_types import vtype_element
 
 KEEP_ROUTE_ANY_EDGE = 2
 """moveToXY's keepRoute: place the vehicle on the recorded edge and lane, off its route if need be."""
@@ -64,9 +65,10 @@ DEFAULT_TYPE = "DEFAULT_VEHTYPE"
 
 @dataclass(frozen=True)
 class VehicleTypes:
-    """SUMO vehicle types of a scene's simulation: `definitions` (type id -> vType attributes, written into its routes
-    file) and `of_vehicle` (recorded vehicle -> type id: how it drives in the reactive mode; SUMO's default type for
-    the others and for every replayed vehicle of the non-reactive mode, which SUMO does not drive)."""
+    """SUMO vehicle types of a scene's simulation: `definitions` (type id -> vType attributes and children as
+    `vehicle_types` keeps them, written into its routes file) and `of_vehicle` (recorded vehicle -> type id: how it
+    drives in the reactive mode; SUMO's default type for the others and for every replayed vehicle of the non-reactive
+    mode, which SUMO does not drive)."""
 
     definitions: Mapping[str, Mapping[str, str]] = field(default_factory=dict)
     of_vehicle: Mapping[str, str] = field(default_factory=dict)
@@ -135,8 +137,8 @@ class ReplayedTraffic:
         for route, route_id in self._route_ids.items():
             ElementTree.SubElement(root, "route", id=route_id, edges=" ".join(route))
         ElementTree.SubElement(root, "vType", id=SUMO_DRIVER_TYPE, carFollowModel="IDM", laneChangeModel="LC2013")
-        for type_id, attributes in self.types.definitions.items():
-            ElementTree.SubElement(root, "vType", attrib={**attributes, "id": type_id})
+        for type_id, definition in self.types.definitions.items():
+            vtype_element(root, type_id, definition)
         content = ElementTree.tostring(root)
         routes = built.directory / f"scene.{hashlib.sha256(content).hexdigest()[:16]}.rou.xml"
         write_bytes_atomically(routes, content)

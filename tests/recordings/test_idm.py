@@ -17,6 +17,7 @@ from sumo_rail.recordings.idm_calibration import (
 )
 from sumo_rail.recordings.idm_windows import scene_rows
 from sumo_rail.recordings.road import build_road
+from sumo_rail.recordings.scene_observations import scene_road
 from sumo_rail.sim.built_network import sumo_binary
 from sumo_rail.sim.sumo_api import load_api
 
@@ -70,6 +71,14 @@ def test_one_step_is_sumos_own(tmp_path):
     assert (speed > desired + 1.0).any() and (gap > 200).any()  # above its desired speed, and nearly free
 
 
+@pytest.fixture(scope="module")
+def road(tmp_path_factory):
+    """The straight two-lane road (edge "road") `synthetic_tracks` drive on."""
+    folder = tmp_path_factory.mktemp("idm_road")
+    build_road([3.2, 3.2], 4000.0, folder / "road.net.xml")
+    return scene_road(folder / "road.net.xml")
+
+
 def synthetic_tracks(seed: int) -> tuple[pd.DataFrame, dict[str, float]]:
     """A lane of IDM drivers (`TRUE`, desired speeds drawn by `seed`) behind a scripted leader "lead" that slows,
     stops, starts and cruises, and a lane of free drivers accelerating from 15 m/s, 60 s at SUMO's step: the
@@ -109,37 +118,37 @@ def synthetic_tracks(seed: int) -> tuple[pd.DataFrame, dict[str, float]]:
     return pd.DataFrame(rows, columns=columns), desired
 
 
-def test_the_fit_recovers_the_parameters_and_desired_speeds_that_made_a_scene():
+def test_the_fit_recovers_the_parameters_and_desired_speeds_that_made_a_scene(road):
     tracks, desired = synthetic_tracks(seed=1)
     drivers = sorted(desired)
     split = pd.DataFrame({"vehicle_id": ["lead", *drivers], "split": ["test", *["train"] * len(drivers)]})
-    calibration = calibrate(tracks, split, STEP_S)
+    calibration = calibrate(tracks, split, road, STEP_S)
     np.testing.assert_allclose(calibration.parameters.as_array(), TRUE.as_array(), rtol=0.05)
     errors = calibration.errors["train"]
     assert errors["calibrated"].speed_rmse_mps < 0.01 < errors["sumo_defaults"].speed_rmse_mps
     assert calibration.errors["validation"]["calibrated"].windows == 0  # no validation driver here
-    windows = windows_of(scene_rows(tracks, STEP_S), set(drivers), STEP_S, CalibrationSettings())
+    windows = windows_of(scene_rows(tracks, road, STEP_S), set(drivers), STEP_S, CalibrationSettings())
     _, speeds = fit(windows, STEP_S, CalibrationSettings())
     np.testing.assert_allclose(speeds, [desired[name] for name in windows.drivers], atol=0.3)
-    seats = windows_of(scene_rows(tracks, STEP_S), set(drivers), STEP_S, CalibrationSettings(span_s=(5.0, 20.0)))
+    seats = windows_of(scene_rows(tracks, road, STEP_S), set(drivers), STEP_S, CalibrationSettings(span_s=(5.0, 20.0)))
     assert len(seats) == len(drivers) * 27  # 2 s windows every 0.5 s from 5 s to 18 s into each track
     assert (seats.speed_mps[seats.drivers[seats.driver] == "f0"][0] ==
             tracks[(tracks["vehicle_id"] == "f0") & np.isclose(tracks["time_s"], 5.0)]["speed_mps"]).all()
 
 
-def test_the_desired_speed_is_read_from_the_lead_in_alone():
+def test_the_desired_speed_is_read_from_the_lead_in_alone(road):
     """A free driver still accelerating in its 6 s lead-in: its desired speed read from how it accelerates, the same
     whatever it does after the seat's instant; a seat where the track begins reads its first speed; never below the
     typical desired speed given."""
     tracks, desired = synthetic_tracks(seed=2)
-    read = lead_in_desired_speed(tracks, "f1", 6.0, TRUE, STEP_S)
+    read = lead_in_desired_speed(tracks, road, "f1", 6.0, TRUE, STEP_S)
     assert tracks[(tracks["vehicle_id"] == "f1") & (tracks["time_s"] < 6.0)]["speed_mps"].max() < desired["f1"] - 3
     assert read == pytest.approx(desired["f1"], abs=0.3)
     later = (tracks["vehicle_id"] == "f1") & (tracks["time_s"] >= 6.0)
     changed = tracks.assign(speed_mps=np.where(later, 5.0, tracks["speed_mps"]))
-    assert lead_in_desired_speed(changed, "f1", 6.0, TRUE, STEP_S) == read
-    assert lead_in_desired_speed(tracks, "f1", 0.0, TRUE, STEP_S) == pytest.approx(15.0)
-    assert lead_in_desired_speed(tracks, "f1", 6.0, TRUE, STEP_S, typical_mps=read + 5.0) == read + 5.0
-    assert lead_in_desired_speed(tracks, "f1", 6.0, TRUE, STEP_S, typical_mps=read - 5.0) == read
+    assert lead_in_desired_speed(changed, road, "f1", 6.0, TRUE, STEP_S) == read
+    assert lead_in_desired_speed(tracks, road, "f1", 0.0, TRUE, STEP_S) == pytest.approx(15.0)
+    assert lead_in_desired_speed(tracks, road, "f1", 6.0, TRUE, STEP_S, typical_mps=read + 5.0) == read + 5.0
+    assert lead_in_desired_speed(tracks, road, "f1", 6.0, TRUE, STEP_S, typical_mps=read - 5.0) == read
     with pytest.raises(ValueError, match="no vehicle 'nobody'"):
-        lead_in_desired_speed(tracks, "nobody", 6.0, TRUE, STEP_S)
+        lead_in_desired_speed(tracks, road, "nobody", 6.0, TRUE, STEP_S)

@@ -49,7 +49,7 @@ def test_the_calibration_finds_sumos_idm_drivers_parameters(idm_scene):
     """accel, decel, tau and delta within 5% of the type's; minGap, the standstill gap, within 1 m (motorway traffic
     barely shows it); SUMO's defaults (tau 1.0 s) fit the validation drivers worse."""
     scene = read_scene(idm_scene)
-    calibration = calibrate(scene.tracks, scene.split, 0.1)
+    calibration = calibrate(scene.tracks, scene.split, scene.road, 0.1)
     drivers = sumo_drivers.DRIVER_TYPES[IDM_DRIVER]
     found = calibration.parameters
     truth = IdmParameters(float(drivers["accel"]), float(drivers["decel"]), float(drivers["tau"]),
@@ -72,7 +72,7 @@ def test_the_calibrated_idm_takes_the_seat(drivers_scene):
     assert driver.name == CALIBRATED_IDM and driver.idm == ((str(drivers_scene), parameters, found.desired_mps),)
     assert parameters != SUMO_DEFAULTS and found.settings.span_s == (2.0, 12.0)
     seat = choose_seats(scene, "test", 10.0, 2.0, 1, 0)[0]
-    desired = lead_in_desired_speed(scene.tracks, seat.vehicle, seat.start_s, parameters, 0.1,
+    desired = lead_in_desired_speed(scene.tracks, scene.road, seat.vehicle, seat.start_s, parameters, 0.1,
                                     typical_mps=found.desired_mps)
     controller, types = driver.seat_controller(scene, seat, 0.1)
     assert controller.type_id == SEAT_IDM_TYPE and controller.desired_mps == desired
@@ -101,8 +101,8 @@ def test_the_calibrated_idm_drives_recorded_seats(drivers_scene):
     (_, parameters, typical), = calibrated.idm
     assert metrics["desired_mps"].iloc[:2].isna().all()
     assert metrics["desired_mps"].iloc[2:].tolist() == [
-        lead_in_desired_speed(scene.tracks, seat.vehicle, seat.start_s, parameters, 0.1, typical_mps=typical)
-        for seat in seats]
+        lead_in_desired_speed(scene.tracks, scene.road, seat.vehicle, seat.start_s, parameters, 0.1,
+                              typical_mps=typical) for seat in seats]
     defaults, fitted = (tracks[tracks["policy"] == name]["speed_mps"].to_numpy()
                         for name in ("sumo-idm", CALIBRATED_IDM))
     assert len(defaults) == len(fitted) and not np.allclose(defaults, fitted)

@@ -20,6 +20,8 @@ from sumo_rail.drivers.policies import Policy, PolicyShape
 from sumo_rail.evaluation.scene_evaluation import calibrated_idm_driver
 from sumo_rail.learning.log_dagger import LogDaggerTask, LogSeats
 from sumo_rail.recordings.actions import ActionRule, read_track
+from sumo_rail.recordings.idm_calibration import CalibrationSettings, windows_of
+from sumo_rail.recordings.idm_windows import scene_rows
 from sumo_rail.recordings.scene import read_scene
 from sumo_rail.recordings.scene_drivers import reactive_types
 from sumo_rail.recordings.scene_observations import in_route_frame, observe, scene_road, scene_routes
@@ -237,3 +239,30 @@ def test_the_teacher_on_a_network_scene_reads_the_human_in_the_seats_route_frame
     first = round((seats.seats[k].start_s - seats.humans[k].instants_s[0]) / seats.humans[k].period_s)
     assert len(labelled) >= 14
     assert np.abs(np.array(labelled) - human[first:first + len(labelled)]).max() < 1.0, labelled
+
+
+def test_the_idm_calibration_finds_a_leader_on_the_next_edge_of_the_followers_route(tmp_path):
+    """The follower on "in" and its leader already on "mid" (the lane it continues into, past the junction): the
+    leader is found along the follower's route with the gap along it (the rest of "in", the junction's lane, the
+    leader's lane position less its length), at every step, and a window follows it across the edges; it was missed
+    (only the same edge and lane were searched) and the follower read as free."""
+    road = scene_road(ramp_network(tmp_path))
+    lane = road.net.lane
+    (via,) = [link[4] for link in lane.getLinks("in_0") if link[0] == "mid_1"]
+    ends = np.cumsum([lane.getLength("in_0"), lane.getLength(via)])
+    rows = []
+    for k in range(31):  # 3 s at 10 m/s: the follower crosses the junction, the leader drives on "mid"
+        along = 450.0 + k  # the follower's front along its route [m]
+        place = (("in", 0, along) if along < ends[0] else (via.rsplit("_", 1)[0], 0, along - ends[0])
+                 if along < ends[1] else ("mid", 1, along - ends[1]))
+        for vehicle, (edge, index, position) in (("F", place), ("L", ("mid", 1, 10.0 + k))):
+            rows.append({"vehicle_id": vehicle, "time_s": round(k * 0.1, 9), "speed_mps": 10.0, "edge": edge,
+                         "lane": index, "lane_position_m": position, "length_m": 4.5})
+    scene = scene_rows(pd.DataFrame(rows), road, 0.1)
+    follower = scene.vehicle == "F"
+    assert (scene.leader[follower] >= 0).all() and (scene.vehicle[scene.leader[follower]] == "L").all()
+    expected = ends[1] + 10.0 - 4.5 - 450.0
+    np.testing.assert_allclose(scene.gap_m[follower], expected, atol=1e-9)
+    windows = windows_of(scene, {"F"}, 0.1, CalibrationSettings())
+    assert len(windows) == 3 and windows.gap_m == pytest.approx([expected] * 3)
+    np.testing.assert_allclose(windows.recorded_travel_m, 20.0, atol=1e-9)

@@ -14,7 +14,7 @@ from sumo_rail_cli.main import cli
 from sumo_rail.config import Config
 from sumo_rail.datasets import read_metadata
 from sumo_rail.recordings.scene import read_scene
-from sumo_rail.recordings.scene_drivers import REACTIVE_IDM_TRUCK_TYPE, REACTIVE_IDM_TYPE, reactive_types
+from sumo_rail.recordings.scene_drivers import REACTIVE_IDM_TRUCK_TYPE, REACTIVE_IDM_TYPE, reactive_types, sumo_type_ids
 from sumo_rail.recordings.seat import SceneEnv
 from sumo_rail.recordings.sumo_drivers import DRIVER_TYPES
 from sumo_rail.sim.actions import Action
@@ -169,3 +169,79 @@ def test_the_vtypes_file_sizes_and_classes_the_fcd_vehicles_of_its_types(tmp_pat
     first = read_scene(tmp_path / "scene").tracks.drop_duplicates("vehicle_id").set_index("vehicle_id")
     assert first.loc["t", ["vehicle_class", "length_m", "width_m"]].tolist() == ["truck", 16.5, pytest.approx(2.55)]
     assert first.loc["a", ["vehicle_class", "length_m"]].tolist() == ["passenger", 5.0]  # not defined: as before
+
+
+@pytest.mark.parametrize(("vtype", "said"), [
+    ('<vType id="car_calm" carFollowModel="Wobbly"/>', "vType 'car_calm': Unknown car following model 'Wobbly'"),
+    ('<vType id="car_calm" accel="brisk"/>', "vType 'car_calm': Invalid Car-Following-Model Attribute accel"),
+    ('<vType id="car_calm" length="-4.5"/>', "vType 'car_calm': length must be greater than 0"),
+    ('<vType id="car_calm" acel="2.6"/>', "vType 'car_calm': attribute 'acel' is not declared"),
+    ('<vType id="car_calm" accel="nan"/>', "vType 'car_calm' attribute accel is 'nan', not a finite number"),
+    ('<vType tau="1.1"/>', "a vType without an id"),
+    ('<vType id="car_calm"><laneChanging-LC2013/></vType>', "vType 'car_calm' has a <laneChanging-LC2013> child"),
+])
+def test_a_vtype_sumo_would_refuse_is_refused_at_import_naming_the_file_type_and_attribute(tmp_path, vtype, said):
+    """What SUMO refuses in a --vtypes file (it used to be found by evaluate-scene's reactive mode) or this project
+    cannot keep is refused by import-recording before any work: exit 2, one sentence, nothing written."""
+    files = fcd_scene_files(tmp_path)
+    given = tmp_path / "types.rou.xml"
+    given.write_text(f"<routes>{vtype}</routes>")
+    result = CliRunner().invoke(cli, ["import-recording", *files, "--vtypes", str(given), "--out",
+                                      str(tmp_path / "scene")])
+    assert result.exit_code == 2 and f"--vtypes {given}: " in result.output and said in result.output, result.output
+    assert "Traceback" not in result.output and result.output.strip().splitlines()[-1].startswith("Error: --vtypes")
+    assert not (tmp_path / "scene").exists()
+
+
+def test_a_vtypes_car_following_child_and_params_are_kept_and_drive_the_reactive_vehicles(tmp_path):
+    """A vType's <carFollowing-IDM> child (SUMO's older way of naming the model) and <param> children are kept in the
+    scene and written back for SUMO: the reactive vehicles drive the child's tau and their type holds the params."""
+    files = fcd_scene_files(tmp_path)
+    (tmp_path / "types.rou.xml").write_text('<routes><vType id="car_calm" maxSpeed="40"><carFollowing-IDM tau="1.7" '
+                                            'delta="3"/><param key="note" value="calm"/></vType></routes>')
+    result = CliRunner().invoke(cli, ["import-recording", *files, "--vtypes", str(tmp_path / "types.rou.xml"),
+                                      "--out", str(tmp_path / "scene")])
+    assert result.exit_code == 0, result.output
+    scene = read_scene(tmp_path / "scene")
+    assert scene.meta.vtypes == {"car_calm": {"maxSpeed": "40", "carFollowModel": "IDM", "tau": "1.7", "delta": "3",
+                                              "param:note": "calm"}}
+    found = reactive_types(scene, 0.1)
+    env = SceneEnv(CONFIG, tmp_path / "scene", reactive=True, types=found.types)
+    try:
+        env.reset(seed=0, options={"vehicle": "t", "start_s": 1.0})
+        env.step(int(Action.KEEP))
+        api = env.simulation._api
+        cars = [other for other in api.vehicle.getIDList() if other in "ab"]
+        assert cars and all(api.vehicle.getTau(car) == pytest.approx(1.7) for car in cars)
+        assert api.vehicletype.getParameter("car_calm", "note") == "calm"
+    finally:
+        env.close()
+
+
+@pytest.mark.parametrize(("name", "drives_as"), [("car_calm", "car_calm"), ("ego", "ego_recorded"),
+                                                 ("scene_idm", "scene_idm_recorded"),
+                                                 (REACTIVE_IDM_TYPE, f"{REACTIVE_IDM_TYPE}_recorded"),
+                                                 (DEFAULT_TYPE, f"{DEFAULT_TYPE}_recorded")])
+def test_a_recorded_vtype_named_as_one_of_the_projects_own_drives_under_another_name(tmp_path, name, drives_as):
+    """An FCD recording whose vType is named as a type the scene's simulation defines itself (the ego's, SUMO's driver
+    in a seat, the calibrated IDM's, SUMO's default): SUMO refused two types "ego", or the recorded one took over the
+    vehicles of the project's (SUMO's default drove every vehicle without a type by the recorded tau). Now it drives
+    under another name, said in the note, and a vehicle without a definition drives SUMO's default."""
+    files = fcd_scene_files(tmp_path)
+    for file in ("fcd.xml", "types.rou.xml"):
+        (tmp_path / file).write_text((tmp_path / file).read_text().replace("car_calm", name))
+    result = CliRunner().invoke(cli, ["import-recording", *files, "--vtypes", str(tmp_path / "types.rou.xml"),
+                                      "--out", str(tmp_path / "scene")])
+    assert result.exit_code == 0, result.output
+    scene = read_scene(tmp_path / "scene")
+    assert scene.meta.vehicle_types["a"] == name  # the scene stays true to the recording
+    found = reactive_types(scene, 0.1)
+    assert found.types.of_vehicle == {"a": drives_as, "b": drives_as}
+    assert (f"{name} as {drives_as}" in found.note) == (name != drives_as)
+    reactive = types_on_road(tmp_path / "scene", found.types, reactive=True)
+    assert reactive["b"] == (drives_as, pytest.approx(1.7)) and reactive["t"] == (DEFAULT_TYPE, pytest.approx(1.0))
+
+
+def test_a_renamed_recorded_vtype_takes_a_name_no_other_type_has():
+    assert sumo_type_ids({"ego", "ego_recorded", "car"}) == {"ego": "ego_recorded1", "ego_recorded": "ego_recorded",
+                                                             "car": "car"}
