@@ -35,7 +35,7 @@ import pandas as pd
 from sumo_rail.datasets import read_metadata
 from sumo_rail.evaluation.human_floor import floor_table
 from sumo_rail.evaluation.scene_evaluation import HUMAN, tracks_path
-from sumo_rail.evaluation.scene_summary import SEAT_KEYS, distribution_table, track_table
+from sumo_rail.evaluation.scene_summary import DISTANCE_INTERVALS, SEAT_KEYS, distribution_table, track_table
 
 SEEDS = (0, 1, 2)
 KEEP, IDM = "constant set-point (keep)", "SUMO's IDM + LC2013"
@@ -179,7 +179,7 @@ def main(paths: tuple[Path, ...], study: str, intervals: str) -> None:
     hierarchical = intervals == "hierarchical"
     print(track_table(metrics, methods, differences, hierarchical=hierarchical))
     print("\nWasserstein-1 distance to the humans' distributions (same seats)"
-          + ("; differences paired by seat:\n" if study != "closed-loop" else ":\n"))
+          + ("; differences paired by seat. " if study != "closed-loop" else ". ") + DISTANCE_INTERVALS + "\n")
     print(distribution_table(tracks, methods, period, differences if study != "closed-loop" else ()))
     if study != "closed-loop":
         print("\nThe floor: the humans of one random half of the seats against the other half's, and each driver's "

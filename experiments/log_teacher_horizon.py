@@ -17,7 +17,7 @@ import pandas as pd
 from sumo_rail.datasets import read_metadata
 from sumo_rail.evaluation.human_likeness import HORIZONS_S
 from sumo_rail.evaluation.scene_evaluation import tracks_path
-from sumo_rail.evaluation.scene_summary import distribution_table, track_table
+from sumo_rail.evaluation.scene_summary import DISTANCE_INTERVALS, distribution_table, track_table
 
 BC = "log_h3_s0/policy_bc"
 ERRORS = {f"position error {h:g} s [m]": f"position_error_{h:g}s_m" for h in HORIZONS_S}
@@ -36,7 +36,8 @@ def main(path: Path) -> None:
           f"(* : the interval excludes 0)\n")
     print(track_table(metrics, methods, [(log, reference) for log in logs for reference in (BC, "sumo-idm", "keep")],
                       ERRORS))
-    print("\nWasserstein-1 distance to the humans' distributions (same seats); differences paired by seat:\n")
+    print(f"\nWasserstein-1 distance to the humans' distributions (same seats); differences paired by seat. "
+          f"{DISTANCE_INTERVALS}\n")
     print(distribution_table(tracks, methods, period, [(log, BC) for log in logs]))
 
 

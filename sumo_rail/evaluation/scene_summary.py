@@ -162,10 +162,17 @@ def _seat_samples(by_episode: Mapping[tuple, dict[str, np.ndarray]], names: Sequ
             for name in DISTRIBUTIONS.values()}
 
 
+DISTANCE_INTERVALS = ("A distance's interval is the middle 95% of the distances between resampled seats' samples; "
+                      "resampling adds noise that lengthens a distance, so an interval may lie above its estimate: "
+                      "compare drivers by the paired differences and the floor.")
+"""What every table of `distribution_table`'s distances says of their intervals (`wasserstein_interval`)."""
+
+
 def seats_summary(evaluation: Evaluation, config: Config, reference: str | None = None,
                   expert: str | None = None) -> str:
     """Recorded seats' tables (`protocol.summarise`): every driver's `track_table`, then its `distribution_table`
     (the seats are their own reference: the humans')."""
     methods = {name: [name] for name in dict.fromkeys(evaluation.metrics["policy"])}
-    return (f"{track_table(evaluation.metrics, methods)}\n\nWasserstein-1 distance to the humans' distributions:\n\n"
-            f"{distribution_table(evaluation.decisions, methods, config.env.decision_period_s)}")
+    distances = distribution_table(evaluation.decisions, methods, config.env.decision_period_s)
+    return (f"{track_table(evaluation.metrics, methods)}\n\nWasserstein-1 distance to the humans' distributions. "
+            f"{DISTANCE_INTERVALS}\n\n{distances}")
