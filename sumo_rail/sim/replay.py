@@ -41,7 +41,7 @@ from sumo_rail.sim.commands import LANE_CHANGE_MODE_SUMO
 from sumo_rail.sim.controllers import SUMO_DRIVER_TYPE
 from sumo_rail.sim.road import RouteMap
 from sumo_rail.sim.simulation import Simulation
-from sumo_rail.sim.sumo_api import EGO_ID, SimulationError
+from sumo_rail.sim.sumo_api import EGO_ID, SimulationError, decision_calls
 from sumo_rail.sim.traffic_source import Step
 from sumo_rail.sim.user_network import EGO_CLASS
 
@@ -108,6 +108,8 @@ class ReplayedTraffic:
         """Each vehicle's desired speed in the reactive mode, as a share of the road's limit."""
         self.api: Any = None
         """The SUMO connection (`connect`)."""
+        self._move: Any = None
+        """Its moveToXY (`connect`; libsumo's compiled one)."""
         self._step_s = 0.0
         self.ego_collisions: list[tuple[str, str]] = []
         """(collider, victim) of each collision of the ego in the episode (SUMO's collider: the follower)."""
@@ -143,7 +145,7 @@ class ReplayedTraffic:
         return dataclasses.replace(built, routes_file=routes)
 
     def connect(self, api: Any, step_s: float, speed_limit_mps: float) -> Step:
-        self.api, self._step_s = api, step_s
+        self.api, self._step_s, self._move = api, step_s, decision_calls(api).move_to_xy
         self._speed_factor = {str(name): float(top / speed_limit_mps) for name, top in self._top_speeds_mps.items()}
         return self.step
 
@@ -236,25 +238,26 @@ class ReplayedTraffic:
         if not self.reactive:
             x = values["x_m"]
             if ego_x_m is None:
-                seat = np.flatnonzero(~placing)
+                seat = (~placing).nonzero()[0]
                 ego_x_m = float(x[seat[0]]) if len(seat) else None
             if ego_x_m is not None:
                 placing &= np.abs(x - ego_x_m) <= REPLAY_RADIUS_M
-        rows = np.flatnonzero(placing)
+        rows = placing.nonzero()[0]
         names = ids[rows].tolist()
         vehicle = self.api.vehicle
         on_road = set(vehicle.getIDList())
         if not self.reactive:
-            for gone in self._placed.difference(names):
-                if gone in on_road:
-                    vehicle.remove(gone)
-            self._placed.intersection_update(names)
+            gone = self._placed.difference(names)
+            for name in gone:
+                if name in on_road:
+                    vehicle.remove(name)
+            self._placed -= gone
         moves = (names, values["edge"][rows].tolist(), lanes[rows].tolist(),
                  *(values[name][rows].tolist() for name in ("x_m", "y_m", "heading_deg")))
         if self.reactive or not on_road.issuperset(names):
             self._add(moves, [values[name][rows].tolist() for name in ("speed_mps", "length_m", "width_m")], on_road)
         else:  # every vehicle is SUMO's already (most steps): only moves, looped in C
-            collections.deque(itertools.starmap(vehicle.moveToXY,
+            collections.deque(itertools.starmap(self._move,
                                                 zip(*moves, itertools.repeat(KEEP_ROUTE_ANY_EDGE), strict=False)),
                               maxlen=0)
 
@@ -263,7 +266,7 @@ class ReplayedTraffic:
         lengths and widths [m]), added to SUMO where they are not on the road (`on_road`), each before its move (the
         reactive mode moves only those it adds)."""
         vehicle = self.api.vehicle
-        move, placed = vehicle.moveToXY, self._placed
+        move, placed = self._move, self._placed
         type_of = self.types.of_vehicle if self.reactive else {}
         for name, edge, lane, x_m, y_m, heading_deg, speed_mps, length_m, width_m in zip(*moves, *sizes, strict=True):
             if self.reactive and name in placed:
