@@ -32,6 +32,7 @@ import libsumo
 import numpy as np
 from bench_import import synthetic_recording
 from doc_section import write_section
+from libsumo import _libsumo as compiled
 
 from sumo_rail.config import Config
 from sumo_rail.datasets import sumo_version
@@ -87,10 +88,12 @@ def closed_loop(scene: Scene, config: Config, reactive: bool, seats: list[tuple[
                 types: VehicleTypes, timed: Counter[str] | None = None) -> tuple[float, float]:
     """(simulated seconds, CPU seconds) of always-keep episodes in `seats` (vehicle, start [s]), the reactive
     vehicles of `types`; with `timed`, libsumo's calls of `SUMO_PARTS` timed into it by part (CPU [s])."""
-    env = SceneEnv(config, scene, reactive=reactive, transport="libsumo", types=types)
-    try:
-        env.reset(seed=0, options={"vehicle": seats[0][0], "start_s": seats[0][1]})  # SUMO started, not timed
-        with timed_calls(timed) if timed is not None else contextlib.nullcontext():
+    with timed_calls(timed) if timed is not None else contextlib.nullcontext():
+        env = SceneEnv(config, scene, reactive=reactive, transport="libsumo", types=types)
+        try:
+            env.reset(seed=0, options={"vehicle": seats[0][0], "start_s": seats[0][1]})  # SUMO started, not timed
+            for part in SUMO_PARTS if timed is not None else ():
+                timed[part] = timed[part + " calls"] = 0
             simulated, start = 0.0, time.process_time()
             for vehicle, start_s in seats:
                 env.reset(seed=0, options={"vehicle": vehicle, "start_s": start_s})
@@ -100,22 +103,23 @@ def closed_loop(scene: Scene, config: Config, reactive: bool, seats: list[tuple[
                     done = terminated or truncated
                 simulated += info["time_s"]
             return simulated, time.process_time() - start
-    finally:
-        env.close()
+        finally:
+            env.close()
 
 
-SUMO_PARTS = {"load": ("load",), "steps": ("simulationStep",), "moves": ("vehicle.moveToXY",),
-              "entries": ("vehicle.add", "vehicle.setLength", "vehicle.setWidth", "vehicle.setSpeedMode",
-                          "vehicle.setLaneChangeMode")}
-"""The parts of an episode's SUMO work the breakdown times, by the libsumo calls that make them: the load of a reset,
-SUMO's steps, the replayed vehicles' moves and their entries (added, sized, given to TraCI)."""
+SUMO_PARTS = {"load": ("simulation_load",), "steps": ("simulation_step",), "moves": ("vehicle_moveToXY",),
+              "entries": ("vehicle_add", "vehicle_setLength", "vehicle_setWidth", "vehicle_setSpeedMode",
+                          "vehicle_setLaneChangeMode")}
+"""The parts of an episode's SUMO work the breakdown times, by the compiled libsumo functions that do them (the ones
+its Python wrappers and the simulation's `DecisionCalls` call): the load of a reset, SUMO's steps, the replayed
+vehicles' moves and their entries (added, sized, given to TraCI)."""
 
 
 @contextlib.contextmanager
 def timed_calls(timed: Counter[str]) -> Iterator[None]:
-    """Within the block, libsumo's calls of `SUMO_PARTS` add their CPU time [s] to `timed[part]` and count themselves
-    in `timed[part + " calls"]`; the timing's own cost, from 100,000 timed empty calls, is `timed["timer inside"]`
-    (what a call's time holds of it) and `timed["timer"]` (all of it, per call)."""
+    """Within the block, libsumo's calls of `SUMO_PARTS` (a simulation made in the block calls the timed ones) add
+    their CPU time [s] to `timed[part]` and count themselves in `timed[part + " calls"]`; `timed["timer inside"]` is
+    the timing's own cost inside a call's time (from 100,000 timed empty calls)."""
     clock = time.process_time
 
     def timer(call: Callable[..., Any], part: str) -> Callable[..., Any]:
@@ -133,18 +137,15 @@ def timed_calls(timed: Counter[str]) -> Iterator[None]:
         empty()
     timed["timer inside"] /= count
     del timed["timer inside calls"]
-    replaced = []
+    replaced = {name: getattr(compiled, name) for names in SUMO_PARTS.values() for name in names}
     for part, names in SUMO_PARTS.items():
         for name in names:
-            owner_name, _, attribute = name.rpartition(".")
-            owner = getattr(libsumo, owner_name) if owner_name else libsumo
-            replaced.append((owner, attribute, getattr(owner, attribute)))
-            setattr(owner, attribute, timer(getattr(owner, attribute), part))
+            setattr(compiled, name, timer(replaced[name], part))
     try:
         yield
     finally:
-        for owner, attribute, call in replaced:
-            setattr(owner, attribute, call)
+        for name, call in replaced.items():
+            setattr(compiled, name, call)
 
 
 def breakdown(scene: Scene, config: Config, reactive: bool, seats: list[tuple[str, float]],

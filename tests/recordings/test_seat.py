@@ -12,6 +12,7 @@ import pandas as pd
 import pytest
 
 from sumo_rail.config import Config
+from sumo_rail.datasets import DatasetError
 from sumo_rail.recordings.scene import TRACK_COLUMNS, read_scene
 from sumo_rail.recordings.scene_observations import SceneFrames, scene_road
 from sumo_rail.recordings.seat import SceneEnv, SeatStart
@@ -272,6 +273,8 @@ def test_a_seats_lead_in_is_the_pandas_tracks_rows_before_the_seat(drivers_scene
                 old = track_past(track[track["time_s"] < start_s - 1e-9])
                 assert (past.time_s, past.speed_mps, past.acceleration_mps2, past.lane) == (
                     old.time_s, old.speed_mps, old.acceleration_mps2, old.lane)
+    with pytest.raises(DatasetError, match="no vehicle 'nobody'"):
+        scene.track_values("nobody", TRACK_COLUMNS)
 
 
 def _place_vehicle_by_vehicle(self, time_s, ego_x_m):
