@@ -149,13 +149,13 @@ def timed_calls(timed: Counter[str]) -> Iterator[None]:
 
 
 def breakdown(scene: Scene, config: Config, reactive: bool, seats: list[tuple[str, float]],
-              types: VehicleTypes) -> dict[str, float]:
+              types: VehicleTypes) -> tuple[dict[str, float], float]:
     """CPU time [ms] per episode of `closed_loop`'s episodes in each part of `SUMO_PARTS` (the timing's cost inside
-    each call taken out; what is left of it makes a part an upper bound)."""
+    each call taken out; what is left of it makes a part an upper bound), and the simulated time [s] per episode."""
     timed: Counter[str] = Counter()
-    closed_loop(scene, config, reactive, seats, types, timed)
-    return {part: 1000 * (timed[part] - timed[part + " calls"] * timed["timer inside"]) / len(seats)
-            for part in SUMO_PARTS}
+    simulated, _ = closed_loop(scene, config, reactive, seats, types, timed)
+    return ({part: 1000 * (timed[part] - timed[part + " calls"] * timed["timer inside"]) / len(seats)
+             for part in SUMO_PARTS}, simulated / len(seats))
 
 
 def seats_of(scene: Scene, count: int, horizon_s: float) -> list[tuple[str, float]]:
@@ -170,6 +170,7 @@ def seats_of(scene: Scene, count: int, horizon_s: float) -> list[tuple[str, floa
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--seats", type=int, default=30, help="episodes per scene and mode")
+    parser.add_argument("--rounds", type=int, default=5, help="alternating rounds of every measure (medians)")
     parser.add_argument("--out", type=Path, default=Path("docs/benchmarks.md"))
     args = parser.parse_args()
     rows, drivers, parts, verdicts = [], [], [], []
@@ -191,21 +192,26 @@ def main() -> None:
                     "true"]
             road = scene_road(scene.network)
             types = reactive_types(scene, config.scenario.step_length_s)
-            raw = raw_speed(scene, seats[0][1], window_s, run_options(scene_config(config, scene, road).scenario),
-                            types.types, road.speed_limit_mps)
-            raw_default = raw_speed(scene, seats[0][1], window_s, defaults)
+            options = run_options(scene_config(config, scene, road).scenario)
+            measured: dict[str, list[float]] = {"raw": [], "defaults": [], "non-reactive": [], "reactive": []}
+            for _ in range(args.rounds):  # alternating, so that a busy spell of the machine hits every measure
+                measured["raw"].append(raw_speed(scene, seats[0][1], window_s, options, types.types,
+                                                 road.speed_limit_mps))
+                measured["defaults"].append(raw_speed(scene, seats[0][1], window_s, defaults))
+                for reactive in (False, True):
+                    simulated, cpu = closed_loop(scene, config, reactive, seats, types.types)
+                    measured["reactive" if reactive else "non-reactive"].append(simulated / cpu)
+            raw, raw_default, *speeds = (float(np.median(values)) for values in measured.values())
             on_road = scene.tracks.groupby("time_s").size().median()
-            runs = [closed_loop(scene, config, reactive, seats, types.types) for reactive in (False, True)]
-            speeds = [simulated / cpu for simulated, cpu in runs]
             drivers.append(f"- {label}: {types.describe().splitlines()[0]}")
             cells = " | ".join(f"{speed:.0f} ({speed / raw:.2f}x; {speed / raw_default:.2f}x)" for speed in speeds)
             rows.append(f"| {label} | {horizon_s:g} | {on_road:.0f} | {raw:.0f} | {raw_default:.0f} | {cells} |")
-            for reactive, (simulated, cpu) in zip((False, True), runs, strict=True):
+            for reactive, speed in zip((False, True), speeds, strict=True):
                 mode = "reactive" if reactive else "non-reactive"
-                verdicts.append(f"{label.split(' (')[0]}, {mode}: {simulated / cpu / raw:.2f}x, "
-                                + ("reached" if simulated / cpu >= GOAL * raw else "not reached"))
-                ms = breakdown(scene, config, reactive, seats, types.types)
-                episode_ms, simulated_s = 1000 * cpu / len(seats), simulated / len(seats)
+                verdicts.append(f"{label.split(' (')[0]}, {mode}: {speed / raw:.2f}x, "
+                                + ("reached" if speed >= GOAL * raw else "not reached"))
+                ms, simulated_s = breakdown(scene, config, reactive, seats, types.types)
+                episode_ms = 1000 * simulated_s / speed
                 shares = " | ".join(f"{ms[part]:.1f}" for part in SUMO_PARTS)
                 parts.append(f"| {label} | {mode} | {simulated_s:.1f} | {1000 * simulated_s / raw:.1f} | "
                              f"{1000 * simulated_s / (GOAL * raw):.1f} | {episode_ms:.1f} | {shares} | "
@@ -214,10 +220,11 @@ def main() -> None:
     section = f"""
 ## Closed-loop episodes in a recorded scene (issue 46)
 
-Command: `make bench` (runs `python benchmarks/bench_replay.py --seats {args.seats}`).
+Command: `make bench` (runs `python benchmarks/bench_replay.py --seats {args.seats} --rounds {args.rounds}`).
 Machine: {platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}, SUMO {sumo_version()}; load
 average {load:.1f} at the end of the run (other jobs shared the machine when above 1).
-Simulated seconds per CPU second of the process (libsumo runs in it). Raw SUMO: the scene's vehicles departing from a
+Simulated seconds per CPU second of the process (libsumo runs in it), medians of {args.rounds} alternating rounds
+of every measure. Raw SUMO: the scene's vehicles departing from a
 route file at their first recorded state, driven by SUMO alone (`simulationStep` only) over the seats' time span,
 with the SUMO options every episode runs with (`simulation.run_options`: continuous lane changes over
 `scenario.lane_change_duration_s`, collision checks) and the reactive episodes' drivers (each vehicle's vType and
