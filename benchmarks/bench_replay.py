@@ -246,8 +246,8 @@ Goal: a closed-loop episode at least {GOAL:g}x raw SUMO stepping of the same sce
 
 Where an episode's CPU time goes, per episode [ms]: the episode (the run above), and in a second run of the same
 episodes with libsumo's calls timed (the timing's cost inside each call taken out; what is left of it makes these
-upper bounds): the load of each reset (SUMO parses the network and routes files afresh: most of it is
-SUMO's XML parser set up for each file, whatever their size), SUMO's steps, the replayed vehicles' moves (`moveToXY`:
+upper bounds): the load of each reset (SUMO reads its options, network and routes files afresh: a fixed cost of
+SUMO's, whatever the files' size), SUMO's steps, the replayed vehicles' moves (`moveToXY`:
 SUMO maps each vehicle's recorded x, y onto its lane), their entries (`add`, length and width, speed and lane-change
 modes), and the rest, the episode less these (the env's decisions, observation, safety readings, and the replay's own
 Python; a lower bound). Raw SUMO
