@@ -27,7 +27,7 @@ from sumo_rail.config import Config
 from sumo_rail.recordings.scene import Scene, read_scene
 from sumo_rail.recordings.scene_observations import SceneFrames, SceneRoad, scene_road, scene_routes
 from sumo_rail.recordings.seats import SeatDraw
-from sumo_rail.recordings.trajectory import track_past
+from sumo_rail.recordings.trajectory import PAST_COLUMNS, track_past
 from sumo_rail.sim.ego import CONTEXT_MARGIN_M
 from sumo_rail.sim.ego_past import EgoPast
 from sumo_rail.sim.env import HighwayEnv
@@ -87,8 +87,9 @@ class SeatStart:
     def past(self, sim: Simulation, agent: str) -> EgoPast:
         """The seated vehicle's recorded lead-in: its track before the seat's instant."""
         vehicle, start_s = replayed(sim).seated
-        track = self.scene.track(vehicle)
-        return track_past(track[track["time_s"] < start_s - 1e-9])
+        track = self.scene.track_values(vehicle, PAST_COLUMNS)
+        before = track["time_s"] < start_s - 1e-9
+        return track_past({name: values[before] for name, values in track.items()})
 
 
 def replayed(sim: Simulation) -> ReplayedTraffic:

@@ -6,7 +6,7 @@ it; and the scene at an instant that such points are read off (`SceneSnapshot`, 
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import NamedTuple
 
 import numpy as np
@@ -66,7 +66,11 @@ class SceneSnapshot(NamedTuple):
         return leader_gap_m(self.lanes, self.values["lane_position_m"], self.values["length_m"], row)
 
 
-def track_past(rows: pd.DataFrame) -> EgoPast:
-    """A track's rows (`scene.TRACK_COLUMNS`, in time order) as the ego's past the observation's history block reads."""
-    return EgoPast(rows["time_s"].to_numpy(), rows["speed_mps"].to_numpy(), rows["acceleration_mps2"].to_numpy(),
-                   rows["lane"].to_numpy())
+PAST_COLUMNS = ("time_s", "speed_mps", "acceleration_mps2", "lane")
+"""The track columns an ego's past holds (`track_past`)."""
+
+
+def track_past(rows: pd.DataFrame | Mapping[str, np.ndarray]) -> EgoPast:
+    """A track's rows (`PAST_COLUMNS` at least, in time order; a DataFrame or arrays by column) as the ego's past the
+    observation's history block reads."""
+    return EgoPast(*(np.asarray(rows[name]) for name in PAST_COLUMNS))

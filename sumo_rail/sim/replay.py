@@ -21,8 +21,10 @@ observations, and a SUMO-driven seat the same speeds, with every vehicle in SUMO
 
 from __future__ import annotations
 
+import collections
 import dataclasses
 import hashlib
+import itertools
 import json
 import xml.etree.ElementTree as ElementTree
 from collections.abc import Callable, Collection, Mapping
@@ -39,7 +41,7 @@ from sumo_rail.sim.commands import LANE_CHANGE_MODE_SUMO
 from sumo_rail.sim.controllers import SUMO_DRIVER_TYPE
 from sumo_rail.sim.road import RouteMap
 from sumo_rail.sim.simulation import Simulation
-from sumo_rail.sim.sumo_api import EGO_ID, SimulationError
+from sumo_rail.sim.sumo_api import EGO_ID, SimulationError, decision_calls
 from sumo_rail.sim.traffic_source import Step
 from sumo_rail.sim.user_network import EGO_CLASS
 from sumo_rail.sim.vehicle_types import vtype_element
@@ -53,8 +55,6 @@ REPLAY_RADIUS_M = 500.0
 REPLAY_ROUTE = "scene_replay"
 """The first of the routes recorded vehicles are added on (each vehicle's recorded edges from where it enters: one
 route for every distinct sequence; the others are this id and a number)."""
-_PLACED = ("x_m", "y_m", "heading_deg", "speed_mps", "length_m", "width_m", "edge")
-"""The values of a scene's vehicles a placement reads, in the order `_place` unpacks them."""
 FramesAt = Callable[[float], tuple[np.ndarray, dict[str, np.ndarray], np.ndarray]]
 """The scene at an instant [s]: the ids of the vehicles on the road, their values ("x_m", "y_m", "heading_deg",
 "speed_mps", "lane_position_m", "length_m", "width_m"; a scene's track columns; "edge", the edge ids) and lanes (SUMO's
@@ -110,6 +110,8 @@ class ReplayedTraffic:
         """Each vehicle's desired speed in the reactive mode, as a share of the road's limit."""
         self.api: Any = None
         """The SUMO connection (`connect`)."""
+        self._move: Any = None
+        """Its moveToXY (`connect`; libsumo's compiled one)."""
         self._step_s = 0.0
         self.ego_collisions: list[tuple[str, str]] = []
         """(collider, victim) of each collision of the ego in the episode (SUMO's collider: the follower)."""
@@ -145,7 +147,7 @@ class ReplayedTraffic:
         return dataclasses.replace(built, routes_file=routes)
 
     def connect(self, api: Any, step_s: float, speed_limit_mps: float) -> Step:
-        self.api, self._step_s = api, step_s
+        self.api, self._step_s, self._move = api, step_s, decision_calls(api).move_to_xy
         self._speed_factor = {str(name): float(top / speed_limit_mps) for name, top in self._top_speeds_mps.items()}
         return self.step
 
@@ -234,27 +236,42 @@ class ReplayedTraffic:
             if not first and begun[0] == begun[1]:
                 return  # no track begins in this step: nothing to place
         ids, values, lanes = self.frames_at(time_s)
-        x = values["x_m"]
+        placing = ids != self._skip  # the seat's vehicle is never placed
         if not self.reactive:
+            x = values["x_m"]
             if ego_x_m is None:
-                seat = np.flatnonzero(ids == self._skip)
+                seat = (~placing).nonzero()[0]
                 ego_x_m = float(x[seat[0]]) if len(seat) else None
             if ego_x_m is not None:
-                near = np.flatnonzero(np.abs(x - ego_x_m) <= REPLAY_RADIUS_M)
-                ids, lanes, values = ids[near], lanes[near], {name: values[name][near] for name in _PLACED}
-        names = ids.tolist()
+                placing &= np.abs(x - ego_x_m) <= REPLAY_RADIUS_M
+        rows = placing.nonzero()[0]
+        names = ids[rows].tolist()
         vehicle = self.api.vehicle
         on_road = set(vehicle.getIDList())
         if not self.reactive:
-            for gone in self._placed.difference(names):
-                if gone in on_road:
-                    vehicle.remove(gone)
-            self._placed.intersection_update(names)
-        move, skip, placed = vehicle.moveToXY, self._skip, self._placed
+            gone = self._placed.difference(names)
+            for name in gone:
+                if name in on_road:
+                    vehicle.remove(name)
+            self._placed -= gone
+        moves = (names, values["edge"][rows].tolist(), lanes[rows].tolist(),
+                 *(values[name][rows].tolist() for name in ("x_m", "y_m", "heading_deg")))
+        if self.reactive or not on_road.issuperset(names):
+            self._add(moves, [values[name][rows].tolist() for name in ("speed_mps", "length_m", "width_m")], on_road)
+        else:  # every vehicle is SUMO's already (most steps): only moves, looped in C
+            collections.deque(itertools.starmap(self._move,
+                                                zip(*moves, itertools.repeat(KEEP_ROUTE_ANY_EDGE), strict=False)),
+                              maxlen=0)
+
+    def _add(self, moves: tuple[list[Any], ...], sizes: list[list[float]], on_road: set[str]) -> None:
+        """`_place`'s vehicles (`moves`: ids, edges, lanes, x [m], y [m], headings [deg]; `sizes`: speeds [m/s],
+        lengths and widths [m]), added to SUMO where they are not on the road (`on_road`), each before its move (the
+        reactive mode moves only those it adds)."""
+        vehicle = self.api.vehicle
+        move, placed = self._move, self._placed
         type_of = self.types.of_vehicle if self.reactive else {}
-        rows = zip(names, lanes.tolist(), *(values[name].tolist() for name in _PLACED), strict=True)
-        for name, lane, x_m, y_m, heading_deg, speed_mps, length_m, width_m, edge in rows:
-            if name == skip or (self.reactive and name in placed):
+        for name, edge, lane, x_m, y_m, heading_deg, speed_mps, length_m, width_m in zip(*moves, *sizes, strict=True):
+            if self.reactive and name in placed:
                 continue
             if name not in on_road:  # new, or (non-reactive) removed by SUMO after a collision: placed again
                 route_id, depart_lane = self._entry(name, edge, lane)

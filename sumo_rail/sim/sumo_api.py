@@ -72,6 +72,8 @@ class DecisionCalls(NamedTuple):
     unsubscribe_context: Callable[[str, int, float], None]
     lateral_position: Callable[[str], float]
     """A vehicle's lateral position in its lane [m]."""
+    move_to_xy: Callable[..., None]
+    """moveToXY (a replayed vehicle's placement, every step: `sumo_rail.sim.replay`)."""
 
 
 def decision_calls(api: Any) -> DecisionCalls:
@@ -83,8 +85,9 @@ def decision_calls(api: Any) -> DecisionCalls:
         vehicle, simulation = api.vehicle, api.simulation
         return DecisionCalls(api.simulationStep, simulation.getStartingTeleportNumber, vehicle.getAcceleration,
                              simulation.getTime, vehicle.subscribeContext, vehicle.getContextSubscriptionResults,
-                             vehicle.unsubscribeContext, vehicle.getLateralLanePosition)
+                             vehicle.unsubscribeContext, vehicle.getLateralLanePosition, vehicle.moveToXY)
     return DecisionCalls(compiled.simulation_step, compiled.simulation_getStartingTeleportNumber,
                          compiled.vehicle_getAcceleration, compiled.simulation_getTime,
                          compiled.vehicle_subscribeContext, compiled.vehicle_getContextSubscriptionResults,
-                         compiled.vehicle_unsubscribeContext, compiled.vehicle_getLateralLanePosition)
+                         compiled.vehicle_unsubscribeContext, compiled.vehicle_getLateralLanePosition,
+                         compiled.vehicle_moveToXY)

@@ -3,12 +3,20 @@ exactly (non-reactive) or react to the ego (reactive), and SUMO can drive the se
 
 from __future__ import annotations
 
+import dataclasses
+from types import SimpleNamespace
+from unittest.mock import patch
+
 import numpy as np
 import pandas as pd
 import pytest
 
 from sumo_rail.config import Config
-from sumo_rail.recordings.seat import SceneEnv
+from sumo_rail.datasets import DatasetError
+from sumo_rail.recordings.scene import TRACK_COLUMNS, read_scene
+from sumo_rail.recordings.scene_observations import SceneFrames, scene_road
+from sumo_rail.recordings.seat import SceneEnv, SeatStart
+from sumo_rail.recordings.trajectory import track_past
 from sumo_rail.sim import replay as replayed_traffic
 from sumo_rail.sim.actions import Action
 from sumo_rail.sim.controllers import SUMO_DRIVER_TYPE
@@ -238,3 +246,120 @@ def test_libsumo_and_traci_drive_the_same_seat_alike(drivers_scene, replay):
         if env is not replay:
             env.close()
     np.testing.assert_array_equal(states[0], states[1])
+
+
+def test_a_seats_lead_in_is_the_pandas_tracks_rows_before_the_seat(drivers_scene):
+    """The lead-in a reset reads off arrays (`Scene.track_values`, `SeatStart.past`) is the one read off the
+    vehicle's DataFrame (`Scene.track`) before the seat's instant, bit for bit: every vehicle, at several instants, in a
+    scene whose rows are neither contiguous nor in time order too."""
+    scene = read_scene(drivers_scene)
+    shuffled = dataclasses.replace(scene, tracks=scene.tracks.sample(frac=1.0, random_state=0, ignore_index=True))
+    for each in (scene, shuffled):
+        start = SeatStart(each, SceneFrames(each.tracks, each.meta.frame_rate_hz), scene_road(each.network), False)
+        for vehicle in each.tracks["vehicle_id"].unique()[::3]:
+            track = each.track(vehicle)
+            values = each.track_values(vehicle, TRACK_COLUMNS)
+            for name in TRACK_COLUMNS:
+                np.testing.assert_array_equal(values[name], track[name].to_numpy(), strict=True)
+            for start_s in np.quantile(track["time_s"], [0.0, 0.3, 1.0]):
+                replay = SimpleNamespace(traffic=SimpleNamespace(seated=(vehicle, float(start_s))))
+                with patch("sumo_rail.recordings.seat.replayed", lambda sim: sim.traffic):
+                    past = start.past(replay, EGO_ID)  # type: ignore[arg-type]
+                old = track_past(track[track["time_s"] < start_s - 1e-9])
+                assert (past.time_s, past.speed_mps, past.acceleration_mps2, past.lane) == (
+                    old.time_s, old.speed_mps, old.acceleration_mps2, old.lane)
+    with pytest.raises(DatasetError, match="no vehicle 'nobody'"):
+        scene.track_values("nobody", TRACK_COLUMNS)
+
+
+def _place_vehicle_by_vehicle(self, time_s, ego_x_m):
+    """`ReplayedTraffic._place` as it was before its moves were looped in C (issue 52): the oracle of the test below."""
+    if self.reactive:
+        self._release()
+        begun = np.searchsorted(self._begins_s, [self._last_s, time_s], side="right")
+        first, self._last_s = not self._placed, time_s
+        if not first and begun[0] == begun[1]:
+            return
+    ids, values, lanes = self.frames_at(time_s)
+    x = values["x_m"]
+    placed_columns = ("x_m", "y_m", "heading_deg", "speed_mps", "length_m", "width_m", "edge")
+    if not self.reactive:
+        if ego_x_m is None:
+            seat = np.flatnonzero(ids == self._skip)
+            ego_x_m = float(x[seat[0]]) if len(seat) else None
+        if ego_x_m is not None:
+            near = np.flatnonzero(np.abs(x - ego_x_m) <= replayed_traffic.REPLAY_RADIUS_M)
+            ids, lanes, values = ids[near], lanes[near], {name: values[name][near] for name in placed_columns}
+    names = ids.tolist()
+    vehicle = self.api.vehicle
+    on_road = set(vehicle.getIDList())
+    if not self.reactive:
+        for gone in self._placed.difference(names):
+            if gone in on_road:
+                vehicle.remove(gone)
+        self._placed.intersection_update(names)
+    type_of = self.types.of_vehicle if self.reactive else {}
+    rows = zip(names, lanes.tolist(), *(values[name].tolist() for name in placed_columns), strict=True)
+    for name, lane, x_m, y_m, heading_deg, speed_mps, length_m, width_m, edge in rows:
+        if name == self._skip or (self.reactive and name in self._placed):
+            continue
+        if name not in on_road:
+            route_id, depart_lane = self._entry(name, edge, lane)
+            vehicle.add(name, route_id, type_of.get(name, replayed_traffic.DEFAULT_TYPE), departLane=depart_lane,
+                        departSpeed=repr(speed_mps))
+            vehicle.setLength(name, length_m)
+            vehicle.setWidth(name, width_m)
+            vehicle.setSpeedMode(name, 0)
+            vehicle.setLaneChangeMode(name, 0)
+            self._placed.add(name)
+            if self.reactive:
+                self._releasing.append(name)
+        elif self.reactive:
+            continue
+        vehicle.moveToXY(name, edge, lane, x_m, y_m, heading_deg, replayed_traffic.KEEP_ROUTE_ANY_EDGE)
+
+
+class _EveryVehicle:
+    """Every vehicle's state after every SUMO step, read by plain getters (`VehicleRows`' subscriptions are not left
+    to SUMO's state changes here: a vehicle the replay removes before a step would be reported unknown in it)."""
+
+    every_step = True
+
+    def __init__(self, api) -> None:
+        self.api, self.steps = api, []
+
+    def __call__(self, moment) -> None:
+        v = self.api.vehicle
+        self.steps.append((moment.time_s, [(name, v.getPosition(name), v.getAngle(name), v.getSpeed(name),
+                                            v.getAcceleration(name), v.getLaneID(name), v.getLanePosition(name),
+                                            v.getLateralLanePosition(name)) for name in v.getIDList()]))
+
+
+@pytest.mark.parametrize("reactive", [False, True])
+def test_seat_episodes_are_those_of_the_vehicle_by_vehicle_placement(drivers_scene, reactive, monkeypatch):
+    """The placement that moves the replayed vehicles in one C loop drives the same episodes as the one that placed
+    them vehicle by vehicle: every vehicle's state after every SUMO step and the ego's every info, in seats where
+    vehicles enter and leave the replay radius (a radius of 150 m) and the ego changes lanes."""
+    monkeypatch.setattr(replayed_traffic, "REPLAY_RADIUS_M", 150.0)
+    env = SceneEnv(CONFIG, drivers_scene, reactive=reactive)
+    seats = [long_track(env.scene.tracks, lane) for lane in (0, 1)]
+    actions = [Action.LANE_LEFT, Action.KEEP, Action.ACCELERATE, Action.LANE_RIGHT, Action.KEEP, Action.DECELERATE] * 4
+    episodes = []
+    try:
+        for placement in (replayed_traffic.ReplayedTraffic._place, _place_vehicle_by_vehicle):
+            monkeypatch.setattr(replayed_traffic.ReplayedTraffic, "_place", placement)
+            env.reset(seed=0, options={"vehicle": seats[0][0], "start_s": seats[0][1]})
+            with env.simulation.watching(_EveryVehicle(env.simulation._api)) as watched:
+                infos = []
+                for vehicle, start_s in seats:
+                    infos.append(env.reset(seed=3, options={"vehicle": vehicle, "start_s": start_s})[1])
+                    for action in actions:
+                        _, _, terminated, truncated, info = env.step(int(action))
+                        infos.append(info)
+                        if terminated or truncated:
+                            break
+            episodes.append((watched.steps, infos))
+    finally:
+        env.close()
+    assert sum(len(vehicles) for _, vehicles in episodes[0][0]) > 1000
+    assert episodes[0] == episodes[1]
