@@ -16,6 +16,7 @@ from sumo_rail.datasets import DatasetError
 from sumo_rail.recordings.scene import TRACK_COLUMNS, read_scene
 from sumo_rail.recordings.scene_observations import SceneFrames, scene_road
 from sumo_rail.recordings.seat import SceneEnv, SeatStart
+from sumo_rail.recordings.seats import SeatDraw
 from sumo_rail.recordings.trajectory import track_past
 from sumo_rail.sim import replay as replayed_traffic
 from sumo_rail.sim.actions import Action
@@ -255,7 +256,8 @@ def test_a_seats_lead_in_is_the_pandas_tracks_rows_before_the_seat(drivers_scene
     scene = read_scene(drivers_scene)
     shuffled = dataclasses.replace(scene, tracks=scene.tracks.sample(frac=1.0, random_state=0, ignore_index=True))
     for each in (scene, shuffled):
-        start = SeatStart(each, SceneFrames(each.tracks, each.meta.frame_rate_hz), scene_road(each.network), False)
+        start = SeatStart(each, SceneFrames(each.tracks, each.meta.frame_rate_hz), scene_road(each.network), False,
+                          SeatDraw(each, "train", 10.0, 5.0, 0.0, 0.1))
         for vehicle in each.tracks["vehicle_id"].unique()[::3]:
             track = each.track(vehicle)
             values = each.track_values(vehicle, TRACK_COLUMNS)
