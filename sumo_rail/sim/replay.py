@@ -250,8 +250,11 @@ class ReplayedTraffic:
         on_road = set(vehicle.getIDList())
         if not self.reactive:
             gone = self._placed.difference(names)
+            watched = vehicle.getAllSubscriptionResults() if gone else {}
             for name in gone:
                 if name in on_road:
+                    if name in watched:  # an observer's subscription (`observers.VehicleRows`) goes with it
+                        vehicle.unsubscribe(name)
                     vehicle.remove(name)
             self._placed -= gone
         moves = (names, values["edge"][rows].tolist(), lanes[rows].tolist(),

@@ -50,3 +50,4 @@ def test_a_scene_without_a_seat_that_fits_is_one_sentence(drivers_scene):
                                          r"lead-in 5 s and env.max_episode_s 600 s$"):
         env.reset(seed=0)
     env.close()
+

@@ -11,10 +11,32 @@ from sumo_rail_cli.main import cli
 
 import sumo_rail
 from sumo_rail.runners.video import read_frames
+from sumo_rail.sim.observers import VehicleCapture
 from sumo_rail.sim.render import EGO
 
+CONFIG = {"observation": {"lane_block": 1}, "env": {"max_episode_s": 8.0}, "actions": {"interface": "acceleration"}}
 SEATS = ["--set", "observation.lane_block=1", "--set", "scenario.lanes=3", "--set", "scenario.speed_limit_mps=44.44",
          "--set", "env.v_max_mps=50", "--seats", "2", "--horizon-s", "6", "--lead-s", "2"]
+
+
+def test_every_vehicle_can_be_watched_at_every_step_while_the_replay_removes_vehicles(drivers_scene):
+    """The replay removes the vehicles that leave the ego's radius or whose track ends; an every-step capture's
+    subscriptions (`observers.VehicleRows`) go with them instead of failing SUMO's next step."""
+    env = gymnasium.make(sumo_rail.SCENE_ENV_ID, scene=drivers_scene, config=CONFIG, lead_s=2.0,
+                         transport="libsumo").unwrapped  # traci drops a removed vehicle's subscription itself
+    try:
+        for seed in range(3):
+            capture = VehicleCapture(every_step=True)
+            env.reset(seed=seed)
+            with env.watching(capture):
+                steps = 0
+                while not any(env.step(0)[2:4]):
+                    steps += 1
+            rows = pd.DataFrame(capture.columns)
+            assert capture.moments > 5 * steps  # every SUMO step of every decision (0.5 s)
+            assert (rows.groupby("frame")["vehicle_id"].nunique() > 1).all()
+    finally:
+        env.close()
 
 
 def test_evaluate_scene_films_every_episode(drivers_scene, tmp_path):
