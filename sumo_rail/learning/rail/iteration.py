@@ -202,7 +202,7 @@ class RolloutTask(Perturbations):
                 if self.decisions is None else drive_egos(env, drivers, seed, self.decisions, record=True))
             for member, (lives, asked) in enumerate(zip(results, labels, strict=True)):
                 trajectories[member].extend(trajectories_of(lives, asked if self.expert is not None else None,
-                                                          env.observation_space(env.possible_agents[0]).shape[0]))
+                                                             env.observation_space(env.possible_agents[0]).shape[0]))
         return trajectories
 
 
