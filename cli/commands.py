@@ -185,17 +185,27 @@ def train_command(config: Config, settings: LearnerSettings, demos: Path, includ
 
     Its settings are the sections [network], [bc], [rail] and [discriminator] of --config and --set (e.g. --set
     rail.directions=16 --set network.shape=linear); --help-settings lists them. run.json stores them whole."""
+    from sumo_rail.datasets import DatasetError, read_metadata
+    from sumo_rail.learning.rail.seat_rollouts import rail_seats
     from sumo_rail.learning.rail.trainer import RunSettings, train
     from sumo_rail.learning.run_folder import RunError
+    from sumo_rail.learning.train_seats import SceneSeatsError
     from sumo_rail.learning.validation import Validation
 
-    rail = dataclasses.replace(settings.rail, seed=seed, roads=checked_roads(config, roads))
+    try:
+        rail = dataclasses.replace(settings.rail, seed=seed, roads=checked_roads(config, roads))
+    except ValueError as error:
+        raise click.UsageError(str(error)) from error
     check_egos(config, rail.egos, "rail.egos")
     check_run_folder(out)
     discriminator = dataclasses.replace(settings.discriminator, seed=seed)
     run = RunSettings(str(demos), settings.network.shape, settings.network.hidden, rail, discriminator,
                       dataclasses.replace(settings.bc, seed=seed), include_failed_demos=include_failed)
     recorded = check_demos(demos, config, include_failed, other_road)
+    try:  # the scene and its seats, before any work
+        in_seats = rail_seats(rail, read_metadata(demos), str(demos), config) if rail.rollout_seats else None
+    except (DatasetError, SceneSeatsError) as error:
+        raise click.UsageError(str(error)) from error
     if recorded:
         click.echo(RECORDED_NOTE)
     asked = "with the rule-based normal style, not the recorded drivers: " if recorded else ""
@@ -217,7 +227,7 @@ def train_command(config: Config, settings: LearnerSettings, demos: Path, includ
     with interruptible_run(bar, lambda: kept_until_resume(out, "iteration"), backend,
                            tensorboard_logger(tensorboard_dir, "rail", out), errors=(RunError,)) as board:
         state = train(out, run, config, iterations, backend, resume, Validation(eval_every, eval_episodes),
-                      on_bc=show_bc, on_iteration=show, on_start=lambda done: start_at(bar, done))
+                      on_bc=show_bc, on_iteration=show, on_start=lambda done: start_at(bar, done), in_seats=in_seats)
         complete(bar)
     click.echo(f"trained {state.iteration} iteration{'s' * (state.iteration != 1)}; policies in {out}")
 

@@ -62,8 +62,9 @@ def dagger_command(config: Config, settings: LearnerSettings, demos: Path, inclu
     "go back" whatever the traffic there, and states after the track's end have none (docs/recordings.md)."""
     from sumo_rail.datasets import DatasetError, read_metadata
     from sumo_rail.learning.dagger import train_dagger
-    from sumo_rail.learning.log_dagger import LOG_TEACHER, LogSeats, LogTeacherError
+    from sumo_rail.learning.log_dagger import LOG_TEACHER, LogSeats
     from sumo_rail.learning.run_folder import RunError
+    from sumo_rail.learning.train_seats import SceneSeatsError
     from sumo_rail.learning.validation import Validation
 
     if expert is not None and expert != LOG_TEACHER:
@@ -82,7 +83,7 @@ def dagger_command(config: Config, settings: LearnerSettings, demos: Path, inclu
         try:  # the scene and its seats, before any work
             log = LogSeats.of(read_metadata(demos), str(demos), config, run.seat_lead_s, run.seat_s,
                               run.teacher_horizon_s, run.seat_zone_m)
-        except (DatasetError, LogTeacherError) as error:
+        except (DatasetError, SceneSeatsError) as error:
             raise click.UsageError(str(error)) from error
     recorded = check_demos(demos, config, include_failed, other_road)
     if recorded:
@@ -104,7 +105,7 @@ def dagger_command(config: Config, settings: LearnerSettings, demos: Path, inclu
 
     with interruptible_run(bar, lambda: kept_until_resume(out, "round", "checkpoint.json"), backend,
                            tensorboard_logger(tensorboard_dir, "dagger", out),
-                           errors=(RunError, LogTeacherError)) as board:
+                           errors=(RunError, SceneSeatsError)) as board:
         train_dagger(out, run, config, rounds, backend, resume, Validation(eval_every, eval_episodes),
                      on_round=show, log=log)
         complete(bar)

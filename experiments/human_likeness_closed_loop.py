@@ -13,11 +13,14 @@
 
     python experiments/human_likeness_closed_loop.py CLOSED_LOOP.parquet
     python experiments/human_likeness_closed_loop.py --study acceleration EPISODES.parquet [EPISODES.parquet ...]
-    python experiments/human_likeness_closed_loop.py --study log EPISODES.parquet
+    python experiments/human_likeness_closed_loop.py --study log EPISODES.parquet [EPISODES.parquet ...]
 
 - training against the log (`--study log`, experiments/specs/human_likeness_log.toml): BC and `dagger --expert log`
   (runs named log_tT_sSEED: teacher horizon T s) against every baseline found (keep, SUMO's IDM, the calibrated IDM)
-  and against BC, with the same distributions, floor and phase tables.
+  and against BC, with the same distributions, floor and phase tables; RAIL in recorded seats
+  (experiments/specs/human_likeness_rail_seats.toml, runs named rail_seats_aSTEP_sSEED) the same, and against
+  training against the log too. Files read as one as above (RAIL's evaluation beside the log study's, on the same
+  seats).
 
 `--intervals hierarchical` gives the track tables' intervals from one bootstrap of training seeds and seats
 (`statistics.hierarchical_interval`) instead of the committed tables' t factor on the seeds.
@@ -50,6 +53,9 @@ LOG_RUN = re.compile(r"log_t(\d+)_s(\d+)/policy_(bc|latest)(?: \((sampled|expect
 """The runs of the log study: log_tT_sSEED (dagger --expert log, teacher horizon T s): its BC and its last policy,
 acting by argmax or, named so, by another decoding (`--set actions.decoding=expected`) or drawing each action from
 its softmax (`--policy sampled:PATH`)."""
+RAIL_SEATS_RUN = re.compile(r"rail_seats_a(\d+)_s(\d+)/policy_latest")
+"""RAIL in recorded seats (experiments/specs/human_likeness_rail_seats.toml): rail_seats_aSTEP_sSEED, its step size
+0.STEP."""
 CALIBRATED = "IDM calibrated on the train split"
 ENTRY_M = 300.0
 """A seat that begins within this distance of the road's entry [m] is in the entering phase."""
@@ -76,19 +82,24 @@ def log_methods(policies: set[str]) -> dict[str, list[str]]:
     """The baselines found in `policies` (constant speed, SUMO's IDM, the calibrated IDM), BC (the first teacher's
     runs' policy_bc: BC does not depend on the teacher) and training against the log for each teacher horizon."""
     runs: dict[tuple[str, int], list[tuple[int, str]]] = {}
+    rail: dict[str, list[tuple[int, str]]] = {}
     for policy in policies:
         if found := LOG_RUN.fullmatch(policy):
             runs.setdefault((found[3] + (f", {found[4]}" if found[4] else ""), int(found[1])), []).append(
                 (int(found[2]), policy))
+        elif found := RAIL_SEATS_RUN.fullmatch(policy):
+            rail.setdefault(found[1], []).append((int(found[2]), policy))
     methods = {name: [driver] for name, driver in (("constant speed (keep)", "keep"), (IDM, "sumo-idm"),
                                                    (CALIBRATED, "sumo-idm-calibrated")) if driver in policies}
     teachers = sorted(teacher for kind, teacher in runs if kind == "latest")
-    if teachers and ("bc", teachers[0]) in runs:
-        methods["BC"] = [name for _, name in sorted(runs[("bc", teachers[0])])]
+    if cloned := sorted(teacher for kind, teacher in runs if kind == "bc"):
+        methods["BC"] = [name for _, name in sorted(runs[("bc", cloned[0])])]
     for teacher in teachers:
         for kind in sorted(kind for kind, horizon in runs if kind.startswith("latest") and horizon == teacher):
             methods[f"against the log, teacher {teacher} s{kind.removeprefix('latest')}"] = [
                 name for _, name in sorted(runs[(kind, teacher)])]
+    for step, seeds in sorted(rail.items()):
+        methods[f"RAIL in seats, step {float('0.' + step):g}"] = [name for _, name in sorted(seeds)]
     return methods
 
 
@@ -166,13 +177,18 @@ def main(paths: tuple[Path, ...], study: str, intervals: str) -> None:
         pooled = "BC (acceleration interface)"
     else:
         methods = log_methods(set(metrics["policy"]))
-        learners = [method for method in methods if method == "BC" or method.startswith("against the log")]
+        learners = [method for method in methods if method == "BC" or method.startswith(("against the log", "RAIL"))]
         baselines = [method for method in methods if method not in learners]
         differences = [(learner, baseline) for learner in learners for baseline in baselines]
         differences += [(learner, "BC") for learner in learners if learner != "BC" and "BC" in methods]
         differences += [(learner, learner.rsplit(", ", 1)[0]) for learner in learners
                         if learner.endswith((", sampled", ", expected", ", median"))]
-        pooled = "BC and training against the log (acceleration interface)"
+        differences += [(rail, log) for rail in learners if rail.startswith("RAIL")
+                        for log in learners if log.startswith("against the log")]
+        kinds = [kind for kind, prefix in (("BC", "BC"), ("training against the log", "against the log"),
+                                           ("RAIL in seats", "RAIL")) if any(m.startswith(prefix) for m in learners)]
+        named = f"{', '.join(kinds[:-1])} and {kinds[-1]}" if len(kinds) > 1 else kinds[0]
+        pooled = f"{named} (acceleration interface)"
     print(f"{seats} held-out cars' seats in {metrics['scene'].nunique()} scenes of SUMO's drivers, "
           f"{metrics['simulated_s'].max():g} s each; {pooled} pooled over training seeds "
           f"{', '.join(map(str, SEEDS))}; differences paired by seat and training seed (* : the interval excludes 0)\n")

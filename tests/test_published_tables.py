@@ -110,6 +110,12 @@ NOT_REGENERABLE: dict[str, str] = {
                                         "makes them again",
     "log_study/log_validation.md": "its evaluations (results/human_likeness/log_validation, 2.7 MB with their tracks) "
                                    "are not committed; the grid spec human_likeness_log.toml makes them again",
+    "rail_seats/validation.md": "its evaluations (results/human_likeness/rail_seats_validation, 2.4 MB with their "
+                                "tracks) are not committed; the grid spec human_likeness_rail_seats.toml makes them "
+                                "again",
+    "rail_seats/test.md": "its table takes minutes to make from the committed episodes (test.parquet beside "
+                          "log_study/log_test.parquet) and this suite is at its time limit (docs/results.md, \"RAIL in "
+                          "recorded seats against BC\", has the command)",
     "fidelity_demo/table.txt": "evaluate's printout of the simulated evaluation, not a table script's output",
     "generalisation/previous_5b09e52/table.md": "an earlier run's table as published then; its evaluations are not "
                                                 "committed",

@@ -12,25 +12,21 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pandas as pd
 
 from sumo_rail.config import Config
-from sumo_rail.datasets import DatasetError
 from sumo_rail.drivers.policies import Policy
 from sumo_rail.learning.log_teacher import HumanTrack, log_label, read_human_track
 from sumo_rail.learning.mixture import LabelledEpisode, Mixture
+from sumo_rail.learning.train_seats import SceneSeatsError, SeatNames, TrainSeats, seat_env
 from sumo_rail.recordings.acceleration_reading import smoothing_for
 from sumo_rail.recordings.actions import ActionRule
-from sumo_rail.recordings.scene import check_scene, read_scene, scene_sources
 from sumo_rail.recordings.scene_observations import SceneRoad, in_route_frame, route_from, scene_road, scene_routes
-from sumo_rail.recordings.seat import SceneEnv
-from sumo_rail.recordings.seats import Seat, choose_seats
+from sumo_rail.recordings.seats import Seat
 from sumo_rail.runners.backends import RolloutBackend, WorkerContext
-from sumo_rail.runners.experts import RECORDED_SCENE
 from sumo_rail.runners.rollout import run_episode
 from sumo_rail.sim.traffic import TrafficView
 
@@ -38,8 +34,12 @@ LOG_TEACHER = "log"
 """DAgger's expert that means the log (`dagger --expert log`)."""
 
 
-class LogTeacherError(ValueError):
-    """Training against the log cannot run with these scenes or this configuration."""
+class LogTeacherError(SceneSeatsError):
+    """Training against the log cannot run with this configuration."""
+
+
+LOG_SEATS = SeatNames("--expert log trains against the log of", "dagger.seat_lead_s", "dagger.seat_s",
+                      "dagger.seat_zone_m")
 
 
 @dataclass(frozen=True)
@@ -56,9 +56,7 @@ class LogDaggerTask:
     seed: int
 
     def run(self, context: WorkerContext) -> LabelledEpisode:
-        env = context.custom_env(("scene", self.config, self.seat.scene, False),
-                                 lambda: SceneEnv(self.config, Path(self.seat.scene), False, transport="libsumo"))
-        assert isinstance(env, SceneEnv)
+        env = seat_env(context, self.config, self.seat)
         teacher = _Teacher(self.human, self.seat.start_s, self.horizon_s, env.config)
         mixture = Mixture(self.policy, teacher, self.beta, self.seed)
         run_episode(env, mixture, self.seed, options={"vehicle": self.seat.vehicle, "start_s": self.seat.start_s})
@@ -80,19 +78,6 @@ class _Teacher:
                          self.config.actions)
 
 
-def log_scene(metadata: Mapping[str, Any], demos: str | Path, config: Config) -> Path:
-    """The scene folder the demonstrations `demos` (their `metadata`) were read from, which the log teacher's seats are
-    in; a LogTeacherError when they were not read from a scene or `config` is not the acceleration interface."""
-    if config.actions.interface != "acceleration":
-        raise LogTeacherError(f"training against the log labels accelerations, so it needs --set "
-                              f"actions.interface=acceleration (this run's is {config.actions.interface!r})")
-    record = metadata.get(RECORDED_SCENE)
-    if not isinstance(record, Mapping):
-        raise LogTeacherError(f"--expert log trains against the log of the scene demonstrations were read from "
-                              f"(recorded-demos), and {demos} were not read from a recorded scene")
-    return Path(str(record.get("folder")))
-
-
 def seat_frame(road: SceneRoad, track: pd.DataFrame, recorded: tuple[str, ...], start_s: float) -> pd.DataFrame:
     """A seated car's rows (sorted by time; it drove the edges `recorded`) in the route frame of the seated ego, whose
     positions and lanes the teacher compares with them: its recorded edges from the one it is on at `start_s` [s]
@@ -105,51 +90,46 @@ def seat_frame(road: SceneRoad, track: pd.DataFrame, recorded: tuple[str, ...], 
 
 @dataclass(frozen=True)
 class LogSeats:
-    """The train-split seats of the scenes a run learns against, with their cars' tracks read for the teacher."""
+    """The train-split seats of the scene a run learns against, with their cars' tracks read for the teacher."""
 
-    config: Config
-    """The run's configuration with the seat's length as env.max_episode_s."""
-    seats: tuple[Seat, ...]
+    train: TrainSeats
     humans: tuple[HumanTrack, ...]
     horizon_s: float
+
+    @property
+    def config(self) -> Config:
+        """The run's configuration with the seat's length as env.max_episode_s."""
+        return self.train.config
+
+    @property
+    def seats(self) -> tuple[Seat, ...]:
+        return self.train.seats
 
     @classmethod
     def of(cls, metadata: Mapping[str, Any], demos: str, config: Config, seat_lead_s: float, seat_s: float,
            horizon_s: float, zone_m: float = 0.0) -> LogSeats:
-        """The train-split seats of the scene the demonstrations `demos` (their `metadata`) were read from; a
-        LogTeacherError (one sentence) when the interface is not the acceleration interface, the demonstrations are
-        not a scene's, the scene changed since or has no seat that long."""
-        folder = log_scene(metadata, demos, config)
-        try:
-            scene = read_scene(folder)
-        except DatasetError as error:
-            raise LogTeacherError(f"the scene {demos} were read from cannot be read: {error}") from error
-        if scene_sources(scene) != metadata[RECORDED_SCENE].get("files"):
-            raise LogTeacherError(f"the scene {folder} has changed since {demos} were read from it (its files' "
-                                  f"sha256 differ): read the demonstrations again")
-        config = config.with_overrides({"env": {"max_episode_s": seat_s}})
-        check_scene(scene, config, "train")
-        chosen = choose_seats(scene, "train", seat_s, seat_lead_s, None, 0, zone_m=zone_m,
-                              earliest_s=config.scenario.step_length_s)
-        if not chosen:
-            zone = f" with dagger.seat_zone_m = {zone_m:g} m" if zone_m > 0 else ""
-            raise LogTeacherError(f"no train-split car of the scene {folder} has a track of dagger.seat_lead_s + "
-                                  f"dagger.seat_s = {seat_lead_s + seat_s:g} s{zone}")
-        rule, smoothing_s = ActionRule.for_env(config.env), smoothing_for(scene.meta.format)
+        """The train-split seats of the scene the demonstrations `demos` (their `metadata`) were read from
+        (`TrainSeats.of`); a LogTeacherError (one sentence) when the interface is not the acceleration interface, a
+        SceneSeatsError when the demonstrations are not a scene's, the scene changed since or has no seat that long."""
+        if config.actions.interface != "acceleration":
+            raise LogTeacherError(f"training against the log labels accelerations, so it needs --set "
+                                  f"actions.interface=acceleration (this run's is {config.actions.interface!r})")
+        train = TrainSeats.of(metadata, demos, config, seat_lead_s, seat_s, zone_m, LOG_SEATS)
+        scene = train.scene
+        rule, smoothing_s = ActionRule.for_env(train.config.env), smoothing_for(scene.meta.format)
         road, routes = scene_road(scene.network), scene_routes(scene.tracks)
         humans = [read_human_track(seat_frame(road, scene.track(seat.vehicle).sort_values("time_s", kind="stable"),
-                                              routes[seat.vehicle], seat.start_s), rule, config.actions, smoothing_s)
-                  for seat in chosen]
-        return cls(config, tuple(chosen), tuple(humans), horizon_s)
+                                              routes[seat.vehicle], seat.start_s), rule, train.config.actions,
+                                   smoothing_s)
+                  for seat in train.seats]
+        return cls(train, tuple(humans), horizon_s)
 
     def round_episodes(self, backend: RolloutBackend, policy: Policy, beta: float, seed: int, round_: int,
                        episodes: int, on_episode: Callable[[int, Any], None] | None = None) -> list[LabelledEpisode]:
-        """A round's labelled episodes: `episodes` seats drawn by (`seed`, `round_`), without replacement while
-        there are enough, each with its own episode seed (episodes without a labelled state left out)."""
-        rng = np.random.default_rng([seed, round_])
-        chosen = rng.choice(len(self.seats), episodes, replace=episodes > len(self.seats))
-        seeds = rng.integers(2**31 - 1, size=episodes)
+        """A round's labelled episodes: `episodes` seats drawn by (`seed`, `round_`) (`TrainSeats.draw`), each with
+        its own episode seed (episodes without a labelled state left out)."""
         labelled = backend.run([LogDaggerTask(self.config, policy, self.seats[index], self.humans[index],
-                                              self.horizon_s, beta, int(episode_seed))
-                                for index, episode_seed in zip(chosen, seeds, strict=True)], on_result=on_episode)
+                                              self.horizon_s, beta, episode_seed)
+                                for index, episode_seed in self.train.draw(episodes, (seed, round_))],
+                               on_result=on_episode)
         return [episode for episode in labelled if len(episode.labels)]

@@ -23,7 +23,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 
@@ -106,6 +106,14 @@ class RailSettings:
     roads: tuple[str, ...] = given("--roads", ())
     """Roads (scenario kinds) the directions take in turn, direction k's rollouts on roads[k mod len]: RAIL on a mix
     of roads (`runners.road_mix`). Empty: every rollout on the configured road."""
+    rollout_seats: int = bounded(0, 1000, default=0)
+    """0: rollouts on the generated road (the paper's). S: on demonstrations read from a recorded scene, each rollout
+    drives S train-split seats of that scene, one episode of env.max_episode_s each, the others replayed; both signs
+    of a direction the same seats (`seat_rollouts`); its return is their mean."""
+    seat_lead_s: float = bounded(0, 600, "s", default=5.0)
+    """With rollout_seats: the ego takes a seat this long after the car's track begins (evaluate-scene's --lead-s)."""
+    seat_zone_m: float = bounded(0, 100_000, "m", default=0.0)
+    """With rollout_seats: seats where traffic is established (evaluate-scene's --zone-m)."""
 
     def __post_init__(self) -> None:
         check_fields(self, "rail.")
@@ -118,6 +126,10 @@ class RailSettings:
                              f"{self.rollout_decisions} with {self.episodes_per_rollout} episodes per rollout")
         if self.reward not in REWARDS:
             raise ValueError(f"rail.reward must be one of {', '.join(REWARDS)}, got {self.reward!r}")
+        if self.rollout_seats and (self.egos > 1 or self.rollout_decisions or self.episodes_per_rollout > 1
+                                   or self.roads):
+            raise ValueError("rail.rollout_seats drives each rollout in its own seats, one ego and episode each, so "
+                             "it takes no rail.egos, rail.rollout_decisions, rail.episodes_per_rollout or --roads")
 
     @property
     def kept(self) -> int:
@@ -183,18 +195,18 @@ class RolloutTask(Perturbations):
         trajectories: list[list[Trajectory]] = [[] for _ in self.members]
         for seed in self.episode_seeds[:1] if self.decisions is not None else self.episode_seeds:
             labels: list[list[int]] = [[] for _ in policies]
-            drivers = [_asking(policy, None if self.expert is None else self.expert.create(self.config, seed), asked)
+            drivers = [asking(policy, None if self.expert is None else self.expert.create(self.config, seed), asked)
                        for policy, asked in zip(policies, labels, strict=True)]
             results: Sequence[Sequence[EpisodeResult | None]] = (
                 [[result] for result in run_shared_episode(env, drivers, seed, record=True)]
                 if self.decisions is None else drive_egos(env, drivers, seed, self.decisions, record=True))
             for member, (lives, asked) in enumerate(zip(results, labels, strict=True)):
-                trajectories[member].extend(_trajectories(lives, asked if self.expert is not None else None,
-                                                          env.observation_space(env.possible_agents[0]).shape[0]))
+                trajectories[member].extend(trajectories_of(lives, asked if self.expert is not None else None,
+                                                             env.observation_space(env.possible_agents[0]).shape[0]))
         return trajectories
 
 
-def _trajectories(lives: Sequence[EpisodeResult | None], labels: list[int] | None, size: int) -> list[Trajectory]:
+def trajectories_of(lives: Sequence[EpisodeResult | None], labels: list[int] | None, size: int) -> list[Trajectory]:
     """One ego's episodes as trajectories (an ego that found no room: none of its decisions), `labels` the expert's
     answers at all of them in order."""
     trajectories, done = [], 0
@@ -209,7 +221,7 @@ def _trajectories(lives: Sequence[EpisodeResult | None], labels: list[int] | Non
     return trajectories
 
 
-def _asking(policy: Policy, expert: Driver | None, labels: list[int]) -> Driver:
+def asking(policy: Policy, expert: Driver | None, labels: list[int]) -> Driver:
     """The policy as a driver that, when `expert` is given, first appends the expert's action to `labels`."""
     if expert is None:
         return lambda observation, traffic: policy.act(observation)
@@ -218,6 +230,14 @@ def _asking(policy: Policy, expert: Driver | None, labels: list[int]) -> Driver:
         labels.append(expert(observation, traffic))
         return policy.act(observation)
     return drive
+
+
+class SeatRollouts(Protocol):
+    """An iteration's 2N rollouts elsewhere than on the generated road, in `run_rollouts`' order
+    (`seat_rollouts.InSeats`: a recorded scene's seats)."""
+
+    def __call__(self, policy: Policy, settings: RailSettings, iteration: int, nu: float, expert: DriverSpec | None,
+                 backend: RolloutBackend, on_rollout: Callable[[int, Any], None] | None) -> list[list[Trajectory]]: ...
 
 
 @dataclass
@@ -326,14 +346,11 @@ def agreement_returns(rollouts: list[list[Trajectory]], horizon: int, per_decisi
 def run_iteration(state: TrainingState, shape: PolicyShape, config: Config, settings: RailSettings,
                   discriminator: Discriminator, expert: Demonstrations, backend: RolloutBackend,
                   on_rollout: Callable[[int, Any], None] | None = None,
-                  asked: DriverSpec | None = None) -> IterationLog:
+                  asked: DriverSpec | None = None, in_seats: SeatRollouts | None = None) -> IterationLog:
     """Advance `state` by one iteration in place and return its log row; `asked`: the expert the agreement reward
-    asks (the demonstrations' rule-based expert when not given)."""
-    n, per_rollout = settings.directions, settings.episodes_per_rollout
-    sets = 1 if settings.common_traffic else n
-    drawn = [episode_seeds(Purpose.TRAIN, int(state.rng.integers(2**31)), 1)[0] for _ in range(sets * per_rollout)]
-    seeds = [tuple(drawn[(0 if settings.common_traffic else k) * per_rollout:][:per_rollout]) for k in range(n)]
-    noise_seed = settings.seed
+    asks (the demonstrations' rule-based expert when not given); `in_seats`: the rollouts run there (recorded seats)
+    rather than on the generated road."""
+    n, per_rollout, noise_seed = settings.directions, settings.episodes_per_rollout, settings.seed
     mean, std = state.stats.mean.copy(), state.stats.std.copy()
     deltas = directions(noise_seed, state.iteration, n, shape.parameter_count)
     if settings.flip_rate is not None:
@@ -344,8 +361,14 @@ def run_iteration(state: TrainingState, shape: PolicyShape, config: Config, sett
     elif asked is None:
         asked = ExpertDriver(expert.metadata.get("style") or DEFAULT_STYLE)
     policy = Policy(shape, state.parameters, mean, std)
-    rollouts = run_rollouts(policy, config, noise_seed, state.iteration, state.nu, seeds, asked, settings.egos,
-                            backend, on_rollout, settings.rollout_decisions, road_configs(config, settings.roads))
+    if in_seats is not None:
+        rollouts = in_seats(policy, settings, state.iteration, state.nu, asked, backend, on_rollout)
+    else:
+        sets = 1 if settings.common_traffic else n
+        drawn = [episode_seeds(Purpose.TRAIN, int(state.rng.integers(2**31)), 1)[0] for _ in range(sets * per_rollout)]
+        seeds = [tuple(drawn[(0 if settings.common_traffic else k) * per_rollout:][:per_rollout]) for k in range(n)]
+        rollouts = run_rollouts(policy, config, noise_seed, state.iteration, state.nu, seeds, asked, settings.egos,
+                                backend, on_rollout, settings.rollout_decisions, road_configs(config, settings.roads))
     trajectories = [trajectory for rollout in rollouts for trajectory in rollout]
     policy_observations = np.concatenate([t.observations for t in trajectories])
     policy_actions = np.concatenate([t.actions for t in trajectories])

@@ -30,6 +30,7 @@ from sumo_rail.learning.bc import IMITATION_BC, BcReport, BcSettings, behaviour_
 from sumo_rail.learning.rail.discriminator import Discriminator, DiscriminatorSettings
 from sumo_rail.learning.rail.iteration import RailSettings, TrainingState, run_iteration
 from sumo_rail.learning.rail.normalize import RunningStats
+from sumo_rail.learning.rail.seat_rollouts import InSeats, rail_seats
 from sumo_rail.learning.run_folder import (
     RunError,
     as_json,
@@ -75,12 +76,14 @@ def train(folder: Path, settings: RunSettings, config: Config, iterations: int, 
           on_bc: Callable[[BcReport], None] | None = None,
           on_iteration: Callable[[dict[str, Any]], None] | None = None,
           on_rollout: Callable[[int, Any], None] | None = None,
-          on_start: Callable[[int], None] | None = None) -> TrainingState:
+          on_start: Callable[[int], None] | None = None, in_seats: InSeats | None = None) -> TrainingState:
     """Train until `iterations` iterations are done; returns the final state. Safe to interrupt at any time.
 
     `on_bc` receives the behaviour-cloning report (new runs with bc.epochs > 0); `on_iteration` each iteration's
     log row (IterationLog fields, wall_time_s and eval_* metrics); `on_rollout` each rollout as it arrives;
-    `on_start` the iterations already done (those of the resumed run, else 0) before the first new one."""
+    `on_start` the iterations already done (those of the resumed run, else 0) before the first new one. With
+    rail.rollout_seats the rollouts drive the train-split seats `in_seats` (read here from the demonstrations' scene
+    when None; `seat_rollouts.rail_seats`)."""
     folder, validation = Path(folder), validation or Validation()
     observation_size = observation_space(config).shape[0]
     demos = read_demonstrations(Path(settings.demos), observation_size, settings.include_failed_demos, config.actions)
@@ -95,6 +98,7 @@ def train(folder: Path, settings: RunSettings, config: Config, iterations: int, 
     discriminator = Discriminator(observation_size, expert_stats.mean.copy(), expert_stats.std.copy(),
                                   settings.discriminator, shape.actions)
     asked = resolve_expert(expert, config, recorded_by=settings.demos)  # checked before any work
+    in_seats = in_seats or rail_seats(settings.rail, demos.metadata, settings.demos, config)
     if resume:
         state, logs = _resume(folder, run_record, shape, discriminator)
     else:
@@ -104,7 +108,8 @@ def train(folder: Path, settings: RunSettings, config: Config, iterations: int, 
         on_start(state.iteration)
     while state.iteration < iterations:
         started = time.perf_counter()
-        log = run_iteration(state, shape, config, settings.rail, discriminator, demos, backend, on_rollout, asked)
+        log = run_iteration(state, shape, config, settings.rail, discriminator, demos, backend, on_rollout, asked,
+                            in_seats)
         row = {**dataclasses.asdict(log), "wall_time_s": time.perf_counter() - started}
         policy = Policy(shape, state.parameters, state.stats.mean, state.stats.std)
         row.update(validate(policy, config, backend, validation, asked)

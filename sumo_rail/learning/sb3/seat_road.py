@@ -18,12 +18,12 @@ from typing import Any
 import numpy as np
 
 from sumo_rail.config import Config
-from sumo_rail.datasets import DatasetError
-from sumo_rail.recordings.scene import check_scene, read_scene, scene_sources
+from sumo_rail.learning.train_seats import SeatNames, TrainSeats
 from sumo_rail.recordings.seat import SceneEnv
-from sumo_rail.recordings.seats import choose_seats
-from sumo_rail.recordings.tracks import RecordingUsageError
-from sumo_rail.runners.experts import RECORDED_SCENE
+
+GAIL_SEATS = SeatNames("gail.in_seats drives PPO's episodes in the train-split seats of", "gail.seat_lead_s",
+                       "env.max_episode_s", "gail.seat_zone_m")
+"""The settings a refusal of GAIL in seats names."""
 
 
 @dataclass(frozen=True)
@@ -38,28 +38,11 @@ class SceneSeats:
     @classmethod
     def of_demonstrations(cls, metadata: Mapping[str, Any], demos: str | Path, config: Config, lead_s: float,
                           zone_m: float) -> SceneSeats:
-        """The seats of the scene the demonstrations `demos` (their `metadata`) were read from; ValueError, one
-        sentence, when they were not read from a scene, it cannot be read, changed since, or has no seat of
-        env.max_episode_s."""
-        record = metadata.get(RECORDED_SCENE)
-        if not isinstance(record, Mapping):
-            raise ValueError(f"gail.in_seats drives the scene demonstrations were read from (recorded-demos), "
-                             f"and {demos} were not read from a recorded scene")
-        folder = Path(str(record.get("folder")))
-        try:
-            scene = read_scene(folder)
-            check_scene(scene, config, "train")
-        except (DatasetError, RecordingUsageError) as error:
-            raise ValueError(f"the scene {demos} were read from cannot be driven: {error}") from error
-        if scene_sources(scene) != record.get("files"):
-            raise ValueError(f"the scene {folder} has changed since {demos} were read from it (its files' sha256 "
-                             f"differ): read the demonstrations again")
-        if not choose_seats(scene, "train", config.env.max_episode_s, lead_s, None, 0, zone_m=zone_m,
-                            earliest_s=config.scenario.step_length_s):
-            raise ValueError(f"no train-split car of the scene {folder} has a track of gail.seat_lead_s + "
-                             f"env.max_episode_s = {lead_s + config.env.max_episode_s:g} s"
-                             + (f" with gail.seat_zone_m = {zone_m:g} m" if zone_m > 0 else ""))
-        return cls(str(folder), lead_s, zone_m)
+        """The seats of the scene the demonstrations `demos` (their `metadata`) were read from
+        (`train_seats.TrainSeats`); a ValueError, one sentence, when they were not read from a scene, it cannot be
+        read, changed since, or has no seat of env.max_episode_s."""
+        seats = TrainSeats.of(metadata, demos, config, lead_s, config.env.max_episode_s, zone_m, GAIL_SEATS)
+        return cls(str(seats.scene.folder), lead_s, zone_m)
 
 
 class SeatRoad:
