@@ -113,6 +113,10 @@ class GailSettings(PpoSchedule):
             raise ConfigError("gail.in_seats drives one ego in each seat, so it takes no gail.egos above 1")
 
 
+SEAT_SETTINGS = ("in_seats", "seat_lead_s", "seat_zone_m")
+"""GAIL's settings added after runs were first written: an older run resumes at their defaults."""
+
+
 @dataclass(frozen=True)
 class GailResult:
     updates: int
@@ -140,7 +144,8 @@ def train_gail(folder: Path, settings: GailSettings, config: Config,
     expert = demonstrations_expert(demos.metadata, DEFAULT_STYLE)  # recorded drivers: the rule-based stands in
     run_record = {"settings": settings.to_dict(), "expert": expert, **demos_hash,
                   **provenance("gail_run", config, settings.seed)}
-    checkpoint = resume_run(folder, run_record) if resume else None
+    added = {field.name: field.default for field in dataclasses.fields(GailSettings) if field.name in SEAT_SETTINGS}
+    checkpoint = resume_run(folder, run_record, added) if resume else None
     if checkpoint is None:
         start_run_folder(folder, run_record)
     with single_thread():

@@ -85,12 +85,12 @@ def restore_learner(model: PPO, checkpoint: dict[str, Any], path: Path,
         raise RunError(f"checkpoint {path} is inconsistent ({describe(error)})") from error
 
 
-def resume_run(folder: Path, run_record: dict[str, Any]) -> dict[str, Any]:
+def resume_run(folder: Path, run_record: dict[str, Any], defaults: dict[str, Any] | None = None) -> dict[str, Any]:
     """The checkpoint of the run in `folder` after checking it is this run (`run_record`: the same settings but the
-    timesteps, the same configuration) and whole; rewrites run.json with the new timesteps. A missing, damaged,
-    foreign or mismatched file is a RunError naming it."""
+    timesteps, those added since it was written read as their `defaults`, the same configuration) and whole; rewrites
+    run.json with the new timesteps. A missing, damaged, foreign or mismatched file is a RunError naming it."""
     path = folder / "checkpoint.pt"
-    check_resumable(folder, path.name, run_record, free=("timesteps",))
+    check_resumable(folder, path.name, run_record, defaults, free=("timesteps",))
     checkpoint = load_checkpoint(path, CHECKPOINT_FORMAT)
     try:
         updates, rows = int(checkpoint["updates"]), list(checkpoint["log"])
