@@ -158,7 +158,8 @@ def fake_train(done: int, interrupt: bool = False):
 
     from sumo_rail.learning.run_folder import start_run_folder
 
-    def train(folder, settings, config, iterations, backend, resume, validation, on_bc, on_iteration, on_start):
+    def train(folder, settings, config, iterations, backend, resume, validation, on_bc, on_iteration, on_start,
+              in_seats=None):
         if not folder.exists():
             start_run_folder(folder, {"settings": {}, "config": {}})
         on_start(done)
