@@ -197,8 +197,12 @@ def _check_on_lanes(tracks: pd.DataFrame, network: NetworkLanes, network_path: P
             where = (f"{lateral[first]:.4g} m from the centre of lane {edge}_{index} ({width:.2f} m wide)"
                      if aside[first] else f"at pos {row['lane_position_m']:g} m of lane {edge}_{index} ({length:.1f} m "
                                           f"long)")
+            geo = (np.abs(points[:, 0]).max() <= 180 and np.abs(points[:, 1]).max() <= 90
+                   and np.abs(network.shapes_m[edge][index]).max() > 180)
+            why = ("its x, y all look like longitude and latitude: written with --fcd-output.geo? import needs the "
+                   "network's x, y" if geo else "the recording was not made on this network")
             raise RecordingDataError(f"{path}: vehicle {row['source_id']} at {row['time_s']:g} s lies {where} on the "
-                                     f"network {network_path}: the recording was not made on this network")
+                                     f"network {network_path}: {why}")
 
 
 def _distance_m(points: np.ndarray, shape: np.ndarray) -> np.ndarray:

@@ -147,6 +147,8 @@ FCD = {
                               "vehicle b at 0 s lies at pos 1e+15 m of lane road_2 (400.0 m long)"),
     "3 lanes' positions on 5": (lambda rows: rows,
                                 "vehicle a at 0 s lies 6.4 m from the centre of lane road_0 (3.20 m wide)"),
+    "longitude and latitude": (lambda rows: [dict(row, x=8.68, y=49.41) for row in rows],
+                               "its x, y all look like longitude and latitude: written with --fcd-output.geo?"),
     "a lane index of the lane count": (lambda rows: [dict(row, lane="road_3") if row["id"] == "b" else row
                                                      for row in rows], "vehicle b at 0 s is on lane 'road_3', which "
                                                                        "the network"),
