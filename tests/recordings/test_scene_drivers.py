@@ -107,6 +107,13 @@ def fcd_scene_files(folder):
                                           '<vType id="other" tau="1.1"/></routes>')
     return ["--format", "fcd", str(folder / "fcd.xml"), "--network", str(folder / "net.net.xml")]
 
+def imported(tmp_path, files) -> None:
+    """import-recording of the FCD recording `files` with tmp_path/types.rou.xml as --vtypes into tmp_path/scene."""
+    result = CliRunner().invoke(cli, ["import-recording", *files, "--vtypes", str(tmp_path / "types.rou.xml"),
+                                      "--out", str(tmp_path / "scene")])
+    assert result.exit_code == 0, result.output
+
+
 
 def test_an_fcd_scene_keeps_each_vehicles_vtype_and_the_definitions_given(tmp_path):
     """import-recording --vtypes keeps the definitions of the types the recording names; a type it does not define
@@ -147,9 +154,7 @@ def test_a_recorded_vtype_named_as_a_built_in_type_drives_the_reactive_vehicles(
     files = fcd_scene_files(tmp_path)
     for name in ("fcd.xml", "types.rou.xml"):
         (tmp_path / name).write_text((tmp_path / name).read_text().replace("car_calm", "car"))
-    result = CliRunner().invoke(cli, ["import-recording", *files, "--vtypes", str(tmp_path / "types.rou.xml"),
-                                      "--out", str(tmp_path / "scene")])
-    assert result.exit_code == 0, result.output
+    imported(tmp_path, files)
     found = reactive_types(read_scene(tmp_path / "scene"), 0.1)
     assert found.types.of_vehicle == {"a": "car", "b": "car"}
     reactive = types_on_road(tmp_path / "scene", found.types, reactive=True)
@@ -163,9 +168,7 @@ def test_the_vtypes_file_sizes_and_classes_the_fcd_vehicles_of_its_types(tmp_pat
     files = fcd_scene_files(tmp_path)
     (tmp_path / "types.rou.xml").write_text('<routes><vType id="lorry" vClass="truck" length="16.5" width="2.55"/>'
                                             '</routes>')
-    result = CliRunner().invoke(cli, ["import-recording", *files, "--vtypes", str(tmp_path / "types.rou.xml"),
-                                      "--out", str(tmp_path / "scene")])
-    assert result.exit_code == 0, result.output
+    imported(tmp_path, files)
     first = read_scene(tmp_path / "scene").tracks.drop_duplicates("vehicle_id").set_index("vehicle_id")
     assert first.loc["t", ["vehicle_class", "length_m", "width_m"]].tolist() == ["truck", 16.5, pytest.approx(2.55)]
     assert first.loc["a", ["vehicle_class", "length_m"]].tolist() == ["passenger", 5.0]  # not defined: as before
@@ -199,9 +202,7 @@ def test_a_vtypes_car_following_child_and_params_are_kept_and_drive_the_reactive
     files = fcd_scene_files(tmp_path)
     (tmp_path / "types.rou.xml").write_text('<routes><vType id="car_calm" maxSpeed="40"><carFollowing-IDM tau="1.7" '
                                             'delta="3"/><param key="note" value="calm"/></vType></routes>')
-    result = CliRunner().invoke(cli, ["import-recording", *files, "--vtypes", str(tmp_path / "types.rou.xml"),
-                                      "--out", str(tmp_path / "scene")])
-    assert result.exit_code == 0, result.output
+    imported(tmp_path, files)
     scene = read_scene(tmp_path / "scene")
     assert scene.meta.vtypes == {"car_calm": {"maxSpeed": "40", "carFollowModel": "IDM", "tau": "1.7", "delta": "3",
                                               "param:note": "calm"}}
@@ -230,9 +231,7 @@ def test_a_recorded_vtype_named_as_one_of_the_projects_own_drives_under_another_
     files = fcd_scene_files(tmp_path)
     for file in ("fcd.xml", "types.rou.xml"):
         (tmp_path / file).write_text((tmp_path / file).read_text().replace("car_calm", name))
-    result = CliRunner().invoke(cli, ["import-recording", *files, "--vtypes", str(tmp_path / "types.rou.xml"),
-                                      "--out", str(tmp_path / "scene")])
-    assert result.exit_code == 0, result.output
+    imported(tmp_path, files)
     scene = read_scene(tmp_path / "scene")
     assert scene.meta.vehicle_types["a"] == name  # the scene stays true to the recording
     found = reactive_types(scene, 0.1)
