@@ -49,10 +49,12 @@ METHODS = {KEEP: ["keep"], IDM: ["sumo-idm"],
 DIFFERENCES = [("RAIL", "BC"), ("GAIL", "BC")]
 ACCELERATION_RUN = re.compile(r"acceleration_h(\d+)_p(\d+)_s(\d+)/policy_bc")
 """The BC policies of the acceleration study: acceleration_hH_pP_sSEED/policy_bc."""
-LOG_RUN = re.compile(r"log_t(\d+)_s(\d+)/policy_(bc|latest)(?: \((sampled|expected|median)\))?")
+LOG_RUN = re.compile(r"log_t(\d+)_s(\d+)/policy_(bc|latest)(?: \((sampled(?: at [0-9.]+)?|expected|median)\))?")
 """The runs of the log study: log_tT_sSEED (dagger --expert log, teacher horizon T s): its BC and its last policy,
 acting by argmax or, named so, by another decoding (`--set actions.decoding=expected`) or drawing each action from
-its softmax (`--policy sampled:PATH`)."""
+its softmax (`--policy sampled:PATH`; "sampled at T" below a temperature of 1)."""
+OTHER_READING = re.compile(r", (sampled( at [0-9.]+)?|expected|median)$")
+"""A log-study learner read otherwise than by argmax, compared with its argmax reading."""
 RAIL_SEATS_RUN = re.compile(r"rail_seats_a(\d+)_s(\d+)/policy_latest")
 """RAIL in recorded seats (experiments/specs/human_likeness_rail_seats.toml): rail_seats_aSTEP_sSEED, its step size
 0.STEP."""
@@ -182,7 +184,7 @@ def main(paths: tuple[Path, ...], study: str, intervals: str) -> None:
         differences = [(learner, baseline) for learner in learners for baseline in baselines]
         differences += [(learner, "BC") for learner in learners if learner != "BC" and "BC" in methods]
         differences += [(learner, learner.rsplit(", ", 1)[0]) for learner in learners
-                        if learner.endswith((", sampled", ", expected", ", median"))]
+                        if OTHER_READING.search(learner)]
         differences += [(rail, log) for rail in learners if rail.startswith("RAIL")
                         for log in learners if log.startswith("against the log")]
         kinds = [kind for kind, prefix in (("BC", "BC"), ("training against the log", "against the log"),

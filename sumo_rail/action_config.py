@@ -46,6 +46,10 @@ class ActionConfig:
     "expected" (the lane decision of the highest lateral marginal, then the bin nearest the acceleration's mean under
     the softmax given that lane decision) or "median" (that distribution's median bin). A classifier's argmax takes
     the modal bin (0 m/s^2) where a driver gently speeds up; the mean does not."""
+    sampling_temperature: float = bounded(0, 1, default=1.0, low_open=True)
+    """The temperature of a policy that draws its actions (`--policy sampled:PATH`), above 0 and at most 1: it draws
+    from the softmax of its logits divided by this. 1 draws from the softmax itself; lower values draw nearer the
+    argmax (a classifier trained on noisy labels, sampled, spreads its actions wider than the labels it learned)."""
 
     def validate(self) -> None:
         if self.interface not in INTERFACES:

@@ -108,15 +108,17 @@ class Policy:
         return Policy(dataclasses.replace(self.shape, decoding=decoding), self.parameters, self.observation_mean,
                       self.observation_std)
 
-    def probabilities(self, observations: np.ndarray) -> np.ndarray:
-        """Softmax of the logits, for one observation (shape (a,)) or a batch (shape (B, a))."""
-        logits = self.logits(observations)
+    def probabilities(self, observations: np.ndarray, temperature: float = 1.0) -> np.ndarray:
+        """Softmax of the logits divided by `temperature`, for one observation (shape (a,)) or a batch (shape
+        (B, a))."""
+        logits = self.logits(observations) / temperature
         exponentials = np.exp(logits - logits.max(axis=-1, keepdims=True))
         return exponentials / exponentials.sum(axis=-1, keepdims=True)
 
-    def sample(self, observation: np.ndarray, rng: np.random.Generator) -> int:
-        """An action drawn from the softmax of the logits with `rng` (one uniform number per call)."""
-        return int(rng.choice(self.shape.actions, p=self.probabilities(observation)))
+    def sample(self, observation: np.ndarray, rng: np.random.Generator, temperature: float = 1.0) -> int:
+        """An action drawn from the softmax of the logits over `temperature` with `rng` (one uniform number per
+        call)."""
+        return int(rng.choice(self.shape.actions, p=self.probabilities(observation, temperature)))
 
     def __getstate__(self) -> dict[str, Any]:
         return {"shape": self.shape, "parameters": self.parameters, "mean": self.observation_mean,

@@ -46,7 +46,8 @@ def parse_policy(path: Path, config: Config, sampled: bool = False, name: str | 
     """The saved policy file at `path` as a driver named `name` (default `policy_name`), after checking that it reads
     the environment's observation layout. It decodes its logits by `config`'s actions.decoding, whatever decoding its
     file records (the run says how its policies act; a name not decoding by argmax ends in " (DECODING)"); `sampled`:
-    it draws its actions from the softmax of its logits instead, and its name ends in " (sampled)". Its `expert` is
+    it draws its actions from the softmax of its logits at actions.sampling_temperature instead, and its name ends in
+    " (sampled)" (" (sampled at T)" at a temperature T below 1). Its `expert` is
     the expert its file records."""
     policy, metadata = load_policy(path)
     expected = observation_names(config)
@@ -68,9 +69,11 @@ def parse_policy(path: Path, config: Config, sampled: bool = False, name: str | 
                               f"{differing_settings(metadata, config, INTERFACE_SETTINGS)}")
     decoding = config.actions.decoding
     policy = policy.decoded_by(decoding)
-    suffix = SAMPLED_SUFFIX if sampled else "" if decoding == "argmax" else f" ({decoding})"
+    temperature = config.actions.sampling_temperature
+    suffix = ("" if decoding == "argmax" else f" ({decoding})") if not sampled else \
+        SAMPLED_SUFFIX if temperature == 1 else f" (sampled at {temperature:g})"
     return PolicyDriver(policy, (name or policy_name(path)) + suffix, expert=recorded_expert(metadata),
-                        sampled=sampled)
+                        sampled=sampled, temperature=temperature)
 
 
 def differing_settings(metadata: Mapping[str, Any], config: Config,

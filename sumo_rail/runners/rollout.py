@@ -114,19 +114,21 @@ class ExpertDriver:
 @dataclass(frozen=True)
 class PolicyDriver:
     """A learned policy: its logits on the observation read by its decoding (`Policy.act`: their argmax unless
-    actions.decoding says otherwise), or with `sampled` an action drawn from their softmax by the episode's
-    `driver_generator`."""
+    actions.decoding says otherwise), or with `sampled` an action drawn from their softmax at `temperature` by the
+    episode's `driver_generator`."""
 
     policy: Policy
     name: str
     expert: str | None = None
     """The expert whose demonstrations trained the policy (a style or a policy file), when its file records it."""
     sampled: bool = False
+    temperature: float = 1.0
+    """The sampling temperature (`actions.sampling_temperature`) of a sampled driver."""
 
     def create(self, config: Config, seed: int) -> Driver:
         if self.sampled:
-            sample, rng = self.policy.sample, driver_generator(seed)
-            return lambda observation, traffic: sample(observation, rng)
+            sample, rng, temperature = self.policy.sample, driver_generator(seed), self.temperature
+            return lambda observation, traffic: sample(observation, rng, temperature)
         act = self.policy.act
         return lambda observation, traffic: act(observation)
 

@@ -1,11 +1,14 @@
 """evaluate --policy sampled:PATH: a policy file evaluated by sampling from its softmax, seeded per episode."""
 
+from dataclasses import replace
+
 import numpy as np
 import pandas as pd
 from test_cli import SMALL, SMALL_CONFIG, hand_made_policy, invoke
 
 from sumo_rail.datasets import read_metadata
 from sumo_rail.drivers.policies import Policy, PolicyShape, save_policy
+from sumo_rail.runners.experts import parse_policy
 from sumo_rail.runners.rollout import PolicyDriver
 from sumo_rail.seeding import driver_generator
 from sumo_rail.sim.observation import observation_names
@@ -45,6 +48,20 @@ def test_sampled_evaluation_is_the_same_for_any_worker_count_and_differs_from_ar
     sampled = decisions[decisions["policy"] == "mostly_keep (sampled)"]["action"]
     assert (argmax == 0).all()
     assert 0.25 < (sampled == 0).mean() < 0.55 and set(sampled) == set(range(5))
+
+
+def test_a_lower_sampling_temperature_draws_nearer_the_argmax_and_names_itself(tmp_path):
+    path = hand_made_policy(tmp_path / "mostly_keep.npz", action=0)  # logits 1 vs 0: softmax 40% keep, at 1/4 93%
+    observation = np.zeros(len(observation_names(SMALL_CONFIG)))
+    shares, names = {}, {}
+    for temperature in (1.0, 0.25):
+        config = replace(SMALL_CONFIG, actions=replace(SMALL_CONFIG.actions, sampling_temperature=temperature))
+        driver = parse_policy(path, config, sampled=True)
+        act = driver.create(config, 7)
+        shares[temperature] = np.mean([act(observation, None) == 0 for _ in range(400)])
+        names[temperature] = driver.name
+    assert 0.33 < shares[1.0] < 0.47 and shares[0.25] > 0.88
+    assert names == {1.0: "mostly_keep (sampled)", 0.25: "mostly_keep (sampled at 0.25)"}
 
 
 def test_a_bad_sampled_policy_file_is_one_sentence(tmp_path):
