@@ -49,10 +49,14 @@ METHODS = {KEEP: ["keep"], IDM: ["sumo-idm"],
 DIFFERENCES = [("RAIL", "BC"), ("GAIL", "BC")]
 ACCELERATION_RUN = re.compile(r"acceleration_h(\d+)_p(\d+)_s(\d+)/policy_bc")
 """The BC policies of the acceleration study: acceleration_hH_pP_sSEED/policy_bc."""
-LOG_RUN = re.compile(r"log_t(\d+)_s(\d+)/policy_(bc|latest)(?: \((sampled(?: at [0-9.]+)?|expected|median)\))?")
-"""The runs of the log study: log_tT_sSEED (dagger --expert log, teacher horizon T s): its BC and its last policy,
+LOG_RUN = re.compile(r"log_t(\d+)(?:_h(\d+))?_s(\d+)/policy_(bc|latest)"
+                     r"(?: \((sampled(?: at [0-9.]+)?|expected|median)\))?")
+"""The runs of the log study: log_tT_sSEED (dagger --expert log, teacher horizon T s; log_tT_hH_sSEED with
+observation.history=H s): its BC and its last policy,
 acting by argmax or, named so, by another decoding (`--set actions.decoding=expected`) or drawing each action from
 its softmax (`--policy sampled:PATH`; "sampled at T" below a temperature of 1)."""
+HISTORY = re.compile(r", history \d+ s")
+"""The history a log-study learner was shown, in its name (compared with the same learner shown none)."""
 OTHER_READING = re.compile(r", (sampled( at [0-9.]+)?|expected|median)$")
 """A log-study learner read otherwise than by argmax, compared with its argmax reading."""
 RAIL_SEATS_RUN = re.compile(r"rail_seats_a(\d+)_s(\d+)/policy_latest")
@@ -82,24 +86,30 @@ def acceleration_methods(policies: set[str]) -> dict[str, list[str]]:
 
 def log_methods(policies: set[str]) -> dict[str, list[str]]:
     """The baselines found in `policies` (constant speed, SUMO's IDM, the calibrated IDM), BC (the first teacher's
-    runs' policy_bc: BC does not depend on the teacher) and training against the log for each teacher horizon."""
-    runs: dict[tuple[str, int], list[tuple[int, str]]] = {}
+    runs' policy_bc: BC does not depend on the teacher) and training against the log for each teacher horizon, each
+    for every history the runs show."""
+    runs: dict[tuple[str, int, int], list[tuple[int, str]]] = {}
     rail: dict[str, list[tuple[int, str]]] = {}
     for policy in policies:
         if found := LOG_RUN.fullmatch(policy):
-            runs.setdefault((found[3] + (f", {found[4]}" if found[4] else ""), int(found[1])), []).append(
-                (int(found[2]), policy))
+            kind = found[4] + (f", {found[5]}" if found[5] else "")
+            runs.setdefault((kind, int(found[1]), int(found[2] or 0)), []).append((int(found[3]), policy))
         elif found := RAIL_SEATS_RUN.fullmatch(policy):
             rail.setdefault(found[1], []).append((int(found[2]), policy))
     methods = {name: [driver] for name, driver in (("constant speed (keep)", "keep"), (IDM, "sumo-idm"),
                                                    (CALIBRATED, "sumo-idm-calibrated")) if driver in policies}
-    teachers = sorted(teacher for kind, teacher in runs if kind == "latest")
-    if cloned := sorted(teacher for kind, teacher in runs if kind == "bc"):
-        methods["BC"] = [name for _, name in sorted(runs[("bc", cloned[0])])]
-    for teacher in teachers:
-        for kind in sorted(kind for kind, horizon in runs if kind.startswith("latest") and horizon == teacher):
-            methods[f"against the log, teacher {teacher} s{kind.removeprefix('latest')}"] = [
-                name for _, name in sorted(runs[(kind, teacher)])]
+
+    def seen(history: int) -> str:
+        return f", history {history} s" if history else ""
+
+    for history in sorted({history for kind, _, history in runs if kind == "bc"}):
+        cloned = min(teacher for kind, teacher, shown in runs if kind == "bc" and shown == history)
+        methods["BC" + seen(history)] = [name for _, name in sorted(runs[("bc", cloned, history)])]
+    for teacher, history in sorted({(teacher, history) for kind, teacher, history in runs if kind == "latest"}):
+        for kind in sorted(kind for kind, horizon, shown in runs
+                           if kind.startswith("latest") and (horizon, shown) == (teacher, history)):
+            methods[f"against the log, teacher {teacher} s{seen(history)}{kind.removeprefix('latest')}"] = [
+                name for _, name in sorted(runs[(kind, teacher, history)])]
     for step, seeds in sorted(rail.items()):
         methods[f"RAIL in seats, step {float('0.' + step):g}"] = [name for _, name in sorted(seeds)]
     return methods
@@ -179,14 +189,17 @@ def main(paths: tuple[Path, ...], study: str, intervals: str) -> None:
         pooled = "BC (acceleration interface)"
     else:
         methods = log_methods(set(metrics["policy"]))
-        learners = [method for method in methods if method == "BC" or method.startswith(("against the log", "RAIL"))]
+        learners = [method for method in methods if method.startswith(("BC", "against the log", "RAIL"))]
         baselines = [method for method in methods if method not in learners]
         differences = [(learner, baseline) for learner in learners for baseline in baselines]
         differences += [(learner, "BC") for learner in learners if learner != "BC" and "BC" in methods]
+        differences += [(learner, without) for learner in learners
+                        if (without := HISTORY.sub("", learner)) != learner and without in methods]
         differences += [(learner, learner.rsplit(", ", 1)[0]) for learner in learners
                         if OTHER_READING.search(learner)]
         differences += [(rail, log) for rail in learners if rail.startswith("RAIL")
                         for log in learners if log.startswith("against the log")]
+        differences = list(dict.fromkeys(differences))
         kinds = [kind for kind, prefix in (("BC", "BC"), ("training against the log", "against the log"),
                                            ("RAIL in seats", "RAIL")) if any(m.startswith(prefix) for m in learners)]
         named = f"{', '.join(kinds[:-1])} and {kinds[-1]}" if len(kinds) > 1 else kinds[0]
