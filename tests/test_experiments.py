@@ -293,3 +293,21 @@ def test_an_experiment_script_refuses_a_bad_argument_with_its_usage_and_exit_2(n
         assert result.exit_code == 2 and isinstance(result.exception, SystemExit), (arguments, result.output)
         assert "Usage:" in result.output and ("Error: " in result.output or arguments == [])  # a group: its help
     assert not (tmp_path / "missing.parquet").exists()
+
+
+def test_the_log_study_names_each_run_by_its_teacher_history_and_reading():
+    from human_likeness_closed_loop import log_methods
+
+    seeds = range(3)
+    policies = {"keep", "sumo-idm-calibrated",
+                *(f"log_t{teacher}{shown}_s{seed}/policy_{kind}" for teacher in (2, 5) for shown in ("", "_h3")
+                  for seed in seeds for kind in ("bc", "latest")),
+                *(f"log_t2_s{seed}/policy_latest (sampled at 0.6)" for seed in seeds)}
+    methods = log_methods(policies)
+    assert list(methods) == ["constant speed (keep)", "IDM calibrated on the train split", "BC", "BC, history 3 s",
+                             "against the log, teacher 2 s", "against the log, teacher 2 s, sampled at 0.6",
+                             "against the log, teacher 2 s, history 3 s", "against the log, teacher 5 s",
+                             "against the log, teacher 5 s, history 3 s"]
+    assert methods["BC, history 3 s"] == [f"log_t2_h3_s{seed}/policy_bc" for seed in seeds]
+    assert methods["against the log, teacher 2 s, sampled at 0.6"] == [
+        f"log_t2_s{seed}/policy_latest (sampled at 0.6)" for seed in seeds]
