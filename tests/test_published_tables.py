@@ -116,6 +116,14 @@ NOT_REGENERABLE: dict[str, str] = {
     "rail_seats/test.md": "its table takes minutes to make from the committed episodes (test.parquet beside "
                           "log_study/log_test.parquet) and this suite is at its time limit (docs/results.md, \"RAIL in "
                           "recorded seats against BC\", has the command)",
+    "log_temperature/validation.md": "its evaluations (results/human_likeness/temperature_validation_*, 4 MB with "
+                                     "their tracks, read beside decoding_validation's) are not committed; the grid "
+                                     "spec human_likeness_log_temperature.toml makes them again",
+    "log_temperature/test.md": "its table takes minutes to make from the committed episodes (test.parquet beside "
+                               "log_study/log_test.parquet) and this suite is at its time limit (docs/results.md, "
+                               "\"The driver trained against the log, sampled at a temperature\", has the command)",
+    "log_temperature/road2_test.md": "as log_temperature/test.md (road2_test.parquet beside "
+                                     "log_study/road2_test.parquet)",
     "fidelity_demo/table.txt": "evaluate's printout of the simulated evaluation, not a table script's output",
     "generalisation/previous_5b09e52/table.md": "an earlier run's table as published then; its evaluations are not "
                                                 "committed",
