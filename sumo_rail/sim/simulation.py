@@ -210,7 +210,10 @@ class Simulation(EgoPlacement, Stepping, Sensing, EgoCommands):
         """Load the road afresh, no warm state, its clock at `begin_s` [s], with SUMO seed `sumo_seed` (a traffic that
         places its vehicles itself: `sumo_rail.sim.replay`)."""
         self._require_running()
-        self._load(["--begin", repr(begin_s), "--seed", str(sumo_seed)])
+        options = ["--begin", repr(begin_s), "--seed", str(sumo_seed)]
+        self._load(options)
+        if abs(self._api.simulation.getTime() - begin_s) > self.scenario.step_length_s / 2:
+            self._load(options)  # over TraCI, SUMO (1.28) keeps the last load's clock when a load begins earlier
         self._zip_merging.clear()
 
     def _load(self, extra: list[str]) -> None:

@@ -51,3 +51,21 @@ def test_a_scene_without_a_seat_that_fits_is_one_sentence(drivers_scene):
         env.reset(seed=0)
     env.close()
 
+
+
+def test_over_traci_a_seat_earlier_than_the_last_is_the_seat_libsumo_gives(scene_env, drivers_scene):
+    """SUMO over TraCI (a second env of a process, sumo-gui) keeps the last load's clock when a load begins earlier;
+    the ego's seat and the replayed vehicles are those of the seat's instant nevertheless."""
+    seats = choose_seats(read_scene(drivers_scene), "train", 8.0, 2.0, None, 0, earliest_s=0.1)
+    early, late = (min(seats, key=lambda seat: seat.start_s), max(seats, key=lambda seat: seat.start_s))
+    assert late.start_s - early.start_s > 5.0
+    options = {"vehicle": early.vehicle, "start_s": early.start_s}
+    expected, _ = scene_env.reset(seed=1, options=options)  # libsumo
+    env = gymnasium.make(sumo_rail.SCENE_ENV_ID, scene=drivers_scene, config=CONFIG, lead_s=2.0, transport="traci")
+    try:
+        env.reset(seed=1, options={"vehicle": late.vehicle, "start_s": late.start_s})
+        observation, _ = env.reset(seed=1, options=options)
+        assert env.unwrapped.simulation.time_s == pytest.approx(early.start_s)
+        assert np.array_equal(observation, expected)
+    finally:
+        env.close()
