@@ -69,3 +69,22 @@ def test_over_traci_a_seat_earlier_than_the_last_is_the_seat_libsumo_gives(scene
         assert np.array_equal(observation, expected)
     finally:
         env.close()
+
+
+@pytest.mark.parametrize("start_s", [float("nan"), float("inf")])
+def test_a_start_that_is_no_finite_time_is_refused_before_sumo_loads(scene_env, start_s):
+    """SUMO would be asked to begin at it (over TraCI its process quits, and the env with it)."""
+    vehicle = scene_env.reset(seed=0)[1]["vehicle"]
+    with pytest.raises(ValueError, match=r"^reset option 'start_s' must be a time at least one SUMO step \(0.1 s\) "
+                                         r"into the scene, got (nan|inf)$"):
+        scene_env.reset(seed=0, options={"vehicle": vehicle, "start_s": start_s})
+    assert scene_env.reset(seed=0)[1]["vehicle"] == vehicle  # the env goes on
+
+
+def test_the_documented_make_without_a_config_takes_the_defaults(drivers_scene):
+    """`gymnasium.make(SCENE_ENV_ID, scene=FOLDER)` (README): the default config, on the scene's road."""
+    env = gymnasium.make(sumo_rail.SCENE_ENV_ID, scene=drivers_scene)
+    try:
+        assert env.unwrapped.config.env.max_episode_s == 300.0 and env.unwrapped.config.scenario.kind == "network"
+    finally:
+        env.close()
