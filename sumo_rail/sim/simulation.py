@@ -32,9 +32,9 @@ from sumo_rail.sim.road import RouteMap
 from sumo_rail.sim.sensing import Sensing
 from sumo_rail.sim.stepping import Stepping
 from sumo_rail.sim.sumo_api import EGO_ID as EGO_ID  # importable from here, as before
+from sumo_rail.sim.sumo_api import TRACI_RETRIES, decision_calls, load_api, load_constants, start_traci
 from sumo_rail.sim.sumo_api import TRANSPORTS as TRANSPORTS
 from sumo_rail.sim.sumo_api import SimulationError as SimulationError
-from sumo_rail.sim.sumo_api import decision_calls, load_api, load_constants
 from sumo_rail.sim.traffic_source import GeneratedTraffic, Step, TrafficSource
 from sumo_rail.sim.vehicles import EgoState as EgoState
 from sumo_rail.sim.vehicles import Neighbours as Neighbours
@@ -130,13 +130,11 @@ class Simulation(EgoPlacement, Stepping, Sensing, EgoCommands):
         if self.gui and not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
             raise SimulationError("sumo-gui needs a display and neither DISPLAY nor WAYLAND_DISPLAY is set; "
                                   "run headless instead (--gui-off; in Python, render_mode None or 'rgb_array')")
-        retries = {"numRetries": 3} if self.gui else {}
         command = [binary, *self._options(), *gui_options, *extra]
         try:
             if self.transport == "traci":
                 with contextlib.redirect_stdout(io.StringIO()):  # traci prints each retry while SUMO starts up
-                    self._client.start(command, label=self._label, doSwitch=False, **retries)
-                api = self._client.getConnection(self._label)
+                    api = start_traci(self._client, command, self._label, 3 if self.gui else TRACI_RETRIES)
             else:
                 self._client.start(command)
                 api = self._client

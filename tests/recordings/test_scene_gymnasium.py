@@ -88,3 +88,21 @@ def test_the_documented_make_without_a_config_takes_the_defaults(drivers_scene):
         assert env.unwrapped.config.env.max_episode_s == 300.0 and env.unwrapped.config.scenario.kind == "network"
     finally:
         env.close()
+
+
+def test_over_traci_an_ego_gone_in_a_collision_leaves_no_sumo_error_on_the_terminal(drivers_scene, capfd):
+    """Braking as hard as the interface allows, the ego is run into by replayed followers; the stepping learns it is
+    gone by asking for it, which SUMO answers with an error that it used to print ("Error: Answered with error to
+    command 0xa4: Vehicle 'ego' is not known.") for every such episode of a second env of a process."""
+    env = gymnasium.make(sumo_rail.SCENE_ENV_ID, scene=drivers_scene, config=CONFIG, lead_s=2.0, transport="traci")
+    endings = []
+    try:
+        for seed in range(6):
+            env.reset(seed=seed)
+            terminated = truncated = False
+            while not (terminated or truncated):
+                _, _, terminated, truncated, info = env.step(0)
+            endings.append(info["termination"])
+    finally:
+        env.close()
+    assert "collision" in endings and "Error" not in capfd.readouterr().err
