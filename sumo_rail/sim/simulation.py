@@ -138,10 +138,9 @@ class Simulation(EgoPlacement, Stepping, Sensing, EgoCommands):
             else:
                 self._client.start(command)
                 api = self._client
-        except self._client.TraCIException as error:
-            raise SimulationError(f"SUMO failed to start: {describe(error)}") from error
-        except self._client.FatalTraCIError as error:
-            raise SimulationError(f"sumo-gui did not start (is a display available?): {describe(error)}") from error
+        except (self._client.TraCIException, self._client.FatalTraCIError) as error:
+            what = "sumo-gui did not start (is a display available?)" if self.gui else "SUMO failed to start"
+            raise SimulationError(f"{what}: {describe(error)}") from error
         self._api = sumo_gui.PacedApi(api, self.gui_delay_ms / 1000.0) if self.gui else api
         self._calls = decision_calls(self._api)
         self._sumo_step: Step = self.traffic.connect(self._api, self.scenario.step_length_s,
