@@ -229,9 +229,9 @@ def expert_option(help_text: str, default: str | None = "normal") -> Callable[[C
 def resolve_expert_option(expert: str, config: Config, drives: bool = False) -> tuple[str, Any]:
     """How outputs record the expert of --expert (`experts.expert_reference`: a policy file by absolute path and
     content hash) and its driver (with `drives`, one that can drive or label under the configuration's action
-    interface, `experts.check_drives`); an unknown name or an expert of the other interface is a usage error (exit
-    2), an unusable policy file a one-sentence error (exit 1)."""
-    from sumo_rail.drivers.policies import PolicyFileError
+    interface, `experts.check_drives`); an unknown name or an expert of the other interface (a policy file's too) is
+    a usage error (exit 2), an unusable policy file a one-sentence error (exit 1)."""
+    from sumo_rail.drivers.policies import PolicyFileError, PolicyInterfaceError
     from sumo_rail.runners.experts import check_drives, expert_reference, resolve_expert
 
     try:
@@ -240,6 +240,8 @@ def resolve_expert_option(expert: str, config: Config, drives: bool = False) -> 
         if drives:
             check_drives(driver, config)
         return reference, driver
+    except PolicyInterfaceError as error:
+        raise click.BadParameter(str(error), param_hint="'--expert'") from error
     except PolicyFileError as error:
         raise click.ClickException(str(error)) from error
     except ValueError as error:

@@ -43,7 +43,7 @@ def ppo_command(config: Config, settings: LearnerSettings, timesteps: int, init:
     after the current update with its files complete; --resume continues from there. Its settings are the [network]
     and [ppo] sections of --config and --set (--help-settings lists them). Needs pip install 'sumo-rail[baselines]'.
     """
-    from sumo_rail.drivers.policies import PolicyFileError
+    from sumo_rail.drivers.policies import PolicyFileError, PolicyInterfaceError
     from sumo_rail.learning.run_folder import RunError
     from sumo_rail.learning.sb3.ppo import initial_policy, train_ppo_driver
     from sumo_rail.learning.sb3.runs import BaselineError
@@ -63,6 +63,8 @@ def ppo_command(config: Config, settings: LearnerSettings, timesteps: int, init:
     if init is not None and not resume:
         try:
             initial_policy(init, run.shape(config), config)
+        except PolicyInterfaceError as error:
+            raise click.BadParameter(str(error), param_hint="'--init'") from error
         except PolicyFileError as error:
             raise click.ClickException(str(error)) from error
         except ValueError as error:

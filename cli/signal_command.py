@@ -11,6 +11,7 @@ import click
 
 from sumo_rail.learning.rail.step_signal import REWARD_VARIANTS
 
+from .demos_options import check_demos
 from .options import (
     backend_options,
     build_backend,
@@ -74,6 +75,7 @@ def step_signal_command(config: Config, settings: LearnerSettings, demos: Path, 
     from sumo_rail.sim.actions import action_count
     from sumo_rail.sim.observation import observation_space
 
+    check_demos(demos, config, include_failed=True, other_road=True)  # another interface: exit 2, as train's
     with library_errors():
         demonstrations = read_demonstrations(demos, observation_space(config).shape[0], interface=config.actions)
         policy, _ = load_policy(policy_path)

@@ -30,7 +30,8 @@ class ActionConfig:
 
     interface: str = "paper"
     """The action interface: "paper" (five actions on the ACC's set-point) or "acceleration" (an acceleration bin
-    and keep / lane left / lane right, the action space MultiDiscrete([bins, 3]))."""
+    and keep / lane left / lane right in one integer, bin + bins x lane decision: the action space Discrete(3 x
+    bins), 111 actions at the default bins)."""
     acceleration_min_mps2: float = bounded(-9, 0, "m/s^2", default=-6.0, high_open=True)
     """The lowest acceleration of the acceleration interface [m/s^2], at least -9 and below 0 m/s^2 (-9: SUMO's
     emergency deceleration). The default covers the hardest braking of highD's and NGSIM's drivers (about -6)."""

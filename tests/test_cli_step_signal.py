@@ -66,6 +66,9 @@ def test_bad_input_is_one_sentence(tmp_path, demos, policy):
     save_policy(Policy(shape, np.zeros(shape.parameter_count)), other, {})
     mismatch = invoke("step-signal", *SMALL, "--demos", str(demos), "--policy", str(other))
     assert mismatch.exit_code == 2 and "chooses among 111 actions" in mismatch.output, mismatch.output
+    other_demos = invoke("step-signal", *SMALL, "--set", "actions.interface=acceleration", "--demos", str(demos),
+                         "--policy", str(other))  # the paper's demonstrations, a run of the acceleration interface
+    assert other_demos.exit_code == 2 and "holds demonstrations of the paper interface" in other_demos.output
     for word in ("rail.top=40", "rail.directions=2"):
         refused = invoke("step-signal", *SMALL, "--demos", str(demos), "--policy", str(policy), "--set", word)
         assert refused.exit_code == 2 and word.split("=")[0] in refused.output

@@ -37,6 +37,10 @@ class PolicyFileError(ValueError):
     """A policy file is missing, unreadable or inconsistent (message is one sentence)."""
 
 
+class PolicyInterfaceError(PolicyFileError):
+    """A readable policy file of another action interface than the run's: a usage error (the CLI's exit 2)."""
+
+
 @dataclass(frozen=True)
 class PolicyShape:
     """The architecture of a policy."""

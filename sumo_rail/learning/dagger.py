@@ -47,7 +47,7 @@ from sumo_rail.runners.backends import RolloutBackend, WorkerContext
 from sumo_rail.runners.experts import check_drives, demonstrations_expert, resolve_expert
 from sumo_rail.runners.road_mix import road_configs
 from sumo_rail.runners.rollout import DriverSpec, run_shared_episode, shared_groups
-from sumo_rail.runners.tables import Demonstrations, provenance, read_demonstrations
+from sumo_rail.runners.tables import ACTION_TYPE, Demonstrations, provenance, read_demonstrations
 from sumo_rail.seeding import Purpose, episode_seeds
 from sumo_rail.sim.actions import action_count
 from sumo_rail.sim.observation import observation_space
@@ -221,7 +221,7 @@ def _save(folder: Path, round_: int, dataset: Demonstrations, policy: Policy, lo
     table = pa.table({"episode": pa.array(dataset.episodes, pa.int32()),
                       "observation": pa.FixedSizeListArray.from_arrays(
                           pa.array(dataset.observations.astype(np.float32).ravel()), size),
-                      "action": pa.array(dataset.actions, pa.int8())})
+                      "action": pa.array(dataset.actions, ACTION_TYPE)})
     write_parquet(table, folder / "dataset.parquet", {**run_record, "kind": DATASET, "round": round_})
     save_policy(policy, folder / "policy_latest.npz", {**run_record, "iteration": round_})
     columns = [*logs[0]]

@@ -126,7 +126,11 @@ def fit(windows: Windows, step_s: float, settings: CalibrationSettings) -> tuple
         while True:
             c_damped = c_diag * (1.0 + damping)
             schur = a_block + damping * np.diag(np.diag(a_block)) - (b_block / c_damped) @ b_block.T
-            step_p = np.linalg.solve(schur, -gradient_p + b_block @ (gradient_v / c_damped))
+            rhs = -gradient_p + b_block @ (gradient_v / c_damped)
+            try:
+                step_p = np.linalg.solve(schur, rhs)
+            except np.linalg.LinAlgError:  # a parameter no window moves (no leader: tau, minGap, decel) stays put
+                step_p = np.linalg.lstsq(schur, rhs)[0]
             step_v = (-gradient_v - b_block.T @ step_p) / c_damped
             trial_values = np.clip(values + step_p, low, high)
             trial_desired = np.clip(desired + step_v, floor, DESIRED_CAP_MPS)

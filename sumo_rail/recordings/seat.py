@@ -16,6 +16,7 @@ actions passed to `step` are checked, not used.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -78,9 +79,9 @@ class SeatStart:
         # SUMO's run begins one step before the seat: a track from the scene's first instant is taken one step in
         start_s = float(options["start_s"] if "start_s" in options
                         else max(self.scene.track(vehicle)["time_s"].iloc[0], step_s))
-        if start_s < step_s:
-            raise ValueError(f"reset option 'start_s' must be at least one SUMO step ({step_s:g} s) into the scene, "
-                             f"got {start_s:g}")
+        if not step_s <= start_s < math.inf:  # NaN too: SUMO would be asked to begin at it
+            raise ValueError(f"reset option 'start_s' must be a time at least one SUMO step ({step_s:g} s) into the "
+                             f"scene, got {start_s:g}")
         replayed(sim).seat(sim, vehicle, start_s, int(rng.integers(2**31 - 1)))
         return []
 
@@ -111,12 +112,15 @@ class SceneEnv(HighwayEnv):
     of the scene's `split` drawn by the episode's seed (`sumo_rail.recordings.seats.SeatDraw`: a passenger car whose
     track covers `lead_s` [s] of lead-in and `env.max_episode_s`, with `zone_m` [m] where traffic is established, as
     `evaluate-scene --lead-s --zone-m` chooses them); `info` names it ("vehicle", "start_s").
-    `gymnasium.make("sumo_rail/Scene-v0", scene=FOLDER, config=...)` makes it."""
+    `gymnasium.make("sumo_rail/Scene-v0", scene=FOLDER, config=...)` makes it (`config` as `HighwayEnv` takes it,
+    default the defaults; the scene gives the road)."""
 
-    def __init__(self, config: Config | Mapping[str, Any] | str | Path | None, scene: Path | Scene,
+    def __init__(self, config: Config | Mapping[str, Any] | str | Path | None = None, scene: Path | Scene | None = None,
                  reactive: bool = False, render_mode: str | None = None, transport: str = "auto",
                  types: VehicleTypes = NO_TYPES, split: str = "train", lead_s: float = 5.0,
                  zone_m: float = 0.0, gui_delay_ms: float = 100.0) -> None:
+        if scene is None:
+            raise TypeError("SceneEnv needs a scene: gymnasium.make(SCENE_ENV_ID, scene=FOLDER)")
         self.scene = scene if isinstance(scene, Scene) else read_scene(Path(scene))
         self.frames = SceneFrames(self.scene.tracks, self.scene.meta.frame_rate_hz)
         self.road = scene_road(self.scene.network)

@@ -18,7 +18,7 @@ from typing import Any
 from sumo_rail.config import Config
 from sumo_rail.datasets import DatasetError, file_sha256
 from sumo_rail.drivers.expert import DEFAULT_STYLE, STYLES
-from sumo_rail.drivers.policies import PolicyFileError, load_policy
+from sumo_rail.drivers.policies import PolicyFileError, PolicyInterfaceError, load_policy
 from sumo_rail.runners.rollout import DriverSpec, ExpertDriver, PolicyDriver
 from sumo_rail.sim.actions import action_count
 from sumo_rail.sim.observation import observation_names
@@ -43,13 +43,19 @@ def policy_name(path: Path) -> str:
 
 
 def parse_policy(path: Path, config: Config, sampled: bool = False, name: str | None = None) -> PolicyDriver:
-    """The saved policy file at `path` as a driver named `name` (default `policy_name`), after checking that it reads
-    the environment's observation layout. It decodes its logits by `config`'s actions.decoding, whatever decoding its
+    """The saved policy file at `path` as a driver named `name` (default `policy_name`), after checking that it
+    chooses among the configuration's actions (else a PolicyInterfaceError) and reads the environment's observation
+    layout. It decodes its logits by `config`'s actions.decoding, whatever decoding its
     file records (the run says how its policies act; a name not decoding by argmax ends in " (DECODING)"); `sampled`:
     it draws its actions from the softmax of its logits at actions.sampling_temperature instead, and its name ends in
     " (sampled)" (" (sampled at T)" at a temperature T below 1). Its `expert` is
     the expert its file records."""
     policy, metadata = load_policy(path)
+    if policy.shape.actions != (count := action_count(config.actions)):  # first: the interface shapes the layout too
+        trained = differing_settings(metadata, config, INTERFACE_SETTINGS)
+        raise PolicyInterfaceError(f"policy {path} chooses among {policy.shape.actions} actions but this "
+                                   f"configuration's action interface has {count} (actions.interface="
+                                   f"{config.actions.interface}){trained}")
     expected = observation_names(config)
     if policy.shape.observation_size != len(expected):
         raise PolicyFileError(f"policy {path} reads {policy.shape.observation_size} observation values but this "
@@ -63,10 +69,6 @@ def parse_policy(path: Path, config: Config, sampled: bool = False, name: str | 
                               f"{differing_settings(metadata, config)}")
     if scales := differing_settings(metadata, config, SCALE_SETTINGS):
         raise PolicyFileError(f"policy {path} reads observations scaled otherwise than this configuration's{scales}")
-    if policy.shape.actions != (count := action_count(config.actions)):
-        raise PolicyFileError(f"policy {path} chooses among {policy.shape.actions} actions but this configuration's "
-                              f"action interface has {count} (actions.interface={config.actions.interface})"
-                              f"{differing_settings(metadata, config, INTERFACE_SETTINGS)}")
     decoding = config.actions.decoding
     policy = policy.decoded_by(decoding)
     temperature = config.actions.sampling_temperature

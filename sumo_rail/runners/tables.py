@@ -23,6 +23,9 @@ from sumo_rail.sim.observation import observation_names
 
 DEMONSTRATIONS = "demonstrations"
 EPISODE_METRICS = "episode_metrics"
+ACTION_TYPE = pa.int16()
+"""The Arrow type of an action column: it holds every interface's actions (the acceleration interface's finest bins
+give 843; int8 stops at 127)."""
 ROAD_FILES = "road_files"
 """The provenance entry holding a user's network and traffic file: their sha256 by absolute path (kind network)."""
 
@@ -81,7 +84,7 @@ def demonstrations_from_columns(data: dict[str, np.ndarray], observations: np.nd
 
 
 _DEMONSTRATION_SCALARS: dict[str, pa.DataType] = {
-    "episode": pa.int32(), "step": pa.int32(), "episode_seed": pa.int64(), "action": pa.int8(),
+    "episode": pa.int32(), "step": pa.int32(), "episode_seed": pa.int64(), "action": ACTION_TYPE,
     "reward": pa.float64(), "reward_longitudinal": pa.float64(), "reward_lateral": pa.float64(),
     "reward_collision": pa.float64(), "speed_mps": pa.float64(), "lane": pa.int8(), "position_m": pa.float64(),
     "set_point_mps": pa.float64(), "lane_change_in_progress": pa.bool_(), "terminated": pa.bool_(),

@@ -37,6 +37,8 @@ class TaskQueue:
         self._pending = deque(range(count))
         self._attempts = [0] * count
         self._max_attempts = max_attempts
+        self._failed_starts = 0
+        """Workers that died before they ran a task."""
         self._on_result = on_result
         self._log = log
 
@@ -52,9 +54,14 @@ class TaskQueue:
 
     def retry(self, index: int | None, cause: str) -> None:
         """Queue task `index` again after a worker got no result because of `cause`, if attempts remain (None: the
-        worker died before it ran a task)."""
+        worker died before it ran a task; the run fails when as many workers as a task's attempts died so)."""
         if index is None:
-            raise BackendError(f"a worker process could not start: {cause}")
+            self._failed_starts += 1
+            if self._failed_starts >= self._max_attempts:
+                raise BackendError(f"a worker process could not start in {self._failed_starts} attempts (last: "
+                                   f"{cause})")
+            self._log.warning("a worker died while it started (%s); starting another", cause)
+            return
         if self._attempts[index] >= self._max_attempts:
             raise BackendError(f"task {index} got no result in {self._attempts[index]} attempts (last: {cause})")
         self._log.warning("task %d: %s; retrying it (attempt %d of %d)", index, cause, self._attempts[index] + 1,

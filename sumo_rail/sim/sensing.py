@@ -103,9 +103,17 @@ class Sensing:
         return float(self._api.vehicle.getSpeed(found[0])) if found else math.inf
 
     def vehicle_types(self, ids: tuple[str, ...]) -> list[str]:
-        """SUMO vehicle type of each vehicle in `ids` (e.g. "car", "truck"), for drawing."""
-        get_type = self._api.vehicle.getTypeID
-        return [get_type(vehicle) for vehicle in ids]
+        """SUMO vehicle type of each vehicle in `ids` (e.g. "car", "truck"), for drawing; "" for one that has left
+        SUMO since it was seen (a frame of the ego's last decision before a collision removed both, or the end of the
+        road)."""
+        get_type, unknown = self._api.vehicle.getTypeID, self._client.TraCIException
+        types = []
+        for vehicle in ids:
+            try:
+                types.append(get_type(vehicle))
+            except unknown:
+                types.append("")
+        return types
 
     def lane_shapes(self) -> list[tuple[np.ndarray, float, bool]]:
         """Every lane of the network, junctions' included, for drawing: its centre line [m], its width [m] and

@@ -32,9 +32,9 @@ from sumo_rail.sim.road import RouteMap
 from sumo_rail.sim.sensing import Sensing
 from sumo_rail.sim.stepping import Stepping
 from sumo_rail.sim.sumo_api import EGO_ID as EGO_ID  # importable from here, as before
+from sumo_rail.sim.sumo_api import TRACI_RETRIES, decision_calls, load_api, load_constants, start_traci
 from sumo_rail.sim.sumo_api import TRANSPORTS as TRANSPORTS
 from sumo_rail.sim.sumo_api import SimulationError as SimulationError
-from sumo_rail.sim.sumo_api import decision_calls, load_api, load_constants
 from sumo_rail.sim.traffic_source import GeneratedTraffic, Step, TrafficSource
 from sumo_rail.sim.vehicles import EgoState as EgoState
 from sumo_rail.sim.vehicles import Neighbours as Neighbours
@@ -130,20 +130,17 @@ class Simulation(EgoPlacement, Stepping, Sensing, EgoCommands):
         if self.gui and not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
             raise SimulationError("sumo-gui needs a display and neither DISPLAY nor WAYLAND_DISPLAY is set; "
                                   "run headless instead (--gui-off; in Python, render_mode None or 'rgb_array')")
-        retries = {"numRetries": 3} if self.gui else {}
         command = [binary, *self._options(), *gui_options, *extra]
         try:
             if self.transport == "traci":
                 with contextlib.redirect_stdout(io.StringIO()):  # traci prints each retry while SUMO starts up
-                    self._client.start(command, label=self._label, doSwitch=False, **retries)
-                api = self._client.getConnection(self._label)
+                    api = start_traci(self._client, command, self._label, 3 if self.gui else TRACI_RETRIES)
             else:
                 self._client.start(command)
                 api = self._client
-        except self._client.TraCIException as error:
-            raise SimulationError(f"SUMO failed to start: {describe(error)}") from error
-        except self._client.FatalTraCIError as error:
-            raise SimulationError(f"sumo-gui did not start (is a display available?): {describe(error)}") from error
+        except (self._client.TraCIException, self._client.FatalTraCIError) as error:
+            what = "sumo-gui did not start (is a display available?)" if self.gui else "SUMO failed to start"
+            raise SimulationError(f"{what}: {describe(error)}") from error
         self._api = sumo_gui.PacedApi(api, self.gui_delay_ms / 1000.0) if self.gui else api
         self._calls = decision_calls(self._api)
         self._sumo_step: Step = self.traffic.connect(self._api, self.scenario.step_length_s,
@@ -210,7 +207,10 @@ class Simulation(EgoPlacement, Stepping, Sensing, EgoCommands):
         """Load the road afresh, no warm state, its clock at `begin_s` [s], with SUMO seed `sumo_seed` (a traffic that
         places its vehicles itself: `sumo_rail.sim.replay`)."""
         self._require_running()
-        self._load(["--begin", repr(begin_s), "--seed", str(sumo_seed)])
+        options = ["--begin", repr(begin_s), "--seed", str(sumo_seed)]
+        self._load(options)
+        if abs(self._api.simulation.getTime() - begin_s) > self.scenario.step_length_s / 2:
+            self._load(options)  # over TraCI, SUMO (1.28) keeps the last load's clock when a load begins earlier
         self._zip_merging.clear()
 
     def _load(self, extra: list[str]) -> None:

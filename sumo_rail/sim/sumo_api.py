@@ -4,9 +4,12 @@ mode, and loading libsumo or traci (imported only here and when a simulation sta
 from __future__ import annotations
 
 import os
+import subprocess
+import sys
+import threading
 from collections.abc import Callable
 from types import ModuleType
-from typing import Any, NamedTuple
+from typing import IO, Any, NamedTuple
 
 EGO_ID = "ego"
 """The single ego's vehicle id."""
@@ -49,6 +52,32 @@ def load_api(transport: str) -> ModuleType:
     import libsumo
 
     return libsumo
+
+
+TRACI_RETRIES = 60
+"""Attempts to connect to a starting SUMO, a second apart (traci.start's: a large network takes long to load)."""
+ANSWERED_ERROR = b"Error: Answered with error to command"
+"""How SUMO's stderr begins the line of each TraCI command it answers with an error (libsumo writes none): the client
+raises the error itself, and asking for a vehicle that has left is how the stepping learns that an ego is gone."""
+
+
+def start_traci(client: ModuleType, command: list[str], label: str, retries: int) -> Any:
+    """SUMO at `command` over TraCI as the connection `label` of `client` (`load_api`'s), as traci.start makes it, but
+    SUMO's stderr is passed on to this process's without its `ANSWERED_ERROR` lines."""
+    port = client.getFreeSocketPort()
+    process = subprocess.Popen([*command, "--remote-port", str(port)], stderr=subprocess.PIPE)
+    threading.Thread(target=_pass_on, args=(process.stderr,), name="sumo-stderr", daemon=True).start()
+    client.init(port, retries, "localhost", label, process, doSwitch=False)
+    return client.getConnection(label)
+
+
+def _pass_on(stream: IO[bytes]) -> None:
+    """Copy SUMO's stderr `stream` to this process's, line by line, but the `ANSWERED_ERROR` lines."""
+    with stream:
+        for line in stream:
+            if not line.startswith(ANSWERED_ERROR):
+                sys.stderr.write(line.decode(errors="replace"))
+                sys.stderr.flush()
 
 
 def load_constants() -> ModuleType:

@@ -20,7 +20,7 @@ from sumo_rail.learning.run_folder import RunError
 from sumo_rail.learning.validation import Validation
 from sumo_rail.runners.backends import ProcessPoolBackend, SerialBackend, WorkerContext
 from sumo_rail.runners.rollout import EpisodeTask, ExpertDriver, PolicyDriver, run_episode
-from sumo_rail.runners.tables import DEMONSTRATIONS, demonstrations_table, provenance
+from sumo_rail.runners.tables import DEMONSTRATIONS, Demonstrations, demonstrations_table, provenance
 from sumo_rail.sim.actions import Action
 
 CONFIG = Config.from_dict({"scenario": {"length_m": 1500.0, "warmup_s": 120.0, "snapshots": 3,
@@ -229,3 +229,12 @@ def test_dagger_takes_the_network_settings_and_refuses_bc_without_epochs(tmp_pat
     stored = json.loads((out / "run.json").read_text())["settings"]
     assert stored["bc"]["epochs"] == 1 and stored["hidden"] == 7
     assert load_policy(out / "policy_bc.npz")[0].shape.hidden == 7
+
+
+def test_a_round_of_actions_past_127_is_saved_as_labelled(tmp_path):
+    """The acceleration interface's finer bins (0.05 m/s^2: 543 actions) give labels int8 cannot hold."""
+    shape = PolicyShape("linear", 4, actions=543)
+    labels = np.array([0, 200, 542])
+    dataset = Demonstrations(np.zeros((3, 4), np.float32), labels, np.array([0, 0, 1]), {})
+    dagger._save(tmp_path, 1, dataset, Policy(shape, np.zeros(shape.parameter_count)), [{"iteration": 1}], {})
+    assert pq.read_table(tmp_path / "dataset.parquet").column("action").to_pylist() == labels.tolist()

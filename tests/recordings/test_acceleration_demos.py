@@ -85,3 +85,16 @@ def test_bc_learns_them_and_its_policy_drives_a_seat_of_the_scene(scene_and_demo
     assert result.exit_code == 0, result.output
     seats = pd.read_parquet(out)
     assert set(seats["policy"]) >= {"keep", "sumo-idm"} and len(seats) == 3 * 2  # three drivers, two modes
+
+
+def test_fine_bins_whose_actions_pass_127_are_written_and_read_back(tmp_path):
+    """0.05 m/s^2 bins from -6 to 3 m/s^2: 181 bins, 543 actions; the car's +2 m/s^2 is action 160."""
+    two_car_scene(tmp_path / "scene")
+    fine = ("--set", "actions.acceleration_bin_mps2=0.05")
+    result = invoke("recorded-demos", str(tmp_path / "scene"), *ACCELERATION, *fine, "--out",
+                    str(tmp_path / "demos.parquet"))
+    assert result.exit_code == 0, result.output
+    actions = Config.from_dict({"actions": {"interface": "acceleration", "acceleration_bin_mps2": 0.05}}).actions
+    read = read_demonstrations(tmp_path / "demos.parquet", interface=actions)
+    speed_up = acceleration_action(actions.nearest_bin(2.0), Lateral.KEEP, actions)
+    assert speed_up > 127 and list(read.actions[read.episodes == read.episodes[0]])[-4:] == [speed_up] * 4

@@ -18,6 +18,7 @@ from sumo_rail_cli.main import cli
 
 from sumo_rail.config import Config
 from sumo_rail.datasets import file_sha256, read_metadata
+from sumo_rail.drivers.policies import Policy, PolicyShape, save_policy
 from sumo_rail.evaluation.human_likeness import position_errors
 from sumo_rail.evaluation.scene_evaluation import (
     HUMAN,
@@ -33,6 +34,8 @@ from sumo_rail.recordings.seats import choose_seats
 from sumo_rail.runners.backends import SerialBackend
 from sumo_rail.runners.factory import make_backend
 from sumo_rail.runners.rollout import KeepDriver, SumoIdmDriver
+from sumo_rail.sim.actions import action_count
+from sumo_rail.sim.observation import observation_names
 
 CONFIG = Config.from_dict({"observation": {"lane_block": 1}, "env": {"max_episode_s": 10.0}})
 
@@ -222,7 +225,7 @@ def test_evaluate_scene_writes_both_tables_with_provenance(drivers_scene, tmp_pa
 
 
 @pytest.mark.parametrize("problem", ["not a scene", "not a network", "no seat", "policy", "other lanes",
-                                     "shadowed length"])
+                                     "shadowed length", "other interface"])
 def test_evaluate_scene_refuses_in_one_sentence_and_writes_nothing(drivers_scene, tmp_path, problem):
     scene, extra, code = drivers_scene, ["--set", "scenario.lanes=3"], 2
     if problem == "not a scene":
@@ -238,6 +241,12 @@ def test_evaluate_scene_refuses_in_one_sentence_and_writes_nothing(drivers_scene
         extra = ["--set", "scenario.lanes=5"]
     elif problem == "shadowed length":  # the seat's length is --horizon-s: a different env.max_episode_s is refused
         extra += ["--set", "env.max_episode_s=12"]
+    elif problem == "other interface":  # a policy trained on the acceleration interface, this run the paper's
+        trained = Config.from_dict({"scenario": {"lanes": 3}, "actions": {"interface": "acceleration"}})
+        shape = PolicyShape("linear", len(observation_names(trained)), actions=action_count(trained.actions))
+        save_policy(Policy(shape, np.zeros(shape.parameter_count)), tmp_path / "acceleration.npz",
+                    {"config": trained.to_dict(), "observation_names": observation_names(trained)})
+        extra += ["--policy", str(tmp_path / "acceleration.npz")]
     else:
         (tmp_path / "policy.npz").write_bytes(b"not a policy")
         extra, code = [*extra, "--policy", str(tmp_path / "policy.npz")], 1
@@ -247,6 +256,8 @@ def test_evaluate_scene_refuses_in_one_sentence_and_writes_nothing(drivers_scene
     errors = [line for line in result.output.splitlines() if line.startswith("Error:")]
     assert "Traceback" not in result.output and len(errors) == 1 and errors[0].count(". ") == 0
     assert not out.exists() and not tracks_path(out).exists()
+    if problem == "other interface":
+        assert "chooses among 111 actions" in errors[0] and "--set actions.interface=acceleration" in errors[0]
 
 
 class _Braking:

@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import shutil
 
 import numpy as np
@@ -17,7 +18,8 @@ from sumo_rail.datasets import read_metadata
 from sumo_rail.evaluation.scene_evaluation import CALIBRATED_IDM, calibrated_idm_driver, evaluate_seats
 from sumo_rail.recordings import sumo_drivers
 from sumo_rail.recordings.idm import SUMO_DEFAULTS, IdmParameters
-from sumo_rail.recordings.idm_calibration import calibrate, lead_in_desired_speed
+from sumo_rail.recordings.idm_calibration import CalibrationSettings, calibrate, fit, lead_in_desired_speed, simulated
+from sumo_rail.recordings.idm_windows import Windows
 from sumo_rail.recordings.scene import read_scene
 from sumo_rail.recordings.scene_drivers import SEAT_IDM_TYPE
 from sumo_rail.recordings.seat import SceneEnv
@@ -61,6 +63,21 @@ def test_the_calibration_finds_sumos_idm_drivers_parameters(idm_scene):
     assert validation["calibrated"].windows > 50
     assert validation["calibrated"].speed_median_mps < validation["sumo_defaults"].speed_median_mps / 3
     assert calibration.as_dict()["parameters"]["tau_s"] == found.tau_s
+
+
+def test_drivers_without_a_leader_calibrate_what_they_show_and_leave_the_rest():
+    """Free-road windows (sparse traffic: no train driver ever has a leader) say nothing of decel, tau and minGap: the
+    fit keeps SUMO's values of those and finds accel and the desired speeds (it stopped at a singular matrix)."""
+    speeds = np.linspace(20.0, 28.0, 6)
+    free = Windows(np.array(["a", "b"]), np.array([20.0, 24.0]), np.repeat([0, 1], 3), np.zeros(6), speeds,
+                   np.full(6, np.inf), np.zeros((6, 20)), np.zeros((6, 20)), np.zeros((6, 20)), np.zeros(6))
+    truth = dataclasses.replace(SUMO_DEFAULTS, accel_mps2=1.5)
+    recorded = simulated(truth, free, np.array([30.0, 32.0]), 0.1)
+    free = dataclasses.replace(free, recorded_mps=recorded, recorded_travel_m=recorded.sum(axis=1) * 0.1)
+    found, desired = fit(free, 0.1, CalibrationSettings())
+    assert found.accel_mps2 == pytest.approx(1.5, rel=1e-3) and desired == pytest.approx([30.0, 32.0], abs=0.05)
+    assert (found.decel_mps2, found.tau_s, found.min_gap_m) == pytest.approx(
+        (SUMO_DEFAULTS.decel_mps2, SUMO_DEFAULTS.tau_s, SUMO_DEFAULTS.min_gap_m), rel=1e-6)
 
 
 def test_the_calibrated_idm_takes_the_seat(drivers_scene):

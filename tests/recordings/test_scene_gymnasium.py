@@ -51,3 +51,58 @@ def test_a_scene_without_a_seat_that_fits_is_one_sentence(drivers_scene):
         env.reset(seed=0)
     env.close()
 
+
+
+def test_over_traci_a_seat_earlier_than_the_last_is_the_seat_libsumo_gives(scene_env, drivers_scene):
+    """SUMO over TraCI (a second env of a process, sumo-gui) keeps the last load's clock when a load begins earlier;
+    the ego's seat and the replayed vehicles are those of the seat's instant nevertheless."""
+    seats = choose_seats(read_scene(drivers_scene), "train", 8.0, 2.0, None, 0, earliest_s=0.1)
+    early, late = (min(seats, key=lambda seat: seat.start_s), max(seats, key=lambda seat: seat.start_s))
+    assert late.start_s - early.start_s > 5.0
+    options = {"vehicle": early.vehicle, "start_s": early.start_s}
+    expected, _ = scene_env.reset(seed=1, options=options)  # libsumo
+    env = gymnasium.make(sumo_rail.SCENE_ENV_ID, scene=drivers_scene, config=CONFIG, lead_s=2.0, transport="traci")
+    try:
+        env.reset(seed=1, options={"vehicle": late.vehicle, "start_s": late.start_s})
+        observation, _ = env.reset(seed=1, options=options)
+        assert env.unwrapped.simulation.time_s == pytest.approx(early.start_s)
+        assert np.array_equal(observation, expected)
+    finally:
+        env.close()
+
+
+@pytest.mark.parametrize("start_s", [float("nan"), float("inf")])
+def test_a_start_that_is_no_finite_time_is_refused_before_sumo_loads(scene_env, start_s):
+    """SUMO would be asked to begin at it (over TraCI its process quits, and the env with it)."""
+    vehicle = scene_env.reset(seed=0)[1]["vehicle"]
+    with pytest.raises(ValueError, match=r"^reset option 'start_s' must be a time at least one SUMO step \(0.1 s\) "
+                                         r"into the scene, got (nan|inf)$"):
+        scene_env.reset(seed=0, options={"vehicle": vehicle, "start_s": start_s})
+    assert scene_env.reset(seed=0)[1]["vehicle"] == vehicle  # the env goes on
+
+
+def test_the_documented_make_without_a_config_takes_the_defaults(drivers_scene):
+    """`gymnasium.make(SCENE_ENV_ID, scene=FOLDER)` (README): the default config, on the scene's road."""
+    env = gymnasium.make(sumo_rail.SCENE_ENV_ID, scene=drivers_scene)
+    try:
+        assert env.unwrapped.config.env.max_episode_s == 300.0 and env.unwrapped.config.scenario.kind == "network"
+    finally:
+        env.close()
+
+
+def test_over_traci_an_ego_gone_in_a_collision_leaves_no_sumo_error_on_the_terminal(drivers_scene, capfd):
+    """Braking as hard as the interface allows, the ego is run into by replayed followers; the stepping learns it is
+    gone by asking for it, which SUMO answers with an error that it used to print ("Error: Answered with error to
+    command 0xa4: Vehicle 'ego' is not known.") for every such episode of a second env of a process."""
+    env = gymnasium.make(sumo_rail.SCENE_ENV_ID, scene=drivers_scene, config=CONFIG, lead_s=2.0, transport="traci")
+    endings = []
+    try:
+        for seed in range(6):
+            env.reset(seed=seed)
+            terminated = truncated = False
+            while not (terminated or truncated):
+                _, _, terminated, truncated, info = env.step(0)
+            endings.append(info["termination"])
+    finally:
+        env.close()
+    assert "collision" in endings and "Error" not in capfd.readouterr().err

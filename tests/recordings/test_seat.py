@@ -232,7 +232,7 @@ def test_the_seat_is_taken_where_the_track_begins_by_default(replay):
         replay.reset(seed=0, options={"vehicle": vehicle})
         assert replay.simulation.time_s == pytest.approx(step_s) and replay.traffic.ego.lane == recorded(
             tracks, 0.0).at[vehicle, "lane"]
-        with pytest.raises(ValueError, match="'start_s' must be at least one SUMO step"):
+        with pytest.raises(ValueError, match="'start_s' must be a time at least one SUMO step"):
             replay.reset(seed=0, options={"vehicle": vehicle, "start_s": 0.0})
 
 

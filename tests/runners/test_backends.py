@@ -5,6 +5,7 @@ Task classes are top-level so that spawned workers can unpickle them.
 
 from __future__ import annotations
 
+import logging
 import os
 import signal
 import subprocess
@@ -21,6 +22,7 @@ import pytest
 from sumo_rail.config import Config
 from sumo_rail.runners.backends import BackendError, ProcessPoolBackend, SerialBackend, TaskError, WorkerContext
 from sumo_rail.runners.factory import make_backend
+from sumo_rail.runners.task_queue import TaskQueue
 from sumo_rail.sim.actions import Action
 
 
@@ -293,6 +295,22 @@ def test_a_ctrl_c_while_a_worker_starts_does_not_kill_it():
         os.kill(pool.pids[0], signal.SIGINT)  # it takes far longer to start than this
         worker = pool.pids
         assert pool.run(squares(2)) == expected(squares(2)) and pool.pids == worker
+
+
+def test_a_worker_killed_while_it_starts_is_replaced(caplog):
+    """kill -9 (the OOM killer, a user) of a worker still importing: another one is started and the results come,
+    as for a worker killed in a task; a worker that dies at every start fails the run after max_attempts."""
+    with ProcessPoolBackend(1) as pool:
+        pool._start_worker()
+        killed = pool.pids
+        os.kill(killed[0], signal.SIGKILL)  # it takes far longer to start than this
+        assert pool.run(squares(2)) == expected(squares(2)) and pool.pids != killed
+    assert "a worker died while it started (worker exited with code -9); starting another" in caplog.text
+    queue = TaskQueue(1, 2, None, logging.getLogger("test"))
+    queue.retry(None, "worker exited with code 1")
+    with pytest.raises(BackendError, match=r"^a worker process could not start in 2 attempts \(last: worker exited "
+                                           r"with code 1\)$"):
+        queue.retry(None, "worker exited with code 1")
 
 
 def test_a_sigterm_to_a_starting_or_running_worker_does_not_kill_it():

@@ -11,6 +11,7 @@ from gymnasium.utils.env_checker import check_env
 from sumo_rail.action_config import ActionConfig
 from sumo_rail.bounds import ConfigError
 from sumo_rail.config import Config
+from sumo_rail.setting_tables import field_docs
 from sumo_rail.sim.actions import (
     Action,
     Lateral,
@@ -36,6 +37,8 @@ def test_default_bins_cover_the_recordings_range_in_quarter_steps():
     assert actions.nearest_bin(-40.0) == 0 and actions.nearest_bin(40.0) == 36
     assert action_space_of(actions) == spaces.Discrete(111)
     assert action_space_of(ActionConfig()) == spaces.Discrete(5)
+    said = " ".join(field_docs(ActionConfig)["interface"].split())  # the setting's help names the env's space
+    assert "the action space Discrete(3 x bins), 111 actions at the default bins" in said
 
 
 def test_an_action_is_a_bin_and_a_lane_decision_in_one_integer():

@@ -170,6 +170,7 @@ def test_collision_terminates_with_penalty_and_the_info_of_any_step(env):
     assert terminated and not truncated
     assert reward == -10.0 and info["collisions"] == 1 and info["termination"] == "collision"
     assert set(info) == set(first) and info["lane_change_in_progress"] is False  # the last known state
+    assert env.frame().shape[2] == 3  # the last decision's frame: the blocker, gone with the ego, drawn as it was
 
 
 def test_a_collision_is_recorded_like_any_decision(env):

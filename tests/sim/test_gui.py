@@ -14,6 +14,7 @@ from PIL import Image
 from sumo_rail_cli.main import cli
 
 from sumo_rail.sim.env import HighwayEnv
+from sumo_rail.sim.sumo_api import SimulationError
 
 SMALL = ["--set", "scenario.length_m=1500", "--set", "scenario.warmup_s=120", "--set", "scenario.snapshots=3",
          "--set", "env.ego_start_min_m=300", "--set", "env.ego_start_max_m=500"]
@@ -83,6 +84,15 @@ def test_gui_processes_sees_a_running_sumo_gui(display, monkeypatch, small_confi
     finally:
         env.close()
     assert gui_processes(display) == []
+
+
+def test_a_display_no_x_server_answers_is_said(monkeypatch, small_config):
+    """DISPLAY names a display no X server holds: sumo-gui quits at once, and the reset says why in one sentence."""
+    monkeypatch.setenv("DISPLAY", ":9973")
+    env = HighwayEnv(small_config, render_mode="human")
+    with pytest.raises(SimulationError, match=r"^sumo-gui did not start \(is a display available\?\): "):
+        env.reset(seed=0)
+    env.close()
 
 
 def test_gui_delay_without_gui_is_a_usage_error():

@@ -149,6 +149,10 @@ def test_an_init_policy_of_another_shape_or_observation_is_refused_before_any_wo
     result = invoke("ppo", *SMALL, "--init", str(tmp_path / "short.npz"), "--out", str(tmp_path / "run"))
     assert result.exit_code == 1 and "reads 30 observation values" in result.output
     assert "Traceback" not in result.output and not (tmp_path / "run").exists()
+    shape = PolicyShape("mlp", 56, 10, actions=111)  # a policy of the acceleration interface, a run of the paper's
+    save_policy(Policy(shape, np.zeros(shape.parameter_count)), tmp_path / "acceleration.npz", {})
+    result = invoke("ppo", *SMALL, "--init", str(tmp_path / "acceleration.npz"), "--out", str(tmp_path / "run"))
+    assert result.exit_code == 2 and "chooses among 111 actions" in result.output and not (tmp_path / "run").exists()
 
 
 def test_ppo_refuses_a_warmup_without_init_and_a_batch_larger_than_an_update_before_any_work(tmp_path):
