@@ -35,7 +35,7 @@ from sumo_rail.datasets import (
 )
 from sumo_rail.recordings.road import build_road
 from sumo_rail.recordings.scene_observations import SceneRoad, scene_road
-from sumo_rail.recordings.tracks import Recording, RecordingUsageError
+from sumo_rail.recordings.tracks import Recording, RecordingDataError, RecordingUsageError
 from sumo_rail.runners.tables import provenance
 
 TRACK_SCHEMA = pa.schema([
@@ -202,18 +202,28 @@ class Scene:
 
 
 def read_scene(folder: Path) -> Scene:
-    """The scene folder `folder`; RecordingUsageError naming the missing or unreadable file, or the network (the
-    user's, for FCD) whose content has changed since the scene was imported on it (scene.json holds its sha256)."""
+    """The scene folder `folder`; RecordingUsageError naming a missing file, or the network (the user's, for FCD)
+    whose content has changed since the scene was imported on it (scene.json holds its sha256); RecordingDataError
+    naming a file that is there but cannot be read (damaged, truncated, not the scene's format)."""
     try:
         for name in SCENE_FILES:
             check_file(folder / name, "scene file")
+    except DatasetError as error:
+        raise RecordingUsageError(f"{folder} is not a readable scene folder ({error})") from error
+    try:
         meta = SceneMeta(**json.loads((folder / "scene.json").read_text()))
         network = Path(meta.network) if Path(meta.network).is_absolute() else folder / meta.network
+    except (json.JSONDecodeError, TypeError, KeyError, UnicodeDecodeError) as error:
+        raise RecordingDataError(f"the scene file {folder / 'scene.json'} is damaged ({error})") from error
+    try:
         check_file(network, "scene network")
+    except DatasetError as error:
+        raise RecordingUsageError(f"{folder} is not a readable scene folder ({error})") from error
+    try:
         tracks = read_table(folder / "tracks.parquet", columns=list(TRACK_COLUMNS)).to_pandas()
         split = read_table(folder / "split.parquet", columns=["vehicle_id", "split"]).to_pandas()
-    except (DatasetError, json.JSONDecodeError, TypeError, KeyError, UnicodeDecodeError) as error:
-        raise RecordingUsageError(f"{folder} is not a readable scene folder ({error})") from error
+    except DatasetError as error:
+        raise RecordingDataError(f"{folder} is not a readable scene folder ({error})") from error
     recorded = meta.sources.get(meta.network)
     if recorded is not None and recorded != file_sha256(network):
         raise RecordingUsageError(f"the network {network} has changed since the scene {folder} was imported on it "

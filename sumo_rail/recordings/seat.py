@@ -25,7 +25,8 @@ from typing import Any
 import numpy as np
 
 from sumo_rail.config import Config
-from sumo_rail.recordings.scene import Scene, read_scene
+from sumo_rail.recordings.scene import SPEED_TOLERANCE_MPS, Scene, read_scene
+from sumo_rail.recordings.scene_drivers import reactive_types
 from sumo_rail.recordings.scene_observations import SceneFrames, SceneRoad, scene_road, scene_routes
 from sumo_rail.recordings.seats import SeatDraw
 from sumo_rail.recordings.trajectory import PAST_COLUMNS, track_past
@@ -42,6 +43,18 @@ def scene_config(config: Config, scene: Scene, road: SceneRoad) -> Config:
     return config.with_overrides({"scenario": {"kind": "network", "network": str(scene.network.resolve()),
                                                "route": " ".join(road.route), "traffic_file": "",
                                                "lanes": road.lanes}})
+
+
+def road_limit_config(config: Config, road: SceneRoad) -> Config:
+    """`config` driving at the road's speed limit as `check_speed_limit` asks: scenario.speed_limit_mps that limit
+    and env.v_max_mps not below it (a config that already does is returned as it is)."""
+    limit = road.speed_limit_mps
+    overrides: dict[str, dict[str, float]] = {}
+    if abs(config.scenario.speed_limit_mps - limit) > SPEED_TOLERANCE_MPS:
+        overrides["scenario"] = {"speed_limit_mps": limit}
+    if config.env.v_max_mps < limit - SPEED_TOLERANCE_MPS:
+        overrides["env"] = {"v_max_mps": limit}
+    return config.with_overrides(overrides) if overrides else config
 
 
 @dataclass(frozen=True)
@@ -105,19 +118,20 @@ class SceneEnv(HighwayEnv):
     in vehicle ID at T [s] (default: where its track begins, or one SUMO step into the scene for a vehicle there
     from its first instant); `"controller": "sumo"` lets SUMO drive it (the actions passed to `step` are then
     checked, not used). `types`: the vehicle types SUMO knows besides its default, with each reactive vehicle's
-    (`sumo_rail.recordings.scene_drivers.reactive_types`; default: none, every reactive vehicle SUMO's default
-    Krauss).
+    (default: `evaluate-scene`'s, `sumo_rail.recordings.scene_drivers.reactive_types`: each vehicle's recorded vType
+    where the scene has it, else SUMO's IDM calibrated on the train split; `NO_TYPES`: SUMO's default Krauss).
 
     A reset without a vehicle (Gymnasium's `reset(seed=...)`, vector envs, Stable-Baselines3) seats the ego in a seat
     of the scene's `split` drawn by the episode's seed (`sumo_rail.recordings.seats.SeatDraw`: a passenger car whose
     track covers `lead_s` [s] of lead-in and `env.max_episode_s`, with `zone_m` [m] where traffic is established, as
     `evaluate-scene --lead-s --zone-m` chooses them); `info` names it ("vehicle", "start_s").
-    `gymnasium.make("sumo_rail/Scene-v0", scene=FOLDER, config=...)` makes it (`config` as `HighwayEnv` takes it,
-    default the defaults; the scene gives the road)."""
+    `gymnasium.make("sumo_rail/Scene-v0", scene=FOLDER, config=...)` makes it (`config` as `HighwayEnv` takes it;
+    the scene gives the road: its lanes, and its speed limit, `road_limit_config`, as the commands ask of a
+    configuration)."""
 
     def __init__(self, config: Config | Mapping[str, Any] | str | Path | None = None, scene: Path | Scene | None = None,
                  reactive: bool = False, render_mode: str | None = None, transport: str = "auto",
-                 types: VehicleTypes = NO_TYPES, split: str = "train", lead_s: float = 5.0,
+                 types: VehicleTypes | None = None, split: str = "train", lead_s: float = 5.0,
                  zone_m: float = 0.0, gui_delay_ms: float = 100.0) -> None:
         if scene is None:
             raise TypeError("SceneEnv needs a scene: gymnasium.make(SCENE_ENV_ID, scene=FOLDER)")
@@ -125,7 +139,9 @@ class SceneEnv(HighwayEnv):
         self.frames = SceneFrames(self.scene.tracks, self.scene.meta.frame_rate_hz)
         self.road = scene_road(self.scene.network)
         self.reactive = reactive
-        config = scene_config(Config.coerce(config), self.scene, self.road)
+        config = road_limit_config(scene_config(Config.coerce(config), self.scene, self.road), self.road)
+        if types is None:
+            types = reactive_types(self.scene, config.scenario.step_length_s).types if reactive else NO_TYPES
         seats = SeatDraw(self.scene, split, config.env.max_episode_s, lead_s, zone_m, config.scenario.step_length_s)
         super().__init__(config, render_mode=render_mode, transport=transport, gui_delay_ms=gui_delay_ms,
                          start=SeatStart(self.scene, self.frames, self.road, reactive, seats, types))

@@ -63,7 +63,7 @@ def test_the_seats_history_is_the_recorded_lead_in(drivers_scene):
         block = observation[-9:]
         for k in (1, 2, 3):
             row = track.loc[min(track.index, key=lambda t: abs(t - (start_s - k)))]
-            assert block[3 * (k - 1)] == pytest.approx(row["speed_mps"] / config.env.v_max_mps, abs=1e-5)
+            assert block[3 * (k - 1)] == pytest.approx(row["speed_mps"] / env.config.env.v_max_mps, abs=1e-5)
             assert block[3 * (k - 1) + 1] == pytest.approx(row["acceleration_mps2"] / 9.0, abs=1e-5)
     finally:
         env.close()

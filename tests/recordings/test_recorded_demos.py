@@ -195,3 +195,16 @@ def test_export_minari_and_step_signal_refuse_recorded_demonstrations_in_one_sen
     assert result.exit_code == 1 and "a recorded driver cannot be asked" in result.output, result.output
     assert "Traceback" not in result.output and result.output.count("\n") == 1
     assert sorted(tmp_path.iterdir()) == before
+
+
+@pytest.mark.parametrize("damaged", ["tracks.parquet", "scene.json"])
+def test_a_damaged_scene_file_is_one_sentence_naming_it_exit_1(tmp_path, damaged):
+    """A scene file that is there but cannot be read is damaged data (exit 1), not a usage error (a missing folder,
+    above, is exit 2)."""
+    two_car_scene(tmp_path / "scene", lanes=3)
+    path = tmp_path / "scene" / damaged
+    path.write_bytes(path.read_bytes()[: len(path.read_bytes()) // 2])
+    result = invoke("recorded-demos", str(tmp_path / "scene"), "--set", "scenario.lanes=3", "--out",
+                    str(tmp_path / "d.parquet"))
+    assert result.exit_code == 1 and damaged in result.output and "Traceback" not in result.output, result.output
+    assert not (tmp_path / "d.parquet").exists()

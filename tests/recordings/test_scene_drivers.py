@@ -117,8 +117,8 @@ def imported(tmp_path, files) -> None:
 
 def test_an_fcd_scene_keeps_each_vehicles_vtype_and_the_definitions_given(tmp_path):
     """import-recording --vtypes keeps the definitions of the types the recording names; a type it does not define
-    (lorry) is said by the reactive mode's choice, which the calibrated IDM (or here, with nothing to fit, SUMO's
-    default) then drives."""
+    (lorry) is said by the reactive mode's choice, which the IDM calibrated on the train split then drives (here,
+    with no leader to fit its gap terms, SUMO's decel, tau and minGap with what the tracks show)."""
     result = CliRunner().invoke(cli, ["import-recording", *fcd_scene_files(tmp_path), "--vtypes",
                                       str(tmp_path / "types.rou.xml"), "--out", str(tmp_path / "scene")])
     assert result.exit_code == 0, result.output
@@ -128,7 +128,7 @@ def test_an_fcd_scene_keeps_each_vehicles_vtype_and_the_definitions_given(tmp_pa
     assert str((tmp_path / "types.rou.xml").resolve()) in scene.meta.sources
     found = reactive_types(scene, 0.1)
     assert found.recorded == 2 and found.calibrated == 1 and "lorry" in found.note
-    assert found.types.of_vehicle == {"a": "car_calm", "b": "car_calm"}
+    assert found.types.of_vehicle == {"a": "car_calm", "b": "car_calm", "t": REACTIVE_IDM_TYPE}
 
 
 @pytest.mark.parametrize("case", ["not fcd", "no vtype", "not xml"])
@@ -156,7 +156,7 @@ def test_a_recorded_vtype_named_as_a_built_in_type_drives_the_reactive_vehicles(
         (tmp_path / name).write_text((tmp_path / name).read_text().replace("car_calm", "car"))
     imported(tmp_path, files)
     found = reactive_types(read_scene(tmp_path / "scene"), 0.1)
-    assert found.types.of_vehicle == {"a": "car", "b": "car"}
+    assert found.types.of_vehicle == {"a": "car", "b": "car", "t": REACTIVE_IDM_TYPE}
     reactive = types_on_road(tmp_path / "scene", found.types, reactive=True)
     cars = {other: drove for other, drove in reactive.items() if other in "ab"}
     assert cars and all(drove == ("car", pytest.approx(1.7)) for drove in cars.values()), reactive
@@ -227,7 +227,7 @@ def test_a_recorded_vtype_named_as_one_of_the_projects_own_drives_under_another_
     """An FCD recording whose vType is named as a type the scene's simulation defines itself (the ego's, SUMO's driver
     in a seat, the calibrated IDM's, SUMO's default): SUMO refused two types "ego", or the recorded one took over the
     vehicles of the project's (SUMO's default drove every vehicle without a type by the recorded tau). Now it drives
-    under another name, said in the note, and a vehicle without a definition drives SUMO's default."""
+    under another name, said in the note, and a vehicle without a definition drives the calibrated IDM."""
     files = fcd_scene_files(tmp_path)
     for file in ("fcd.xml", "types.rou.xml"):
         (tmp_path / file).write_text((tmp_path / file).read_text().replace("car_calm", name))
@@ -235,10 +235,10 @@ def test_a_recorded_vtype_named_as_one_of_the_projects_own_drives_under_another_
     scene = read_scene(tmp_path / "scene")
     assert scene.meta.vehicle_types["a"] == name  # the scene stays true to the recording
     found = reactive_types(scene, 0.1)
-    assert found.types.of_vehicle == {"a": drives_as, "b": drives_as}
+    assert found.types.of_vehicle == {"a": drives_as, "b": drives_as, "t": REACTIVE_IDM_TYPE}
     assert (f"{name} as {drives_as}" in found.note) == (name != drives_as)
     reactive = types_on_road(tmp_path / "scene", found.types, reactive=True)
-    assert reactive["b"] == (drives_as, pytest.approx(1.7)) and reactive["t"] == (DEFAULT_TYPE, pytest.approx(1.0))
+    assert reactive["b"] == (drives_as, pytest.approx(1.7)) and reactive["t"][0] == REACTIVE_IDM_TYPE
 
 
 def test_a_renamed_recorded_vtype_takes_a_name_no_other_type_has():

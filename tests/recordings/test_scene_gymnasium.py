@@ -10,7 +10,10 @@ import pytest
 from gymnasium.utils.env_checker import check_env
 
 import sumo_rail
+from sumo_rail.config import Config
 from sumo_rail.recordings.scene import read_scene
+from sumo_rail.recordings.scene_drivers import reactive_types
+from sumo_rail.recordings.scene_observations import scene_road
 from sumo_rail.recordings.seats import choose_seats
 
 CONFIG = {"observation": {"lane_block": 1}, "env": {"max_episode_s": 8.0}, "actions": {"interface": "acceleration"}}
@@ -106,3 +109,21 @@ def test_over_traci_an_ego_gone_in_a_collision_leaves_no_sumo_error_on_the_termi
     finally:
         env.close()
     assert "collision" in endings and "Error" not in capfd.readouterr().err
+
+
+def test_the_scene_env_drives_at_its_roads_limit_and_its_reactive_vehicles_as_evaluate_scene_does(drivers_scene):
+    """The env takes the scene's road as it takes its lanes: a configuration below the road's speed limit (the
+    defaults' 33.33 m/s on a 44.44 m/s road) drives at that limit, with its top set-point not below it, as the
+    commands require; and reactive, by default its vehicles drive what evaluate-scene gives them (their recorded
+    vTypes, else the IDM calibrated on the train split), not SUMO's default Krauss."""
+    scene = read_scene(drivers_scene)
+    limit = scene_road(scene.network).speed_limit_mps
+    assert limit > Config().scenario.speed_limit_mps + 1.0  # the case: a road faster than the defaults
+    env = gymnasium.make(sumo_rail.SCENE_ENV_ID, scene=drivers_scene, reactive=True)
+    try:
+        config = env.unwrapped.config
+        assert config.scenario.speed_limit_mps == limit and config.env.v_max_mps >= limit
+        expected = reactive_types(scene, config.scenario.step_length_s).types
+        assert env.unwrapped.core.start.types == expected and expected.of_vehicle
+    finally:
+        env.close()
