@@ -18,9 +18,10 @@
 - training against the log (`--study log`, experiments/specs/human_likeness_log.toml): BC and `dagger --expert log`
   (runs named log_tT_sSEED: teacher horizon T s) against every baseline found (keep, SUMO's IDM, the calibrated IDM)
   and against BC, with the same distributions, floor and phase tables; RAIL in recorded seats
-  (experiments/specs/human_likeness_rail_seats.toml, runs named rail_seats_aSTEP_sSEED) the same, and against
-  training against the log too. Files read as one as above (RAIL's evaluation beside the log study's, on the same
-  seats).
+  (experiments/specs/human_likeness_rail_seats.toml, runs named rail_seats_aSTEP_sSEED) and GAIL in recorded seats
+  (experiments/specs/human_likeness_gail_seats.toml, runs named gail_seats_lRATE_sSEED) the same, and against
+  training against the log too. Files read as one as above (RAIL's or GAIL's evaluation beside the log study's, on
+  the same seats).
 
 `--intervals hierarchical` gives the track tables' intervals from one bootstrap of training seeds and seats
 (`statistics.hierarchical_interval`) instead of the committed tables' t factor on the seeds.
@@ -62,6 +63,11 @@ OTHER_READING = re.compile(r", (sampled( at [0-9.]+)?|expected|median)$")
 RAIL_SEATS_RUN = re.compile(r"rail_seats_a(\d+)_s(\d+)/policy_latest")
 """RAIL in recorded seats (experiments/specs/human_likeness_rail_seats.toml): rail_seats_aSTEP_sSEED, its step size
 0.STEP."""
+GAIL_SEATS_RUN = re.compile(r"gail_seats_l(\d+)_s(\d+)/policy_latest")
+"""GAIL in recorded seats (experiments/specs/human_likeness_gail_seats.toml): gail_seats_lRATE_sSEED, PPO's learning
+rate 0.RATE."""
+IN_SEATS = {"RAIL in seats, step": RAIL_SEATS_RUN, "GAIL in seats, learning rate": GAIL_SEATS_RUN}
+"""The learners trained in recorded seats, each named by its one setting, and their runs' names."""
 CALIBRATED = "IDM calibrated on the train split"
 ENTRY_M = 300.0
 """A seat that begins within this distance of the road's entry [m] is in the entering phase."""
@@ -87,15 +93,16 @@ def acceleration_methods(policies: set[str]) -> dict[str, list[str]]:
 def log_methods(policies: set[str]) -> dict[str, list[str]]:
     """The baselines found in `policies` (constant speed, SUMO's IDM, the calibrated IDM), BC (the first teacher's
     runs' policy_bc: BC does not depend on the teacher) and training against the log for each teacher horizon, each
-    for every history the runs show."""
+    for every history the runs show, and RAIL and GAIL in recorded seats for each of their settings (`IN_SEATS`)."""
     runs: dict[tuple[str, int, int], list[tuple[int, str]]] = {}
-    rail: dict[str, list[tuple[int, str]]] = {}
+    in_seats: dict[tuple[str, str], list[tuple[int, str]]] = {}
     for policy in policies:
         if found := LOG_RUN.fullmatch(policy):
             kind = found[4] + (f", {found[5]}" if found[5] else "")
             runs.setdefault((kind, int(found[1]), int(found[2] or 0)), []).append((int(found[3]), policy))
-        elif found := RAIL_SEATS_RUN.fullmatch(policy):
-            rail.setdefault(found[1], []).append((int(found[2]), policy))
+        for learner, pattern in IN_SEATS.items():
+            if found := pattern.fullmatch(policy):
+                in_seats.setdefault((learner, found[1]), []).append((int(found[2]), policy))
     methods = {name: [driver] for name, driver in (("constant speed (keep)", "keep"), (IDM, "sumo-idm"),
                                                    (CALIBRATED, "sumo-idm-calibrated")) if driver in policies}
 
@@ -110,9 +117,32 @@ def log_methods(policies: set[str]) -> dict[str, list[str]]:
                            if kind.startswith("latest") and (horizon, shown) == (teacher, history)):
             methods[f"against the log, teacher {teacher} s{seen(history)}{kind.removeprefix('latest')}"] = [
                 name for _, name in sorted(runs[(kind, teacher, history)])]
-    for step, seeds in sorted(rail.items()):
-        methods[f"RAIL in seats, step {float('0.' + step):g}"] = [name for _, name in sorted(seeds)]
+    for (learner, setting), seeds in sorted(in_seats.items()):
+        methods[f"{learner} {float('0.' + setting):g}"] = [name for _, name in sorted(seeds)]
     return methods
+
+
+def log_study(policies: set[str]) -> tuple[dict[str, list[str]], list[tuple[str, str]], str]:
+    """`log_methods` of `policies`, the pairs the log study's tables compare (every learner against every baseline
+    and BC; a learner shown a history against itself shown none; another reading against argmax; RAIL and GAIL in
+    seats against training against the log) and the
+    learners' description."""
+    methods = log_methods(policies)
+    learners = [method for method in methods if method.startswith(("BC", "against the log", "RAIL", "GAIL"))]
+    baselines = [method for method in methods if method not in learners]
+    differences = [(learner, baseline) for learner in learners for baseline in baselines]
+    differences += [(learner, "BC") for learner in learners if learner != "BC" and "BC" in methods]
+    differences += [(learner, without) for learner in learners
+                    if (without := HISTORY.sub("", learner)) != learner and without in methods]
+    differences += [(learner, learner.rsplit(", ", 1)[0]) for learner in learners if OTHER_READING.search(learner)]
+    differences += [(seated, log) for seated in learners if seated.startswith(("RAIL", "GAIL"))
+                    for log in learners if log.startswith("against the log")]
+    differences = list(dict.fromkeys(differences))
+    kinds = [kind for kind, prefix in (("BC", "BC"), ("training against the log", "against the log"),
+                                       ("RAIL in seats", "RAIL"), ("GAIL in seats", "GAIL"))
+             if any(method.startswith(prefix) for method in learners)]
+    named = f"{', '.join(kinds[:-1])} and {kinds[-1]}" if len(kinds) > 1 else kinds[0]
+    return methods, differences, f"{named} (acceleration interface)"
 
 
 def read_episodes(paths: tuple[Path, ...]) -> tuple[pd.DataFrame, pd.DataFrame]:
@@ -188,22 +218,7 @@ def main(paths: tuple[Path, ...], study: str, intervals: str) -> None:
         differences = [(learner, baseline) for learner in learners for baseline in (IDM, "constant speed (keep)")]
         pooled = "BC (acceleration interface)"
     else:
-        methods = log_methods(set(metrics["policy"]))
-        learners = [method for method in methods if method.startswith(("BC", "against the log", "RAIL"))]
-        baselines = [method for method in methods if method not in learners]
-        differences = [(learner, baseline) for learner in learners for baseline in baselines]
-        differences += [(learner, "BC") for learner in learners if learner != "BC" and "BC" in methods]
-        differences += [(learner, without) for learner in learners
-                        if (without := HISTORY.sub("", learner)) != learner and without in methods]
-        differences += [(learner, learner.rsplit(", ", 1)[0]) for learner in learners
-                        if OTHER_READING.search(learner)]
-        differences += [(rail, log) for rail in learners if rail.startswith("RAIL")
-                        for log in learners if log.startswith("against the log")]
-        differences = list(dict.fromkeys(differences))
-        kinds = [kind for kind, prefix in (("BC", "BC"), ("training against the log", "against the log"),
-                                           ("RAIL in seats", "RAIL")) if any(m.startswith(prefix) for m in learners)]
-        named = f"{', '.join(kinds[:-1])} and {kinds[-1]}" if len(kinds) > 1 else kinds[0]
-        pooled = f"{named} (acceleration interface)"
+        methods, differences, pooled = log_study(set(metrics["policy"]))
     print(f"{seats} held-out cars' seats in {metrics['scene'].nunique()} scenes of SUMO's drivers, "
           f"{metrics['simulated_s'].max():g} s each; {pooled} pooled over training seeds "
           f"{', '.join(map(str, SEEDS))}; differences paired by seat and training seed (* : the interval excludes 0)\n")

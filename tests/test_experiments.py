@@ -311,3 +311,22 @@ def test_the_log_study_names_each_run_by_its_teacher_history_and_reading():
     assert methods["BC, history 3 s"] == [f"log_t2_h3_s{seed}/policy_bc" for seed in seeds]
     assert methods["against the log, teacher 2 s, sampled at 0.6"] == [
         f"log_t2_s{seed}/policy_latest (sampled at 0.6)" for seed in seeds]
+
+
+def test_the_log_study_pairs_rail_and_gail_in_seats_with_bc_the_baselines_and_training_against_the_log():
+    """GAIL's runs in recorded seats (gail_seats_lRATE_sSEED) are a learner of the log study as RAIL's are: pooled
+    over their seeds in order, each setting apart, and paired with BC, every baseline and training against the log."""
+    from human_likeness_closed_loop import CALIBRATED, log_study
+
+    seeds = (2, 0, 1)
+    policies = {"keep", "sumo-idm-calibrated", *(f"log_t2_s{seed}/policy_{kind}" for seed in seeds
+                                                 for kind in ("bc", "latest")),
+                *(f"{run}_s{seed}/policy_latest" for run in ("rail_seats_a005", "gail_seats_l0003", "gail_seats_l0001")
+                  for seed in seeds)}
+    methods, differences, pooled = log_study(policies)
+    gail, rail, log = "GAIL in seats, learning rate 0.0003", "RAIL in seats, step 0.005", "against the log, teacher 2 s"
+    assert methods[gail] == [f"gail_seats_l0003_s{seed}/policy_latest" for seed in sorted(seeds)]
+    assert methods["GAIL in seats, learning rate 0.0001"][0] == "gail_seats_l0001_s0/policy_latest"
+    for learner in (gail, rail):
+        assert {(learner, other) for other in ("BC", CALIBRATED, "constant speed (keep)", log)} <= set(differences)
+    assert "GAIL in seats" in pooled and "RAIL in seats" in pooled

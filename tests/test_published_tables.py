@@ -124,6 +124,12 @@ NOT_REGENERABLE: dict[str, str] = {
                                "\"The driver trained against the log, sampled at a temperature\", has the command)",
     "log_temperature/road2_test.md": "as log_temperature/test.md (road2_test.parquet beside "
                                      "log_study/road2_test.parquet)",
+    "gail_seats/validation.md": "its evaluations (results/human_likeness/gail_seats_validation, 2.4 MB with their "
+                                "tracks) are not committed; the grid spec human_likeness_gail_seats.toml makes them "
+                                "again",
+    "gail_seats/test.md": "its table takes minutes to make from the committed episodes (test.parquet beside "
+                          "log_study/log_test.parquet) and this suite is at its time limit (docs/results.md, \"GAIL in "
+                          "recorded seats against BC\", has the command)",
     "fidelity_demo/table.txt": "evaluate's printout of the simulated evaluation, not a table script's output",
     "generalisation/previous_5b09e52/table.md": "an earlier run's table as published then; its evaluations are not "
                                                 "committed",
