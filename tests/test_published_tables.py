@@ -130,6 +130,12 @@ NOT_REGENERABLE: dict[str, str] = {
     "gail_seats/test.md": "its table takes minutes to make from the committed episodes (test.parquet beside "
                           "log_study/log_test.parquet) and this suite is at its time limit (docs/results.md, \"GAIL in "
                           "recorded seats against BC\", has the command)",
+    "log_history/validation.md": "its evaluations (results/human_likeness/history_validation, 2.5 MB with their "
+                                 "tracks, read beside log_validation's) are not committed; the grid spec "
+                                 "human_likeness_log_history.toml makes them again",
+    "log_history/test.md": "its table takes minutes to make from the committed episodes (test.parquet beside "
+                           "log_study/log_test.parquet) and this suite is at its time limit (docs/results.md, \"What "
+                           "the seated driver's past adds\", has the command)",
     "fidelity_demo/table.txt": "evaluate's printout of the simulated evaluation, not a table script's output",
     "generalisation/previous_5b09e52/table.md": "an earlier run's table as published then; its evaluations are not "
                                                 "committed",
