@@ -110,14 +110,18 @@ def read_csv(path: Path, what: str, **options: Any) -> pd.DataFrame:
 
 def check_numbers(table: pd.DataFrame, columns: tuple[str, ...], path: object, id_column: str,
                   frame_column: str) -> None:
-    """RecordingDataError naming the column, vehicle and frame of the first value of `columns` that is not a number."""
+    """RecordingDataError naming the column, vehicle and frame of the first value of `columns` that is not a number
+    (its data row, counted from 1, where the row has no vehicle id or frame either)."""
     for column in columns:
         values = pd.to_numeric(table[column], errors="coerce")
         bad = values.isna().to_numpy()
         if bad.any():
             first = int(np.argmax(bad))
-            raise RecordingDataError(f"{path}: column {column} of vehicle {plain(table[id_column].iat[first])} at "
-                                     f"frame {plain(table[frame_column].iat[first])} is missing or not a number")
+            vehicle, frame = (table[name].iat[first] for name in (id_column, frame_column))
+            named = pd.notna(pd.to_numeric(pd.Series([vehicle, frame]), errors="coerce")).all()
+            where = (f"of vehicle {plain(vehicle)} at frame {plain(frame)}" if named
+                     else f"in data row {first + 1} (a row without a vehicle id or frame)")
+            raise RecordingDataError(f"{path}: column {column} {where} is missing or not a number")
         if values.dtype != table[column].dtype:
             table[column] = values
 

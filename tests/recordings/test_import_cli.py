@@ -90,6 +90,8 @@ BREAKAGES = {
     "lane": (lambda rows: [bad_value("laneId", 9)(row) for row in rows],
              "lane 9 of vehicle 3 at frame 70 is not a lane of the lower direction's markings"),
     "empty": (lambda rows: [], "holds no vehicle; the recording is empty"),
+    "blank row": (lambda rows: [*rows[:3], dict.fromkeys(rows[0], float("nan")), *rows[3:]],
+                  "in data row 4 (a row without a vehicle id or frame) is missing or not a number"),
 }
 
 
