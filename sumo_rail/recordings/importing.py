@@ -24,7 +24,7 @@ from sumo_rail.recordings.formats import FORMATS, ReadOptions, importable, takin
 from sumo_rail.recordings.road import read_lanes
 from sumo_rail.recordings.scene import SPLITS, SceneMeta, check_scene_output, split_table, write_scene_folder
 from sumo_rail.recordings.scene_observations import scene_road
-from sumo_rail.recordings.tracks import Recording, RecordingDataError, RecordingUsageError, kept_tracks
+from sumo_rail.recordings.tracks import MAX_LENGTH_M, Recording, RecordingDataError, RecordingUsageError, kept_tracks
 from sumo_rail.sim.vehicle_types import check_vtypes, read_vtypes
 
 
@@ -130,6 +130,11 @@ def vtype_definitions(path: Path, network: Path) -> dict[str, dict[str, str]]:
         check_vtypes(network, found)
     except ConfigError as error:
         raise RecordingUsageError(f"--vtypes {path}: {error}") from error
+    for type_id, definition in found.items():
+        length_m = float(definition.get("length", 0.0) or 0.0)
+        if length_m > MAX_LENGTH_M:
+            raise RecordingUsageError(f"--vtypes {path}: vType {type_id} has length {length_m:g} m, longer than "
+                                      f"{MAX_LENGTH_M:g} m (the longest vehicle a recording may hold)")
     return found
 
 

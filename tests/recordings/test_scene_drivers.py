@@ -131,19 +131,21 @@ def test_an_fcd_scene_keeps_each_vehicles_vtype_and_the_definitions_given(tmp_pa
     assert found.types.of_vehicle == {"a": "car_calm", "b": "car_calm", "t": REACTIVE_IDM_TYPE}
 
 
-@pytest.mark.parametrize("case", ["not fcd", "no vtype", "not xml"])
+@pytest.mark.parametrize("case", ["not fcd", "no vtype", "not xml", "too long"])
 def test_vtypes_refused_in_one_sentence(tmp_path, case):
     files = fcd_scene_files(tmp_path)
     (tmp_path / "empty.xml").write_text("<routes/>")
     (tmp_path / "broken.xml").write_text("<routes><vType")
+    (tmp_path / "long.xml").write_text('<routes><vType id="car_calm" length="40"/></routes>')
     given = {"not fcd": tmp_path / "types.rou.xml", "no vtype": tmp_path / "empty.xml",
-             "not xml": tmp_path / "broken.xml"}[case]
+             "not xml": tmp_path / "broken.xml", "too long": tmp_path / "long.xml"}[case]
     if case == "not fcd":
         files = ["--format", "ngsim", str(tmp_path / "fcd.xml")]
     result = CliRunner().invoke(cli, ["import-recording", *files, "--vtypes", str(given), "--out",
                                       str(tmp_path / "scene")])
     said = {"not fcd": "--vtypes applies to --format fcd only", "no vtype": f"--vtypes {given} defines no vType",
-            "not xml": f"--vtypes {given} is not a readable route or additional file"}[case]
+            "not xml": f"--vtypes {given} is not a readable route or additional file",
+            "too long": f"--vtypes {given}: vType car_calm has length 40 m, longer than 30 m"}[case]
     assert result.exit_code == 2 and said in result.output and "Traceback" not in result.output, result.output
     assert not (tmp_path / "scene").exists()
 
