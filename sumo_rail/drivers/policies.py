@@ -115,8 +115,9 @@ class Policy:
     def probabilities(self, observations: np.ndarray, temperature: float = 1.0) -> np.ndarray:
         """Softmax of the logits divided by `temperature`, for one observation (shape (a,)) or a batch (shape
         (B, a))."""
-        logits = self.logits(observations) / temperature
-        exponentials = np.exp(logits - logits.max(axis=-1, keepdims=True))
+        logits = self.logits(observations)
+        with np.errstate(over="ignore"):  # the maximum first (logits / T overflow at a tiny T): the others go to -inf
+            exponentials = np.exp((logits - logits.max(axis=-1, keepdims=True)) / temperature)
         return exponentials / exponentials.sum(axis=-1, keepdims=True)
 
     def sample(self, observation: np.ndarray, rng: np.random.Generator, temperature: float = 1.0) -> int:

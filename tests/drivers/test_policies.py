@@ -119,3 +119,15 @@ def test_sampling_draws_from_the_softmax_of_the_logits():
     draws = [[flat.sample(observation, generator) for _ in range(50)]
              for generator in (np.random.default_rng(5), np.random.default_rng(5), np.random.default_rng(6))]
     assert first == [2, 2, 2] and draws[0] == draws[1] != draws[2]
+
+
+@pytest.mark.parametrize("temperature", [1e-6, 1e-320])
+def test_sampling_at_a_tiny_temperature_draws_the_argmax(temperature):
+    """Any temperature the setting allows (above 0): no overflow of logits / T into NaN probabilities."""
+    policy, observation = policy_with_biases([1, 3, 3.5, 0, -2]), np.zeros(N)
+    with np.errstate(invalid="raise"):  # no inf - inf
+        probabilities = policy.probabilities(observation, temperature)
+    np.testing.assert_array_equal(probabilities, [0, 0, 1, 0, 0])
+    assert policy.sample(observation, np.random.default_rng(0), temperature) == policy.act(observation) == 2
+    tied = policy_with_biases([2, 2, 0, 0, 0]).probabilities(np.zeros((2, N)), temperature)
+    np.testing.assert_array_equal(tied, [[0.5, 0.5, 0, 0, 0]] * 2)
