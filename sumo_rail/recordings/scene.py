@@ -201,6 +201,10 @@ class Scene:
         return column
 
 
+_JSON_KINDS: dict[str, type | tuple[type, ...]] = {"str": str, "float": (int, float), "int": int}
+"""The JSON value type of a SceneMeta field by its annotation (the others: an object)."""
+
+
 def read_scene(folder: Path) -> Scene:
     """The scene folder `folder`; RecordingUsageError naming a missing file, or the network (the user's, for FCD)
     whose content has changed since the scene was imported on it (scene.json holds its sha256); RecordingDataError
@@ -212,6 +216,10 @@ def read_scene(folder: Path) -> Scene:
         raise RecordingUsageError(f"{folder} is not a readable scene folder ({error})") from error
     try:
         meta = SceneMeta(**json.loads((folder / "scene.json").read_text()))
+        for entry in dataclasses.fields(SceneMeta):  # the types its readers rely on (a mapping's .get, a number)
+            kind = _JSON_KINDS.get(str(entry.type), dict)
+            if not isinstance(value := getattr(meta, entry.name), kind) or isinstance(value, bool):
+                raise TypeError(f"{entry.name} is {json.dumps(value)}, not a {str(entry.type).split('[')[0]}")
         network = Path(meta.network) if Path(meta.network).is_absolute() else folder / meta.network
     except (json.JSONDecodeError, TypeError, KeyError, UnicodeDecodeError) as error:
         raise RecordingDataError(f"the scene file {folder / 'scene.json'} is damaged ({error})") from error

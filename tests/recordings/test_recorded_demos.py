@@ -3,6 +3,7 @@ observation computed from the scene, provenance naming the scene; train and gail
 
 from __future__ import annotations
 
+import json
 import subprocess
 
 import numpy as np
@@ -197,13 +198,17 @@ def test_export_minari_and_step_signal_refuse_recorded_demonstrations_in_one_sen
     assert sorted(tmp_path.iterdir()) == before
 
 
-@pytest.mark.parametrize("damaged", ["tracks.parquet", "scene.json"])
-def test_a_damaged_scene_file_is_one_sentence_naming_it_exit_1(tmp_path, damaged):
+@pytest.mark.parametrize(("damaged", "field"), [("tracks.parquet", None), ("scene.json", None),
+                                               ("scene.json", "sources"), ("scene.json", "frame_rate_hz")])
+def test_a_damaged_scene_file_is_one_sentence_naming_it_exit_1(tmp_path, damaged, field):
     """A scene file that is there but cannot be read is damaged data (exit 1), not a usage error (a missing folder,
-    above, is exit 2)."""
+    above, is exit 2): truncated, or scene.json with a `field` of the wrong type."""
     two_car_scene(tmp_path / "scene", lanes=3)
     path = tmp_path / "scene" / damaged
-    path.write_bytes(path.read_bytes()[: len(path.read_bytes()) // 2])
+    if field is None:
+        path.write_bytes(path.read_bytes()[: len(path.read_bytes()) // 2])
+    else:
+        path.write_text(json.dumps({**json.loads(path.read_text()), field: ["a list"]}))
     result = invoke("recorded-demos", str(tmp_path / "scene"), "--set", "scenario.lanes=3", "--out",
                     str(tmp_path / "d.parquet"))
     assert result.exit_code == 1 and damaged in result.output and "Traceback" not in result.output, result.output
