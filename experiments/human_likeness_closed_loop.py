@@ -192,9 +192,9 @@ def phase_tables(metrics: pd.DataFrame, tracks: pd.DataFrame, methods: dict[str,
     parts = []
     for entering, label in ((True, f"entering (the seat within {ENTRY_M:g} m of the road's entry)"),
                             (False, "established (farther in)")):
-        parts.append(f"\n{label}: {int((seats == entering).sum())} of {len(seats)} seats\n")
-        parts.append(track_table(phased[phased["entering"] == entering], methods, differences, PHASE_MEASURES,
-                                 hierarchical))
+        heading = f"\n{label}: {int((seats == entering).sum())} of {len(seats)} seats"
+        table = track_table(phased[phased["entering"] == entering], methods, differences, PHASE_MEASURES, hierarchical)
+        parts.append(f"{heading}\n\n{table}" if table else heading)  # no table of a phase without seats
     return "\n".join(parts)
 
 

@@ -82,10 +82,12 @@ def track_table(metrics: pd.DataFrame, methods: Mapping[str, Sequence[str]],
                 differences: Sequence[tuple[str, str]] = (), measures: Mapping[str, str] = MEASURES,
                 hierarchical: bool = False) -> str:
     """The `measures` (heading -> a column of `metrics`, or one `samples` makes) of every method in every mode, then
-    each (method, reference) difference; a measure no episode defines is left out; with `hierarchical` the intervals
-    resample training seeds and seats together (`statistics.hierarchical_interval`) instead of `seeded_interval`'s t
-    factor on the seeds."""
+    each (method, reference) difference; a measure no episode defines is left out, and the table is empty ("") when
+    none is (no episodes); with `hierarchical` the intervals resample training seeds and seats together
+    (`statistics.hierarchical_interval`) instead of `seeded_interval`'s t factor on the seeds."""
     measures = defined_measures(metrics, measures)
+    if not measures:  # a heading without columns is no table
+        return ""
     pooled = _hierarchical if hierarchical else seeded_interval
     lines = ["| driver | mode | " + " | ".join(measures) + " |", "|---|---|" + "---|" * len(measures)]
     modes = sorted(metrics["mode"].unique())

@@ -90,3 +90,10 @@ def test_a_measure_no_episode_defines_is_left_out_of_the_table():
     assert "position error 15 s [m]" in heading and "position error 10 s [m]" in heading
     assert "position error 20 s [m]" not in heading and "position error 2 s [m]" not in heading
     assert "speed RMSE" not in heading and "driving score" in heading
+
+
+def test_a_table_of_no_episodes_is_empty_not_a_heading_without_columns():
+    """The log study's phase table of a phase no seat is in (0 of 180 entering seats) printed a malformed table."""
+    metrics = seat_rows(np.full(16, 10.0), "bc")
+    assert track_table(metrics.iloc[:0], {"BC": ["bc"]}, [("BC", "BC")]) == ""
+    assert track_table(metrics, {"BC": ["bc"]}).splitlines()[1].count("---") > 2
