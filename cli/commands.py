@@ -96,8 +96,9 @@ def record_expert(config: Config, episodes: int, seed: int, workers: int, backen
               metavar="expert[:STYLE]|keep|random|PATH|sampled:PATH",
               help="Driver to evaluate (repeatable: drivers side by side on the same seeds): the expert (of a style), "
                    "the constant set-point, uniformly random actions, a policy file by the argmax of its logits, or "
-                   "one drawing each action from their softmax (named 'NAME (sampled)'), with a generator seeded by "
-                   "the episode's seed.")
+                   "one drawing each action from their softmax (named 'NAME (sampled)'; at "
+                   "actions.sampling_temperature T below 1, the softmax of the logits over T, 'NAME (sampled at T)'), "
+                   "with a generator seeded by the episode's seed.")
 @expert_option("The expert: the driver --policy expert, and who is asked at every decision what it would do, for "
                "every driver. Without it each driver is compared with the expert its policy file records (the one "
                "whose demonstrations trained it), others with the normal style; the table names it per driver.",
