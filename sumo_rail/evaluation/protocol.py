@@ -1,11 +1,10 @@
 """One evaluation protocol for generated episodes and recorded seats. A task (`EvaluationTask`) is a start (where the
 episode begins: a warm state of the generated road, `RoadStart`, or a recorded driver's seat,
 `scene_evaluation.RecordedSeatStart`), a driver (who may ask the env core for a controller of its own:
-`controller_of`) and observers (recipes of what watches each decision, an observer of the env core
-(`sumo_rail.sim.observers`), and what it records); it runs on any backend
-(`sumo_rail.runners.backends`, `ray_backend`). The measures are pure functions of the recorded rows, and
-`write_evaluation` writes any evaluation's two tables (one row per episode, one per decision beside it) with
-provenance, each atomically; `parse_driver` reads a --policy word for both commands.
+`controller_of`) and observers (recipes of observers of the env core's decisions, `sumo_rail.sim.observers`, with
+what each records); it runs on any backend (`sumo_rail.runners.backends`, `ray_backend`). The measures are pure
+functions of the recorded rows, and `write_evaluation` writes any evaluation's two tables (one row per episode, one
+per decision beside it) with provenance, each atomically; `parse_driver` reads a --policy word for both commands.
 """
 
 from __future__ import annotations
