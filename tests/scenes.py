@@ -3,6 +3,7 @@
 import libsumo
 import numpy as np
 
+from sumo_rail.sim.observers import Moment
 from sumo_rail.sim.simulation import EgoState, Neighbours
 from sumo_rail.sim.traffic import TrafficView
 
@@ -19,6 +20,13 @@ def view(others=(), lane=1, speed=25.0, set_point=25.0, lateral=0.0, lanes=5):
                             heading_rad=np.zeros(count), speed_mps=rows[:, 3], lane_position_m=rows[:, 1],
                             length_m=rows[:, 2], width_m=np.full(count, 1.8), lane=rows[:, 0].astype(int))
     return TrafficView(ego, neighbours, set_point, lanes)
+
+
+def decided(traffic, action, info, observation=None):
+    """The decision moment of one ego that chose `action` in `traffic` (and `observation`), the step's `info` (what
+    an observer of decisions is shown, `sumo_rail.sim.observers.Moment`)."""
+    seen = np.zeros(0) if observation is None else observation
+    return Moment(0.0, "decision", dict, {"ego": int(action)}, {"ego": info}, {"ego": (seen, traffic)})
 
 
 def two_vehicle_road(env, other, other_lane, ego_speed, other_speed):

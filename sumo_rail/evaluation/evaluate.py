@@ -15,7 +15,7 @@ import pyarrow as pa
 from sumo_rail.config import Config
 from sumo_rail.drivers.expert import DEFAULT_STYLE
 from sumo_rail.evaluation.driving_score import SCORE_COLUMNS, driving_scores, mean_overspeed, reference_distances
-from sumo_rail.evaluation.fidelity import CONFUSION_COLUMNS, DECISION_FIELDS, RATE_COLUMNS, DecisionProbe
+from sumo_rail.evaluation.fidelity import CONFUSION_COLUMNS, DECISION_FIELDS, RATE_COLUMNS, AgreementObserver
 from sumo_rail.evaluation.protocol import Evaluation, EvaluationTask, RoadStart, Tables, unique_names
 from sumo_rail.evaluation.safety import SAFETY_DECISION_FIELDS, SAFETY_MEASURES, Safety
 from sumo_rail.evaluation.summary import episodes_summary
@@ -45,12 +45,12 @@ DECISION_TYPES: dict[str, pa.DataType] = {**_DECISION_KEYS,
 
 @dataclass(frozen=True)
 class Agreement:
-    """Observes each decision with the reference expert (any driver): the on-policy comparison (`DecisionProbe`)."""
+    """Observes each decision with the reference expert (any driver): the on-policy comparison (`AgreementObserver`)."""
 
     reference: DriverSpec
 
-    def create(self, config: Config, seed: int) -> DecisionProbe:
-        return DecisionProbe(self.reference.create(config, seed), config.actions, self.reference.name)
+    def create(self, config: Config, seed: int) -> AgreementObserver:
+        return AgreementObserver(self.reference.create(config, seed), config.actions, self.reference.name)
 
 
 def _metrics_table(metrics: pd.DataFrame) -> pa.Table:

@@ -1,8 +1,8 @@
 """How a driver's decisions compare with the expert's, asked at every decision of the driver's own episode.
 
 The expert is a pure function of the traffic view, so at each decision of any driver it can be asked what it
-would do in that very traffic without changing what the driver does (on-policy agreement). `DecisionProbe`
-watches an episode and keeps:
+would do in that very traffic without changing what the driver does (on-policy agreement). `AgreementObserver`
+watches an episode's decisions (a decision observer, `sumo_rail.sim.observers`) and keeps:
 - the 5x5 confusion counts (driver action x expert action), from which every agreement measure follows
   (`agreement_counts`): overall agreement, lane-change recall and precision, and agreement split into its
   lateral part (keep lane / left / right) and its longitudinal part (set-point up / down / hold);
@@ -22,7 +22,8 @@ from sumo_rail.action_config import ActionConfig
 from sumo_rail.evaluation.safety import HEADWAY_CAP_S, time_headway
 from sumo_rail.runners.rollout import Driver
 from sumo_rail.sim.actions import Action, paper_action
-from sumo_rail.sim.traffic import TrafficView, lane_gaps
+from sumo_rail.sim.observers import Decision, Moment
+from sumo_rail.sim.traffic import lane_gaps
 
 ACTION_NAMES = tuple(action.name.lower() for action in Action)
 CONFUSION_COLUMNS = tuple(f"confusion_{driver}_{expert}" for driver in ACTION_NAMES for expert in ACTION_NAMES)
@@ -77,11 +78,13 @@ def rates(confusion: np.ndarray) -> dict[str, float]:
             for name, (top, bottom) in RATES.items()}
 
 
-class DecisionProbe:
-    """Watches one episode's decisions (a `sumo_rail.runners.rollout.DecisionProbe`) and asks `reference` (the expert:
-    any driver) at each what it would have done. Under the acceleration interface (`actions`) the driver's action is
-    compared as the paper action it counts as (`sim.actions.paper_action`): its lane change, else the sign of its
-    acceleration, against the expert's."""
+class AgreementObserver:
+    """Watches one episode's decisions (an observer of each reset and decision, `sumo_rail.sim.observers`) and asks
+    `reference` (the expert: any driver) at each what it would have done in what the driver saw. Under the
+    acceleration interface (`actions`) the driver's action is compared as the paper action it counts as
+    (`sim.actions.paper_action`): its lane change, else the sign of its acceleration, against the expert's."""
+
+    every_step = False
 
     def __init__(self, reference: Driver, actions: ActionConfig | None = None, name: str | None = None) -> None:
         self.reference = reference
@@ -92,8 +95,13 @@ class DecisionProbe:
         self.confusion = np.zeros((len(Action), len(Action)), dtype=np.int64)
         self._rows: list[tuple[Any, ...]] = []
 
-    def __call__(self, observation: np.ndarray, traffic: TrafficView, action: int, info: dict[str, Any]) -> None:
-        expert_action = int(self.reference(observation, traffic))
+    def __call__(self, moment: Moment) -> None:
+        for decision in moment.decisions():
+            self._add(decision)
+
+    def _add(self, decision: Decision) -> None:
+        traffic, action, info = decision.traffic, decision.action, decision.info
+        expert_action = int(self.reference(decision.observation, traffic))
         if self._accelerating:
             action = int(paper_action(action, self.actions))
         self.confusion[action, expert_action] += 1

@@ -1,10 +1,10 @@
 """One evaluation protocol for generated episodes and recorded seats. A task (`EvaluationTask`) is a start (where the
 episode begins: a warm state of the generated road, `RoadStart`, or a recorded driver's seat,
 `scene_evaluation.RecordedSeatStart`), a driver (who may ask the env core for a controller of its own:
-`controller_of`) and observers (recipes of what watches each decision and what it records); it runs on any backend
-(`sumo_rail.runners.backends`, `ray_backend`). The measures are pure functions of the recorded rows, and
-`write_evaluation` writes any evaluation's two tables (one row per episode, one per decision beside it) with
-provenance, each atomically; `parse_driver` reads a --policy word for both commands.
+`controller_of`) and observers (recipes of observers of the env core's decisions, `sumo_rail.sim.observers`, with
+what each records); it runs on any backend (`sumo_rail.runners.backends`, `ray_backend`). The measures are pure
+functions of the recorded rows, and `write_evaluation` writes any evaluation's two tables (one row per episode, one
+per decision beside it) with provenance, each atomically; `parse_driver` reads a --policy word for both commands.
 """
 
 from __future__ import annotations
@@ -30,13 +30,12 @@ from sumo_rail.runners.rollout import (
     KeepDriver,
     RandomDriver,
     controller_of,
-    probes_in_turn,
     run_episode,
 )
 from sumo_rail.runners.tables import provenance
 from sumo_rail.runners.video import FrameRecorder, encode_mp4
 from sumo_rail.sim.env import HighwayEnv
-from sumo_rail.sim.traffic import TrafficView
+from sumo_rail.sim.observers import Observer
 
 
 class Start(Protocol):
@@ -47,11 +46,9 @@ class Start(Protocol):
     def options(self) -> dict[str, Any]: ...
 
 
-class EpisodeObserver(Protocol):
-    """Watches one episode's decisions (what the driver saw, its action, the step's info; it only watches) and gives
-    what it recorded: episode columns and per-decision columns."""
-
-    def __call__(self, observation: np.ndarray, traffic: TrafficView, action: int, info: dict[str, Any]) -> None: ...
+class EpisodeObserver(Observer, Protocol):
+    """Watches one episode (an observer of its reset and decisions: `Moment.decisions`, what the driver saw, its
+    action, the step's info; it only watches) and gives what it recorded: episode columns and per-decision columns."""
 
     def columns(self, env: HighwayEnv, metrics: Mapping[str, Any]) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
         """After the episode (its `metrics`, on `env`): (episode columns, one entry per decision in each column)."""
@@ -109,8 +106,11 @@ class EvaluationTask:
         options = {"controller": controller_of(self.driver), **self.start.options()}  # a start may fix the seat's
         driver = self.driver.create(config, self.seed)
         recorder = FrameRecorder(env) if self.video else None
-        with env.watching(recorder) if recorder is not None else contextlib.nullcontext():
-            result = run_episode(env, driver, self.seed, options=options, probe=probes_in_turn(*observers))
+        watched: list[Observer] = [*observers, *([recorder] if recorder is not None else [])]
+        with contextlib.ExitStack() as watching:
+            for observer in watched:
+                watching.enter_context(env.watching(observer))
+            result = run_episode(env, driver, self.seed, options=options)
         metrics, decisions = dict(result.metrics), {}
         for observer in observers:
             episode, per_decision = observer.columns(env, result.metrics)

@@ -23,6 +23,7 @@ from typing import Any
 
 import numpy as np
 
+from sumo_rail.sim.observers import Moment
 from sumo_rail.sim.period_safety import NO_READINGS, READINGS
 from sumo_rail.sim.traffic import TrafficView, lane_gaps
 
@@ -99,9 +100,11 @@ def episode_measures(ttc_s: np.ndarray, headway_s: np.ndarray, invalid_actions: 
             "cut_in_follower_decel_mps2": max(-float(follower_accel.min(initial=np.inf)), 0.0)}
 
 
-class SafetyProbe:
-    """Watches one episode's decisions (a `sumo_rail.runners.rollout.DecisionProbe`) and keeps their safety
-    readings."""
+class SafetyObserver:
+    """Watches one episode's decisions (an observer of each reset and decision, `sumo_rail.sim.observers`) and keeps
+    their safety readings: the traffic each decision was made in, the readings of the period it ran."""
+
+    every_step = False
 
     def __init__(self) -> None:
         self._ttc_s: list[float] = []
@@ -109,12 +112,13 @@ class SafetyProbe:
         self._invalid_actions = 0
         self._readings: dict[str, list[float]] = {name: [] for name in READINGS}
 
-    def __call__(self, observation: np.ndarray, traffic: TrafficView, action: int, info: dict[str, Any]) -> None:
-        self._ttc_s.append(ego_time_to_collision(traffic))
-        self._headway_s.append(ego_time_headway(traffic))
-        self._invalid_actions = int(info["invalid_actions"])
-        for name, values in self._readings.items():  # a collision's last decision has no period readings
-            values.append(info.get(name, NO_READINGS[name]))
+    def __call__(self, moment: Moment) -> None:
+        for decision in moment.decisions():
+            self._ttc_s.append(ego_time_to_collision(decision.traffic))
+            self._headway_s.append(ego_time_headway(decision.traffic))
+            self._invalid_actions = int(decision.info["invalid_actions"])
+            for name, values in self._readings.items():  # a collision's last decision has no period readings
+                values.append(decision.info.get(name, NO_READINGS[name]))
 
     def episode_columns(self) -> dict[str, float]:
         """The episode's SAFETY_MEASURES."""
@@ -135,7 +139,7 @@ class SafetyProbe:
 
 @dataclass(frozen=True)
 class Safety:
-    """Observes each decision's safety readings (`SafetyProbe`): an evaluation's `protocol.ObserverSpec`."""
+    """Observes each decision's safety readings (`SafetyObserver`): an evaluation's `protocol.ObserverSpec`."""
 
-    def create(self, config: object, seed: int) -> SafetyProbe:
-        return SafetyProbe()
+    def create(self, config: object, seed: int) -> SafetyObserver:
+        return SafetyObserver()

@@ -5,7 +5,7 @@ that vehicle's recorded track.
 A seat is a held-out vehicle of the chosen classes (passenger cars by default, trucks too: the ego takes the seat's
 vehicle class, length and width) whose track covers `lead_s` + `horizon_s` [s]; the ego starts
 `lead_s` after the track begins (the car is fully on the road and has moved with its traffic). Per episode: the
-paper's metrics, the safety measures (`safety.SafetyProbe`), the position error against the human's track at 1, 2,
+paper's metrics, the safety measures (`safety.SafetyObserver`), the position error against the human's track at 1, 2,
 5, 10, 15 and 20 s and the RMSE of position and speed over the seat (`human_likeness`), collisions and those the ego
 caused (SUMO names the ego the collider: it ran into the other; a replayed vehicle running into the ego from behind
 is the other's fault), a stop (speed below `STOP_MPS`), the progress relative to the human (distances along the road
@@ -54,6 +54,7 @@ from sumo_rail.runners.rollout import Driver, DriverSpec, KeepDriver, SumoIdmDri
 from sumo_rail.runners.video import video_name
 from sumo_rail.sim.controllers import SumoController
 from sumo_rail.sim.env import HighwayEnv
+from sumo_rail.sim.observers import Moment
 from sumo_rail.sim.replay import NO_TYPES, VehicleTypes
 from sumo_rail.sim.traffic import TrafficView, ego_leader_gap_m
 
@@ -170,14 +171,17 @@ class SeatTrack:
 class TrackObserver:
     """The ego's state at every decision (`TrajectoryPoint`s, the first at `start_s`, one every `period_s` [s], the gap
     to its leader measured within `range_m` [m]) and the state it ended in unless it collided; with the collisions it
-    caused and the speed limit."""
+    caused and the speed limit (an observer of each reset and decision, `sumo_rail.sim.observers`)."""
+
+    every_step = False
 
     def __init__(self, start_s: float, period_s: float, range_m: float) -> None:
         self.start_s, self.period_s, self.range_m = start_s, period_s, range_m
         self.points: list[TrajectoryPoint] = []
 
-    def __call__(self, observation: np.ndarray, traffic: TrafficView, action: int, info: dict[str, Any]) -> None:
-        self.add(traffic)
+    def __call__(self, moment: Moment) -> None:
+        for decision in moment.decisions():
+            self.add(decision.traffic)
 
     def add(self, traffic: TrafficView) -> None:
         ego, gap = traffic.ego, ego_leader_gap_m(traffic)

@@ -139,7 +139,7 @@ def resolve_expert(expert: str, config: Config, recorded_by: Path | str | None =
 def check_drives(expert: DriverSpec, config: Config) -> None:
     """A ValueError when `expert` cannot drive or label under `config`'s action interface: the rule-based expert
     decides the paper's five actions only (asked for agreement it may be under any interface: a driver's action then
-    counts as the paper action it amounts to, `evaluation.fidelity.DecisionProbe`)."""
+    counts as the paper action it amounts to, `evaluation.fidelity.AgreementObserver`)."""
     if isinstance(expert, ExpertDriver) and config.actions.interface != "paper":
         raise ValueError(f"the rule-based expert ({expert.style!r}) decides the paper's five actions only; with "
                          f"actions.interface={config.actions.interface} the expert that drives or labels must be a "

@@ -30,19 +30,6 @@ if TYPE_CHECKING:
 
 T = TypeVar("T")
 Driver = Callable[[np.ndarray, TrafficView], int]
-DecisionProbe = Callable[[np.ndarray, TrafficView, int, dict[str, Any]], None]
-"""Called after each decision with the observation and traffic the driver saw, its action and the step's info; it
-only watches (it cannot change what the driver does)."""
-
-
-def probes_in_turn(*probes: DecisionProbe) -> DecisionProbe:
-    """One probe that hands each decision to `probes` in order."""
-
-    def watch(observation: np.ndarray, traffic: TrafficView, action: int, info: dict[str, Any]) -> None:
-        for probe in probes:
-            probe(observation, traffic, action, info)
-
-    return watch
 ACTION_COLUMNS = tuple(f"action_{action.name.lower()}" for action in Action)
 """Metrics columns counting each action, in action order."""
 
@@ -172,30 +159,27 @@ class EpisodeGroupTask:
 
 
 def run_episode(env: HighwayEnv, driver: Driver, seed: int, record: bool = False,
-                options: dict[str, Any] | None = None, probe: DecisionProbe | None = None) -> EpisodeResult:
+                options: dict[str, Any] | None = None) -> EpisodeResult:
     """Reset with `seed` (and the env's reset `options`) and drive until the episode ends; `record` keeps every
-    (state, action, reward); `probe` watches every decision. The one ego's episode of `run_shared_episode`, on the
-    Gymnasium env's core (its reset seeded as the Gymnasium env's own)."""
-    episode = run_shared_episode(env.core, [driver], seed, record, probes=None if probe is None else [probe],
-                                 options=options)[0]
+    (state, action, reward). The one ego's episode of `run_shared_episode`, on the Gymnasium env's core (its reset
+    seeded as the Gymnasium env's own; what watches it watches the env: `HighwayEnv.watching`)."""
+    episode = run_shared_episode(env.core, [driver], seed, record, options=options)[0]
     assert episode is not None  # HighwayEnv always places its ego (or raises)
     return episode
 
 
 def run_shared_episode(env: ParallelHighwayEnv, drivers: Sequence[Driver], seed: int, record: bool = False,
                        perturbs: Sequence[Callable[[int], int]] | None = None,
-                       probes: Sequence[DecisionProbe] | None = None,
                        options: dict[str, Any] | None = None) -> list[EpisodeResult | None]:
     """Reset `env` with `seed` (and reset `options`) and drive ego_j with drivers[j] until every ego has left
     (`drive_egos` without a budget): each ego's episode (its metrics' seed is `seed`), in ego order, None for an ego
     that found no room on the road."""
     return [lives[0] if lives else None
-            for lives in drive_egos(env, drivers, seed, None, record, perturbs, probes, options)]
+            for lives in drive_egos(env, drivers, seed, None, record, perturbs, options)]
 
 
 def drive_egos(env: ParallelHighwayEnv, drivers: Sequence[Driver], seed: int, decisions: int | None = None,
                record: bool = False, perturbs: Sequence[Callable[[int], int]] | None = None,
-               probes: Sequence[DecisionProbe] | None = None,
                options: dict[str, Any] | None = None) -> list[list[EpisodeResult]]:
     """The one episode loop. Reset `env` with `seed` and drive ego_j with drivers[j] (asked in ego order at each
     decision): with `decisions` None, one whole episode each (an ego leaves when its episode ends; one that found no
@@ -203,8 +187,8 @@ def drive_egos(env: ParallelHighwayEnv, drivers: Sequence[Driver], seed: int, de
     ends, or that found no room, respawns at once: `sumo_rail.sim.respawning.RespawningEgos`; when the egos jam the
     road's start, every life is cut there, a truncation, and the road resets), the last life, cut by the budget,
     neither terminated nor truncated. Each ego's episodes in order (metrics' seed `seed`). With `perturbs` ego_j's
-    car executes perturbs[j](action) while the records keep the driver's (DART); `probes[j]` watches ego_j's
-    decisions; every reset takes `options`."""
+    car executes perturbs[j](action) while the records keep the driver's (DART); every reset takes `options`. What
+    watches the egos' decisions watches `env` (`ParallelHighwayEnv.watching`, `sumo_rail.sim.observers`)."""
     road = RespawningEgos(env, seed, reset_when_empty=False, respawn=decisions is not None, options=options)
     observations, infos = road.start()
     agents = list(env.possible_agents)
@@ -212,15 +196,12 @@ def drive_egos(env: ParallelHighwayEnv, drivers: Sequence[Driver], seed: int, de
     lives: dict[str, list[EpisodeResult]] = {agent: [] for agent in agents}
     done = 0
     while env.agents and (decisions is None or done < decisions):
-        traffic = {agent: env.traffic(agent) for agent in env.agents}
-        actions = {agent: int(drivers[agents.index(agent)](observations[agent], traffic[agent]))
+        actions = {agent: int(drivers[agents.index(agent)](observations[agent], env.traffic(agent)))
                    for agent in env.agents}
         executed = actions if perturbs is None else \
             {agent: perturbs[agents.index(agent)](action) for agent, action in actions.items()}
         step = road.step(executed)
         for agent, action in actions.items():
-            if probes is not None:
-                probes[agents.index(agent)](observations[agent], traffic[agent], action, step.infos[agent])
             logs[agent].add(observations[agent], action, step.rewards[agent], infos[agent], step.infos[agent])
         for agent in step.ended:
             lives[agent].append(logs[agent].result(step.metrics[agent], seed, step.infos[agent],

@@ -1,15 +1,21 @@
 """Watching a simulation: the one way the project captures what happens in an episode. An observer is called after
 every SUMO step (`every_step`: `Simulation.watching`, e.g. a recording of SUMO's own drivers) or after each reset and
-each decision of the egos (`ParallelHighwayEnv.watching`, e.g. a video's frames, the expert check's capture) with a
-`Moment`: the time, the egos' actions and infos at a decision, and every vehicle on the road as track rows, read
-from SUMO only when an observer asks (`VehicleRows`). `VehicleCapture` keeps those rows moment after moment.
+each decision of the egos (`ParallelHighwayEnv.watching`, e.g. a video's frames, the expert check's capture, an
+evaluation's measures) with a `Moment`: the time, at a decision each ego's `Decision` (what it decided on, its action,
+the step's info), and every vehicle on the road as track rows, read from SUMO only when an observer asks
+(`VehicleRows`). `VehicleCapture` keeps those rows moment after moment.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
-from typing import Any, Literal, Protocol, TypeVar
+from typing import TYPE_CHECKING, Any, Literal, NamedTuple, Protocol, TypeVar
+
+if TYPE_CHECKING:
+    import numpy as np
+
+    from sumo_rail.sim.traffic import TrafficView
 
 ROW_FIELDS = ("vehicle_id", "x_m", "y_m", "heading_deg", "speed_mps", "acceleration_mps2", "edge", "lane",
               "lane_position_m", "length_m", "width_m", "vehicle_class", "type")
@@ -60,18 +66,35 @@ class VehicleRows:
         return kind
 
 
+class Decision(NamedTuple):
+    """One ego's decision: what it decided on (its observation and its traffic view, read from SUMO), the action its
+    car executed and the step's info."""
+
+    agent: str
+    observation: np.ndarray
+    traffic: TrafficView
+    action: int
+    info: dict[str, Any]
+
+
 @dataclass
 class Moment:
     """What an observer is shown: the simulation time [s], what happened ("reset": the egos' episode began, "decision":
-    the egos decided and SUMO ran the period, "step": one SUMO step), at a decision each ego's executed action and
-    the step's info (at a reset its first info), and `vehicles()`."""
+    the egos decided and SUMO ran the period, "step": one SUMO step), at a decision each ego's executed action, the
+    step's info and what it decided on (`decisions()`; at a reset each ego's first info), and `vehicles()`."""
 
     time_s: float
     kind: Literal["reset", "decision", "step"]
     read: Callable[[], Rows] = field(repr=False)
     actions: Mapping[str, int] = field(default_factory=dict)
     infos: Mapping[str, dict[str, Any]] = field(default_factory=dict)
+    seen: Mapping[str, tuple[np.ndarray, TrafficView]] = field(default_factory=dict)
+    """At a decision, what each ego decided on: its observation and traffic view before the period."""
     _rows: Rows | None = field(default=None, init=False, repr=False)
+
+    def decisions(self) -> list[Decision]:
+        """Each ego's decision, in the egos' order (none at a reset or a step)."""
+        return [Decision(agent, *self.seen[agent], action, self.infos[agent]) for agent, action in self.actions.items()]
 
     def vehicles(self) -> Rows:
         """Every vehicle on the road now (`ROW_FIELDS`), read from SUMO once per moment."""

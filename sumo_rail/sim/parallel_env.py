@@ -40,7 +40,7 @@ placed at once in the start window), for runners and learners that keep every eg
 For a rollout runner: before each `step`, `traffic(agent)` is that ego's `TrafficView` (so an expert can be asked
 at every decision), and `metrics(agent)` its episode totals (`decisions` is its number of steps); `infos[agent]`
 carries `Ego`'s info keys. Watching episodes: `watching(observer)` (`sumo_rail.sim.observers`) shows an observer
-every SUMO step of the egos' periods, or each reset and decision.
+every SUMO step of the egos' periods, or each reset and decision (with what each ego decided on and did).
 """
 
 from __future__ import annotations
@@ -230,6 +230,8 @@ class ParallelHighwayEnv(ParallelEnv[str, np.ndarray, np.int64]):
                              f"missing {missing}, not driving {extra}")
         chosen = {agent: checked_action(actions[agent], self.action_spaces[agent]) for agent in self.agents}
         sim, egos, controllers = self._sim, [self._egos[agent] for agent in self.agents], self._controllers
+        seen = {agent: (ego.last_observation, self.traffic(agent))  # what each ego decides on, for the observers
+                for agent, ego in zip(self.agents, egos, strict=True)} if self._observers else {}
         for agent, ego in zip(self.agents, egos, strict=True):
             controllers[agent].command(sim, ego, chosen[agent])
         reports = sim.advance_egos(self._steps_per_decision, [ego.vehicle for ego in egos],
@@ -240,7 +242,7 @@ class ParallelHighwayEnv(ParallelEnv[str, np.ndarray, np.int64]):
              infos[agent]) = ego.finish(sim, report)
         self.agents = [agent for agent in self.agents if not (terminations[agent] or truncations[agent])]
         if self._observers:
-            self._tell(Moment(sim.time_s, "decision", sim.vehicle_rows, chosen, infos))
+            self._tell(Moment(sim.time_s, "decision", sim.vehicle_rows, chosen, infos, seen))
         return observations, rewards, terminations, truncations, infos
 
     @contextlib.contextmanager

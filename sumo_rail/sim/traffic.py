@@ -9,7 +9,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from sumo_rail.sim.records import quick_init
-from sumo_rail.sim.simulation import EgoState, Neighbours
+from sumo_rail.sim.vehicles import EgoState, Neighbours
 
 NO_VEHICLE = np.inf
 """Gap and speed of a lane where nobody is seen."""

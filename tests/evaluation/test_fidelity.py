@@ -1,17 +1,14 @@
 import numpy as np
 import pytest
-from scenes import view
+from scenes import decided, view
 
 from sumo_rail.drivers.expert import make_expert
 from sumo_rail.evaluation.evaluate import evaluate
-from sumo_rail.evaluation.fidelity import CONFUSION_COLUMNS, HEADWAY_CAP_S, DecisionProbe, rates
+from sumo_rail.evaluation.fidelity import CONFUSION_COLUMNS, HEADWAY_CAP_S, AgreementObserver, rates
 from sumo_rail.runners.backends import SerialBackend
 from sumo_rail.runners.rollout import ExpertDriver, KeepDriver, RandomDriver
 from sumo_rail.seeding import Purpose, episode_seeds
 from sumo_rail.sim.actions import Action
-
-NO_OBSERVATION = np.zeros(0)
-"""The rule-based expert reads the traffic view only."""
 
 
 def test_rates_of_a_hand_made_confusion_matrix():
@@ -31,35 +28,35 @@ def test_rates_of_a_hand_made_confusion_matrix():
     assert np.isnan(rates(np.eye(5, dtype=int) * [1, 1, 1, 0, 0])["lane_change_recall"])
 
 
-def test_probe_asks_the_expert_without_acting_and_records_behaviour():
+def test_the_observer_asks_the_expert_without_acting_and_records_behaviour():
     expert = make_expert("normal", speed_step_mps=2.0)
-    probe = DecisionProbe(expert)
+    observer = AgreementObserver(expert)
     slow_leader = view([(1, 1040.0, 12.0, 22.0)], speed=24.0, set_point=30.0)   # the expert would go left
     open_road = view([], lane=0, speed=25.0, set_point=20.0)                      # the expert would accelerate
     assert expert.decide(slow_leader) is Action.LANE_LEFT and expert.decide(open_road) is Action.ACCELERATE
-    probe(NO_OBSERVATION, slow_leader, int(Action.LANE_LEFT), {"lane_change_in_progress": True})
-    probe(NO_OBSERVATION, open_road, int(Action.KEEP), {"lane_change_in_progress": False})
-    columns = probe.episode_columns()
+    observer(decided(slow_leader, Action.LANE_LEFT, {"lane_change_in_progress": True}))
+    observer(decided(open_road, Action.KEEP, {"lane_change_in_progress": False}))
+    columns = observer.episode_columns()
     assert columns["confusion_lane_left_lane_left"] == 1 and columns["confusion_keep_accelerate"] == 1
     assert sum(columns[name] for name in CONFUSION_COLUMNS) == 2
     assert columns["agreement"] == 0.5 and columns["lane_change_recall"] == 1.0
     assert columns["lateral_agreement"] == 1.0 and columns["longitudinal_agreement"] == 0.5
-    decisions = probe.decision_columns()
+    decisions = observer.decision_columns()
     assert decisions["action"].tolist() == [3, 0] and decisions["expert_action"].tolist() == [3, 1]
     assert decisions["headway_s"][0] == pytest.approx((1040.0 - 12.0 - 1000.0) / 24.0)
     assert np.isnan(decisions["headway_s"][1])  # nobody ahead
     assert np.isnan(decisions["accepted_front_gap_m"]).all()  # nobody in the left lane to measure a gap to
-    far = DecisionProbe(expert)
-    far(NO_OBSERVATION, view([(1, 1300.0, 4.5, 20.0)], speed=5.0), 0, {})  # 295.5 m at 5 m/s: 59 s, capped
+    far = AgreementObserver(expert)
+    far(decided(view([(1, 1300.0, 4.5, 20.0)], speed=5.0), Action.KEEP, {}))  # 295.5 m at 5 m/s: 59 s, capped
     assert far.decision_columns()["headway_s"][0] == HEADWAY_CAP_S
 
 
 def test_accepted_gap_is_the_target_lanes_gap_when_the_change_starts():
-    probe = DecisionProbe(make_expert("normal", speed_step_mps=2.0))
+    observer = AgreementObserver(make_expert("normal", speed_step_mps=2.0))
     traffic = view([(2, 1060.0, 4.5, 30.0), (2, 950.0, 4.5, 28.0)], lane=1, speed=25.0)
-    probe(NO_OBSERVATION, traffic, int(Action.LANE_LEFT), {"lane_change_in_progress": True})
-    probe(NO_OBSERVATION, traffic, int(Action.LANE_LEFT), {"lane_change_in_progress": False})  # refused: no gap
-    decisions = probe.decision_columns()
+    observer(decided(traffic, Action.LANE_LEFT, {"lane_change_in_progress": True}))
+    observer(decided(traffic, Action.LANE_LEFT, {"lane_change_in_progress": False}))  # refused: no gap
+    decisions = observer.decision_columns()
     assert decisions["accepted_front_gap_m"][0] == pytest.approx(1060.0 - 4.5 - 1000.0)
     assert decisions["accepted_rear_gap_m"][0] == pytest.approx(1000.0 - 4.5 - 950.0)
     assert np.isnan(decisions["accepted_front_gap_m"][1])

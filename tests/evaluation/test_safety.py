@@ -9,7 +9,7 @@ from sumo_rail.evaluation.safety import (
     HEADWAY_CAP_S,
     SAFETY_MEASURES,
     TTC_CAP_S,
-    SafetyProbe,
+    SafetyObserver,
     ego_time_headway,
     ego_time_to_collision,
     episode_measures,
@@ -18,8 +18,6 @@ from sumo_rail.evaluation.safety import (
 from sumo_rail.sim.actions import Action
 from sumo_rail.sim.env import HighwayEnv
 from sumo_rail.sim.simulation import EGO_ID
-
-NO_OBSERVATION = np.zeros(3)
 
 
 def test_time_to_collision_closes_the_gap_at_the_speed_difference():
@@ -62,16 +60,15 @@ def test_a_constant_speed_follow_in_sumo_gives_its_known_headway_and_ttc(small_c
         leader_front_m = ego_front_m + 23.0 + 4.5  # 23 m bumper to bumper, 2 m less after the first decision
         libsumo.vehicle.moveTo("leader", f"{edge}_{lane}", leader_front_m)
         libsumo.vehicle.moveTo(EGO_ID, f"{edge}_{lane}", ego_front_m)
-        observation, _, _, _, info = env.step(Action.KEEP)
-        probe = SafetyProbe()
-        for _ in range(9):
-            probe(observation, env.traffic, int(Action.KEEP), info)
-            observation, _, _, _, info = env.step(Action.KEEP)
+        env.step(Action.KEEP)
+        with env.watching(SafetyObserver()) as observer:
+            for _ in range(9):
+                env.step(Action.KEEP)
     finally:
         env.close()
-    gaps = 21.0 - 2.0 * np.arange(9)
-    assert probe.decision_columns()["ttc_s"] == pytest.approx(np.minimum(gaps / 4.0, TTC_CAP_S), abs=1e-6)
-    measures = probe.episode_columns()
+    gaps = 21.0 - 2.0 * np.arange(9)  # in the traffic each decision was made in
+    assert observer.decision_columns()["ttc_s"] == pytest.approx(np.minimum(gaps / 4.0, TTC_CAP_S), abs=1e-6)
+    measures = observer.episode_columns()
     assert measures["min_ttc_s"] == pytest.approx(5.0 / 4.0, abs=1e-6)
     assert measures["min_headway_s"] == pytest.approx(5.0 / 30.0, abs=1e-6)
     assert measures["ttc_below_3s_share"] == pytest.approx(4 / 9) and measures["ttc_below_1_5s_share"] == 1 / 9

@@ -107,12 +107,23 @@ class LearnerAskingTheExpert:
 
     def run(self, context: WorkerContext) -> dict[str, np.ndarray]:
         expert = make_expert(self.style, self.config.env.speed_step_mps, self.config.expert.view_range_m)
-        decisions: list[int] = []
-        steps = run_episode(context.env(self.config), PolicyDriver(self.policy, "learner").create(self.config, 0),
-                            self.seed, record=True,
-                            probe=lambda seen, traffic, action, info: decisions.append(int(expert.decide(traffic)))
-                            ).steps
-        return {**steps, "expert": np.array(decisions)}
+        env = context.env(self.config)
+        with env.watching(ExpertAsked(expert)) as asked:
+            steps = run_episode(env, PolicyDriver(self.policy, "learner").create(self.config, 0), self.seed,
+                                record=True).steps
+        return {**steps, "expert": np.array(asked.decisions)}
+
+
+class ExpertAsked:
+    """An observer of decisions asking `expert` what it would do in the traffic of each."""
+
+    every_step = False
+
+    def __init__(self, expert) -> None:
+        self.expert, self.decisions = expert, []
+
+    def __call__(self, moment) -> None:
+        self.decisions += [int(self.expert.decide(decision.traffic)) for decision in moment.decisions()]
 
 
 @pytest.mark.parametrize("egos", [1, 2])

@@ -8,7 +8,7 @@ import pytest
 
 from sumo_rail.sim.actions import Action
 from sumo_rail.sim.env import HighwayEnv
-from sumo_rail.sim.observers import ROW_FIELDS, Moment, VehicleCapture
+from sumo_rail.sim.observers import ROW_FIELDS, Decision, Moment, VehicleCapture
 from sumo_rail.sim.simulation import EGO_ID, SimulationError
 
 ACTIONS = [Action.ACCELERATE, Action.LANE_LEFT, Action.KEEP, Action.DECELERATE, Action.KEEP, Action.LANE_RIGHT]
@@ -39,9 +39,11 @@ class Moments:
 
     def __init__(self) -> None:
         self.seen: list[tuple[str, float, dict, dict, dict]] = []
+        self.decisions: list[Decision] = []
 
     def __call__(self, moment: Moment) -> None:
         self.seen.append((moment.kind, moment.time_s, dict(moment.actions), dict(moment.infos), moment.vehicles()))
+        self.decisions += moment.decisions()
 
 
 class EveryVehicle:
@@ -77,8 +79,14 @@ def test_an_every_step_observer_sees_each_step_of_the_periods_and_changes_nothin
 
 
 def test_a_decision_observer_sees_the_reset_and_each_decision_with_its_actions_and_infos(env):
+    """... and at each decision what the ego decided on: the observation and traffic view before the period."""
     with env.watching(Moments()) as moments:
-        _, infos = episode(env)
+        observations, infos = episode(env)
+    assert [(decision.agent, decision.action, decision.info) for decision in moments.decisions] == [
+        (EGO_ID, int(action), info) for action, info in zip(ACTIONS, infos[1:], strict=True)]
+    np.testing.assert_array_equal([decision.observation for decision in moments.decisions], observations[:-1])
+    assert [decision.traffic.ego.lane_position_m for decision in moments.decisions] == pytest.approx(
+        [info["position_m"] for info in infos[:-1]])
     assert [kind for kind, *_ in moments.seen] == ["reset"] + ["decision"] * len(ACTIONS)
     assert [actions for _, _, actions, _, _ in moments.seen] == [{}] + [{EGO_ID: int(a)} for a in ACTIONS]
     assert [shown[EGO_ID] for _, _, _, shown, _ in moments.seen] == infos

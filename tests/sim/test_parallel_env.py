@@ -226,13 +226,27 @@ def test_an_ego_that_finds_no_room_has_no_episode_of_a_rollout_but_respawns_with
     assert [sum(life.metrics["steps"] for life in ego_lives) for ego_lives in lives] == [5, 5]
 
 
-def test_each_egos_probe_watches_that_egos_decisions(make_env):
-    """`drive_egos`'s probes[j] sees exactly what ego_j's driver saw and did, decision by decision."""
+class Decisions:
+    """An observer of decisions keeping each ego's: what it decided on (its observation, its position [m]) and did."""
+
+    every_step = False
+
+    def __init__(self) -> None:
+        self.seen: dict[str, list] = {}
+
+    def __call__(self, moment) -> None:
+        for decision in moment.decisions():
+            self.seen.setdefault(decision.agent, []).append(
+                (decision.observation, decision.traffic.ego.lane_position_m, decision.action))
+
+
+def test_a_decision_observer_sees_what_each_ego_decided_on_and_did(make_env):
+    """An observer of the env's decisions (`Moment.decisions`) sees exactly what ego_j's driver saw and did, decision
+    by decision."""
     from sumo_rail.runners.rollout import drive_egos
 
     env = make_env(2)
     seen: list[list] = [[], []]
-    probed: list[list] = [[], []]
 
     def driver(j: int):
         def act(observation, traffic):
@@ -240,18 +254,16 @@ def test_each_egos_probe_watches_that_egos_decisions(make_env):
             return j + 1  # ego_0 accelerates, ego_1 decelerates
         return act
 
-    def probe(j: int):
-        return lambda observation, traffic, action, info: probed[j].append(
-            (observation, traffic.ego.lane_position_m, action))
-
-    lives = drive_egos(env, [driver(0), driver(1)], 3, 6, probes=[probe(0), probe(1)])
+    with env.watching(Decisions()) as observer:
+        lives = drive_egos(env, [driver(0), driver(1)], 3, 6)
+    watched = [observer.seen["ego_0"], observer.seen["ego_1"]]
     # and each ego's car executes its own driver's actions
     assert lives[0][0].metrics["action_accelerate"] == lives[1][0].metrics["action_decelerate"] == 6
     assert env.traffic("ego_0").set_point_mps >= seen[0][0][3] and env.traffic("ego_1").set_point_mps < seen[1][0][3]
     for j in (0, 1):
-        assert len(probed[j]) == len(seen[j]) == 6
+        assert len(watched[j]) == len(seen[j]) == 6
         for (observation, position_m, action), (want_observation, want_m, want_action, _) in zip(
-                probed[j], seen[j], strict=True):
+                watched[j], seen[j], strict=True):
             assert np.array_equal(observation, want_observation) and (position_m, action) == (want_m, want_action)
 
 
