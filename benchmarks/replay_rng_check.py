@@ -68,10 +68,10 @@ def speed_factor(factor: float | None) -> Iterator[None]:
     """Within the block (with `factor`), a vehicle added of SUMO's default type gets speed factor `factor`."""
     add = compiled.vehicle_add
 
-    def add_fixed(name: str, route: str, type_id: str, *args: Any) -> None:
-        add(name, route, type_id, *args)
-        if type_id == DEFAULT_TYPE:
-            compiled.vehicle_setSpeedFactor(name, factor)
+    def add_fixed(*args: Any, **kwargs: Any) -> None:
+        add(*args, **kwargs)
+        if kwargs.get("typeID", args[2] if len(args) > 2 else DEFAULT_TYPE) == DEFAULT_TYPE:
+            compiled.vehicle_setSpeedFactor(args[0], factor)
 
     if factor is not None:
         compiled.vehicle_add = add_fixed
