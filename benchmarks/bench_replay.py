@@ -24,7 +24,7 @@ import tempfile
 import time
 import xml.etree.ElementTree as ElementTree
 from collections import Counter
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -85,14 +85,17 @@ def raw_speed(scene: Scene, begin_s: float, seconds: float, options: list[str], 
 
 
 def closed_loop(scene: Scene, config: Config, reactive: bool, seats: list[tuple[str, float]],
-                types: VehicleTypes, timed: Counter[str] | None = None) -> tuple[float, float]:
+                types: VehicleTypes, timed: Counter[str] | None = None,
+                parts: Mapping[str, tuple[str, ...]] | None = None) -> tuple[float, float]:
     """(simulated seconds, CPU seconds) of always-keep episodes in `seats` (vehicle, start [s]), the reactive
-    vehicles of `types`; with `timed`, libsumo's calls of `SUMO_PARTS` timed into it by part (CPU [s])."""
-    with timed_calls(timed) if timed is not None else contextlib.nullcontext():
+    vehicles of `types`; with `timed`, libsumo's calls of `parts` (default `SUMO_PARTS`) timed into it by part (CPU
+    [s])."""
+    parts = SUMO_PARTS if parts is None else parts
+    with timed_calls(timed, parts) if timed is not None else contextlib.nullcontext():
         env = SceneEnv(config, scene, reactive=reactive, transport="libsumo", types=types)
         try:
             env.reset(seed=0, options={"vehicle": seats[0][0], "start_s": seats[0][1]})  # SUMO started, not timed
-            for part in SUMO_PARTS if timed is not None else ():
+            for part in parts if timed is not None else ():
                 timed[part] = timed[part + " calls"] = 0
             simulated, start = 0.0, time.process_time()
             for vehicle, start_s in seats:
@@ -116,8 +119,8 @@ vehicles' moves and their entries (added, sized, given to TraCI)."""
 
 
 @contextlib.contextmanager
-def timed_calls(timed: Counter[str]) -> Iterator[None]:
-    """Within the block, libsumo's calls of `SUMO_PARTS` (a simulation made in the block calls the timed ones) add
+def timed_calls(timed: Counter[str], parts: Mapping[str, tuple[str, ...]] = SUMO_PARTS) -> Iterator[None]:
+    """Within the block, libsumo's calls of `parts` (a simulation made in the block calls the timed ones) add
     their CPU time [s] to `timed[part]` and count themselves in `timed[part + " calls"]`; `timed["timer inside"]` is
     the timing's own cost inside a call's time (from 100,000 timed empty calls)."""
     clock = time.process_time
@@ -137,8 +140,8 @@ def timed_calls(timed: Counter[str]) -> Iterator[None]:
         empty()
     timed["timer inside"] /= count
     del timed["timer inside calls"]
-    replaced = {name: getattr(compiled, name) for names in SUMO_PARTS.values() for name in names}
-    for part, names in SUMO_PARTS.items():
+    replaced = {name: getattr(compiled, name) for names in parts.values() for name in names}
+    for part, names in parts.items():
         for name in names:
             setattr(compiled, name, timer(replaced[name], part))
     try:
@@ -149,13 +152,14 @@ def timed_calls(timed: Counter[str]) -> Iterator[None]:
 
 
 def breakdown(scene: Scene, config: Config, reactive: bool, seats: list[tuple[str, float]],
-              types: VehicleTypes) -> tuple[dict[str, float], float]:
-    """CPU time [ms] per episode of `closed_loop`'s episodes in each part of `SUMO_PARTS` (the timing's cost inside
+              types: VehicleTypes, parts: Mapping[str, tuple[str, ...]] = SUMO_PARTS,
+              ) -> tuple[dict[str, float], float]:
+    """CPU time [ms] per episode of `closed_loop`'s episodes in each part of `parts` (the timing's cost inside
     each call taken out; what is left of it makes a part an upper bound), and the simulated time [s] per episode."""
     timed: Counter[str] = Counter()
-    simulated, _ = closed_loop(scene, config, reactive, seats, types, timed)
+    simulated, _ = closed_loop(scene, config, reactive, seats, types, timed, parts)
     return ({part: 1000 * (timed[part] - timed[part + " calls"] * timed["timer inside"]) / len(seats)
-             for part in SUMO_PARTS}, simulated / len(seats))
+             for part in parts}, simulated / len(seats))
 
 
 def seats_of(scene: Scene, count: int, horizon_s: float) -> list[tuple[str, float]]:
@@ -167,6 +171,17 @@ def seats_of(scene: Scene, count: int, horizon_s: float) -> list[tuple[str, floa
     return [(str(vehicle), float(begin) + LEAD_S) for vehicle, begin in fit["begin"].items()]
 
 
+def bench_scenes(folder: Path) -> tuple[tuple[str, Path, int, float], ...]:
+    """The two scenes, made in `folder`: (label, scene folder, lanes, episode horizon [s]) each."""
+    tracks, _ = synthetic_recording(folder, 3000, 334, seed=0)
+    highd = ImportSettings("highd", (tracks,), folder / "highd")
+    import_recording(highd, Config(), check_import(highd))
+    recorded = folder / "drivers"
+    record_sumo_drivers(SumoDriversSettings(out=recorded, seed=1), Config.from_dict({"scenario": {"warmup_s": 120.0}}))
+    return (("synthetic highD (3 lanes, 420 m, 25 Hz)", highd.out, 3, 10.0),
+            ("record-sumo-drivers (5 lanes, 3 km, 10 Hz)", recorded, 5, 15.0))
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--seats", type=int, default=30, help="episodes per scene and mode")
@@ -175,15 +190,7 @@ def main() -> None:
     args = parser.parse_args()
     rows, drivers, parts, verdicts = [], [], [], []
     with tempfile.TemporaryDirectory() as folder:
-        tracks, _ = synthetic_recording(Path(folder), 3000, 334, seed=0)
-        highd = ImportSettings("highd", (tracks,), Path(folder) / "highd")
-        import_recording(highd, Config(), check_import(highd))
-        recorded = Path(folder) / "drivers"
-        record_sumo_drivers(SumoDriversSettings(out=recorded, seed=1),
-                            Config.from_dict({"scenario": {"warmup_s": 120.0}}))
-        scenes = (("synthetic highD (3 lanes, 420 m, 25 Hz)", highd.out, 3, 10.0),
-                  ("record-sumo-drivers (5 lanes, 3 km, 10 Hz)", recorded, 5, 15.0))
-        for label, path, lanes, horizon_s in scenes:
+        for label, path, lanes, horizon_s in bench_scenes(Path(folder)):
             scene = read_scene(path)
             config = Config.from_dict({"scenario": {"lanes": lanes}, "env": {"max_episode_s": horizon_s}})
             seats = seats_of(scene, args.seats, horizon_s)

@@ -110,8 +110,8 @@ class ReplayedTraffic:
         """Each vehicle's desired speed in the reactive mode, as a share of the road's limit."""
         self.api: Any = None
         """The SUMO connection (`connect`)."""
-        self._move: Any = None
-        """Its moveToXY (`connect`; libsumo's compiled one)."""
+        self._calls: Any = None
+        """Its calls of every step (`connect`; libsumo's compiled ones: `sumo_api.decision_calls`)."""
         self._step_s = 0.0
         self.ego_collisions: list[tuple[str, str]] = []
         """(collider, victim) of each collision of the ego in the episode (SUMO's collider: the follower)."""
@@ -147,7 +147,7 @@ class ReplayedTraffic:
         return dataclasses.replace(built, routes_file=routes)
 
     def connect(self, api: Any, step_s: float, speed_limit_mps: float) -> Step:
-        self.api, self._step_s, self._move = api, step_s, decision_calls(api).move_to_xy
+        self.api, self._step_s, self._calls = api, step_s, decision_calls(api)
         self._speed_factor = {str(name): float(top / speed_limit_mps) for name, top in self._top_speeds_mps.items()}
         return self.step
 
@@ -213,11 +213,11 @@ class ReplayedTraffic:
 
     def step(self) -> None:
         """One SUMO step with the recorded vehicles placed for its end; the ego's collisions kept."""
-        api = self.api
-        end_s = api.simulation.getTime() + self._step_s
-        self._place(end_s, api.vehicle.getPosition(EGO_ID)[0] if self._ego_in and not self.reactive else None)
-        api.simulationStep(end_s)  # to a time: over traci a plain step after a load may keep SUMO's clock
-        simulation = api.simulation
+        calls = self._calls
+        end_s = calls.time_s() + self._step_s
+        self._place(end_s, calls.position(EGO_ID)[0] if self._ego_in and not self.reactive else None)
+        calls.step(end_s)  # to a time: over traci a plain step after a load may keep SUMO's clock
+        simulation = self.api.simulation
         if simulation.getCollidingVehiclesNumber():
             self.ego_collisions += [(collision.collider, collision.victim) for collision in simulation.getCollisions()
                                     if EGO_ID in (collision.collider, collision.victim)]
@@ -247,7 +247,7 @@ class ReplayedTraffic:
         rows = placing.nonzero()[0]
         names = ids[rows].tolist()
         vehicle = self.api.vehicle
-        on_road = set(vehicle.getIDList())
+        on_road = set(self._calls.vehicle_ids())
         if not self.reactive:
             gone = self._placed.difference(names)
             watched = vehicle.getAllSubscriptionResults() if gone else {}
@@ -262,7 +262,7 @@ class ReplayedTraffic:
         if self.reactive or not on_road.issuperset(names):
             self._add(moves, [values[name][rows].tolist() for name in ("speed_mps", "length_m", "width_m")], on_road)
         else:  # every vehicle is SUMO's already (most steps): only moves, looped in C
-            collections.deque(itertools.starmap(self._move,
+            collections.deque(itertools.starmap(self._calls.move_to_xy,
                                                 zip(*moves, itertools.repeat(KEEP_ROUTE_ANY_EDGE), strict=False)),
                               maxlen=0)
 
@@ -270,26 +270,24 @@ class ReplayedTraffic:
         """`_place`'s vehicles (`moves`: ids, edges, lanes, x [m], y [m], headings [deg]; `sizes`: speeds [m/s],
         lengths and widths [m]), added to SUMO where they are not on the road (`on_road`), each before its move (the
         reactive mode moves only those it adds)."""
-        vehicle = self.api.vehicle
-        move, placed = self._move, self._placed
+        calls, placed = self._calls, self._placed
         type_of = self.types.of_vehicle if self.reactive else {}
         for name, edge, lane, x_m, y_m, heading_deg, speed_mps, length_m, width_m in zip(*moves, *sizes, strict=True):
             if self.reactive and name in placed:
                 continue
             if name not in on_road:  # new, or (non-reactive) removed by SUMO after a collision: placed again
                 route_id, depart_lane = self._entry(name, edge, lane)
-                vehicle.add(name, route_id, type_of.get(name, DEFAULT_TYPE), departLane=depart_lane,
-                            departSpeed=repr(speed_mps))
-                vehicle.setLength(name, length_m)
-                vehicle.setWidth(name, width_m)
-                vehicle.setSpeedMode(name, 0)
-                vehicle.setLaneChangeMode(name, 0)
+                calls.add(name, route_id, type_of.get(name, DEFAULT_TYPE), "now", depart_lane, "base", repr(speed_mps))
+                calls.set_length(name, length_m)
+                calls.set_width(name, width_m)
+                calls.set_speed_mode(name, 0)
+                calls.set_lane_change_mode(name, 0)
                 placed.add(name)
                 if self.reactive:
                     self._releasing.append(name)
             elif self.reactive:
                 continue
-            move(name, edge, lane, x_m, y_m, heading_deg, KEEP_ROUTE_ANY_EDGE)
+            calls.move_to_xy(name, edge, lane, x_m, y_m, heading_deg, KEEP_ROUTE_ANY_EDGE)
 
     def _entry(self, vehicle: str, edge: str, lane: int) -> tuple[str, str]:
         """The route `vehicle` is added on where it is, in lane `lane` of `edge`: its recorded edges from `edge` on
@@ -301,11 +299,11 @@ class ReplayedTraffic:
 
     def _release(self) -> None:
         """Hand the vehicles placed before the last step to SUMO's models (reactive mode)."""
-        vehicle = self.api.vehicle
-        on_road = set(vehicle.getIDList()) if self._releasing else set()
+        calls = self._calls
+        on_road = set(calls.vehicle_ids()) if self._releasing else set()
         for name in self._releasing:
             if name in on_road:
-                vehicle.setSpeedMode(name, SPEED_MODE_SUMO)
-                vehicle.setLaneChangeMode(name, LANE_CHANGE_MODE_SUMO)
-                vehicle.setSpeedFactor(name, self._speed_factor[name])
+                calls.set_speed_mode(name, SPEED_MODE_SUMO)
+                calls.set_lane_change_mode(name, LANE_CHANGE_MODE_SUMO)
+                self.api.vehicle.setSpeedFactor(name, self._speed_factor[name])
         self._releasing.clear()

@@ -103,6 +103,16 @@ class DecisionCalls(NamedTuple):
     """A vehicle's lateral position in its lane [m]."""
     move_to_xy: Callable[..., None]
     """moveToXY (a replayed vehicle's placement, every step: `sumo_rail.sim.replay`)."""
+    position: Callable[[str], tuple[float, float]]
+    """A vehicle's x, y [m] (the replay's ego, every step)."""
+    vehicle_ids: Callable[[], tuple[str, ...]]
+    """The vehicles on the road (the replay's, every step)."""
+    add: Callable[[str, str, str, str, str, str, str], None]
+    """A vehicle added: id, route, type, depart, depart lane, position and speed (the replay's entries)."""
+    set_length: Callable[[str, float], None]
+    set_width: Callable[[str, float], None]
+    set_speed_mode: Callable[[str, int], None]
+    set_lane_change_mode: Callable[[str, int], None]
 
 
 def decision_calls(api: Any) -> DecisionCalls:
@@ -114,9 +124,13 @@ def decision_calls(api: Any) -> DecisionCalls:
         vehicle, simulation = api.vehicle, api.simulation
         return DecisionCalls(api.simulationStep, simulation.getStartingTeleportNumber, vehicle.getAcceleration,
                              simulation.getTime, vehicle.subscribeContext, vehicle.getContextSubscriptionResults,
-                             vehicle.unsubscribeContext, vehicle.getLateralLanePosition, vehicle.moveToXY)
+                             vehicle.unsubscribeContext, vehicle.getLateralLanePosition, vehicle.moveToXY,
+                             vehicle.getPosition, vehicle.getIDList, vehicle.add, vehicle.setLength, vehicle.setWidth,
+                             vehicle.setSpeedMode, vehicle.setLaneChangeMode)
     return DecisionCalls(compiled.simulation_step, compiled.simulation_getStartingTeleportNumber,
                          compiled.vehicle_getAcceleration, compiled.simulation_getTime,
                          compiled.vehicle_subscribeContext, compiled.vehicle_getContextSubscriptionResults,
                          compiled.vehicle_unsubscribeContext, compiled.vehicle_getLateralLanePosition,
-                         compiled.vehicle_moveToXY)
+                         compiled.vehicle_moveToXY, compiled.vehicle_getPosition, compiled.vehicle_getIDList,
+                         compiled.vehicle_add, compiled.vehicle_setLength, compiled.vehicle_setWidth,
+                         compiled.vehicle_setSpeedMode, compiled.vehicle_setLaneChangeMode)

@@ -20,6 +20,7 @@ from sumo_rail.recordings.seats import SeatDraw
 from sumo_rail.recordings.trajectory import track_past
 from sumo_rail.sim import replay as replayed_traffic
 from sumo_rail.sim.actions import Action
+from sumo_rail.sim.commands import LANE_CHANGE_MODE_SUMO
 from sumo_rail.sim.controllers import SUMO_DRIVER_TYPE
 from sumo_rail.sim.replay import REPLAY_RADIUS_M
 from sumo_rail.sim.simulation import EGO_ID
@@ -274,8 +275,36 @@ def test_a_seats_lead_in_is_the_pandas_tracks_rows_before_the_seat(drivers_scene
         scene.track_values("nobody", TRACK_COLUMNS)
 
 
+def _step_by_wrappers(self):
+    """`ReplayedTraffic.step` as it was before it called libsumo's compiled functions (issue 52): an oracle below."""
+    api = self.api
+    end_s = api.simulation.getTime() + self._step_s
+    self._place(end_s, api.vehicle.getPosition(EGO_ID)[0] if self._ego_in and not self.reactive else None)
+    api.simulationStep(end_s)
+    simulation = api.simulation
+    if simulation.getCollidingVehiclesNumber():
+        self.ego_collisions += [(collision.collider, collision.victim) for collision in simulation.getCollisions()
+                                if EGO_ID in (collision.collider, collision.victim)]
+        self._ego_in = self._ego_in and not self.ego_collisions
+    if self._ego_in and simulation.getArrivedNumber() and EGO_ID in simulation.getArrivedIDList():
+        self._ego_in = False
+
+
+def _release_by_wrappers(self):
+    """`ReplayedTraffic._release` as it was before it called libsumo's compiled functions: an oracle below."""
+    vehicle = self.api.vehicle
+    on_road = set(vehicle.getIDList()) if self._releasing else set()
+    for name in self._releasing:
+        if name in on_road:
+            vehicle.setSpeedMode(name, replayed_traffic.SPEED_MODE_SUMO)
+            vehicle.setLaneChangeMode(name, LANE_CHANGE_MODE_SUMO)
+            vehicle.setSpeedFactor(name, self._speed_factor[name])
+    self._releasing.clear()
+
+
 def _place_vehicle_by_vehicle(self, time_s, ego_x_m):
-    """`ReplayedTraffic._place` as it was before its moves were looped in C (issue 52): the oracle of the test below."""
+    """`ReplayedTraffic._place` as it was before its moves were looped in C and its calls were libsumo's compiled
+    functions (issue 52): an oracle of the test below."""
     if self.reactive:
         self._release()
         begun = np.searchsorted(self._begins_s, [self._last_s, time_s], side="right")
@@ -339,17 +368,21 @@ class _EveryVehicle:
 
 @pytest.mark.parametrize("reactive", [False, True])
 def test_seat_episodes_are_those_of_the_vehicle_by_vehicle_placement(drivers_scene, reactive, monkeypatch):
-    """The placement that moves the replayed vehicles in one C loop drives the same episodes as the one that placed
-    them vehicle by vehicle: every vehicle's state after every SUMO step and the ego's every info, in seats where
-    vehicles enter and leave the replay radius (a radius of 150 m) and the ego changes lanes."""
+    """The replay that moves its vehicles in one C loop and calls libsumo's compiled functions drives the same
+    episodes as the one that placed them vehicle by vehicle through libsumo's Python wrappers: every vehicle's state
+    after every SUMO step and the ego's every info, in seats where vehicles enter and leave the replay radius (a
+    radius of 150 m) and the ego changes lanes."""
     monkeypatch.setattr(replayed_traffic, "REPLAY_RADIUS_M", 150.0)
-    env = SceneEnv(CONFIG, drivers_scene, reactive=reactive)
-    seats = [long_track(env.scene.tracks, lane) for lane in (0, 1)]
+    seats = [long_track(read_scene(drivers_scene).tracks, lane) for lane in (0, 1)]
     actions = [Action.LANE_LEFT, Action.KEEP, Action.ACCELERATE, Action.LANE_RIGHT, Action.KEEP, Action.DECELERATE] * 4
     episodes = []
-    try:
-        for placement in (replayed_traffic.ReplayedTraffic._place, _place_vehicle_by_vehicle):
-            monkeypatch.setattr(replayed_traffic.ReplayedTraffic, "_place", placement)
+    traffic = replayed_traffic.ReplayedTraffic
+    for replay in ((traffic.step, traffic._place, traffic._release),
+                   (_step_by_wrappers, _place_vehicle_by_vehicle, _release_by_wrappers)):
+        for method, function in zip(("step", "_place", "_release"), replay, strict=True):
+            monkeypatch.setattr(traffic, method, function)
+        env = SceneEnv(CONFIG, drivers_scene, reactive=reactive)  # its simulation takes the step as it starts
+        try:
             env.reset(seed=0, options={"vehicle": seats[0][0], "start_s": seats[0][1]})
             with env.simulation.watching(_EveryVehicle(env.simulation._api)) as watched:
                 infos = []
@@ -361,7 +394,7 @@ def test_seat_episodes_are_those_of_the_vehicle_by_vehicle_placement(drivers_sce
                         if terminated or truncated:
                             break
             episodes.append((watched.steps, infos))
-    finally:
-        env.close()
+        finally:
+            env.close()
     assert sum(len(vehicles) for _, vehicles in episodes[0][0]) > 1000
     assert episodes[0] == episodes[1]
