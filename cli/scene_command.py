@@ -103,8 +103,10 @@ def evaluate_scene_command(config: Config, scenes: tuple[Path, ...], policies: t
         seats = [seat for scene in read for seat in choose_seats(scene, split, horizon_s, lead_s, limit, seed,
                                                                           zone_m=zone_m, classes=classes,
                                                                           earliest_s=config.scenario.step_length_s)]
-    except (DatasetError, RecordingUsageError) as error:
+    except RecordingUsageError as error:
         raise click.UsageError(str(error)) from error
+    except DatasetError as error:  # a scene file there but damaged: data, not usage (as recorded-demos says it)
+        raise click.ClickException(str(error)) from error
     if not seats:
         zone = f" --zone-m {zone_m:g} m past the road's start and before its end" if zone_m > 0 else ""
         raise click.UsageError(f"no {split} vehicle ({', '.join(classes)}) of {', '.join(map(str, scenes))} has a "

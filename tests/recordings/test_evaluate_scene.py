@@ -224,6 +224,19 @@ def test_evaluate_scene_writes_both_tables_with_provenance(drivers_scene, tmp_pa
     assert sources[str((drivers_scene / "tracks.parquet").resolve())] == file_sha256(drivers_scene / "tracks.parquet")
 
 
+@pytest.mark.parametrize("damaged", ["tracks.parquet", "split.parquet", "scene.json"])
+def test_a_damaged_scene_file_is_one_sentence_naming_it_exit_1(drivers_scene, tmp_path, damaged):
+    """A scene file that is there but cannot be read is damaged data (exit 1, as recorded-demos says it), not a usage
+    error (a missing scene folder is exit 2, below)."""
+    scene = tmp_path / "scene"
+    shutil.copytree(drivers_scene, scene)
+    (scene / damaged).write_bytes((scene / damaged).read_bytes()[:200])
+    out = tmp_path / "out.parquet"
+    result = invoke(str(scene), "--set", "scenario.lanes=3", "--policy", "keep", "--out", str(out))
+    assert result.exit_code == 1 and damaged in result.output and "Traceback" not in result.output, result.output
+    assert not out.exists() and not tracks_path(out).exists()
+
+
 @pytest.mark.parametrize("problem", ["not a scene", "not a network", "no seat", "policy", "other lanes",
                                      "shadowed length", "other interface"])
 def test_evaluate_scene_refuses_in_one_sentence_and_writes_nothing(drivers_scene, tmp_path, problem):
