@@ -84,12 +84,20 @@ def test_a_start_that_is_no_finite_time_is_refused_before_sumo_loads(scene_env, 
     assert scene_env.reset(seed=0)[1]["vehicle"] == vehicle  # the env goes on
 
 
-def test_the_documented_make_without_a_config_takes_the_defaults(drivers_scene):
-    """`gymnasium.make(SCENE_ENV_ID, scene=FOLDER)` (README): the default config, on the scene's road."""
+def test_the_documented_make_without_a_config_seats_the_ego_for_evaluate_scenes_default_horizon(drivers_scene):
+    """`gymnasium.make(SCENE_ENV_ID, scene=FOLDER)` then `reset(seed=...)` (README): the default config on the scene's
+    road, its episodes evaluate-scene's default 15 s (the generated road's 300 s outlasts every track: no seat to
+    draw); a chosen env.max_episode_s, or `horizon_s`, is kept."""
     env = gymnasium.make(sumo_rail.SCENE_ENV_ID, scene=drivers_scene)
     try:
-        assert env.unwrapped.config.env.max_episode_s == 300.0 and env.unwrapped.config.scenario.kind == "network"
+        assert env.unwrapped.config.env.max_episode_s == 15.0 and env.unwrapped.config.scenario.kind == "network"
+        assert env.reset(seed=0)[1]["vehicle"] is not None
     finally:
+        env.close()
+    chosen = [gymnasium.make(sumo_rail.SCENE_ENV_ID, scene=drivers_scene, **kwargs) for kwargs in
+              ({"config": {"env": {"max_episode_s": 8.0}}}, {"horizon_s": 300.0})]
+    assert [env.unwrapped.config.env.max_episode_s for env in chosen] == [8.0, 300.0]
+    for env in chosen:
         env.close()
 
 
