@@ -17,7 +17,7 @@ from .evaluation_options import (
 from .options import backend_options, check_output, output_options, seed_option
 from .param_types import FiniteFloat
 from .progress import complete, progress
-from .running import interruptible_run, note_output
+from .running import interruptible_run
 from .settings import config_options
 
 if TYPE_CHECKING:
@@ -121,9 +121,7 @@ def evaluate_scene_command(config: Config, scenes: tuple[Path, ...], policies: t
     drivers = parse_drivers(policies, config, DEFAULT_REFERENCE, named)
     reactive = {str(scene.folder): reactive_types(scene, step_s) for scene in read} if "reactive" in modes else {}
     names = unique_names(drivers)
-    check_video_dir(video_dir, [f"{name} {mode}" for name in names for mode in modes], overwrite)
-    if video_dir is not None:
-        note_output(video_dir)  # a stop names it: written or not
+    check_video_dir(video_dir, [f"{name} {mode}" for name in names for mode in modes], overwrite)  # held
     backend = evaluation_backend(backend_name, workers, address)
     bar = progress(len(drivers) * len(seats) * len(modes), "driving in recorded seats")
     with interruptible_run(bar, backend=backend):
