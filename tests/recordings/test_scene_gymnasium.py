@@ -4,6 +4,8 @@ chooses), so vector envs and Stable-Baselines3 drive it as they drive the genera
 
 from __future__ import annotations
 
+import re
+
 import gymnasium
 import numpy as np
 import pytest
@@ -135,3 +137,13 @@ def test_the_scene_env_drives_at_its_roads_limit_and_its_reactive_vehicles_as_ev
         assert env.unwrapped.core.start.types == expected and expected.of_vehicle
     finally:
         env.close()
+
+
+@pytest.mark.parametrize(("kwargs", "said"), [({"split": "banana"}, "unknown split 'banana'"),
+                                              ({"lead_s": -1.0}, "lead_s must be a finite number of at least 0"),
+                                              ({"zone_m": float("nan")}, "zone_m must be a finite number")])
+def test_a_split_lead_in_or_zone_the_env_cannot_seat_by_is_one_sentence_when_it_is_made(drivers_scene, kwargs, said):
+    """Was: an unknown split said "no banana-split car ..." at the first reset, and a negative lead-in seated the ego
+    before its car's track began ("vehicle ... is not on the road")."""
+    with pytest.raises(ValueError, match=f"^{re.escape(said)}"):
+        gymnasium.make(sumo_rail.SCENE_ENV_ID, scene=drivers_scene, **kwargs)
