@@ -261,6 +261,19 @@ def test_tracks_off_the_scenes_network_or_not_finite_are_a_damaged_scene_in_one_
     assert "tracks.parquet" in errors[0] and f"vehicle {vehicle}" in errors[0] and not out.exists()
 
 
+def test_a_split_file_naming_a_split_that_is_none_of_the_three_is_a_damaged_scene(drivers_scene, tmp_path):
+    """Was read silently: that vehicle was in no split, so never seated nor read."""
+    scene = tmp_path / "scene"
+    shutil.copytree(drivers_scene, scene)
+    split = pd.read_parquet(scene / "split.parquet")
+    split.loc[split.index[0], "split"] = "banana"
+    split.to_parquet(scene / "split.parquet", index=False)
+    out = tmp_path / "out.parquet"
+    result = invoke(str(scene), "--set", "scenario.lanes=3", "--policy", "keep", "--out", str(out))
+    assert result.exit_code == 1 and "split.parquet" in result.output and "'banana'" in result.output, result.output
+    assert "Traceback" not in result.output and not out.exists()
+
+
 @pytest.mark.parametrize("problem", ["not a scene", "not a network", "no seat", "policy", "other lanes",
                                      "shadowed length", "other interface"])
 def test_evaluate_scene_refuses_in_one_sentence_and_writes_nothing(drivers_scene, tmp_path, problem):
