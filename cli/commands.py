@@ -43,7 +43,6 @@ from .running import (
     failures_summary,
     interruptible_run,
     kept_until_resume,
-    note_output,
     tensorboard_logger,
     validation_summary,
 )
@@ -144,9 +143,7 @@ def evaluate_command(config: Config, policies: tuple[str, ...],
     if gui:
         drivers, references, episodes = drivers[:1], references[:1], 1
     names = unique_names(drivers)
-    check_video_dir(video_dir, names, overwrite)
-    if video_dir is not None:
-        note_output(video_dir)  # a stop names it: written or not
+    check_video_dir(video_dir, names, overwrite)  # held, and named by a stop: written or not
     if reference is not None and reference not in names:
         raise click.BadParameter(f"{reference!r} is not one of the drivers ({', '.join(names)})",
                                  param_hint="'--reference'")

@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING, Any
 import click
 
 from .options import build_backend
+from .output_lock import lock_output
 from .param_types import FiniteFloat
 
 if TYPE_CHECKING:
@@ -86,7 +87,8 @@ def check_watching(gui: bool, gui_delay_ms: float | None, video_dir: Path | None
 
 def check_video_dir(video_dir: Path | None, names: list[str], overwrite: bool) -> None:
     """Check --video before any work: the encoder is installed (exit 1, with the install hint), the folder can be
-    made, and no video of these drivers would be replaced without --overwrite (exit 2)."""
+    made, and no video of these drivers would be replaced without --overwrite (exit 2); then hold it as an output
+    (`lock_output`: another command filming into it is exit 1)."""
     if video_dir is None:
         return
     from sumo_rail.datasets import file_in_the_way
@@ -109,6 +111,7 @@ def check_video_dir(video_dir: Path | None, names: list[str], overwrite: bool) -
         if clash:
             raise click.BadParameter(f"{video_dir} already holds videos of these drivers ({clash[0]}, ...); pass "
                                      f"--overwrite to replace them", param_hint="'--video'")
+    lock_output(video_dir, "--video")
 
 
 def write_videos(videos: dict[str, bytes], video_dir: Path | None) -> list[str]:

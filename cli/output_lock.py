@@ -16,9 +16,9 @@ def lock_path(out: Path) -> Path:
     return out.parent / f".{out.name}.lock"
 
 
-def lock_output(out: Path) -> None:
-    """Hold `out` for this command until its click context closes (whatever way it ends); a live other process
-    holding it is one sentence (exit 1), a lock left by a process that is gone is taken over."""
+def lock_output(out: Path, option: str = "--out") -> None:
+    """Hold `out` (given by `option`) for this command until its click context closes (whatever way it ends); a live
+    other process holding it is one sentence (exit 1), a lock left by a process that is gone is taken over."""
     lock = lock_path(out.absolute())
     try:
         lock.parent.mkdir(parents=True, exist_ok=True)  # a run folder's parent, made after its checks passed
@@ -31,7 +31,7 @@ def lock_output(out: Path) -> None:
             holder = _holder(lock)
             if holder is not None and _alive(holder):
                 raise click.ClickException(f"{out} is being written by another sumo-rail command (pid {holder}); "
-                                           f"wait for it to end or choose another --out") from None
+                                           f"wait for it to end or choose another {option}") from None
             with contextlib.suppress(FileNotFoundError):
                 lock.unlink()  # its holder is gone (killed): take it over
             continue
@@ -42,7 +42,7 @@ def lock_output(out: Path) -> None:
             context.call_on_close(lambda: _release(lock))
         note_output(out)  # a stop names it: written or not
         return
-    raise click.ClickException(f"{out} is being written by another sumo-rail command; choose another --out")
+    raise click.ClickException(f"{out} is being written by another sumo-rail command; choose another {option}")
 
 
 def _create(lock: Path) -> None:

@@ -17,7 +17,7 @@ from .evaluation_options import (
 from .options import backend_options, check_output, output_options, seed_option
 from .param_types import FiniteFloat
 from .progress import complete, progress
-from .running import interruptible_run, note_output
+from .running import interruptible_run
 from .settings import config_options
 
 if TYPE_CHECKING:
@@ -103,8 +103,10 @@ def evaluate_scene_command(config: Config, scenes: tuple[Path, ...], policies: t
         seats = [seat for scene in read for seat in choose_seats(scene, split, horizon_s, lead_s, limit, seed,
                                                                           zone_m=zone_m, classes=classes,
                                                                           earliest_s=config.scenario.step_length_s)]
-    except (DatasetError, RecordingUsageError) as error:
+    except RecordingUsageError as error:
         raise click.UsageError(str(error)) from error
+    except DatasetError as error:  # a scene file there but damaged: data, not usage (as recorded-demos says it)
+        raise click.ClickException(str(error)) from error
     if not seats:
         zone = f" --zone-m {zone_m:g} m past the road's start and before its end" if zone_m > 0 else ""
         raise click.UsageError(f"no {split} vehicle ({', '.join(classes)}) of {', '.join(map(str, scenes))} has a "
@@ -119,9 +121,7 @@ def evaluate_scene_command(config: Config, scenes: tuple[Path, ...], policies: t
     drivers = parse_drivers(policies, config, DEFAULT_REFERENCE, named)
     reactive = {str(scene.folder): reactive_types(scene, step_s) for scene in read} if "reactive" in modes else {}
     names = unique_names(drivers)
-    check_video_dir(video_dir, [f"{name} {mode}" for name in names for mode in modes], overwrite)
-    if video_dir is not None:
-        note_output(video_dir)  # a stop names it: written or not
+    check_video_dir(video_dir, [f"{name} {mode}" for name in names for mode in modes], overwrite)  # held
     backend = evaluation_backend(backend_name, workers, address)
     bar = progress(len(drivers) * len(seats) * len(modes), "driving in recorded seats")
     with interruptible_run(bar, backend=backend):

@@ -51,6 +51,22 @@ def test_a_report_folder_another_command_writes_is_one_sentence(tmp_path):
         holder.wait()
 
 
+def test_a_video_folder_another_command_writes_is_one_sentence(tmp_path):
+    """--video is an output as --out is: two evaluations filming into one folder at once mixed (or replaced) each
+    other's videos; the second is refused before any work, naming the option."""
+    videos, out = tmp_path / "videos", tmp_path / "metrics.parquet"
+    holder = subprocess.Popen(["sleep", "600"])
+    try:
+        lock_path(videos).write_text(f"{holder.pid}\n")
+        result = CliRunner().invoke(cli, ["evaluate", *SMALL, "--policy", "keep", "--episodes", "1", "--video",
+                                          str(videos), "--out", str(out)])
+        assert result.exit_code == 1 and f"pid {holder.pid}" in result.output and "--video" in result.output
+        assert "Traceback" not in result.output and not out.exists() and not videos.exists()
+    finally:
+        holder.kill()
+        holder.wait()
+
+
 def _caught(pid: int, number: int) -> bool:
     """Whether process `pid` has a handler for signal `number` (/proc's SigCgt mask)."""
     status = Path(f"/proc/{pid}/status").read_text()

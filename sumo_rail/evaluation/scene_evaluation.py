@@ -90,7 +90,8 @@ class RecordedSeatStart:
         env = context.custom_env(("scene", self.config, self.seat.scene, self.reactive, types.key),
                                  lambda: SceneEnv(self.config, Path(self.seat.scene), self.reactive,
                                                   context.render_mode, "libsumo", types,
-                                                  gui_delay_ms=context.gui_delay_ms))
+                                                  gui_delay_ms=context.gui_delay_ms,
+                                                  horizon_s=self.config.env.max_episode_s))
         assert isinstance(env, SceneEnv)
         return env
 

@@ -120,7 +120,7 @@ class LogSeats:
         road, routes = scene_road(scene.network), scene_routes(scene.tracks)
         humans = [read_human_track(seat_frame(road, scene.track(seat.vehicle).sort_values("time_s", kind="stable"),
                                               routes[seat.vehicle], seat.start_s), rule, train.config.actions,
-                                   smoothing_s)
+                                   smoothing_s, road.sideways_sign(routes[seat.vehicle]))
                   for seat in train.seats]
         return cls(train, tuple(humans), horizon_s)
 

@@ -53,12 +53,14 @@ class HumanTrack:
 
 
 def read_human_track(track: pd.DataFrame, rule: ActionRule, interface: ActionConfig,
-                     smoothing_s: float = 0.0) -> HumanTrack:
-    """One vehicle's rows of a scene (sorted by time) with its read actions (`read_acceleration_track`)."""
+                     smoothing_s: float = 0.0, sideways: float | None = 1.0) -> HumanTrack:
+    """One vehicle's rows of a scene (sorted by time) with its read actions (`read_acceleration_track`; `sideways`
+    as `recorded_demos.track_decisions` takes it)."""
     time_s, speed = track["time_s"].to_numpy(dtype=float), track["speed_mps"].to_numpy(dtype=float)
     lane = track["lane"].to_numpy()
+    lateral = None if sideways is None else sideways * track["y_m"].to_numpy()
     instants, actions, accelerations = read_acceleration_track(time_s, speed, lane, track["edge"].to_numpy(),
-                                                               track["y_m"].to_numpy(), rule, interface, smoothing_s)
+                                                               lateral, rule, interface, smoothing_s)
     laterals = np.array([int(split_acceleration_action(int(a), interface)[1]) for a in actions], dtype=np.int64)
     return HumanTrack(time_s, track["lane_position_m"].to_numpy(dtype=float), speed, lane.astype(np.int64),
                       instants, laterals, accelerations, rule.decision_period_s)

@@ -96,6 +96,7 @@ def seat_env(context: WorkerContext, config: Config, seat: Seat) -> SceneEnv:
     """The worker's env of `seat`'s scene (non-reactive: the others replayed as recorded), kept for later seats of the
     same scene and configuration."""
     env = context.custom_env(("scene", config, seat.scene, False),
-                             lambda: SceneEnv(config, Path(seat.scene), False, transport="libsumo"))
+                             lambda: SceneEnv(config, Path(seat.scene), False, transport="libsumo",
+                                              horizon_s=config.env.max_episode_s))
     assert isinstance(env, SceneEnv)
     return env

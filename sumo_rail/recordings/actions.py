@@ -9,7 +9,7 @@ The rule, for the decision at t (the period t .. t + T, T = env.decision_period_
    scenario.lane_change_duration_s (2 s) later; reading the crossing would put the change about two decisions
    late. In a sweep over two lanes (no pause between the crossings) the look-back stops midway between the two
    crossings, where the second change began (the vehicle passes the middle lane's centre). Without sideways
-   positions (`lateral=False`, a network that is not one straight edge along x) the crossing's own period is used.
+   positions (`lateral_m` None: a route that is not one edge straight along x) the crossing's own period is used.
    On a network of several edges the lanes are compared in the route frame of the track's edges
    (`scene_observations.in_route_frame`): a change of edge is then no lane change, nor is a lane kept where lanes are
    added or dropped, and a change made at an edges' boundary is one.

@@ -65,13 +65,14 @@ class TrackDecisions:
 
 
 def track_decisions(vehicle: str, track: pd.DataFrame, rule: ActionRule, config: Config,
-                    smoothing_s: float = 0.0, sideways: bool = True) -> TrackDecisions:
+                    smoothing_s: float = 0.0, sideways: float | None = 1.0) -> TrackDecisions:
     """The decisions read off one track (rows sorted by time): the paper's actions by `rule`, with the set-point it
     estimates, or the acceleration interface's (`acceleration_reading`, speeds smoothed over `smoothing_s` [s]);
-    `sideways`: y is the sideways position (a straight road along +x), which times a lane change's onset."""
+    `sideways`: y times it is the sideways position, left positive (`SceneRoad.sideways_sign`), which times a lane
+    change's onset (None: no sideways position, the crossing is read)."""
     time_s, speed = track["time_s"].to_numpy(), track["speed_mps"].to_numpy()
     lane, edge = track["lane"].to_numpy(), track["edge"].to_numpy()
-    lateral = track["y_m"].to_numpy() if sideways else None
+    lateral = None if sideways is None else sideways * track["y_m"].to_numpy()
     interface = config.actions
     if interface.interface == "acceleration":
         instants, actions, _ = read_acceleration_track(time_s, speed, lane, edge, lateral, rule, interface,
@@ -168,7 +169,7 @@ def write_recorded_demos(folder: Path, config: Config, split: str, out: Path) ->
     smoothing_s = smoothing_for(scene.meta.format)
     routes = scene_routes(chosen)
     decisions = [track_decisions(str(vehicle), in_route_frame(road, track, routes[str(vehicle)]), rule, config,
-                                 smoothing_s, road.straight)
+                                 smoothing_s, road.sideways_sign(routes[str(vehicle)]))
                  for vehicle, track in chosen.groupby("vehicle_id", sort=True)]
     kept = [decided for decided in decisions if len(decided.actions)]
     if not kept:

@@ -256,7 +256,36 @@ def check_scene(scene: Scene, config: Config, split: str) -> SceneRoad:
     check_speed_limit(road.speed_limit_mps, config, f"the road of the scene {scene.folder}")
     if not (scene.split["split"] == split).any():
         raise RecordingUsageError(f"the scene {scene.folder} has no vehicle in the {split} split")
+    check_tracks(scene, road)
     return road
+
+
+def check_tracks(scene: Scene, road: SceneRoad) -> None:
+    """RecordingDataError naming the first vehicle of the scene's split in none of `SPLITS`, or of its tracks on a lane
+    its network does not have or with a number that is not finite: a damaged split.parquet or tracks.parquet
+    (hand-edited, another scene's), which import-recording never writes and the readers would fail on mid-way."""
+    unknown = scene.split[~scene.split["split"].isin(SPLITS)]
+    if len(unknown):
+        row = unknown.iloc[0]
+        raise RecordingDataError(f"{scene.folder / 'split.parquet'}: vehicle {row['vehicle_id']} is in split "
+                                 f"{row['split']!r}, none of {', '.join(SPLITS)}: the scene is damaged")
+    tracks, where = scene.tracks, scene.folder / "tracks.parquet"
+    numbers = [name for name in TRACK_COLUMNS if pa.types.is_floating(TRACK_SCHEMA.field(name).type)]
+    broken = ~np.isfinite(tracks[numbers].to_numpy(dtype=float)).all(axis=1)
+    if broken.any():
+        row = tracks[broken].iloc[0]
+        column = next(name for name in numbers if not np.isfinite(row[name]))
+        raise RecordingDataError(f"{where}: {column} of vehicle {row['vehicle_id']} at {row['time_s']:g} s is "
+                                 f"{row[column]}, not a number: the scene is damaged")
+    pairs = tracks[["edge", "lane"]].drop_duplicates()
+    known = set(road.net.lane.getIDList())
+    off = [f"{edge}_{lane}" not in known for edge, lane in pairs.itertuples(index=False)]
+    if any(off):
+        edge, lane = pairs[off].iloc[0]
+        row = tracks[(tracks["edge"] == edge) & (tracks["lane"] == lane)].iloc[0]
+        raise RecordingDataError(f"{where}: vehicle {row['vehicle_id']} at {row['time_s']:g} s is on lane {lane} of "
+                                 f"edge {edge}, which the scene's network {scene.network} does not have: the scene "
+                                 f"is damaged")
 
 
 SPEED_TOLERANCE_MPS = 0.005

@@ -6,8 +6,9 @@ seat, each from what the recording says (docs/replay.md).
   or additional file given to `import-recording --vtypes`, SUMO's drivers' own types); every other vehicle by SUMO's
   IDM calibrated on the scene's train split (`idm_calibration.calibrate` on `REACTIVE_CALIBRATION`'s windows drawn
   from every train track; LC2013 lane changing; the trucks of SUMO's class truck), or SUMO's default Krauss where
-  the split has nothing to fit. Its desired speed is the fastest its track records (`sim.replay`), whatever its type.
-  A recorded type named as one the simulation defines itself (`BUILT_IN_TYPES`) drives under another name
+  the split has nothing to fit. A vehicle recorded as SUMO's default type (FCD of a vehicle without a type) drives
+  it: no file defines it, SUMO does. Its desired speed is the fastest its track records (`sim.replay`), whatever its
+  type. A recorded type named as one the simulation defines itself (`BUILT_IN_TYPES`) drives under another name
   (`sumo_type_ids`), said in the note.
 - The seat (`seat_calibration`, `evaluate-scene --policy sumo-idm-calibrated`): SUMO's IDM with the parameters fitted
   on the seats of the train drivers of the seat's class (the span `lead_s` to `lead_s` + `horizon_s` into each track)
@@ -97,8 +98,10 @@ def reactive_types(scene: Scene, step_s: float) -> ReactiveTypes:
     vehicles = scene.split["vehicle_id"].astype(str).tolist()
     recorded = {vehicle: meta.vehicle_types[vehicle] for vehicle in vehicles
                 if meta.vehicle_types.get(vehicle) in meta.vtypes}
+    sumo_default = {vehicle for vehicle in vehicles  # recorded as SUMO's own type, which drives them here too
+                    if meta.vehicle_types.get(vehicle) == DEFAULT_TYPE and vehicle not in recorded}
     missing = sorted({meta.vehicle_types[vehicle] for vehicle in vehicles
-                      if vehicle in meta.vehicle_types and vehicle not in recorded})
+                      if vehicle in meta.vehicle_types and vehicle not in recorded.keys() | sumo_default})
     note = (f"the recording names vTypes without their definitions ({', '.join(missing[:5])}"
             f"{', ...' if len(missing) > 5 else ''}): give its route or additional file to import-recording "
             f"--vtypes" if missing else "")
@@ -109,7 +112,7 @@ def reactive_types(scene: Scene, step_s: float) -> ReactiveTypes:
                                              f"SUMO: {', '.join(renamed)}"]))
     definitions = {sumo_ids[type_id]: meta.vtypes[type_id] for type_id in sorted(sumo_ids)}
     recorded = {vehicle: sumo_ids[type_id] for vehicle, type_id in recorded.items()}
-    others = len(vehicles) - len(recorded)
+    others = len(vehicles) - len(recorded) - len(sumo_default)
     calibration = None
     if others:
         try:
@@ -119,7 +122,7 @@ def reactive_types(scene: Scene, step_s: float) -> ReactiveTypes:
     if calibration is not None:
         trucks = set(scene.tracks.loc[scene.tracks["vehicle_class"] == "truck", "vehicle_id"].astype(str))
         calibrated = {vehicle: REACTIVE_IDM_TRUCK_TYPE if vehicle in trucks else REACTIVE_IDM_TYPE
-                      for vehicle in vehicles if vehicle not in recorded}
+                      for vehicle in vehicles if vehicle not in recorded and vehicle not in sumo_default}
         definitions[REACTIVE_IDM_TYPE] = idm_type(calibration.parameters)
         if REACTIVE_IDM_TRUCK_TYPE in calibrated.values():
             definitions[REACTIVE_IDM_TRUCK_TYPE] = {**definitions[REACTIVE_IDM_TYPE], "vClass": "truck"}

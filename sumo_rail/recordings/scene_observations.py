@@ -42,15 +42,14 @@ _CONTINUOUS = ("x_m", "y_m", "speed_mps", "lane_position_m")
 class SceneRoad:
     """A scene's road on its SUMO network (`net`): the main road's route (`NetFile.main_route`, the scene env's
     scenario.route), its lanes (the route's widest edge's), the edge boxes the LIDAR sees ((S, 6) rows of centre x, y,
-    axis x, y, half length, half width, as `ego.edge_rows`), its speed limit [m/s] (the fastest lane along the route)
-    and whether it is one straight edge along +x (then y is the sideways position, as in highD and NGSIM)."""
+    axis x, y, half length, half width, as `ego.edge_rows`) and its speed limit [m/s] (the fastest lane along the
+    route)."""
 
     net: NetFile
     route: tuple[str, ...]
     lanes: int
     edge_rows: np.ndarray
     speed_limit_mps: float
-    straight: bool
     _frames: dict[tuple[str, ...], RouteMap] = field(default_factory=dict, compare=False, repr=False)
 
     def frame(self, route: tuple[str, ...]) -> RouteMap:
@@ -59,6 +58,17 @@ class SceneRoad:
         if found is None:
             found = self._frames[route] = self.net.frame(route, self.lanes)
         return found
+
+    def sideways_sign(self, route: tuple[str, ...]) -> float | None:
+        """What y is to a vehicle driving `route` when the route is one edge straight along x: its sideways position
+        [m], left positive (1.0: along +x, as highD's and NGSIM's roads; -1.0: along -x, highD's other carriageway,
+        whose left is -y); None on any other route (a lane change is then read at its crossing)."""
+        shapes = [np.asarray(self.net.lane.getShape(lane)) for lane in self.net.lane.getIDList()
+                  if len(route) == 1 and self.net.lane.getEdgeID(lane) == route[0]]
+        if not shapes or any(len(shape) < 2 or np.ptp(shape[:, 1]) > 1e-6 for shape in shapes):
+            return None
+        signs = {float(np.sign(shape[-1, 0] - shape[0, 0])) for shape in shapes}
+        return signs.pop() if len(signs) == 1 and 0.0 not in signs else None
 
     def place(self, route: tuple[str, ...], edges: np.ndarray, lanes: np.ndarray,
               lane_positions_m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -148,13 +158,10 @@ def scene_road(net_file: Path) -> SceneRoad:
     if not route:
         raise DatasetError(f"network {net_file} has no edge; a scene's road is a SUMO network")
     lanes = [lane for edge in route for lane in net.lane.getIDList() if net.lane.getEdgeID(lane) == edge]
-    shapes = [np.asarray(net.lane.getShape(lane)) for lane in lanes]
-    straight = len(route) == 1 and all(len(shape) >= 2 and np.ptp(shape[:, 1]) <= 1e-6 and shape[-1, 0] > shape[0, 0]
-                                       for shape in shapes)
     boxes = lidar.edge_boxes(net.outer_edges())
     return SceneRoad(net, route, max(net.edge.getLaneNumber(edge) for edge in route),
                      np.hstack([boxes.centre_xy, boxes.axis_xy, boxes.half_size_m]),
-                     max(net.lane.speed[lane] for lane in lanes), straight)
+                     max(net.lane.speed[lane] for lane in lanes))
 
 
 class SceneFrames:

@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from sumo_rail.config import Config
+from sumo_rail.config import Config, EnvConfig
 from sumo_rail.recordings.scene import SPEED_TOLERANCE_MPS, Scene, read_scene
 from sumo_rail.recordings.scene_drivers import reactive_types
 from sumo_rail.recordings.scene_observations import SceneFrames, SceneRoad, scene_road, scene_routes
@@ -43,6 +43,21 @@ def scene_config(config: Config, scene: Scene, road: SceneRoad) -> Config:
     return config.with_overrides({"scenario": {"kind": "network", "network": str(scene.network.resolve()),
                                                "route": " ".join(road.route), "traffic_file": "",
                                                "lanes": road.lanes}})
+
+
+SEAT_HORIZON_S = 15.0
+"""A seat's episode length [s] when nothing chooses one (`evaluate-scene --horizon-s`'s default): the generated road's
+env.max_episode_s, 300 s, is longer than the tracks of most recordings, which would leave no seat to draw."""
+
+
+def horizon_config(config: Config, horizon_s: float | None) -> Config:
+    """`config` whose episodes last `horizon_s` [s]; None: its env.max_episode_s, or `SEAT_HORIZON_S` where that is
+    the default (as `evaluate-scene` takes a default env.max_episode_s for unset)."""
+    if horizon_s is None:
+        if config.env.max_episode_s != EnvConfig().max_episode_s:
+            return config
+        horizon_s = SEAT_HORIZON_S
+    return config.with_overrides({"env": {"max_episode_s": horizon_s}})
 
 
 def road_limit_config(config: Config, road: SceneRoad) -> Config:
@@ -124,7 +139,9 @@ class SceneEnv(HighwayEnv):
     A reset without a vehicle (Gymnasium's `reset(seed=...)`, vector envs, Stable-Baselines3) seats the ego in a seat
     of the scene's `split` drawn by the episode's seed (`sumo_rail.recordings.seats.SeatDraw`: a passenger car whose
     track covers `lead_s` [s] of lead-in and `env.max_episode_s`, with `zone_m` [m] where traffic is established, as
-    `evaluate-scene --lead-s --zone-m` chooses them); `info` names it ("vehicle", "start_s").
+    `evaluate-scene --lead-s --zone-m` chooses them); `info` names it ("vehicle", "start_s"). An episode lasts
+    `horizon_s` [s] (default: the config's env.max_episode_s, or `SEAT_HORIZON_S` where it is the default's 300 s,
+    as `evaluate-scene --horizon-s` does).
     `gymnasium.make("sumo_rail/Scene-v0", scene=FOLDER, config=...)` makes it (`config` as `HighwayEnv` takes it;
     the scene gives the road: its lanes, and its speed limit, `road_limit_config`, as the commands ask of a
     configuration)."""
@@ -132,14 +149,15 @@ class SceneEnv(HighwayEnv):
     def __init__(self, config: Config | Mapping[str, Any] | str | Path | None = None, scene: Path | Scene | None = None,
                  reactive: bool = False, render_mode: str | None = None, transport: str = "auto",
                  types: VehicleTypes | None = None, split: str = "train", lead_s: float = 5.0,
-                 zone_m: float = 0.0, gui_delay_ms: float = 100.0) -> None:
+                 zone_m: float = 0.0, gui_delay_ms: float = 100.0, horizon_s: float | None = None) -> None:
         if scene is None:
             raise TypeError("SceneEnv needs a scene: gymnasium.make(SCENE_ENV_ID, scene=FOLDER)")
         self.scene = scene if isinstance(scene, Scene) else read_scene(Path(scene))
         self.frames = SceneFrames(self.scene.tracks, self.scene.meta.frame_rate_hz)
         self.road = scene_road(self.scene.network)
         self.reactive = reactive
-        config = road_limit_config(scene_config(Config.coerce(config), self.scene, self.road), self.road)
+        config = horizon_config(road_limit_config(scene_config(Config.coerce(config), self.scene, self.road),
+                                                  self.road), horizon_s)
         if types is None:
             types = reactive_types(self.scene, config.scenario.step_length_s).types if reactive else NO_TYPES
         seats = SeatDraw(self.scene, split, config.env.max_episode_s, lead_s, zone_m, config.scenario.step_length_s)

@@ -7,12 +7,13 @@ scene's seats by an episode's generator, for `SceneEnv` reset without a vehicle 
 
 from __future__ import annotations
 
+import math
 from collections.abc import Collection
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from sumo_rail.recordings.scene import Scene
+from sumo_rail.recordings.scene import SPLITS, Scene
 from sumo_rail.recordings.scene_observations import scene_road, scene_routes
 
 
@@ -88,6 +89,15 @@ class SeatDraw:
     zone_m: float
     earliest_s: float
     _seats: list[Seat] | None = field(default=None, init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        """ValueError, one sentence, for a split that is none of the scene's or a lead-in or zone that is not a finite
+        number of at least 0 (a negative lead-in seated the ego before its car's track began)."""
+        if self.split not in SPLITS:
+            raise ValueError(f"unknown split {self.split!r}; known: {', '.join(SPLITS)}")
+        for name, value in (("lead_s", self.lead_s), ("zone_m", self.zone_m)):
+            if not 0.0 <= value < math.inf:
+                raise ValueError(f"{name} must be a finite number of at least 0, got {value:g}")
 
     def draw(self, rng: np.random.Generator) -> Seat:
         """A seat drawn by `rng`; ValueError, one sentence, when the scene has none."""

@@ -224,6 +224,56 @@ def test_evaluate_scene_writes_both_tables_with_provenance(drivers_scene, tmp_pa
     assert sources[str((drivers_scene / "tracks.parquet").resolve())] == file_sha256(drivers_scene / "tracks.parquet")
 
 
+@pytest.mark.parametrize("damaged", ["tracks.parquet", "split.parquet", "scene.json"])
+def test_a_damaged_scene_file_is_one_sentence_naming_it_exit_1(drivers_scene, tmp_path, damaged):
+    """A scene file that is there but cannot be read is damaged data (exit 1, as recorded-demos says it), not a usage
+    error (a missing scene folder is exit 2, below)."""
+    scene = tmp_path / "scene"
+    shutil.copytree(drivers_scene, scene)
+    (scene / damaged).write_bytes((scene / damaged).read_bytes()[:200])
+    out = tmp_path / "out.parquet"
+    result = invoke(str(scene), "--set", "scenario.lanes=3", "--policy", "keep", "--out", str(out))
+    assert result.exit_code == 1 and damaged in result.output and "Traceback" not in result.output, result.output
+    assert not out.exists() and not tracks_path(out).exists()
+
+
+@pytest.mark.parametrize("command", ["evaluate-scene", "recorded-demos"])
+@pytest.mark.parametrize(("column", "value"), [("edge", "no_such_edge"), ("lane", 7), ("speed_mps", float("nan"))])
+def test_tracks_off_the_scenes_network_or_not_finite_are_a_damaged_scene_in_one_sentence(drivers_scene, tmp_path,
+                                                                                          command, column, value):
+    """A tracks.parquet that reads but holds a test vehicle on an edge or lane its network lacks, or a value that is
+    not a number (hand-edited, or another scene's): one sentence naming the file and the vehicle, exit 1 (was a
+    KeyError traceback, or NaN positions carried into the tables)."""
+    scene = tmp_path / "scene"
+    shutil.copytree(drivers_scene, scene)
+    tracks, split = pd.read_parquet(scene / "tracks.parquet"), pd.read_parquet(scene / "split.parquet")
+    vehicle = split.loc[split["split"] == "test", "vehicle_id"].iloc[0]
+    tracks[column] = tracks[column].astype(object)
+    tracks.loc[tracks.index[tracks["vehicle_id"] == vehicle][3], column] = value
+    tracks.astype({column: pd.read_parquet(drivers_scene / "tracks.parquet")[column].dtype}).to_parquet(
+        scene / "tracks.parquet", index=False)
+    out = tmp_path / "out.parquet"
+    args = [str(scene), "--set", "scenario.lanes=3", "--split", "test", "--out", str(out)]
+    result = (invoke(*args, "--policy", "keep") if command == "evaluate-scene"
+              else CliRunner().invoke(cli, ["recorded-demos", *args, *SCENE_SPEED]))
+    errors = [line for line in result.output.splitlines() if line.startswith("Error:")]
+    assert result.exit_code == 1 and len(errors) == 1 and "Traceback" not in result.output, result.output
+    assert "tracks.parquet" in errors[0] and f"vehicle {vehicle}" in errors[0] and not out.exists()
+
+
+def test_a_split_file_naming_a_split_that_is_none_of_the_three_is_a_damaged_scene(drivers_scene, tmp_path):
+    """Was read silently: that vehicle was in no split, so never seated nor read."""
+    scene = tmp_path / "scene"
+    shutil.copytree(drivers_scene, scene)
+    split = pd.read_parquet(scene / "split.parquet")
+    split.loc[split.index[0], "split"] = "banana"
+    split.to_parquet(scene / "split.parquet", index=False)
+    out = tmp_path / "out.parquet"
+    result = invoke(str(scene), "--set", "scenario.lanes=3", "--policy", "keep", "--out", str(out))
+    assert result.exit_code == 1 and "split.parquet" in result.output and "'banana'" in result.output, result.output
+    assert "Traceback" not in result.output and not out.exists()
+
+
 @pytest.mark.parametrize("problem", ["not a scene", "not a network", "no seat", "policy", "other lanes",
                                      "shadowed length", "other interface"])
 def test_evaluate_scene_refuses_in_one_sentence_and_writes_nothing(drivers_scene, tmp_path, problem):

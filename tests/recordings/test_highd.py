@@ -157,3 +157,27 @@ def test_both_directions_are_one_scene_each_on_its_own_carriageway(tmp_path):
     demos = pd.read_parquet(tmp_path / "demos.parquet")
     assert (demos.groupby("episode")["position_m"].diff().dropna() > 0).all()  # each along its own carriageway
     assert np.isfinite(np.stack(demos["observation"].to_numpy())).all()  # the other carriageway's cars in sight too
+
+
+def test_an_upper_lane_change_is_read_at_its_onset_in_a_scene_of_both_directions_as_in_its_own(tmp_path):
+    """The upper carriageway of --direction both is driven toward -x, so its left is -y: its lane changes are read at
+    the onset of the sideways motion, the same decision as in the upper direction's own scene (were: at the crossing,
+    1.5 s later here, the motion read as away from the new lane)."""
+    rows = highd_vehicle(1, range(1, 300), 420.0, 2, upper=True) + highd_vehicle(2, range(1, 300), 20.0, 6, upper=False)
+    for k, row in enumerate(rows[:299]):  # from 2 s on, down the image (the upper direction's left) into lane 3
+        row["y"] += min(max(k - 50, 0) / 25.0, UPPER_MARKINGS[2] - UPPER_MARKINGS[1])
+        row["laneId"] = 3 if row["y"] + row["height"] / 2 > UPPER_MARKINGS[1] else 2
+    recording = write_highd(tmp_path, rows)
+    read = {}
+    for direction in ("both", "upper"):
+        scene = tmp_path / direction
+        for command in (["import-recording", "--format", "highd", str(recording), "--direction", direction,
+                         "--test-share", "0", "--validation-share", "0", "--out", str(scene)],
+                        ["recorded-demos", str(scene), "--set", "scenario.lanes=2", "--set",
+                         "scenario.speed_limit_mps=44.44", "--set", "env.v_max_mps=44.44", "--split", "train",
+                         "--out", str(tmp_path / f"{direction}.parquet")]):
+            result = CliRunner().invoke(cli, command)
+            assert result.exit_code == 0, result.output
+        demos = pd.read_parquet(tmp_path / f"{direction}.parquet")
+        read[direction] = demos.loc[demos["episode"] == demos["episode"].min(), "action"].tolist()
+    assert read["upper"].count(Action.LANE_LEFT) == 1 and read["both"] == read["upper"]

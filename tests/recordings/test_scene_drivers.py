@@ -243,6 +243,20 @@ def test_a_recorded_vtype_named_as_one_of_the_projects_own_drives_under_another_
     assert reactive["b"] == (drives_as, pytest.approx(1.7)) and reactive["t"][0] == REACTIVE_IDM_TYPE
 
 
+def test_vehicles_recorded_as_sumos_default_type_drive_it_and_are_not_said_to_lack_a_definition(tmp_path):
+    """FCD of vehicles without a type names SUMO's own DEFAULT_VEHTYPE, which no route file defines: that is the
+    recorded vType, so they drive it (were: the calibrated IDM, with a note asking for --vtypes, which had been given);
+    a type the file does not define (lorry) is still said and calibrated."""
+    files = fcd_scene_files(tmp_path)
+    (tmp_path / "fcd.xml").write_text((tmp_path / "fcd.xml").read_text().replace("car_calm", DEFAULT_TYPE))
+    imported(tmp_path, files)
+    found = reactive_types(read_scene(tmp_path / "scene"), 0.1)
+    assert (found.recorded, found.calibrated) == (2, 1) and found.types.of_vehicle == {"t": REACTIVE_IDM_TYPE}
+    assert "lorry" in found.note and DEFAULT_TYPE not in found.note
+    reactive = types_on_road(tmp_path / "scene", found.types, reactive=True)
+    assert reactive["b"][0] == DEFAULT_TYPE and reactive["t"][0] == REACTIVE_IDM_TYPE
+
+
 def test_a_renamed_recorded_vtype_takes_a_name_no_other_type_has():
     assert sumo_type_ids({"ego", "ego_recorded", "car"}) == {"ego": "ego_recorded1", "ego_recorded": "ego_recorded",
                                                              "car": "car"}

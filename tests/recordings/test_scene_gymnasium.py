@@ -4,6 +4,8 @@ chooses), so vector envs and Stable-Baselines3 drive it as they drive the genera
 
 from __future__ import annotations
 
+import re
+
 import gymnasium
 import numpy as np
 import pytest
@@ -84,12 +86,20 @@ def test_a_start_that_is_no_finite_time_is_refused_before_sumo_loads(scene_env, 
     assert scene_env.reset(seed=0)[1]["vehicle"] == vehicle  # the env goes on
 
 
-def test_the_documented_make_without_a_config_takes_the_defaults(drivers_scene):
-    """`gymnasium.make(SCENE_ENV_ID, scene=FOLDER)` (README): the default config, on the scene's road."""
+def test_the_documented_make_without_a_config_seats_the_ego_for_evaluate_scenes_default_horizon(drivers_scene):
+    """`gymnasium.make(SCENE_ENV_ID, scene=FOLDER)` then `reset(seed=...)` (README): the default config on the scene's
+    road, its episodes evaluate-scene's default 15 s (the generated road's 300 s outlasts every track: no seat to
+    draw); a chosen env.max_episode_s, or `horizon_s`, is kept."""
     env = gymnasium.make(sumo_rail.SCENE_ENV_ID, scene=drivers_scene)
     try:
-        assert env.unwrapped.config.env.max_episode_s == 300.0 and env.unwrapped.config.scenario.kind == "network"
+        assert env.unwrapped.config.env.max_episode_s == 15.0 and env.unwrapped.config.scenario.kind == "network"
+        assert env.reset(seed=0)[1]["vehicle"] is not None
     finally:
+        env.close()
+    chosen = [gymnasium.make(sumo_rail.SCENE_ENV_ID, scene=drivers_scene, **kwargs) for kwargs in
+              ({"config": {"env": {"max_episode_s": 8.0}}}, {"horizon_s": 300.0})]
+    assert [env.unwrapped.config.env.max_episode_s for env in chosen] == [8.0, 300.0]
+    for env in chosen:
         env.close()
 
 
@@ -127,3 +137,13 @@ def test_the_scene_env_drives_at_its_roads_limit_and_its_reactive_vehicles_as_ev
         assert env.unwrapped.core.start.types == expected and expected.of_vehicle
     finally:
         env.close()
+
+
+@pytest.mark.parametrize(("kwargs", "said"), [({"split": "banana"}, "unknown split 'banana'"),
+                                              ({"lead_s": -1.0}, "lead_s must be a finite number of at least 0"),
+                                              ({"zone_m": float("nan")}, "zone_m must be a finite number")])
+def test_a_split_lead_in_or_zone_the_env_cannot_seat_by_is_one_sentence_when_it_is_made(drivers_scene, kwargs, said):
+    """Was: an unknown split said "no banana-split car ..." at the first reset, and a negative lead-in seated the ego
+    before its car's track began ("vehicle ... is not on the road")."""
+    with pytest.raises(ValueError, match=f"^{re.escape(said)}"):
+        gymnasium.make(sumo_rail.SCENE_ENV_ID, scene=drivers_scene, **kwargs)

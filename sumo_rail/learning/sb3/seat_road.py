@@ -50,7 +50,7 @@ class SeatRoad:
 
     def __init__(self, config: Config, seats: SceneSeats, seed: int) -> None:
         self.env = SceneEnv(config, Path(seats.folder), False, transport="libsumo", split="train",
-                            lead_s=seats.lead_s, zone_m=seats.zone_m)
+                            lead_s=seats.lead_s, zone_m=seats.zone_m, horizon_s=config.env.max_episode_s)
         self.seed: int | None = seed
 
     def reset(self) -> np.ndarray:
