@@ -16,9 +16,10 @@ $(STAMP): pyproject.toml
 
 install: $(STAMP)
 
-# lint and type check first: a finding stops the run before the (long) test suite
+# lint and type check first: a finding stops the run before the (long) test suite; the suite on two processes
+# (pytest-xdist), a test file's tests in one (its module fixtures made once)
 test: lint typecheck
-	$(PY) -m pytest -q
+	$(PY) -m pytest -q -n 2 --dist loadfile
 
 demo: $(STAMP)
 	experiments/demo.sh demo_output
