@@ -1,8 +1,9 @@
 """The data an IDM is fitted on (`idm_calibration`): a scene's tracks on SUMO's step with each row's leader, and the
 windows in which a driver keeps its lane and follows one leader.
 
-- `scene_rows`: the tracks at every multiple of SUMO's step they cover (resampled when the frame period differs:
-  positions along the vehicle's route and speeds interpolated, lane and edge the latest frame's), each row with its
+- `scene_rows`: the tracks at every multiple of SUMO's step they cover (resampled when the frame period differs, a
+  multiple of the step too: positions along the vehicle's route and speeds interpolated, lane and edge the latest
+  frame's), each row with its
   leader: the nearest vehicle ahead along the driver's route (its recorded edges, `scene_observations.scene_routes`)
   in the same lane of that route at that instant, on its edge or the next ones it takes (the route frame of
   `scene_observations.SceneRoad`, as the observation and the seat measure distances on any network), and the
@@ -49,12 +50,22 @@ class SceneRows:
     """The row of the same vehicle's last tick."""
 
 
+def _every_tick(vehicle_id: pd.Series, ticks: np.ndarray) -> bool:
+    """Whether the frames come every tick: the closest two consecutive frames of a vehicle are one tick apart (or no
+    vehicle has two frames, as in a lead-in of one instant)."""
+    vehicle = vehicle_id.to_numpy().astype(str)
+    order = np.lexsort((ticks, vehicle))
+    apart = np.rint(np.diff(ticks[order]))[vehicle[order][1:] == vehicle[order][:-1]]
+    return not apart.size or apart.min() <= 1
+
+
 def _on_ticks(tracks: pd.DataFrame, step_s: float, road: SceneRoad,
               routes: Mapping[str, tuple[str, ...]]) -> pd.DataFrame:
-    """The tracks at every multiple of `step_s` [s] they cover (the rows themselves when they lie on the ticks; else
-    interpolated along each vehicle's route of `routes` on `road`, so that a frame on the next edge is no jump)."""
+    """The tracks at every multiple of `step_s` [s] they cover: the rows themselves when they lie on the ticks, one
+    every tick; else (frames between the ticks, or several ticks apart as SUMO's FCD at its default 1 s step)
+    interpolated along each vehicle's route of `routes` on `road`, so that a frame on the next edge is no jump."""
     ticks = tracks["time_s"].to_numpy() / step_s
-    if np.allclose(ticks, np.rint(ticks), rtol=0.0, atol=1e-6):
+    if np.allclose(ticks, np.rint(ticks), rtol=0.0, atol=1e-6) and _every_tick(tracks["vehicle_id"], ticks):
         return tracks.assign(tick=np.rint(ticks).astype(np.int64))
     parts = []
     for vehicle, track in tracks.sort_values("time_s").groupby("vehicle_id", sort=False):

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import dataclasses
 import shutil
+import subprocess
 
 import numpy as np
 import pandas as pd
@@ -21,11 +22,12 @@ from sumo_rail.recordings.idm import SUMO_DEFAULTS, IdmParameters
 from sumo_rail.recordings.idm_calibration import CalibrationSettings, calibrate, fit, lead_in_desired_speed, simulated
 from sumo_rail.recordings.idm_windows import Windows
 from sumo_rail.recordings.scene import read_scene
-from sumo_rail.recordings.scene_drivers import SEAT_IDM_TYPE
+from sumo_rail.recordings.scene_drivers import SEAT_IDM_TYPE, reactive_types, seat_calibration
 from sumo_rail.recordings.seat import SceneEnv
 from sumo_rail.recordings.seats import choose_seats
 from sumo_rail.runners.backends import SerialBackend
 from sumo_rail.runners.rollout import SumoIdmDriver
+from sumo_rail.sim.network import netconvert, sumo_binary
 from sumo_rail.sim.simulation import EGO_ID
 
 CONFIG = Config.from_dict({"observation": {"lane_block": 1}, "env": {"max_episode_s": 10.0}})
@@ -63,6 +65,49 @@ def test_the_calibration_finds_sumos_idm_drivers_parameters(idm_scene):
     assert validation["calibrated"].windows > 50
     assert validation["calibrated"].speed_median_mps < validation["sumo_defaults"].speed_median_mps / 3
     assert calibration.as_dict()["parameters"]["tau_s"] == found.tau_s
+
+
+FCD_IDM = IdmParameters(2.0, 3.0, 1.2, 2.5, 4.0)
+"""The IDM vType of `fcd_idm_scene`'s cars."""
+
+
+@pytest.fixture(scope="module")
+def fcd_idm_scene(tmp_path_factory):
+    """150 s of SUMO's IDM cars (`FCD_IDM`) on a bent road of two edges built by netconvert, recorded as FCD at SUMO's
+    default step (1 s: frames ten of the project's 0.1 s steps apart), imported without --vtypes."""
+    folder = tmp_path_factory.mktemp("fcd_idm")
+    (folder / "road.nod.xml").write_text('<nodes><node id="a" x="0" y="0"/><node id="b" x="600" y="0"/>'
+                                         '<node id="c" x="1100" y="150"/></nodes>')
+    (folder / "road.edg.xml").write_text('<edges><edge id="ab" from="a" to="b" numLanes="2" speed="30"/>'
+                                         '<edge id="bc" from="b" to="c" numLanes="2" speed="30"/></edges>')
+    netconvert({"nodes": folder / "road.nod.xml", "edges": folder / "road.edg.xml"}, folder / "road.net.xml")
+    p = FCD_IDM
+    (folder / "cars.rou.xml").write_text(
+        f'<routes><vType id="idm_car" carFollowModel="IDM" accel="{p.accel_mps2}" decel="{p.decel_mps2}" '
+        f'tau="{p.tau_s}" minGap="{p.min_gap_m}" delta="{p.delta}"/><flow id="f" type="idm_car" from="ab" to="bc" '
+        'begin="0" end="150" vehsPerHour="2400" departLane="random" departSpeed="random"/></routes>')
+    subprocess.run([sumo_binary("sumo"), "-n", str(folder / "road.net.xml"), "-r", str(folder / "cars.rou.xml"),
+                    "--end", "150", "--seed", "1", "--fcd-output", str(folder / "fcd.xml"), "--no-step-log",
+                    "--no-warnings"], check=True, capture_output=True)
+    result = CliRunner().invoke(cli, ["import-recording", "--format", "fcd", str(folder / "fcd.xml"), "--network",
+                                      str(folder / "road.net.xml"), "--out", str(folder / "scene")])
+    assert result.exit_code == 0, result.output
+    return folder / "scene"
+
+
+def test_both_calibrations_find_sumos_idm_in_fcd_at_sumos_default_step(fcd_idm_scene):
+    """The reactive vehicles' IDM (every train window) and the seat's (the train seats' span) recover the vType's
+    accel and delta within 5% from 1 s frames resampled on the 0.1 s step, and fit the validation windows better
+    than SUMO's defaults (1 s frames show little of tau, minGap and decel, which trade off). They found no window: the
+    frames, on multiples of the step, were taken as one a step, so no 2 s window had its consecutive steps."""
+    scene = read_scene(fcd_idm_scene)
+    reactive = reactive_types(scene, 0.1)
+    assert reactive.calibrated == len(scene.split) and reactive.calibration is not None, reactive.note
+    for found in (reactive.calibration, seat_calibration(scene, 0.1, 5.0, 15.0)):
+        fitted = found.parameters
+        np.testing.assert_allclose([fitted.accel_mps2, fitted.delta], [FCD_IDM.accel_mps2, FCD_IDM.delta], rtol=0.05)
+        validation = found.errors["validation"]
+        assert validation["calibrated"].speed_median_mps < validation["sumo_defaults"].speed_median_mps / 3
 
 
 def test_drivers_without_a_leader_calibrate_what_they_show_and_leave_the_rest():
