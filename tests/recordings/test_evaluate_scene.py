@@ -396,3 +396,13 @@ def test_a_configuration_below_the_scenes_speed_limit_is_refused(drivers_scene, 
     assert result.exit_code == 2 and "speed limit of 44.44 m/s" in result.output
     assert "--set scenario.speed_limit_mps=44.44 --set env.v_max_mps=44.44" in result.output
     assert "Traceback" not in result.output and not out.exists()
+
+
+def test_a_policy_word_that_is_no_seat_driver_and_no_file_is_a_usage_error_listing_the_words(drivers_scene, tmp_path):
+    """Was exit 1 "policy file bogus does not exist"; the words include those of a seat (sumo-idm-calibrated too)."""
+    out = tmp_path / "out.parquet"
+    result = invoke(str(drivers_scene), "--set", "scenario.lanes=3", "--policy", "bogus", "--out", str(out))
+    errors = [line for line in result.output.splitlines() if line.startswith("Error:")]
+    assert result.exit_code == 2 and len(errors) == 1 and "Traceback" not in result.output, result.output
+    assert "'bogus' is neither a driver word" in errors[0] and "sumo-idm, sumo-idm-calibrated" in errors[0]
+    assert not out.exists()
