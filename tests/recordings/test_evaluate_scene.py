@@ -274,6 +274,23 @@ def test_a_split_file_naming_a_split_that_is_none_of_the_three_is_a_damaged_scen
     assert "Traceback" not in result.output and not out.exists()
 
 
+@pytest.mark.parametrize("command", ["evaluate-scene", "recorded-demos"])
+def test_a_split_file_naming_a_vehicle_without_a_track_is_a_damaged_scene(drivers_scene, tmp_path, command):
+    """Was not refused: split.parquet listing a vehicle tracks.parquet does not hold (hand-edited, another scene's)."""
+    scene = tmp_path / "scene"
+    shutil.copytree(drivers_scene, scene)
+    split = pd.read_parquet(scene / "split.parquet")
+    split.loc[split.index[0], "vehicle_id"] = "ghost"
+    split.to_parquet(scene / "split.parquet", index=False)
+    out = tmp_path / "out.parquet"
+    args = [str(scene), "--set", "scenario.lanes=3", "--out", str(out)]
+    result = (invoke(*args, "--policy", "keep") if command == "evaluate-scene"
+              else CliRunner().invoke(cli, ["recorded-demos", *args, *SCENE_SPEED]))
+    errors = [line for line in result.output.splitlines() if line.startswith("Error:")]
+    assert result.exit_code == 1 and len(errors) == 1 and "Traceback" not in result.output, result.output
+    assert "split.parquet" in errors[0] and "vehicle ghost" in errors[0] and not out.exists()
+
+
 @pytest.mark.parametrize("problem", ["not a scene", "not a network", "no seat", "policy", "other lanes",
                                      "shadowed length", "other interface"])
 def test_evaluate_scene_refuses_in_one_sentence_and_writes_nothing(drivers_scene, tmp_path, problem):
