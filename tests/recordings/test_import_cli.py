@@ -39,6 +39,8 @@ def test_a_highd_recording_becomes_a_scene_folder(tmp_path):
     assert tracks.schema.remove_metadata() == TRACK_SCHEMA and tracks.num_rows == 10 * 59
     scene = json.loads((tmp_path / "scene" / "scene.json").read_text())
     assert scene["dropped"] == {"30": "too short for one decision"} and scene["lanes"] == 2
+    assert scene["settings"]["direction"] == "lower" and not {"site", "period", "network", "vtypes"} & set(
+        scene["settings"])  # only the settings highD reads
     read = [recording, tmp_path / "01_tracksMeta.csv", tmp_path / "01_recordingMeta.csv"]  # every file the reader read
     assert scene["sources"] == {str(path.resolve()): file_sha256(path) for path in read}
     assert scene["sources"][str(recording.resolve())] == read_metadata(tmp_path / "scene" / "tracks.parquet")[
@@ -175,6 +177,8 @@ def test_fcd_keeps_the_users_network_and_vehicles_and_a_section_select_rows(tmp_
                                                                           "tracks.parquet"]
     scene = json.loads((tmp_path / "scene" / "scene.json").read_text())
     assert scene["network"] == str((tmp_path / "net.net.xml").resolve()) and scene["frame_rate_hz"] == 10.0
+    assert not {"direction", "site", "period"} & set(scene["settings"])  # highD's and NGSIM's, which FCD does not read
+    assert scene["settings"]["network"] == str(tmp_path / "net.net.xml") and scene["settings"]["vehicles"] == ["a", "b"]
     tracks = pq.read_table(tmp_path / "scene" / "tracks.parquet").to_pandas()
     assert sorted(tracks["vehicle_id"].unique()) == ["a", "b"] and tracks["x_m"].max() <= 100.0
     assert tracks["lane"].unique().tolist() == [1] and tracks["edge"].unique().tolist() == ["road"]
