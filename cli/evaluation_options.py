@@ -3,7 +3,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -20,17 +20,18 @@ if TYPE_CHECKING:
 
 
 def parse_drivers(policies: tuple[str, ...], config: Config, expert: DriverSpec,
-                  named: Mapping[str, DriverSpec] | None = None) -> list[DriverSpec]:
-    """Each --policy word's driver (`protocol.parse_driver`; `named`: the drivers named by a word, default any road's):
-    a policy file that cannot be read is an error (exit 1), any other bad word (a policy file of another action
-    interface too) a bad --policy (exit 2)."""
+                  named: Mapping[str, DriverSpec] | None = None, words: Sequence[str] = ()) -> list[DriverSpec]:
+    """Each --policy word's driver (`protocol.parse_driver`; `named`: the drivers named by a word, default any road's;
+    `words`: more valid words, listed when a word is bad): a policy file there that cannot be read is an error
+    (exit 1), any other bad word (a path with nothing there, a policy file of another action interface) a bad
+    --policy (exit 2)."""
     from sumo_rail.drivers.policies import PolicyFileError, PolicyInterfaceError
     from sumo_rail.evaluation.protocol import NAMED_DRIVERS, parse_driver
 
     drivers = []
     for text in policies:
         try:
-            drivers.append(parse_driver(text, config, expert, NAMED_DRIVERS if named is None else named))
+            drivers.append(parse_driver(text, config, expert, NAMED_DRIVERS if named is None else named, words))
         except PolicyInterfaceError as error:
             raise click.BadParameter(str(error), param_hint="'--policy'") from error
         except PolicyFileError as error:

@@ -118,7 +118,7 @@ def evaluate_scene_command(config: Config, scenes: tuple[Path, ...], policies: t
             named[CALIBRATED_IDM], calibrations = calibrated_idm_driver(read, step_s, lead_s, horizon_s, seats)
         except ValueError as error:
             raise click.BadParameter(str(error), param_hint="'--policy'") from error
-    drivers = parse_drivers(policies, config, DEFAULT_REFERENCE, named)
+    drivers = parse_drivers(policies, config, DEFAULT_REFERENCE, named, [CALIBRATED_IDM])
     reactive = {str(scene.folder): reactive_types(scene, step_s) for scene in read} if "reactive" in modes else {}
     names = unique_names(drivers)
     check_video_dir(video_dir, [f"{name} {mode}" for name in names for mode in modes], overwrite)  # held

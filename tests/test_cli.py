@@ -201,6 +201,16 @@ def test_policies_of_run_folders_are_named_by_run(tmp_path):
     assert "run_a/policy_bc" in result.output and "run_b/policy_bc" in result.output
 
 
+@pytest.mark.parametrize("word", ["bogus", "sampled:bogus"])
+def test_a_policy_word_that_is_no_driver_and_no_file_is_a_usage_error_listing_the_words(tmp_path, word):
+    """Was exit 1 "policy file bogus does not exist", as if the word had to be a file."""
+    out = tmp_path / "m.parquet"
+    result = invoke("evaluate", *SMALL, "--policy", word, "--out", str(out))
+    errors = [line for line in result.output.splitlines() if line.startswith("Error:")]
+    assert result.exit_code == 2 and len(errors) == 1 and "Traceback" not in result.output, result.output
+    assert f"'{word}' is neither a driver word" in errors[0] and "keep, random" in errors[0] and not out.exists()
+
+
 def test_evaluate_rejects_bad_policies_without_writing(tmp_path):
     out = tmp_path / "m.parquet"
     wrong_size = hand_made_policy(tmp_path / "wrong.npz", action=0, observation_size=60)
@@ -210,8 +220,8 @@ def test_evaluate_rejects_bad_policies_without_writing(tmp_path):
     corrupt.write_bytes(b"garbage")
     result = invoke("evaluate", *SMALL, "--policy", str(corrupt), "--out", str(out))
     assert result.exit_code == 1 and "corrupt.npz" in result.output
-    result = invoke("evaluate", *SMALL, "--policy", str(tmp_path / "missing.npz"))
-    assert result.exit_code == 1 and "does not exist" in result.output
+    result = invoke("evaluate", *SMALL, "--policy", str(tmp_path / "missing.npz"))  # no file there: a bad word
+    assert result.exit_code == 2 and "nor an existing policy file" in result.output
     result = invoke("evaluate", *SMALL, "--policy", "expert:reckless")
     assert result.exit_code == 2 and "reckless" in result.output
     result = invoke("evaluate", *SMALL, "--policy", "expert:")  # a style left out is no style

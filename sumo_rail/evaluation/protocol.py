@@ -173,13 +173,14 @@ NAMED_DRIVERS: dict[str, DriverSpec] = {"keep": KeepDriver(), "random": RandomDr
 
 
 def parse_driver(text: str, config: Config, expert: DriverSpec,
-                 named: Mapping[str, DriverSpec] = NAMED_DRIVERS) -> DriverSpec:
+                 named: Mapping[str, DriverSpec] = NAMED_DRIVERS, words: Sequence[str] = ()) -> DriverSpec:
     """'expert' (the given `expert`), 'expert:STYLE', a name of `named` ('keep', 'random'; a recorded seat's
     'sumo-idm'), the path of a saved policy file (`parse_policy`), or 'sampled:PATH', that policy drawing each action
-    from the softmax of its logits."""
+    from the softmax of its logits. Any other word (a path with nothing there too) is a ValueError listing the words
+    of `named` and `words` (those named only when asked for)."""
     name, colon, style = text.partition(":")
     if name == "sampled" and colon:
-        return parse_policy(Path(style), config, sampled=True)
+        return parse_policy(existing_policy_path(style, text, [*named, *words]), config, sampled=True)
     if name == "expert":
         if colon and style not in STYLES:
             raise ValueError(f"unknown expert style {style!r}; known styles: {', '.join(sorted(STYLES))}")
@@ -188,7 +189,16 @@ def parse_driver(text: str, config: Config, expert: DriverSpec,
         return driver
     if text in named:
         return named[text]
-    return parse_policy(Path(text), config)
+    return parse_policy(existing_policy_path(text, text, [*named, *words]), config)
+
+
+def existing_policy_path(path: str, text: str, named: Sequence[str]) -> Path:
+    """`path` if a file or folder is there (`parse_policy` names it if it is no policy file); otherwise a ValueError
+    (a bad --policy word, not a missing file) listing the words `text` could have been."""
+    if not Path(path).exists():
+        words = ", ".join(["expert", "expert:STYLE", *dict.fromkeys(named), "PATH", "sampled:PATH"])
+        raise ValueError(f"{text!r} is neither a driver word ({words}) nor an existing policy file")
+    return Path(path)
 
 
 def unique_names(drivers: Sequence[DriverSpec]) -> list[str]:

@@ -5,8 +5,10 @@ The file (.xml, or .xml.gz) is `<fcd-export>` with one `<timestep time=...>` per
 per vehicle: id, x, y (the front bumper's centre [m]), angle (navigational [deg]), type, speed [m/s], pos (along the
 lane [m]) and lane (SUMO's lane id, edge_index); acceleration, length and width are read where present (SUMO writes
 acceleration with --fcd-output.acceleration; this module's writer writes all three). Without them the acceleration is
-the change of speed per step and the size is the vehicle type's (the package's own types, else SUMO's default
-5 m x 1.8 m). It is parsed as a stream; persons and containers are skipped. Every lane must be in the network and
+the change of speed per step and the size is the vehicle type's (the user's, the package's own or SUMO's built-in
+types; a type without a size takes SUMO's default for its vClass, an unknown type SUMO's 5 m x 1.8 m car). Vehicles
+whose vClass is not a motor vehicle's (a bicycle, SUMO's DEFAULT_BIKETYPE) are left out, said in a note. It is parsed
+as a stream; persons and containers are skipped. Every lane must be in the network and
 every vehicle on the lane it names (its front within half the lane's width + LANE_TOLERANCE_M of the lane's centre
 line, its pos within the edge's length), or the recording was made on another network; speeds lie in [0, 100] m/s.
 """
@@ -37,7 +39,18 @@ from sumo_rail.sim.scenarios import VEHICLE_TYPES_FILE
 
 DEFAULT_SIZE_M = (5.0, 1.8)
 """SUMO's default vehicle type's length and width [m]."""
+CLASS_SIZES_M = {"truck": (7.1, 2.4), "trailer": (16.5, 2.55), "bus": (12.0, 2.5), "coach": (14.0, 2.6),
+                 "delivery": (6.5, 2.16), "emergency": (6.5, 2.16), "motorcycle": (2.2, 0.9), "moped": (2.1, 0.78),
+                 "bicycle": (1.6, 0.65), "scooter": (1.2, 0.5), "pedestrian": (0.215, 0.478)}
+"""SUMO's default length and width [m] of a vType of these vClasses that gives none (others: `DEFAULT_SIZE_M`)."""
+SUMO_TYPES = {"DEFAULT_VEHTYPE": "passenger", "DEFAULT_TAXITYPE": "taxi", "DEFAULT_BIKETYPE": "bicycle",
+              "DEFAULT_PEDTYPE": "pedestrian", "DEFAULT_RAILTYPE": "rail", "DEFAULT_CONTAINERTYPE": "container"}
+"""SUMO's built-in vTypes and their vClasses."""
 TRUCK_CLASSES = ("truck", "trailer", "bus", "coach")
+MOTOR_CLASSES = frozenset({*TRUCK_CLASSES, "passenger", "private", "taxi", "evehicle", "army", "authority", "vip",
+                           "hov", "delivery", "emergency", "motorcycle", "moped", "custom1", "custom2", "ignoring"})
+"""The vClasses of motor vehicles on a road, which a scene keeps; the others (bicycle, pedestrian, scooter, tram,
+rail, ship, ...) are left out of it."""
 _REQUIRED = ("x", "y", "angle", "speed", "pos", "lane")
 _TIME_TOLERANCE_S = 1e-6
 
@@ -60,12 +73,32 @@ def check_headers(files: list[Path]) -> None:
 
 
 def _vehicle_types(given: Mapping[str, Mapping[str, str]]) -> dict[str, tuple[float, float, str]]:
-    """The package's own vehicle types and the `given` ones (the user's, which win): id -> (length, width [m],
-    vClass)."""
+    """SUMO's built-in vehicle types, the package's own and the `given` ones (the user's, which win): id -> (length,
+    width [m], vClass), a size not given SUMO's default for the vClass."""
     root = ElementTree.fromstring((sources_dir() / VEHICLE_TYPES_FILE).read_bytes())
-    attributes = {**{vtype.get("id", ""): vtype.attrib for vtype in root.iter("vType")}, **given}
-    return {type_id: (float(found.get("length", DEFAULT_SIZE_M[0])), float(found.get("width", DEFAULT_SIZE_M[1])),
-                      found.get("vClass", "passenger")) for type_id, found in attributes.items()}
+    attributes = {**{type_id: {"vClass": vehicle_class} for type_id, vehicle_class in SUMO_TYPES.items()},
+                  **{vtype.get("id", ""): vtype.attrib for vtype in root.iter("vType")}, **given}
+    types = {}
+    for type_id, found in attributes.items():
+        vehicle_class = found.get("vClass", "passenger")
+        length, width = CLASS_SIZES_M.get(vehicle_class, DEFAULT_SIZE_M)
+        types[type_id] = (float(found.get("length", length)), float(found.get("width", width)), vehicle_class)
+    return types
+
+
+def _motor_vehicles(columns: dict[str, list], known: list[tuple[float, float, str]]) -> str:
+    """Leave the rows of vehicles whose vClass (`known`: each row's type's length, width, vClass) is not a motor
+    vehicle's (`MOTOR_CLASSES`) out of `columns` and `known`, in place; the sentence saying which, or "" for none."""
+    keep = [found[2] in MOTOR_CLASSES for found in known]
+    if all(keep):
+        return ""
+    left = pd.DataFrame({"id": columns["id"], "vClass": [found[2] for found in known]})[
+        [not kept for kept in keep]].drop_duplicates("id")
+    counts = left["vClass"].value_counts(sort=False)
+    for values in [*columns.values(), known]:
+        values[:] = [value for value, kept in zip(values, keep, strict=True) if kept]
+    return (f"{len(left)} vehicles that are not motor vehicles ({', '.join(f'{n} {c}' for c, n in counts.items())}; "
+            f"the first {left['id'].iloc[0]}) are left out: a scene holds cars and trucks")
 
 
 def read(files: list[Path], options: ReadOptions) -> Recording:
@@ -80,6 +113,11 @@ def read(files: list[Path], options: ReadOptions) -> Recording:
         _parse(path, columns)
     if not columns["id"]:
         raise RecordingDataError(f"{files[0]} holds no vehicle; the recording is empty")
+    types = _vehicle_types(options.vtypes)
+    known = [types.get(name, (*DEFAULT_SIZE_M, "passenger")) for name in columns["type"]]
+    left_out = _motor_vehicles(columns, known)
+    if not columns["id"]:
+        raise RecordingDataError(f"{files[0]} holds no motor vehicle: {left_out}")
     time = np.asarray(columns["time"])
     steps = np.unique(time)
     step_s = round(float(np.min(np.diff(steps))), 6) if len(steps) > 1 else 1.0  # SUMO writes times to 0.01 s
@@ -90,9 +128,6 @@ def read(files: list[Path], options: ReadOptions) -> Recording:
         raise RecordingDataError(f"{files[0]}: the timestep at {time[int(np.argmax(uneven))]:g} s is not a whole "
                                  f"number of {step_s:g} s steps after the first; the output steps are uneven")
     edge, lane = _lanes(columns, network, network_path)
-    types = _vehicle_types(options.vtypes)
-    default = (*DEFAULT_SIZE_M, "passenger")
-    known = [types.get(name, default) for name in columns["type"]]
     length = np.array([size[0] if value is None else value
                        for value, size in zip(columns["length"], known, strict=True)])
     width = np.array([size[1] if value is None else value for value, size in zip(columns["width"], known, strict=True)])
@@ -114,7 +149,7 @@ def read(files: list[Path], options: ReadOptions) -> Recording:
         tracks["acceleration_mps2"] = tracks["acceleration_mps2"].fillna(change).fillna(0.0)
     used = sorted(set(edge) - {name for name in set(edge) if name.startswith(":")})
     lanes = max((network.lanes(name) for name in used), default=1)
-    notes = [f"positions on the network {network_path}; {len(used)} edges used"]
+    notes = [f"positions on the network {network_path}; {len(used)} edges used", *filter(None, [left_out])]
     return Recording(tracks, 1.0 / step_s, lanes, (), 0.0, notes, tuple(files))
 
 

@@ -20,7 +20,7 @@ import pandas as pd
 
 from sumo_rail.config import Config, ConfigError
 from sumo_rail.datasets import DatasetError, check_file, file_sha256
-from sumo_rail.recordings.formats import FORMATS, ReadOptions, importable, taking
+from sumo_rail.recordings.formats import FORMATS, ReadOptions, RecordingFormat, importable, taking
 from sumo_rail.recordings.road import read_lanes
 from sumo_rail.recordings.scene import SPLITS, SceneMeta, check_scene_output, split_table, write_scene_folder
 from sumo_rail.recordings.scene_observations import scene_road
@@ -163,6 +163,12 @@ def recorded_types(tracks: pd.DataFrame, defined: Mapping[str, Mapping[str, str]
     return {"vehicle_types": named, "vtypes": {type_id: dict(defined[type_id]) for type_id in kept}}
 
 
+def foreign_settings(form: RecordingFormat) -> tuple[str, ...]:
+    """The `ImportSettings` fields that only other formats read (scene.json records the rest)."""
+    return ((() if "direction" in form.choices else ("direction",))
+            + (() if "site" in form.choices else ("site", "period")) + (() if form.network else ("network", "vtypes")))
+
+
 def import_recording(settings: ImportSettings, config: Config, options: ReadOptions) -> ImportSummary:
     """Read, select, check and write the scene folder `settings.out`; `options` are `check_import`'s."""
     form = FORMATS[settings.format]
@@ -179,7 +185,8 @@ def import_recording(settings: ImportSettings, config: Config, options: ReadOpti
     sources = {str(path.resolve()): file_sha256(path) for path in [
         *recording.sources, *(path for path in (settings.network, settings.vtypes) if path is not None)]}
     recorded = {key: (str(value) if isinstance(value, Path) else value)
-                for key, value in dataclasses.asdict(settings).items() if key not in ("out", "overwrite", "files")}
+                for key, value in dataclasses.asdict(settings).items()
+                if key not in ("out", "overwrite", "files", *foreign_settings(form))}
     recorded |= {"decision_period_s": period_s, "vehicles": list(settings.vehicles),
                  "section_m": list(settings.section_m) if settings.section_m else None}
     meta = SceneMeta(format=settings.format, frame_rate_hz=recording.frame_rate_hz,

@@ -261,15 +261,20 @@ def check_scene(scene: Scene, config: Config, split: str) -> SceneRoad:
 
 
 def check_tracks(scene: Scene, road: SceneRoad) -> None:
-    """RecordingDataError naming the first vehicle of the scene's split in none of `SPLITS`, or of its tracks on a lane
-    its network does not have or with a number that is not finite: a damaged split.parquet or tracks.parquet
-    (hand-edited, another scene's), which import-recording never writes and the readers would fail on mid-way."""
+    """RecordingDataError naming the first vehicle of the scene's split in none of `SPLITS` or with no track, or of its
+    tracks on a lane its network does not have or with a number that is not finite: a damaged split.parquet or
+    tracks.parquet (hand-edited, another scene's), which import-recording never writes and the readers would fail on
+    mid-way."""
     unknown = scene.split[~scene.split["split"].isin(SPLITS)]
     if len(unknown):
         row = unknown.iloc[0]
         raise RecordingDataError(f"{scene.folder / 'split.parquet'}: vehicle {row['vehicle_id']} is in split "
                                  f"{row['split']!r}, none of {', '.join(SPLITS)}: the scene is damaged")
     tracks, where = scene.tracks, scene.folder / "tracks.parquet"
+    trackless = scene.split[~scene.split["vehicle_id"].isin(tracks["vehicle_id"])]
+    if len(trackless):
+        raise RecordingDataError(f"{scene.folder / 'split.parquet'}: vehicle {trackless['vehicle_id'].iloc[0]} has no "
+                                 f"track in {where}: the scene is damaged")
     numbers = [name for name in TRACK_COLUMNS if pa.types.is_floating(TRACK_SCHEMA.field(name).type)]
     broken = ~np.isfinite(tracks[numbers].to_numpy(dtype=float)).all(axis=1)
     if broken.any():

@@ -125,6 +125,8 @@ class ReplayedTraffic:
         """Vehicles placed so far (reactive: they are SUMO's from the step after)."""
         self._releasing: list[str] = []
         self._last_s = -np.inf
+        self._clock_offset_s = 0.0
+        """The scene's time less SUMO's clock [s] (`Simulation.clock_offset_s`)."""
 
     def network(self, scenario: ScenarioConfig) -> BuiltNetwork:
         """The scene's road with its routes file less the generated flows, with the replay's route, the type of
@@ -163,6 +165,7 @@ class ReplayedTraffic:
         `vehicle`) and put the ego in `vehicle`'s place, state, size and class; DatasetError when it is not on the road
         then."""
         sim.load_empty(start_s - self._step_s, sumo_seed)
+        self._clock_offset_s = sim.clock_offset_s
         self.ego_collisions.clear()
         self._ego_in = False
         self.seated = (vehicle, start_s)
@@ -214,8 +217,9 @@ class ReplayedTraffic:
     def step(self) -> None:
         """One SUMO step with the recorded vehicles placed for its end; the ego's collisions kept."""
         calls = self._calls
-        end_s = calls.time_s() + self._step_s
-        self._place(end_s, calls.position(EGO_ID)[0] if self._ego_in and not self.reactive else None)
+        end_s = calls.time_s() + self._step_s  # SUMO's clock; the scene's is `_clock_offset_s` later
+        self._place(end_s + self._clock_offset_s, calls.position(EGO_ID)[0] if self._ego_in and not self.reactive
+                    else None)
         calls.step(end_s)  # to a time: over traci a plain step after a load may keep SUMO's clock
         simulation = self.api.simulation
         if simulation.getCollidingVehiclesNumber():

@@ -86,6 +86,8 @@ class Simulation(EgoPlacement, Stepping, Sensing, EgoCommands):
         """Every-step observers (`watching`)."""
         self._rows: VehicleRows | None = None
         """The reader of every vehicle's rows since the last load (`vehicle_rows`)."""
+        self.clock_offset_s = 0.0
+        """`time_s` less SUMO's clock [s]: 0 but after `load_empty` at a time off SUMO's step grid."""
         self._client = load_api(self.transport)
         self._label = f"sumo_rail_{next(_TRACI_LABELS)}"
         self._constants = load_constants()
@@ -102,8 +104,8 @@ class Simulation(EgoPlacement, Stepping, Sensing, EgoCommands):
 
     @property
     def time_s(self) -> float:
-        """Current simulation time [s]."""
-        return self._calls.time_s()
+        """Current simulation time [s] (SUMO's clock plus `clock_offset_s`)."""
+        return self._calls.time_s() + self.clock_offset_s
 
     @property
     def warm_state_count(self) -> int:
@@ -157,11 +159,11 @@ class Simulation(EgoPlacement, Stepping, Sensing, EgoCommands):
         if not observers:
             self._calls = self._calls._replace(step=step)
             return
-        time_s, read = self._calls.time_s, self.vehicle_rows
+        read = self.vehicle_rows
 
         def observed_step() -> None:
             step()
-            moment = Moment(time_s(), "step", read)
+            moment = Moment(self.time_s, "step", read)
             for observer in observers:
                 observer(moment)
 
@@ -204,18 +206,24 @@ class Simulation(EgoPlacement, Stepping, Sensing, EgoCommands):
             step()
 
     def load_empty(self, begin_s: float, sumo_seed: int) -> None:
-        """Load the road afresh, no warm state, its clock at `begin_s` [s], with SUMO seed `sumo_seed` (a traffic that
-        places its vehicles itself: `sumo_rail.sim.replay`)."""
+        """Load the road afresh, no warm state, its clock (`time_s`) at `begin_s` [s], with SUMO seed `sumo_seed` (a
+        traffic that places its vehicles itself: `sumo_rail.sim.replay`). SUMO's own clock begins on its step grid, at
+        or before `begin_s` (off the grid SUMO warns), `clock_offset_s` making up the rest."""
         self._require_running()
-        options = ["--begin", repr(begin_s), "--seed", str(sumo_seed)]
+        step_ms = round(self.scenario.step_length_s * 1000)
+        begin_ms = round(begin_s * 1000)  # SUMO's clock counts whole milliseconds
+        sumo_begin_s = begin_s if begin_ms % step_ms == 0 else begin_ms // step_ms * step_ms / 1000
+        options = ["--begin", repr(sumo_begin_s), "--seed", str(sumo_seed)]
         self._load(options)
-        if abs(self._api.simulation.getTime() - begin_s) > self.scenario.step_length_s / 2:
+        if abs(self._api.simulation.getTime() - sumo_begin_s) > self.scenario.step_length_s / 2:
             self._load(options)  # over TraCI, SUMO (1.28) keeps the last load's clock when a load begins earlier
+        self.clock_offset_s = begin_s - sumo_begin_s
         self._zip_merging.clear()
 
     def _load(self, extra: list[str]) -> None:
         self.forget_sizes()  # a loaded state may give known ids to other vehicles
         self._rows = None
+        self.clock_offset_s = 0.0
         try:
             self._api.load([*self._options(), *self._gui_options(), *extra])
         except self._client.TraCIException as error:

@@ -21,6 +21,8 @@ class Stepping:
     _calls: DecisionCalls
     """`sumo_api.decision_calls` of `_api`, found once per connection (its step: the traffic's, then the observers)."""
     traffic: TrafficSource
+    clock_offset_s: float
+    """The simulation's time less SUMO's clock [s]."""
 
     def advance_egos(self, steps: int, vehicles: Sequence[str], watch: Sequence[str] = ()) -> list[PeriodReport]:
         """Run `steps` SUMO steps, watching each ego of `vehicles` until it is gone; the steps go on while any of them
@@ -56,7 +58,8 @@ class Stepping:
                 except error:
                     collided, arrived = self._why_gone(vehicle)
                     gone[vehicle] = PeriodReport(collided, arrived, vehicle in teleported,
-                                                 _lowest(accelerations[vehicle]), teleports, simulation.getTime(),
+                                                 _lowest(accelerations[vehicle]), teleports,
+                                                 simulation.getTime() + self.clock_offset_s,
                                                  tuple(accelerations[vehicle]), watched)
                     left = True
                     continue

@@ -66,7 +66,7 @@ def test_a_lower_sampling_temperature_draws_nearer_the_argmax_and_names_itself(t
 
 def test_a_bad_sampled_policy_file_is_one_sentence(tmp_path):
     result = invoke("evaluate", *SMALL, "--policy", f"sampled:{tmp_path / 'missing.npz'}")
-    assert result.exit_code == 1 and "does not exist" in result.output and "Traceback" not in result.output
+    assert result.exit_code == 2 and "nor an existing policy file" in result.output and "Traceback" not in result.output
 
 
 def test_a_sampled_policy_file_recording_a_bad_expert_is_named_by_its_path(tmp_path):

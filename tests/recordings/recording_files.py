@@ -88,11 +88,12 @@ def fcd_vehicle(vehicle: str, steps: range, front_m: float, y_m: float, lane: st
 
 
 def write_fcd(path: Path, rows: list[dict]) -> Path:
-    """Write SUMO FCD output of `rows` (time, id, x, y, speed, lane; pos = x unless given, angle 90, type car)."""
+    """Write SUMO FCD output of `rows` (time, id, x, y, speed, lane; pos = x and type car unless given, angle 90)."""
     steps: dict[float, list[str]] = {}
     for row in rows:
         steps.setdefault(round(row["time"], 6), []).append(
-            f'<vehicle id="{row["id"]}" x="{row["x"]:.2f}" y="{row["y"]:.2f}" angle="90.00" type="car" '
+            f'<vehicle id="{row["id"]}" x="{row["x"]:.2f}" y="{row["y"]:.2f}" angle="90.00" '
+            f'type="{row.get("type", "car")}" '
             f'speed="{row["speed"]:.2f}" pos="{row.get("pos", row["x"]):.2f}" lane="{row["lane"]}"/>')
     path.write_text("<fcd-export>" + "".join(f'<timestep time="{time:.2f}">{"".join(vehicles)}</timestep>'
                                              for time, vehicles in sorted(steps.items())) + "</fcd-export>")

@@ -274,6 +274,23 @@ def test_a_split_file_naming_a_split_that_is_none_of_the_three_is_a_damaged_scen
     assert "Traceback" not in result.output and not out.exists()
 
 
+@pytest.mark.parametrize("command", ["evaluate-scene", "recorded-demos"])
+def test_a_split_file_naming_a_vehicle_without_a_track_is_a_damaged_scene(drivers_scene, tmp_path, command):
+    """Was not refused: split.parquet listing a vehicle tracks.parquet does not hold (hand-edited, another scene's)."""
+    scene = tmp_path / "scene"
+    shutil.copytree(drivers_scene, scene)
+    split = pd.read_parquet(scene / "split.parquet")
+    split.loc[split.index[0], "vehicle_id"] = "ghost"
+    split.to_parquet(scene / "split.parquet", index=False)
+    out = tmp_path / "out.parquet"
+    args = [str(scene), "--set", "scenario.lanes=3", "--out", str(out)]
+    result = (invoke(*args, "--policy", "keep") if command == "evaluate-scene"
+              else CliRunner().invoke(cli, ["recorded-demos", *args, *SCENE_SPEED]))
+    errors = [line for line in result.output.splitlines() if line.startswith("Error:")]
+    assert result.exit_code == 1 and len(errors) == 1 and "Traceback" not in result.output, result.output
+    assert "split.parquet" in errors[0] and "vehicle ghost" in errors[0] and not out.exists()
+
+
 @pytest.mark.parametrize("problem", ["not a scene", "not a network", "no seat", "policy", "other lanes",
                                      "shadowed length", "other interface"])
 def test_evaluate_scene_refuses_in_one_sentence_and_writes_nothing(drivers_scene, tmp_path, problem):
@@ -396,3 +413,13 @@ def test_a_configuration_below_the_scenes_speed_limit_is_refused(drivers_scene, 
     assert result.exit_code == 2 and "speed limit of 44.44 m/s" in result.output
     assert "--set scenario.speed_limit_mps=44.44 --set env.v_max_mps=44.44" in result.output
     assert "Traceback" not in result.output and not out.exists()
+
+
+def test_a_policy_word_that_is_no_seat_driver_and_no_file_is_a_usage_error_listing_the_words(drivers_scene, tmp_path):
+    """Was exit 1 "policy file bogus does not exist"; the words include those of a seat (sumo-idm-calibrated too)."""
+    out = tmp_path / "out.parquet"
+    result = invoke(str(drivers_scene), "--set", "scenario.lanes=3", "--policy", "bogus", "--out", str(out))
+    errors = [line for line in result.output.splitlines() if line.startswith("Error:")]
+    assert result.exit_code == 2 and len(errors) == 1 and "Traceback" not in result.output, result.output
+    assert "'bogus' is neither a driver word" in errors[0] and "sumo-idm, sumo-idm-calibrated" in errors[0]
+    assert not out.exists()

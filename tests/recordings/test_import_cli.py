@@ -8,7 +8,7 @@ import json
 import pyarrow.parquet as pq
 import pytest
 from click.testing import CliRunner
-from recording_files import highd_vehicle, ngsim_vehicle, write_highd, write_ngsim
+from recording_files import fcd_vehicle, highd_vehicle, lane_y, ngsim_vehicle, write_fcd, write_highd, write_ngsim
 from sumo_rail_cli.main import cli
 
 from sumo_rail.datasets import file_sha256, read_metadata
@@ -39,6 +39,8 @@ def test_a_highd_recording_becomes_a_scene_folder(tmp_path):
     assert tracks.schema.remove_metadata() == TRACK_SCHEMA and tracks.num_rows == 10 * 59
     scene = json.loads((tmp_path / "scene" / "scene.json").read_text())
     assert scene["dropped"] == {"30": "too short for one decision"} and scene["lanes"] == 2
+    assert scene["settings"]["direction"] == "lower" and not {"site", "period", "network", "vtypes"} & set(
+        scene["settings"])  # only the settings highD reads
     read = [recording, tmp_path / "01_tracksMeta.csv", tmp_path / "01_recordingMeta.csv"]  # every file the reader read
     assert scene["sources"] == {str(path.resolve()): file_sha256(path) for path in read}
     assert scene["sources"][str(recording.resolve())] == read_metadata(tmp_path / "scene" / "tracks.parquet")[
@@ -175,9 +177,37 @@ def test_fcd_keeps_the_users_network_and_vehicles_and_a_section_select_rows(tmp_
                                                                           "tracks.parquet"]
     scene = json.loads((tmp_path / "scene" / "scene.json").read_text())
     assert scene["network"] == str((tmp_path / "net.net.xml").resolve()) and scene["frame_rate_hz"] == 10.0
+    assert not {"direction", "site", "period"} & set(scene["settings"])  # highD's and NGSIM's, which FCD does not read
+    assert scene["settings"]["network"] == str(tmp_path / "net.net.xml") and scene["settings"]["vehicles"] == ["a", "b"]
     tracks = pq.read_table(tmp_path / "scene" / "tracks.parquet").to_pandas()
     assert sorted(tracks["vehicle_id"].unique()) == ["a", "b"] and tracks["x_m"].max() <= 100.0
     assert tracks["lane"].unique().tolist() == [1] and tracks["edge"].unique().tolist() == ["road"]
+
+
+def test_fcd_vehicles_take_their_class_and_size_and_those_that_are_no_motor_vehicles_are_left_out(tmp_path):
+    """Was every type without a size a 5 m x 1.8 m car, a bicycle too, which a seat could then take."""
+    from sumo_rail.recordings.road import build_road
+
+    build_road([3.2, 3.2], 300.0, tmp_path / "net.net.xml")
+    (tmp_path / "types.add.xml").write_text('<additional><vType id="lorry" vClass="truck"/>'
+                                            '<vType id="bike" vClass="bicycle" length="1.8"/></additional>')
+    types = {"car": "car", "lorry": "lorry", "sumo_bike": "DEFAULT_BIKETYPE", "bike": "bike"}
+    rows = [dict(row, type=kind) for k, (vehicle, kind) in enumerate(types.items())
+            for row in fcd_vehicle(vehicle, range(30), 20.0 + 25 * k, lane_y(2, 0), "road_0")]
+    result = invoke("--format", "fcd", str(write_fcd(tmp_path / "fcd.xml", rows)), "--network",
+                    str(tmp_path / "net.net.xml"), "--vtypes", str(tmp_path / "types.add.xml"), "--out",
+                    str(tmp_path / "scene"))
+    assert result.exit_code == 0, result.output
+    assert "2 vehicles that are not motor vehicles (2 bicycle; the first " in result.output
+    tracks = pq.read_table(tmp_path / "scene" / "tracks.parquet").to_pandas().drop_duplicates("vehicle_id")
+    sizes = {row.vehicle_id: (row.vehicle_class, round(row.length_m, 2), round(row.width_m, 2))
+             for row in tracks.itertuples()}
+    assert sizes == {"car": ("passenger", 4.5, 1.8), "lorry": ("truck", 7.1, 2.4)}  # SUMO's truck without a size
+    alone = [row for row in rows if row["type"] == "DEFAULT_BIKETYPE"]
+    result = invoke("--format", "fcd", str(write_fcd(tmp_path / "bikes.xml", alone)), "--network",
+                    str(tmp_path / "net.net.xml"), "--out", str(tmp_path / "bikes"))
+    assert result.exit_code == 1 and "holds no motor vehicle: 1 vehicles" in result.output, result.output
+    assert "Traceback" not in result.output and not (tmp_path / "bikes").exists()
 
 
 def test_a_vehicle_twice_in_one_frame_is_refused(tmp_path):

@@ -237,6 +237,39 @@ def test_the_seat_is_taken_where_the_track_begins_by_default(replay):
             replay.reset(seed=0, options={"vehicle": vehicle, "start_s": 0.0})
 
 
+def test_a_seat_off_sumos_step_grid_begins_sumo_on_it_and_one_on_it_as_before(replay, monkeypatch):
+    """A seat at 12.34 s (a highD frame, 25 Hz) began SUMO at 12.24 s, off its 0.1 s step grid ("Warning: The given
+    time value 12.24 is not a multiple of the step length 0.10 for begin." where SUMO's warnings are shown); now SUMO
+    begins at 12.2 s and the replay and the ego's clock keep the scene's time. On the grid, SUMO is loaded as before
+    (the same --begin, no offset), so those episodes are the same bit for bit."""
+    tracks = replay.scene.tracks
+    vehicle, start_s = long_track(tracks)
+    replay.reset(seed=0, options={"vehicle": vehicle, "start_s": start_s})
+    loads: list[list[str]] = []
+    load = replay.simulation._load
+    monkeypatch.setattr(replay.simulation, "_load", lambda options: (loads.append(options), load(options)))
+    replay.reset(seed=0, options={"vehicle": vehicle, "start_s": start_s})
+    assert loads[-1][:2] == ["--begin", repr(start_s - 0.1)] and replay.simulation.clock_offset_s == 0.0
+    off_s = start_s + 0.04
+    replay.reset(seed=0, options={"vehicle": vehicle, "start_s": off_s})
+    assert round(float(loads[-1][1]) * 1000) % 100 == 0  # SUMO's test: whole milliseconds, a multiple of the step
+    assert float(loads[-1][1]) == pytest.approx(off_s - 0.14)
+    assert replay.simulation.time_s == pytest.approx(off_s)
+    track = replay.scene.track(vehicle)
+    human_m = np.interp(off_s, track["time_s"], track["lane_position_m"])
+    assert replay.traffic.ego.lane_position_m == pytest.approx(human_m, abs=1e-6)
+    replay.step(int(Action.KEEP))  # the others where the recording has them half a second later, in scene time
+    later, api = replay.simulation.time_s, replay.simulation._api
+    assert later == pytest.approx(off_s + CONFIG.env.decision_period_s)
+    others = set(api.vehicle.getIDList()) - {EGO_ID}
+    assert others
+    for other in others:
+        track = replay.scene.track(other)
+        x, y = api.vehicle.getPosition(other)
+        assert np.hypot(x - np.interp(later, track["time_s"], track["x_m"]),
+                        y - np.interp(later, track["time_s"], track["y_m"])) < 1e-3
+
+
 def test_libsumo_and_traci_drive_the_same_seat_alike(drivers_scene, replay):
     """The fixture's env holds libsumo; the same seat over traci gives the same states, decision by decision."""
     tracks = replay.scene.tracks
