@@ -216,7 +216,9 @@ READERS = [
                                       "--set", "gail.n_steps=32", "--set", "bc.epochs=1", "--out", "gail_run"),
                                       control=False),
     Reader("metrics", "report", ("report", "metrics.parquet", "--out", "../report")),
-    # dagger and the exports join here, e.g. Reader("demonstrations", "dagger", ("dagger", ...)).
+    Reader("demonstrations", "export-minari", ("export-minari", "demos.parquet", "--name", "sumo-rail/damaged-v0",
+                                               "--root", "../minari")),
+    # dagger joins here, e.g. Reader("demonstrations", "dagger", ("dagger", ...)).
 ]
 
 CASES = [pytest.param(file, damage, reader, id=f"{file}-{damage}-{reader.command.replace(' ', '')}")

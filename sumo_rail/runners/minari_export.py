@@ -33,7 +33,7 @@ from sumo_rail import ENV_ID
 from sumo_rail.config import Config
 from sumo_rail.datasets import DatasetError, read_metadata, sumo_version
 from sumo_rail.runners.experts import RECORDED_SCENE
-from sumo_rail.runners.tables import DEMONSTRATIONS
+from sumo_rail.runners.tables import DEMONSTRATIONS, read_demonstrations
 
 INSTALL_HINT = "pip install 'sumo-rail[minari]'"
 
@@ -66,8 +66,9 @@ class RecordedEpisode:
 
 
 def read_episodes(path: Path) -> tuple[Config, list[RecordedEpisode]]:
-    """The recording's config and its episodes (DatasetError if the file is not a demonstrations file, or holds
-    demonstrations read from a recorded scene, whose episodes the env cannot replay)."""
+    """The recording's config and its episodes (DatasetError if the file is not a demonstrations file, is damaged as
+    `read_demonstrations` says, or holds demonstrations read from a recorded scene, whose episodes the env cannot
+    replay)."""
     metadata = read_metadata(path)
     if metadata.get("kind") != DEMONSTRATIONS:
         raise DatasetError(f"{path} holds {metadata.get('kind')!r} data, not demonstrations")
@@ -76,6 +77,7 @@ def read_episodes(path: Path) -> tuple[Config, list[RecordedEpisode]]:
         raise DatasetError(f"{path} were read from the recorded scene {scene.get('folder')}: its episodes have no "
                            f"seed the env could replay to recover each one's last observation, which a Minari "
                            f"dataset holds, so only record-expert's demonstrations can be exported")
+    read_demonstrations(path)  # the checks every reader of demonstrations makes (observations' shape, actions)
     try:
         table = pq.read_table(path, columns=["episode", "step", "episode_seed", "observation", "action", "reward",
                                              "terminated", "truncated"]).sort_by([("episode", "ascending"),

@@ -116,3 +116,39 @@ def test_a_datasets_folder_that_cannot_be_written_is_one_sentence(demos, tmp_pat
     assert result.exit_code == 1 and f"cannot write into the Minari datasets folder {root}" in result.output, \
         result.output
     assert "Traceback" not in result.output and not (root / "sumo-rail").exists()
+
+
+def _rewritten(demos: Path, out: Path, column: str, values) -> Path:
+    """`demos` with `column` replaced by the arrow array `values`, its metadata kept."""
+    table = pq.read_table(demos)
+    table = table.set_column(table.schema.get_field_index(column), column, values)
+    pq.write_table(table.replace_schema_metadata(pq.read_schema(demos).metadata), out)
+    return out
+
+
+def test_damaged_demonstrations_are_one_sentence_and_nothing_is_exported(demos, tmp_path):
+    """A demonstrations file rewritten by another tool (pandas makes the observation a list of any length), or with a
+    non-finite observation or an action of no interface, is said as train says it, exit 1, no dataset written
+    (was an AttributeError traceback, or a replay of nonsense)."""
+    import pyarrow as pa
+
+    table = pq.read_table(demos)
+    observations = table.column("observation").combine_chunks()
+    size = observations.type.list_size
+    flat = observations.flatten().to_numpy().copy()
+    flat[size * 2] = np.nan
+    actions = table.column("action").to_numpy().copy()
+    actions[1] = 9
+    damaged = {
+        "has no fixed-size observation column": _rewritten(demos, tmp_path / "lists.parquet", "observation",
+                                                           observations.cast(pa.list_(pa.float32()))),
+        "has non-finite observations": _rewritten(demos, tmp_path / "nan.parquet", "observation",
+                                                  pa.FixedSizeListArray.from_arrays(pa.array(flat), size)),
+        "has actions outside 0..4": _rewritten(demos, tmp_path / "actions.parquet", "action",
+                                               pa.array(actions, type=table.schema.field("action").type)),
+    }
+    for sentence, path in damaged.items():
+        result = CliRunner().invoke(cli, ["export-minari", str(path), "--name", "sumo-rail/d-v0", "--root",
+                                          str(tmp_path / "minari")])
+        assert result.exit_code == 1 and f"{path} {sentence}" in result.output, result.output
+        assert "Traceback" not in result.output and not (tmp_path / "minari").exists()
