@@ -303,12 +303,14 @@ def check_speed_limit(road_limit_mps: float, config: Config, what: str) -> None:
     score's), and env.v_max_mps (the highest set-point, the observation's speed scale) is not below it, so that the
     set-points and the ego can reach the recorded drivers' speeds."""
     limit, top, road = config.scenario.speed_limit_mps, config.env.v_max_mps, road_limit_mps
-    fixes = ([] if abs(limit - road) <= SPEED_TOLERANCE_MPS else [f"scenario.speed_limit_mps={road:g}"]) + (
-        [] if top >= road - SPEED_TOLERANCE_MPS else [f"env.v_max_mps={road:g}"])
-    if fixes:
+    wrong: dict[str, str] = {}  # the fix -> what is wrong
+    if abs(limit - road) > SPEED_TOLERANCE_MPS:
+        wrong[f"scenario.speed_limit_mps={road:g}"] = f"scenario.speed_limit_mps={limit:g} (not the road's limit)"
+    if top < road - SPEED_TOLERANCE_MPS:
+        wrong[f"env.v_max_mps={road:g}"] = f"env.v_max_mps={top:g} (the highest set-point, below the limit)"
+    if wrong:
         raise RecordingUsageError(f"{what} has a speed limit of {road:g} m/s and this configuration has "
-                                  f"scenario.speed_limit_mps={limit:g} and env.v_max_mps={top:g} (the highest "
-                                  f"set-point, which may not be below the limit); pass --set {' --set '.join(fixes)}")
+                                  f"{' and '.join(wrong.values())}; pass --set {' --set '.join(wrong)}")
 
 
 def scene_sources(scene: Scene) -> dict[str, str]:

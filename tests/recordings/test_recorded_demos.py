@@ -151,17 +151,24 @@ def test_demonstrations_another_command_writes_are_one_sentence_and_left_alone(t
     assert out.is_file() and not lock_path(out).exists()
 
 
-@pytest.mark.parametrize(("settings", "fixes"), [
-    ((), "--set scenario.speed_limit_mps=44.44 --set env.v_max_mps=44.44"),  # the defaults: 33.33 m/s
-    (("--set", "scenario.speed_limit_mps=44.44"), "--set env.v_max_mps=44.44"),
-    (("--set", "env.v_max_mps=50"), "--set scenario.speed_limit_mps=44.44"),
+LIMIT_WRONG = "scenario.speed_limit_mps=33.33 (not the road's limit)"
+TOP_WRONG = "env.v_max_mps=33.33 (the highest set-point, below the limit)"
+
+
+@pytest.mark.parametrize(("settings", "wrong", "fixes"), [
+    ((), f"{LIMIT_WRONG} and {TOP_WRONG}",  # the defaults: 33.33 m/s
+     "--set scenario.speed_limit_mps=44.44 --set env.v_max_mps=44.44"),
+    (("--set", "scenario.speed_limit_mps=44.44"), TOP_WRONG, "--set env.v_max_mps=44.44"),
+    (("--set", "env.v_max_mps=50"), LIMIT_WRONG, "--set scenario.speed_limit_mps=44.44"),
 ])
-def test_a_configuration_below_the_scenes_speed_limit_is_refused(tmp_path, settings, fixes):
-    """The scene's road allows 44.44 m/s: set-points clipped at the default 33.33 m/s would misread its drivers."""
+def test_a_configuration_below_the_scenes_speed_limit_is_refused(tmp_path, settings, wrong, fixes):
+    """The scene's road allows 44.44 m/s: set-points clipped at the default 33.33 m/s would misread its drivers; the
+    sentence names only the settings that are wrong."""
     two_car_scene(tmp_path / "scene")
     out = tmp_path / "d.parquet"
     result = CliRunner().invoke(cli, ["recorded-demos", str(tmp_path / "scene"), "--out", str(out), *settings])
     assert result.exit_code == 2 and "speed limit of 44.44 m/s" in result.output and fixes in result.output
+    assert f"this configuration has {wrong}; pass" in result.output, result.output
     assert "Traceback" not in result.output and not out.exists()
 
 
