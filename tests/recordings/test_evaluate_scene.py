@@ -261,26 +261,16 @@ def test_tracks_off_the_scenes_network_or_not_finite_are_a_damaged_scene_in_one_
     assert "tracks.parquet" in errors[0] and f"vehicle {vehicle}" in errors[0] and not out.exists()
 
 
-def test_a_split_file_naming_a_split_that_is_none_of_the_three_is_a_damaged_scene(drivers_scene, tmp_path):
-    """Was read silently: that vehicle was in no split, so never seated nor read."""
-    scene = tmp_path / "scene"
-    shutil.copytree(drivers_scene, scene)
-    split = pd.read_parquet(scene / "split.parquet")
-    split.loc[split.index[0], "split"] = "banana"
-    split.to_parquet(scene / "split.parquet", index=False)
-    out = tmp_path / "out.parquet"
-    result = invoke(str(scene), "--set", "scenario.lanes=3", "--policy", "keep", "--out", str(out))
-    assert result.exit_code == 1 and "split.parquet" in result.output and "'banana'" in result.output, result.output
-    assert "Traceback" not in result.output and not out.exists()
-
-
 @pytest.mark.parametrize("command", ["evaluate-scene", "recorded-demos"])
-def test_a_split_file_naming_a_vehicle_without_a_track_is_a_damaged_scene(drivers_scene, tmp_path, command):
-    """Was not refused: split.parquet listing a vehicle tracks.parquet does not hold (hand-edited, another scene's)."""
+@pytest.mark.parametrize(("column", "value"), [("split", "banana"), ("vehicle_id", "ghost")])
+def test_a_split_file_naming_an_unknown_split_or_a_vehicle_without_a_track_is_a_damaged_scene(
+        drivers_scene, tmp_path, command, column, value):
+    """Were read silently: a vehicle in none of the three splits, or listed without a track in tracks.parquet
+    (hand-edited, another scene's), was never seated nor read."""
     scene = tmp_path / "scene"
     shutil.copytree(drivers_scene, scene)
     split = pd.read_parquet(scene / "split.parquet")
-    split.loc[split.index[0], "vehicle_id"] = "ghost"
+    split.loc[split.index[0], column] = value
     split.to_parquet(scene / "split.parquet", index=False)
     out = tmp_path / "out.parquet"
     args = [str(scene), "--set", "scenario.lanes=3", "--out", str(out)]
@@ -288,7 +278,7 @@ def test_a_split_file_naming_a_vehicle_without_a_track_is_a_damaged_scene(driver
               else CliRunner().invoke(cli, ["recorded-demos", *args, *SCENE_SPEED]))
     errors = [line for line in result.output.splitlines() if line.startswith("Error:")]
     assert result.exit_code == 1 and len(errors) == 1 and "Traceback" not in result.output, result.output
-    assert "split.parquet" in errors[0] and "vehicle ghost" in errors[0] and not out.exists()
+    assert "split.parquet" in errors[0] and value in errors[0] and not out.exists()
 
 
 @pytest.mark.parametrize("problem", ["not a scene", "not a network", "no seat", "policy", "other lanes",
