@@ -5,7 +5,7 @@ Each case copies a small real workspace made once per test session (`reliability
 one-iteration RAIL run folder, a metrics file), damages one file, runs the command through click and checks that it
 answers with one sentence naming the file (exit 1, or 2 for a usage error), prints no traceback and leaves every
 file of the workspace as it was, byte for byte. A new file joins with a `FILES` entry (its damages follow from its
-format); a new command (dagger, the exports) joins with rows of `READERS`.
+format); a new command joins with rows of `READERS`.
 
 Damaged caches: tests/test_cache_repair.py; full disk and lost worker processes: tests/test_reliability_runs.py.
 """
@@ -218,7 +218,8 @@ READERS = [
     Reader("metrics", "report", ("report", "metrics.parquet", "--out", "../report")),
     Reader("demonstrations", "export-minari", ("export-minari", "demos.parquet", "--name", "sumo-rail/damaged-v0",
                                                "--root", "../minari")),
-    # dagger joins here, e.g. Reader("demonstrations", "dagger", ("dagger", ...)).
+    Reader("demonstrations", "dagger", ("dagger", *SMALL, "--demos", "demos.parquet", "--rounds", "1", "--set",
+                                        "bc.epochs=1", "--eval-every", "0", "--workers", "1", "--out", "dagger_run")),
 ]
 
 CASES = [pytest.param(file, damage, reader, id=f"{file}-{damage}-{reader.command.replace(' ', '')}")
